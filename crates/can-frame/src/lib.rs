@@ -1,0 +1,31 @@
+//! The lowest layer of the CANopen stack: what travels on a classic CAN bus, and the clock.
+//!
+//! - [`CanId`] — an 11-bit standard or 29-bit extended identifier, validated on construction.
+//! - [`CanFrame`] — a classic CAN data or remote frame with 0..=8 data bytes; implements
+//!   [`embedded_can::Frame`].
+//! - [`NodeId`] — a CANopen node-ID, 1..=127 (CiA 301 §7.5.2.1).
+//! - [`cob`] — the predefined connection set of CiA 301 §7.3.5 (and CiA 305 for LSS): which
+//!   function a COB-ID belongs to and for which node.
+//! - [`time`] — microsecond [`Instant`] and [`Duration`]. The protocol crates never read a clock;
+//!   callers pass the current instant in, so every timeout is testable on a virtual clock.
+//!
+//! The crate is `#![no_std]` without an allocator; the `std` feature (default) adds
+//! `Instant::now`-style conveniences where a real clock exists and `std::error::Error` through
+//! `core::error::Error`.
+#![no_std]
+#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod cob;
+mod frame;
+mod id;
+mod node;
+pub mod time;
+
+pub use cob::{CobId, FunctionCode};
+pub use frame::{CanFrame, FrameError};
+pub use id::{CanId, IdError};
+pub use node::{NodeId, NodeIdError};
+pub use time::{Duration, Instant};
