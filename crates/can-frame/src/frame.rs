@@ -193,7 +193,6 @@ mod tests {
     proptest! {
         #[test]
         fn embedded_can_round_trip(raw in 0u16..=0x7FF, data in proptest::collection::vec(any::<u8>(), 0..=8)) {
-            use embedded_can::Frame as _;
             let f = CanFrame::new(sid(raw), &data).unwrap();
             let g = <CanFrame as embedded_can::Frame>::new(embedded_can::Frame::id(&f), embedded_can::Frame::data(&f)).unwrap();
             prop_assert_eq!(f, g);

@@ -20,12 +20,12 @@ extern crate std;
 
 pub mod cob;
 mod frame;
-mod id;
+pub mod id;
 mod node;
 pub mod time;
 
-pub use cob::{CobId, FunctionCode};
+pub use cob::{CobId, FunctionCode, PdoNumber};
 pub use frame::{CanFrame, FrameError};
-pub use id::{CanId, IdError};
+pub use id::{CanId, ExtendedId, IdError, StandardId};
 pub use node::{NodeId, NodeIdError};
 pub use time::{Duration, Instant};

@@ -142,7 +142,7 @@ impl Sub for Duration {
 
 impl fmt::Display for Duration {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.0 % 1000 == 0 {
+        if self.0.is_multiple_of(1000) {
             write!(f, "{} ms", self.0 / 1000)
         } else {
             write!(f, "{} µs", self.0)
