@@ -1,0 +1,30 @@
+//! no_std link check: see Cargo.toml. Each core crate is named with `extern crate` so it is
+//! linked even though nothing here calls it.
+#![no_std]
+#![no_main]
+
+extern crate can_frame;
+
+use core::panic::PanicInfo;
+
+#[panic_handler]
+fn panic(_info: &PanicInfo<'_>) -> ! {
+    loop {}
+}
+
+/// The host's precompiled `core` is built with unwinding and so refers to this symbol; with
+/// `panic = "abort"` it is never called.
+#[unsafe(no_mangle)]
+pub extern "C" fn rust_eh_personality() {}
+
+// The C start files call `main` through `__libc_start_main`: link the C library for that alone.
+#[link(name = "c")]
+unsafe extern "C" {}
+
+/// The C runtime's entry point calls `main`; this binary is only linked, never run.
+#[unsafe(no_mangle)]
+pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
+    // Touch one item so the crate is really used, not only declared.
+    let id = can_frame::NodeId::new(5);
+    if id.is_ok() { 0 } else { 1 }
+}
