@@ -1,0 +1,24 @@
+//! The Bürkert CANopen device profile, objects 0x2000..0x257F, as typed Rust.
+//!
+//! Bürkert fluid-control devices (valves, sensors) follow CiA 301 and CiA 305 and add a
+//! manufacturer profile documented in Bürkert's "CANopen network configuration" manual. This crate
+//! types every object and rule of that profile:
+//!
+//! - [`ne107`] — the NAMUR NE 107 device status of 0x2004 sub 1 and its priority order.
+//! - [`colour`] — LED colour codes: seven predefined colours and user RGB `0x00BBGGRR`.
+//! - [`led`] — LED modes (0x2120), valve-mode colours (0x2121), the external colour (0x2122) and
+//!   the colour the status LED shows for a given device state.
+//!
+//! The core is `#![no_std]` without an allocator.
+#![no_std]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod colour;
+pub mod led;
+pub mod ne107;
+
+pub use colour::{ColourError, LedColour, PredefinedColour};
+pub use led::{LedIndication, LedMode, LedModeError, LedState, ValveModeColours, ValvePosition};
+pub use ne107::Ne107Status;
