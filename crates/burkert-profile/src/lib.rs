@@ -6,6 +6,8 @@
 //!
 //! - [`ne107`] — the NAMUR NE 107 device status of 0x2004 sub 1 and its priority order.
 //! - [`colour`] — LED colour codes: seven predefined colours and user RGB `0x00BBGGRR`.
+//! - [`comm`] — 0x2001 device communication: bit-rate codes, bUS mode, reset, CAN status, EDS version.
+//! - [`status`] — 0x2004 device status: temperatures, voltages, counters, transferable memory.
 //! - [`led`] — LED modes (0x2120), valve-mode colours (0x2121), the external colour (0x2122) and
 //!   the colour the status LED shows for a given device state.
 //!
@@ -16,9 +18,15 @@
 extern crate std;
 
 pub mod colour;
+pub mod comm;
 pub mod led;
 pub mod ne107;
+pub mod status;
 
 pub use colour::{ColourError, LedColour, PredefinedColour};
+pub use comm::{
+    BitRate, BusMode, CanOperationStatus, CommValueError, EdsVersion, ResetCommand, Termination,
+};
 pub use led::{LedIndication, LedMode, LedModeError, LedState, ValveModeColours, ValvePosition};
 pub use ne107::Ne107Status;
+pub use status::{DeviceStatus, Kelvin, TransMemStatus};
