@@ -1,0 +1,1048 @@
+//! The in-memory CAN bus for tests and simulation.
+//!
+//! Several [`Endpoint`]s (each a [`Transport`]) and any number of attached [`Station`]s share one
+//! bus. A frame sent by one participant reaches every other participant (not the sender, like a
+//! SocketCAN socket without `CAN_RAW_RECV_OWN_MSGS`).
+//!
+//! * **Clock.** [`ClockMode::Virtual`] (the default) is deterministic: time stands still while
+//!   code runs and jumps to the next event (a frame leaving the wire, a station timer, the
+//!   caller's deadline) when an endpoint waits in [`Transport::recv_until`]. Run one driving
+//!   thread per virtual bus and attach simulated devices with [`MemoryBus::attach`], so they are
+//!   stepped by the same loop. [`ClockMode::RealTime`] follows the host's monotonic clock; a
+//!   service thread steps attached stations, and endpoints may be used from several threads.
+//! * **Timing model** (optional, [`BusConfig::bitrate`]). Each frame occupies the wire for its
+//!   length in bits (ISO 11898-1 classic frame: 47 + 8·n bits for an 11-bit identifier, 67 + 8·n
+//!   for a 29-bit one, including the 3-bit interframe space), optionally with the worst-case
+//!   number of stuff bits. When the wire goes idle, the pending frame with the lowest arbitration
+//!   value (lowest identifier; an 11-bit identifier beats a 29-bit one with the same base; a data
+//!   frame beats a remote frame) is sent next.
+//! * **Fault injection** ([`Faults`]): drop, duplicate, delay or corrupt a chosen share of frames,
+//!   from a seeded generator so every run is reproducible.
+//! * **Bus state.** [`MemoryBus::inject_event`] delivers [`BusEvent`]s (error frames, bus-off,
+//!   interface down/up); a full endpoint receive queue drops frames, counts them and reports a
+//!   [`BusEvent::RxOverflow`] before the next frame.
+
+use std::any::Any;
+use std::collections::VecDeque;
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
+
+use can_frame::time::MonotonicClock;
+use can_frame::{CanFrame, CanId, Duration, Instant};
+
+use crate::transport::{BusEvent, Received, Station, Transport, TransportError};
+
+/// How the bus tells time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ClockMode {
+    /// Deterministic simulated time starting at zero; advances only while an endpoint waits.
+    #[default]
+    Virtual,
+    /// The host's monotonic clock.
+    RealTime,
+}
+
+/// Fault injection settings. Shares are probabilities in `0.0..=1.0`, applied to every frame
+/// independently, in this order: drop, corrupt, delay, duplicate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Faults {
+    /// Share of frames that vanish (no station receives them).
+    pub drop: f64,
+    /// Share of frames delivered twice.
+    pub duplicate: f64,
+    /// Share of frames whose data has one bit flipped (frames without data are not corrupted).
+    /// Models a corruption the CRC did not catch.
+    pub corrupt: f64,
+    /// Share of frames held back by a random time up to [`max_delay`](Self::max_delay), which
+    /// may reorder them.
+    pub delay: f64,
+    /// Upper bound of an injected delay.
+    pub max_delay: Duration,
+    /// Seed of the pseudo-random generator.
+    pub seed: u64,
+}
+
+impl Default for Faults {
+    fn default() -> Self {
+        Self {
+            drop: 0.0,
+            duplicate: 0.0,
+            corrupt: 0.0,
+            delay: 0.0,
+            max_delay: Duration::from_millis(10),
+            seed: 0x5EED,
+        }
+    }
+}
+
+impl Faults {
+    /// No faults.
+    pub fn none() -> Self {
+        Self::default()
+    }
+}
+
+/// Configuration of an in-memory bus.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BusConfig {
+    /// Clock mode.
+    pub clock: ClockMode,
+    /// Bit rate for the timing model in bit/s (e.g. 125_000..=1_000_000); `None` delivers frames
+    /// instantly.
+    pub bitrate: Option<u32>,
+    /// Count the worst-case number of stuff bits in the timing model.
+    pub worst_case_stuffing: bool,
+    /// Receive queue length of each endpoint; beyond it frames are dropped and reported.
+    pub queue_capacity: usize,
+    /// Fault injection.
+    pub faults: Faults,
+}
+
+impl Default for BusConfig {
+    fn default() -> Self {
+        Self {
+            clock: ClockMode::Virtual,
+            bitrate: None,
+            worst_case_stuffing: false,
+            queue_capacity: 4096,
+            faults: Faults::none(),
+        }
+    }
+}
+
+/// Counters of what the bus did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BusStats {
+    /// Frames that went over the wire (duplicates counted twice).
+    pub frames: u64,
+    /// Frames removed by fault injection.
+    pub dropped: u64,
+    /// Frames duplicated by fault injection.
+    pub duplicated: u64,
+    /// Frames corrupted by fault injection.
+    pub corrupted: u64,
+    /// Frames delayed by fault injection.
+    pub delayed: u64,
+    /// Frames lost to full receive queues (summed over endpoints).
+    pub overflowed: u64,
+    /// Time the wire was busy (timing model only).
+    pub busy: Duration,
+}
+
+/// Number of bits a classic data or remote frame occupies on the wire, interframe space included.
+///
+/// With `worst_case_stuffing`, adds the most stuff bits the frame can need: one per four bits of
+/// the stuffed region (start of frame to the end of the CRC sequence) after the first.
+pub fn frame_bits(frame: &CanFrame, worst_case_stuffing: bool) -> u32 {
+    let n = if frame.is_remote() {
+        0
+    } else {
+        frame.data().len() as u32 * 8
+    };
+    let (fixed, stuffed) = if frame.id().is_extended() {
+        (67, 54)
+    } else {
+        (47, 34)
+    };
+    let stuff = if worst_case_stuffing {
+        (stuffed + n - 1) / 4
+    } else {
+        0
+    };
+    fixed + n + stuff
+}
+
+/// On-wire time of `frame` at `bitrate` bit/s, rounded up to a whole microsecond.
+pub fn frame_time(frame: &CanFrame, bitrate: u32, worst_case_stuffing: bool) -> Duration {
+    let bits = u64::from(frame_bits(frame, worst_case_stuffing));
+    let rate = u64::from(bitrate.max(1));
+    Duration::from_micros((bits * 1_000_000).div_ceil(rate))
+}
+
+/// Arbitration value: lower wins (ISO 11898-1 identifier priority, data beats remote).
+fn arbitration_key(frame: &CanFrame) -> u64 {
+    let (base, ide, ext) = match frame.id() {
+        CanId::Standard(s) => (u64::from(s.as_raw()), 0, 0),
+        CanId::Extended(e) => {
+            let raw = u64::from(e.as_raw());
+            (raw >> 18, 1, raw & 0x3_FFFF)
+        }
+    };
+    // base id, then (SRR/RTR, IDE) — an 11-bit frame's RTR bit sits where a 29-bit frame has a
+    // recessive SRR — then the extension and the final RTR bit.
+    let rtr = u64::from(frame.is_remote());
+    let std_rtr = if ide == 1 { 1 } else { rtr };
+    (base << 22) | (std_rtr << 21) | (ide << 20) | (ext << 1) | if ide == 1 { rtr } else { 0 }
+}
+
+/// SplitMix64: small, seedable, good enough for fault injection.
+#[derive(Debug, Clone)]
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in `[0, 1)`.
+    fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn chance(&mut self, p: f64) -> bool {
+        p > 0.0 && self.unit() < p
+    }
+}
+
+#[derive(Debug)]
+struct Pending {
+    seq: u64,
+    from: Participant,
+    frame: CanFrame,
+    ready: Instant,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Participant {
+    Endpoint(usize),
+    Station(u64),
+}
+
+#[derive(Debug)]
+struct Ep {
+    open: bool,
+    queue: VecDeque<Received>,
+    lost: u64,
+}
+
+/// A station with its concrete type erased but recoverable.
+trait AnyStation: Station {
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+    fn into_any(self: Box<Self>) -> Box<dyn Any>;
+}
+
+impl<S: Station + Any> AnyStation for S {
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+    fn into_any(self: Box<Self>) -> Box<dyn Any> {
+        self
+    }
+}
+
+struct Attached {
+    id: u64,
+    station: Box<dyn AnyStation>,
+}
+
+enum Clock {
+    Virtual(Instant),
+    Real(MonotonicClock),
+}
+
+struct State {
+    clock: Clock,
+    config: BusConfig,
+    rng: Rng,
+    endpoints: Vec<Ep>,
+    stations: Vec<Attached>,
+    next_station: u64,
+    pending: Vec<Pending>,
+    wire: Option<(Pending, Instant)>,
+    wire_free_at: Instant,
+    down: bool,
+    seq: u64,
+    stats: BusStats,
+    service_thread: bool,
+}
+
+struct Shared {
+    state: Mutex<State>,
+    cond: Condvar,
+}
+
+/// An in-memory CAN bus. Cloning gives another handle to the same bus.
+#[derive(Clone)]
+pub struct MemoryBus {
+    shared: Arc<Shared>,
+}
+
+impl core::fmt::Debug for MemoryBus {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("MemoryBus").finish_non_exhaustive()
+    }
+}
+
+/// Handle of a station attached to a [`MemoryBus`].
+#[derive(Debug)]
+pub struct StationId<S> {
+    id: u64,
+    _type: core::marker::PhantomData<fn() -> S>,
+}
+
+impl<S> Clone for StationId<S> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<S> Copy for StationId<S> {}
+
+/// Upper bound of internal events processed in one step, so a misbehaving station whose timer
+/// never moves forward cannot hang the bus.
+const MAX_EVENTS_PER_STEP: usize = 100_000;
+
+impl State {
+    fn now(&self) -> Instant {
+        match &self.clock {
+            Clock::Virtual(t) => *t,
+            Clock::Real(c) => c.now(),
+        }
+    }
+
+    /// Puts a frame on the way to the wire, applying the fault injection.
+    fn submit(&mut self, from: Participant, frame: CanFrame, now: Instant) {
+        let f = self.config.faults;
+        if self.rng.chance(f.drop) {
+            self.stats.dropped += 1;
+            return;
+        }
+        let mut frame = frame;
+        if !frame.data().is_empty() && self.rng.chance(f.corrupt) {
+            let mut data = [0u8; 8];
+            let len = frame.data().len();
+            data[..len].copy_from_slice(frame.data());
+            let bit = (self.rng.next_u64() % (len as u64 * 8)) as usize;
+            data[bit / 8] ^= 1 << (bit % 8);
+            if let Ok(c) = CanFrame::new(frame.id(), &data[..len]) {
+                frame = c;
+                self.stats.corrupted += 1;
+            }
+        }
+        let mut ready = now;
+        if self.rng.chance(f.delay) {
+            let max = f.max_delay.as_micros().max(1);
+            ready = now + Duration::from_micros(self.rng.next_u64() % (max + 1));
+            self.stats.delayed += 1;
+        }
+        let copies = if self.rng.chance(f.duplicate) {
+            self.stats.duplicated += 1;
+            2
+        } else {
+            1
+        };
+        for _ in 0..copies {
+            self.seq += 1;
+            self.pending.push(Pending {
+                seq: self.seq,
+                from,
+                frame,
+                ready,
+            });
+        }
+    }
+
+    /// When the wire does something next: a frame finishes, or the next arbitration starts.
+    fn next_wire_event(&self) -> Option<Instant> {
+        if let Some((_, done)) = &self.wire {
+            return Some(*done);
+        }
+        let earliest = self.pending.iter().map(|p| p.ready).min()?;
+        Some(earliest.max(self.wire_free_at))
+    }
+
+    fn next_station_event(&self) -> Option<Instant> {
+        self.stations
+            .iter()
+            .filter_map(|s| s.station.poll_timeout())
+            .min()
+    }
+
+    fn next_event(&self) -> Option<Instant> {
+        match (self.next_wire_event(), self.next_station_event()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Processes everything that happens up to and including `now`, in time order.
+    fn advance(&mut self, now: Instant) {
+        for _ in 0..MAX_EVENTS_PER_STEP {
+            let wire = self.next_wire_event().filter(|t| *t <= now);
+            let station = self.next_station_event().filter(|t| *t <= now);
+            match (wire, station) {
+                (Some(w), Some(s)) if s < w => self.station_timers(s),
+                (Some(w), _) => self.wire_step(w),
+                (None, Some(s)) => self.station_timers(s),
+                (None, None) => return,
+            }
+        }
+    }
+
+    fn wire_step(&mut self, t: Instant) {
+        if let Some((_, done)) = &self.wire {
+            if *done <= t
+                && let Some((p, done)) = self.wire.take()
+            {
+                self.wire_free_at = done;
+                self.deliver(p, done);
+            }
+            return;
+        }
+        // Arbitration among the frames ready at `t`.
+        let Some(pos) = self
+            .pending
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.ready <= t)
+            .min_by_key(|(_, p)| (arbitration_key(&p.frame), p.seq))
+            .map(|(i, _)| i)
+        else {
+            return;
+        };
+        let p = self.pending.swap_remove(pos);
+        match self.config.bitrate {
+            Some(rate) => {
+                let d = frame_time(&p.frame, rate, self.config.worst_case_stuffing);
+                self.stats.busy = self.stats.busy + d;
+                self.wire = Some((p, t + d));
+            }
+            None => self.deliver(p, t),
+        }
+    }
+
+    fn station_timers(&mut self, t: Instant) {
+        for i in 0..self.stations.len() {
+            let due = self.stations[i]
+                .station
+                .poll_timeout()
+                .is_some_and(|d| d <= t);
+            if due {
+                self.stations[i].station.handle_timeout(t);
+                self.drain_station(i, t);
+            }
+        }
+    }
+
+    fn drain_station(&mut self, i: usize, t: Instant) {
+        let id = self.stations[i].id;
+        while let Some(frame) = self.stations[i].station.poll_transmit() {
+            if !self.down {
+                self.submit(Participant::Station(id), frame, t);
+            }
+        }
+    }
+
+    fn deliver(&mut self, p: Pending, at: Instant) {
+        self.stats.frames += 1;
+        let cap = self.config.queue_capacity;
+        for (i, ep) in self.endpoints.iter_mut().enumerate() {
+            if !ep.open || p.from == Participant::Endpoint(i) {
+                continue;
+            }
+            if ep.queue.len() >= cap {
+                ep.lost += 1;
+                self.stats.overflowed += 1;
+            } else {
+                ep.queue.push_back(Received::Frame { frame: p.frame, at });
+            }
+        }
+        for i in 0..self.stations.len() {
+            if p.from == Participant::Station(self.stations[i].id) {
+                continue;
+            }
+            self.stations[i].station.handle_frame(at, &p.frame);
+            self.drain_station(i, at);
+        }
+    }
+
+    fn pop(&mut self, ep: usize) -> Option<Received> {
+        let e = self.endpoints.get_mut(ep)?;
+        if e.lost > 0 {
+            let dropped = core::mem::take(&mut e.lost);
+            return Some(Received::Event(BusEvent::RxOverflow { dropped }));
+        }
+        e.queue.pop_front()
+    }
+}
+
+impl Default for MemoryBus {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl MemoryBus {
+    /// A bus with the default configuration: virtual clock, no timing model, no faults.
+    pub fn new() -> Self {
+        Self::with_config(BusConfig::default())
+    }
+
+    /// A bus with the given configuration.
+    pub fn with_config(config: BusConfig) -> Self {
+        let clock = match config.clock {
+            ClockMode::Virtual => Clock::Virtual(Instant::ZERO),
+            ClockMode::RealTime => Clock::Real(MonotonicClock::new()),
+        };
+        let state = State {
+            clock,
+            rng: Rng(config.faults.seed),
+            config,
+            endpoints: Vec::new(),
+            stations: Vec::new(),
+            next_station: 0,
+            pending: Vec::new(),
+            wire: None,
+            wire_free_at: Instant::ZERO,
+            down: false,
+            seq: 0,
+            stats: BusStats::default(),
+            service_thread: false,
+        };
+        Self {
+            shared: Arc::new(Shared {
+                state: Mutex::new(state),
+                cond: Condvar::new(),
+            }),
+        }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, State> {
+        // A panic in a station while the lock was held leaves consistent-enough state for tests.
+        self.shared
+            .state
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Opens a new endpoint (a [`Transport`]) on this bus.
+    pub fn endpoint(&self) -> Endpoint {
+        let mut st = self.lock();
+        st.endpoints.push(Ep {
+            open: true,
+            queue: VecDeque::new(),
+            lost: 0,
+        });
+        Endpoint {
+            bus: self.clone(),
+            index: st.endpoints.len() - 1,
+        }
+    }
+
+    /// Attaches a sans-IO station (e.g. a simulated device) that the bus itself steps.
+    pub fn attach<S: Station + 'static>(&self, station: S) -> StationId<S> {
+        let mut st = self.lock();
+        let id = st.next_station;
+        st.next_station += 1;
+        st.stations.push(Attached {
+            id,
+            station: Box::new(station),
+        });
+        // Let the station send what it has right away (e.g. a boot-up message).
+        let now = st.now();
+        let i = st.stations.len() - 1;
+        st.stations[i].station.handle_timeout(now);
+        st.drain_station(i, now);
+        st.advance(now);
+        let needs_thread = matches!(st.clock, Clock::Real(_)) && !st.service_thread;
+        if needs_thread {
+            st.service_thread = true;
+        }
+        drop(st);
+        self.shared.cond.notify_all();
+        if needs_thread {
+            self.spawn_service_thread();
+        }
+        StationId {
+            id,
+            _type: core::marker::PhantomData,
+        }
+    }
+
+    /// Detaches a station and hands it back.
+    pub fn detach<S: Station + 'static>(&self, id: StationId<S>) -> Option<S> {
+        let mut st = self.lock();
+        let pos = st.stations.iter().position(|a| a.id == id.id)?;
+        let attached = st.stations.remove(pos);
+        attached.station.into_any().downcast::<S>().ok().map(|b| *b)
+    }
+
+    /// Runs `f` on an attached station (e.g. to change a simulated device's state), then lets
+    /// it send what it produced.
+    pub fn with_station<S: Station + 'static, R>(
+        &self,
+        id: StationId<S>,
+        f: impl FnOnce(&mut S) -> R,
+    ) -> Option<R> {
+        let mut st = self.lock();
+        let pos = st.stations.iter().position(|a| a.id == id.id)?;
+        let s = st.stations[pos].station.as_any_mut().downcast_mut::<S>()?;
+        let r = f(s);
+        let now = st.now();
+        st.drain_station(pos, now);
+        st.advance(now);
+        drop(st);
+        self.shared.cond.notify_all();
+        Some(r)
+    }
+
+    /// Delivers a bus event to every endpoint and station. [`BusEvent::InterfaceDown`] also makes
+    /// sends fail until [`BusEvent::InterfaceUp`].
+    pub fn inject_event(&self, event: BusEvent) {
+        let mut st = self.lock();
+        match event {
+            BusEvent::InterfaceDown => st.down = true,
+            BusEvent::InterfaceUp => st.down = false,
+            _ => {}
+        }
+        let now = st.now();
+        for ep in st.endpoints.iter_mut().filter(|e| e.open) {
+            ep.queue.push_back(Received::Event(event.clone()));
+        }
+        for a in st.stations.iter_mut() {
+            a.station.handle_bus_event(now, &event);
+        }
+        drop(st);
+        self.shared.cond.notify_all();
+    }
+
+    /// Changes the fault injection (the generator keeps its state unless the seed changed).
+    pub fn set_faults(&self, faults: Faults) {
+        let mut st = self.lock();
+        if faults.seed != st.config.faults.seed {
+            st.rng = Rng(faults.seed);
+        }
+        st.config.faults = faults;
+    }
+
+    /// The bus clock.
+    pub fn now(&self) -> Instant {
+        self.lock().now()
+    }
+
+    /// Lets time pass until `until`, stepping attached stations and the wire. With a virtual
+    /// clock this jumps; with a real clock it sleeps.
+    pub fn run_until(&self, until: Instant) {
+        let mut st = self.lock();
+        loop {
+            let now = st.now();
+            if now >= until {
+                st.advance(now);
+                break;
+            }
+            match st.clock {
+                Clock::Virtual(_) => {
+                    let next = st.next_event().filter(|t| *t < until).unwrap_or(until);
+                    st.advance(next);
+                    st.clock = Clock::Virtual(next.max(now));
+                }
+                Clock::Real(_) => {
+                    st.advance(now);
+                    let wait = until - now;
+                    let (g, _) = self
+                        .shared
+                        .cond
+                        .wait_timeout(st, wait.into())
+                        .unwrap_or_else(|p| p.into_inner());
+                    st = g;
+                }
+            }
+        }
+        drop(st);
+        self.shared.cond.notify_all();
+    }
+
+    /// Lets `d` pass (see [`run_until`](Self::run_until)).
+    pub fn run_for(&self, d: Duration) {
+        let until = self.now() + d;
+        self.run_until(until);
+    }
+
+    /// Counters of what the bus did so far.
+    pub fn stats(&self) -> BusStats {
+        self.lock().stats
+    }
+
+    fn spawn_service_thread(&self) {
+        let weak: Weak<Shared> = Arc::downgrade(&self.shared);
+        std::thread::Builder::new()
+            .name("memory-bus".into())
+            .spawn(move || {
+                loop {
+                    let Some(shared) = weak.upgrade() else { return };
+                    let st = shared.state.lock().unwrap_or_else(|p| p.into_inner());
+                    let mut st = st;
+                    let now = st.now();
+                    st.advance(now);
+                    let next = st.next_event();
+                    let wait = match next {
+                        Some(t) if t > now => (t - now).min(Duration::from_millis(100)),
+                        Some(_) => Duration::ZERO,
+                        None => Duration::from_millis(100),
+                    };
+                    let (st, _) = shared
+                        .cond
+                        .wait_timeout(st, wait.into())
+                        .unwrap_or_else(|p| p.into_inner());
+                    drop(st);
+                    shared.cond.notify_all();
+                }
+            })
+            .ok();
+    }
+}
+
+/// One attachment to a [`MemoryBus`]; implements [`Transport`].
+pub struct Endpoint {
+    bus: MemoryBus,
+    index: usize,
+}
+
+impl core::fmt::Debug for Endpoint {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Endpoint")
+            .field("index", &self.index)
+            .finish()
+    }
+}
+
+impl Endpoint {
+    /// The bus this endpoint belongs to.
+    pub fn bus(&self) -> &MemoryBus {
+        &self.bus
+    }
+}
+
+impl Drop for Endpoint {
+    fn drop(&mut self) {
+        let mut st = self.bus.lock();
+        if let Some(ep) = st.endpoints.get_mut(self.index) {
+            ep.open = false;
+            ep.queue.clear();
+        }
+    }
+}
+
+impl Transport for Endpoint {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
+        let mut st = self.bus.lock();
+        if st.down {
+            return Err(TransportError::InterfaceDown);
+        }
+        let now = st.now();
+        st.advance(now);
+        st.submit(Participant::Endpoint(self.index), *frame, now);
+        st.advance(now);
+        drop(st);
+        self.bus.shared.cond.notify_all();
+        Ok(())
+    }
+
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
+        let mut st = self.bus.lock();
+        loop {
+            let now = st.now();
+            st.advance(now);
+            if let Some(r) = st.pop(self.index) {
+                return Ok(Some(r));
+            }
+            if now >= deadline {
+                return Ok(None);
+            }
+            let next = st
+                .next_event()
+                .filter(|t| *t < deadline)
+                .unwrap_or(deadline);
+            match st.clock {
+                Clock::Virtual(_) => {
+                    st.advance(next);
+                    st.clock = Clock::Virtual(next.max(now));
+                }
+                Clock::Real(_) => {
+                    let wait = next.saturating_duration_since(now);
+                    let (g, _) = self
+                        .bus
+                        .shared
+                        .cond
+                        .wait_timeout(st, wait.into())
+                        .unwrap_or_else(|p| p.into_inner());
+                    st = g;
+                }
+            }
+        }
+    }
+
+    fn now(&self) -> Instant {
+        self.bus.now()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::transport::run_station;
+
+    fn sid(raw: u16) -> CanId {
+        CanId::standard(raw).unwrap()
+    }
+
+    fn frame(raw: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(sid(raw), data).unwrap()
+    }
+
+    fn recv_frame(ep: &mut Endpoint, until: Instant) -> Option<(CanFrame, Instant)> {
+        match ep.recv_until(until).unwrap()? {
+            Received::Frame { frame, at } => Some((frame, at)),
+            Received::Event(e) => panic!("unexpected event {e}"),
+        }
+    }
+
+    #[test]
+    fn frame_lengths_follow_iso_11898() {
+        let f8 = frame(0x123, &[0; 8]);
+        assert_eq!(frame_bits(&f8, false), 111);
+        assert_eq!(frame_bits(&f8, true), 135);
+        assert_eq!(frame_bits(&frame(0x123, &[]), false), 47);
+        let ext = CanFrame::new(CanId::extended(0x1234).unwrap(), &[0; 8]).unwrap();
+        assert_eq!(frame_bits(&ext, false), 131);
+        assert_eq!(frame_bits(&ext, true), 160);
+        assert_eq!(
+            frame_time(&f8, 1_000_000, false),
+            Duration::from_micros(111)
+        );
+        assert_eq!(frame_time(&f8, 125_000, true), Duration::from_micros(1080));
+        assert_eq!(frame_time(&f8, 800_000, false), Duration::from_micros(139));
+    }
+
+    #[test]
+    fn frames_reach_everyone_but_the_sender() {
+        let bus = MemoryBus::new();
+        let mut a = bus.endpoint();
+        let mut b = bus.endpoint();
+        let mut c = bus.endpoint();
+        a.send(&frame(0x181, &[1, 2])).unwrap();
+        let t = Instant::from_millis(1);
+        assert_eq!(recv_frame(&mut b, t).unwrap().0, frame(0x181, &[1, 2]));
+        assert_eq!(recv_frame(&mut c, t).unwrap().0, frame(0x181, &[1, 2]));
+        assert_eq!(recv_frame(&mut a, t), None);
+        // Waiting on the virtual clock jumped to the deadline.
+        assert_eq!(bus.now(), t);
+    }
+
+    #[test]
+    fn timing_model_and_arbitration() {
+        let bus = MemoryBus::with_config(BusConfig {
+            bitrate: Some(500_000),
+            ..BusConfig::default()
+        });
+        let mut a = bus.endpoint();
+        let mut b = bus.endpoint();
+        let mut rx = bus.endpoint();
+        // Both queue at t=0: a's 0x701 was first, but b's 0x081 wins arbitration.
+        a.send(&frame(0x701, &[0x05])).unwrap();
+        b.send(&frame(0x081, &[0; 8])).unwrap();
+        let far = Instant::from_millis(10);
+        // The first frame to start is the one submitted when the wire was idle: 0x701 entered
+        // arbitration alone at t=0, so it goes first; 0x081 then waits for the wire.
+        let (f1, t1) = recv_frame(&mut rx, far).unwrap();
+        assert_eq!(f1.cob_id(), Some(0x701));
+        assert_eq!(t1, Instant::from_micros(2 * 55));
+        let (f2, t2) = recv_frame(&mut rx, far).unwrap();
+        assert_eq!(f2.cob_id(), Some(0x081));
+        assert_eq!(t2, t1 + Duration::from_micros(2 * 111));
+
+        // While the wire is busy, three frames queue; they go out by identifier.
+        a.send(&frame(0x600, &[0; 8])).unwrap();
+        a.send(&frame(0x300, &[1])).unwrap();
+        b.send(&frame(0x200, &[2])).unwrap();
+        b.send(&frame(0x100, &[3])).unwrap();
+        let order: Vec<u16> = (0..4)
+            .map(|_| {
+                recv_frame(&mut rx, far + Duration::from_millis(10))
+                    .unwrap()
+                    .0
+                    .cob_id()
+                    .unwrap()
+            })
+            .collect();
+        assert_eq!(order, [0x600, 0x100, 0x200, 0x300]);
+        assert!(bus.stats().busy > Duration::ZERO);
+    }
+
+    #[test]
+    fn fault_injection_is_seeded_and_counted() {
+        let run = |seed| {
+            let bus = MemoryBus::with_config(BusConfig {
+                faults: Faults {
+                    drop: 0.1,
+                    duplicate: 0.1,
+                    corrupt: 0.1,
+                    delay: 0.1,
+                    seed,
+                    ..Faults::none()
+                },
+                ..BusConfig::default()
+            });
+            let mut a = bus.endpoint();
+            let mut b = bus.endpoint();
+            for i in 0..1000u16 {
+                a.send(&frame(0x200, &i.to_le_bytes())).unwrap();
+            }
+            let mut got = Vec::new();
+            while let Some((f, _)) = recv_frame(&mut b, Instant::from_millis(100)) {
+                got.push(u16::from_le_bytes([f.data()[0], f.data()[1]]));
+            }
+            (got, bus.stats())
+        };
+        let (got, stats) = run(1);
+        assert_eq!(run(1).0, got, "same seed, same outcome");
+        assert_ne!(run(2).0, got);
+        assert!(stats.dropped > 50 && stats.dropped < 150, "{stats:?}");
+        assert!(
+            stats.duplicated > 50 && stats.corrupted > 50 && stats.delayed > 50,
+            "{stats:?}"
+        );
+        assert_eq!(got.len() as u64, 1000 - stats.dropped + stats.duplicated);
+    }
+
+    #[test]
+    fn overflow_is_reported_not_silent() {
+        let bus = MemoryBus::with_config(BusConfig {
+            queue_capacity: 2,
+            ..BusConfig::default()
+        });
+        let mut a = bus.endpoint();
+        let mut b = bus.endpoint();
+        for i in 0..5u8 {
+            a.send(&frame(0x200, &[i])).unwrap();
+        }
+        assert_eq!(
+            b.try_recv().unwrap(),
+            Some(Received::Event(BusEvent::RxOverflow { dropped: 3 }))
+        );
+        assert!(matches!(
+            b.try_recv().unwrap(),
+            Some(Received::Frame { .. })
+        ));
+        assert!(matches!(
+            b.try_recv().unwrap(),
+            Some(Received::Frame { .. })
+        ));
+        assert_eq!(b.try_recv().unwrap(), None);
+        assert_eq!(bus.stats().overflowed, 3);
+    }
+
+    #[test]
+    fn interface_down_fails_sends_and_is_reported() {
+        let bus = MemoryBus::new();
+        let mut a = bus.endpoint();
+        bus.inject_event(BusEvent::BusOff);
+        bus.inject_event(BusEvent::InterfaceDown);
+        assert!(matches!(
+            a.send(&frame(1, &[])),
+            Err(TransportError::InterfaceDown)
+        ));
+        assert_eq!(
+            a.try_recv().unwrap(),
+            Some(Received::Event(BusEvent::BusOff))
+        );
+        assert_eq!(
+            a.try_recv().unwrap(),
+            Some(Received::Event(BusEvent::InterfaceDown))
+        );
+        bus.inject_event(BusEvent::InterfaceUp);
+        a.send(&frame(1, &[])).unwrap();
+    }
+
+    /// Answers every frame on 0x600 with 0x580 and sends a "heartbeat" every 100 ms.
+    #[derive(Default)]
+    struct Echo {
+        out: VecDeque<CanFrame>,
+        next_beat: Option<Instant>,
+        seen: usize,
+    }
+
+    impl Station for Echo {
+        fn handle_frame(&mut self, _now: Instant, f: &CanFrame) {
+            self.seen += 1;
+            if f.cob_id() == Some(0x600) {
+                self.out
+                    .push_back(CanFrame::new(sid(0x580), f.data()).unwrap());
+            }
+        }
+        fn handle_timeout(&mut self, now: Instant) {
+            let due = self.next_beat.is_none_or(|t| t <= now);
+            if due {
+                self.out.push_back(frame(0x700, &[0x05]));
+                self.next_beat = Some(now + Duration::from_millis(100));
+            }
+        }
+        fn poll_transmit(&mut self) -> Option<CanFrame> {
+            self.out.pop_front()
+        }
+        fn poll_timeout(&self) -> Option<Instant> {
+            Some(self.next_beat.unwrap_or(Instant::ZERO))
+        }
+    }
+
+    #[test]
+    fn attached_stations_run_on_virtual_time() {
+        let bus = MemoryBus::new();
+        let mut master = bus.endpoint();
+        let id = bus.attach(Echo::default());
+        master.send(&frame(0x600, &[0x40])).unwrap();
+        let mut beats = Vec::new();
+        let mut echoed = false;
+        while let Some((f, at)) = recv_frame(&mut master, Instant::from_millis(350)) {
+            match f.cob_id() {
+                Some(0x700) => beats.push(at.as_micros() / 1000),
+                Some(0x580) => echoed = true,
+                other => panic!("{other:?}"),
+            }
+        }
+        assert!(echoed);
+        assert_eq!(beats, [0, 100, 200, 300]);
+        assert_eq!(bus.with_station(id, |e| e.seen), Some(1));
+        let echo = bus.detach(id).unwrap();
+        assert_eq!(echo.seen, 1);
+        bus.run_for(Duration::from_secs(1));
+        assert_eq!(
+            master.try_recv().unwrap(),
+            None,
+            "detached station is silent"
+        );
+    }
+
+    #[test]
+    fn real_time_mode_with_a_station_on_its_own_endpoint() {
+        let bus = MemoryBus::with_config(BusConfig {
+            clock: ClockMode::RealTime,
+            ..BusConfig::default()
+        });
+        let mut master = bus.endpoint();
+        let mut dev_ep = bus.endpoint();
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let stop2 = stop.clone();
+        let h = std::thread::spawn(move || {
+            let mut echo = Echo::default();
+            run_station(&mut dev_ep, &mut echo, || {
+                stop2.load(std::sync::atomic::Ordering::Relaxed)
+            })
+            .unwrap();
+        });
+        master.send(&frame(0x600, &[0x40, 1])).unwrap();
+        let deadline = master.now() + Duration::from_secs(5);
+        let mut echoed = false;
+        while let Some(r) = master.recv_until(deadline).unwrap() {
+            if let Received::Frame { frame, .. } = r
+                && frame.cob_id() == Some(0x580)
+            {
+                echoed = true;
+                break;
+            }
+        }
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        h.join().unwrap();
+        assert!(echoed);
+    }
+}

@@ -1,0 +1,190 @@
+//! The transport boundary: one small trait every bus implementation fulfils.
+//!
+//! A transport moves classic CAN frames (ISO 11898-1) and reports the state of the bus as
+//! [`BusEvent`]s in the same receive stream, so nothing that happens on the wire is silent:
+//! error frames, bus-off, the interface going down or up, and frames the receive queue had to
+//! drop. The transport also owns the clock the [`Network`](crate::Network) and the simulator run
+//! on: a real monotonic clock for SocketCAN, a virtual one for the deterministic in-memory bus.
+//!
+//! The shape is blocking with an absolute deadline ([`Transport::recv_until`]). That is what both
+//! the blocking API and the async API need: the async API drives the same loop from a blocking
+//! worker thread (tokio's `spawn_blocking`), so there is only one driving loop in the crate.
+
+use can_frame::{CanFrame, Duration, Instant};
+
+/// Something that happened on the bus other than a received frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum BusEvent {
+    /// The controller reported a CAN error frame. `class` holds the SocketCAN error class bits
+    /// (`CAN_ERR_*` in `linux/can/error.h`), `data` the eight detail bytes.
+    ErrorFrame {
+        /// Error class bits (the error frame's identifier without the error flag).
+        class: u32,
+        /// Detail bytes of the error frame.
+        data: [u8; 8],
+    },
+    /// The controller went error-passive (transmit or receive error counter above 127).
+    ErrorPassive,
+    /// The controller went bus-off (transmit error counter above 255); it sends nothing until
+    /// restarted.
+    BusOff,
+    /// The controller restarted after bus-off.
+    Restarted,
+    /// The network interface went down; sends fail until it is up again.
+    InterfaceDown,
+    /// The network interface came (back) up.
+    InterfaceUp,
+    /// The receive queue overflowed; `dropped` frames were lost since the last report.
+    RxOverflow {
+        /// Frames lost since the previous overflow report.
+        dropped: u64,
+    },
+}
+
+impl core::fmt::Display for BusEvent {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::ErrorFrame { class, data } => {
+                write!(f, "CAN error frame, class {class:#010x}, data {data:02X?}")
+            }
+            Self::ErrorPassive => f.write_str("controller is error-passive"),
+            Self::BusOff => f.write_str("controller is bus-off"),
+            Self::Restarted => f.write_str("controller restarted"),
+            Self::InterfaceDown => f.write_str("interface is down"),
+            Self::InterfaceUp => f.write_str("interface is up"),
+            Self::RxOverflow { dropped } => {
+                write!(f, "receive queue overflow: {dropped} frame(s) dropped")
+            }
+        }
+    }
+}
+
+/// What a receive call returns: a frame with its reception time, or a bus event.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Received {
+    /// A frame from another station, stamped with the transport's clock.
+    Frame {
+        /// The frame.
+        frame: CanFrame,
+        /// When it was received, on the transport's clock.
+        at: Instant,
+    },
+    /// A bus event.
+    Event(BusEvent),
+}
+
+/// Local failures of a transport.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TransportError {
+    /// The interface is down (or the bus was closed).
+    #[error("the CAN interface is down")]
+    InterfaceDown,
+    /// The controller is bus-off and cannot send.
+    #[error("the CAN controller is bus-off")]
+    BusOff,
+    /// The transmit queue is full.
+    #[error("the transmit queue is full")]
+    TxQueueFull,
+    /// The transport is closed for good.
+    #[error("the transport is closed")]
+    Closed,
+    /// An operating-system error.
+    #[error("CAN I/O error: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// A CAN bus attachment: send frames, receive frames and events, tell the time.
+///
+/// Call order: any number of [`send`](Self::send) and [`recv_until`](Self::recv_until) calls
+/// from one thread at a time (the trait takes `&mut self`). `recv_until` returns `Ok(None)` when
+/// the deadline passes without a frame or event; with a virtual clock, waiting is what makes
+/// time advance.
+pub trait Transport: Send {
+    /// Queues one frame for transmission.
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError>;
+
+    /// Waits until a frame or event arrives or the clock reaches `deadline`.
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError>;
+
+    /// The current time on this transport's clock.
+    fn now(&self) -> Instant;
+
+    /// Waits at most `timeout` for a frame or event.
+    fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<Received>, TransportError> {
+        let deadline = self.now() + timeout;
+        self.recv_until(deadline)
+    }
+
+    /// Returns a frame or event that is already waiting, without blocking.
+    fn try_recv(&mut self) -> Result<Option<Received>, TransportError> {
+        let now = self.now();
+        self.recv_until(now)
+    }
+}
+
+impl<T: Transport + ?Sized> Transport for Box<T> {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
+        (**self).send(frame)
+    }
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
+        (**self).recv_until(deadline)
+    }
+    fn now(&self) -> Instant {
+        (**self).now()
+    }
+}
+
+/// A sans-IO station that a driver loop can run on any transport: the simulator's devices
+/// implement it, and the in-memory bus can host such stations directly (see
+/// [`MemoryBus::attach`](crate::mem::MemoryBus::attach)).
+///
+/// Call order per step: [`handle_frame`](Self::handle_frame) for each received frame,
+/// [`handle_timeout`](Self::handle_timeout) when [`poll_timeout`](Self::poll_timeout) has passed,
+/// then drain [`poll_transmit`](Self::poll_transmit) until it returns `None`.
+pub trait Station: Send {
+    /// Feeds one received frame.
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame);
+    /// Lets timers that are due fire.
+    fn handle_timeout(&mut self, now: Instant);
+    /// The next frame to send, if any.
+    fn poll_transmit(&mut self) -> Option<CanFrame>;
+    /// When [`handle_timeout`](Self::handle_timeout) wants to be called next.
+    fn poll_timeout(&self) -> Option<Instant>;
+    /// Feeds a bus event (default: ignored).
+    fn handle_bus_event(&mut self, _now: Instant, _event: &BusEvent) {}
+}
+
+/// Runs a [`Station`] on a transport until `stop` returns true or the transport fails.
+///
+/// This is the loop behind `canopen simulate` on a real interface: receive until the station's
+/// next deadline, feed, fire timers, send what it produced.
+pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
+    transport: &mut T,
+    station: &mut S,
+    mut stop: impl FnMut() -> bool,
+) -> Result<(), TransportError> {
+    // Upper bound on one wait so `stop` is polled regularly.
+    let slice = Duration::from_millis(50);
+    loop {
+        let now = transport.now();
+        station.handle_timeout(now);
+        while let Some(frame) = station.poll_transmit() {
+            transport.send(&frame)?;
+        }
+        if stop() {
+            return Ok(());
+        }
+        let now = transport.now();
+        let deadline = match station.poll_timeout() {
+            Some(t) if t < now + slice => t,
+            _ => now + slice,
+        };
+        match transport.recv_until(deadline)? {
+            Some(Received::Frame { frame, at }) => station.handle_frame(at, &frame),
+            Some(Received::Event(ev)) => station.handle_bus_event(transport.now(), &ev),
+            None => {}
+        }
+    }
+}
