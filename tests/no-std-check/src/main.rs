@@ -3,6 +3,7 @@
 #![no_std]
 #![no_main]
 
+extern crate burkert_profile;
 extern crate can_frame;
 
 use core::panic::PanicInfo;
@@ -26,5 +27,6 @@ unsafe extern "C" {}
 pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
     // Touch one item so the crate is really used, not only declared.
     let id = can_frame::NodeId::new(5);
-    if id.is_ok() { 0 } else { 1 }
+    let colour = burkert_profile::LedColour::from_u32(0x1000_0002);
+    if id.is_ok() && colour.is_ok() { 0 } else { 1 }
 }
