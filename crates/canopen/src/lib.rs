@@ -10,6 +10,8 @@
 
 pub mod candump;
 pub mod mem;
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod socketcan;
 pub mod transport;
 
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};

@@ -1,0 +1,297 @@
+//! SocketCAN transport (Linux, `socketcan` feature).
+//!
+//! Opens a raw CAN socket with the `socketcan` crate, accepts all CAN error frames, and asks the
+//! kernel for the receive-queue drop counter (`SO_RXQ_OVFL`). Frames are read with `recvmsg` so
+//! that counter arrives with each frame; when it grows, a [`BusEvent::RxOverflow`] is reported
+//! before the frame. Error frames become [`BusEvent`]s: bus-off, error-passive, restarted, and
+//! every error frame itself. `ENETDOWN` becomes [`BusEvent::InterfaceDown`], the next successful
+//! operation [`BusEvent::InterfaceUp`].
+
+use std::collections::VecDeque;
+use std::io::IoSliceMut;
+use std::os::fd::AsRawFd;
+
+use can_frame::time::MonotonicClock;
+use can_frame::{CanFrame, CanId, Instant};
+use nix::sys::socket::{ControlMessageOwned, MsgFlags, recvmsg, setsockopt, sockopt};
+use socketcan::{EmbeddedFrame, Socket, SocketOptions};
+
+use crate::transport::{BusEvent, Received, Transport, TransportError};
+
+const CAN_EFF_FLAG: u32 = 0x8000_0000;
+const CAN_RTR_FLAG: u32 = 0x4000_0000;
+const CAN_ERR_FLAG: u32 = 0x2000_0000;
+const CAN_ERR_CRTL: u32 = 0x0000_0004;
+const CAN_ERR_BUSOFF: u32 = 0x0000_0040;
+const CAN_ERR_RESTARTED: u32 = 0x0000_0100;
+const CAN_ERR_CRTL_RX_PASSIVE: u8 = 0x10;
+const CAN_ERR_CRTL_TX_PASSIVE: u8 = 0x20;
+
+/// A CAN interface opened through SocketCAN.
+pub struct SocketCan {
+    socket: socketcan::CanSocket,
+    clock: MonotonicClock,
+    last_drops: u32,
+    down: bool,
+    events: VecDeque<Received>,
+}
+
+impl core::fmt::Debug for SocketCan {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SocketCan")
+            .field("fd", &self.socket.as_raw_fd())
+            .finish_non_exhaustive()
+    }
+}
+
+/// What a raw `struct can_frame` decodes to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum RawFrame {
+    Frame(CanFrame),
+    Error { class: u32, data: [u8; 8] },
+}
+
+/// Decodes the 16 bytes of a Linux `struct can_frame` (identifier in host byte order).
+/// Total: bad lengths or identifiers give `None`.
+pub(crate) fn decode_raw(buf: &[u8]) -> Option<RawFrame> {
+    let id_bytes: [u8; 4] = buf.get(0..4)?.try_into().ok()?;
+    let raw_id = u32::from_ne_bytes(id_bytes);
+    let len = usize::from(*buf.get(4)?);
+    let mut data = [0u8; 8];
+    data.copy_from_slice(buf.get(8..16)?);
+    if raw_id & CAN_ERR_FLAG != 0 {
+        return Some(RawFrame::Error {
+            class: raw_id & 0x1FFF_FFFF,
+            data,
+        });
+    }
+    let id = if raw_id & CAN_EFF_FLAG != 0 {
+        CanId::extended(raw_id & 0x1FFF_FFFF).ok()?
+    } else {
+        CanId::standard((raw_id & 0x7FF) as u16).ok()?
+    };
+    let frame = if raw_id & CAN_RTR_FLAG != 0 {
+        CanFrame::remote(id, len).ok()?
+    } else {
+        CanFrame::new(id, data.get(..len)?).ok()?
+    };
+    Some(RawFrame::Frame(frame))
+}
+
+/// The events an error frame stands for: the frame itself, then state changes it signals.
+pub(crate) fn error_events(class: u32, data: [u8; 8]) -> Vec<BusEvent> {
+    let mut out = vec![BusEvent::ErrorFrame { class, data }];
+    if class & CAN_ERR_CRTL != 0
+        && data[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE) != 0
+    {
+        out.push(BusEvent::ErrorPassive);
+    }
+    if class & CAN_ERR_BUSOFF != 0 {
+        out.push(BusEvent::BusOff);
+    }
+    if class & CAN_ERR_RESTARTED != 0 {
+        out.push(BusEvent::Restarted);
+    }
+    out
+}
+
+fn is_down(e: &std::io::Error) -> bool {
+    matches!(e.raw_os_error(), Some(libc_enetdown) if libc_enetdown == nix::errno::Errno::ENETDOWN as i32)
+}
+
+impl SocketCan {
+    /// Opens `iface` (e.g. `can0`, `vcan0`).
+    pub fn open(iface: &str) -> Result<Self, TransportError> {
+        let socket = socketcan::CanSocket::open(iface)?;
+        socket.set_error_filter_accept_all()?;
+        // Ask for the drop counter with every received frame; not every kernel offers it, and
+        // the transport still works without it.
+        let _ = setsockopt(socket.as_raw_socket(), sockopt::RxqOvfl, &1);
+        Ok(Self {
+            socket,
+            clock: MonotonicClock::new(),
+            last_drops: 0,
+            down: false,
+            events: VecDeque::new(),
+        })
+    }
+
+    fn came_up(&mut self) {
+        if self.down {
+            self.down = false;
+            self.events
+                .push_back(Received::Event(BusEvent::InterfaceUp));
+        }
+    }
+
+    fn went_down(&mut self) {
+        if !self.down {
+            self.down = true;
+            self.events
+                .push_back(Received::Event(BusEvent::InterfaceDown));
+        }
+    }
+
+    /// One `recvmsg` with the socket's read timeout.
+    fn read_one(&mut self) -> Result<bool, TransportError> {
+        let mut buf = [0u8; 16];
+        let mut cmsg = nix::cmsg_space!(u32);
+        let (n, drops) = {
+            let mut iov = [IoSliceMut::new(&mut buf)];
+            let msg = match recvmsg::<()>(
+                self.socket.as_raw_fd(),
+                &mut iov,
+                Some(&mut cmsg),
+                MsgFlags::empty(),
+            ) {
+                Ok(m) => m,
+                Err(nix::errno::Errno::EAGAIN | nix::errno::Errno::EINTR) => return Ok(false),
+                Err(nix::errno::Errno::ENETDOWN) => {
+                    self.went_down();
+                    return Ok(true);
+                }
+                Err(e) => return Err(std::io::Error::from(e).into()),
+            };
+            let mut drops = None;
+            if let Ok(cmsgs) = msg.cmsgs() {
+                for c in cmsgs {
+                    if let ControlMessageOwned::RxqOvfl(d) = c {
+                        drops = Some(d);
+                    }
+                }
+            }
+            (msg.bytes, drops)
+        };
+        self.came_up();
+        if let Some(d) = drops
+            && d != self.last_drops
+        {
+            let dropped = u64::from(d.wrapping_sub(self.last_drops));
+            self.last_drops = d;
+            self.events
+                .push_back(Received::Event(BusEvent::RxOverflow { dropped }));
+        }
+        let at = self.clock.now();
+        match buf.get(..n).and_then(decode_raw) {
+            Some(RawFrame::Frame(frame)) => self.events.push_back(Received::Frame { frame, at }),
+            Some(RawFrame::Error { class, data }) => {
+                for e in error_events(class, data) {
+                    self.events.push_back(Received::Event(e));
+                }
+            }
+            None => {}
+        }
+        Ok(true)
+    }
+}
+
+impl Transport for SocketCan {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
+        let id: socketcan::Id = frame.id().into();
+        let out = if frame.is_remote() {
+            socketcan::CanFrame::new_remote(id, frame.dlc())
+        } else {
+            socketcan::CanFrame::new(id, frame.data())
+        };
+        let Some(out) = out else {
+            return Err(TransportError::Io(std::io::Error::other(
+                "frame not representable",
+            )));
+        };
+        match self.socket.write_frame(&out) {
+            Ok(()) => {
+                self.came_up();
+                Ok(())
+            }
+            Err(e) if is_down(&e) => {
+                self.went_down();
+                Err(TransportError::InterfaceDown)
+            }
+            Err(e) if e.raw_os_error() == Some(nix::errno::Errno::ENOBUFS as i32) => {
+                Err(TransportError::TxQueueFull)
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
+        loop {
+            if let Some(r) = self.events.pop_front() {
+                return Ok(Some(r));
+            }
+            let now = self.clock.now();
+            if now >= deadline {
+                // Non-blocking check for something already queued.
+                self.socket.set_nonblocking(true)?;
+                let r = self.read_one();
+                self.socket.set_nonblocking(false)?;
+                r?;
+                return Ok(self.events.pop_front());
+            }
+            let wait: std::time::Duration = (deadline - now).into();
+            self.socket
+                .set_read_timeout(wait.max(std::time::Duration::from_micros(100)))?;
+            self.read_one()?;
+        }
+    }
+
+    fn now(&self) -> Instant {
+        self.clock.now()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn raw(id: u32, len: u8, data: [u8; 8]) -> [u8; 16] {
+        let mut b = [0u8; 16];
+        b[..4].copy_from_slice(&id.to_ne_bytes());
+        b[4] = len;
+        b[8..].copy_from_slice(&data);
+        b
+    }
+
+    #[test]
+    fn decodes_kernel_frames() {
+        let f = decode_raw(&raw(0x605, 4, [0x40, 0x17, 0x10, 0, 0, 0, 0, 0])).unwrap();
+        assert_eq!(
+            f,
+            RawFrame::Frame(
+                CanFrame::new(CanId::standard(0x605).unwrap(), &[0x40, 0x17, 0x10, 0]).unwrap()
+            )
+        );
+        let r = decode_raw(&raw(0x705 | CAN_RTR_FLAG, 1, [0; 8])).unwrap();
+        assert_eq!(
+            r,
+            RawFrame::Frame(CanFrame::remote(CanId::standard(0x705).unwrap(), 1).unwrap())
+        );
+        let e = decode_raw(&raw(0x1234 | CAN_EFF_FLAG, 0, [0; 8])).unwrap();
+        assert!(matches!(e, RawFrame::Frame(f) if f.id().is_extended()));
+        assert_eq!(decode_raw(&raw(0x605, 9, [0; 8])), None);
+        assert_eq!(decode_raw(&[0; 3]), None);
+        let err = decode_raw(&raw(CAN_ERR_FLAG | CAN_ERR_BUSOFF, 8, [0; 8])).unwrap();
+        assert_eq!(
+            err,
+            RawFrame::Error {
+                class: CAN_ERR_BUSOFF,
+                data: [0; 8]
+            }
+        );
+    }
+
+    #[test]
+    fn error_frames_become_state_events() {
+        let ev = error_events(
+            CAN_ERR_CRTL | CAN_ERR_BUSOFF,
+            [0, CAN_ERR_CRTL_TX_PASSIVE, 0, 0, 0, 0, 0, 0],
+        );
+        assert!(ev.contains(&BusEvent::ErrorPassive));
+        assert!(ev.contains(&BusEvent::BusOff));
+        assert!(matches!(ev[0], BusEvent::ErrorFrame { .. }));
+        assert_eq!(
+            error_events(CAN_ERR_RESTARTED, [0; 8])[1],
+            BusEvent::Restarted
+        );
+    }
+}
