@@ -1,0 +1,409 @@
+//! Heartbeat (CiA 301 §7.2.8.3.2.2): the master-side consumer for many nodes (object 0x1016)
+//! and the device-side producer (object 0x1017).
+//!
+//! Consumer rules (0x1016): each entry names a node and a consumer heartbeat time in ms. The
+//! timeout is armed only by a heartbeat: until the first one arrives nothing can be lost. A
+//! boot-up message disarms it again (a freshly booted node may not produce heartbeats until it is
+//! configured); the next heartbeat re-arms it. A consumer time of 0 tracks states but never
+//! times out.
+
+use can_frame::{CanFrame, Duration, Instant, NodeId};
+use heapless::{Deque, Vec};
+
+use crate::error::{CapacityError, DecodeError};
+use crate::error_control::{ErrorControlFrame, Heartbeat};
+use crate::state::NmtState;
+use crate::util::{earliest, reschedule};
+
+/// One sub-entry of object 0x1016: bits 16..=23 node-ID, bits 0..=15 heartbeat time in ms.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ConsumerHeartbeatEntry {
+    /// The node-ID byte; 0 or above 127 means the entry is unused.
+    pub node: u8,
+    /// Consumer heartbeat time in ms; 0 means the entry is unused.
+    pub time_ms: u16,
+}
+
+impl ConsumerHeartbeatEntry {
+    /// Splits the UNSIGNED32 value (bits 24..=31 are reserved and ignored).
+    pub const fn from_raw(raw: u32) -> Self {
+        Self {
+            node: (raw >> 16) as u8,
+            time_ms: raw as u16,
+        }
+    }
+
+    /// The UNSIGNED32 value.
+    pub const fn to_raw(self) -> u32 {
+        ((self.node as u32) << 16) | self.time_ms as u32
+    }
+
+    /// The node and timeout, if the entry is in use.
+    pub fn active(self) -> Option<(NodeId, Duration)> {
+        let node = NodeId::new(self.node).ok()?;
+        (self.time_ms != 0).then(|| (node, Duration::from_millis(u64::from(self.time_ms))))
+    }
+}
+
+/// What the heartbeat consumer reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HeartbeatEvent {
+    /// The node sent its boot-up message. It lost its configuration; the timeout is disarmed
+    /// until its next heartbeat.
+    BootUp {
+        /// The node.
+        node: NodeId,
+    },
+    /// A heartbeat carried a different state than the previous one (`from` is `None` for the
+    /// first heartbeat ever seen, or the first after a boot-up).
+    StateChanged {
+        /// The node.
+        node: NodeId,
+        /// The previous state.
+        from: Option<NmtState>,
+        /// The new state.
+        to: NmtState,
+    },
+    /// No heartbeat within the consumer time ("heartbeat event" of CiA 301).
+    Lost {
+        /// The node.
+        node: NodeId,
+        /// The last state the node reported.
+        last_state: Option<NmtState>,
+    },
+    /// A heartbeat arrived again after [`Lost`](Self::Lost). A boot-up instead reports
+    /// [`BootUp`](Self::BootUp) only.
+    Recovered {
+        /// The node.
+        node: NodeId,
+        /// The state in that heartbeat.
+        state: NmtState,
+    },
+}
+
+/// Capacity of the consumer's event queue.
+pub const HEARTBEAT_EVENT_CAPACITY: usize = 64;
+
+#[derive(Debug, Clone)]
+struct Entry {
+    node: NodeId,
+    timeout: Duration,
+    /// The last heartbeat's state; `None` before the first or after a boot-up.
+    state: Option<NmtState>,
+    booted: bool,
+    deadline: Option<Instant>,
+    lost: bool,
+}
+
+/// Monitors the heartbeats of up to `N` nodes (default: all 127).
+///
+/// Call order: [`monitor`](Self::monitor) each node; then for every received frame
+/// [`handle_frame`](Self::handle_frame) (or [`handle_heartbeat`](Self::handle_heartbeat)); when
+/// [`poll_timeout`](Self::poll_timeout) passes, [`handle_timeout`](Self::handle_timeout); after
+/// each call drain [`poll_event`](Self::poll_event). Nothing is transmitted.
+///
+/// Events are queued up to [`HEARTBEAT_EVENT_CAPACITY`]. A timeout that finds the queue full is
+/// left for the next `handle_timeout` (its deadline stays due), so loss events are never dropped;
+/// events from frames drop the oldest event when the queue is full (counted in
+/// [`dropped_events`](Self::dropped_events)).
+#[derive(Debug, Clone)]
+pub struct HeartbeatConsumer<const N: usize = 127> {
+    entries: Vec<Entry, N>,
+    events: Deque<HeartbeatEvent, HEARTBEAT_EVENT_CAPACITY>,
+    dropped: u32,
+}
+
+impl<const N: usize> Default for HeartbeatConsumer<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> HeartbeatConsumer<N> {
+    /// A consumer monitoring nothing.
+    pub const fn new() -> Self {
+        Self {
+            entries: Vec::new(),
+            events: Deque::new(),
+            dropped: 0,
+        }
+    }
+
+    /// Monitors `node` with consumer time `timeout` (zero: track states, never time out).
+    /// Replacing an existing entry keeps its state but disarms the timeout until the next
+    /// heartbeat.
+    pub fn monitor(&mut self, node: NodeId, timeout: Duration) -> Result<(), CapacityError> {
+        if let Some(e) = self.entries.iter_mut().find(|e| e.node == node) {
+            e.timeout = timeout;
+            e.deadline = None;
+            e.lost = false;
+            return Ok(());
+        }
+        self.entries
+            .push(Entry {
+                node,
+                timeout,
+                state: None,
+                booted: false,
+                deadline: None,
+                lost: false,
+            })
+            .map_err(|_| CapacityError { capacity: N })
+    }
+
+    /// Applies one sub-entry of 0x1016: an active entry monitors its node, an unused one is
+    /// ignored. Returns the node it configured.
+    pub fn configure(
+        &mut self,
+        entry: ConsumerHeartbeatEntry,
+    ) -> Result<Option<NodeId>, CapacityError> {
+        match entry.active() {
+            Some((node, t)) => self.monitor(node, t).map(|()| Some(node)),
+            None => Ok(None),
+        }
+    }
+
+    /// Stops monitoring `node`. Returns whether it was monitored.
+    pub fn remove(&mut self, node: NodeId) -> bool {
+        match self.entries.iter().position(|e| e.node == node) {
+            Some(i) => {
+                self.entries.swap_remove(i);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The last reported state of `node` (`None` if unmonitored or nothing received yet).
+    pub fn state(&self, node: NodeId) -> Option<NmtState> {
+        let e = self.entries.iter().find(|e| e.node == node)?;
+        if e.booted && e.state.is_none() {
+            Some(NmtState::BootUp)
+        } else {
+            e.state
+        }
+    }
+
+    /// Whether `node` is currently considered lost.
+    pub fn is_lost(&self, node: NodeId) -> bool {
+        self.entries.iter().any(|e| e.node == node && e.lost)
+    }
+
+    /// Takes a frame. `Ok(false)`: not a heartbeat of a monitored node (remote frames are node
+    /// guarding, not heartbeat); `Ok(true)`: handled; `Err`: a malformed frame on a monitored
+    /// node's error-control COB-ID.
+    pub fn handle_frame(&mut self, now: Instant, frame: &CanFrame) -> Result<bool, DecodeError> {
+        let Ok((node, kind)) = ErrorControlFrame::from_frame(frame) else {
+            if let Some(cob @ 0x701..=0x77F) = frame.cob_id()
+                && self
+                    .entries
+                    .iter()
+                    .any(|e| u16::from(e.node.get()) == cob & 0x7F)
+            {
+                return Err(DecodeError::Length {
+                    message: "heartbeat",
+                    actual: frame.dlc(),
+                });
+            }
+            return Ok(false);
+        };
+        match kind {
+            ErrorControlFrame::Payload(b) => Ok(self.handle_heartbeat(
+                now,
+                node,
+                Heartbeat {
+                    state: NmtState::from_u8(b),
+                },
+            )),
+            ErrorControlFrame::GuardRequest => Ok(false),
+        }
+    }
+
+    /// Takes a decoded heartbeat of `node`. Returns false if `node` is not monitored.
+    pub fn handle_heartbeat(&mut self, now: Instant, node: NodeId, hb: Heartbeat) -> bool {
+        let Some(e) = self.entries.iter_mut().find(|e| e.node == node) else {
+            return false;
+        };
+        let mut out: [Option<HeartbeatEvent>; 2] = [None, None];
+        if hb.is_boot_up() {
+            e.booted = true;
+            e.state = None;
+            e.deadline = None;
+            e.lost = false;
+            out[0] = Some(HeartbeatEvent::BootUp { node });
+        } else {
+            if e.lost {
+                e.lost = false;
+                out[0] = Some(HeartbeatEvent::Recovered {
+                    node,
+                    state: hb.state,
+                });
+            }
+            if e.state != Some(hb.state) {
+                out[1] = Some(HeartbeatEvent::StateChanged {
+                    node,
+                    from: e.state,
+                    to: hb.state,
+                });
+            }
+            e.state = Some(hb.state);
+            e.deadline = (!e.timeout.is_zero()).then(|| now + e.timeout);
+        }
+        for ev in out.into_iter().flatten() {
+            self.push_dropping_oldest(ev);
+        }
+        true
+    }
+
+    fn push_dropping_oldest(&mut self, ev: HeartbeatEvent) {
+        if let Err(ev) = self.events.push_back(ev) {
+            self.events.pop_front();
+            self.dropped = self.dropped.saturating_add(1);
+            let _ = self.events.push_back(ev);
+        }
+    }
+
+    /// Reports every node whose consumer time has run out (as far as the event queue allows).
+    pub fn handle_timeout(&mut self, now: Instant) {
+        for e in self.entries.iter_mut() {
+            if self.events.is_full() {
+                return;
+            }
+            if e.deadline.is_some_and(|d| d <= now) {
+                e.deadline = None;
+                e.lost = true;
+                let _ = self.events.push_back(HeartbeatEvent::Lost {
+                    node: e.node,
+                    last_state: e.state,
+                });
+            }
+        }
+    }
+
+    /// The next event.
+    #[must_use]
+    pub fn poll_event(&mut self) -> Option<HeartbeatEvent> {
+        self.events.pop_front()
+    }
+
+    /// The earliest armed heartbeat deadline.
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.entries
+            .iter()
+            .fold(None, |acc, e| earliest(acc, e.deadline))
+    }
+
+    /// How many frame events were dropped because the queue was full.
+    pub const fn dropped_events(&self) -> u32 {
+        self.dropped
+    }
+}
+
+/// Produces a device's heartbeat every producer heartbeat time (0x1017, ms; 0 = off).
+///
+/// Call order: [`start`](Self::start) right after the boot-up message; keep the state current with
+/// [`set_state`](Self::set_state); when [`poll_timeout`](Self::poll_timeout) passes,
+/// [`handle_timeout`](Self::handle_timeout) and drain [`poll_transmit`](Self::poll_transmit).
+/// The boot-up message counts as the first heartbeat, so the first one is due one period after
+/// `start`.
+#[derive(Debug, Clone)]
+pub struct HeartbeatProducer {
+    node: NodeId,
+    period: Duration,
+    state: NmtState,
+    running: bool,
+    next: Option<Instant>,
+    pending: Option<CanFrame>,
+}
+
+impl HeartbeatProducer {
+    /// A stopped producer for `node` with producer time `period_ms`.
+    pub const fn new(node: NodeId, period_ms: u16) -> Self {
+        Self {
+            node,
+            period: Duration::from_millis(period_ms as u64),
+            state: NmtState::PreOperational,
+            running: false,
+            next: None,
+            pending: None,
+        }
+    }
+
+    /// Starts producing (no effect with period 0).
+    pub fn start(&mut self, now: Instant) {
+        self.running = true;
+        self.next = (!self.period.is_zero()).then(|| now + self.period);
+    }
+
+    /// Stops producing.
+    pub fn stop(&mut self) {
+        self.running = false;
+        self.next = None;
+        self.pending = None;
+    }
+
+    /// Changes the producer time (an SDO write to 0x1017). If the producer has been started, the
+    /// next heartbeat is due one new period from `now` (0 pauses it until a non-zero time).
+    pub fn set_period(&mut self, now: Instant, period_ms: u16) {
+        self.period = Duration::from_millis(u64::from(period_ms));
+        if self.running {
+            self.start(now);
+        }
+    }
+
+    /// The producer time.
+    pub const fn period(&self) -> Duration {
+        self.period
+    }
+
+    /// The state the next heartbeat reports.
+    pub fn set_state(&mut self, state: NmtState) {
+        self.state = state;
+    }
+
+    /// Sends the heartbeat that is due, if any.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        if let Some(due) = self.next.filter(|d| *d <= now) {
+            self.pending = Some(Heartbeat { state: self.state }.to_frame(self.node));
+            self.next = Some(reschedule(due, self.period, now));
+        }
+    }
+
+    /// The next frame to send.
+    #[must_use]
+    pub fn poll_transmit(&mut self) -> Option<CanFrame> {
+        self.pending.take()
+    }
+
+    /// When the next heartbeat is due.
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.next
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn object_1016_entries() {
+        let e = ConsumerHeartbeatEntry::from_raw(0x0005_01F4);
+        assert_eq!(
+            e,
+            ConsumerHeartbeatEntry {
+                node: 5,
+                time_ms: 500
+            }
+        );
+        assert_eq!(e.to_raw(), 0x0005_01F4);
+        assert_eq!(
+            e.active(),
+            Some((NodeId::new(5).unwrap(), Duration::from_millis(500)))
+        );
+        assert_eq!(ConsumerHeartbeatEntry::from_raw(0x0000_01F4).active(), None);
+        assert_eq!(ConsumerHeartbeatEntry::from_raw(0x0005_0000).active(), None);
+        assert_eq!(ConsumerHeartbeatEntry::from_raw(0x0080_0100).active(), None);
+    }
+}

@@ -1,0 +1,65 @@
+//! CANopen network management and error control (CiA 301 §7.2.5–§7.2.8, §7.3.2), sans-IO.
+//!
+//! Two layers:
+//! - **Codecs** turn the data bytes of one service into a typed value and back. Parsing never
+//!   panics and keeps unknown wire codes, so decode-encode round trips are lossless:
+//!   [`NmtCommand`] (module control, COB-ID 0x000), [`Heartbeat`] and [`GuardResponse`]
+//!   (0x700 + node), [`SyncMessage`], [`TimeOfDay`], [`Emcy`] with [`EmcyCode`] and
+//!   [`ErrorRegister`].
+//! - **Machines** are fed with frames and the current [`Instant`] and hand back frames to send,
+//!   events and their next deadline. They never read a clock or touch I/O.
+//!   - Master side: [`HeartbeatConsumer`], [`GuardingMaster`], [`SyncProducer`],
+//!     [`TimeProducer`], [`EmcyConsumer`].
+//!   - Device side: [`NmtSlave`] (with [`HeartbeatProducer`] and [`GuardingResponder`] inside),
+//!     [`EmcyProducer`].
+//!
+//! Every machine follows the same call order:
+//! 1. configure it (`new`, `monitor`, `guard`, `start`, `boot`, ...);
+//! 2. for each received frame call `handle_frame(now, &frame)`; it returns `Ok(false)` for frames
+//!    that are not its business, so a router may offer a frame to several machines;
+//! 3. when `poll_timeout()` is at or before the current time, call `handle_timeout(now)`;
+//! 4. after each of these calls drain `poll_transmit()` (frames to put on the bus) and
+//!    `poll_event()` until they return `None`, then sleep until the new `poll_timeout()` or the
+//!    next frame.
+//!
+//! The crate is `#![no_std]` without an allocator; bounded tables use `heapless`. The `std`
+//! feature (default) adds [`TimeOfDay::from_system_time`] and [`TimeOfDay::to_system_time`].
+#![no_std]
+#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+mod command;
+mod emcy;
+mod error;
+mod error_control;
+mod guarding;
+mod heartbeat;
+mod slave;
+mod state;
+mod sync;
+mod time_stamp;
+mod util;
+
+pub use can_frame::{CanFrame, Duration, Instant, NodeId};
+pub use command::{CommandSpecifier, NMT_COB_ID, NmtCommand, NmtTarget};
+pub use emcy::{
+    EMCY_EVENT_CAPACITY, EMCY_QUEUE_CAPACITY, Emcy, EmcyCode, EmcyConsumer, EmcyEvent,
+    EmcyProducer, ErrorRegister, emcy_cob_id,
+};
+pub use error::{CapacityError, ConfigError, DecodeError};
+pub use error_control::{
+    ErrorControlFrame, GuardResponse, Heartbeat, error_control_cob_id, guard_request,
+};
+pub use guarding::{
+    GUARDING_EVENT_CAPACITY, GuardingEvent, GuardingMaster, GuardingResponder, LifeGuardingEvent,
+};
+pub use heartbeat::{
+    ConsumerHeartbeatEntry, HEARTBEAT_EVENT_CAPACITY, HeartbeatConsumer, HeartbeatEvent,
+    HeartbeatProducer,
+};
+pub use slave::{NmtSlave, SlaveConfig, SlaveEvent};
+pub use state::{DeviceState, NmtState, Service};
+pub use sync::{SYNC_COB_ID, SyncConfig, SyncMessage, SyncProducer};
+pub use time_stamp::{EPOCH_1984_UNIX_DAYS, TIME_COB_ID, TimeOfDay, TimeProducer};
