@@ -1,0 +1,32 @@
+//! The CANopen object dictionary: the single source of truth for what a device holds.
+//!
+//! - [`types`] — CiA 301 data type indices, object codes and CiA 306 access types (no allocator).
+//! - [`value`] — typed values of every basic data type with two codecs: little-endian bytes
+//!   (SDO/PDO payloads) and CiA 306 EDS text including `$NODEID` expressions (`alloc`).
+//! - [`model`] — the dictionary: objects, sub-objects, file and device information (`alloc`).
+//!
+//! The crate is `#![no_std]`. Without features only [`types`] is available; `alloc` adds the
+//! model and the value codec, `std` (default) adds file I/O conveniences.
+#![no_std]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+#[cfg(feature = "std")]
+extern crate std;
+
+#[cfg(feature = "alloc")]
+pub mod diag;
+#[cfg(feature = "alloc")]
+pub mod model;
+pub mod types;
+#[cfg(feature = "alloc")]
+pub mod value;
+
+#[cfg(feature = "alloc")]
+pub use model::{
+    DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object, ObjectDictionary,
+    RawSection, SubObject,
+};
+pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
+#[cfg(feature = "alloc")]
+pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};

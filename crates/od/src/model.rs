@@ -1,0 +1,427 @@
+//! The object dictionary model that an EDS or DCF file (CiA 306) describes: file and device
+//! information, the object lists, and the objects of CiA 301 §7.4 with their sub-objects.
+//!
+//! Every object is stored uniformly as a map of sub-objects: a VAR, DOMAIN or DEFTYPE object has
+//! exactly one sub-object, sub-index 0, which carries its data type, access type and values; an
+//! ARRAY or RECORD has one sub-object per `[xxxxsubN]` section (or per `CompactSubObj` entry).
+//! Values are kept both as the source text and as typed [`EdsValue`]s ([`FieldValue`]).
+
+use alloc::collections::BTreeMap;
+use alloc::string::String;
+use alloc::vec::Vec;
+
+use crate::types::{AccessType, DataType, ObjectCode};
+use crate::value::{EdsValue, TextError, TextNotes, Value};
+
+/// A 1-based line number in the source file (0 when the item was not read from a file).
+///
+/// Two `Line`s always compare equal: where an object came from is not part of what it is, so a
+/// parsed model equals the model parsed back from its written form.
+#[derive(Debug, Clone, Copy, Default, Eq, PartialOrd, Ord, Hash)]
+pub struct Line(pub u32);
+
+impl PartialEq for Line {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// An unrecognised `key=value` pair, kept in file order so the writer can reproduce it.
+pub type Extra = Vec<(String, String)>;
+
+/// A value field (`DefaultValue`, `LowLimit`, `HighLimit`, `ParameterValue`): the text as written
+/// (trimmed) and its typed reading for the sub-object's data type.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FieldValue {
+    /// The text as written in the file, trimmed of surrounding whitespace.
+    pub text: String,
+    /// The typed value; `None` when the text is empty or could not be read as the data type
+    /// (the parser then reported a warning).
+    pub value: Option<EdsValue>,
+}
+
+impl FieldValue {
+    /// A field from a typed value, with its canonical text.
+    pub fn from_value(value: EdsValue) -> Self {
+        Self {
+            text: value.to_eds_text(),
+            value: Some(value),
+        }
+    }
+
+    /// A field from text, decoded for `data_type`. Returns the decoding error (if any) and the
+    /// non-standard spellings that were accepted alongside the field.
+    pub fn from_text(data_type: DataType, text: &str) -> (Self, Result<TextNotes, TextError>) {
+        let text = text.trim();
+        match EdsValue::parse(data_type, text) {
+            Ok((v, notes)) => (
+                Self {
+                    text: text.into(),
+                    value: Some(v),
+                },
+                Ok(notes),
+            ),
+            Err(e) => (
+                Self {
+                    text: text.into(),
+                    value: None,
+                },
+                Err(e),
+            ),
+        }
+    }
+
+    /// The value with `$NODEID` resolved for `node_id`.
+    pub fn resolve(&self, node_id: u8) -> Option<Value> {
+        self.value.as_ref().map(|v| v.resolve(node_id))
+    }
+}
+
+/// One sub-object (a VAR's only entry, or one sub-index of an ARRAY/RECORD).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SubObject {
+    /// Sub-index.
+    pub sub_index: u8,
+    /// `ParameterName`.
+    pub name: String,
+    /// `ObjectType` of the sub-object section (VAR unless the file says otherwise).
+    pub object_code: ObjectCode,
+    /// `DataType`.
+    pub data_type: DataType,
+    /// `AccessType`.
+    pub access: AccessType,
+    /// The `AccessType` text when it was none of the six CiA 306 spellings; `access` is then
+    /// [`AccessType::Ro`].
+    pub access_raw: Option<String>,
+    /// `PDOMapping`: whether the entry may be mapped into a PDO.
+    pub pdo_mapping: bool,
+    /// `DefaultValue`.
+    pub default_value: Option<FieldValue>,
+    /// `LowLimit`.
+    pub low_limit: Option<FieldValue>,
+    /// `HighLimit`.
+    pub high_limit: Option<FieldValue>,
+    /// `ParameterValue` (DCF).
+    pub parameter_value: Option<FieldValue>,
+    /// `Denotation` (DCF).
+    pub denotation: Option<String>,
+    /// `ObjFlags`.
+    pub obj_flags: Option<u32>,
+    /// Other keys of the section.
+    pub extra: Extra,
+    /// Line of the section header (for a VAR: of the object's section).
+    pub line: Line,
+}
+
+impl SubObject {
+    /// A sub-object with the given name, type and access; no values.
+    pub fn new(
+        sub_index: u8,
+        name: impl Into<String>,
+        data_type: DataType,
+        access: AccessType,
+    ) -> Self {
+        Self {
+            sub_index,
+            name: name.into(),
+            object_code: ObjectCode::Var,
+            data_type,
+            access,
+            access_raw: None,
+            pdo_mapping: false,
+            default_value: None,
+            low_limit: None,
+            high_limit: None,
+            parameter_value: None,
+            denotation: None,
+            obj_flags: None,
+            extra: Vec::new(),
+            line: Line(0),
+        }
+    }
+
+    /// Sets `DefaultValue` from a typed value (builder style).
+    pub fn with_default(mut self, value: EdsValue) -> Self {
+        self.default_value = Some(FieldValue::from_value(value));
+        self
+    }
+
+    /// Sets `PDOMapping` (builder style).
+    pub fn with_pdo_mapping(mut self, mappable: bool) -> Self {
+        self.pdo_mapping = mappable;
+        self
+    }
+
+    /// The value a device holds after configuration: `ParameterValue` if present, else
+    /// `DefaultValue`, with `$NODEID` resolved.
+    pub fn effective_value(&self, node_id: u8) -> Option<Value> {
+        self.parameter_value
+            .as_ref()
+            .and_then(|f| f.resolve(node_id))
+            .or_else(|| self.default_value.as_ref().and_then(|f| f.resolve(node_id)))
+    }
+}
+
+/// One object (one index) of the dictionary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Object {
+    /// Index, 0x0001..=0xFFFF.
+    pub index: u16,
+    /// `ParameterName`.
+    pub name: String,
+    /// `ObjectType` (VAR when the file omits it, as CiA 306 prescribes).
+    pub object_code: ObjectCode,
+    /// `SubNumber` as declared (ARRAY/RECORD); `None` when absent. The writer writes it only
+    /// when present; the linter compares it with [`Object::subs`].
+    pub sub_number: Option<u8>,
+    /// `ObjFlags` of an ARRAY/RECORD object section (a VAR's flags sit on sub-index 0).
+    pub obj_flags: Option<u32>,
+    /// Objects listed in the `[xxxxObjectLinks]` section.
+    pub object_links: Vec<u16>,
+    /// Sub-objects by sub-index. A VAR/DOMAIN/DEFTYPE has exactly sub-index 0.
+    pub subs: BTreeMap<u8, SubObject>,
+    /// Other keys of the object section.
+    pub extra: Extra,
+    /// Line of the `[xxxx]` section header.
+    pub line: Line,
+}
+
+impl Object {
+    /// A VAR object whose single entry is `sub` (its sub-index is forced to 0 and its name to
+    /// the object name).
+    pub fn var(index: u16, mut sub: SubObject) -> Self {
+        sub.sub_index = 0;
+        let name = sub.name.clone();
+        let mut subs = BTreeMap::new();
+        subs.insert(0, sub);
+        Self {
+            index,
+            name,
+            object_code: ObjectCode::Var,
+            sub_number: None,
+            obj_flags: None,
+            object_links: Vec::new(),
+            subs,
+            extra: Vec::new(),
+            line: Line(0),
+        }
+    }
+
+    /// An ARRAY or RECORD (`code`) with the given sub-objects; `SubNumber` is set to their count.
+    pub fn complex(
+        index: u16,
+        name: impl Into<String>,
+        code: ObjectCode,
+        subs: impl IntoIterator<Item = SubObject>,
+    ) -> Self {
+        let subs: BTreeMap<u8, SubObject> = subs.into_iter().map(|s| (s.sub_index, s)).collect();
+        Self {
+            index,
+            name: name.into(),
+            object_code: code,
+            sub_number: u8::try_from(subs.len()).ok(),
+            obj_flags: None,
+            object_links: Vec::new(),
+            subs,
+            extra: Vec::new(),
+            line: Line(0),
+        }
+    }
+
+    /// True for VAR, DOMAIN, DEFTYPE and NULL objects, whose data is sub-index 0 alone.
+    pub fn is_simple(&self) -> bool {
+        self.object_code.is_simple()
+    }
+
+    /// A sub-object by sub-index.
+    pub fn sub(&self, sub_index: u8) -> Option<&SubObject> {
+        self.subs.get(&sub_index)
+    }
+
+    /// The sub-object carrying a VAR's data (sub-index 0).
+    pub fn var_entry(&self) -> Option<&SubObject> {
+        self.subs.get(&0)
+    }
+}
+
+/// The baud rates of CiA 306 `[DeviceInfo]` keys `BaudRate_10` .. `BaudRate_1000`, in kbit/s.
+pub const BAUD_RATES_KBIT: [u16; 8] = [10, 20, 50, 125, 250, 500, 800, 1000];
+
+/// `[FileInfo]`. Fields are kept as text; absent keys are `None`.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[allow(missing_docs)]
+pub struct FileInfo {
+    pub file_name: Option<String>,
+    pub file_version: Option<String>,
+    pub file_revision: Option<String>,
+    /// `EDSVersion` as written (CiA 306 says `4.0`).
+    pub eds_version: Option<String>,
+    pub description: Option<String>,
+    pub creation_time: Option<String>,
+    pub creation_date: Option<String>,
+    pub created_by: Option<String>,
+    pub modification_time: Option<String>,
+    pub modification_date: Option<String>,
+    pub modified_by: Option<String>,
+    /// Other keys (DCF: `LastEDS`, ...).
+    pub extra: Extra,
+}
+
+/// `[DeviceInfo]`; absent keys are `None`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DeviceInfo {
+    /// `VendorName`.
+    pub vendor_name: Option<String>,
+    /// `VendorNumber` (identity 0x1018/1).
+    pub vendor_number: Option<u32>,
+    /// `ProductName`.
+    pub product_name: Option<String>,
+    /// `ProductNumber` (0x1018/2).
+    pub product_number: Option<u32>,
+    /// `RevisionNumber` (0x1018/3).
+    pub revision_number: Option<u32>,
+    /// `OrderCode`.
+    pub order_code: Option<String>,
+    /// `BaudRate_10` .. `BaudRate_1000`, in the order of [`BAUD_RATES_KBIT`].
+    pub baud_rates: [Option<bool>; 8],
+    /// `SimpleBootUpMaster`.
+    pub simple_boot_up_master: Option<bool>,
+    /// `SimpleBootUpSlave`.
+    pub simple_boot_up_slave: Option<bool>,
+    /// `Granularity`: mapping granularity in bits (0 = no PDO mapping, 8 = byte-wise).
+    pub granularity: Option<u8>,
+    /// `DynamicChannelsSupported` (CiA 302 dynamic SDO channels).
+    pub dynamic_channels_supported: Option<u8>,
+    /// `GroupMessaging`.
+    pub group_messaging: Option<bool>,
+    /// `NrOfRXPDO`.
+    pub nr_of_rx_pdo: Option<u16>,
+    /// `NrOfTXPDO`.
+    pub nr_of_tx_pdo: Option<u16>,
+    /// `LSS_Supported`.
+    pub lss_supported: Option<bool>,
+    /// `CompactPDO`: bit mask of PDO communication sub-indices that are implicitly present.
+    pub compact_pdo: Option<u8>,
+    /// Other keys.
+    pub extra: Extra,
+}
+
+impl DeviceInfo {
+    /// The supported baud rates in kbit/s.
+    pub fn supported_baud_rates(&self) -> impl Iterator<Item = u16> + '_ {
+        BAUD_RATES_KBIT
+            .iter()
+            .zip(self.baud_rates.iter())
+            .filter(|(_, s)| **s == Some(true))
+            .map(|(b, _)| *b)
+    }
+}
+
+/// `[DeviceComissioning]` of a DCF (CiA 306 spells it with one "m"; files with "mm" are read too).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DeviceCommissioning {
+    /// `NodeID`.
+    pub node_id: Option<u8>,
+    /// `NodeName`.
+    pub node_name: Option<String>,
+    /// `Baudrate` in kbit/s.
+    pub baudrate: Option<u16>,
+    /// `NetNumber`.
+    pub net_number: Option<u32>,
+    /// `NetworkName`.
+    pub network_name: Option<String>,
+    /// `CANopenManager`.
+    pub canopen_manager: Option<bool>,
+    /// `LSS_SerialNumber`.
+    pub lss_serial_number: Option<u32>,
+    /// Other keys.
+    pub extra: Extra,
+}
+
+/// A section this crate does not interpret (module sections such as `[SupportedModules]` or
+/// `[M1ModuleInfo]`, tool sections such as `[ToolInfos]`), kept verbatim.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawSection {
+    /// Section name without brackets.
+    pub name: String,
+    /// Its `key=value` pairs in file order.
+    pub entries: Extra,
+    /// Line of the header.
+    pub line: Line,
+}
+
+/// A whole object dictionary as an EDS or DCF file describes it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ObjectDictionary {
+    /// `[FileInfo]`.
+    pub file_info: FileInfo,
+    /// `[DeviceInfo]`.
+    pub device_info: DeviceInfo,
+    /// `[DummyUsage]`: data type index (`Dummy0001` .. `Dummy0007`) to whether it may be
+    /// mapped as a PDO dummy entry.
+    pub dummy_usage: BTreeMap<u16, bool>,
+    /// `[Comments]` lines.
+    pub comments: Vec<String>,
+    /// `[MandatoryObjects]` in file order.
+    pub mandatory_objects: Vec<u16>,
+    /// `[OptionalObjects]` in file order.
+    pub optional_objects: Vec<u16>,
+    /// `[ManufacturerObjects]` in file order.
+    pub manufacturer_objects: Vec<u16>,
+    /// `[DeviceComissioning]` (DCF only).
+    pub device_commissioning: Option<DeviceCommissioning>,
+    /// Objects by index.
+    pub objects: BTreeMap<u16, Object>,
+    /// Sections kept verbatim, in file order.
+    pub other_sections: Vec<RawSection>,
+}
+
+impl ObjectDictionary {
+    /// An object by index.
+    pub fn get(&self, index: u16) -> Option<&Object> {
+        self.objects.get(&index)
+    }
+
+    /// A sub-object by index and sub-index (a VAR answers at sub-index 0).
+    pub fn sub(&self, index: u16, sub_index: u8) -> Option<&SubObject> {
+        self.objects
+            .get(&index)
+            .and_then(|o| o.subs.get(&sub_index))
+    }
+
+    /// Mutable access to a sub-object.
+    pub fn sub_mut(&mut self, index: u16, sub_index: u8) -> Option<&mut SubObject> {
+        self.objects
+            .get_mut(&index)
+            .and_then(|o| o.subs.get_mut(&sub_index))
+    }
+
+    /// Inserts (or replaces) an object.
+    pub fn insert(&mut self, object: Object) -> Option<Object> {
+        self.objects.insert(object.index, object)
+    }
+
+    /// Iterates over every (index, sub-object) pair in index order.
+    pub fn entries(&self) -> impl Iterator<Item = (u16, &SubObject)> + '_ {
+        self.objects
+            .values()
+            .flat_map(|o| o.subs.values().map(move |s| (o.index, s)))
+    }
+
+    /// Rebuilds the three object lists from the objects present: 0x1000, 0x1001 and 0x1018 are
+    /// mandatory (CiA 301), 0x2000..=0x5FFF are manufacturer objects, every other index from
+    /// 0x1000 up is optional (data type definitions below 0x1000 are listed nowhere).
+    pub fn rebuild_object_lists(&mut self) {
+        self.mandatory_objects.clear();
+        self.optional_objects.clear();
+        self.manufacturer_objects.clear();
+        for &index in self.objects.keys() {
+            match index {
+                0x1000 | 0x1001 | 0x1018 => self.mandatory_objects.push(index),
+                0x2000..=0x5FFF => self.manufacturer_objects.push(index),
+                0x1000.. => self.optional_objects.push(index),
+                _ => {}
+            }
+        }
+    }
+}

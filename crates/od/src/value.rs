@@ -1,0 +1,878 @@
+//! Typed values of the CiA 301 basic data types (§7.1.4 and §7.1.6) and their two codecs:
+//! little-endian bytes, as SDO and PDO carry them, and the CiA 306 EDS text of `DefaultValue`,
+//! `LowLimit`, `HighLimit` and `ParameterValue` (§4.6.3.2), including `$NODEID` expressions.
+//!
+//! Both decoders are total: any input gives a value or a typed error, never a panic, and they
+//! allocate at most the size of their input.
+
+use alloc::string::String;
+use alloc::vec::Vec;
+use core::fmt::Write as _;
+
+use crate::types::DataType;
+
+/// A value of one CiA 301 basic data type.
+///
+/// Equality compares floats by their bit pattern, so a NaN equals itself and a decode-encode
+/// round trip can be checked with `==`.
+#[derive(Debug, Clone)]
+pub enum Value {
+    /// BOOLEAN.
+    Boolean(bool),
+    /// INTEGER8.
+    Integer8(i8),
+    /// INTEGER16.
+    Integer16(i16),
+    /// INTEGER24, sign-extended into an `i32`.
+    Integer24(i32),
+    /// INTEGER32.
+    Integer32(i32),
+    /// INTEGER40, sign-extended.
+    Integer40(i64),
+    /// INTEGER48, sign-extended.
+    Integer48(i64),
+    /// INTEGER56, sign-extended.
+    Integer56(i64),
+    /// INTEGER64.
+    Integer64(i64),
+    /// UNSIGNED8.
+    Unsigned8(u8),
+    /// UNSIGNED16.
+    Unsigned16(u16),
+    /// UNSIGNED24 (the upper 8 bits are zero).
+    Unsigned24(u32),
+    /// UNSIGNED32.
+    Unsigned32(u32),
+    /// UNSIGNED40.
+    Unsigned40(u64),
+    /// UNSIGNED48.
+    Unsigned48(u64),
+    /// UNSIGNED56.
+    Unsigned56(u64),
+    /// UNSIGNED64.
+    Unsigned64(u64),
+    /// REAL32.
+    Real32(f32),
+    /// REAL64.
+    Real64(f64),
+    /// VISIBLE_STRING, kept as the raw bytes (normally ASCII; EDS text is stored as UTF-8).
+    VisibleString(Vec<u8>),
+    /// OCTET_STRING.
+    OctetString(Vec<u8>),
+    /// UNICODE_STRING as UTF-16 code units.
+    UnicodeString(Vec<u16>),
+    /// TIME_OF_DAY: `ms` after midnight (bits 0..27; the 4 reserved bits are kept) and `days`
+    /// since 1984-01-01.
+    TimeOfDay {
+        /// Milliseconds after midnight.
+        ms: u32,
+        /// Days since 1 January 1984.
+        days: u16,
+    },
+    /// TIME_DIFFERENCE: same layout as TIME_OF_DAY.
+    TimeDifference {
+        /// Milliseconds.
+        ms: u32,
+        /// Days.
+        days: u16,
+    },
+    /// DOMAIN: arbitrary bytes.
+    Domain(Vec<u8>),
+}
+
+impl PartialEq for Value {
+    fn eq(&self, other: &Self) -> bool {
+        use Value::*;
+        match (self, other) {
+            (Real32(a), Real32(b)) => a.to_bits() == b.to_bits(),
+            (Real64(a), Real64(b)) => a.to_bits() == b.to_bits(),
+            (Boolean(a), Boolean(b)) => a == b,
+            (Integer8(a), Integer8(b)) => a == b,
+            (Integer16(a), Integer16(b)) => a == b,
+            (Integer24(a), Integer24(b)) | (Integer32(a), Integer32(b)) => a == b,
+            (Integer40(a), Integer40(b))
+            | (Integer48(a), Integer48(b))
+            | (Integer56(a), Integer56(b))
+            | (Integer64(a), Integer64(b)) => a == b,
+            (Unsigned8(a), Unsigned8(b)) => a == b,
+            (Unsigned16(a), Unsigned16(b)) => a == b,
+            (Unsigned24(a), Unsigned24(b)) | (Unsigned32(a), Unsigned32(b)) => a == b,
+            (Unsigned40(a), Unsigned40(b))
+            | (Unsigned48(a), Unsigned48(b))
+            | (Unsigned56(a), Unsigned56(b))
+            | (Unsigned64(a), Unsigned64(b)) => a == b,
+            (VisibleString(a), VisibleString(b))
+            | (OctetString(a), OctetString(b))
+            | (Domain(a), Domain(b)) => a == b,
+            (UnicodeString(a), UnicodeString(b)) => a == b,
+            (TimeOfDay { ms: a, days: c }, TimeOfDay { ms: b, days: d })
+            | (TimeDifference { ms: a, days: c }, TimeDifference { ms: b, days: d }) => {
+                a == b && c == d
+            }
+            _ => false,
+        }
+    }
+}
+
+/// Why bytes could not be decoded into a [`Value`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum BytesError {
+    /// A fixed-size type received the wrong number of bytes.
+    #[error("{data_type} takes {expected} bytes, got {actual}")]
+    WrongLength {
+        /// The type being decoded.
+        data_type: DataType,
+        /// Its size.
+        expected: usize,
+        /// The number of bytes given.
+        actual: usize,
+    },
+    /// A BOOLEAN byte other than 0 or 1.
+    #[error("BOOLEAN must be 0 or 1, got 0x{0:02X}")]
+    InvalidBoolean(u8),
+    /// UNICODE_STRING with an odd number of bytes.
+    #[error("UNICODE_STRING needs an even number of bytes, got {0}")]
+    OddUnicodeLength(usize),
+    /// The data type has no value encoding (complex or unknown type).
+    #[error("{0} has no basic value encoding")]
+    Unsupported(DataType),
+}
+
+/// Why EDS text could not be decoded into a value of the expected data type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TextError {
+    /// The text is empty (or only `$NODEID+` with nothing after it).
+    #[error("empty value")]
+    Empty,
+    /// Not an integer literal (decimal, `0x` hex or `0` octal).
+    #[error("not an integer for {0} (expected decimal, 0x hex or 0-prefixed octal)")]
+    InvalidInteger(DataType),
+    /// The number does not fit the data type.
+    #[error("value out of range for {0}")]
+    OutOfRange(DataType),
+    /// Not a floating point number or `0x` bit pattern.
+    #[error("not a number for {0}")]
+    InvalidFloat(DataType),
+    /// Not pairs of hex digits.
+    #[error("{0} expects pairs of hex digits")]
+    InvalidHex(DataType),
+    /// A `$NODEID` expression of a form other than `$NODEID`, `$NODEID+N` or `N+$NODEID`.
+    #[error("unsupported $NODEID expression (use $NODEID+N or N+$NODEID)")]
+    InvalidNodeIdExpression,
+    /// `$NODEID` in a value whose type is not an integer.
+    #[error("$NODEID is only allowed in integer values, not {0}")]
+    NodeIdNotAllowed(DataType),
+    /// TIME_OF_DAY / TIME_DIFFERENCE text that is neither `DAYS MS` nor one 48-bit integer.
+    #[error("{0} expects `DAYS MS` or one 48-bit integer")]
+    InvalidTime(DataType),
+    /// The data type has no value encoding.
+    #[error("{0} has no basic value encoding")]
+    Unsupported(DataType),
+}
+
+/// Non-standard spellings that [`EdsValue::parse`] accepted; the parser reports each as a warning.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TextNotes {
+    /// A C integer suffix such as `LL`, `ULL` or `U` was dropped.
+    pub c_suffix: bool,
+    /// A number with a leading `0` contained the digit 8 or 9 and was read as decimal, not octal.
+    pub leading_zero_decimal: bool,
+    /// A string value was wrapped in double quotes, which were removed.
+    pub quoted: bool,
+    /// A REAL value was written as a `0x` bit pattern.
+    pub float_bit_pattern: bool,
+    /// A signed value was written as an unsigned hex/octal bit pattern (e.g. `0xFFFF` for -1).
+    pub twos_complement: bool,
+}
+
+impl TextNotes {
+    /// True when nothing non-standard was seen.
+    pub fn is_clean(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// A value as an EDS/DCF file gives it: a typed [`Value`], possibly relative to the node-ID
+/// (`$NODEID+0x180`: `value` holds 0x180 and `node_id_relative` is true).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EdsValue {
+    /// The value, or the offset added to the node-ID when `node_id_relative`.
+    pub value: Value,
+    /// True when the text contained `$NODEID`.
+    pub node_id_relative: bool,
+}
+
+impl EdsValue {
+    /// A plain value.
+    pub fn plain(value: Value) -> Self {
+        Self {
+            value,
+            node_id_relative: false,
+        }
+    }
+
+    /// Decodes EDS text for `data_type`. Accepts decimal, `0x` hex, `0`-prefixed octal, a sign,
+    /// C integer suffixes (`LL`, `ULL`), floats or `0x` float bit patterns, quoted strings, hex
+    /// byte strings, and `$NODEID`, `$NODEID+N`, `N+$NODEID` in any case and spacing.
+    pub fn parse(data_type: DataType, text: &str) -> Result<(Self, TextNotes), TextError> {
+        let mut notes = TextNotes::default();
+        let text = text.trim();
+        if let Some(pos) = find_node_id(text) {
+            if data_type.integer_bits().is_none() || data_type == DataType::Boolean {
+                return Err(TextError::NodeIdNotAllowed(data_type));
+            }
+            let before = text.get(..pos).unwrap_or("").trim();
+            let after = text.get(pos + NODEID.len()..).unwrap_or("").trim();
+            let literal = match (before.is_empty(), after.is_empty()) {
+                (true, true) => "0",
+                (true, false) => after
+                    .strip_prefix('+')
+                    .ok_or(TextError::InvalidNodeIdExpression)?,
+                (false, true) => before
+                    .strip_suffix('+')
+                    .ok_or(TextError::InvalidNodeIdExpression)?,
+                (false, false) => return Err(TextError::InvalidNodeIdExpression),
+            };
+            if literal.contains(['$', '+']) {
+                return Err(TextError::InvalidNodeIdExpression);
+            }
+            let literal = literal.trim();
+            if literal.is_empty() {
+                return Err(TextError::Empty);
+            }
+            let value = parse_integer(data_type, literal, &mut notes)?;
+            return Ok((
+                Self {
+                    value,
+                    node_id_relative: true,
+                },
+                notes,
+            ));
+        }
+        let value = parse_text(data_type, text, &mut notes)?;
+        Ok((Self::plain(value), notes))
+    }
+
+    /// The value with `$NODEID` replaced by `node_id` (wrapping within the data type's width).
+    pub fn resolve(&self, node_id: u8) -> Value {
+        if !self.node_id_relative {
+            return self.value.clone();
+        }
+        match self.value.as_i128() {
+            Some(v) => Value::from_i128_wrapping(self.value.data_type(), v + i128::from(node_id))
+                .unwrap_or_else(|| self.value.clone()),
+            None => self.value.clone(),
+        }
+    }
+
+    /// The canonical EDS text: `$NODEID+0x180` for node-relative values, else
+    /// [`Value::to_eds_text`].
+    pub fn to_eds_text(&self) -> String {
+        if self.node_id_relative {
+            let mut s = String::from("$NODEID+");
+            s.push_str(&self.value.to_eds_text());
+            s
+        } else {
+            self.value.to_eds_text()
+        }
+    }
+}
+
+const NODEID: &str = "$NODEID";
+
+fn find_node_id(text: &str) -> Option<usize> {
+    let b = text.as_bytes();
+    if b.len() < NODEID.len() {
+        return None;
+    }
+    (0..=b.len() - NODEID.len()).find(|&i| {
+        b.get(i..i + NODEID.len())
+            .is_some_and(|w| w.eq_ignore_ascii_case(NODEID.as_bytes()))
+    })
+}
+
+/// Splits sign, radix and digits of an integer literal and returns the signed magnitude.
+pub(crate) fn parse_int_literal(text: &str, notes: &mut TextNotes) -> Option<(i128, bool)> {
+    let mut s = text.trim();
+    let negative = if let Some(r) = s.strip_prefix('-') {
+        s = r.trim_start();
+        true
+    } else if let Some(r) = s.strip_prefix('+') {
+        s = r.trim_start();
+        false
+    } else {
+        false
+    };
+    // C suffixes: U, L, UL, LL, ULL in any case (never hex digits, so safe to strip first).
+    let unsuffixed = s.trim_end_matches(['u', 'U', 'l', 'L']);
+    if unsuffixed.len() != s.len() {
+        notes.c_suffix = true;
+        s = unsuffixed;
+    }
+    let (mut radix, mut digits) =
+        if let Some(r) = s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+            (16, r)
+        } else if s.len() > 1 && s.starts_with('0') {
+            (8, &s[1..])
+        } else {
+            (10, s)
+        };
+    if digits.is_empty() {
+        return None;
+    }
+    if radix == 8 && digits.bytes().any(|c| c == b'8' || c == b'9') {
+        // A leading zero in front of a decimal number ("09"): read as decimal.
+        notes.leading_zero_decimal = true;
+        radix = 10;
+        digits = s;
+    }
+    let mut acc: u128 = 0;
+    for c in digits.bytes() {
+        let d = (c as char).to_digit(radix)?;
+        acc = acc
+            .checked_mul(u128::from(radix))?
+            .checked_add(u128::from(d))?;
+        if acc > u128::from(u64::MAX) {
+            return None;
+        }
+    }
+    let mag = acc as i128;
+    Some((if negative { -mag } else { mag }, radix != 10))
+}
+
+fn parse_integer(dt: DataType, text: &str, notes: &mut TextNotes) -> Result<Value, TextError> {
+    let Some(bits) = dt.integer_bits() else {
+        return Err(TextError::Unsupported(dt));
+    };
+    let (mut v, radix_not_decimal) =
+        parse_int_literal(text, notes).ok_or(TextError::InvalidInteger(dt))?;
+    if dt == DataType::Boolean {
+        return match v {
+            0 => Ok(Value::Boolean(false)),
+            1 => Ok(Value::Boolean(true)),
+            _ => Err(TextError::OutOfRange(dt)),
+        };
+    }
+    if dt.is_signed() {
+        let max = (1i128 << (bits - 1)) - 1;
+        let min = -(1i128 << (bits - 1));
+        if v > max && radix_not_decimal && v < (1i128 << bits) {
+            v -= 1i128 << bits;
+            notes.twos_complement = true;
+        }
+        if v < min || v > max {
+            return Err(TextError::OutOfRange(dt));
+        }
+    } else if v < 0 || v >= (1i128 << bits) {
+        return Err(TextError::OutOfRange(dt));
+    }
+    Value::from_i128_wrapping(dt, v).ok_or(TextError::Unsupported(dt))
+}
+
+fn parse_text(dt: DataType, text: &str, notes: &mut TextNotes) -> Result<Value, TextError> {
+    match dt {
+        DataType::Real32 | DataType::Real64 => {
+            if text.is_empty() {
+                return Err(TextError::Empty);
+            }
+            if text.starts_with("0x") || text.starts_with("0X") {
+                notes.float_bit_pattern = true;
+                let (bits, _) =
+                    parse_int_literal(text, notes).ok_or(TextError::InvalidFloat(dt))?;
+                return if dt == DataType::Real32 {
+                    u32::try_from(bits)
+                        .map(|b| Value::Real32(f32::from_bits(b)))
+                        .map_err(|_| TextError::OutOfRange(dt))
+                } else {
+                    u64::try_from(bits)
+                        .map(|b| Value::Real64(f64::from_bits(b)))
+                        .map_err(|_| TextError::OutOfRange(dt))
+                };
+            }
+            if dt == DataType::Real32 {
+                text.parse::<f32>()
+                    .map(Value::Real32)
+                    .map_err(|_| TextError::InvalidFloat(dt))
+            } else {
+                text.parse::<f64>()
+                    .map(Value::Real64)
+                    .map_err(|_| TextError::InvalidFloat(dt))
+            }
+        }
+        DataType::VisibleString => Ok(Value::VisibleString(
+            unquote(text, notes).as_bytes().to_vec(),
+        )),
+        DataType::UnicodeString => Ok(Value::UnicodeString(
+            unquote(text, notes).encode_utf16().collect(),
+        )),
+        DataType::OctetString => parse_hex_bytes(dt, text).map(Value::OctetString),
+        DataType::Domain => parse_hex_bytes(dt, text).map(Value::Domain),
+        DataType::TimeOfDay | DataType::TimeDifference => {
+            let (ms, days) = parse_time(dt, text, notes)?;
+            Ok(if dt == DataType::TimeOfDay {
+                Value::TimeOfDay { ms, days }
+            } else {
+                Value::TimeDifference { ms, days }
+            })
+        }
+        DataType::Other(_) => Err(TextError::Unsupported(dt)),
+        _ => {
+            if text.is_empty() {
+                return Err(TextError::Empty);
+            }
+            parse_integer(dt, text, notes)
+        }
+    }
+}
+
+fn unquote<'a>(text: &'a str, notes: &mut TextNotes) -> &'a str {
+    if text.len() >= 2 && text.starts_with('"') && text.ends_with('"') {
+        notes.quoted = true;
+        &text[1..text.len() - 1]
+    } else {
+        text
+    }
+}
+
+fn parse_hex_bytes(dt: DataType, text: &str) -> Result<Vec<u8>, TextError> {
+    let t = text
+        .strip_prefix("0x")
+        .or_else(|| text.strip_prefix("0X"))
+        .unwrap_or(text);
+    let mut out = Vec::with_capacity(t.len() / 2);
+    let mut hi: Option<u8> = None;
+    for c in t.bytes() {
+        if c == b' ' || c == b'\t' {
+            continue;
+        }
+        let d = (c as char).to_digit(16).ok_or(TextError::InvalidHex(dt))? as u8;
+        match hi.take() {
+            None => hi = Some(d),
+            Some(h) => out.push(h << 4 | d),
+        }
+    }
+    if hi.is_some() {
+        return Err(TextError::InvalidHex(dt));
+    }
+    Ok(out)
+}
+
+fn parse_time(dt: DataType, text: &str, notes: &mut TextNotes) -> Result<(u32, u16), TextError> {
+    if text.is_empty() {
+        return Err(TextError::Empty);
+    }
+    let mut parts = text.split_ascii_whitespace();
+    let first = parts.next().ok_or(TextError::Empty)?;
+    match (parts.next(), parts.next()) {
+        (Some(second), None) => {
+            let days = parse_int_literal(first, notes)
+                .ok_or(TextError::InvalidTime(dt))?
+                .0;
+            let ms = parse_int_literal(second, notes)
+                .ok_or(TextError::InvalidTime(dt))?
+                .0;
+            let days = u16::try_from(days).map_err(|_| TextError::OutOfRange(dt))?;
+            let ms = u32::try_from(ms).map_err(|_| TextError::OutOfRange(dt))?;
+            Ok((ms, days))
+        }
+        (None, _) => {
+            let raw = parse_int_literal(first, notes)
+                .ok_or(TextError::InvalidTime(dt))?
+                .0;
+            if !(0..1i128 << 48).contains(&raw) {
+                return Err(TextError::OutOfRange(dt));
+            }
+            Ok(((raw & 0xFFFF_FFFF) as u32, (raw >> 32) as u16))
+        }
+        _ => Err(TextError::InvalidTime(dt)),
+    }
+}
+
+fn le_int(bytes: &[u8], signed: bool) -> i128 {
+    let mut v: u64 = 0;
+    for (i, b) in bytes.iter().enumerate() {
+        v |= u64::from(*b) << (8 * i);
+    }
+    let bits = bytes.len() as u32 * 8;
+    if signed && bits > 0 && bits < 64 && v & (1 << (bits - 1)) != 0 {
+        i128::from(v) - (1i128 << bits)
+    } else if signed && bits == 64 {
+        i128::from(v as i64)
+    } else {
+        i128::from(v)
+    }
+}
+
+impl Value {
+    /// The data type of this value.
+    pub fn data_type(&self) -> DataType {
+        match self {
+            Self::Boolean(_) => DataType::Boolean,
+            Self::Integer8(_) => DataType::Integer8,
+            Self::Integer16(_) => DataType::Integer16,
+            Self::Integer24(_) => DataType::Integer24,
+            Self::Integer32(_) => DataType::Integer32,
+            Self::Integer40(_) => DataType::Integer40,
+            Self::Integer48(_) => DataType::Integer48,
+            Self::Integer56(_) => DataType::Integer56,
+            Self::Integer64(_) => DataType::Integer64,
+            Self::Unsigned8(_) => DataType::Unsigned8,
+            Self::Unsigned16(_) => DataType::Unsigned16,
+            Self::Unsigned24(_) => DataType::Unsigned24,
+            Self::Unsigned32(_) => DataType::Unsigned32,
+            Self::Unsigned40(_) => DataType::Unsigned40,
+            Self::Unsigned48(_) => DataType::Unsigned48,
+            Self::Unsigned56(_) => DataType::Unsigned56,
+            Self::Unsigned64(_) => DataType::Unsigned64,
+            Self::Real32(_) => DataType::Real32,
+            Self::Real64(_) => DataType::Real64,
+            Self::VisibleString(_) => DataType::VisibleString,
+            Self::OctetString(_) => DataType::OctetString,
+            Self::UnicodeString(_) => DataType::UnicodeString,
+            Self::TimeOfDay { .. } => DataType::TimeOfDay,
+            Self::TimeDifference { .. } => DataType::TimeDifference,
+            Self::Domain(_) => DataType::Domain,
+        }
+    }
+
+    /// The integer value of an integer or BOOLEAN value; `None` for other types.
+    pub fn as_i128(&self) -> Option<i128> {
+        Some(match *self {
+            Self::Boolean(b) => i128::from(b),
+            Self::Integer8(v) => v.into(),
+            Self::Integer16(v) => v.into(),
+            Self::Integer24(v) | Self::Integer32(v) => v.into(),
+            Self::Integer40(v) | Self::Integer48(v) | Self::Integer56(v) | Self::Integer64(v) => {
+                v.into()
+            }
+            Self::Unsigned8(v) => v.into(),
+            Self::Unsigned16(v) => v.into(),
+            Self::Unsigned24(v) | Self::Unsigned32(v) => v.into(),
+            Self::Unsigned40(v)
+            | Self::Unsigned48(v)
+            | Self::Unsigned56(v)
+            | Self::Unsigned64(v) => v.into(),
+            _ => return None,
+        })
+    }
+
+    /// A float or integer value as `f64` (for comparisons against limits); `None` otherwise.
+    pub fn as_f64(&self) -> Option<f64> {
+        match *self {
+            Self::Real32(v) => Some(v.into()),
+            Self::Real64(v) => Some(v),
+            _ => self.as_i128().map(|v| v as f64),
+        }
+    }
+
+    /// An integer value of `data_type` from `v`, wrapped to the type's width (two's complement
+    /// for signed types). `None` when `data_type` is not an integer type or BOOLEAN.
+    pub fn from_i128_wrapping(data_type: DataType, v: i128) -> Option<Self> {
+        let bits = data_type.integer_bits()?;
+        let mask = if bits >= 128 {
+            !0u128
+        } else {
+            (1u128 << bits) - 1
+        };
+        let u = (v as u128) & mask;
+        let s = if data_type.is_signed() && bits < 128 && u & (1u128 << (bits - 1)) != 0 {
+            (u as i128) - (1i128 << bits)
+        } else {
+            u as i128
+        };
+        Some(match data_type {
+            DataType::Boolean => Self::Boolean(u != 0),
+            DataType::Integer8 => Self::Integer8(s as i8),
+            DataType::Integer16 => Self::Integer16(s as i16),
+            DataType::Integer24 => Self::Integer24(s as i32),
+            DataType::Integer32 => Self::Integer32(s as i32),
+            DataType::Integer40 => Self::Integer40(s as i64),
+            DataType::Integer48 => Self::Integer48(s as i64),
+            DataType::Integer56 => Self::Integer56(s as i64),
+            DataType::Integer64 => Self::Integer64(s as i64),
+            DataType::Unsigned8 => Self::Unsigned8(u as u8),
+            DataType::Unsigned16 => Self::Unsigned16(u as u16),
+            DataType::Unsigned24 => Self::Unsigned24(u as u32),
+            DataType::Unsigned32 => Self::Unsigned32(u as u32),
+            DataType::Unsigned40 => Self::Unsigned40(u as u64),
+            DataType::Unsigned48 => Self::Unsigned48(u as u64),
+            DataType::Unsigned56 => Self::Unsigned56(u as u64),
+            DataType::Unsigned64 => Self::Unsigned64(u as u64),
+            _ => return None,
+        })
+    }
+
+    /// Decodes the little-endian bytes of an SDO or PDO payload.
+    pub fn from_le_bytes(data_type: DataType, bytes: &[u8]) -> Result<Self, BytesError> {
+        if let Some(expected) = data_type.size() {
+            if bytes.len() != expected {
+                return Err(BytesError::WrongLength {
+                    data_type,
+                    expected,
+                    actual: bytes.len(),
+                });
+            }
+        }
+        Ok(match data_type {
+            DataType::Boolean => match bytes.first().copied().unwrap_or(0) {
+                0 => Self::Boolean(false),
+                1 => Self::Boolean(true),
+                b => return Err(BytesError::InvalidBoolean(b)),
+            },
+            DataType::Real32 => Self::Real32(f32::from_bits(le_int(bytes, false) as u32)),
+            DataType::Real64 => Self::Real64(f64::from_bits(le_int(bytes, false) as u64)),
+            DataType::VisibleString => Self::VisibleString(bytes.to_vec()),
+            DataType::OctetString => Self::OctetString(bytes.to_vec()),
+            DataType::Domain => Self::Domain(bytes.to_vec()),
+            DataType::UnicodeString => {
+                if bytes.len() % 2 != 0 {
+                    return Err(BytesError::OddUnicodeLength(bytes.len()));
+                }
+                Self::UnicodeString(
+                    bytes
+                        .chunks_exact(2)
+                        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+                        .collect(),
+                )
+            }
+            DataType::TimeOfDay | DataType::TimeDifference => {
+                let ms = le_int(bytes.get(..4).unwrap_or(&[]), false) as u32;
+                let days = le_int(bytes.get(4..6).unwrap_or(&[]), false) as u16;
+                if data_type == DataType::TimeOfDay {
+                    Self::TimeOfDay { ms, days }
+                } else {
+                    Self::TimeDifference { ms, days }
+                }
+            }
+            DataType::Other(_) => return Err(BytesError::Unsupported(data_type)),
+            dt => Self::from_i128_wrapping(dt, le_int(bytes, dt.is_signed()))
+                .ok_or(BytesError::Unsupported(dt))?,
+        })
+    }
+
+    /// Appends the little-endian encoding to `out`.
+    pub fn write_le_bytes(&self, out: &mut Vec<u8>) {
+        let size = self.data_type().size();
+        match self {
+            Self::Real32(v) => out.extend_from_slice(&v.to_bits().to_le_bytes()),
+            Self::Real64(v) => out.extend_from_slice(&v.to_bits().to_le_bytes()),
+            Self::VisibleString(b) | Self::OctetString(b) | Self::Domain(b) => {
+                out.extend_from_slice(b)
+            }
+            Self::UnicodeString(u) => {
+                for c in u {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            Self::TimeOfDay { ms, days } | Self::TimeDifference { ms, days } => {
+                out.extend_from_slice(&ms.to_le_bytes());
+                out.extend_from_slice(&days.to_le_bytes());
+            }
+            _ => {
+                let v = self.as_i128().unwrap_or(0) as u128;
+                let n = size.unwrap_or(0);
+                out.extend_from_slice(&v.to_le_bytes()[..n]);
+            }
+        }
+    }
+
+    /// The little-endian encoding.
+    pub fn to_le_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.data_type().size().unwrap_or(8));
+        self.write_le_bytes(&mut out);
+        out
+    }
+
+    /// Canonical EDS text: decimal for signed integers and BOOLEAN, `0x` hex for unsigned
+    /// integers, shortest round-trip decimal for floats (a `0x` bit pattern for NaN), the text for
+    /// strings (quoted when it has surrounding spaces or quotes), hex bytes for OCTET_STRING and
+    /// DOMAIN, `DAYS MS` for the time types. [`EdsValue::parse`] reads it back to an equal value.
+    pub fn to_eds_text(&self) -> String {
+        let mut s = String::new();
+        match self {
+            Self::Boolean(b) => s.push(if *b { '1' } else { '0' }),
+            Self::Real32(v) if v.is_nan() => {
+                let _ = write!(s, "0x{:08X}", v.to_bits());
+            }
+            Self::Real64(v) if v.is_nan() => {
+                let _ = write!(s, "0x{:016X}", v.to_bits());
+            }
+            Self::Real32(v) => {
+                let _ = write!(s, "{v:?}");
+            }
+            Self::Real64(v) => {
+                let _ = write!(s, "{v:?}");
+            }
+            Self::VisibleString(b) => push_quoted(&mut s, &String::from_utf8_lossy(b)),
+            Self::UnicodeString(u) => push_quoted(&mut s, &String::from_utf16_lossy(u)),
+            Self::OctetString(b) | Self::Domain(b) => {
+                for x in b {
+                    let _ = write!(s, "{x:02X}");
+                }
+            }
+            Self::TimeOfDay { ms, days } | Self::TimeDifference { ms, days } => {
+                let _ = write!(s, "{days} {ms}");
+            }
+            v if v.data_type().is_signed() => {
+                let _ = write!(s, "{}", v.as_i128().unwrap_or(0));
+            }
+            v => {
+                let _ = write!(s, "0x{:X}", v.as_i128().unwrap_or(0));
+            }
+        }
+        s
+    }
+}
+
+fn push_quoted(s: &mut String, text: &str) {
+    let needs = text.starts_with(char::is_whitespace)
+        || text.ends_with(char::is_whitespace)
+        || (text.starts_with('"') && text.ends_with('"') && text.len() >= 2);
+    if needs {
+        s.push('"');
+        s.push_str(text);
+        s.push('"');
+    } else {
+        s.push_str(text);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use alloc::vec;
+
+    fn p(dt: DataType, t: &str) -> EdsValue {
+        EdsValue::parse(dt, t).unwrap().0
+    }
+
+    #[test]
+    fn integer_forms() {
+        assert_eq!(
+            p(DataType::Unsigned16, "0x1A").value,
+            Value::Unsigned16(0x1A)
+        );
+        assert_eq!(p(DataType::Unsigned16, "26").value, Value::Unsigned16(26));
+        assert_eq!(p(DataType::Unsigned16, "032").value, Value::Unsigned16(26));
+        assert_eq!(p(DataType::Integer8, "-0x7f").value, Value::Integer8(-127));
+        assert_eq!(p(DataType::Integer16, "0xFFFF").value, Value::Integer16(-1));
+        assert_eq!(
+            p(DataType::Integer24, "-8388608").value,
+            Value::Integer24(-8_388_608)
+        );
+        let (v, n) = EdsValue::parse(DataType::Unsigned64, "0x1234567890ABCDEFLL").unwrap();
+        assert_eq!(v.value, Value::Unsigned64(0x1234_5678_90AB_CDEF));
+        assert!(n.c_suffix);
+        let (v, n) = EdsValue::parse(DataType::Unsigned8, "09").unwrap();
+        assert_eq!(v.value, Value::Unsigned8(9));
+        assert!(n.leading_zero_decimal);
+        assert_eq!(
+            EdsValue::parse(DataType::Unsigned8, "256"),
+            Err(TextError::OutOfRange(DataType::Unsigned8))
+        );
+        assert_eq!(
+            EdsValue::parse(DataType::Unsigned8, "-1"),
+            Err(TextError::OutOfRange(DataType::Unsigned8))
+        );
+        assert_eq!(
+            EdsValue::parse(DataType::Unsigned8, "0x"),
+            Err(TextError::InvalidInteger(DataType::Unsigned8))
+        );
+        assert_eq!(
+            EdsValue::parse(DataType::Unsigned8, ""),
+            Err(TextError::Empty)
+        );
+    }
+
+    #[test]
+    fn node_id_expressions() {
+        for t in [
+            "$NODEID+0x180",
+            "0x180+$NODEID",
+            "$NodeID + 0x180",
+            " 0x180 + $nodeid\t",
+        ] {
+            let v = p(DataType::Unsigned32, t);
+            assert!(v.node_id_relative, "{t}");
+            assert_eq!(v.value, Value::Unsigned32(0x180));
+            assert_eq!(v.resolve(5), Value::Unsigned32(0x185));
+        }
+        assert_eq!(
+            p(DataType::Unsigned8, "$NODEID").resolve(9),
+            Value::Unsigned8(9)
+        );
+        assert_eq!(
+            EdsValue::parse(DataType::Unsigned32, "$NODEID*2"),
+            Err(TextError::InvalidNodeIdExpression)
+        );
+        assert_eq!(
+            EdsValue::parse(DataType::Real32, "$NODEID+1"),
+            Err(TextError::NodeIdNotAllowed(DataType::Real32))
+        );
+        assert_eq!(
+            p(DataType::Unsigned32, "$NODEID+0x180").to_eds_text(),
+            "$NODEID+0x180"
+        );
+    }
+
+    #[test]
+    fn floats_strings_times() {
+        assert_eq!(p(DataType::Real32, "1.5").value, Value::Real32(1.5));
+        assert_eq!(
+            p(DataType::Real32, "0x40490FDB").value,
+            Value::Real32(f32::from_bits(0x4049_0FDB))
+        );
+        assert_eq!(p(DataType::Real64, "-2e3").value, Value::Real64(-2000.0));
+        assert_eq!(
+            p(DataType::VisibleString, "\"Hello, World!\"").value,
+            Value::VisibleString(b"Hello, World!".to_vec())
+        );
+        assert_eq!(
+            p(DataType::OctetString, "0123456789abcdef").value,
+            Value::OctetString(vec![0x01, 0x23, 0x45, 0x67, 0x89, 0xAB, 0xCD, 0xEF])
+        );
+        assert_eq!(
+            p(DataType::TimeOfDay, "365 43200000").value,
+            Value::TimeOfDay {
+                ms: 43_200_000,
+                days: 365
+            }
+        );
+        assert!(EdsValue::parse(DataType::OctetString, "abc").is_err());
+    }
+
+    #[test]
+    fn bytes_vectors() {
+        // CiA 301: little-endian; UNSIGNED24 0x123456 is 56 34 12.
+        assert_eq!(
+            Value::Unsigned24(0x12_3456).to_le_bytes(),
+            vec![0x56, 0x34, 0x12]
+        );
+        assert_eq!(
+            Value::from_le_bytes(DataType::Integer24, &[0xFF, 0xFF, 0xFF]),
+            Ok(Value::Integer24(-1))
+        );
+        assert_eq!(
+            Value::from_le_bytes(DataType::Integer40, &[0, 0, 0, 0, 0x80]),
+            Ok(Value::Integer40(-(1 << 39)))
+        );
+        assert_eq!(
+            Value::from_le_bytes(DataType::Unsigned16, &[1]),
+            Err(BytesError::WrongLength {
+                data_type: DataType::Unsigned16,
+                expected: 2,
+                actual: 1
+            })
+        );
+        assert_eq!(
+            Value::TimeOfDay { ms: 1, days: 2 }.to_le_bytes(),
+            vec![1, 0, 0, 0, 2, 0]
+        );
+        assert_eq!(
+            Value::from_le_bytes(DataType::Boolean, &[2]),
+            Err(BytesError::InvalidBoolean(2))
+        );
+    }
+}
