@@ -55,6 +55,19 @@ impl CommandSpecifier {
     }
 }
 
+impl core::fmt::Display for CommandSpecifier {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Start => f.write_str("start"),
+            Self::Stop => f.write_str("stop"),
+            Self::EnterPreOperational => f.write_str("enter pre-operational"),
+            Self::ResetNode => f.write_str("reset node"),
+            Self::ResetCommunication => f.write_str("reset communication"),
+            Self::Unknown(v) => write!(f, "unknown command {v:#04x}"),
+        }
+    }
+}
+
 impl From<u8> for CommandSpecifier {
     fn from(v: u8) -> Self {
         Self::from_u8(v)

@@ -56,6 +56,18 @@ impl From<NmtState> for u8 {
     }
 }
 
+impl core::fmt::Display for NmtState {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::BootUp => f.write_str("boot-up"),
+            Self::Stopped => f.write_str("stopped"),
+            Self::Operational => f.write_str("operational"),
+            Self::PreOperational => f.write_str("pre-operational"),
+            Self::Unknown(v) => write!(f, "unknown state {v:#04x}"),
+        }
+    }
+}
+
 /// The NMT state of a device (the NMT slave state machine of CiA 301 §7.3.2.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DeviceState {
@@ -68,6 +80,17 @@ pub enum DeviceState {
     Operational,
     /// Stopped: only NMT and error control (heartbeat, node guarding).
     Stopped,
+}
+
+impl core::fmt::Display for DeviceState {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Initialising => "initialisation",
+            Self::PreOperational => "pre-operational",
+            Self::Operational => "operational",
+            Self::Stopped => "stopped",
+        })
+    }
 }
 
 /// A communication service whose availability depends on the NMT state.
@@ -133,6 +156,11 @@ mod tests {
         for b in 0..=255u8 {
             assert_eq!(NmtState::from_u8(b).to_u8(), b);
         }
+        extern crate std;
+        use std::string::ToString;
+        assert_eq!(NmtState::PreOperational.to_string(), "pre-operational");
+        assert_eq!(NmtState::Unknown(0x42).to_string(), "unknown state 0x42");
+        assert_eq!(DeviceState::Initialising.to_string(), "initialisation");
     }
 
     #[test]
