@@ -5,6 +5,7 @@
 
 extern crate burkert_profile;
 extern crate can_frame;
+extern crate canopen_nmt;
 
 use core::panic::PanicInfo;
 
@@ -28,5 +29,10 @@ pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
     // Touch one item so the crate is really used, not only declared.
     let id = can_frame::NodeId::new(5);
     let colour = burkert_profile::LedColour::from_u32(0x1000_0002);
-    if id.is_ok() && colour.is_ok() { 0 } else { 1 }
+    let heartbeat = canopen_nmt::Heartbeat::parse(&[0x7F]);
+    if id.is_ok() && colour.is_ok() && heartbeat.is_ok() {
+        0
+    } else {
+        1
+    }
 }
