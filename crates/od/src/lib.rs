@@ -1,9 +1,12 @@
 //! The CANopen object dictionary: the single source of truth for what a device holds.
 //!
+//! - [`entry`] — typed entries (index, sub-index and Rust value type) for generated code (no allocator).
 //! - [`types`] — CiA 301 data type indices, object codes and CiA 306 access types (no allocator).
 //! - [`value`] — typed values of every basic data type with two codecs: little-endian bytes
 //!   (SDO/PDO payloads) and CiA 306 EDS text including `$NODEID` expressions (`alloc`).
 //! - [`model`] — the dictionary: objects, sub-objects, file and device information (`alloc`).
+//! - [`parse`] — the CiA 306 EDS/DCF parser with warnings and errors by line ([`diag`]).
+//! - [`write`] — EDS, DCF and concise DCF (0x1F22) writers.
 //!
 //! The crate is `#![no_std]`. Without features only [`types`] is available; `alloc` adds the
 //! model and the value codec, `std` (default) adds file I/O conveniences.
@@ -17,7 +20,12 @@ extern crate std;
 #[cfg(feature = "alloc")]
 pub mod diag;
 #[cfg(feature = "alloc")]
+pub mod parse;
+#[cfg(feature = "alloc")]
+pub mod write;
+#[cfg(feature = "alloc")]
 pub mod model;
+pub mod entry;
 pub mod types;
 #[cfg(feature = "alloc")]
 pub mod value;
@@ -27,6 +35,13 @@ pub use model::{
     DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object, ObjectDictionary,
     RawSection, SubObject,
 };
+pub use entry::{Entry, EntryError, EntryValue};
 pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
 #[cfg(feature = "alloc")]
 pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};
+#[cfg(feature = "alloc")]
+pub use diag::{Diagnostic, DiagnosticKind, Severity};
+#[cfg(feature = "alloc")]
+pub use parse::{parse, ParseError, Parsed};
+#[cfg(feature = "alloc")]
+pub use write::{concise_dcf, write_dcf, write_eds};

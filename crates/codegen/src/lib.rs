@@ -1,0 +1,452 @@
+//! Typed Rust from CiA 306 EDS/DCF files, the way `prost-build` turns `.proto` files into Rust.
+//!
+//! Every sub-object becomes a typed [`canopen_od::Entry`] constant that carries its index,
+//! sub-index and the Rust type of its value, so the producer heartbeat time is an
+//! `Entry<u16>` at 0x1017/0 and a master reads it as a `u16`. VAR objects become constants at the
+//! top level; ARRAY and RECORD objects become modules holding an `INDEX` and one constant per
+//! sub-object. Names come from ParameterName (sanitised, keywords avoided, collisions resolved by
+//! appending the index or sub-index); doc comments carry what the EDS says of each entry.
+//! Optionally a static, allocation-free dictionary of the whole device is emitted as well.
+//!
+//! In `build.rs`:
+//!
+//! ```no_run
+//! // build.rs
+//! canopen_codegen::compile_eds("eds/my-device.eds").unwrap();
+//! ```
+//!
+//! and in the crate: `include!(concat!(env!("OUT_DIR"), "/my-device.rs"));`. The output starts
+//! with an `@generated` header, is only rewritten when its content changes, and the EDS is
+//! reported with `cargo:rerun-if-changed`.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use canopen_od::{DataType, Object, ObjectCode, ObjectDictionary, SubObject};
+
+mod names;
+
+/// How entries of string and byte-string data types are typed.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum StringTypes {
+    /// `OwnedString` / `OwnedBytes` (needs `canopen-od`'s `alloc` feature).
+    #[default]
+    Owned,
+    /// [`canopen_od::entry::Opaque`]: no allocator needed.
+    Opaque,
+    /// Owned when the *generated-into* crate's feature of this name is on, opaque otherwise.
+    Feature(String),
+}
+
+/// Generator settings, builder style.
+#[derive(Debug, Clone)]
+pub struct Config {
+    crate_path: String,
+    strings: StringTypes,
+    static_dictionary: bool,
+    out_dir: Option<PathBuf>,
+    file_name: Option<String>,
+}
+
+/// What can go wrong generating code from a file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Reading the EDS or writing the output failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The EDS has errors; each line is `FILE:LINE: error: ...`.
+    #[error("{0}")]
+    Parse(String),
+    /// No output directory: neither set nor `OUT_DIR` in the environment.
+    #[error("no output directory: call Config::out_dir or run from a build script (OUT_DIR)")]
+    NoOutDir,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Config {
+    /// Defaults: entries refer to `::canopen_od`, owned strings, no static dictionary, output into
+    /// `OUT_DIR` as `<eds file stem>.rs`.
+    pub fn new() -> Self {
+        Self {
+            crate_path: "::canopen_od".to_owned(),
+            strings: StringTypes::Owned,
+            static_dictionary: false,
+            out_dir: None,
+            file_name: None,
+        }
+    }
+
+    /// The path generated code uses for the `canopen-od` crate (for crates that re-export it).
+    pub fn crate_path(&mut self, path: impl Into<String>) -> &mut Self {
+        self.crate_path = path.into();
+        self
+    }
+
+    /// How string and DOMAIN entries are typed.
+    pub fn strings(&mut self, strings: StringTypes) -> &mut Self {
+        self.strings = strings;
+        self
+    }
+
+    /// Also emit `DICTIONARY`: every sub-object with metadata and default bytes, allocation-free.
+    pub fn static_dictionary(&mut self, yes: bool) -> &mut Self {
+        self.static_dictionary = yes;
+        self
+    }
+
+    /// Where [`Config::compile`] writes (default: `OUT_DIR`).
+    pub fn out_dir(&mut self, dir: impl Into<PathBuf>) -> &mut Self {
+        self.out_dir = Some(dir.into());
+        self
+    }
+
+    /// The output file name (default: the EDS file stem with `.rs`).
+    pub fn file_name(&mut self, name: impl Into<String>) -> &mut Self {
+        self.file_name = Some(name.into());
+        self
+    }
+
+    /// Generates Rust source for a dictionary. `source_name` names the input in the header.
+    pub fn generate(&self, od: &ObjectDictionary, source_name: &str) -> String {
+        Generator {
+            cfg: self,
+            out: String::new(),
+        }
+        .run(od, source_name)
+    }
+
+    /// Reads and parses `eds`, generates code and writes it into the output directory, only
+    /// if the content changed. Prints `cargo:rerun-if-changed` for the EDS. Returns the path of
+    /// the generated file.
+    pub fn compile(&self, eds: impl AsRef<Path>) -> Result<PathBuf, Error> {
+        let eds = eds.as_ref();
+        println!("cargo:rerun-if-changed={}", eds.display());
+        let bytes = std::fs::read(eds).map_err(|source| Error::Io {
+            path: eds.to_owned(),
+            source,
+        })?;
+        let display = eds.display().to_string();
+        let od = parse(&bytes, &display)?;
+        let dir = match &self.out_dir {
+            Some(d) => d.clone(),
+            None => std::env::var_os("OUT_DIR")
+                .map(PathBuf::from)
+                .ok_or(Error::NoOutDir)?,
+        };
+        let name = match &self.file_name {
+            Some(n) => n.clone(),
+            None => {
+                let stem = eds.file_stem().map(|s| s.to_string_lossy().into_owned());
+                format!("{}.rs", stem.unwrap_or_else(|| "dictionary".to_owned()))
+            }
+        };
+        let source_name = eds
+            .file_name()
+            .map_or(display.clone(), |n| n.to_string_lossy().into_owned());
+        let code = self.generate(&od, &source_name);
+        let path = dir.join(name);
+        write_if_changed(&path, &code)?;
+        Ok(path)
+    }
+}
+
+/// One call for `build.rs`: [`Config::new`] and [`Config::compile`].
+pub fn compile_eds(eds: impl AsRef<Path>) -> Result<PathBuf, Error> {
+    Config::new().compile(eds)
+}
+
+fn parse(bytes: &[u8], file: &str) -> Result<ObjectDictionary, Error> {
+    match canopen_od::parse(bytes) {
+        Ok(parsed) => Ok(parsed.od),
+        Err(e) => {
+            let mut msg = String::new();
+            for d in e.errors() {
+                let _ = writeln!(msg, "{}", d.render(file));
+            }
+            Err(Error::Parse(msg.trim_end().to_owned()))
+        }
+    }
+}
+
+fn write_if_changed(path: &Path, code: &str) -> Result<(), Error> {
+    if std::fs::read_to_string(path).is_ok_and(|old| old == code) {
+        return Ok(());
+    }
+    std::fs::write(path, code).map_err(|source| Error::Io {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+struct Generator<'a> {
+    cfg: &'a Config,
+    out: String,
+}
+
+/// The Rust type of an entry's value: (always, with alloc, without alloc).
+enum RustType {
+    Plain(&'static str),
+    Alloc { owned: &'static str },
+    Opaque,
+}
+
+fn rust_type(dt: DataType) -> RustType {
+    use DataType::*;
+    RustType::Plain(match dt {
+        Boolean => "bool",
+        Integer8 => "i8",
+        Integer16 => "i16",
+        Integer24 | Integer32 => "i32",
+        Integer40 | Integer48 | Integer56 | Integer64 => "i64",
+        Unsigned8 => "u8",
+        Unsigned16 => "u16",
+        Unsigned24 | Unsigned32 => "u32",
+        Unsigned40 | Unsigned48 | Unsigned56 | Unsigned64 => "u64",
+        Real32 => "f32",
+        Real64 => "f64",
+        TimeOfDay | TimeDifference => "[u8; 6]",
+        VisibleString | UnicodeString => {
+            return RustType::Alloc {
+                owned: "OwnedString",
+            };
+        }
+        OctetString | Domain => {
+            return RustType::Alloc {
+                owned: "OwnedBytes",
+            };
+        }
+        _ => return RustType::Opaque,
+    })
+}
+
+fn variant(dt: DataType) -> String {
+    match dt {
+        DataType::Other(code) => format!("Other({code:#06x})"),
+        other => format!("{other:?}"),
+    }
+}
+
+/// A doc comment line: one line of text, no control characters.
+fn doc_line(text: &str) -> String {
+    text.chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect::<String>()
+        .trim()
+        .to_owned()
+}
+
+impl Generator<'_> {
+    fn run(mut self, od: &ObjectDictionary, source_name: &str) -> String {
+        let _ = writeln!(
+            self.out,
+            "// @generated by canopen-codegen {} from `{}`. Do not edit.",
+            env!("CARGO_PKG_VERSION"),
+            doc_line(source_name)
+        );
+        let vendor = od.device_info.vendor_name.as_deref().unwrap_or("");
+        let product = od.device_info.product_name.as_deref().unwrap_or("");
+        if !vendor.is_empty() || !product.is_empty() {
+            let _ = writeln!(
+                self.out,
+                "// Device: {} {}",
+                doc_line(vendor),
+                doc_line(product)
+            );
+        }
+        self.out.push('\n');
+
+        let mut consts = names::Scope::default();
+        let mut mods = names::Scope::default();
+        consts.reserve("DICTIONARY");
+        for obj in od.objects.values() {
+            // DEFTYPE / DEFSTRUCT entries define data types, not values.
+            if matches!(obj.object_code, ObjectCode::DefType | ObjectCode::DefStruct) {
+                continue;
+            }
+            if obj.is_simple() {
+                if let Some(sub) = obj.var_entry() {
+                    let name = consts.unique(
+                        names::screaming(&obj.name, &format!("obj_{:04x}", obj.index)),
+                        &format!("{:04X}", obj.index),
+                    );
+                    self.entry(obj, sub, &name, "");
+                }
+            } else {
+                let name = mods.unique(
+                    names::snake(&obj.name, &format!("obj_{:04x}", obj.index)),
+                    &format!("{:04x}", obj.index),
+                );
+                self.record(obj, &name);
+            }
+        }
+        if self.cfg.static_dictionary {
+            self.dictionary(od);
+        }
+        self.out
+    }
+
+    fn record(&mut self, obj: &Object, module: &str) {
+        let _ = writeln!(self.out, "/// {}", doc_line(&obj.name));
+        let _ = writeln!(self.out, "///");
+        let _ = writeln!(
+            self.out,
+            "/// Object `{:#06X}`, {:?} with {} sub-objects.",
+            obj.index,
+            obj.object_code,
+            obj.subs.len()
+        );
+        let _ = writeln!(self.out, "pub mod {module} {{");
+        let _ = writeln!(self.out, "    /// The object index, `{:#06X}`.", obj.index);
+        let _ = writeln!(self.out, "    pub const INDEX: u16 = {:#06X};", obj.index);
+        let mut scope = names::Scope::default();
+        scope.reserve("INDEX");
+        for sub in obj.subs.values() {
+            let name = scope.unique(
+                names::screaming(&sub.name, &format!("sub_{}", sub.sub_index)),
+                &sub.sub_index.to_string(),
+            );
+            self.entry(obj, sub, &name, "    ");
+        }
+        let _ = writeln!(self.out, "}}\n");
+    }
+
+    fn entry(&mut self, obj: &Object, sub: &SubObject, name: &str, indent: &str) {
+        let krate = &self.cfg.crate_path;
+        let mut facts = format!(
+            "`{:#06X}` sub {}: {}, {}",
+            obj.index,
+            sub.sub_index,
+            sub.data_type.name().map_or_else(
+                || format!("data type {:#06x}", sub.data_type.code()),
+                str::to_owned
+            ),
+            sub.access
+        );
+        if sub.pdo_mapping {
+            facts.push_str(", PDO-mappable");
+        }
+        if let Some(d) = sub
+            .default_value
+            .as_ref()
+            .filter(|d| !d.text.trim().is_empty())
+        {
+            let _ = write!(facts, "; default `{}`", doc_line(&d.text).replace('`', "'"));
+        }
+        if let (Some(lo), Some(hi)) = (&sub.low_limit, &sub.high_limit) {
+            let _ = write!(
+                facts,
+                "; limits `{}`..=`{}`",
+                doc_line(&lo.text),
+                doc_line(&hi.text)
+            );
+        }
+        let description = sub
+            .extra
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case("Description"))
+            .map(|(_, v)| doc_line(v));
+        let title = if obj.is_simple() {
+            &obj.name
+        } else {
+            &sub.name
+        };
+        let docs = |out: &mut String| {
+            let _ = writeln!(out, "{indent}/// {}", doc_line(title));
+            let _ = writeln!(out, "{indent}///");
+            let _ = writeln!(out, "{indent}/// {facts}.");
+            if let Some(d) = description.as_ref().filter(|d| !d.is_empty()) {
+                let _ = writeln!(out, "{indent}///");
+                let _ = writeln!(out, "{indent}/// {d}");
+            }
+        };
+        let ctor = format!(
+            "{krate}::Entry::new({:#06X}, {}, {krate}::DataType::{})",
+            obj.index,
+            sub.sub_index,
+            variant(sub.data_type)
+        );
+        let emit = |out: &mut String, cfg_attr: Option<String>, ty: String| {
+            docs(out);
+            if let Some(attr) = cfg_attr {
+                let _ = writeln!(out, "{indent}{attr}");
+            }
+            let _ = writeln!(
+                out,
+                "{indent}pub const {name}: {krate}::Entry<{ty}> = {ctor};"
+            );
+        };
+        let opaque = format!("{krate}::entry::Opaque");
+        match rust_type(sub.data_type) {
+            RustType::Plain(t) => emit(&mut self.out, None, t.to_owned()),
+            RustType::Opaque => emit(&mut self.out, None, opaque),
+            RustType::Alloc { owned } => {
+                let owned = format!("{krate}::entry::{owned}");
+                match &self.cfg.strings {
+                    StringTypes::Owned => emit(&mut self.out, None, owned),
+                    StringTypes::Opaque => emit(&mut self.out, None, opaque),
+                    StringTypes::Feature(f) => {
+                        emit(
+                            &mut self.out,
+                            Some(format!("#[cfg(feature = {f:?})]")),
+                            owned,
+                        );
+                        emit(
+                            &mut self.out,
+                            Some(format!("#[cfg(not(feature = {f:?}))]")),
+                            opaque,
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    fn dictionary(&mut self, od: &ObjectDictionary) {
+        let krate = self.cfg.crate_path.clone();
+        let _ = writeln!(
+            self.out,
+            "/// Every sub-object of the dictionary in index order, with its default value's bytes."
+        );
+        let _ = writeln!(
+            self.out,
+            "pub static DICTIONARY: &[{krate}::entry::StaticSubObject] = &["
+        );
+        for obj in od.objects.values() {
+            if matches!(obj.object_code, ObjectCode::DefType | ObjectCode::DefStruct) {
+                continue;
+            }
+            for sub in obj.subs.values() {
+                let (default, relative) =
+                    match sub.default_value.as_ref().and_then(|d| d.value.as_ref()) {
+                        Some(v) => (
+                            format!("Some(&{:?})", v.value.to_le_bytes()),
+                            v.node_id_relative,
+                        ),
+                        None => ("None".to_owned(), false),
+                    };
+                let _ = writeln!(
+                    self.out,
+                    "    {krate}::entry::StaticSubObject {{ index: {:#06X}, sub_index: {}, name: {:?}, data_type: {krate}::DataType::{}, access: {krate}::AccessType::{:?}, pdo_mapping: {}, default: {default}, default_adds_node_id: {relative} }},",
+                    obj.index,
+                    sub.sub_index,
+                    sub.name,
+                    variant(sub.data_type),
+                    sub.access,
+                    sub.pdo_mapping,
+                );
+            }
+        }
+        let _ = writeln!(self.out, "];");
+    }
+}

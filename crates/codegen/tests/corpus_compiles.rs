@@ -1,0 +1,92 @@
+//! Generated code from every file of the EDS corpus (../shared/eds-corpus, beside the checkout)
+//! compiles: the test writes a scratch crate with one module per file and runs `cargo check`
+//! on it. Skips with a message when the corpus is absent, unless CANOPEN_REQUIRE_CORPUS=1.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use canopen_codegen::Config;
+
+fn corpus_dir() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/eds-corpus");
+    dir.is_dir().then_some(dir)
+}
+
+#[test]
+fn every_corpus_file_generates_code_that_compiles() {
+    let Some(dir) = corpus_dir() else {
+        assert!(
+            std::env::var_os("CANOPEN_REQUIRE_CORPUS").is_none(),
+            "CANOPEN_REQUIRE_CORPUS=1 but ../shared/eds-corpus is missing"
+        );
+        eprintln!("SKIPPED: ../shared/eds-corpus not found beside the checkout");
+        return;
+    };
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap();
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace.join("target"));
+    let scratch = target.join("codegen-corpus-check");
+    std::fs::create_dir_all(scratch.join("src")).unwrap();
+
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("eds") || e.eq_ignore_ascii_case("dcf"))
+        })
+        .collect();
+    files.sort();
+    let mut lib = String::from(
+        "//! Scratch crate: generated code of every corpus file.\n#![no_std]\n#![allow(missing_docs)]\nextern crate alloc;\n",
+    );
+    let mut generated = 0;
+    for (i, path) in files.iter().enumerate() {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let bytes = std::fs::read(path).unwrap();
+        let Ok(parsed) = canopen_od::parse(&bytes) else {
+            // kaco__401.eds is broken on purpose; the od crate's corpus test checks its errors.
+            assert_eq!(name, "kaco__401.eds", "{name} must parse");
+            continue;
+        };
+        let code = Config::new()
+            .static_dictionary(true)
+            .generate(&parsed.od, &name);
+        std::fs::write(scratch.join(format!("src/m{i}.rs")), code).unwrap();
+        lib.push_str(&format!(
+            "/// {name}\npub mod m{i} {{ include!(\"m{i}.rs\"); }}\n"
+        ));
+        generated += 1;
+    }
+    std::fs::write(scratch.join("src/lib.rs"), lib).unwrap();
+    std::fs::write(
+        scratch.join("Cargo.toml"),
+        format!(
+            "[package]\nname = \"codegen-corpus-check\"\nversion = \"0.0.0\"\nedition = \"2024\"\npublish = false\n\n[workspace]\n\n[dependencies]\ncanopen-od = {{ path = {:?}, default-features = false, features = [\"alloc\"] }}\n",
+            workspace.join("crates/od").display().to_string()
+        ),
+    )
+    .unwrap();
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .args(["check", "--quiet", "--offline", "--manifest-path"])
+        .arg(scratch.join("Cargo.toml"))
+        .env("CARGO_TARGET_DIR", target.join("codegen-corpus-target"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "generated code of the corpus does not compile:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        generated,
+        files.len() - 1,
+        "every corpus file but kaco__401.eds generates code"
+    );
+    eprintln!("generated and compiled code for {generated} corpus files");
+}
