@@ -22,6 +22,26 @@
 //!    `poll_event()` until they return `None`, then sleep until the new `poll_timeout()` or the
 //!    next frame.
 //!
+//! ```
+//! use canopen_nmt::{Duration, Heartbeat, HeartbeatConsumer, HeartbeatEvent, Instant, NmtState, NodeId};
+//!
+//! let node = NodeId::new(5).unwrap();
+//! let mut monitor = HeartbeatConsumer::<8>::new();
+//! monitor.monitor(node, Duration::from_millis(750)).unwrap(); // 0x1016 entry 0x0005_02EE
+//! assert_eq!(monitor.poll_timeout(), None); // armed only by the first heartbeat
+//!
+//! let frame = Heartbeat { state: NmtState::Operational }.to_frame(node); // 705#05
+//! assert_eq!(monitor.handle_frame(Instant::from_millis(100), &frame), Ok(true));
+//! assert!(matches!(monitor.poll_event(), Some(HeartbeatEvent::StateChanged { .. })));
+//! assert_eq!(monitor.poll_timeout(), Some(Instant::from_millis(850)));
+//!
+//! monitor.handle_timeout(Instant::from_millis(850));
+//! assert_eq!(
+//!     monitor.poll_event(),
+//!     Some(HeartbeatEvent::Lost { node, last_state: Some(NmtState::Operational) })
+//! );
+//! ```
+//!
 //! The crate is `#![no_std]` without an allocator; bounded tables use `heapless`. The `std`
 //! feature (default) adds [`TimeOfDay::from_system_time`] and [`TimeOfDay::to_system_time`].
 #![no_std]
