@@ -102,6 +102,7 @@ impl SyncConfig {
 /// [`poll_transmit`](Self::poll_transmit). The first SYNC is due at the start instant. If
 /// the caller is late by more than a period, the missed SYNCs are not sent in a burst; the next
 /// one is due a period after the late one.
+/// A SYNC that was not drained before the next one became due is replaced by it.
 #[derive(Debug, Clone)]
 pub struct SyncProducer {
     config: SyncConfig,

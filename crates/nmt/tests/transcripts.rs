@@ -535,3 +535,44 @@ fn emcy_from_device_to_master() {
     assert_eq!((ev.node, ev.emcy), (node(6), e));
     assert_eq!(ev.emcy.code.description(), Some("RPDO timeout"));
 }
+
+#[test]
+fn producer_reconfiguration() {
+    // Heartbeat producer: 0x1017 written while running restarts the period; 0 pauses it.
+    let mut p = HeartbeatProducer::new(node(2), 100);
+    p.set_period(ms(0), 50);
+    assert_eq!(p.poll_timeout(), None, "not started yet");
+    p.start(ms(0));
+    assert_eq!(p.poll_timeout(), Some(ms(50)));
+    p.set_state(NmtState::Operational);
+    p.handle_timeout(ms(50));
+    assert_eq!(frames(|| p.poll_transmit()), ["702#05"]);
+    p.set_period(ms(60), 0);
+    assert_eq!(p.poll_timeout(), None);
+    p.set_period(ms(70), 200);
+    assert_eq!(p.poll_timeout(), Some(ms(270)));
+    p.stop();
+    p.set_period(ms(80), 10);
+    assert_eq!(p.poll_timeout(), None);
+
+    // SYNC producer: a new period restarts a running producer (counter back to 1).
+    let mut s = SyncProducer::new(SyncConfig::new(Duration::from_millis(10), 4).unwrap());
+    s.start(ms(0));
+    s.handle_timeout(ms(0));
+    s.handle_timeout(ms(10));
+    assert_eq!(
+        frames(|| s.poll_transmit()),
+        ["080#02"],
+        "an undrained SYNC is replaced"
+    );
+    s.reconfigure(
+        ms(15),
+        SyncConfig::new(Duration::from_millis(20), 4).unwrap(),
+    );
+    assert_eq!(s.poll_timeout(), Some(ms(15)));
+    s.handle_timeout(ms(15));
+    assert_eq!(frames(|| s.poll_transmit()), ["080#01"]);
+    assert_eq!(s.poll_timeout(), Some(ms(35)));
+    s.reconfigure(ms(20), SyncConfig::new(Duration::ZERO, 0).unwrap());
+    assert!(!s.is_running());
+}
