@@ -19,29 +19,29 @@ extern crate std;
 
 #[cfg(feature = "alloc")]
 pub mod diag;
-#[cfg(feature = "alloc")]
-pub mod parse;
-#[cfg(feature = "alloc")]
-pub mod write;
+pub mod entry;
 #[cfg(feature = "alloc")]
 pub mod model;
-pub mod entry;
+#[cfg(feature = "alloc")]
+pub mod parse;
 pub mod types;
 #[cfg(feature = "alloc")]
 pub mod value;
+#[cfg(feature = "alloc")]
+pub mod write;
 
+#[cfg(feature = "alloc")]
+pub use diag::{Diagnostic, DiagnosticKind, Severity};
+pub use entry::{Entry, EntryError, EntryValue};
 #[cfg(feature = "alloc")]
 pub use model::{
     DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object, ObjectDictionary,
     RawSection, SubObject,
 };
-pub use entry::{Entry, EntryError, EntryValue};
+#[cfg(feature = "alloc")]
+pub use parse::{ParseError, Parsed, parse};
 pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
 #[cfg(feature = "alloc")]
 pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};
-#[cfg(feature = "alloc")]
-pub use diag::{Diagnostic, DiagnosticKind, Severity};
-#[cfg(feature = "alloc")]
-pub use parse::{parse, ParseError, Parsed};
 #[cfg(feature = "alloc")]
 pub use write::{concise_dcf, write_dcf, write_eds};

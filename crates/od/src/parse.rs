@@ -1,0 +1,1497 @@
+//! CiA 306 EDS/DCF parser: bytes in, [`ObjectDictionary`] plus diagnostics out.
+//!
+//! A hand-written line scanner (one pass over the text, then one pass over the sections; no
+//! backtracking, so linear in the input). It reads CiA 306 v1.3 files: `[FileInfo]`,
+//! `[DeviceInfo]`, `[DummyUsage]`, `[Comments]`, the three object lists, object and
+//! `[xxxxsubN]` sections, `CompactSubObj` with `[xxxxName]`, `[xxxxValue]` and
+//! `[xxxxDenotation]`, `[xxxxObjectLinks]`, `[DeviceComissioning]`, and keeps module and tool
+//! sections verbatim.
+//!
+//! Real files deviate from the standard; each accepted deviation is reported as a
+//! [`Severity::Warning`] with its line: CRLF is silent, but non-UTF-8 bytes (read as
+//! Windows-1252), lower-case hex section names, `Sub` instead of `sub`, duplicate sections and
+//! keys (merged, later value wins), key case and spaces, `#` comments, trailing whitespace,
+//! quoted strings, C integer suffixes, unusual `EDSVersion` values all produce warnings. Input
+//! that cannot be understood (a line that is not a section, key or comment; a non-numeric
+//! `ObjectType` or `DataType`; a VAR without `DataType`) is a [`Severity::Error`], and the whole
+//! parse fails with every error listed.
+
+use alloc::borrow::Cow;
+use alloc::collections::BTreeMap;
+use alloc::format;
+use alloc::string::{String, ToString};
+use alloc::vec::Vec;
+use core::fmt;
+
+use crate::diag::{Diagnostic, DiagnosticKind as K, Severity, Sink};
+use crate::model::{
+    BAUD_RATES_KBIT, DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object,
+    ObjectDictionary, RawSection, SubObject,
+};
+use crate::types::{AccessType, DataType, ObjectCode};
+use crate::value::{TextError, TextNotes, parse_int_literal};
+
+/// A successfully parsed file: the model and the warnings.
+#[derive(Debug, Clone)]
+pub struct Parsed {
+    /// The object dictionary.
+    pub od: ObjectDictionary,
+    /// Warnings, sorted by line.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// A file that could not be understood: every error (and the warnings) with its line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParseError {
+    /// All diagnostics, sorted by line; at least one is an error.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl ParseError {
+    /// The errors only.
+    pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
+        self.diagnostics
+            .iter()
+            .filter(|d| d.severity == Severity::Error)
+    }
+}
+
+impl fmt::Display for ParseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.errors().count();
+        match self.errors().next() {
+            Some(first) => write!(f, "{first} ({n} error(s) in total)"),
+            None => f.write_str("parse failed"),
+        }
+    }
+}
+
+impl core::error::Error for ParseError {}
+
+/// Parses an EDS or DCF file.
+///
+/// Never panics; memory is proportional to the input size.
+pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
+    let mut sink = Sink::default();
+    let text = decode(input, &mut sink);
+    let sections = scan(&text, &mut sink);
+    let od = build(&sections, &mut sink);
+    if sink.has_errors() {
+        Err(ParseError {
+            diagnostics: sink.finish(),
+        })
+    } else {
+        Ok(Parsed {
+            od,
+            diagnostics: sink.finish(),
+        })
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Decoding
+
+/// Windows-1252 characters for bytes 0x80..=0x9F (undefined ones map to the C1 control).
+const CP1252_80: [char; 32] = [
+    '\u{20AC}', '\u{0081}', '\u{201A}', '\u{0192}', '\u{201E}', '\u{2026}', '\u{2020}', '\u{2021}',
+    '\u{02C6}', '\u{2030}', '\u{0160}', '\u{2039}', '\u{0152}', '\u{008D}', '\u{017D}', '\u{008F}',
+    '\u{0090}', '\u{2018}', '\u{2019}', '\u{201C}', '\u{201D}', '\u{2022}', '\u{2013}', '\u{2014}',
+    '\u{02DC}', '\u{2122}', '\u{0161}', '\u{203A}', '\u{0153}', '\u{009D}', '\u{017E}', '\u{0178}',
+];
+
+fn decode<'a>(input: &'a [u8], sink: &mut Sink) -> Cow<'a, str> {
+    let input = input.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(input);
+    if let Ok(s) = core::str::from_utf8(input) {
+        return Cow::Borrowed(s);
+    }
+    let mut out = String::with_capacity(input.len() + input.len() / 8);
+    for (i, line) in input.split(|&b| b == b'\n').enumerate() {
+        if i > 0 {
+            out.push('\n');
+        }
+        match core::str::from_utf8(line) {
+            Ok(s) => out.push_str(s),
+            Err(_) => {
+                sink.warn(
+                    K::Encoding,
+                    i as u32 + 1,
+                    "line is not valid UTF-8; read as Windows-1252 (save the file as UTF-8 or ASCII)"
+                        .into(),
+                );
+                for &b in line {
+                    out.push(match b {
+                        0x80..=0x9F => CP1252_80[usize::from(b - 0x80)],
+                        _ => char::from(b),
+                    });
+                }
+            }
+        }
+    }
+    Cow::Owned(out)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scanning
+
+#[derive(Debug)]
+struct Entry<'a> {
+    key: &'a str,
+    value: &'a str,
+    line: u32,
+}
+
+#[derive(Debug)]
+struct Section<'a> {
+    name: &'a str,
+    kind: SectionKind,
+    line: u32,
+    entries: Vec<Entry<'a>>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum SectionKind {
+    FileInfo,
+    DeviceInfo,
+    DummyUsage,
+    Comments,
+    Mandatory,
+    Optional,
+    Manufacturer,
+    Commissioning,
+    Object(u16),
+    Sub(u16, u8),
+    Names(u16),
+    Values(u16),
+    Denotations(u16),
+    Links(u16),
+    Other,
+}
+
+fn hex4(s: &str) -> Option<u16> {
+    if s.len() == 4 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
+        u16::from_str_radix(s, 16).ok()
+    } else {
+        None
+    }
+}
+
+fn strip_prefix_ci<'a>(s: &'a str, prefix: &str) -> Option<&'a str> {
+    let head = s.get(..prefix.len())?;
+    if head.eq_ignore_ascii_case(prefix) {
+        s.get(prefix.len()..)
+    } else {
+        None
+    }
+}
+
+/// Classifies a section name. Returns the kind and, for tolerated spellings, a note.
+fn classify(name: &str) -> (SectionKind, Option<String>) {
+    use SectionKind as S;
+    const NAMED: [(&str, SectionKind); 8] = [
+        ("FileInfo", S::FileInfo),
+        ("DeviceInfo", S::DeviceInfo),
+        ("DummyUsage", S::DummyUsage),
+        ("Comments", S::Comments),
+        ("MandatoryObjects", S::Mandatory),
+        ("OptionalObjects", S::Optional),
+        ("ManufacturerObjects", S::Manufacturer),
+        ("DeviceComissioning", S::Commissioning),
+    ];
+    for (canon, kind) in NAMED {
+        if name.eq_ignore_ascii_case(canon) {
+            let note =
+                (name != canon).then(|| format!("section [{name}] should be spelled [{canon}]"));
+            return (kind, note);
+        }
+    }
+    if name.eq_ignore_ascii_case("DeviceCommissioning") {
+        return (
+            S::Commissioning,
+            Some(format!(
+                "section [{name}]: CiA 306 spells it [DeviceComissioning]"
+            )),
+        );
+    }
+    let Some(index) = name.get(..4).and_then(hex4) else {
+        return (S::Other, None);
+    };
+    let lower_hex = name
+        .get(..4)
+        .is_some_and(|h| h.bytes().any(|b| b.is_ascii_lowercase()));
+    let rest = name.get(4..).unwrap_or("");
+    let mut note = lower_hex.then(|| format!("section [{name}]: hex digits should be upper case"));
+    let kind = if rest.is_empty() {
+        S::Object(index)
+    } else if let Some(sub) = strip_prefix_ci(rest, "sub") {
+        if !rest.starts_with("sub") && note.is_none() {
+            note = Some(format!(
+                "section [{name}]: CiA 306 writes `sub` in lower case"
+            ));
+        }
+        if sub.is_empty() || sub.len() > 4 || !sub.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return (S::Other, None);
+        }
+        match u16::from_str_radix(sub, 16)
+            .ok()
+            .and_then(|v| u8::try_from(v).ok())
+        {
+            Some(s) => {
+                if sub.bytes().any(|b| b.is_ascii_lowercase()) && note.is_none() {
+                    note = Some(format!("section [{name}]: hex digits should be upper case"));
+                }
+                S::Sub(index, s)
+            }
+            None => return (S::Other, None),
+        }
+    } else if rest.eq_ignore_ascii_case("Name") {
+        S::Names(index)
+    } else if rest.eq_ignore_ascii_case("Value") {
+        S::Values(index)
+    } else if rest.eq_ignore_ascii_case("Denotation") {
+        S::Denotations(index)
+    } else if rest.eq_ignore_ascii_case("ObjectLinks") {
+        S::Links(index)
+    } else {
+        return (S::Other, None);
+    };
+    (kind, note)
+}
+
+/// Splits the text into sections, merging duplicates. Linear in the input.
+fn scan<'a>(text: &'a str, sink: &mut Sink) -> Vec<Section<'a>> {
+    let mut sections: Vec<Section<'a>> = Vec::new();
+    // Identity of a section (kind, or upper-cased name for `Other`) -> position in `sections`.
+    let mut seen: BTreeMap<(SectionKind, String), usize> = BTreeMap::new();
+    let mut current: Option<usize> = None;
+    let mut hash_comment_reported = false;
+    for (i, raw) in text.split('\n').enumerate() {
+        let line_no = u32::try_from(i + 1).unwrap_or(u32::MAX);
+        let line = raw.strip_suffix('\r').unwrap_or(raw);
+        let trimmed = line.trim();
+        if trimmed.is_empty() || trimmed.starts_with(';') {
+            continue;
+        }
+        if trimmed.starts_with('#') {
+            if !hash_comment_reported {
+                sink.warn(
+                    K::Spelling,
+                    line_no,
+                    "`#` comment line; CiA 306 comments start with `;`".into(),
+                );
+                hash_comment_reported = true;
+            }
+            continue;
+        }
+        if let Some(body) = trimmed.strip_prefix('[') {
+            let Some(end) = body.find(']') else {
+                sink.error(
+                    K::Syntax,
+                    line_no,
+                    format!("section header `{trimmed}` has no closing `]`"),
+                );
+                current = None;
+                continue;
+            };
+            let name_raw = &body[..end];
+            let after = body[end + 1..].trim();
+            if !after.is_empty() && !after.starts_with(';') {
+                sink.warn(
+                    K::Syntax,
+                    line_no,
+                    format!("text `{after}` after section header [{name_raw}] ignored"),
+                );
+            }
+            let name = name_raw.trim();
+            if name != name_raw {
+                sink.warn(
+                    K::Spelling,
+                    line_no,
+                    format!("spaces inside section header [{name_raw}]"),
+                );
+            }
+            let (kind, note) = classify(name);
+            if let Some(n) = note {
+                sink.warn(K::Spelling, line_no, n);
+            }
+            let id = (
+                kind,
+                if kind == SectionKind::Other {
+                    name.to_ascii_uppercase()
+                } else {
+                    String::new()
+                },
+            );
+            if let Some(&pos) = seen.get(&id) {
+                let first = sections.get(pos).map_or(0, |s| s.line);
+                sink.warn(
+                    K::Duplicate,
+                    line_no,
+                    format!(
+                        "section [{name}] appears again (first at line {first}); keys are merged and later values win"
+                    ),
+                );
+                current = Some(pos);
+            } else {
+                seen.insert(id, sections.len());
+                current = Some(sections.len());
+                sections.push(Section {
+                    name,
+                    kind,
+                    line: line_no,
+                    entries: Vec::new(),
+                });
+            }
+            continue;
+        }
+        let Some(eq) = line.find('=') else {
+            sink.error(
+                K::Syntax,
+                line_no,
+                format!(
+                    "`{}` is neither a [section] header, a key=value pair nor a `;` comment",
+                    truncate(trimmed)
+                ),
+            );
+            continue;
+        };
+        let key_raw = &line[..eq];
+        let value_raw = &line[eq + 1..];
+        let key = key_raw.trim();
+        if key.is_empty() {
+            sink.error(
+                K::Syntax,
+                line_no,
+                format!("`{}` has an empty key", truncate(trimmed)),
+            );
+            continue;
+        }
+        if key.len() != key_raw.len() {
+            sink.warn(K::Spelling, line_no, format!("spaces around key `{key}`"));
+        }
+        let value = value_raw.trim();
+        if value.len() != value_raw.len() {
+            if value_raw.trim_end().len() != value_raw.len() {
+                sink.warn(
+                    K::Spelling,
+                    line_no,
+                    format!("trailing whitespace after `{key}=` value"),
+                );
+            } else {
+                sink.warn(K::Spelling, line_no, format!("spaces after `{key}=`"));
+            }
+        }
+        match current.and_then(|c| sections.get_mut(c)) {
+            Some(sec) => sec.entries.push(Entry {
+                key,
+                value,
+                line: line_no,
+            }),
+            None => sink.error(
+                K::Syntax,
+                line_no,
+                format!("key `{key}` before the first [section] header"),
+            ),
+        }
+    }
+    sections
+}
+
+fn truncate(s: &str) -> &str {
+    match s.char_indices().nth(60) {
+        Some((i, _)) => &s[..i],
+        None => s,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building the model
+
+/// Resolved keys of one section: canonical key slot -> (value, line), duplicates reported.
+struct Keys<'a, const N: usize> {
+    slots: [Option<(&'a str, u32)>; N],
+    extra: Vec<(&'a str, &'a str, u32)>,
+}
+
+fn resolve_keys<'a, const N: usize>(
+    sec: &Section<'a>,
+    table: &[&str; N],
+    sink: &mut Sink,
+) -> Keys<'a, N> {
+    let mut k = Keys {
+        slots: [None; N],
+        extra: Vec::new(),
+    };
+    for e in &sec.entries {
+        let slot = table.iter().position(|c| c.eq_ignore_ascii_case(e.key));
+        match slot {
+            Some(i) => {
+                let canon = table.get(i).copied().unwrap_or("");
+                if canon != e.key {
+                    sink.warn(
+                        K::Spelling,
+                        e.line,
+                        format!("key `{}` should be spelled `{canon}`", e.key),
+                    );
+                }
+                if let Some(Some((_, first))) = k.slots.get(i) {
+                    sink.warn(
+                        K::Duplicate,
+                        e.line,
+                        format!(
+                            "key `{canon}` given again in [{}] (first at line {first}); this value wins",
+                            sec.name
+                        ),
+                    );
+                }
+                if let Some(s) = k.slots.get_mut(i) {
+                    *s = Some((e.value, e.line));
+                }
+            }
+            None => {
+                if let Some(prev) = k.extra.iter_mut().find(|x| x.0.eq_ignore_ascii_case(e.key)) {
+                    sink.warn(
+                        K::Duplicate,
+                        e.line,
+                        format!(
+                            "key `{}` given again in [{}] (first at line {}); this value wins",
+                            e.key, sec.name, prev.2
+                        ),
+                    );
+                    *prev = (e.key, e.value, e.line);
+                } else {
+                    k.extra.push((e.key, e.value, e.line));
+                }
+            }
+        }
+    }
+    k
+}
+
+fn extra_owned(extra: &[(&str, &str, u32)]) -> Vec<(String, String)> {
+    extra
+        .iter()
+        .map(|(k, v, _)| ((*k).to_string(), (*v).to_string()))
+        .collect()
+}
+
+fn note_warnings(sink: &mut Sink, line: u32, what: &str, notes: TextNotes) {
+    if notes.c_suffix {
+        sink.warn(
+            K::Spelling,
+            line,
+            format!("{what}: C integer suffix (LL/U) ignored"),
+        );
+    }
+    if notes.leading_zero_decimal {
+        sink.warn(
+            K::Spelling,
+            line,
+            format!("{what}: leading 0 means octal in CiA 306, but the digits are decimal; read as decimal"),
+        );
+    }
+    if notes.quoted {
+        sink.warn(
+            K::Spelling,
+            line,
+            format!("{what}: surrounding double quotes removed"),
+        );
+    }
+}
+
+/// An unsigned number for a structural key, or a warning.
+fn uint(sink: &mut Sink, (text, line): (&str, u32), what: &str, max: u64) -> Option<u64> {
+    let mut notes = TextNotes::default();
+    match parse_int_literal(text, &mut notes) {
+        Some((v, _)) if v >= 0 && v as u64 <= max => {
+            note_warnings(sink, line, what, notes);
+            Some(v as u64)
+        }
+        _ => {
+            sink.warn(
+                K::Value,
+                line,
+                format!("{what}=`{text}` is not a number in 0..={max}; ignored"),
+            );
+            None
+        }
+    }
+}
+
+fn boolean(sink: &mut Sink, (text, line): (&str, u32), what: &str) -> Option<bool> {
+    uint(sink, (text, line), what, u64::MAX).map(|v| {
+        if v > 1 {
+            sink.warn(
+                K::Value,
+                line,
+                format!("{what}={text}: expected 0 or 1; read as 1"),
+            );
+        }
+        v != 0
+    })
+}
+
+fn string(sink: &mut Sink, (text, line): (&str, u32), what: &str) -> String {
+    if text.len() >= 2 && text.starts_with('"') && text.ends_with('"') {
+        sink.warn(
+            K::Spelling,
+            line,
+            format!("{what}: surrounding double quotes removed"),
+        );
+        text[1..text.len() - 1].to_string()
+    } else {
+        text.to_string()
+    }
+}
+
+fn build(sections: &[Section<'_>], sink: &mut Sink) -> ObjectDictionary {
+    let mut od = ObjectDictionary::default();
+    let mut objects: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
+    let mut subs: BTreeMap<(u16, u8), &Section<'_>> = BTreeMap::new();
+    let mut names: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
+    let mut values: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
+    let mut denotations: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
+    let mut links: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
+    for sec in sections {
+        match sec.kind {
+            SectionKind::FileInfo => od.file_info = file_info(sec, sink),
+            SectionKind::DeviceInfo => od.device_info = device_info(sec, sink),
+            SectionKind::DummyUsage => od.dummy_usage = dummy_usage(sec, sink),
+            SectionKind::Comments => od.comments = comments(sec, sink),
+            SectionKind::Mandatory => od.mandatory_objects = object_list(sec, sink),
+            SectionKind::Optional => od.optional_objects = object_list(sec, sink),
+            SectionKind::Manufacturer => od.manufacturer_objects = object_list(sec, sink),
+            SectionKind::Commissioning => {
+                od.device_commissioning = Some(commissioning(sec, sink));
+            }
+            SectionKind::Object(i) => {
+                objects.insert(i, sec);
+            }
+            SectionKind::Sub(i, s) => {
+                subs.insert((i, s), sec);
+            }
+            SectionKind::Names(i) => {
+                names.insert(i, sec);
+            }
+            SectionKind::Values(i) => {
+                values.insert(i, sec);
+            }
+            SectionKind::Denotations(i) => {
+                denotations.insert(i, sec);
+            }
+            SectionKind::Links(i) => {
+                links.insert(i, sec);
+            }
+            SectionKind::Other => {
+                let module = is_module_section(sec.name);
+                if !module {
+                    sink.warn(
+                        K::Structure,
+                        sec.line,
+                        format!(
+                            "section [{}] is not defined by CiA 306; kept verbatim",
+                            sec.name
+                        ),
+                    );
+                }
+                od.other_sections.push(RawSection {
+                    name: sec.name.to_string(),
+                    entries: sec
+                        .entries
+                        .iter()
+                        .map(|e| (e.key.to_string(), e.value.to_string()))
+                        .collect(),
+                    line: Line(sec.line),
+                });
+            }
+        }
+    }
+    if od.file_info.eds_version.is_none() && objects.is_empty() {
+        sink.warn(
+            K::Structure,
+            1,
+            "no [FileInfo] EDSVersion and no objects: is this an EDS file?".into(),
+        );
+    }
+
+    // Sub sections whose object is missing.
+    let mut last_orphan = None;
+    for (&(index, _), sec) in &subs {
+        if !objects.contains_key(&index) && last_orphan != Some(index) {
+            sink.warn(
+                K::Structure,
+                sec.line,
+                format!(
+                    "[{}] has no object section [{index:04X}]; ignored",
+                    sec.name
+                ),
+            );
+            last_orphan = Some(index);
+        }
+    }
+
+    for (&index, sec) in &objects {
+        let own_subs = subs
+            .range((index, 0)..=(index, 255))
+            .map(|(&(_, s), sec)| (s, *sec));
+        if let Some(mut obj) = object(index, sec, own_subs, sink) {
+            if let Some(names_sec) = names.remove(&index) {
+                apply_names(&mut obj, names_sec, sink);
+            }
+            if let Some(values_sec) = values.remove(&index) {
+                apply_values(&mut obj, values_sec, sink);
+            }
+            if let Some(den_sec) = denotations.remove(&index) {
+                apply_denotations(&mut obj, den_sec, sink);
+            }
+            if let Some(link_sec) = links.remove(&index) {
+                obj.object_links = object_list(link_sec, sink);
+            }
+            od.objects.insert(index, obj);
+        }
+    }
+    for sec in names
+        .values()
+        .chain(values.values())
+        .chain(denotations.values())
+        .chain(links.values())
+    {
+        sink.warn(
+            K::Structure,
+            sec.line,
+            format!(
+                "[{}] refers to an object with no section; ignored",
+                sec.name
+            ),
+        );
+    }
+    od
+}
+
+fn is_module_section(name: &str) -> bool {
+    if name.eq_ignore_ascii_case("SupportedModules")
+        || name.eq_ignore_ascii_case("ConnectedModules")
+    {
+        return true;
+    }
+    let b = name.as_bytes();
+    b.len() > 2 && b[0].eq_ignore_ascii_case(&b'M') && b[1].is_ascii_digit()
+}
+
+const OBJ_KEYS: [&str; 15] = [
+    "ParameterName",
+    "ObjectType",
+    "DataType",
+    "AccessType",
+    "PDOMapping",
+    "DefaultValue",
+    "LowLimit",
+    "HighLimit",
+    "ParameterValue",
+    "Denotation",
+    "ObjFlags",
+    "SubNumber",
+    "CompactSubObj",
+    "UploadFile",
+    "DownloadFile",
+];
+const P_NAME: usize = 0;
+const P_OBJTYPE: usize = 1;
+const P_DATATYPE: usize = 2;
+const P_ACCESS: usize = 3;
+const P_PDO: usize = 4;
+const P_DEFAULT: usize = 5;
+const P_LOW: usize = 6;
+const P_HIGH: usize = 7;
+const P_PARAM: usize = 8;
+const P_DENOTATION: usize = 9;
+const P_FLAGS: usize = 10;
+const P_SUBNUMBER: usize = 11;
+const P_COMPACT: usize = 12;
+
+fn object_code(sink: &mut Sink, k: &Keys<'_, 15>, what: &str) -> Option<ObjectCode> {
+    let Some((text, line)) = k.slots[P_OBJTYPE] else {
+        return Some(ObjectCode::Var);
+    };
+    let mut notes = TextNotes::default();
+    match parse_int_literal(text, &mut notes) {
+        Some((v, _)) if (0..=0xFF).contains(&v) => {
+            note_warnings(sink, line, "ObjectType", notes);
+            let code = ObjectCode::from_code(v as u8);
+            if let ObjectCode::Other(c) = code {
+                sink.warn(
+                    K::InvalidCode,
+                    line,
+                    format!("{what}: ObjectType=0x{c:X} is not a CiA 301 object code"),
+                );
+            }
+            Some(code)
+        }
+        _ => {
+            sink.error(
+                K::Value,
+                line,
+                format!(
+                    "{what}: ObjectType=`{}` is not a number; write 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD) or 0x2 (DOMAIN)",
+                    truncate(text)
+                ),
+            );
+            None
+        }
+    }
+}
+
+/// Reads the value keys of a VAR object section or a sub-object section into a [`SubObject`].
+fn sub_object(
+    sink: &mut Sink,
+    k: &Keys<'_, 15>,
+    sub_index: u8,
+    code: ObjectCode,
+    line: u32,
+    what: &str,
+) -> Option<SubObject> {
+    let name = match k.slots[P_NAME] {
+        Some(v) => string(sink, v, "ParameterName"),
+        None => {
+            sink.warn(K::Structure, line, format!("{what} has no ParameterName"));
+            String::new()
+        }
+    };
+    let data_type = match k.slots[P_DATATYPE] {
+        Some((text, dline)) => {
+            let mut notes = TextNotes::default();
+            match parse_int_literal(text, &mut notes) {
+                Some((v, _)) if (0..=0xFFFF).contains(&v) => {
+                    note_warnings(sink, dline, "DataType", notes);
+                    DataType::from_code(v as u16)
+                }
+                _ => {
+                    sink.error(
+                        K::Value,
+                        dline,
+                        format!(
+                            "{what}: DataType=`{}` is not a data type index; write e.g. 0x0007 for UNSIGNED32",
+                            truncate(text)
+                        ),
+                    );
+                    return None;
+                }
+            }
+        }
+        None if code == ObjectCode::Domain => DataType::Domain,
+        None => {
+            sink.error(
+                K::Structure,
+                line,
+                format!("{what} has no DataType; add e.g. DataType=0x0007 (UNSIGNED32)"),
+            );
+            return None;
+        }
+    };
+    let mut sub = SubObject::new(sub_index, name, data_type, AccessType::Ro);
+    sub.object_code = code;
+    sub.line = Line(line);
+    match k.slots[P_ACCESS] {
+        Some((text, aline)) => match AccessType::from_eds(text) {
+            Some(a) => {
+                if a.as_str() != text {
+                    sink.warn(
+                        K::Spelling,
+                        aline,
+                        format!(
+                            "AccessType={text}: CiA 306 writes `{}` in lower case",
+                            a.as_str()
+                        ),
+                    );
+                }
+                sub.access = a;
+            }
+            None => {
+                sink.warn(
+                    K::InvalidCode,
+                    aline,
+                    format!(
+                        "{what}: AccessType=`{}` is none of ro, wo, rw, rwr, rww, const; treated as ro",
+                        truncate(text)
+                    ),
+                );
+                sub.access_raw = Some(text.to_string());
+            }
+        },
+        None => {
+            sink.warn(
+                K::Structure,
+                line,
+                format!("{what} has no AccessType; treated as ro"),
+            );
+        }
+    }
+    if let Some(v) = k.slots[P_PDO] {
+        sub.pdo_mapping = boolean(sink, v, "PDOMapping").unwrap_or(false);
+    }
+    let mut field = |slot: usize, label: &str| -> Option<FieldValue> {
+        let (text, fline) = k.slots[slot]?;
+        let (f, res) = FieldValue::from_text(data_type, text);
+        match res {
+            Ok(notes) => note_warnings(sink, fline, label, notes),
+            Err(TextError::Empty) => {}
+            Err(e) => sink.warn(
+                K::Value,
+                fline,
+                format!(
+                    "{what}: {label}=`{}`: {e}; kept as text only",
+                    truncate(text)
+                ),
+            ),
+        }
+        Some(f)
+    };
+    sub.default_value = field(P_DEFAULT, "DefaultValue");
+    sub.low_limit = field(P_LOW, "LowLimit");
+    sub.high_limit = field(P_HIGH, "HighLimit");
+    sub.parameter_value = field(P_PARAM, "ParameterValue");
+    sub.denotation = k.slots[P_DENOTATION].map(|(t, _)| t.to_string());
+    if let Some(v) = k.slots[P_FLAGS] {
+        sub.obj_flags = uint(sink, v, "ObjFlags", u64::from(u32::MAX)).map(|v| v as u32);
+    }
+    for slot in [13, 14] {
+        if let (Some((text, _)), Some(key)) = (k.slots[slot], OBJ_KEYS.get(slot)) {
+            sub.extra.push(((*key).to_string(), text.to_string()));
+        }
+    }
+    sub.extra.extend(extra_owned(&k.extra));
+    Some(sub)
+}
+
+fn object<'a>(
+    index: u16,
+    sec: &Section<'a>,
+    sub_secs: impl Iterator<Item = (u8, &'a Section<'a>)>,
+    sink: &mut Sink,
+) -> Option<Object> {
+    let what = format!("object {index:04X}");
+    let k = resolve_keys(sec, &OBJ_KEYS, sink);
+    let code = object_code(sink, &k, &what)?;
+    if code.is_simple() || matches!(code, ObjectCode::Other(_)) {
+        let sub = sub_object(sink, &k, 0, ObjectCode::Var, sec.line, &what)?;
+        let mut obj = Object::var(index, sub);
+        obj.object_code = code;
+        obj.line = Line(sec.line);
+        if let Some(v) = k.slots[P_SUBNUMBER] {
+            obj.sub_number = uint(sink, v, "SubNumber", 255).map(|v| v as u8);
+        }
+        if k.slots[P_COMPACT].is_some() {
+            sink.warn(
+                K::Structure,
+                sec.line,
+                format!("{what}: CompactSubObj on a VAR ignored"),
+            );
+        }
+        let mut first_ignored = true;
+        for (_, s) in sub_secs {
+            if first_ignored {
+                sink.warn(
+                    K::Structure,
+                    s.line,
+                    format!(
+                        "[{}]: {what} is a {}, so its sub sections are ignored",
+                        s.name,
+                        code.name()
+                    ),
+                );
+                first_ignored = false;
+            }
+        }
+        return Some(obj);
+    }
+
+    let name = match k.slots[P_NAME] {
+        Some(v) => string(sink, v, "ParameterName"),
+        None => {
+            sink.warn(
+                K::Structure,
+                sec.line,
+                format!("{what} has no ParameterName"),
+            );
+            String::new()
+        }
+    };
+    let mut obj = Object::complex(index, name, code, []);
+    obj.sub_number = None;
+    obj.line = Line(sec.line);
+    if let Some(v) = k.slots[P_SUBNUMBER] {
+        obj.sub_number = uint(sink, v, "SubNumber", 255).map(|v| v as u8);
+    }
+    if let Some(v) = k.slots[P_FLAGS] {
+        obj.obj_flags = uint(sink, v, "ObjFlags", u64::from(u32::MAX)).map(|v| v as u32);
+    }
+    let compact = match k.slots[P_COMPACT] {
+        Some(v) => uint(sink, v, "CompactSubObj", 255).map(|v| v as u8),
+        None => None,
+    };
+    let mut ok = true;
+    if let Some(n) = compact.filter(|&n| n > 0) {
+        // CiA 306 §4.5.2.3: sub-index 0 is the number of entries (UNSIGNED8, ro); sub-indices
+        // 1..=n share DataType, AccessType, PDOMapping and values of the object section.
+        let count = SubObject::new(0, "NrOfObjects", DataType::Unsigned8, AccessType::Ro)
+            .with_default(crate::value::EdsValue::plain(
+                crate::value::Value::Unsigned8(n),
+            ));
+        let mut count = count;
+        count.line = Line(sec.line);
+        obj.subs.insert(0, count);
+        let mut proto_keys = Keys {
+            slots: k.slots,
+            extra: Vec::new(),
+        };
+        proto_keys.slots[P_OBJTYPE] = None;
+        proto_keys.slots[P_SUBNUMBER] = None;
+        proto_keys.slots[P_COMPACT] = None;
+        proto_keys.slots[P_FLAGS] = None;
+        match sub_object(sink, &proto_keys, 1, ObjectCode::Var, sec.line, &what) {
+            Some(proto) => {
+                for i in 1..=n {
+                    let mut s = proto.clone();
+                    s.sub_index = i;
+                    s.name = format!("{}{}", obj.name, i);
+                    obj.subs.insert(i, s);
+                }
+            }
+            None => ok = false,
+        }
+        obj.extra = extra_owned(&k.extra);
+    } else {
+        // Keys describing values on an ARRAY/RECORD section are kept as they are.
+        for slot in [
+            P_DATATYPE,
+            P_ACCESS,
+            P_PDO,
+            P_DEFAULT,
+            P_LOW,
+            P_HIGH,
+            P_PARAM,
+            P_DENOTATION,
+            13,
+            14,
+        ] {
+            if let (Some((text, _)), Some(key)) = (k.slots[slot], OBJ_KEYS.get(slot)) {
+                obj.extra.push(((*key).to_string(), text.to_string()));
+            }
+        }
+        obj.extra.extend(extra_owned(&k.extra));
+    }
+    for (s, ssec) in sub_secs {
+        let swhat = format!("sub-object {index:04X}sub{s:X}");
+        let sk = resolve_keys(ssec, &OBJ_KEYS, sink);
+        let Some(scode) = object_code(sink, &sk, &swhat) else {
+            ok = false;
+            continue;
+        };
+        match sub_object(sink, &sk, s, scode, ssec.line, &swhat) {
+            Some(sub) => {
+                if let Some((_, l)) = sk.slots[P_SUBNUMBER].or(sk.slots[P_COMPACT]) {
+                    sink.warn(
+                        K::Structure,
+                        l,
+                        format!("{swhat}: SubNumber/CompactSubObj on a sub-object ignored"),
+                    );
+                }
+                if compact.is_some() && obj.subs.contains_key(&s) {
+                    sink.warn(
+                        K::Duplicate,
+                        ssec.line,
+                        format!(
+                            "{swhat} also defined by CompactSubObj; the [{}] section wins",
+                            ssec.name
+                        ),
+                    );
+                }
+                obj.subs.insert(s, sub);
+            }
+            None => ok = false,
+        }
+    }
+    ok.then_some(obj)
+}
+
+/// `[xxxxName]`: `NrOfEntries=n`, then `sub=name` lines.
+fn apply_names(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
+    for_numbered(
+        sec,
+        sink,
+        "NrOfEntries",
+        |sub, value, line, sink| match obj.subs.get_mut(&sub) {
+            Some(s) => s.name = value.to_string(),
+            None => sink.warn(
+                K::Structure,
+                line,
+                format!(
+                    "[{}]: sub-index {sub} does not exist; name ignored",
+                    sec.name
+                ),
+            ),
+        },
+    );
+}
+
+/// `[xxxxValue]`: `NrOfEntries=n`, then `sub=value` lines (DCF `ParameterValue`).
+fn apply_values(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
+    for_numbered(
+        sec,
+        sink,
+        "NrOfEntries",
+        |sub, value, line, sink| match obj.subs.get_mut(&sub) {
+            Some(s) => {
+                let (f, res) = FieldValue::from_text(s.data_type, value);
+                match res {
+                    Ok(notes) => note_warnings(sink, line, "value", notes),
+                    Err(TextError::Empty) => {}
+                    Err(e) => sink.warn(
+                        K::Value,
+                        line,
+                        format!(
+                            "[{}] {sub}=`{}`: {e}; kept as text only",
+                            sec.name,
+                            truncate(value)
+                        ),
+                    ),
+                }
+                s.parameter_value = Some(f);
+            }
+            None => sink.warn(
+                K::Structure,
+                line,
+                format!(
+                    "[{}]: sub-index {sub} does not exist; value ignored",
+                    sec.name
+                ),
+            ),
+        },
+    );
+}
+
+/// `[xxxxDenotation]`: `NrOfEntries=n`, then `sub=denotation` lines.
+fn apply_denotations(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
+    for_numbered(
+        sec,
+        sink,
+        "NrOfEntries",
+        |sub, value, line, sink| match obj.subs.get_mut(&sub) {
+            Some(s) => s.denotation = Some(value.to_string()),
+            None => sink.warn(
+                K::Structure,
+                line,
+                format!(
+                    "[{}]: sub-index {sub} does not exist; denotation ignored",
+                    sec.name
+                ),
+            ),
+        },
+    );
+}
+
+/// Calls `f(n, value, line)` for each `n=value` key (n decimal or 0x hex, 0..=255) of a
+/// numbered section; checks the count key.
+fn for_numbered(
+    sec: &Section<'_>,
+    sink: &mut Sink,
+    count_key: &str,
+    mut f: impl FnMut(u8, &str, u32, &mut Sink),
+) {
+    let mut count: Option<(u64, u32)> = None;
+    let mut seen = 0u64;
+    for e in &sec.entries {
+        if e.key.eq_ignore_ascii_case(count_key) {
+            count = uint(sink, (e.value, e.line), count_key, u64::MAX).map(|c| (c, e.line));
+            continue;
+        }
+        let mut notes = TextNotes::default();
+        match parse_int_literal(e.key, &mut notes) {
+            Some((n, _)) if (0..=255).contains(&n) => {
+                seen += 1;
+                f(n as u8, e.value, e.line, sink);
+            }
+            _ => sink.warn(
+                K::Structure,
+                e.line,
+                format!(
+                    "[{}]: key `{}` is not a sub-index; ignored",
+                    sec.name, e.key
+                ),
+            ),
+        }
+    }
+    if let Some((c, line)) = count {
+        if c != seen {
+            sink.warn(
+                K::Structure,
+                line,
+                format!("[{}]: {count_key}={c} but {seen} entries follow", sec.name),
+            );
+        }
+    }
+}
+
+/// `[MandatoryObjects]`-style lists and `[xxxxObjectLinks]`: `SupportedObjects=n` or
+/// `ObjectLinks=n`, then `1=0x1000` ...
+fn object_list(sec: &Section<'_>, sink: &mut Sink) -> Vec<u16> {
+    let mut count: Option<(u64, u32)> = None;
+    let mut items: BTreeMap<u64, (u16, u32)> = BTreeMap::new();
+    for e in &sec.entries {
+        if e.key.eq_ignore_ascii_case("SupportedObjects")
+            || e.key.eq_ignore_ascii_case("ObjectLinks")
+        {
+            count = uint(sink, (e.value, e.line), e.key, u64::MAX).map(|c| (c, e.line));
+            continue;
+        }
+        let mut notes = TextNotes::default();
+        let Some((n, _)) = parse_int_literal(e.key, &mut notes).filter(|(n, _)| *n >= 0) else {
+            sink.warn(
+                K::Structure,
+                e.line,
+                format!(
+                    "[{}]: key `{}` is not a list position; ignored",
+                    sec.name, e.key
+                ),
+            );
+            continue;
+        };
+        let Some(index) = uint(sink, (e.value, e.line), "object index", 0xFFFF) else {
+            continue;
+        };
+        if let Some((_, first)) = items.insert(n as u64, (index as u16, e.line)) {
+            sink.warn(
+                K::Duplicate,
+                e.line,
+                format!(
+                    "[{}]: position {n} given again (first at line {first}); this value wins",
+                    sec.name
+                ),
+            );
+        }
+    }
+    if let Some((c, line)) = count {
+        if c != items.len() as u64 {
+            sink.warn(
+                K::ObjectList,
+                line,
+                format!(
+                    "[{}]: count says {c} but {} entries follow",
+                    sec.name,
+                    items.len()
+                ),
+            );
+        }
+    }
+    items.into_values().map(|(i, _)| i).collect()
+}
+
+fn comments(sec: &Section<'_>, sink: &mut Sink) -> Vec<String> {
+    let mut lines: BTreeMap<u64, String> = BTreeMap::new();
+    let mut declared = None;
+    for e in &sec.entries {
+        if e.key.eq_ignore_ascii_case("Lines") {
+            declared = uint(sink, (e.value, e.line), "Lines", u64::MAX).map(|c| (c, e.line));
+        } else if let Some(n) = strip_prefix_ci(e.key, "Line").and_then(|n| n.parse::<u64>().ok()) {
+            lines.insert(n, e.value.to_string());
+        } else {
+            sink.warn(
+                K::Structure,
+                e.line,
+                format!("[Comments]: key `{}` ignored", e.key),
+            );
+        }
+    }
+    if let Some((c, line)) = declared {
+        if c != lines.len() as u64 {
+            sink.warn(
+                K::Structure,
+                line,
+                format!(
+                    "[Comments]: Lines={c} but {} LineN keys follow",
+                    lines.len()
+                ),
+            );
+        }
+    }
+    lines.into_values().collect()
+}
+
+fn dummy_usage(sec: &Section<'_>, sink: &mut Sink) -> BTreeMap<u16, bool> {
+    let mut out = BTreeMap::new();
+    for e in &sec.entries {
+        match strip_prefix_ci(e.key, "Dummy").and_then(hex4) {
+            Some(dt) => {
+                if let Some(b) = boolean(sink, (e.value, e.line), e.key) {
+                    out.insert(dt, b);
+                }
+            }
+            None => sink.warn(
+                K::Structure,
+                e.line,
+                format!("[DummyUsage]: key `{}` ignored", e.key),
+            ),
+        }
+    }
+    out
+}
+
+const FILE_KEYS: [&str; 11] = [
+    "FileName",
+    "FileVersion",
+    "FileRevision",
+    "EDSVersion",
+    "Description",
+    "CreationTime",
+    "CreationDate",
+    "CreatedBy",
+    "ModificationTime",
+    "ModificationDate",
+    "ModifiedBy",
+];
+
+fn file_info(sec: &Section<'_>, sink: &mut Sink) -> FileInfo {
+    let k = resolve_keys(sec, &FILE_KEYS, sink);
+    let s = |i: usize| k.slots[i].map(|(t, _)| t.to_string());
+    if let Some((v, line)) = k.slots[3] {
+        if v != "4.0" {
+            sink.warn(
+                K::Spelling,
+                line,
+                format!("EDSVersion={v}: CiA 306 v1.3 files say 4.0; read as 4.0"),
+            );
+        }
+    }
+    FileInfo {
+        file_name: s(0),
+        file_version: s(1),
+        file_revision: s(2),
+        eds_version: s(3),
+        description: s(4),
+        creation_time: s(5),
+        creation_date: s(6),
+        created_by: s(7),
+        modification_time: s(8),
+        modification_date: s(9),
+        modified_by: s(10),
+        extra: extra_owned(&k.extra),
+    }
+}
+
+const DEVICE_KEYS: [&str; 23] = [
+    "VendorName",
+    "VendorNumber",
+    "ProductName",
+    "ProductNumber",
+    "RevisionNumber",
+    "OrderCode",
+    "BaudRate_10",
+    "BaudRate_20",
+    "BaudRate_50",
+    "BaudRate_125",
+    "BaudRate_250",
+    "BaudRate_500",
+    "BaudRate_800",
+    "BaudRate_1000",
+    "SimpleBootUpMaster",
+    "SimpleBootUpSlave",
+    "Granularity",
+    "DynamicChannelsSupported",
+    "GroupMessaging",
+    "NrOfRXPDO",
+    "NrOfTXPDO",
+    "LSS_Supported",
+    "CompactPDO",
+];
+
+fn device_info(sec: &Section<'_>, sink: &mut Sink) -> DeviceInfo {
+    let k = resolve_keys(sec, &DEVICE_KEYS, sink);
+    let mut extra = extra_owned(&k.extra);
+    // A known key whose value cannot be read is kept verbatim so the file round-trips.
+    let mut num = |i: usize, max: u64| -> Option<u64> {
+        let v = k.slots[i]?;
+        let r = uint(sink, v, DEVICE_KEYS[i], max);
+        if r.is_none() {
+            extra.push((DEVICE_KEYS[i].to_string(), v.0.to_string()));
+        }
+        r
+    };
+    let vendor_number = num(1, u64::from(u32::MAX)).map(|v| v as u32);
+    let product_number = num(3, u64::from(u32::MAX)).map(|v| v as u32);
+    let revision_number = num(4, u64::from(u32::MAX)).map(|v| v as u32);
+    let mut baud_rates = [None; 8];
+    for (j, b) in baud_rates.iter_mut().enumerate() {
+        *b = num(6 + j, u64::MAX).map(|v| v != 0);
+    }
+    let simple_boot_up_master = num(14, u64::MAX).map(|v| v != 0);
+    let simple_boot_up_slave = num(15, u64::MAX).map(|v| v != 0);
+    let granularity = num(16, 64).map(|v| v as u8);
+    let dynamic_channels_supported = num(17, 255).map(|v| v as u8);
+    let group_messaging = num(18, u64::MAX).map(|v| v != 0);
+    let nr_of_rx_pdo = num(19, 512).map(|v| v as u16);
+    let nr_of_tx_pdo = num(20, 512).map(|v| v as u16);
+    let lss_supported = num(21, u64::MAX).map(|v| v != 0);
+    let compact_pdo = num(22, 255).map(|v| v as u8);
+    let vendor_name = k.slots[0].map(|v| string(sink, v, "VendorName"));
+    let product_name = k.slots[2].map(|v| string(sink, v, "ProductName"));
+    let order_code = k.slots[5].map(|v| string(sink, v, "OrderCode"));
+    let _ = BAUD_RATES_KBIT;
+    DeviceInfo {
+        vendor_name,
+        vendor_number,
+        product_name,
+        product_number,
+        revision_number,
+        order_code,
+        baud_rates,
+        simple_boot_up_master,
+        simple_boot_up_slave,
+        granularity,
+        dynamic_channels_supported,
+        group_messaging,
+        nr_of_rx_pdo,
+        nr_of_tx_pdo,
+        lss_supported,
+        compact_pdo,
+        extra,
+    }
+}
+
+const COMM_KEYS: [&str; 7] = [
+    "NodeID",
+    "NodeName",
+    "Baudrate",
+    "NetNumber",
+    "NetworkName",
+    "CANopenManager",
+    "LSS_SerialNumber",
+];
+
+fn commissioning(sec: &Section<'_>, sink: &mut Sink) -> DeviceCommissioning {
+    let k = resolve_keys(sec, &COMM_KEYS, sink);
+    let mut extra = extra_owned(&k.extra);
+    let mut num = |i: usize, max: u64| -> Option<u64> {
+        let v = k.slots[i]?;
+        let r = uint(sink, v, COMM_KEYS[i], max);
+        if r.is_none() {
+            extra.push((COMM_KEYS[i].to_string(), v.0.to_string()));
+        }
+        r
+    };
+    let node_id = num(0, 255).map(|v| v as u8);
+    let baudrate = num(2, 0xFFFF).map(|v| v as u16);
+    let net_number = num(3, u64::from(u32::MAX)).map(|v| v as u32);
+    let canopen_manager = num(5, u64::MAX).map(|v| v != 0);
+    let lss_serial_number = num(6, u64::from(u32::MAX)).map(|v| v as u32);
+    DeviceCommissioning {
+        node_id,
+        node_name: k.slots[1].map(|(t, _)| t.to_string()),
+        baudrate,
+        net_number,
+        network_name: k.slots[4].map(|(t, _)| t.to_string()),
+        canopen_manager,
+        lss_serial_number,
+        extra,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::value::Value;
+
+    const MINI: &str = "[FileInfo]\r\nEDSVersion=4.0\r\n[DeviceInfo]\r\nVendorNumber=0x123\r\nBaudRate_250=1\r\n\
+[1017]\r\nParameterName=Producer heartbeat time\r\nObjectType=0x7\r\nDataType=0x0006\r\nAccessType=rw\r\nDefaultValue=1000\r\nPDOMapping=0\r\n\
+[1018]\r\nParameterName=Identity\r\nObjectType=0x9\r\nSubNumber=2\r\n\
+[1018sub0]\r\nParameterName=n\r\nDataType=0x0005\r\nAccessType=ro\r\nDefaultValue=1\r\n\
+[1018sub1]\r\nParameterName=Vendor-ID\r\nDataType=0x0007\r\nAccessType=ro\r\nDefaultValue=0x123";
+
+    #[test]
+    fn minimal_file() {
+        let p = parse(MINI.as_bytes()).unwrap();
+        assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics);
+        let hb = p.od.sub(0x1017, 0).unwrap();
+        assert_eq!(hb.data_type, DataType::Unsigned16);
+        assert_eq!(hb.access, AccessType::Rw);
+        assert_eq!(
+            hb.default_value.as_ref().unwrap().resolve(1),
+            Some(Value::Unsigned16(1000))
+        );
+        assert_eq!(p.od.get(0x1018).unwrap().subs.len(), 2);
+        assert_eq!(p.od.device_info.vendor_number, Some(0x123));
+        assert_eq!(p.od.device_info.baud_rates[4], Some(true));
+        assert_eq!(p.od.sub(0x1017, 0).unwrap().line.0, 6);
+    }
+
+    #[test]
+    fn tolerances_warn_with_lines() {
+        let src = "[FileInfo]\nEDSVersion=4\n[1000]\n ParameterName = Device type\t\nDataType=0x0007\nAccessType=RO\n# hash comment\n[1000]\nDefaultValue=0x1234LL\n[1800]\nObjectType=0x9\nParameterName=x\n[1800Sub1]\nParameterName=y\nDataType=7\nAccessType=rw";
+        let p = parse(src.as_bytes()).unwrap();
+        let lines: Vec<u32> = p.diagnostics.iter().map(|d| d.line).collect();
+        for l in [2, 4, 6, 7, 8, 9, 13] {
+            assert!(
+                lines.contains(&l),
+                "no warning on line {l}: {:#?}",
+                p.diagnostics
+            );
+        }
+        assert!(
+            p.diagnostics
+                .iter()
+                .all(|d| d.severity == Severity::Warning)
+        );
+        assert_eq!(
+            p.od.sub(0x1000, 0)
+                .unwrap()
+                .default_value
+                .as_ref()
+                .unwrap()
+                .resolve(0),
+            Some(Value::Unsigned32(0x1234))
+        );
+        assert!(p.od.sub(0x1800, 1).is_some());
+    }
+
+    #[test]
+    fn errors_have_lines() {
+        let src = "[1000]\nParameterName=a\nObjectType=0x007 # VAR\n[1001]\nParameterName=b\nAccessType=ro\ngarbage line\n";
+        let e = parse(src.as_bytes()).unwrap_err();
+        let errs: Vec<u32> = e.errors().map(|d| d.line).collect();
+        assert_eq!(errs, [3, 4, 7]);
+    }
+
+    #[test]
+    fn compact_sub_obj_expands() {
+        let src = "[1016]\nParameterName=Consumer heartbeat time\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\nCompactSubObj=3\nDefaultValue=0\n[1016Value]\nNrOfEntries=1\n2=0x00050064\n[1016Name]\nNrOfEntries=1\n1=first\n";
+        let p = parse(src.as_bytes()).unwrap();
+        let o = p.od.get(0x1016).unwrap();
+        assert_eq!(o.subs.len(), 4);
+        assert_eq!(
+            o.sub(0).unwrap().default_value.as_ref().unwrap().resolve(0),
+            Some(Value::Unsigned8(3))
+        );
+        assert_eq!(o.sub(1).unwrap().name, "first");
+        assert_eq!(
+            o.sub(2)
+                .unwrap()
+                .parameter_value
+                .as_ref()
+                .unwrap()
+                .resolve(0),
+            Some(Value::Unsigned32(0x0005_0064))
+        );
+    }
+
+    #[test]
+    fn latin1_bytes_never_fail() {
+        let src = b"[Comments]\nLines=1\nLine1=Sch\x94naich\n";
+        let p = parse(src).unwrap();
+        assert_eq!(p.od.comments, ["Sch\u{201D}naich"]);
+        let enc: Vec<u32> = p
+            .diagnostics
+            .iter()
+            .filter(|d| d.kind == K::Encoding)
+            .map(|d| d.line)
+            .collect();
+        assert_eq!(enc, [3]);
+    }
+}
