@@ -11,7 +11,12 @@
 //! - [`led`] — LED modes (0x2120), valve-mode colours (0x2121), the external colour (0x2122) and
 //!   the colour the status LED shows for a given device state.
 //!
-//! The core is `#![no_std]` without an allocator.
+//! - [`objects`] — a typed [`canopen_od::Entry`] for every sub-object of
+//!   `eds/burkert-generic.eds` (communication objects included), generated at build time by
+//!   `canopen-codegen`, plus the static dictionary `objects::DICTIONARY`.
+//!
+//! The core is `#![no_std]` without an allocator; the `alloc` feature (on with `std`) types the
+//! string and DOMAIN entries as owned values.
 #![no_std]
 
 #[cfg(feature = "std")]
@@ -21,6 +26,12 @@ pub mod colour;
 pub mod comm;
 pub mod led;
 pub mod ne107;
+
+/// Typed entries generated from `eds/burkert-generic.eds`: VAR objects as constants, ARRAY and
+/// RECORD objects as modules (e.g. `objects::device_status_object::DEVICE_STATUS_NAMUR_NE107`).
+pub mod objects {
+    include!(concat!(env!("OUT_DIR"), "/burkert-generic.rs"));
+}
 pub mod status;
 
 pub use colour::{ColourError, LedColour, PredefinedColour};
