@@ -1,0 +1,1 @@
+//! The simulated cPos (being written).
