@@ -1,0 +1,417 @@
+//! The commissioning workflow: find every unconfigured slave, give each a node-ID, store it, and
+//! report (CiA 305 Fastscan §6.7 + configure node-ID §6.4.2 + store configuration §6.4.5).
+//!
+//! For each slave: one Fastscan finds its address and puts it alone into configuration state;
+//! the node-ID comes from the table keyed by LSS address if the address is listed, otherwise
+//! the lowest free node-ID of the pool; configure node-ID; store configuration (if asked);
+//! switch mode global (waiting). A slave that got a node-ID no longer answers Fastscan (on
+//! leaving configuration state it makes the node-ID active and resets its communication), so
+//! the next scan finds the next slave. The workflow ends when the bit check 0x80 stays
+//! unanswered.
+//!
+//! Failures are per slave where the workflow can go on and final where it cannot:
+//! - store configuration failing (rejected or silent) is recorded for that slave
+//!   ([`AssignOutcome::StoreFailed`]); the node-ID is still configured, so the workflow goes on;
+//! - configure node-ID rejected or unanswered, or no node-ID left, ends the workflow: the slave
+//!   keeps no node-ID, would be found again by the next scan, and cannot be skipped by Fastscan.
+//!   The report lists the slaves handled so far, this one with its error, and the reason in
+//!   [`AssignReport::stopped`]. A Fastscan that loses its slave ends it too.
+
+use can_frame::{Instant, NodeId};
+use heapless::Vec;
+
+use crate::address::LssAddress;
+use crate::error::{LssError, Service};
+use crate::fastscan::{FastscanConfig, MAX_SLAVES, ScanCore, ScanStep};
+use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, timeout};
+use crate::service::MasterConfig;
+use crate::wire::{Mode, Request, Response, cs};
+
+/// A set of node-IDs (1..=127), as a bit set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct NodeIdPool(u128);
+
+impl NodeIdPool {
+    /// No node-IDs.
+    pub const EMPTY: NodeIdPool = NodeIdPool(0);
+
+    /// Every node-ID in `first..=last`.
+    pub fn range(first: NodeId, last: NodeId) -> Self {
+        let mut p = Self::EMPTY;
+        for id in first.get()..=last.get() {
+            p.0 |= 1u128 << id;
+        }
+        p
+    }
+
+    /// All node-IDs 1..=127.
+    pub fn all() -> Self {
+        Self::range(NodeId::MIN, NodeId::MAX)
+    }
+
+    /// Adds a node-ID.
+    pub fn insert(&mut self, id: NodeId) {
+        self.0 |= 1u128 << id.get();
+    }
+
+    /// Removes a node-ID (one already in use on the bus, say); returns whether it was there.
+    pub fn remove(&mut self, id: NodeId) -> bool {
+        let had = self.contains(id);
+        self.0 &= !(1u128 << id.get());
+        had
+    }
+
+    /// Whether `id` is in the pool.
+    pub fn contains(&self, id: NodeId) -> bool {
+        self.0 & (1u128 << id.get()) != 0
+    }
+
+    /// How many node-IDs are left.
+    pub fn len(&self) -> usize {
+        self.0.count_ones() as usize
+    }
+
+    /// Whether none is left.
+    pub fn is_empty(&self) -> bool {
+        self.0 == 0
+    }
+
+    /// Takes the lowest node-ID out of the pool.
+    pub fn take_lowest(&mut self) -> Option<NodeId> {
+        if self.0 == 0 {
+            return None;
+        }
+        let bit = self.0.trailing_zeros();
+        self.0 &= !(1u128 << bit);
+        NodeId::new(u8::try_from(bit).ok()?).ok()
+    }
+}
+
+/// The node-IDs to give: a table keyed by LSS address, then a pool.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct AssignConfig {
+    /// Fastscan timing.
+    pub fastscan: FastscanConfig,
+    /// Timeouts of configure node-ID and store configuration.
+    pub services: MasterConfig,
+    /// Node-IDs for slaves not in the table. Table node-IDs are taken out of it at start.
+    pub pool: NodeIdPool,
+    /// Fixed node-IDs for known slaves.
+    pub table: Vec<(LssAddress, NodeId), MAX_SLAVES>,
+    /// Send store configuration after each configure node-ID.
+    pub store: bool,
+}
+
+impl AssignConfig {
+    /// Node-IDs from `pool`, stored, default timing.
+    pub fn with_pool(pool: NodeIdPool) -> Self {
+        Self {
+            fastscan: FastscanConfig::default(),
+            services: MasterConfig::default(),
+            pool,
+            table: Vec::new(),
+            store: true,
+        }
+    }
+}
+
+/// How one slave fared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AssignOutcome {
+    /// Node-ID configured (and stored, when the workflow stores).
+    Assigned,
+    /// Node-ID configured, but store configuration failed: the node-ID is lost at the slave's
+    /// next power-on.
+    StoreFailed(LssError),
+    /// The slave has no node-ID.
+    Failed(LssError),
+}
+
+/// One found slave in the report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AssignEntry {
+    /// Its LSS address.
+    pub address: LssAddress,
+    /// The node-ID chosen for it (`None` when none was left).
+    pub node_id: Option<NodeId>,
+    /// What happened.
+    pub outcome: AssignOutcome,
+}
+
+/// The workflow's result.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct AssignReport {
+    /// Every slave found, in the order found.
+    pub entries: Vec<AssignEntry, MAX_SLAVES>,
+    /// Why the workflow ended before the bus had no unconfigured slave left.
+    pub stopped: Option<LssError>,
+}
+
+impl AssignReport {
+    /// The slaves that got a node-ID (stored or not), with it.
+    pub fn assigned(&self) -> impl Iterator<Item = (LssAddress, NodeId)> + '_ {
+        self.entries
+            .iter()
+            .filter_map(|e| match (e.outcome, e.node_id) {
+                (AssignOutcome::Assigned | AssignOutcome::StoreFailed(_), Some(id)) => {
+                    Some((e.address, id))
+                }
+                _ => None,
+            })
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Phase {
+    Idle,
+    Scan(ScanCore),
+    Configure(LssAddress, NodeId),
+    Store(LssAddress, NodeId),
+}
+
+/// The assign-all workflow machine; see the module docs. Output: the [`AssignReport`] (also
+/// when the workflow stopped early; see [`AssignReport::stopped`]).
+#[derive(Debug, Clone)]
+pub struct AssignAll {
+    config: AssignConfig,
+    pool: NodeIdPool,
+    ex: Exchange,
+    phase: Phase,
+    report: AssignReport,
+    events: Events<AssignReport>,
+    finished: bool,
+}
+
+impl AssignAll {
+    /// An idle machine.
+    pub fn new(config: AssignConfig) -> Self {
+        Self {
+            pool: config.pool,
+            config,
+            ex: Exchange::new(),
+            phase: Phase::Idle,
+            report: AssignReport::default(),
+            events: Events::new(),
+            finished: false,
+        }
+    }
+
+    /// Starts the workflow. Fails with [`LssError::Busy`] while it runs and with
+    /// [`LssError::InvalidConfig`] when the table gives one node-ID or one address twice.
+    pub fn start(&mut self, now: Instant) -> Result<(), LssError> {
+        if !matches!(self.phase, Phase::Idle) {
+            return Err(LssError::Busy);
+        }
+        let table = &self.config.table;
+        for (i, (a, id)) in table.iter().enumerate() {
+            if table[i + 1..].iter().any(|(b, jd)| a == b || id == jd) {
+                return Err(LssError::InvalidConfig(
+                    "the node-ID table lists an address or a node-ID twice",
+                ));
+            }
+        }
+        self.pool = self.config.pool;
+        for (_, id) in table {
+            self.pool.remove(*id);
+        }
+        self.ex.clear();
+        self.events.clear();
+        self.report = AssignReport::default();
+        self.finished = false;
+        self.phase = Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
+        Ok(())
+    }
+
+    fn record(&mut self, entry: AssignEntry) {
+        // At most 127 slaves can get a node-ID and the workflow stops at the first slave that
+        // cannot, so the list never overflows.
+        let _ = self.report.entries.push(entry);
+        self.events.push(MasterEvent::Assigned(entry));
+    }
+
+    fn finish(&mut self, stopped: Option<LssError>) {
+        if stopped.is_some() {
+            // Release a slave left in configuration state.
+            self.ex.clear();
+            self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        }
+        self.phase = Phase::Idle;
+        self.finished = true;
+        self.report.stopped = stopped;
+        self.events.finish(Ok(self.report.clone()));
+    }
+
+    fn next_slave(&mut self, now: Instant) {
+        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.phase = Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
+    }
+
+    fn found(&mut self, now: Instant, address: LssAddress) {
+        self.events.push(MasterEvent::Found(address));
+        let listed = self
+            .config
+            .table
+            .iter()
+            .find(|(a, _)| *a == address)
+            .map(|(_, id)| *id);
+        let Some(node_id) = listed.or_else(|| self.pool.take_lowest()) else {
+            self.record(AssignEntry {
+                address,
+                node_id: None,
+                outcome: AssignOutcome::Failed(LssError::NoFreeNodeId),
+            });
+            self.finish(Some(LssError::NoFreeNodeId));
+            return;
+        };
+        self.ex.ask(
+            now,
+            Request::ConfigureNodeId(node_id.get()),
+            cs::CONFIGURE_NODE_ID,
+            self.config.services.response_timeout,
+            false,
+        );
+        self.phase = Phase::Configure(address, node_id);
+    }
+
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        match core::mem::replace(&mut self.phase, Phase::Idle) {
+            Phase::Idle => {}
+            Phase::Scan(mut scan) => match scan.step(&mut self.ex, now, reply) {
+                ScanStep::Continue => self.phase = Phase::Scan(scan),
+                ScanStep::Found(a) => self.found(now, a),
+                ScanStep::NoneLeft => self.finish(None),
+                ScanStep::Lost(part) => self.finish(Some(LssError::FastscanLost { part })),
+            },
+            Phase::Configure(address, node_id) => {
+                let service = Service::ConfigureNodeId;
+                let result = match reply {
+                    Reply::Answer(Response::ConfigureNodeId(s)) => s
+                        .result()
+                        .map_err(|error| LssError::Rejected { service, error }),
+                    _ => Err(timeout(service, self.config.services.response_timeout)),
+                };
+                match result {
+                    Ok(()) if self.config.store => {
+                        self.ex.ask(
+                            now,
+                            Request::StoreConfiguration,
+                            cs::STORE_CONFIGURATION,
+                            self.config.services.store_timeout,
+                            false,
+                        );
+                        self.phase = Phase::Store(address, node_id);
+                    }
+                    Ok(()) => {
+                        self.record(AssignEntry {
+                            address,
+                            node_id: Some(node_id),
+                            outcome: AssignOutcome::Assigned,
+                        });
+                        self.next_slave(now);
+                    }
+                    Err(e) => {
+                        self.record(AssignEntry {
+                            address,
+                            node_id: Some(node_id),
+                            outcome: AssignOutcome::Failed(e),
+                        });
+                        self.finish(Some(e));
+                    }
+                }
+            }
+            Phase::Store(address, node_id) => {
+                let service = Service::StoreConfiguration;
+                let outcome = match reply {
+                    Reply::Answer(Response::StoreConfiguration(s)) => match s.result() {
+                        Ok(()) => AssignOutcome::Assigned,
+                        Err(error) => {
+                            AssignOutcome::StoreFailed(LssError::Rejected { service, error })
+                        }
+                    },
+                    _ => AssignOutcome::StoreFailed(timeout(
+                        service,
+                        self.config.services.store_timeout,
+                    )),
+                };
+                self.record(AssignEntry {
+                    address,
+                    node_id: Some(node_id),
+                    outcome,
+                });
+                self.next_slave(now);
+            }
+        }
+    }
+}
+
+impl LssMachine for AssignAll {
+    type Output = AssignReport;
+
+    fn handle_response(&mut self, now: Instant, response: &Response) {
+        if let Some(reply) = self.ex.on_response(response) {
+            self.on_reply(now, reply);
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if let Some(reply) = self.ex.on_timeout(now) {
+            self.on_reply(now, reply);
+        }
+    }
+
+    fn poll_transmit(&mut self) -> Option<Request> {
+        self.ex.poll_transmit()
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.ex.poll_timeout()
+    }
+
+    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
+        self.events.poll()
+    }
+
+    fn is_finished(&self) -> bool {
+        self.finished
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn id(n: u8) -> NodeId {
+        NodeId::new(n).unwrap()
+    }
+
+    #[test]
+    fn pool_hands_out_lowest_first() {
+        let mut p = NodeIdPool::range(id(10), id(12));
+        assert_eq!(p.len(), 3);
+        assert!(p.remove(id(10)));
+        assert!(!p.remove(id(10)));
+        assert_eq!(p.take_lowest(), Some(id(11)));
+        assert_eq!(p.take_lowest(), Some(id(12)));
+        assert_eq!(p.take_lowest(), None);
+        assert!(p.is_empty());
+        let mut all = NodeIdPool::all();
+        assert_eq!(all.len(), 127);
+        assert!(!all.contains(id(1)) || all.take_lowest() == Some(id(1)));
+        all.insert(id(1));
+        assert!(all.contains(id(1)));
+    }
+
+    #[test]
+    fn duplicate_table_entries_are_refused() {
+        let mut c = AssignConfig::with_pool(NodeIdPool::all());
+        let a = LssAddress::new(1, 2, 3, 4);
+        let b = LssAddress::new(1, 2, 3, 5);
+        c.table.push((a, id(5))).unwrap();
+        c.table.push((b, id(5))).unwrap();
+        let mut m = AssignAll::new(c);
+        assert!(matches!(
+            m.start(Instant::ZERO),
+            Err(LssError::InvalidConfig(_))
+        ));
+    }
+}

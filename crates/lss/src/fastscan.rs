@@ -1,0 +1,359 @@
+//! LSS Fastscan (CiA 305 §6.7): finding the full LSS address of an unconfigured slave by a
+//! bit-wise search, and finding every unconfigured slave by repeating it.
+//!
+//! One scan is the standard search:
+//! 1. Bit check 0x80: "is any unconfigured slave in waiting state there?" Every such slave
+//!    answers identify slave (0x4F) and resets its scan position to the vendor-ID.
+//! 2. For each address part (`LSSSub` = 0 vendor-ID .. 3 serial number) and each bit from 31 down
+//!    to 0: send the value found so far with this bit 0 and `BitChecked` = the bit. Slaves whose
+//!    bits `BitChecked..=31` equal it answer; silence means the bit is 1. (Among several slaves
+//!    this follows the numerically smallest remaining address.)
+//! 3. Confirm the part with `BitChecked` = 0 and `LSSNext` = the next part; the matching slaves
+//!    move on to that part, the others drop out of this scan. Confirming the serial number with
+//!    `LSSNext` = 0 puts the one remaining slave into configuration state.
+//!
+//! A scan costs 1 + 4 × 33 = 133 exchanges. Every silent exchange costs one response timeout;
+//! under [`ResponsePolicy::WholeWindow`] answered ones do too.
+//!
+//! Slaves in configuration state ignore Fastscan, so [`DiscoverAll`] finds every unconfigured
+//! slave by scanning until nobody answers the bit check, leaving each found slave in
+//! configuration state meanwhile, and finally sends switch mode global (waiting).
+
+use can_frame::{Duration, Instant};
+use heapless::Vec;
+
+use crate::address::{AddressPart, LssAddress};
+use crate::error::LssError;
+use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, ResponsePolicy};
+use crate::wire::{BIT_CHECK_CONFIRM, Mode, Request, Response, cs};
+
+/// The most slaves a scan result list holds: one per node-ID.
+pub const MAX_SLAVES: usize = 127;
+
+/// Timing of Fastscan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FastscanConfig {
+    /// How long to wait for identify slave after each Fastscan request.
+    pub response_timeout: Duration,
+    /// When to move on after an answer.
+    pub policy: ResponsePolicy,
+}
+
+impl FastscanConfig {
+    /// The default response timeout: 25 ms, generous for slaves that answer from a main loop
+    /// on a busy bus.
+    pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(25);
+}
+
+impl Default for FastscanConfig {
+    fn default() -> Self {
+        Self {
+            response_timeout: Self::DEFAULT_TIMEOUT,
+            policy: ResponsePolicy::WholeWindow,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum ScanState {
+    Check,
+    Bit { part: AddressPart, bit: u8 },
+    Confirm { part: AddressPart },
+}
+
+/// What one step of a scan produced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ScanStep {
+    Continue,
+    Found(LssAddress),
+    NoneLeft,
+    Lost(AddressPart),
+}
+
+/// One Fastscan search, driven by an owning machine over its [`Exchange`].
+#[derive(Debug, Clone)]
+pub(crate) struct ScanCore {
+    state: ScanState,
+    address: LssAddress,
+    config: FastscanConfig,
+}
+
+impl ScanCore {
+    /// Queues the bit check 0x80.
+    pub(crate) fn start(ex: &mut Exchange, now: Instant, config: FastscanConfig) -> Self {
+        let core = Self {
+            state: ScanState::Check,
+            address: LssAddress::default(),
+            config,
+        };
+        core.ask(
+            ex,
+            now,
+            0,
+            BIT_CHECK_CONFIRM,
+            AddressPart::Vendor,
+            AddressPart::Vendor,
+        );
+        core
+    }
+
+    fn ask(
+        &self,
+        ex: &mut Exchange,
+        now: Instant,
+        id_number: u32,
+        bit_check: u8,
+        sub: AddressPart,
+        next: AddressPart,
+    ) {
+        let req = Request::Fastscan {
+            id_number,
+            bit_check,
+            lss_sub: sub.index(),
+            lss_next: next.index(),
+        };
+        let collect = self.config.policy == ResponsePolicy::WholeWindow;
+        ex.ask(
+            now,
+            req,
+            cs::IDENTIFY_SLAVE,
+            self.config.response_timeout,
+            collect,
+        );
+    }
+
+    fn ask_bit(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart, bit: u8) {
+        self.state = ScanState::Bit { part, bit };
+        let value = self.address.get(part);
+        self.ask(ex, now, value, bit, part, part);
+    }
+
+    /// Advances on the reply to the last request.
+    pub(crate) fn step(&mut self, ex: &mut Exchange, now: Instant, reply: Reply) -> ScanStep {
+        let answered = matches!(reply, Reply::Answer(_));
+        match self.state {
+            ScanState::Check => {
+                if !answered {
+                    return ScanStep::NoneLeft;
+                }
+                self.ask_bit(ex, now, AddressPart::Vendor, 31);
+            }
+            ScanState::Bit { part, bit } => {
+                if !answered {
+                    // Nobody has this bit 0 (with the higher bits found so far): it is 1.
+                    let value = self.address.get(part) | (1u32 << (bit & 31));
+                    self.address.set(part, value);
+                }
+                if bit == 0 {
+                    self.state = ScanState::Confirm { part };
+                    let value = self.address.get(part);
+                    self.ask(ex, now, value, 0, part, part.next());
+                } else {
+                    self.ask_bit(ex, now, part, bit - 1);
+                }
+            }
+            ScanState::Confirm { part } => {
+                if !answered {
+                    return ScanStep::Lost(part);
+                }
+                if part == AddressPart::Serial {
+                    return ScanStep::Found(self.address);
+                }
+                self.ask_bit(ex, now, part.next(), 31);
+            }
+        }
+        ScanStep::Continue
+    }
+}
+
+/// Finds one unconfigured slave by Fastscan and leaves it in configuration state.
+///
+/// Output: `Some(address)`, or `None` when no unconfigured slave answered the bit check.
+#[derive(Debug, Clone)]
+pub struct Fastscan {
+    ex: Exchange,
+    core: Option<ScanCore>,
+    config: FastscanConfig,
+    events: Events<Option<LssAddress>>,
+    finished: bool,
+}
+
+impl Fastscan {
+    /// An idle machine.
+    pub const fn new(config: FastscanConfig) -> Self {
+        Self {
+            ex: Exchange::new(),
+            core: None,
+            config,
+            events: Events::new(),
+            finished: false,
+        }
+    }
+
+    /// Starts a scan. Fails with [`LssError::Busy`] while one runs.
+    pub fn start(&mut self, now: Instant) -> Result<(), LssError> {
+        if self.core.is_some() {
+            return Err(LssError::Busy);
+        }
+        self.ex.clear();
+        self.events.clear();
+        self.finished = false;
+        self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+        Ok(())
+    }
+
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        let Some(core) = self.core.as_mut() else {
+            return;
+        };
+        let result = match core.step(&mut self.ex, now, reply) {
+            ScanStep::Continue => return,
+            ScanStep::Found(a) => {
+                self.events.push(MasterEvent::Found(a));
+                Ok(Some(a))
+            }
+            ScanStep::NoneLeft => Ok(None),
+            ScanStep::Lost(part) => Err(LssError::FastscanLost { part }),
+        };
+        self.core = None;
+        self.finished = true;
+        self.events.finish(result);
+    }
+}
+
+impl LssMachine for Fastscan {
+    type Output = Option<LssAddress>;
+
+    fn handle_response(&mut self, now: Instant, response: &Response) {
+        if let Some(reply) = self.ex.on_response(response) {
+            self.on_reply(now, reply);
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if let Some(reply) = self.ex.on_timeout(now) {
+            self.on_reply(now, reply);
+        }
+    }
+
+    fn poll_transmit(&mut self) -> Option<Request> {
+        self.ex.poll_transmit()
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.ex.poll_timeout()
+    }
+
+    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
+        self.events.poll()
+    }
+
+    fn is_finished(&self) -> bool {
+        self.finished
+    }
+}
+
+/// The slaves [`DiscoverAll`] found, in the order found.
+pub type AddressList = Vec<LssAddress, MAX_SLAVES>;
+
+/// Finds every unconfigured slave by repeated Fastscan, without configuring any; see the module
+/// docs. Ends with switch mode global (waiting), so the slaves are back where they started.
+///
+/// Output: the addresses found. A scan that loses its slave ends the machine with
+/// [`LssError::FastscanLost`]; more than [`MAX_SLAVES`] slaves with [`LssError::TooMany`]
+/// (switch mode global waiting is sent in both cases).
+#[derive(Debug, Clone)]
+pub struct DiscoverAll {
+    ex: Exchange,
+    core: Option<ScanCore>,
+    config: FastscanConfig,
+    found: AddressList,
+    events: Events<AddressList>,
+    finished: bool,
+}
+
+impl DiscoverAll {
+    /// An idle machine.
+    pub const fn new(config: FastscanConfig) -> Self {
+        Self {
+            ex: Exchange::new(),
+            core: None,
+            config,
+            found: Vec::new(),
+            events: Events::new(),
+            finished: false,
+        }
+    }
+
+    /// Starts discovery. Fails with [`LssError::Busy`] while one runs.
+    pub fn start(&mut self, now: Instant) -> Result<(), LssError> {
+        if self.core.is_some() {
+            return Err(LssError::Busy);
+        }
+        self.ex.clear();
+        self.found.clear();
+        self.events.clear();
+        self.finished = false;
+        self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+        Ok(())
+    }
+
+    fn finish(&mut self, result: Result<(), LssError>) {
+        self.core = None;
+        self.finished = true;
+        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.events.finish(result.map(|()| self.found.clone()));
+    }
+
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        let Some(core) = self.core.as_mut() else {
+            return;
+        };
+        match core.step(&mut self.ex, now, reply) {
+            ScanStep::Continue => {}
+            ScanStep::Found(a) => {
+                if self.found.push(a).is_err() {
+                    self.finish(Err(LssError::TooMany(MAX_SLAVES)));
+                    return;
+                }
+                self.events.push(MasterEvent::Found(a));
+                // The found slave stays in configuration state and ignores the next scan.
+                self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+            }
+            ScanStep::NoneLeft => self.finish(Ok(())),
+            ScanStep::Lost(part) => self.finish(Err(LssError::FastscanLost { part })),
+        }
+    }
+}
+
+impl LssMachine for DiscoverAll {
+    type Output = AddressList;
+
+    fn handle_response(&mut self, now: Instant, response: &Response) {
+        if let Some(reply) = self.ex.on_response(response) {
+            self.on_reply(now, reply);
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if let Some(reply) = self.ex.on_timeout(now) {
+            self.on_reply(now, reply);
+        }
+    }
+
+    fn poll_transmit(&mut self) -> Option<Request> {
+        self.ex.poll_transmit()
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.ex.poll_timeout()
+    }
+
+    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
+        self.events.poll()
+    }
+
+    fn is_finished(&self) -> bool {
+        self.finished
+    }
+}

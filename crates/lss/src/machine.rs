@@ -1,0 +1,327 @@
+//! The sans-IO contract shared by every LSS master machine, and the request/response exchange
+//! they are built on.
+//!
+//! # Call order
+//! 1. Start the machine with its command (`start(now, ..)`).
+//! 2. Drain [`LssMachine::poll_transmit`] and put every request on the bus (COB-ID 0x7E5), in
+//!    order, right away: a response timeout runs from the instant passed to the call that queued
+//!    the request.
+//! 3. Feed every frame received on COB-ID 0x7E4 to [`LssMachine::handle_response`] (or
+//!    [`LssMachine::handle_frame`], which ignores other frames), and call
+//!    [`LssMachine::handle_timeout`] when [`LssMachine::poll_timeout`] has passed.
+//! 4. After each call drain [`LssMachine::poll_event`]; the machine is finished once it returned
+//!    [`MasterEvent::Done`].
+//!
+//! # Several slaves answering at once
+//! Identify slave (0x4F) and identify non-configured slave (0x50) carry no data, so slaves that
+//! answer the same request put identical frames on the bus. A receiver sees one frame when the
+//! transmissions overlapped, or several identical frames when they did not. The machines count an
+//! answer, never answerers, and ignore a response that arrives while a later request is still
+//! queued (it belongs to an earlier request). With [`ResponsePolicy::WholeWindow`] (the default
+//! for multi-slave requests) a machine also waits out the whole response window before it sends
+//! the next request, so a slow slave's late duplicate cannot be taken for the answer to the next
+//! request; [`ResponsePolicy::FirstAnswer`] moves on at the first answer and is about twice as
+//! fast, which is safe when every slave answers within one frame time of the first (slave
+//! frames on 0x7E4 win arbitration against the master's 0x7E5, so an answer already queued in a
+//! slave's controller always precedes the next request).
+
+use can_frame::{CanFrame, Duration, Instant};
+use heapless::Deque;
+
+use crate::address::{BitTiming, LssAddress};
+use crate::error::{LssError, Service};
+use crate::wire::{Request, Response};
+
+/// When a machine that may get several identical answers moves on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum ResponsePolicy {
+    /// Wait for the whole response timeout even after an answer (robust against late duplicates).
+    #[default]
+    WholeWindow,
+    /// Move on at the first answer.
+    FirstAnswer,
+}
+
+/// What a master machine reports.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum MasterEvent<T> {
+    /// Activate bit timing was sent: the master's own CAN controller must switch to
+    /// `bit_timing` at `at` (after the switch delay), as the slaves do.
+    SwitchBitRate {
+        /// The new bit timing.
+        bit_timing: BitTiming,
+        /// When to switch.
+        at: Instant,
+    },
+    /// A scan found a slave.
+    Found(LssAddress),
+    /// The assign workflow finished with one slave (assigned or failed).
+    Assigned(crate::assign::AssignEntry),
+    /// The machine finished.
+    Done(Result<T, LssError>),
+}
+
+/// The sans-IO interface of every LSS master machine; see the module docs for the call order.
+pub trait LssMachine {
+    /// What the machine produces when it finishes successfully.
+    type Output;
+
+    /// A response received on COB-ID 0x7E4.
+    fn handle_response(&mut self, now: Instant, response: &Response);
+
+    /// Time passed; call when [`poll_timeout`](Self::poll_timeout) is due (early calls are
+    /// harmless).
+    fn handle_timeout(&mut self, now: Instant);
+
+    /// The next request to transmit on COB-ID 0x7E5.
+    #[must_use]
+    fn poll_transmit(&mut self) -> Option<Request>;
+
+    /// When [`handle_timeout`](Self::handle_timeout) must be called next, if at all.
+    #[must_use]
+    fn poll_timeout(&self) -> Option<Instant>;
+
+    /// The next event; [`MasterEvent::Done`] comes last.
+    #[must_use]
+    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>>;
+
+    /// Whether the machine has finished (its `Done` event may still be waiting to be polled).
+    fn is_finished(&self) -> bool;
+
+    /// Feeds a received frame: LSS responses (data frames on 0x7E4) go to
+    /// [`handle_response`](Self::handle_response); anything else is ignored. Returns whether the
+    /// frame was an LSS response.
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame) -> bool {
+        match Response::from_frame(frame) {
+            Ok(r) => {
+                self.handle_response(now, &r);
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame on COB-ID 0x7E5.
+    #[must_use]
+    fn poll_transmit_frame(&mut self) -> Option<CanFrame> {
+        self.poll_transmit().map(|r| r.to_frame())
+    }
+}
+
+/// Progress events (oldest dropped when nobody polls) and the final result.
+#[derive(Debug, Clone)]
+pub(crate) struct Events<T> {
+    queue: Deque<MasterEvent<T>, 4>,
+    done: Option<Result<T, LssError>>,
+}
+
+impl<T> Events<T> {
+    pub(crate) const fn new() -> Self {
+        Self {
+            queue: Deque::new(),
+            done: None,
+        }
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.queue.clear();
+        self.done = None;
+    }
+
+    /// A progress event; drops the oldest one when the queue is full.
+    pub(crate) fn push(&mut self, event: MasterEvent<T>) {
+        if self.queue.is_full() {
+            let _ = self.queue.pop_front();
+        }
+        let _ = self.queue.push_back(event);
+    }
+
+    pub(crate) fn finish(&mut self, result: Result<T, LssError>) {
+        self.done = Some(result);
+    }
+
+    pub(crate) fn poll(&mut self) -> Option<MasterEvent<T>> {
+        self.queue
+            .pop_front()
+            .or_else(|| self.done.take().map(MasterEvent::Done))
+    }
+}
+
+/// How an awaited exchange ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Reply {
+    /// At least one matching response.
+    Answer(Response),
+    /// The response window closed without a matching response.
+    Silence,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Wait {
+    cs: u8,
+    deadline: Instant,
+    collect: bool,
+    got: Option<Response>,
+}
+
+/// At most this many requests are queued at once (switch selective is 4, an identify probe 6).
+const QUEUE: usize = 16;
+
+/// Queued requests plus at most one awaited response.
+#[derive(Debug, Clone)]
+pub(crate) struct Exchange {
+    queue: Deque<Request, QUEUE>,
+    wait: Option<Wait>,
+}
+
+impl Exchange {
+    pub(crate) const fn new() -> Self {
+        Self {
+            queue: Deque::new(),
+            wait: None,
+        }
+    }
+
+    /// Queues a request that has no answer.
+    pub(crate) fn send(&mut self, req: Request) {
+        // The machines never queue more than a handful of requests between two polls; a full
+        // queue would be a bug in this crate, not something bus input can cause.
+        let pushed = self.queue.push_back(req);
+        debug_assert!(pushed.is_ok(), "LSS request queue overflow");
+    }
+
+    /// Queues `req` and awaits a response with command specifier `cs` until `now + timeout`.
+    /// `collect`: keep the window open after the first answer.
+    pub(crate) fn ask(
+        &mut self,
+        now: Instant,
+        req: Request,
+        cs: u8,
+        timeout: Duration,
+        collect: bool,
+    ) {
+        self.send(req);
+        self.wait = Some(Wait {
+            cs,
+            deadline: now + timeout,
+            collect,
+            got: None,
+        });
+    }
+
+    pub(crate) fn poll_transmit(&mut self) -> Option<Request> {
+        self.queue.pop_front()
+    }
+
+    pub(crate) fn poll_timeout(&self) -> Option<Instant> {
+        self.wait.as_ref().map(|w| w.deadline)
+    }
+
+    #[cfg(test)]
+    pub(crate) fn is_waiting(&self) -> bool {
+        self.wait.is_some()
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.queue.clear();
+        self.wait = None;
+    }
+
+    /// A response arrived. Returns the reply when the exchange is over.
+    pub(crate) fn on_response(&mut self, resp: &Response) -> Option<Reply> {
+        if !self.queue.is_empty() {
+            // Our request is not on the bus yet: this answers an earlier one.
+            return None;
+        }
+        let wait = self.wait.as_mut()?;
+        if resp.cs() != wait.cs {
+            return None;
+        }
+        if wait.collect {
+            if wait.got.is_none() {
+                wait.got = Some(*resp);
+            }
+            None
+        } else {
+            self.wait = None;
+            Some(Reply::Answer(*resp))
+        }
+    }
+
+    /// Time passed. Returns the reply when the window closed.
+    pub(crate) fn on_timeout(&mut self, now: Instant) -> Option<Reply> {
+        let wait = self.wait?;
+        if now < wait.deadline {
+            return None;
+        }
+        self.wait = None;
+        Some(match wait.got {
+            Some(r) => Reply::Answer(r),
+            None => Reply::Silence,
+        })
+    }
+}
+
+/// The error for a closed window without an answer.
+pub(crate) fn timeout(service: Service, timeout: Duration) -> LssError {
+    LssError::Timeout { service, timeout }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::{Mode, cs};
+
+    #[test]
+    fn stale_answers_are_ignored_until_the_request_left() {
+        let mut ex = Exchange::new();
+        let t0 = Instant::from_millis(10);
+        ex.ask(
+            t0,
+            Request::StoreConfiguration,
+            cs::STORE_CONFIGURATION,
+            Duration::from_millis(5),
+            false,
+        );
+        let ok = Response::StoreConfiguration(crate::wire::ConfigStatus::OK);
+        assert_eq!(ex.on_response(&ok), None, "request still queued");
+        assert_eq!(ex.poll_transmit(), Some(Request::StoreConfiguration));
+        assert_eq!(ex.on_response(&Response::IdentifySlave), None, "other cs");
+        assert_eq!(ex.on_response(&ok), Some(Reply::Answer(ok)));
+        assert!(!ex.is_waiting());
+        assert_eq!(ex.on_response(&ok), None, "duplicate after the end");
+    }
+
+    #[test]
+    fn collecting_windows_close_on_time() {
+        let mut ex = Exchange::new();
+        let t0 = Instant::from_millis(0);
+        ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        ex.ask(
+            t0,
+            Request::IdentifyNonConfigured,
+            cs::IDENTIFY_NON_CONFIGURED_SLAVE,
+            Duration::from_millis(5),
+            true,
+        );
+        assert_eq!(ex.poll_timeout(), Some(Instant::from_millis(5)));
+        while ex.poll_transmit().is_some() {}
+        let r = Response::IdentifyNonConfiguredSlave;
+        assert_eq!(ex.on_response(&r), None);
+        assert_eq!(ex.on_response(&r), None);
+        assert_eq!(ex.on_timeout(Instant::from_millis(4)), None);
+        assert_eq!(
+            ex.on_timeout(Instant::from_millis(5)),
+            Some(Reply::Answer(r))
+        );
+        ex.ask(
+            t0,
+            Request::IdentifyNonConfigured,
+            cs::IDENTIFY_NON_CONFIGURED_SLAVE,
+            Duration::from_millis(5),
+            true,
+        );
+        assert_eq!(ex.on_timeout(Instant::from_millis(6)), Some(Reply::Silence));
+    }
+}

@@ -1,0 +1,895 @@
+//! The LSS messages of CiA 305 §6 (protocols): every request a master sends on COB-ID 0x7E5 and
+//! every response a slave sends on 0x7E4.
+//!
+//! Each message is exactly eight data bytes: the command specifier (`cs`) in byte 0, service
+//! data after it, unused bytes zero. Integers are little-endian.
+//!
+//! | cs          | request (0x7E5)                                   | response (0x7E4)         |
+//! |-------------|---------------------------------------------------|--------------------------|
+//! | 0x04        | switch mode global `[cs, mode]`                   | none                     |
+//! | 0x11        | configure node-ID `[cs, id]`                      | `[cs, error, spec]`      |
+//! | 0x13        | configure bit timing `[cs, table, index]`         | `[cs, error, spec]`      |
+//! | 0x15        | activate bit timing `[cs, delay lo, delay hi]`    | none                     |
+//! | 0x17        | store configuration `[cs]`                        | `[cs, error, spec]`      |
+//! | 0x40..=0x43 | switch mode selective, u32 vendor/product/rev/serial | 0x44 after the serial |
+//! | 0x46..=0x4B | identify remote slave, u32 vendor, product, rev low/high, serial low/high | 0x4F |
+//! | 0x4C        | identify non-configured remote slave              | 0x50                     |
+//! | 0x51        | Fastscan `[cs, id u32, bit check, LSSSub, LSSNext]` | 0x4F                   |
+//! | 0x5A..=0x5D | inquire vendor/product/revision/serial            | same cs, u32             |
+//! | 0x5E        | inquire node-ID                                   | `[cs, node-ID]`          |
+//!
+//! Two levels, as elsewhere in the stack: a private `field` module holds the offsets, and the
+//! typed [`Request`] / [`Response`] have a total `parse` (never panics: bytes become a value or a
+//! [`DecodeError`]) and an `emit` into an eight-byte buffer. Unknown command specifiers are kept
+//! with their seven data bytes, so decode-then-encode loses nothing. Reserved bytes of known
+//! messages are ignored on decode and sent as zero.
+
+use can_frame::cob::{LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
+use can_frame::{CanFrame, CanId};
+
+use crate::address::{AddressPart, BitTiming};
+
+/// Byte offsets inside the eight data bytes.
+mod field {
+    pub(super) const CS: usize = 0;
+    /// A UNSIGNED32 (identity value, Fastscan IDNumber) spans bytes 1..=4.
+    pub(super) const U32: core::ops::Range<usize> = 1..5;
+    /// Switch mode global mode, configure node-ID value, inquire node-ID value.
+    pub(super) const BYTE1: usize = 1;
+    /// Error code of a configuration response; table selector of configure bit timing.
+    pub(super) const ERROR: usize = 1;
+    /// Error extension of a configuration response; table index of configure bit timing.
+    pub(super) const SPEC: usize = 2;
+    pub(super) const BIT_CHECK: usize = 5;
+    pub(super) const LSS_SUB: usize = 6;
+    pub(super) const LSS_NEXT: usize = 7;
+}
+
+/// Command specifiers (CiA 305 §6).
+pub mod cs {
+    /// Switch mode global.
+    pub const SWITCH_MODE_GLOBAL: u8 = 0x04;
+    /// Configure node-ID.
+    pub const CONFIGURE_NODE_ID: u8 = 0x11;
+    /// Configure bit timing parameters.
+    pub const CONFIGURE_BIT_TIMING: u8 = 0x13;
+    /// Activate bit timing parameters.
+    pub const ACTIVATE_BIT_TIMING: u8 = 0x15;
+    /// Store configuration.
+    pub const STORE_CONFIGURATION: u8 = 0x17;
+    /// Switch mode selective, vendor-ID (product 0x41, revision 0x42, serial 0x43 follow).
+    pub const SWITCH_SELECTIVE_VENDOR: u8 = 0x40;
+    /// Switch mode selective response.
+    pub const SWITCH_SELECTIVE_RESPONSE: u8 = 0x44;
+    /// Identify remote slave, vendor-ID (product 0x47, revision low/high 0x48/0x49, serial
+    /// low/high 0x4A/0x4B follow).
+    pub const IDENTIFY_REMOTE_VENDOR: u8 = 0x46;
+    /// Identify non-configured remote slave.
+    pub const IDENTIFY_NON_CONFIGURED: u8 = 0x4C;
+    /// Identify slave (the response to identify remote slave and to Fastscan).
+    pub const IDENTIFY_SLAVE: u8 = 0x4F;
+    /// Identify non-configured slave (the response to 0x4C).
+    pub const IDENTIFY_NON_CONFIGURED_SLAVE: u8 = 0x50;
+    /// LSS Fastscan.
+    pub const FASTSCAN: u8 = 0x51;
+    /// Inquire identity vendor-ID (product 0x5B, revision 0x5C, serial 0x5D follow).
+    pub const INQUIRE_VENDOR: u8 = 0x5A;
+    /// Inquire node-ID.
+    pub const INQUIRE_NODE_ID: u8 = 0x5E;
+}
+
+/// The node-ID value that means "unconfigured" in configure node-ID and inquire node-ID.
+pub const UNCONFIGURED_NODE_ID: u8 = 0xFF;
+
+/// The Fastscan bit-check value that asks "is any unconfigured slave there?" and resets every
+/// slave's scan position.
+pub const BIT_CHECK_CONFIRM: u8 = 0x80;
+
+/// Why bytes are not an LSS message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum DecodeError {
+    /// LSS messages are always eight bytes.
+    #[error("an LSS message has 8 data bytes, not {0}")]
+    Length(usize),
+    /// The frame is not on the LSS COB-ID of this direction.
+    #[error("COB-ID {0:#05X} is not the expected LSS COB-ID")]
+    WrongCobId(u32),
+    /// A remote frame.
+    #[error("LSS messages are never remote frames")]
+    Remote,
+}
+
+/// The two states of an LSS slave (CiA 305 §5.2), as carried by switch mode global.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// LSS waiting state (0).
+    Waiting,
+    /// LSS configuration state (1).
+    Configuration,
+    /// A reserved mode value, kept for lossless decoding.
+    Unknown(u8),
+}
+
+impl Mode {
+    /// The wire value.
+    pub const fn raw(self) -> u8 {
+        match self {
+            Self::Waiting => 0,
+            Self::Configuration => 1,
+            Self::Unknown(v) => v,
+        }
+    }
+
+    /// The mode for a wire value.
+    pub const fn from_raw(v: u8) -> Self {
+        match v {
+            0 => Self::Waiting,
+            1 => Self::Configuration,
+            v => Self::Unknown(v),
+        }
+    }
+}
+
+/// Which value identify remote slave (0x46..=0x4B) carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum IdentifyField {
+    /// Vendor-ID (0x46), must be equal.
+    Vendor,
+    /// Product code (0x47), must be equal.
+    Product,
+    /// Lowest revision number (0x48).
+    RevisionLow,
+    /// Highest revision number (0x49).
+    RevisionHigh,
+    /// Lowest serial number (0x4A).
+    SerialLow,
+    /// Highest serial number (0x4B); the last message, slaves in range answer 0x4F.
+    SerialHigh,
+}
+
+impl IdentifyField {
+    /// In protocol order.
+    pub const ALL: [IdentifyField; 6] = [
+        Self::Vendor,
+        Self::Product,
+        Self::RevisionLow,
+        Self::RevisionHigh,
+        Self::SerialLow,
+        Self::SerialHigh,
+    ];
+
+    const fn offset(self) -> u8 {
+        match self {
+            Self::Vendor => 0,
+            Self::Product => 1,
+            Self::RevisionLow => 2,
+            Self::RevisionHigh => 3,
+            Self::SerialLow => 4,
+            Self::SerialHigh => 5,
+        }
+    }
+
+    /// The command specifier.
+    pub const fn cs(self) -> u8 {
+        cs::IDENTIFY_REMOTE_VENDOR + self.offset()
+    }
+}
+
+/// The status carried by the configure node-ID, configure bit timing and store configuration
+/// responses: an error code and a manufacturer-specific extension, kept raw so that decoding
+/// is lossless. [`ConfigStatus::result`] gives the typed meaning.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct ConfigStatus {
+    /// 0 = success, 1 = not supported / invalid, 2 = storage media error (store only),
+    /// 255 = see `extension`, other values reserved.
+    pub code: u8,
+    /// Manufacturer-specific error, meaningful when `code` is 255.
+    pub extension: u8,
+}
+
+impl ConfigStatus {
+    /// Success.
+    pub const OK: ConfigStatus = ConfigStatus {
+        code: 0,
+        extension: 0,
+    };
+
+    /// The status that reports `error`.
+    pub const fn from_error(error: ResponseError) -> Self {
+        match error {
+            ResponseError::NotSupported => Self {
+                code: 1,
+                extension: 0,
+            },
+            ResponseError::StorageMediaAccess => Self {
+                code: 2,
+                extension: 0,
+            },
+            ResponseError::VendorSpecific(extension) => Self {
+                code: 255,
+                extension,
+            },
+            ResponseError::Reserved { code, extension } => Self { code, extension },
+        }
+    }
+
+    /// `Ok` for code 0, otherwise what the slave reported.
+    pub const fn result(self) -> Result<(), ResponseError> {
+        match self.code {
+            0 => Ok(()),
+            1 => Err(ResponseError::NotSupported),
+            2 => Err(ResponseError::StorageMediaAccess),
+            255 => Err(ResponseError::VendorSpecific(self.extension)),
+            code => Err(ResponseError::Reserved {
+                code,
+                extension: self.extension,
+            }),
+        }
+    }
+}
+
+/// What a slave said no with (CiA 305 §6.4.2, §6.4.3, §6.4.5): the peer's answer, never a local
+/// failure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
+#[non_exhaustive]
+pub enum ResponseError {
+    /// Code 1: configure node-ID — node-ID out of range; configure bit timing — bit timing not
+    /// supported; store configuration — store not supported.
+    #[error("not supported or invalid (error code 1)")]
+    NotSupported,
+    /// Code 2 (store configuration): storage media access error.
+    #[error("storage media access error (error code 2)")]
+    StorageMediaAccess,
+    /// Code 255: a manufacturer-specific error, given by the extension byte.
+    #[error("manufacturer-specific error {0:#04X} (error code 255)")]
+    VendorSpecific(u8),
+    /// A code the standard reserves.
+    #[error("reserved error code {code} (extension {extension:#04X})")]
+    Reserved {
+        /// The error code.
+        code: u8,
+        /// The extension byte.
+        extension: u8,
+    },
+}
+
+/// A master-to-slave LSS message (COB-ID 0x7E5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Request {
+    /// Switch mode global (0x04): every slave enters `mode`.
+    SwitchModeGlobal(Mode),
+    /// Switch mode selective (0x40..=0x43): one part of the address; a slave that matched all
+    /// four in order enters configuration and answers 0x44.
+    SwitchModeSelective(AddressPart, u32),
+    /// Configure node-ID (0x11): 1..=127, or [`UNCONFIGURED_NODE_ID`]; other values are sent as
+    /// given (the slave answers "invalid").
+    ConfigureNodeId(u8),
+    /// Configure bit timing parameters (0x13).
+    ConfigureBitTiming(BitTiming),
+    /// Activate bit timing parameters (0x15), switch delay in milliseconds.
+    ActivateBitTiming {
+        /// Each slave waits this long, switches, and waits this long again before sending.
+        delay_ms: u16,
+    },
+    /// Store configuration (0x17).
+    StoreConfiguration,
+    /// Inquire identity vendor-ID / product code / revision / serial (0x5A..=0x5D).
+    InquireIdentity(AddressPart),
+    /// Inquire node-ID (0x5E).
+    InquireNodeId,
+    /// Identify remote slave (0x46..=0x4B).
+    IdentifyRemoteSlave(IdentifyField, u32),
+    /// Identify non-configured remote slave (0x4C).
+    IdentifyNonConfigured,
+    /// LSS Fastscan (0x51). Fields raw so that any value round-trips; see [`BIT_CHECK_CONFIRM`]
+    /// and [`AddressPart`] for their meaning.
+    Fastscan {
+        /// IDNumber: the value compared with the slave's address part `lss_sub`.
+        id_number: u32,
+        /// BitChecked: bits `bit_check..=31` are compared (0..=31), or 0x80 = confirm/reset.
+        bit_check: u8,
+        /// LSSSub: the address part compared (0..=3).
+        lss_sub: u8,
+        /// LSSNext: the part a matching slave compares next (0..=3).
+        lss_next: u8,
+    },
+    /// A command specifier this crate does not know, with the seven bytes after it.
+    Unknown {
+        /// Command specifier.
+        cs: u8,
+        /// Bytes 1..=7.
+        data: [u8; 7],
+    },
+}
+
+/// A slave-to-master LSS message (COB-ID 0x7E4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Response {
+    /// Switch mode selective response (0x44).
+    SwitchModeSelective,
+    /// Configure node-ID response (0x11).
+    ConfigureNodeId(ConfigStatus),
+    /// Configure bit timing response (0x13).
+    ConfigureBitTiming(ConfigStatus),
+    /// Store configuration response (0x17).
+    StoreConfiguration(ConfigStatus),
+    /// Inquire identity response (0x5A..=0x5D).
+    InquireIdentity(AddressPart, u32),
+    /// Inquire node-ID response (0x5E): the active node-ID, 0xFF when unconfigured.
+    InquireNodeId(u8),
+    /// Identify slave (0x4F): answer to identify remote slave and to Fastscan.
+    IdentifySlave,
+    /// Identify non-configured slave (0x50).
+    IdentifyNonConfiguredSlave,
+    /// A command specifier this crate does not know, with the seven bytes after it.
+    Unknown {
+        /// Command specifier.
+        cs: u8,
+        /// Bytes 1..=7.
+        data: [u8; 7],
+    },
+}
+
+/// The 8 bytes of `data`, or the length error. The only place that looks at the length.
+fn eight(data: &[u8]) -> Result<&[u8; 8], DecodeError> {
+    data.try_into().map_err(|_| DecodeError::Length(data.len()))
+}
+
+fn get_u32(b: &[u8; 8]) -> u32 {
+    let [_, b1, b2, b3, b4, ..] = *b;
+    u32::from_le_bytes([b1, b2, b3, b4])
+}
+
+fn rest(b: &[u8; 8]) -> [u8; 7] {
+    let [_, r @ ..] = *b;
+    r
+}
+
+fn put_u32(buf: &mut [u8; 8], v: u32) {
+    buf[field::U32].copy_from_slice(&v.to_le_bytes());
+}
+
+fn status(b: &[u8; 8]) -> ConfigStatus {
+    ConfigStatus {
+        code: b[field::ERROR],
+        extension: b[field::SPEC],
+    }
+}
+
+fn put_status(buf: &mut [u8; 8], s: ConfigStatus) {
+    buf[field::ERROR] = s.code;
+    buf[field::SPEC] = s.extension;
+}
+
+fn check_frame(frame: &CanFrame, cob: u16) -> Result<&[u8], DecodeError> {
+    if frame.cob_id() != Some(cob) {
+        return Err(DecodeError::WrongCobId(frame.id().as_raw()));
+    }
+    if frame.is_remote() {
+        return Err(DecodeError::Remote);
+    }
+    Ok(frame.data())
+}
+
+const MASTER_ID: CanId = match CanId::standard(LSS_MASTER_TO_SLAVE) {
+    Ok(id) => id,
+    Err(_) => panic!("0x7E5 is a standard identifier"),
+};
+const SLAVE_ID: CanId = match CanId::standard(LSS_SLAVE_TO_MASTER) {
+    Ok(id) => id,
+    Err(_) => panic!("0x7E4 is a standard identifier"),
+};
+
+impl Request {
+    /// Decodes eight data bytes. Never panics.
+    pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
+        let b = eight(data)?;
+        let c = b[field::CS];
+        Ok(match c {
+            cs::SWITCH_MODE_GLOBAL => Self::SwitchModeGlobal(Mode::from_raw(b[field::BYTE1])),
+            cs::CONFIGURE_NODE_ID => Self::ConfigureNodeId(b[field::BYTE1]),
+            cs::CONFIGURE_BIT_TIMING => Self::ConfigureBitTiming(BitTiming {
+                table: b[field::ERROR],
+                index: b[field::SPEC],
+            }),
+            cs::ACTIVATE_BIT_TIMING => Self::ActivateBitTiming {
+                delay_ms: u16::from_le_bytes([b[1], b[2]]),
+            },
+            cs::STORE_CONFIGURATION => Self::StoreConfiguration,
+            0x40..=0x43 => match AddressPart::from_index(c - cs::SWITCH_SELECTIVE_VENDOR) {
+                Some(part) => Self::SwitchModeSelective(part, get_u32(b)),
+                None => Self::Unknown {
+                    cs: c,
+                    data: rest(b),
+                },
+            },
+            0x46..=0x4B => {
+                let field = IdentifyField::ALL[usize::from(c - cs::IDENTIFY_REMOTE_VENDOR) % 6];
+                Self::IdentifyRemoteSlave(field, get_u32(b))
+            }
+            cs::IDENTIFY_NON_CONFIGURED => Self::IdentifyNonConfigured,
+            cs::FASTSCAN => Self::Fastscan {
+                id_number: get_u32(b),
+                bit_check: b[field::BIT_CHECK],
+                lss_sub: b[field::LSS_SUB],
+                lss_next: b[field::LSS_NEXT],
+            },
+            0x5A..=0x5D => match AddressPart::from_index(c - cs::INQUIRE_VENDOR) {
+                Some(part) => Self::InquireIdentity(part),
+                None => Self::Unknown {
+                    cs: c,
+                    data: rest(b),
+                },
+            },
+            cs::INQUIRE_NODE_ID => Self::InquireNodeId,
+            _ => Self::Unknown {
+                cs: c,
+                data: rest(b),
+            },
+        })
+    }
+
+    /// The command specifier.
+    pub const fn cs(&self) -> u8 {
+        match *self {
+            Self::SwitchModeGlobal(_) => cs::SWITCH_MODE_GLOBAL,
+            Self::SwitchModeSelective(part, _) => cs::SWITCH_SELECTIVE_VENDOR + part.index(),
+            Self::ConfigureNodeId(_) => cs::CONFIGURE_NODE_ID,
+            Self::ConfigureBitTiming(_) => cs::CONFIGURE_BIT_TIMING,
+            Self::ActivateBitTiming { .. } => cs::ACTIVATE_BIT_TIMING,
+            Self::StoreConfiguration => cs::STORE_CONFIGURATION,
+            Self::InquireIdentity(part) => cs::INQUIRE_VENDOR + part.index(),
+            Self::InquireNodeId => cs::INQUIRE_NODE_ID,
+            Self::IdentifyRemoteSlave(field, _) => field.cs(),
+            Self::IdentifyNonConfigured => cs::IDENTIFY_NON_CONFIGURED,
+            Self::Fastscan { .. } => cs::FASTSCAN,
+            Self::Unknown { cs, .. } => cs,
+        }
+    }
+
+    /// Encodes into eight bytes, unused bytes zero.
+    pub fn emit(&self) -> [u8; 8] {
+        let mut buf = [0u8; 8];
+        buf[field::CS] = self.cs();
+        match *self {
+            Self::SwitchModeGlobal(mode) => buf[field::BYTE1] = mode.raw(),
+            Self::SwitchModeSelective(_, v) | Self::IdentifyRemoteSlave(_, v) => {
+                put_u32(&mut buf, v)
+            }
+            Self::ConfigureNodeId(id) => buf[field::BYTE1] = id,
+            Self::ConfigureBitTiming(t) => {
+                buf[field::ERROR] = t.table;
+                buf[field::SPEC] = t.index;
+            }
+            Self::ActivateBitTiming { delay_ms } => {
+                buf[1..3].copy_from_slice(&delay_ms.to_le_bytes())
+            }
+            Self::Fastscan {
+                id_number,
+                bit_check,
+                lss_sub,
+                lss_next,
+            } => {
+                put_u32(&mut buf, id_number);
+                buf[field::BIT_CHECK] = bit_check;
+                buf[field::LSS_SUB] = lss_sub;
+                buf[field::LSS_NEXT] = lss_next;
+            }
+            Self::Unknown { data, .. } => buf[1..].copy_from_slice(&data),
+            Self::StoreConfiguration
+            | Self::InquireIdentity(_)
+            | Self::InquireNodeId
+            | Self::IdentifyNonConfigured => {}
+        }
+        buf
+    }
+
+    /// The frame on COB-ID 0x7E5.
+    pub fn to_frame(&self) -> CanFrame {
+        CanFrame::from_array(MASTER_ID, self.emit())
+    }
+
+    /// Decodes a frame, checking that it is a data frame on COB-ID 0x7E5.
+    pub fn from_frame(frame: &CanFrame) -> Result<Self, DecodeError> {
+        Self::parse(check_frame(frame, LSS_MASTER_TO_SLAVE)?)
+    }
+}
+
+impl Response {
+    /// Decodes eight data bytes. Never panics.
+    pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
+        let b = eight(data)?;
+        let c = b[field::CS];
+        Ok(match c {
+            cs::SWITCH_SELECTIVE_RESPONSE => Self::SwitchModeSelective,
+            cs::CONFIGURE_NODE_ID => Self::ConfigureNodeId(status(b)),
+            cs::CONFIGURE_BIT_TIMING => Self::ConfigureBitTiming(status(b)),
+            cs::STORE_CONFIGURATION => Self::StoreConfiguration(status(b)),
+            0x5A..=0x5D => match AddressPart::from_index(c - cs::INQUIRE_VENDOR) {
+                Some(part) => Self::InquireIdentity(part, get_u32(b)),
+                None => Self::Unknown {
+                    cs: c,
+                    data: rest(b),
+                },
+            },
+            cs::INQUIRE_NODE_ID => Self::InquireNodeId(b[field::BYTE1]),
+            cs::IDENTIFY_SLAVE => Self::IdentifySlave,
+            cs::IDENTIFY_NON_CONFIGURED_SLAVE => Self::IdentifyNonConfiguredSlave,
+            _ => Self::Unknown {
+                cs: c,
+                data: rest(b),
+            },
+        })
+    }
+
+    /// The command specifier.
+    pub const fn cs(&self) -> u8 {
+        match *self {
+            Self::SwitchModeSelective => cs::SWITCH_SELECTIVE_RESPONSE,
+            Self::ConfigureNodeId(_) => cs::CONFIGURE_NODE_ID,
+            Self::ConfigureBitTiming(_) => cs::CONFIGURE_BIT_TIMING,
+            Self::StoreConfiguration(_) => cs::STORE_CONFIGURATION,
+            Self::InquireIdentity(part, _) => cs::INQUIRE_VENDOR + part.index(),
+            Self::InquireNodeId(_) => cs::INQUIRE_NODE_ID,
+            Self::IdentifySlave => cs::IDENTIFY_SLAVE,
+            Self::IdentifyNonConfiguredSlave => cs::IDENTIFY_NON_CONFIGURED_SLAVE,
+            Self::Unknown { cs, .. } => cs,
+        }
+    }
+
+    /// Encodes into eight bytes, unused bytes zero.
+    pub fn emit(&self) -> [u8; 8] {
+        let mut buf = [0u8; 8];
+        buf[field::CS] = self.cs();
+        match *self {
+            Self::ConfigureNodeId(s)
+            | Self::ConfigureBitTiming(s)
+            | Self::StoreConfiguration(s) => put_status(&mut buf, s),
+            Self::InquireIdentity(_, v) => put_u32(&mut buf, v),
+            Self::InquireNodeId(id) => buf[field::BYTE1] = id,
+            Self::Unknown { data, .. } => buf[1..].copy_from_slice(&data),
+            Self::SwitchModeSelective | Self::IdentifySlave | Self::IdentifyNonConfiguredSlave => {}
+        }
+        buf
+    }
+
+    /// The frame on COB-ID 0x7E4.
+    pub fn to_frame(&self) -> CanFrame {
+        CanFrame::from_array(SLAVE_ID, self.emit())
+    }
+
+    /// Decodes a frame, checking that it is a data frame on COB-ID 0x7E4.
+    pub fn from_frame(frame: &CanFrame) -> Result<Self, DecodeError> {
+        Self::parse(check_frame(frame, LSS_SLAVE_TO_MASTER)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::address::BitRate;
+    use proptest::prelude::*;
+    use std::vec;
+
+    fn req(r: Request, bytes: [u8; 8]) {
+        assert_eq!(r.emit(), bytes, "{r:?}");
+        assert_eq!(Request::parse(&bytes), Ok(r));
+        let f = r.to_frame();
+        assert_eq!(f.cob_id(), Some(0x7E5));
+        assert_eq!(f.dlc(), 8);
+        assert_eq!(Request::from_frame(&f), Ok(r));
+    }
+
+    fn resp(r: Response, bytes: [u8; 8]) {
+        assert_eq!(r.emit(), bytes, "{r:?}");
+        assert_eq!(Response::parse(&bytes), Ok(r));
+        let f = r.to_frame();
+        assert_eq!(f.cob_id(), Some(0x7E4));
+        assert_eq!(Response::from_frame(&f), Ok(r));
+    }
+
+    #[test]
+    fn seed_examples() {
+        // Bürkert manual §2.3.1 steps 1..5.
+        req(
+            Request::SwitchModeGlobal(Mode::Configuration),
+            [0x04, 1, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::ConfigureBitTiming(BitRate::Kbit125.into()),
+            [0x13, 0, 4, 0, 0, 0, 0, 0],
+        );
+        resp(
+            Response::ConfigureBitTiming(ConfigStatus::OK),
+            [0x13, 0, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::ActivateBitTiming { delay_ms: 0x1234 },
+            [0x15, 0x34, 0x12, 0, 0, 0, 0, 0],
+        );
+        req(Request::ConfigureNodeId(5), [0x11, 5, 0, 0, 0, 0, 0, 0]);
+        resp(
+            Response::ConfigureNodeId(ConfigStatus {
+                code: 1,
+                extension: 0,
+            }),
+            [0x11, 1, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::SwitchModeGlobal(Mode::Waiting),
+            [0x04, 0, 0, 0, 0, 0, 0, 0],
+        );
+    }
+
+    #[test]
+    fn every_request() {
+        req(
+            Request::SwitchModeSelective(AddressPart::Vendor, 0x0000_0078),
+            [0x40, 0x78, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::SwitchModeSelective(AddressPart::Product, 0x1122_3344),
+            [0x41, 0x44, 0x33, 0x22, 0x11, 0, 0, 0],
+        );
+        req(
+            Request::SwitchModeSelective(AddressPart::Revision, 2),
+            [0x42, 2, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::SwitchModeSelective(AddressPart::Serial, 0xDEAD_BEEF),
+            [0x43, 0xEF, 0xBE, 0xAD, 0xDE, 0, 0, 0],
+        );
+        req(
+            Request::ConfigureNodeId(0xFF),
+            [0x11, 0xFF, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::ConfigureBitTiming(BitTiming {
+                table: 0x80,
+                index: 3,
+            }),
+            [0x13, 0x80, 3, 0, 0, 0, 0, 0],
+        );
+        req(Request::StoreConfiguration, [0x17, 0, 0, 0, 0, 0, 0, 0]);
+        req(
+            Request::InquireIdentity(AddressPart::Vendor),
+            [0x5A, 0, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::InquireIdentity(AddressPart::Product),
+            [0x5B, 0, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::InquireIdentity(AddressPart::Revision),
+            [0x5C, 0, 0, 0, 0, 0, 0, 0],
+        );
+        req(
+            Request::InquireIdentity(AddressPart::Serial),
+            [0x5D, 0, 0, 0, 0, 0, 0, 0],
+        );
+        req(Request::InquireNodeId, [0x5E, 0, 0, 0, 0, 0, 0, 0]);
+        let idents = [0x46, 0x47, 0x48, 0x49, 0x4A, 0x4B];
+        for (f, c) in IdentifyField::ALL.iter().zip(idents) {
+            req(
+                Request::IdentifyRemoteSlave(*f, 0x0102_0304),
+                [c, 4, 3, 2, 1, 0, 0, 0],
+            );
+        }
+        req(Request::IdentifyNonConfigured, [0x4C, 0, 0, 0, 0, 0, 0, 0]);
+        req(
+            Request::Fastscan {
+                id_number: 0,
+                bit_check: 0x80,
+                lss_sub: 0,
+                lss_next: 0,
+            },
+            [0x51, 0, 0, 0, 0, 0x80, 0, 0],
+        );
+        req(
+            Request::Fastscan {
+                id_number: 0x8000_0001,
+                bit_check: 31,
+                lss_sub: 3,
+                lss_next: 0,
+            },
+            [0x51, 1, 0, 0, 0x80, 31, 3, 0],
+        );
+        req(
+            Request::Unknown {
+                cs: 0x99,
+                data: [1, 2, 3, 4, 5, 6, 7],
+            },
+            [0x99, 1, 2, 3, 4, 5, 6, 7],
+        );
+        req(
+            Request::SwitchModeGlobal(Mode::Unknown(7)),
+            [0x04, 7, 0, 0, 0, 0, 0, 0],
+        );
+    }
+
+    #[test]
+    fn every_response() {
+        resp(Response::SwitchModeSelective, [0x44, 0, 0, 0, 0, 0, 0, 0]);
+        resp(
+            Response::StoreConfiguration(ConfigStatus {
+                code: 2,
+                extension: 0,
+            }),
+            [0x17, 2, 0, 0, 0, 0, 0, 0],
+        );
+        resp(
+            Response::StoreConfiguration(ConfigStatus {
+                code: 255,
+                extension: 0x42,
+            }),
+            [0x17, 255, 0x42, 0, 0, 0, 0, 0],
+        );
+        resp(
+            Response::InquireIdentity(AddressPart::Serial, 0x0A0B_0C0D),
+            [0x5D, 0x0D, 0x0C, 0x0B, 0x0A, 0, 0, 0],
+        );
+        resp(
+            Response::InquireNodeId(0x7F),
+            [0x5E, 0x7F, 0, 0, 0, 0, 0, 0],
+        );
+        resp(Response::IdentifySlave, [0x4F, 0, 0, 0, 0, 0, 0, 0]);
+        resp(
+            Response::IdentifyNonConfiguredSlave,
+            [0x50, 0, 0, 0, 0, 0, 0, 0],
+        );
+        resp(
+            Response::Unknown {
+                cs: 0x04,
+                data: [9; 7],
+            },
+            [0x04, 9, 9, 9, 9, 9, 9, 9],
+        );
+    }
+
+    #[test]
+    fn status_codes_are_typed() {
+        assert_eq!(ConfigStatus::OK.result(), Ok(()));
+        assert_eq!(
+            ConfigStatus {
+                code: 1,
+                extension: 9
+            }
+            .result(),
+            Err(ResponseError::NotSupported)
+        );
+        assert_eq!(
+            ConfigStatus {
+                code: 2,
+                extension: 0
+            }
+            .result(),
+            Err(ResponseError::StorageMediaAccess)
+        );
+        assert_eq!(
+            ConfigStatus {
+                code: 255,
+                extension: 0x33
+            }
+            .result(),
+            Err(ResponseError::VendorSpecific(0x33))
+        );
+        assert_eq!(
+            ConfigStatus {
+                code: 7,
+                extension: 1
+            }
+            .result(),
+            Err(ResponseError::Reserved {
+                code: 7,
+                extension: 1
+            })
+        );
+        for e in [
+            ResponseError::NotSupported,
+            ResponseError::StorageMediaAccess,
+            ResponseError::VendorSpecific(4),
+            ResponseError::Reserved {
+                code: 9,
+                extension: 1,
+            },
+        ] {
+            assert_eq!(ConfigStatus::from_error(e).result(), Err(e));
+        }
+    }
+
+    #[test]
+    fn bad_frames_are_errors() {
+        assert_eq!(Request::parse(&[0x04, 1]), Err(DecodeError::Length(2)));
+        assert_eq!(Response::parse(&[]), Err(DecodeError::Length(0)));
+        assert_eq!(Response::parse(&[0; 9]), Err(DecodeError::Length(9)));
+        let f = Request::SwitchModeGlobal(Mode::Waiting).to_frame();
+        assert_eq!(
+            Response::from_frame(&f),
+            Err(DecodeError::WrongCobId(0x7E5))
+        );
+        let rtr = CanFrame::remote(SLAVE_ID, 8).unwrap();
+        assert_eq!(Response::from_frame(&rtr), Err(DecodeError::Remote));
+        // Reserved bytes are ignored on decode.
+        assert_eq!(
+            Request::parse(&[0x17, 1, 2, 3, 4, 5, 6, 7]),
+            Ok(Request::StoreConfiguration)
+        );
+    }
+
+    fn any_part() -> impl Strategy<Value = AddressPart> {
+        (0u8..4).prop_map(|i| AddressPart::from_index(i).unwrap())
+    }
+
+    fn any_status() -> impl Strategy<Value = ConfigStatus> {
+        (any::<u8>(), any::<u8>()).prop_map(|(code, extension)| ConfigStatus { code, extension })
+    }
+
+    fn any_request() -> impl Strategy<Value = Request> {
+        prop_oneof![
+            any::<u8>().prop_map(|m| Request::SwitchModeGlobal(Mode::from_raw(m))),
+            (any_part(), any::<u32>()).prop_map(|(p, v)| Request::SwitchModeSelective(p, v)),
+            any::<u8>().prop_map(Request::ConfigureNodeId),
+            (any::<u8>(), any::<u8>())
+                .prop_map(|(table, index)| Request::ConfigureBitTiming(BitTiming { table, index })),
+            any::<u16>().prop_map(|delay_ms| Request::ActivateBitTiming { delay_ms }),
+            Just(Request::StoreConfiguration),
+            any_part().prop_map(Request::InquireIdentity),
+            Just(Request::InquireNodeId),
+            (0usize..6, any::<u32>())
+                .prop_map(|(f, v)| Request::IdentifyRemoteSlave(IdentifyField::ALL[f], v)),
+            Just(Request::IdentifyNonConfigured),
+            (any::<u32>(), any::<u8>(), any::<u8>(), any::<u8>()).prop_map(|(i, b, s, n)| {
+                Request::Fastscan {
+                    id_number: i,
+                    bit_check: b,
+                    lss_sub: s,
+                    lss_next: n,
+                }
+            }),
+        ]
+    }
+
+    fn any_response() -> impl Strategy<Value = Response> {
+        prop_oneof![
+            Just(Response::SwitchModeSelective),
+            any_status().prop_map(Response::ConfigureNodeId),
+            any_status().prop_map(Response::ConfigureBitTiming),
+            any_status().prop_map(Response::StoreConfiguration),
+            (any_part(), any::<u32>()).prop_map(|(p, v)| Response::InquireIdentity(p, v)),
+            any::<u8>().prop_map(Response::InquireNodeId),
+            Just(Response::IdentifySlave),
+            Just(Response::IdentifyNonConfiguredSlave),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(512))]
+
+        #[test]
+        fn request_round_trip(r in any_request()) {
+            prop_assert_eq!(Request::parse(&r.emit()), Ok(r));
+        }
+
+        #[test]
+        fn response_round_trip(r in any_response()) {
+            prop_assert_eq!(Response::parse(&r.emit()), Ok(r));
+        }
+
+        /// Any eight bytes decode; the re-encoding decodes to the same value (unknown command
+        /// specifiers keep all bytes).
+        #[test]
+        fn any_bytes_decode(bytes in any::<[u8; 8]>()) {
+            let r = Request::parse(&bytes).unwrap();
+            prop_assert_eq!(Request::parse(&r.emit()), Ok(r));
+            if let Request::Unknown { .. } = r {
+                prop_assert_eq!(r.emit(), bytes);
+            }
+            let s = Response::parse(&bytes).unwrap();
+            prop_assert_eq!(Response::parse(&s.emit()), Ok(s));
+            if let Response::Unknown { .. } = s {
+                prop_assert_eq!(s.emit(), bytes);
+            }
+        }
+    }
+}

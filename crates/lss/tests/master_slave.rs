@@ -1,0 +1,840 @@
+//! LSS master machines against LSS slave machines on a virtual clock (see `bus/mod.rs` for the
+//! bus model: identical simultaneous answers merge into one frame, or arrive one by one).
+
+mod bus;
+
+use std::collections::BTreeSet;
+use std::vec::Vec;
+
+use bus::{Bus, Delivery, Rng, random_addresses};
+use can_frame::{Duration, Instant, NodeId};
+use canopen_lss::assign::AssignOutcome;
+use canopen_lss::service::{IdentifyQuery, Range};
+use canopen_lss::slave::SlaveState;
+use canopen_lss::*;
+
+fn id(n: u8) -> NodeId {
+    NodeId::new(n).unwrap()
+}
+
+const DELIVERIES: [Delivery; 2] = [
+    Delivery::Merged,
+    Delivery::Separate {
+        spread: Duration::from_millis(3),
+    },
+];
+
+fn fast(policy: ResponsePolicy) -> FastscanConfig {
+    FastscanConfig {
+        response_timeout: Duration::from_millis(10),
+        policy,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fastscan
+
+#[test]
+fn fastscan_finds_one_slave_and_leaves_it_in_configuration() {
+    let mut rng = Rng::new(1);
+    for delivery in DELIVERIES {
+        let addrs = random_addresses(&mut rng, 1);
+        let mut bus = Bus::with_unconfigured(delivery, &addrs);
+        let mut m = Fastscan::new(FastscanConfig::default());
+        m.start(bus.now).unwrap();
+        assert_eq!(m.start(bus.now), Err(LssError::Busy));
+        let (r, events) = bus.run(&mut m);
+        assert_eq!(r, Ok(Some(addrs[0])));
+        assert_eq!(events, vec![MasterEvent::Found(addrs[0])]);
+        assert_eq!(bus.slave(addrs[0]).state(), SlaveState::Configuration);
+        // 1 bit check + 4 × (32 bits + 1 confirmation), every window waited out.
+        assert_eq!(bus.sent.len(), 133);
+        assert_eq!(
+            bus.now,
+            Instant::ZERO + FastscanConfig::DEFAULT_TIMEOUT.saturating_mul(133)
+        );
+    }
+}
+
+#[test]
+fn fastscan_with_nobody_there_is_one_timeout() {
+    let mut bus = Bus::new(Delivery::Merged);
+    // A configured slave does not take part.
+    let mut cfg = SlaveConfig::unconfigured(LssAddress::new(1, 2, 3, 4));
+    cfg.node_id = 5;
+    bus.add(cfg);
+    let mut m = Fastscan::new(FastscanConfig::default());
+    m.start(bus.now).unwrap();
+    let (r, _) = bus.run(&mut m);
+    assert_eq!(r, Ok(None));
+    assert_eq!(bus.sent.len(), 1);
+    assert_eq!(bus.now, Instant::ZERO + FastscanConfig::DEFAULT_TIMEOUT);
+}
+
+#[test]
+fn fastscan_reports_a_slave_that_vanished() {
+    // Answers the bit check, then never again: every bit reads 1 and the confirmation fails.
+    let mut bus = Bus::new(Delivery::Merged);
+    bus.scripts.push(Box::new(|r| match r {
+        Request::Fastscan {
+            bit_check: 0x80, ..
+        } => Some(Response::IdentifySlave),
+        _ => None,
+    }));
+    let mut m = Fastscan::new(fast(ResponsePolicy::FirstAnswer));
+    m.start(bus.now).unwrap();
+    let (r, _) = bus.run(&mut m);
+    assert_eq!(
+        r,
+        Err(LssError::FastscanLost {
+            part: AddressPart::Vendor
+        })
+    );
+    match bus.sent.last().unwrap().1 {
+        Request::Fastscan {
+            id_number,
+            bit_check,
+            lss_sub,
+            lss_next,
+        } => {
+            assert_eq!(
+                (id_number, bit_check, lss_sub, lss_next),
+                (u32::MAX, 0, 0, 1)
+            );
+        }
+        r => panic!("{r:?}"),
+    }
+}
+
+fn discover(n: usize, delivery: Delivery, policy: ResponsePolicy, seed: u64) {
+    let mut rng = Rng::new(seed);
+    let addrs = random_addresses(&mut rng, n);
+    let mut bus = Bus::with_unconfigured(delivery, &addrs);
+    let mut m = DiscoverAll::new(fast(policy));
+    m.start(bus.now).unwrap();
+    let (r, events) = bus.run(&mut m);
+    let found = r.unwrap();
+    assert_eq!(found.len(), n, "{delivery:?} {policy:?}");
+    let mut want = addrs.clone();
+    want.sort();
+    // Fastscan follows the numerically smallest remaining address.
+    assert_eq!(found.as_slice(), want.as_slice());
+    assert!(events.iter().all(|e| matches!(e, MasterEvent::Found(_))));
+    // Everybody is back in waiting state, still unconfigured.
+    for s in &bus.slaves {
+        assert_eq!(s.state(), SlaveState::Waiting);
+        assert!(s.is_unconfigured());
+    }
+    if policy == ResponsePolicy::WholeWindow {
+        // Every exchange costs exactly one window: n scans of 133 and the final bit check.
+        let exchanges = 133 * n as u64 + 1;
+        assert_eq!(
+            bus.now,
+            Instant::ZERO + Duration::from_millis(10).saturating_mul(exchanges)
+        );
+    }
+}
+
+#[test]
+fn discover_all_1_2_20_slaves_every_delivery_and_policy() {
+    for delivery in DELIVERIES {
+        for policy in [ResponsePolicy::WholeWindow, ResponsePolicy::FirstAnswer] {
+            if matches!(delivery, Delivery::Separate { .. })
+                && policy == ResponsePolicy::FirstAnswer
+            {
+                continue; // covered below with a spread inside one frame time
+            }
+            for (n, seed) in [(1, 11), (2, 12), (20, 13)] {
+                discover(n, delivery, policy, seed);
+            }
+        }
+    }
+    // FirstAnswer copes with separate duplicate frames that arrive before its next request.
+    discover(
+        20,
+        Delivery::Separate {
+            spread: Duration::ZERO,
+        },
+        ResponsePolicy::FirstAnswer,
+        14,
+    );
+}
+
+#[test]
+fn whole_window_survives_late_duplicates() {
+    // Answers spread over 8 ms of a 10 ms window: duplicates arrive long after the first.
+    discover(
+        20,
+        Delivery::Separate {
+            spread: Duration::from_millis(8),
+        },
+        ResponsePolicy::WholeWindow,
+        15,
+    );
+}
+
+#[test]
+fn slaves_sharing_address_prefixes_are_told_apart() {
+    // Same vendor and product, revisions and serials one bit apart.
+    let addrs = [
+        LssAddress::new(0x1F, 0x42, 1, 0x1000),
+        LssAddress::new(0x1F, 0x42, 1, 0x1001),
+        LssAddress::new(0x1F, 0x42, 2, 0x1000),
+        LssAddress::new(0x1F, 0x43, 1, 0x1000),
+        LssAddress::new(0, 0, 0, 0),
+        LssAddress::new(u32::MAX, u32::MAX, u32::MAX, u32::MAX),
+    ];
+    for delivery in DELIVERIES {
+        let mut bus = Bus::with_unconfigured(delivery, &addrs);
+        let mut m = DiscoverAll::new(fast(ResponsePolicy::WholeWindow));
+        m.start(bus.now).unwrap();
+        let found = bus.run(&mut m).0.unwrap();
+        let mut want = addrs.to_vec();
+        want.sort();
+        assert_eq!(found.as_slice(), want.as_slice());
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Assign-all workflow
+
+fn assign_all(n: usize, delivery: Delivery, seed: u64) {
+    let mut rng = Rng::new(seed);
+    let addrs = random_addresses(&mut rng, n);
+    let mut bus = Bus::with_unconfigured(delivery, &addrs);
+    let mut config = AssignConfig::with_pool(NodeIdPool::range(id(2), id(100)));
+    config.fastscan = fast(ResponsePolicy::WholeWindow);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let (r, events) = bus.run(&mut m);
+    let report = r.unwrap();
+    assert_eq!(report.stopped, None);
+    assert_eq!(report.entries.len(), n);
+    assert!(
+        report
+            .entries
+            .iter()
+            .all(|e| e.outcome == AssignOutcome::Assigned)
+    );
+    let ids: BTreeSet<u8> = report.assigned().map(|(_, id)| id.get()).collect();
+    assert_eq!(ids.len(), n, "node-IDs are distinct");
+    assert_eq!(
+        ids.iter().copied().collect::<Vec<_>>(),
+        (2..2 + n as u8).collect::<Vec<_>>()
+    );
+    let found: BTreeSet<LssAddress> = report.assigned().map(|(a, _)| a).collect();
+    assert_eq!(found, addrs.iter().copied().collect());
+    for (a, id) in report.assigned() {
+        let s = bus.slave(a);
+        assert_eq!(
+            s.active_node_id(),
+            id.get(),
+            "node-ID active after leaving configuration"
+        );
+        assert_eq!(s.pending_node_id(), id.get());
+        assert_eq!(s.state(), SlaveState::Waiting);
+    }
+    let assigned_events = events
+        .iter()
+        .filter(|e| matches!(e, MasterEvent::Assigned(_)))
+        .count();
+    assert_eq!(assigned_events, n);
+}
+
+#[test]
+fn assign_all_1_2_20_slaves() {
+    for delivery in DELIVERIES {
+        for (n, seed) in [(1, 21), (2, 22), (20, 23)] {
+            assign_all(n, delivery, seed);
+        }
+    }
+}
+
+#[test]
+fn assign_all_uses_the_table_first() {
+    let mut rng = Rng::new(31);
+    let addrs = random_addresses(&mut rng, 5);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+    let mut config = AssignConfig::with_pool(NodeIdPool::range(id(10), id(20)));
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    config.table.push((addrs[0], id(10))).unwrap(); // also in the pool: taken out of it
+    config.table.push((addrs[3], id(77))).unwrap();
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    let got: std::collections::BTreeMap<LssAddress, u8> =
+        report.assigned().map(|(a, i)| (a, i.get())).collect();
+    assert_eq!(got[&addrs[0]], 10);
+    assert_eq!(got[&addrs[3]], 77);
+    let others: BTreeSet<u8> = [1, 2, 4].iter().map(|i| got[&addrs[*i]]).collect();
+    assert_eq!(others, [11, 12, 13].into_iter().collect());
+}
+
+#[test]
+fn assign_all_stops_when_the_pool_runs_dry() {
+    let mut rng = Rng::new(41);
+    let addrs = random_addresses(&mut rng, 3);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+    let mut config = AssignConfig::with_pool(NodeIdPool::range(id(5), id(6)));
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    assert_eq!(report.stopped, Some(LssError::NoFreeNodeId));
+    assert_eq!(report.assigned().count(), 2);
+    let last = report.entries.last().unwrap();
+    assert_eq!(last.outcome, AssignOutcome::Failed(LssError::NoFreeNodeId));
+    assert_eq!(last.node_id, None);
+    // The slave without a node-ID was released to waiting state.
+    assert_eq!(bus.slave(last.address).state(), SlaveState::Waiting);
+    assert!(matches!(
+        bus.sent.last().unwrap().1,
+        Request::SwitchModeGlobal(Mode::Waiting)
+    ));
+}
+
+#[test]
+fn assign_all_records_store_failures_and_goes_on() {
+    let mut rng = Rng::new(51);
+    let addrs = random_addresses(&mut rng, 3);
+    let mut bus = Bus::new(Delivery::Merged);
+    let stores = [
+        StoreSupport::NotSupported,
+        StoreSupport::MediaError,
+        StoreSupport::Vendor(0x21),
+    ];
+    for (a, store) in addrs.iter().zip(stores) {
+        let mut c = SlaveConfig::unconfigured(*a);
+        c.store = store;
+        bus.add(c);
+    }
+    let mut config = AssignConfig::with_pool(NodeIdPool::all());
+    config.fastscan = fast(ResponsePolicy::WholeWindow);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    assert_eq!(report.stopped, None);
+    assert_eq!(report.assigned().count(), 3);
+    for e in &report.entries {
+        let i = addrs.iter().position(|a| *a == e.address).unwrap();
+        let error = match stores[i] {
+            StoreSupport::NotSupported => ResponseError::NotSupported,
+            StoreSupport::MediaError => ResponseError::StorageMediaAccess,
+            StoreSupport::Vendor(x) => ResponseError::VendorSpecific(x),
+            StoreSupport::Supported => unreachable!(),
+        };
+        assert_eq!(
+            e.outcome,
+            AssignOutcome::StoreFailed(LssError::Rejected {
+                service: Service::StoreConfiguration,
+                error
+            })
+        );
+    }
+}
+
+#[test]
+fn assign_all_stops_on_a_rejected_node_id() {
+    {
+        let (ext, expect) = (Some(0x99), ResponseError::VendorSpecific(0x99));
+        let mut bus = Bus::new(Delivery::Merged);
+        let a = LssAddress::new(7, 7, 7, 7);
+        let mut c = SlaveConfig::unconfigured(a);
+        c.node_id_vendor_error = ext;
+        bus.add(c);
+        bus.add(SlaveConfig::unconfigured(LssAddress::new(8, 8, 8, 8)));
+        let mut config = AssignConfig::with_pool(NodeIdPool::all());
+        config.fastscan = fast(ResponsePolicy::FirstAnswer);
+        let mut m = AssignAll::new(config);
+        m.start(bus.now).unwrap();
+        let report = bus.run(&mut m).0.unwrap();
+        let e = LssError::Rejected {
+            service: Service::ConfigureNodeId,
+            error: expect,
+        };
+        assert_eq!(report.stopped, Some(e));
+        assert_eq!(report.entries.len(), 1);
+        assert_eq!(report.entries[0].outcome, AssignOutcome::Failed(e));
+        assert_eq!(bus.slave(a).state(), SlaveState::Waiting);
+        assert!(bus.slave(a).is_unconfigured());
+    }
+}
+
+/// A scripted unconfigured slave: a real slave's Fastscan answers, but a chosen answer to
+/// configure node-ID (or none).
+fn scripted_fastscan_slave(bus: &mut Bus, address: LssAddress, configure: Option<Response>) {
+    let mut inner = LssSlave::new(SlaveConfig::unconfigured(address));
+    bus.scripts.push(Box::new(move |r| match r {
+        Request::ConfigureNodeId(_) => configure,
+        _ => {
+            inner.handle_request(Instant::ZERO, r);
+            inner.poll_transmit()
+        }
+    }));
+}
+
+#[test]
+fn assign_all_configure_node_id_invalid_and_timeout() {
+    let a = LssAddress::new(1, 2, 3, 4);
+    let cases = [
+        (
+            Some(Response::ConfigureNodeId(ConfigStatus {
+                code: 1,
+                extension: 0,
+            })),
+            LssError::Rejected {
+                service: Service::ConfigureNodeId,
+                error: ResponseError::NotSupported,
+            },
+        ),
+        (
+            None,
+            LssError::Timeout {
+                service: Service::ConfigureNodeId,
+                timeout: Duration::from_millis(100),
+            },
+        ),
+    ];
+    for (answer, expect) in cases {
+        let mut bus = Bus::new(Delivery::Merged);
+        scripted_fastscan_slave(&mut bus, a, answer);
+        let mut config = AssignConfig::with_pool(NodeIdPool::all());
+        config.fastscan = fast(ResponsePolicy::FirstAnswer);
+        let mut m = AssignAll::new(config);
+        m.start(bus.now).unwrap();
+        let report = bus.run(&mut m).0.unwrap();
+        assert_eq!(report.stopped, Some(expect));
+        assert_eq!(report.entries[0].address, a);
+        assert_eq!(report.entries[0].node_id, Some(id(1)));
+    }
+}
+
+#[test]
+fn assign_all_store_timeout_is_recorded() {
+    let a = LssAddress::new(1, 2, 3, 4);
+    let mut bus = Bus::new(Delivery::Merged);
+    let mut inner = LssSlave::new(SlaveConfig::unconfigured(a));
+    bus.scripts.push(Box::new(move |r| {
+        inner.handle_request(Instant::ZERO, r);
+        let answer = inner.poll_transmit();
+        if matches!(r, Request::StoreConfiguration) {
+            None
+        } else {
+            answer
+        }
+    }));
+    let mut config = AssignConfig::with_pool(NodeIdPool::all());
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    assert_eq!(report.stopped, None);
+    assert_eq!(
+        report.entries[0].outcome,
+        AssignOutcome::StoreFailed(LssError::Timeout {
+            service: Service::StoreConfiguration,
+            timeout: Duration::from_secs(1)
+        })
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Single services and the seed's procedures
+
+fn run_procedure(
+    bus: &mut Bus,
+    p: Procedure,
+) -> (
+    Result<ServiceReport, LssError>,
+    Vec<MasterEvent<ServiceReport>>,
+) {
+    let mut m = LssMaster::new(MasterConfig::default());
+    m.start(bus.now, p).unwrap();
+    bus.run(&mut m)
+}
+
+#[test]
+fn seed_change_bit_rate() {
+    let a = LssAddress::new(0x78, 1, 1, 1);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    let t0 = bus.now;
+    let (r, events) = run_procedure(
+        &mut bus,
+        Procedure::change_bit_rate(BitRate::Kbit125.into(), 50),
+    );
+    r.unwrap();
+    assert_eq!(
+        events,
+        vec![MasterEvent::SwitchBitRate {
+            bit_timing: BitRate::Kbit125.into(),
+            at: t0 + Duration::from_micros(500) + Duration::from_millis(50)
+        }]
+    );
+    let reqs: Vec<Request> = bus.sent.iter().map(|s| s.1).collect();
+    assert_eq!(
+        reqs,
+        vec![
+            Request::SwitchModeGlobal(Mode::Configuration),
+            Request::ConfigureBitTiming(BitRate::Kbit125.into()),
+            Request::ActivateBitTiming { delay_ms: 50 },
+            Request::SwitchModeGlobal(Mode::Waiting),
+        ]
+    );
+    // Switch mode global (waiting) goes out after both delays.
+    assert_eq!(bus.sent[3].0 - bus.sent[2].0, Duration::from_millis(100));
+    let s = bus.slave(a);
+    assert_eq!(s.active_bit_timing(), BitRate::Kbit125.into());
+    assert_eq!(s.state(), SlaveState::Waiting);
+}
+
+#[test]
+fn bit_timing_not_supported_and_timeout() {
+    let a = LssAddress::new(0x78, 1, 1, 1);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    let (r, events) = run_procedure(
+        &mut bus,
+        Procedure::change_bit_rate(BitTiming { table: 0, index: 9 }, 10),
+    );
+    assert_eq!(
+        r,
+        Err(LssError::Rejected {
+            service: Service::ConfigureBitTiming,
+            error: ResponseError::NotSupported
+        })
+    );
+    assert!(events.is_empty());
+    assert_eq!(bus.sent.len(), 2, "nothing after the rejection");
+    let mut bus = Bus::new(Delivery::Merged);
+    let (r, _) = run_procedure(
+        &mut bus,
+        Procedure::change_bit_rate(BitRate::Kbit250.into(), 10),
+    );
+    assert_eq!(
+        r,
+        Err(LssError::Timeout {
+            service: Service::ConfigureBitTiming,
+            timeout: Duration::from_millis(100)
+        })
+    );
+    assert_eq!(bus.now, Instant::from_millis(100));
+}
+
+#[test]
+fn vendor_specific_bit_timing_error() {
+    let mut bus = Bus::new(Delivery::Merged);
+    bus.scripts.push(Box::new(|r| match r {
+        Request::ConfigureBitTiming(_) => Some(Response::ConfigureBitTiming(ConfigStatus {
+            code: 255,
+            extension: 0x0E,
+        })),
+        _ => None,
+    }));
+    let (r, _) = run_procedure(
+        &mut bus,
+        Procedure::single(Step::ConfigureBitTiming(BitRate::Kbit10.into())),
+    );
+    assert_eq!(
+        r,
+        Err(LssError::Rejected {
+            service: Service::ConfigureBitTiming,
+            error: ResponseError::VendorSpecific(0x0E)
+        })
+    );
+}
+
+#[test]
+fn seed_assign_node_id_global() {
+    let a = LssAddress::new(0x78, 1, 1, 1);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    let (r, _) = run_procedure(&mut bus, Procedure::assign_node_id(id(42), false));
+    r.unwrap();
+    let reqs: Vec<Request> = bus.sent.iter().map(|s| s.1).collect();
+    assert_eq!(
+        reqs,
+        vec![
+            Request::SwitchModeGlobal(Mode::Configuration),
+            Request::ConfigureNodeId(42),
+            Request::SwitchModeGlobal(Mode::Waiting),
+        ]
+    );
+    assert_eq!(bus.slave(a).active_node_id(), 42);
+}
+
+#[test]
+fn selective_assign_touches_only_its_slave() {
+    let mut rng = Rng::new(61);
+    let addrs = random_addresses(&mut rng, 3);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+    let (r, _) = run_procedure(
+        &mut bus,
+        Procedure::assign_node_id_selective(addrs[1], id(9), true),
+    );
+    r.unwrap();
+    assert_eq!(bus.slave(addrs[1]).active_node_id(), 9);
+    assert!(bus.slave(addrs[0]).is_unconfigured());
+    assert!(bus.slave(addrs[2]).is_unconfigured());
+    // Inquire it back.
+    let p = Procedure::single(Step::SwitchModeSelective(addrs[1]));
+    let p = Procedure::inquire_all()
+        .steps()
+        .iter()
+        .fold(p, |p, s| p.then(*s).unwrap());
+    let p = p.then(Step::SwitchModeGlobal(Mode::Waiting)).unwrap();
+    let report = run_procedure(&mut bus, p).0.unwrap();
+    assert_eq!(report.address(), Some(addrs[1]));
+    assert_eq!(report.node_id, Some(9));
+    // A wrong address: nobody answers the selective switch.
+    let mut wrong = addrs[1];
+    wrong.serial_number ^= 1;
+    let (r, _) = run_procedure(
+        &mut bus,
+        Procedure::assign_node_id_selective(wrong, id(10), false),
+    );
+    assert_eq!(
+        r,
+        Err(LssError::Timeout {
+            service: Service::SwitchModeSelective,
+            timeout: Duration::from_millis(100)
+        })
+    );
+}
+
+#[test]
+fn unconfigure_makes_a_slave_findable_again() {
+    let a = LssAddress::new(5, 6, 7, 8);
+    let mut c = SlaveConfig::unconfigured(a);
+    c.node_id = 12;
+    let mut bus = Bus::new(Delivery::Merged);
+    bus.add(c);
+    let (r, _) = run_procedure(&mut bus, Procedure::unconfigure_selective(a));
+    r.unwrap();
+    assert_eq!(bus.slave(a).pending_node_id(), 0xFF);
+    // Still active until NMT reset communication.
+    assert_eq!(bus.slave(a).active_node_id(), 12);
+    bus.slaves[0].reset_communication();
+    let mut m = Fastscan::new(fast(ResponsePolicy::FirstAnswer));
+    m.start(bus.now).unwrap();
+    assert_eq!(bus.run(&mut m).0, Ok(Some(a)));
+}
+
+#[test]
+fn store_error_paths() {
+    let a = LssAddress::new(1, 1, 1, 1);
+    for (store, error) in [
+        (StoreSupport::NotSupported, ResponseError::NotSupported),
+        (StoreSupport::MediaError, ResponseError::StorageMediaAccess),
+        (
+            StoreSupport::Vendor(0xAB),
+            ResponseError::VendorSpecific(0xAB),
+        ),
+    ] {
+        let mut c = SlaveConfig::unconfigured(a);
+        c.store = store;
+        let mut bus = Bus::new(Delivery::Merged);
+        bus.add(c);
+        let (r, _) = run_procedure(&mut bus, Procedure::assign_node_id(id(3), true));
+        assert_eq!(
+            r,
+            Err(LssError::Rejected {
+                service: Service::StoreConfiguration,
+                error
+            })
+        );
+        // The procedure stopped before switch mode global (waiting).
+        assert_eq!(bus.slave(a).state(), SlaveState::Configuration);
+    }
+    let mut bus = Bus::new(Delivery::Merged);
+    let (r, _) = run_procedure(&mut bus, Procedure::single(Step::StoreConfiguration));
+    assert_eq!(
+        r,
+        Err(LssError::Timeout {
+            service: Service::StoreConfiguration,
+            timeout: Duration::from_secs(1)
+        })
+    );
+}
+
+#[test]
+fn configure_node_id_errors() {
+    let a = LssAddress::new(1, 1, 1, 1);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    let p = Procedure::single(Step::SwitchModeGlobal(Mode::Configuration))
+        .then(Step::ConfigureNodeId(0))
+        .unwrap();
+    let (r, _) = run_procedure(&mut bus, p);
+    assert_eq!(
+        r,
+        Err(LssError::Rejected {
+            service: Service::ConfigureNodeId,
+            error: ResponseError::NotSupported
+        })
+    );
+    let mut c = SlaveConfig::unconfigured(a);
+    c.node_id_vendor_error = Some(3);
+    let mut bus = Bus::new(Delivery::Merged);
+    bus.add(c);
+    let (r, _) = run_procedure(&mut bus, Procedure::assign_node_id(id(4), false));
+    assert_eq!(
+        r,
+        Err(LssError::Rejected {
+            service: Service::ConfigureNodeId,
+            error: ResponseError::VendorSpecific(3)
+        })
+    );
+    let mut bus = Bus::new(Delivery::Merged);
+    let (r, _) = run_procedure(&mut bus, Procedure::assign_node_id(id(4), false));
+    assert_eq!(
+        r,
+        Err(LssError::Timeout {
+            service: Service::ConfigureNodeId,
+            timeout: Duration::from_millis(100)
+        })
+    );
+}
+
+#[test]
+fn inquire_timeouts() {
+    for step in [
+        Step::InquireIdentity(AddressPart::Product),
+        Step::InquireNodeId,
+    ] {
+        let mut bus = Bus::new(Delivery::Merged);
+        let (r, _) = run_procedure(&mut bus, Procedure::single(step));
+        let service = match step {
+            Step::InquireNodeId => Service::InquireNodeId,
+            _ => Service::InquireIdentity(AddressPart::Product),
+        };
+        assert_eq!(
+            r,
+            Err(LssError::Timeout {
+                service,
+                timeout: Duration::from_millis(100)
+            })
+        );
+    }
+}
+
+#[test]
+fn identify_services_report_presence() {
+    let mut rng = Rng::new(71);
+    let addrs = random_addresses(&mut rng, 4);
+    for delivery in DELIVERIES {
+        let mut bus = Bus::with_unconfigured(delivery, &addrs);
+        let r = run_procedure(&mut bus, Procedure::single(Step::IdentifyNonConfigured))
+            .0
+            .unwrap();
+        assert_eq!(r.present, Some(true));
+        let q = IdentifyQuery {
+            vendor_id: addrs[2].vendor_id,
+            product_code: addrs[2].product_code,
+            revision: Range::ALL,
+            serial: Range::exactly(addrs[2].serial_number),
+        };
+        let r = run_procedure(&mut bus, Procedure::single(Step::IdentifyRemoteSlave(q)))
+            .0
+            .unwrap();
+        assert_eq!(r.present, Some(true));
+        let q = IdentifyQuery {
+            serial: Range::exactly(addrs[2].serial_number ^ 1),
+            ..q
+        };
+        let r = run_procedure(&mut bus, Procedure::single(Step::IdentifyRemoteSlave(q)))
+            .0
+            .unwrap();
+        assert_eq!(r.present, Some(false));
+    }
+    let mut bus = Bus::new(Delivery::Merged);
+    let r = run_procedure(&mut bus, Procedure::single(Step::IdentifyNonConfigured))
+        .0
+        .unwrap();
+    assert_eq!(r.present, Some(false));
+}
+
+#[test]
+fn busy_master_refuses_a_second_procedure() {
+    let mut m = LssMaster::new(MasterConfig::default());
+    m.start(Instant::ZERO, Procedure::single(Step::InquireNodeId))
+        .unwrap();
+    assert_eq!(
+        m.start(Instant::ZERO, Procedure::single(Step::InquireNodeId)),
+        Err(LssError::Busy)
+    );
+    let mut p = Procedure::new();
+    for _ in 0..canopen_lss::service::MAX_STEPS {
+        p = p.then(Step::InquireNodeId).unwrap();
+    }
+    assert!(matches!(
+        p.then(Step::InquireNodeId),
+        Err(LssError::InvalidConfig(_))
+    ));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Slowscan
+
+#[test]
+fn slowscan_finds_every_matching_slave() {
+    let mut rng = Rng::new(81);
+    let vendor = 0x0000_0078;
+    let product = 0x0000_1234;
+    let mut want = Vec::new();
+    let mut bus = Bus::new(DELIVERIES[1]);
+    for i in 0..20 {
+        let a = LssAddress::new(vendor, product, (rng.below(3)) as u32, rng.next_u32());
+        let mut c = SlaveConfig::unconfigured(a);
+        if i % 3 == 0 {
+            c.node_id = (i + 1) as u8; // configured slaves are found too
+        }
+        bus.add(c);
+        want.push(a);
+    }
+    // Another product with equal serials must not show up.
+    bus.add(SlaveConfig::unconfigured(LssAddress::new(
+        vendor,
+        product + 1,
+        0,
+        want[0].serial_number,
+    )));
+    let mut config = SlowscanConfig::product(vendor, product);
+    config.response_timeout = Duration::from_millis(10);
+    let mut m = Slowscan::new(config);
+    m.start(bus.now).unwrap();
+    let (r, events) = bus.run(&mut m);
+    let found = r.unwrap();
+    want.sort_by_key(|a| (a.serial_number, a.revision_number));
+    assert_eq!(found.as_slice(), want.as_slice());
+    assert_eq!(events.len(), 20);
+}
+
+#[test]
+fn slowscan_ranges() {
+    let addrs = [
+        LssAddress::new(1, 2, 5, 100),
+        LssAddress::new(1, 2, 6, 100),
+        LssAddress::new(1, 2, 5, 101),
+        LssAddress::new(1, 2, 5, 300),
+    ];
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+    let mut config = SlowscanConfig::product(1, 2);
+    config.revision = Range { low: 5, high: 5 };
+    config.serial = Range {
+        low: 100,
+        high: 200,
+    };
+    config.policy = ResponsePolicy::FirstAnswer;
+    let mut m = Slowscan::new(config);
+    m.start(bus.now).unwrap();
+    let found = bus.run(&mut m).0.unwrap();
+    assert_eq!(found.as_slice(), &[addrs[0], addrs[2]]);
+    config.serial = Range { low: 5, high: 4 };
+    assert!(matches!(
+        Slowscan::new(config).start(bus.now),
+        Err(LssError::InvalidConfig(_))
+    ));
+    // Nobody there: a single probe.
+    let mut bus = Bus::new(Delivery::Merged);
+    let mut m = Slowscan::new(SlowscanConfig::product(1, 2));
+    m.start(bus.now).unwrap();
+    assert_eq!(bus.run(&mut m).0.unwrap().len(), 0);
+    assert_eq!(bus.sent.len(), 6);
+}
