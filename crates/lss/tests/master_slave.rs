@@ -838,3 +838,55 @@ fn slowscan_ranges() {
     assert_eq!(bus.run(&mut m).0.unwrap().len(), 0);
     assert_eq!(bus.sent.len(), 6);
 }
+
+// ---------------------------------------------------------------------------------------------
+// The figure for the issue note
+
+/// Simulated time for Fastscan to find 20 slaves of random addresses, and for the assign-all
+/// workflow to commission them, under several response timeouts. Run with `--nocapture` to see
+/// the table. Answers arrive 0.5 ms after each request (bus model).
+#[test]
+fn fastscan_timing_figure() {
+    let mut rng = Rng::new(2026);
+    let addrs = random_addresses(&mut rng, 20);
+    println!("timeout  policy        discover-20 [s]  assign-20 [s]  requests(discover)");
+    for (timeout_ms, policy) in [
+        (25, ResponsePolicy::WholeWindow),
+        (25, ResponsePolicy::FirstAnswer),
+        (10, ResponsePolicy::WholeWindow),
+        (5, ResponsePolicy::WholeWindow),
+        (5, ResponsePolicy::FirstAnswer),
+    ] {
+        let config = FastscanConfig {
+            response_timeout: Duration::from_millis(timeout_ms),
+            policy,
+        };
+        let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+        let mut m = DiscoverAll::new(config);
+        m.start(bus.now).unwrap();
+        assert_eq!(bus.run(&mut m).0.unwrap().len(), 20);
+        let discover = bus.now - Instant::ZERO;
+        let requests = bus.sent.len();
+        if policy == ResponsePolicy::WholeWindow {
+            assert_eq!(
+                discover,
+                Duration::from_millis(timeout_ms).saturating_mul(20 * 133 + 1)
+            );
+        } else {
+            assert!(discover < Duration::from_millis(timeout_ms).saturating_mul(20 * 133 + 1));
+        }
+
+        let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+        let mut assign = AssignConfig::with_pool(NodeIdPool::all());
+        assign.fastscan = config;
+        let mut m = AssignAll::new(assign);
+        m.start(bus.now).unwrap();
+        assert_eq!(bus.run(&mut m).0.unwrap().assigned().count(), 20);
+        let commission = bus.now - Instant::ZERO;
+        println!(
+            "{timeout_ms:>4} ms  {policy:<12?}  {:>15.3}  {:>13.3}  {requests}",
+            discover.as_micros() as f64 / 1e6,
+            commission.as_micros() as f64 / 1e6
+        );
+    }
+}
