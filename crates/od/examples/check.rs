@@ -1,9 +1,12 @@
-//! Parses EDS/DCF files and prints the diagnostics (a development aid).
+//! Parses EDS/DCF files and prints the diagnostics, with `--lint` also the linter's findings
+//! (a development aid: `cargo run -p canopen-od --example check -- [--lint] FILE...`).
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let mut failed = false;
-    for path in std::env::args().skip(1) {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let lint = args.iter().any(|a| a == "--lint");
+    for path in args.into_iter().filter(|a| a != "--lint") {
         let bytes = match std::fs::read(&path) {
             Ok(b) => b,
             Err(e) => {
@@ -16,6 +19,11 @@ fn main() -> ExitCode {
             Ok(p) => {
                 for d in &p.diagnostics {
                     eprintln!("{}", d.render(&path));
+                }
+                if lint {
+                    for d in canopen_od::lint(&p.od) {
+                        eprintln!("{} [lint]", d.render(&path));
+                    }
                 }
                 println!(
                     "{path}: ok, {} objects, {} warnings",

@@ -7,6 +7,8 @@
 //! - [`model`] — the dictionary: objects, sub-objects, file and device information (`alloc`).
 //! - [`parse`] — the CiA 306 EDS/DCF parser with warnings and errors by line ([`diag`]).
 //! - [`write`] — EDS, DCF and concise DCF (0x1F22) writers.
+//! - [`lint`] — consistency checks (SubNumber, object lists, limits, PDO mappings, codes).
+//! - `file` — load/save by path (`std`).
 //!
 //! The crate is `#![no_std]`. Without features only [`types`] is available; `alloc` adds the
 //! model and the value codec, `std` (default) adds file I/O conveniences.
@@ -20,6 +22,10 @@ extern crate std;
 #[cfg(feature = "alloc")]
 pub mod diag;
 pub mod entry;
+#[cfg(feature = "std")]
+pub mod file;
+#[cfg(feature = "alloc")]
+pub mod lint;
 #[cfg(feature = "alloc")]
 pub mod model;
 #[cfg(feature = "alloc")]
@@ -33,6 +39,10 @@ pub mod write;
 #[cfg(feature = "alloc")]
 pub use diag::{Diagnostic, DiagnosticKind, Severity};
 pub use entry::{Entry, EntryError, EntryValue};
+#[cfg(feature = "std")]
+pub use file::{LoadError, LoadedFile, load};
+#[cfg(feature = "alloc")]
+pub use lint::{lint, lint_source};
 #[cfg(feature = "alloc")]
 pub use model::{
     DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object, ObjectDictionary,

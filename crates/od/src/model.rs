@@ -374,6 +374,9 @@ pub struct ObjectDictionary {
     pub objects: BTreeMap<u16, Object>,
     /// Sections kept verbatim, in file order.
     pub other_sections: Vec<RawSection>,
+    /// Header lines of `[MandatoryObjects]`, `[OptionalObjects]` and `[ManufacturerObjects]`
+    /// (for diagnostics; 0 when absent).
+    pub object_list_lines: [Line; 3],
 }
 
 impl ObjectDictionary {

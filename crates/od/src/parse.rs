@@ -557,9 +557,18 @@ fn build(sections: &[Section<'_>], sink: &mut Sink) -> ObjectDictionary {
             SectionKind::DeviceInfo => od.device_info = device_info(sec, sink),
             SectionKind::DummyUsage => od.dummy_usage = dummy_usage(sec, sink),
             SectionKind::Comments => od.comments = comments(sec, sink),
-            SectionKind::Mandatory => od.mandatory_objects = object_list(sec, sink),
-            SectionKind::Optional => od.optional_objects = object_list(sec, sink),
-            SectionKind::Manufacturer => od.manufacturer_objects = object_list(sec, sink),
+            SectionKind::Mandatory => {
+                od.mandatory_objects = object_list(sec, sink);
+                od.object_list_lines[0] = Line(sec.line);
+            }
+            SectionKind::Optional => {
+                od.optional_objects = object_list(sec, sink);
+                od.object_list_lines[1] = Line(sec.line);
+            }
+            SectionKind::Manufacturer => {
+                od.manufacturer_objects = object_list(sec, sink);
+                od.object_list_lines[2] = Line(sec.line);
+            }
             SectionKind::Commissioning => {
                 od.device_commissioning = Some(commissioning(sec, sink));
             }

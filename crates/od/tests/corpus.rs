@@ -5,7 +5,7 @@
 mod common;
 
 use canopen_od::write::{ConciseSelection, concise_dcf, decode_concise};
-use canopen_od::{ObjectDictionary, Severity, parse, write_dcf, write_eds};
+use canopen_od::{ObjectDictionary, Severity, lint, parse, write_dcf, write_eds};
 
 /// Names the first difference between two models, for a readable failure.
 fn first_difference(a: &ObjectDictionary, b: &ObjectDictionary) -> String {
@@ -43,7 +43,7 @@ fn corpus_parses_and_round_trips() {
         "expected the 50 corpus files, found {}",
         files.len()
     );
-    let (mut parsed, mut warnings, mut round_trips, mut dcfs) = (0, 0, 0, 0);
+    let (mut parsed, mut warnings, mut round_trips, mut dcfs, mut lint_findings) = (0, 0, 0, 0, 0);
     let mut failures = Vec::new();
     for path in &files {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
@@ -109,14 +109,18 @@ fn corpus_parses_and_round_trips() {
             }
             Err(e) => failures.push(format!("{name}: written DCF does not parse: {e}")),
         }
+        let findings = lint(&p.od);
+        assert!(findings.iter().all(|d| d.severity == Severity::Warning));
+        lint_findings += findings.len();
         println!(
-            "{name}: {} objects, {} warnings",
+            "{name}: {} objects, {} warnings, {} lint findings",
             p.od.objects.len(),
-            p.diagnostics.len()
+            p.diagnostics.len(),
+            findings.len()
         );
     }
     println!(
-        "corpus: {parsed}/{} files parsed, {warnings} warnings, {round_trips} EDS round trips, {dcfs} DCFs",
+        "corpus: {parsed}/{} files parsed, {warnings} warnings, {round_trips} EDS round trips, {dcfs} DCFs, {lint_findings} lint findings",
         files.len() - 1
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
