@@ -1,0 +1,1046 @@
+//! The SDO client (CiA 301 §7.2.4.3): upload (read) and download (write) of one object at a
+//! time, expedited, segmented or by block, as a sans-IO state machine.
+//!
+//! # Call order
+//!
+//! 1. [`Client::new`] with a [`ClientConfig`] (response timeout, block size, CRC, protocol
+//!    switch threshold).
+//! 2. Start one transfer: [`Client::start_upload`] into a [`Sink`] or [`Client::start_download`]
+//!    from a [`Source`]. The client owns the buffer until the transfer ends. A second start
+//!    while a transfer runs (or while its completion event is not yet polled) is refused with
+//!    [`Busy`], handing the buffer back; the caller (the master) queues.
+//! 3. Loop:
+//!    - send every frame [`Client::poll_transmit`] yields (request COB-ID, 0x600 + node by
+//!      default; see [`SdoCobIds`](crate::SdoCobIds));
+//!    - feed every frame from the server's response COB-ID to [`Client::handle_response`];
+//!    - when the clock reaches [`Client::poll_timeout`], call [`Client::handle_timeout`];
+//!    - after each of these, drain [`Client::poll_event`]: exactly one [`Event`] ends each
+//!      transfer and returns the buffer.
+//! 4. [`Client::abort`] cancels the running transfer (an abort message goes to the server).
+//!
+//! [`Client::progress`] reports bytes done and the total, if known, for progress bars.
+//!
+//! # Behaviour on unexpected input
+//!
+//! - An initiate response for another index/sub-index is ignored (it is a late answer to an
+//!   earlier request); it never completes the running transfer.
+//! - A server abort ends the transfer when its multiplexer is the transfer's (or 0000:00, as
+//!   some servers send for unknown commands) and is reported as [`ErrorKind::ServerAbort`],
+//!   apart from local failures.
+//! - A response with the wrong command specifier, a toggle bit that did not alternate, an
+//!   invalid block size or sequence number, a CRC mismatch or a wrong amount of data ends the
+//!   transfer with an abort message to the server ([`ErrorKind::Protocol`]).
+//! - Frames that are not eight bytes long are ignored. Frames while idle are ignored.
+//! - The timeout is the time the server may take for each response (it restarts on every
+//!   step), so long domains do not need a long timeout. On expiry the client sends abort
+//!   0x05040000 and reports [`ErrorKind::Timeout`].
+
+use can_frame::{Duration, Instant};
+
+use crate::abort::AbortCode;
+use crate::buffer::{Sink, Source};
+use crate::crc::Crc16;
+use crate::queue::Ring;
+use crate::wire::{
+    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, Segment, ServerResponse,
+    is_abort,
+};
+
+/// Largest block size CiA 301 allows (segments per sub-block).
+pub const MAX_BLOCK_SIZE: u8 = 127;
+
+/// Client settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClientConfig {
+    /// How long the server may take for each response. Default 1 s.
+    pub timeout: Duration,
+    /// Segments per sub-block the client accepts in block upload, 1..=127. Default 127.
+    pub block_size: u8,
+    /// Offer CRC in block transfers (used when the server supports it too). Default on.
+    pub crc: bool,
+    /// Protocol switch threshold sent in block upload: the server may answer with a normal
+    /// upload when the object has at most this many bytes. 0 (default) forbids switching.
+    pub protocol_switch_threshold: u8,
+}
+
+impl Default for ClientConfig {
+    fn default() -> Self {
+        Self {
+            timeout: Duration::from_secs(1),
+            block_size: MAX_BLOCK_SIZE,
+            crc: true,
+            protocol_switch_threshold: 0,
+        }
+    }
+}
+
+impl ClientConfig {
+    /// Sets the response timeout.
+    pub const fn with_timeout(mut self, timeout: Duration) -> Self {
+        self.timeout = timeout;
+        self
+    }
+
+    /// Sets the block size offered in block upload (clamped to 1..=127).
+    pub const fn with_block_size(mut self, blksize: u8) -> Self {
+        self.block_size = clamp_blksize(blksize);
+        self
+    }
+
+    /// Whether to offer CRC in block transfers.
+    pub const fn with_crc(mut self, crc: bool) -> Self {
+        self.crc = crc;
+        self
+    }
+
+    /// Sets the protocol switch threshold of block upload.
+    pub const fn with_protocol_switch_threshold(mut self, pst: u8) -> Self {
+        self.protocol_switch_threshold = pst;
+        self
+    }
+}
+
+const fn clamp_blksize(blksize: u8) -> u8 {
+    if blksize == 0 {
+        1
+    } else if blksize > MAX_BLOCK_SIZE {
+        MAX_BLOCK_SIZE
+    } else {
+        blksize
+    }
+}
+
+/// How to transfer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Method {
+    /// Download: expedited for 1..=4 bytes, segmented otherwise. Upload: the server chooses
+    /// expedited or segmented.
+    #[default]
+    Normal,
+    /// Download segmented even when the data would fit an expedited message. For upload the
+    /// same as `Normal`.
+    Segmented,
+    /// Block transfer (CiA 301 §7.2.4.3.9–16), with CRC when both sides support it.
+    Block,
+}
+
+/// Upload or download.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Direction {
+    /// Server to client (read).
+    Upload,
+    /// Client to server (write).
+    Download,
+}
+
+/// How far the running transfer is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    /// The object.
+    pub mux: Multiplexer,
+    /// Upload or download.
+    pub direction: Direction,
+    /// Bytes confirmed so far (received, or acknowledged by the server).
+    pub done: u32,
+    /// The object size, when known.
+    pub total: Option<u32>,
+}
+
+/// The buffer of a transfer, handed back when it fails.
+#[derive(Debug)]
+pub enum Buffer<S, D> {
+    /// An upload's sink, holding whatever arrived before the failure.
+    Sink(S),
+    /// A download's source.
+    Source(D),
+}
+
+/// How a transfer ended. Exactly one event ends every started transfer.
+#[derive(Debug)]
+pub enum Event<S, D> {
+    /// The upload finished; `sink` holds the data.
+    Uploaded {
+        /// The object.
+        mux: Multiplexer,
+        /// The caller's sink.
+        sink: S,
+        /// Number of bytes received.
+        len: u32,
+    },
+    /// The download finished and the server confirmed it.
+    Downloaded {
+        /// The object.
+        mux: Multiplexer,
+        /// The caller's source.
+        source: D,
+    },
+    /// The transfer failed.
+    Failed {
+        /// What went wrong, for which object.
+        error: TransferError,
+        /// The caller's buffer.
+        buffer: Buffer<S, D>,
+    },
+}
+
+/// A transfer was refused because another one runs or its completion was not yet polled. Holds
+/// the buffer that was passed in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("an SDO transfer is already in progress")]
+pub struct Busy<T>(pub T);
+
+/// Why a transfer failed, and for which object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("SDO {index:#06x}:{subindex:02x}: {kind}")]
+pub struct TransferError {
+    /// Object index.
+    pub index: u16,
+    /// Sub-index.
+    pub subindex: u8,
+    /// What went wrong.
+    pub kind: ErrorKind,
+}
+
+impl TransferError {
+    /// The object.
+    pub const fn mux(&self) -> Multiplexer {
+        Multiplexer::new(self.index, self.subindex)
+    }
+
+    /// The abort code that went over the bus, in either direction: the server's for
+    /// [`ErrorKind::ServerAbort`], ours otherwise.
+    pub const fn abort_code(&self) -> AbortCode {
+        self.kind.abort_code()
+    }
+
+    /// Whether the server refused (aborted), rather than a local failure.
+    pub const fn is_server_abort(&self) -> bool {
+        matches!(self.kind, ErrorKind::ServerAbort(_))
+    }
+}
+
+/// What ended a transfer. The server's refusal is kept apart from local failures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// The server aborted the transfer with this code.
+    #[error("server aborted: {0}")]
+    ServerAbort(AbortCode),
+    /// The server did not answer within the timeout; abort 0x05040000 was sent.
+    #[error("no response from the server (timeout); sent abort 0x05040000")]
+    Timeout,
+    /// The caller cancelled the transfer; this code was sent to the server.
+    #[error("cancelled; sent abort {0}")]
+    Cancelled(AbortCode),
+    /// The server broke the protocol; the transfer was aborted with
+    /// [`Violation::abort_code`].
+    #[error("protocol violation by the server: {0}")]
+    Protocol(Violation),
+    /// The sink could not take the data; abort 0x05040005 (out of memory) was sent.
+    #[error("the upload does not fit the buffer; sent abort 0x05040005")]
+    BufferFull,
+}
+
+impl ErrorKind {
+    /// The abort code that went over the bus for this failure.
+    pub const fn abort_code(&self) -> AbortCode {
+        match *self {
+            Self::ServerAbort(code) | Self::Cancelled(code) => code,
+            Self::Timeout => AbortCode::TIMEOUT,
+            Self::Protocol(v) => v.abort_code(),
+            Self::BufferFull => AbortCode::OUT_OF_MEMORY,
+        }
+    }
+}
+
+/// A protocol error detected by a machine, with the abort code it sends for it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Violation {
+    /// A message the protocol state does not allow (0x05040001).
+    #[error("unexpected or unknown command (abort 0x05040001)")]
+    UnexpectedCommand,
+    /// The toggle bit did not alternate (0x05030000).
+    #[error("toggle bit not alternated (abort 0x05030000)")]
+    Toggle,
+    /// A block size outside 1..=127 (0x05040002).
+    #[error("invalid block size {0} (abort 0x05040002)")]
+    BlockSize(u8),
+    /// A sequence number that cannot occur (0x05040003).
+    #[error("invalid sequence number {0} (abort 0x05040003)")]
+    SequenceNumber(u8),
+    /// The CRC of the data differs from the one sent (0x05040004).
+    #[error("CRC mismatch: computed {computed:#06x}, received {received:#06x} (abort 0x05040004)")]
+    Crc {
+        /// CRC over the bytes received.
+        computed: u16,
+        /// CRC in the end message.
+        received: u16,
+    },
+    /// More data than the announced size (0x06070012).
+    #[error("more data than the announced {size} bytes (abort 0x06070012)")]
+    TooLong {
+        /// The announced size.
+        size: u32,
+    },
+    /// Less data than the announced size (0x06070013).
+    #[error("{received} bytes instead of the announced {size} (abort 0x06070013)")]
+    TooShort {
+        /// The announced size.
+        size: u32,
+        /// Bytes received.
+        received: u32,
+    },
+}
+
+impl Violation {
+    /// The abort code sent for this violation.
+    pub const fn abort_code(&self) -> AbortCode {
+        match self {
+            Self::UnexpectedCommand => AbortCode::INVALID_COMMAND,
+            Self::Toggle => AbortCode::TOGGLE_BIT_NOT_ALTERNATED,
+            Self::BlockSize(_) => AbortCode::INVALID_BLOCK_SIZE,
+            Self::SequenceNumber(_) => AbortCode::INVALID_SEQUENCE_NUMBER,
+            Self::Crc { .. } => AbortCode::CRC_ERROR,
+            Self::TooLong { .. } => AbortCode::LENGTH_TOO_HIGH,
+            Self::TooShort { .. } => AbortCode::LENGTH_TOO_LOW,
+        }
+    }
+}
+
+/// Number of segments of `len` bytes in a block transfer (an empty object still takes one).
+pub(crate) const fn segments_for(len: u32) -> u32 {
+    let n = len / 7 + if len % 7 != 0 { 1 } else { 0 };
+    if n == 0 { 1 } else { n }
+}
+
+/// n of the block end message: bytes of the last segment without data.
+pub(crate) const fn unused_in_last(len: u32) -> u8 {
+    let rest = len % 7;
+    if len == 0 {
+        7
+    } else if rest == 0 {
+        0
+    } else {
+        (7 - rest) as u8
+    }
+}
+
+#[derive(Debug)]
+enum UpPhase {
+    /// Sent initiate upload; waiting for its response.
+    Initiate,
+    /// Sent upload segment request with this toggle.
+    Segment { toggle: bool },
+    /// Sent initiate block upload; waiting for the block or a normal initiate response.
+    BlockInitiate,
+    /// Receiving a sub-block; `expected` is the next sequence number, `held` the last segment
+    /// of the transfer once received (its length is known only from the end message).
+    SubBlock {
+        crc: bool,
+        expected: u8,
+        held: Option<[u8; 7]>,
+    },
+    /// Acknowledged the last segment; waiting for the end message.
+    BlockEnd { crc: bool, held: [u8; 7] },
+}
+
+#[derive(Debug)]
+enum DownPhase {
+    /// Sent initiate download; waiting for its response.
+    Initiate { expedited: bool },
+    /// Sent a segment ending at byte `end`; waiting for its response.
+    Segment { toggle: bool, end: u32, last: bool },
+    /// Sent initiate block download.
+    BlockInitiate,
+    /// Sending a sub-block of `count` segments (`sent` so far), then waiting for the ack.
+    SubBlock {
+        crc: bool,
+        count: u8,
+        sent: u8,
+        /// Segments of the whole transfer acknowledged so far.
+        acked: u32,
+        total: u32,
+    },
+    /// Sent end block download.
+    BlockEnd,
+}
+
+#[derive(Debug)]
+enum Kind<S, D> {
+    Up {
+        sink: S,
+        phase: UpPhase,
+        total: Option<u32>,
+    },
+    Down {
+        source: D,
+        phase: DownPhase,
+        len: u32,
+        /// Bytes fed to the CRC so far (segments are first sent in order).
+        crc_upto: u32,
+    },
+}
+
+#[derive(Debug)]
+struct Active<S, D> {
+    mux: Multiplexer,
+    kind: Kind<S, D>,
+    done: u32,
+    crc: Crc16,
+    deadline: Instant,
+}
+
+/// The SDO client machine for one server. See the [module docs](self) for the call order.
+///
+/// `S` is the upload sink type and `D` the download source type (both caller-owned; see
+/// [`crate::buffer`]).
+#[derive(Debug)]
+pub struct Client<S, D> {
+    config: ClientConfig,
+    active: Option<Active<S, D>>,
+    tx: Ring<[u8; 8], 4>,
+    event: Option<Event<S, D>>,
+}
+
+enum Step<S, D> {
+    Continue(Active<S, D>),
+    Finish(Active<S, D>, Result<(), ErrorKind>),
+}
+
+impl<S: Sink, D: Source> Client<S, D> {
+    /// An idle client.
+    pub fn new(config: ClientConfig) -> Self {
+        let config = ClientConfig {
+            block_size: clamp_blksize(config.block_size),
+            ..config
+        };
+        Self {
+            config,
+            active: None,
+            tx: Ring::new(),
+            event: None,
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &ClientConfig {
+        &self.config
+    }
+
+    /// Changes the settings; they apply to the next transfer.
+    pub fn set_config(&mut self, config: ClientConfig) {
+        self.config = ClientConfig {
+            block_size: clamp_blksize(config.block_size),
+            ..config
+        };
+    }
+
+    /// Whether a new transfer can start (none runs and no completion waits to be polled).
+    pub fn is_idle(&self) -> bool {
+        self.active.is_none() && self.event.is_none()
+    }
+
+    /// Reads the object `mux` from the server into `sink` (appending).
+    pub fn start_upload(
+        &mut self,
+        now: Instant,
+        mux: Multiplexer,
+        sink: S,
+        method: Method,
+    ) -> Result<(), Busy<S>> {
+        if !self.is_idle() {
+            return Err(Busy(sink));
+        }
+        let (request, phase) = match method {
+            Method::Block => (
+                ClientRequest::BlockUploadInitiate {
+                    mux,
+                    crc: self.config.crc,
+                    blksize: self.config.block_size,
+                    pst: self.config.protocol_switch_threshold,
+                },
+                UpPhase::BlockInitiate,
+            ),
+            Method::Normal | Method::Segmented => {
+                (ClientRequest::InitiateUpload { mux }, UpPhase::Initiate)
+            }
+        };
+        self.tx.push(request.emit());
+        self.active = Some(Active {
+            mux,
+            kind: Kind::Up {
+                sink,
+                phase,
+                total: None,
+            },
+            done: 0,
+            crc: Crc16::new(),
+            deadline: now + self.config.timeout,
+        });
+        Ok(())
+    }
+
+    /// Writes the whole of `source` to the object `mux` on the server.
+    pub fn start_download(
+        &mut self,
+        now: Instant,
+        mux: Multiplexer,
+        mut source: D,
+        method: Method,
+    ) -> Result<(), Busy<D>> {
+        if !self.is_idle() {
+            return Err(Busy(source));
+        }
+        let len = source.len();
+        let (request, phase) = match method {
+            Method::Normal if (1..=4).contains(&len) => {
+                let mut data = [0u8; 4];
+                let n = source.read(0, &mut data[..len as usize]);
+                let init = Initiate::Expedited {
+                    data,
+                    size: Some(n.clamp(1, 4) as u8),
+                };
+                (
+                    ClientRequest::InitiateDownload { mux, data: init },
+                    DownPhase::Initiate { expedited: true },
+                )
+            }
+            Method::Normal | Method::Segmented => (
+                ClientRequest::InitiateDownload {
+                    mux,
+                    data: Initiate::Segmented { size: Some(len) },
+                },
+                DownPhase::Initiate { expedited: false },
+            ),
+            Method::Block => (
+                ClientRequest::BlockDownloadInitiate {
+                    mux,
+                    crc: self.config.crc,
+                    size: Some(len),
+                },
+                DownPhase::BlockInitiate,
+            ),
+        };
+        self.tx.push(request.emit());
+        self.active = Some(Active {
+            mux,
+            kind: Kind::Down {
+                source,
+                phase,
+                len,
+                crc_upto: 0,
+            },
+            done: 0,
+            crc: Crc16::new(),
+            deadline: now + self.config.timeout,
+        });
+        Ok(())
+    }
+
+    /// Cancels the running transfer: sends an abort with `code` to the server and ends the
+    /// transfer with [`ErrorKind::Cancelled`]. Returns whether a transfer was running.
+    pub fn abort(&mut self, now: Instant, code: AbortCode) -> bool {
+        let _ = now;
+        match self.active.take() {
+            Some(active) => {
+                self.tx.push(abort_frame(active.mux, code));
+                self.finish(active, Err(ErrorKind::Cancelled(code)));
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Feeds one frame's data from the server (its response COB-ID).
+    pub fn handle_response(&mut self, now: Instant, data: &[u8]) {
+        let Some(active) = self.active.take() else {
+            return;
+        };
+        let step = self.step(now, active, data);
+        match step {
+            Step::Continue(active) => self.active = Some(active),
+            Step::Finish(active, Err(kind)) => {
+                let code = match kind {
+                    ErrorKind::ServerAbort(_) => None,
+                    other => Some(other.abort_code()),
+                };
+                if let Some(code) = code {
+                    self.tx.push(abort_frame(active.mux, code));
+                }
+                self.finish(active, Err(kind));
+            }
+            Step::Finish(active, Ok(())) => self.finish(active, Ok(())),
+        }
+    }
+
+    /// Checks the timeout: when `now` has reached [`poll_timeout`](Self::poll_timeout), sends
+    /// abort 0x05040000 and ends the transfer with [`ErrorKind::Timeout`].
+    pub fn handle_timeout(&mut self, now: Instant) {
+        if let Some(active) = self.active.take() {
+            if now >= active.deadline {
+                self.tx.push(abort_frame(active.mux, AbortCode::TIMEOUT));
+                self.finish(active, Err(ErrorKind::Timeout));
+            } else {
+                self.active = Some(active);
+            }
+        }
+    }
+
+    /// The next frame to send to the server (eight data bytes for the request COB-ID).
+    #[must_use]
+    pub fn poll_transmit(&mut self) -> Option<[u8; 8]> {
+        if let Some(frame) = self.tx.pop() {
+            return Some(frame);
+        }
+        let active = self.active.as_mut()?;
+        let Kind::Down {
+            source,
+            phase:
+                DownPhase::SubBlock {
+                    count,
+                    sent,
+                    acked,
+                    total,
+                    ..
+                },
+            len,
+            crc_upto,
+        } = &mut active.kind
+        else {
+            return None;
+        };
+        if *sent >= *count {
+            return None;
+        }
+        *sent += 1;
+        let index = *acked + u32::from(*sent) - 1;
+        let offset = index.saturating_mul(7);
+        let mut data = [0u8; 7];
+        let want = (*len).saturating_sub(offset).min(7) as usize;
+        let n = source.read(offset, &mut data[..want]);
+        let end = offset.saturating_add(n as u32);
+        if end > *crc_upto {
+            let from = crc_upto.saturating_sub(offset) as usize;
+            active.crc.update(&data[from.min(n)..n]);
+            *crc_upto = end;
+        }
+        Some(
+            BlockSegment {
+                seqno: *sent,
+                last: index + 1 >= *total,
+                data,
+            }
+            .emit(),
+        )
+    }
+
+    /// The event that ended a transfer, once.
+    #[must_use]
+    pub fn poll_event(&mut self) -> Option<Event<S, D>> {
+        self.event.take()
+    }
+
+    /// When [`handle_timeout`](Self::handle_timeout) must be called next, if a transfer runs.
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.active.as_ref().map(|a| a.deadline)
+    }
+
+    /// How far the running transfer is.
+    pub fn progress(&self) -> Option<Progress> {
+        let active = self.active.as_ref()?;
+        let (direction, total) = match &active.kind {
+            Kind::Up { total, .. } => (Direction::Upload, *total),
+            Kind::Down { len, .. } => (Direction::Download, Some(*len)),
+        };
+        Some(Progress {
+            mux: active.mux,
+            direction,
+            done: active.done,
+            total,
+        })
+    }
+
+    fn finish(&mut self, active: Active<S, D>, result: Result<(), ErrorKind>) {
+        let mux = active.mux;
+        self.event = Some(match (active.kind, result) {
+            (Kind::Up { sink, .. }, Ok(())) => Event::Uploaded {
+                mux,
+                sink,
+                len: active.done,
+            },
+            (Kind::Down { source, .. }, Ok(())) => Event::Downloaded { mux, source },
+            (kind, Err(kind_err)) => Event::Failed {
+                error: TransferError {
+                    index: mux.index,
+                    subindex: mux.subindex,
+                    kind: kind_err,
+                },
+                buffer: match kind {
+                    Kind::Up { sink, .. } => Buffer::Sink(sink),
+                    Kind::Down { source, .. } => Buffer::Source(source),
+                },
+            },
+        });
+    }
+
+    fn step(&mut self, now: Instant, mut active: Active<S, D>, data: &[u8]) -> Step<S, D> {
+        // In an upload sub-block every frame is a segment, except an abort.
+        if let Kind::Up {
+            phase: UpPhase::SubBlock { .. },
+            ..
+        } = active.kind
+            && !is_abort(data)
+        {
+            return match BlockSegment::parse(data) {
+                Ok(seg) => self.on_block_segment(now, active, seg),
+                Err(_) => Step::Continue(active),
+            };
+        }
+        let msg = match ServerResponse::parse(data) {
+            Ok(msg) => msg,
+            Err(DecodeError::UnknownCommand(_)) => {
+                return Step::Finish(active, Err(protocol(Violation::UnexpectedCommand)));
+            }
+            Err(_) => return Step::Continue(active),
+        };
+        if let ServerResponse::Abort { mux, code } = msg {
+            return if mux == active.mux || mux == Multiplexer::default() {
+                Step::Finish(active, Err(ErrorKind::ServerAbort(code)))
+            } else {
+                Step::Continue(active)
+            };
+        }
+        let result = if matches!(active.kind, Kind::Up { .. }) {
+            self.on_upload(&mut active, msg)
+        } else {
+            self.on_download(&mut active, msg)
+        };
+        match result {
+            Ok(Flow::Continue) => {
+                active.deadline = now + self.config.timeout;
+                Step::Continue(active)
+            }
+            Ok(Flow::Ignore) => Step::Continue(active),
+            Ok(Flow::Done) => Step::Finish(active, Ok(())),
+            Err(kind) => Step::Finish(active, Err(kind)),
+        }
+    }
+
+    fn on_upload(
+        &mut self,
+        active: &mut Active<S, D>,
+        msg: ServerResponse,
+    ) -> Result<Flow, ErrorKind> {
+        let mux = active.mux;
+        let Kind::Up { sink, phase, total } = &mut active.kind else {
+            return Err(protocol(Violation::UnexpectedCommand));
+        };
+        match (&*phase, msg) {
+            (
+                UpPhase::Initiate | UpPhase::BlockInitiate,
+                ServerResponse::InitiateUpload { mux: m, data },
+            ) => {
+                if m != mux {
+                    return Ok(Flow::Ignore);
+                }
+                match data {
+                    Initiate::Expedited { .. } => {
+                        let bytes = data.expedited_data();
+                        let n = bytes.len() as u32;
+                        *total = Some(n);
+                        sink.expect_size(n).map_err(|_| ErrorKind::BufferFull)?;
+                        sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
+                        active.done = n;
+                        Ok(Flow::Done)
+                    }
+                    Initiate::Segmented { size } => {
+                        if let Some(size) = size {
+                            sink.expect_size(size).map_err(|_| ErrorKind::BufferFull)?;
+                        }
+                        *total = size;
+                        *phase = UpPhase::Segment { toggle: false };
+                        self.tx.push(ClientRequest::UploadSegment { toggle: false }.emit());
+                        Ok(Flow::Continue)
+                    }
+                }
+            }
+            (
+                UpPhase::BlockInitiate,
+                ServerResponse::BlockUploadInitiate { mux: m, crc, size },
+            ) => {
+                if m != mux {
+                    return Ok(Flow::Ignore);
+                }
+                if let Some(size) = size {
+                    sink.expect_size(size).map_err(|_| ErrorKind::BufferFull)?;
+                }
+                *total = size;
+                *phase = UpPhase::SubBlock {
+                    crc: crc && self.config.crc,
+                    expected: 1,
+                    held: None,
+                };
+                self.tx.push(ClientRequest::BlockUploadStart.emit());
+                Ok(Flow::Continue)
+            }
+            (&UpPhase::Segment { toggle }, ServerResponse::UploadSegment(seg)) => {
+                if seg.toggle != toggle {
+                    return Err(protocol(Violation::Toggle));
+                }
+                let bytes = seg.bytes();
+                let done = active.done.saturating_add(bytes.len() as u32);
+                if let Some(size) = *total
+                    && done > size
+                {
+                    return Err(protocol(Violation::TooLong { size }));
+                }
+                sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
+                active.done = done;
+                if seg.last {
+                    if let Some(size) = *total
+                        && done != size
+                    {
+                        return Err(protocol(Violation::TooShort {
+                            size,
+                            received: done,
+                        }));
+                    }
+                    return Ok(Flow::Done);
+                }
+                *phase = UpPhase::Segment { toggle: !toggle };
+                self.tx.push(ClientRequest::UploadSegment { toggle: !toggle }.emit());
+                Ok(Flow::Continue)
+            }
+            (&UpPhase::BlockEnd { crc, held }, ServerResponse::BlockUploadEnd { unused, crc: received }) => {
+                let bytes = &held[..usize::from(7 - unused.min(7))];
+                let done = active.done.saturating_add(bytes.len() as u32);
+                if let Some(size) = *total {
+                    if done > size {
+                        return Err(protocol(Violation::TooLong { size }));
+                    }
+                    if done < size {
+                        return Err(protocol(Violation::TooShort {
+                            size,
+                            received: done,
+                        }));
+                    }
+                }
+                sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
+                active.crc.update(bytes);
+                active.done = done;
+                if crc && active.crc.get() != received {
+                    return Err(protocol(Violation::Crc {
+                        computed: active.crc.get(),
+                        received,
+                    }));
+                }
+                self.tx.push(ClientRequest::BlockUploadEnd.emit());
+                Ok(Flow::Done)
+            }
+            _ => Err(protocol(Violation::UnexpectedCommand)),
+        }
+    }
+
+    fn on_block_segment(
+        &mut self,
+        now: Instant,
+        mut active: Active<S, D>,
+        seg: BlockSegment,
+    ) -> Step<S, D> {
+        let blksize = self.config.block_size;
+        let Kind::Up {
+            sink,
+            phase: UpPhase::SubBlock { crc, expected, held },
+            total,
+        } = &mut active.kind
+        else {
+            return Step::Continue(active);
+        };
+        if seg.seqno == 0 || seg.seqno > blksize {
+            return Step::Finish(
+                active,
+                Err(protocol(Violation::SequenceNumber(seg.seqno))),
+            );
+        }
+        if seg.seqno == *expected {
+            if seg.last {
+                *held = Some(seg.data);
+            } else {
+                let done = active.done.saturating_add(7);
+                if let Some(size) = *total
+                    && done > size
+                {
+                    return Step::Finish(active, Err(protocol(Violation::TooLong { size })));
+                }
+                if sink.write(&seg.data).is_err() {
+                    return Step::Finish(active, Err(ErrorKind::BufferFull));
+                }
+                active.crc.update(&seg.data);
+                active.done = done;
+            }
+            *expected += 1;
+        }
+        if seg.last || seg.seqno == blksize {
+            self.tx.push(
+                ClientRequest::BlockUploadAck {
+                    ackseq: *expected - 1,
+                    blksize,
+                }
+                .emit(),
+            );
+            let crc = *crc;
+            match held.take() {
+                Some(held) => {
+                    if let Kind::Up { phase, .. } = &mut active.kind {
+                        *phase = UpPhase::BlockEnd { crc, held };
+                    }
+                }
+                None => *expected = 1,
+            }
+            active.deadline = now + self.config.timeout;
+        }
+        Step::Continue(active)
+    }
+
+    fn on_download(
+        &mut self,
+        active: &mut Active<S, D>,
+        msg: ServerResponse,
+    ) -> Result<Flow, ErrorKind> {
+        let mux = active.mux;
+        let Kind::Down {
+            source, phase, len, ..
+        } = &mut active.kind
+        else {
+            return Err(protocol(Violation::UnexpectedCommand));
+        };
+        let len = *len;
+        match (&*phase, msg) {
+            (&DownPhase::Initiate { expedited }, ServerResponse::InitiateDownload { mux: m }) => {
+                if m != mux {
+                    return Ok(Flow::Ignore);
+                }
+                if expedited {
+                    active.done = len;
+                    return Ok(Flow::Done);
+                }
+                *phase = self.send_segment(source, 0, len, false);
+                Ok(Flow::Continue)
+            }
+            (
+                &DownPhase::Segment { toggle, end, last },
+                ServerResponse::DownloadSegment { toggle: t },
+            ) => {
+                if t != toggle {
+                    return Err(protocol(Violation::Toggle));
+                }
+                active.done = end;
+                if last {
+                    return Ok(Flow::Done);
+                }
+                *phase = self.send_segment(source, end, len, !toggle);
+                Ok(Flow::Continue)
+            }
+            (
+                DownPhase::BlockInitiate,
+                ServerResponse::BlockDownloadInitiate {
+                    mux: m,
+                    crc,
+                    blksize,
+                },
+            ) => {
+                if m != mux {
+                    return Ok(Flow::Ignore);
+                }
+                if blksize == 0 || blksize > MAX_BLOCK_SIZE {
+                    return Err(protocol(Violation::BlockSize(blksize)));
+                }
+                let total = segments_for(len);
+                *phase = DownPhase::SubBlock {
+                    crc: crc && self.config.crc,
+                    count: total.min(u32::from(blksize)) as u8,
+                    sent: 0,
+                    acked: 0,
+                    total,
+                };
+                Ok(Flow::Continue)
+            }
+            (
+                &DownPhase::SubBlock {
+                    crc,
+                    sent,
+                    acked,
+                    total,
+                    ..
+                },
+                ServerResponse::BlockDownloadAck { ackseq, blksize },
+            ) => {
+                if ackseq > sent {
+                    return Err(protocol(Violation::SequenceNumber(ackseq)));
+                }
+                if blksize == 0 || blksize > MAX_BLOCK_SIZE {
+                    return Err(protocol(Violation::BlockSize(blksize)));
+                }
+                let acked = acked + u32::from(ackseq);
+                active.done = acked.saturating_mul(7).min(len);
+                if acked >= total {
+                    let crc = if crc { active.crc.get() } else { 0 };
+                    self.tx.push(
+                        ClientRequest::BlockDownloadEnd {
+                            unused: unused_in_last(len),
+                            crc,
+                        }
+                        .emit(),
+                    );
+                    *phase = DownPhase::BlockEnd;
+                } else {
+                    *phase = DownPhase::SubBlock {
+                        crc,
+                        count: (total - acked).min(u32::from(blksize)) as u8,
+                        sent: 0,
+                        acked,
+                        total,
+                    };
+                }
+                Ok(Flow::Continue)
+            }
+            (DownPhase::BlockEnd, ServerResponse::BlockDownloadEnd) => {
+                active.done = len;
+                Ok(Flow::Done)
+            }
+            _ => Err(protocol(Violation::UnexpectedCommand)),
+        }
+    }
+
+    /// Queues the download segment starting at `offset` and returns the phase waiting for it.
+    fn send_segment(&mut self, source: &mut D, offset: u32, len: u32, toggle: bool) -> DownPhase {
+        let mut data = [0u8; 7];
+        let want = len.saturating_sub(offset).min(7) as usize;
+        let n = source.read(offset, &mut data[..want]);
+        let end = offset.saturating_add(n as u32);
+        // A source that returns less than it promised ends the transfer here; the server
+        // then sees the size mismatch.
+        let last = end >= len || n < want;
+        self.tx.push(ClientRequest::DownloadSegment(Segment::new(toggle, &data[..n], last)).emit());
+        DownPhase::Segment { toggle, end, last }
+    }
+}
+
+enum Flow {
+    /// Progress: restart the response timer.
+    Continue,
+    /// Not for this transfer; nothing changed.
+    Ignore,
+    /// The transfer completed.
+    Done,
+}
+
+fn protocol(v: Violation) -> ErrorKind {
+    ErrorKind::Protocol(v)
+}
+
+fn abort_frame(mux: Multiplexer, code: AbortCode) -> [u8; 8] {
+    ClientRequest::Abort { mux, code }.emit()
+}

@@ -1,0 +1,98 @@
+//! CANopen SDO (service data objects, CiA 301 §7.2.4): read and write any object of a device's
+//! object dictionary, expedited, segmented or by block.
+//!
+//! The crate has two layers, like smoltcp:
+//!
+//! - [`wire`]: the messages. [`ClientRequest`], [`ServerResponse`] and [`BlockSegment`] parse
+//!   eight data bytes (totally: never a panic) and emit them again. [`AbortCode`] holds the
+//!   CiA 301 abort code table, [`crc16`] the CRC of block transfers.
+//! - [`client`] and [`server`]: sans-IO state machines. They take the current
+//!   [`Instant`](can_frame::Instant) and the received bytes, and give back bytes to send,
+//!   events and their next deadline; no clock, socket or thread inside. [`SdoCobIds`] turns
+//!   their bytes into CAN frames for a node.
+//!
+//! A client and a server wired back to back:
+//!
+//! ```
+//! use can_frame::Instant;
+//! use canopen_sdo::{
+//!     AbortCode, Access, Client, ClientConfig, Event, Method, Multiplexer, ObjectAccess,
+//!     ObjectInfo, Server, ServerConfig,
+//! };
+//!
+//! /// One read-only UNSIGNED32 at 0x1000:00.
+//! struct DeviceType;
+//! impl ObjectAccess for DeviceType {
+//!     fn info(&mut self, mux: Multiplexer) -> Result<ObjectInfo, AbortCode> {
+//!         match (mux.index, mux.subindex) {
+//!             (0x1000, 0) => Ok(ObjectInfo::fixed(Access::ReadOnly, 4)),
+//!             (0x1000, _) => Err(AbortCode::SUBINDEX_DOES_NOT_EXIST),
+//!             _ => Err(AbortCode::OBJECT_DOES_NOT_EXIST),
+//!         }
+//!     }
+//!     fn read(&mut self, _: Multiplexer, offset: u32, buf: &mut [u8]) -> Result<usize, AbortCode> {
+//!         let value = 0x0002_0191u32.to_le_bytes();
+//!         let rest = &value[(offset as usize).min(4)..];
+//!         let n = rest.len().min(buf.len());
+//!         buf[..n].copy_from_slice(&rest[..n]);
+//!         Ok(n)
+//!     }
+//!     fn write(&mut self, _: Multiplexer, _: u32, _: &[u8]) -> Result<(), AbortCode> {
+//!         Err(AbortCode::READ_ONLY)
+//!     }
+//!     fn commit(&mut self, _: Multiplexer, _: u32) -> Result<(), AbortCode> {
+//!         Err(AbortCode::READ_ONLY)
+//!     }
+//! }
+//!
+//! let now = Instant::ZERO;
+//! let mut client: Client<heapless::Vec<u8, 16>, &[u8]> = Client::new(ClientConfig::default());
+//! let mut server = Server::new(ServerConfig::default());
+//! client
+//!     .start_upload(now, Multiplexer::new(0x1000, 0), heapless::Vec::new(), Method::Normal)
+//!     .unwrap();
+//! while let Some(request) = client.poll_transmit() {
+//!     server.handle_request(now, &request, &mut DeviceType);
+//!     while let Some(response) = server.poll_transmit() {
+//!         client.handle_response(now, &response);
+//!     }
+//! }
+//! match client.poll_event() {
+//!     Some(Event::Uploaded { sink, .. }) => assert_eq!(&sink[..], &[0x91, 0x01, 0x02, 0x00]),
+//!     other => panic!("{other:?}"),
+//! }
+//! ```
+//!
+//! The crate is `#![no_std]` without an allocator; `alloc` adds [`Sink`]/[`Source`] for `Vec`
+//! and `Box`, `std` (default) implies `alloc`.
+#![no_std]
+#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+#[cfg(feature = "std")]
+extern crate std;
+
+mod abort;
+pub mod buffer;
+pub mod client;
+mod cob;
+mod crc;
+mod queue;
+pub mod server;
+pub mod wire;
+
+pub use abort::AbortCode;
+pub use buffer::{Full, SliceSink, Sink, Source};
+pub use client::{
+    Buffer, Busy, Client, ClientConfig, Direction, ErrorKind, Event, Method, Progress,
+    TransferError, Violation,
+};
+pub use cob::SdoCobIds;
+pub use crc::{Crc16, crc16};
+pub use server::{
+    Access, LengthRule, ObjectAccess, ObjectInfo, Server, ServerConfig, ServerEvent,
+};
+pub use wire::{
+    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, Segment, ServerResponse,
+};

@@ -1,0 +1,927 @@
+//! The SDO server (CiA 301 §7.2.4.3) over an object-access trait: what a device (or the
+//! device simulator) runs to serve one SDO channel.
+//!
+//! # Call order
+//!
+//! 1. [`Server::new`] with a [`ServerConfig`].
+//! 2. For every frame on the request COB-ID (0x600 + node by default) call
+//!    [`Server::handle_request`] with the device's [`ObjectAccess`] implementation.
+//! 3. Send every frame [`Server::poll_transmit`] yields on the response COB-ID (0x580 + node).
+//! 4. When the clock reaches [`Server::poll_timeout`], call [`Server::handle_timeout`] (a client
+//!    that stops half-way is aborted with 0x05040000).
+//! 5. Optionally drain [`Server::poll_event`] for completed and aborted transfers.
+//!
+//! # Objects
+//!
+//! The server asks [`ObjectAccess::info`] for existence, access and length, and answers the
+//! CiA 301 abort codes itself: read of a write-only object 0x06010001, write of a read-only
+//! object 0x06010002, wrong lengths 0x06070010 / 0x06070012 / 0x06070013. Whatever
+//! `info`, `read`, `write` or `commit` return as `Err(code)` is sent as the abort code
+//! (0x06020000 object does not exist, 0x06090011 sub-index does not exist, 0x06090030 value
+//! range, ...). Data moves in pieces of at most 889 bytes (one sub-block), so a multi-KiB
+//! DOMAIN never has to sit in one buffer.
+//!
+//! A new initiate request while a transfer runs ends the old transfer (reported as
+//! [`ServerEvent::Superseded`]) and starts the new one: the client has given up on the old one.
+
+use can_frame::{Duration, Instant};
+
+use crate::abort::AbortCode;
+use crate::client::{MAX_BLOCK_SIZE, segments_for, unused_in_last};
+use crate::crc::Crc16;
+use crate::queue::Ring;
+use crate::wire::{
+    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, Segment, ServerResponse,
+    is_abort,
+};
+
+/// Bytes of one full sub-block.
+const BLOCK_BYTES: usize = MAX_BLOCK_SIZE as usize * 7;
+
+/// Access rights of an object (CiA 301 / CiA 306 `AccessType`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Access {
+    /// Read only.
+    ReadOnly,
+    /// Write only.
+    WriteOnly,
+    /// Read and write.
+    ReadWrite,
+    /// Constant (read only).
+    Const,
+}
+
+impl Access {
+    /// Whether an upload is allowed.
+    pub const fn readable(self) -> bool {
+        !matches!(self, Self::WriteOnly)
+    }
+
+    /// Whether a download is allowed.
+    pub const fn writable(self) -> bool {
+        matches!(self, Self::WriteOnly | Self::ReadWrite)
+    }
+}
+
+/// Which download lengths an object accepts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum LengthRule {
+    /// Exactly this many bytes (numeric types).
+    Exact(u32),
+    /// Any length up to this many bytes (strings, DOMAIN).
+    UpTo(u32),
+}
+
+impl LengthRule {
+    fn max(self) -> u32 {
+        match self {
+            Self::Exact(n) | Self::UpTo(n) => n,
+        }
+    }
+
+    /// Checks a complete length.
+    fn check(self, len: u32) -> Result<(), AbortCode> {
+        match self {
+            Self::Exact(n) | Self::UpTo(n) if len > n => Err(AbortCode::LENGTH_TOO_HIGH),
+            Self::Exact(n) if len < n => Err(AbortCode::LENGTH_TOO_LOW),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// What the server needs to know about an object before a transfer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ObjectInfo {
+    /// Access rights.
+    pub access: Access,
+    /// The current length of the value in bytes: what an upload delivers.
+    pub len: u32,
+    /// Which lengths a download may have.
+    pub accepts: LengthRule,
+}
+
+impl ObjectInfo {
+    /// A fixed-length object (numeric types): reads and writes are exactly `len` bytes.
+    pub const fn fixed(access: Access, len: u32) -> Self {
+        Self {
+            access,
+            len,
+            accepts: LengthRule::Exact(len),
+        }
+    }
+
+    /// A variable-length object (strings, DOMAIN) currently `len` bytes long, accepting
+    /// downloads of up to `max` bytes.
+    pub const fn variable(access: Access, len: u32, max: u32) -> Self {
+        Self {
+            access,
+            len,
+            accepts: LengthRule::UpTo(max),
+        }
+    }
+}
+
+/// The device's objects as the SDO server sees them.
+///
+/// Downloads call `write` with consecutive pieces from offset 0 and then `commit` with the
+/// total length once all data arrived and was checked (length, CRC); if the transfer is aborted
+/// instead, `discard` is called. An implementation that cannot stage a value may apply the
+/// pieces directly. Uploads call `read` at increasing offsets (block upload re-reads a range
+/// after a lost segment).
+pub trait ObjectAccess {
+    /// Existence, access and length of an object; `Err` with 0x06020000 (object does not
+    /// exist) or 0x06090011 (sub-index does not exist), or any other code.
+    fn info(&mut self, mux: Multiplexer) -> Result<ObjectInfo, AbortCode>;
+
+    /// Copies the value's bytes at `offset..offset + buf.len()` into `buf` and returns how many
+    /// were copied; fewer than asked only at the end of the value.
+    fn read(&mut self, mux: Multiplexer, offset: u32, buf: &mut [u8]) -> Result<usize, AbortCode>;
+
+    /// Takes the download bytes at `offset`.
+    fn write(&mut self, mux: Multiplexer, offset: u32, data: &[u8]) -> Result<(), AbortCode>;
+
+    /// All `len` bytes arrived: store the value (or refuse it, e.g. 0x06090030).
+    fn commit(&mut self, mux: Multiplexer, len: u32) -> Result<(), AbortCode>;
+
+    /// The download was aborted: forget the pieces written.
+    fn discard(&mut self, mux: Multiplexer) {
+        let _ = mux;
+    }
+}
+
+impl<T: ObjectAccess + ?Sized> ObjectAccess for &mut T {
+    fn info(&mut self, mux: Multiplexer) -> Result<ObjectInfo, AbortCode> {
+        (**self).info(mux)
+    }
+    fn read(&mut self, mux: Multiplexer, offset: u32, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        (**self).read(mux, offset, buf)
+    }
+    fn write(&mut self, mux: Multiplexer, offset: u32, data: &[u8]) -> Result<(), AbortCode> {
+        (**self).write(mux, offset, data)
+    }
+    fn commit(&mut self, mux: Multiplexer, len: u32) -> Result<(), AbortCode> {
+        (**self).commit(mux, len)
+    }
+    fn discard(&mut self, mux: Multiplexer) {
+        (**self).discard(mux)
+    }
+}
+
+/// Server settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServerConfig {
+    /// How long the client may take for its next request within a transfer. Default 1 s.
+    pub timeout: Duration,
+    /// Segments per sub-block the server accepts in block download, 1..=127. Default 127.
+    pub block_size: u8,
+    /// Whether the server supports CRC in block transfers. Default on.
+    pub crc: bool,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        Self {
+            timeout: Duration::from_secs(1),
+            block_size: MAX_BLOCK_SIZE,
+            crc: true,
+        }
+    }
+}
+
+/// What happened on the server, for logs and the simulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ServerEvent {
+    /// A download completed and was committed.
+    Downloaded {
+        /// The object.
+        mux: Multiplexer,
+        /// Bytes written.
+        len: u32,
+    },
+    /// An upload completed.
+    Uploaded {
+        /// The object.
+        mux: Multiplexer,
+        /// Bytes read.
+        len: u32,
+    },
+    /// The server aborted a transfer (or refused to start one) with this code.
+    Aborted {
+        /// The object.
+        mux: Multiplexer,
+        /// The code sent.
+        code: AbortCode,
+    },
+    /// The client aborted the transfer.
+    AbortedByClient {
+        /// The object.
+        mux: Multiplexer,
+        /// The client's code.
+        code: AbortCode,
+    },
+    /// A new initiate request replaced an unfinished transfer.
+    Superseded {
+        /// The object of the abandoned transfer.
+        mux: Multiplexer,
+    },
+}
+
+#[derive(Debug, Clone, Copy)]
+enum State {
+    Idle,
+    /// Segmented download: next toggle expected, bytes received.
+    Download {
+        mux: Multiplexer,
+        toggle: bool,
+        received: u32,
+        size: Option<u32>,
+        accepts: LengthRule,
+    },
+    /// Segmented upload: next toggle expected, bytes sent.
+    Upload {
+        mux: Multiplexer,
+        toggle: bool,
+        offset: u32,
+        len: u32,
+    },
+    /// Block download, receiving sub-blocks (or, with `held` set, waiting for the end).
+    BlockDownload {
+        mux: Multiplexer,
+        crc: bool,
+        expected: u8,
+        received: u32,
+        size: Option<u32>,
+        accepts: LengthRule,
+        held: Option<[u8; 7]>,
+    },
+    /// Block upload initiated; waiting for the start command.
+    BlockUploadStart {
+        mux: Multiplexer,
+        crc: bool,
+        blksize: u8,
+        len: u32,
+    },
+    /// Block upload: sending a sub-block of `count` segments from the block buffer.
+    BlockUpload {
+        mux: Multiplexer,
+        crc: bool,
+        len: u32,
+        acked: u32,
+        total: u32,
+        count: u8,
+        sent: u8,
+    },
+    /// Block upload end sent; waiting for the client's end response.
+    BlockUploadEnd { mux: Multiplexer, len: u32 },
+}
+
+impl State {
+    fn mux(&self) -> Option<Multiplexer> {
+        match *self {
+            Self::Idle => None,
+            Self::Download { mux, .. }
+            | Self::Upload { mux, .. }
+            | Self::BlockDownload { mux, .. }
+            | Self::BlockUploadStart { mux, .. }
+            | Self::BlockUpload { mux, .. }
+            | Self::BlockUploadEnd { mux, .. } => Some(mux),
+        }
+    }
+
+    fn is_download(&self) -> bool {
+        matches!(self, Self::Download { .. } | Self::BlockDownload { .. })
+    }
+}
+
+/// Why a request ended the transfer: the object and the code to send.
+struct Fail(Multiplexer, AbortCode);
+
+/// The SDO server machine for one channel. See the [module docs](self) for the call order.
+#[derive(Debug)]
+pub struct Server {
+    config: ServerConfig,
+    state: State,
+    crc: Crc16,
+    deadline: Option<Instant>,
+    tx: Ring<[u8; 8], 4>,
+    events: Ring<ServerEvent, 4>,
+    /// The current sub-block of a block upload.
+    block: [u8; BLOCK_BYTES],
+}
+
+impl Server {
+    /// An idle server.
+    pub fn new(config: ServerConfig) -> Self {
+        let block_size = config.block_size.clamp(1, MAX_BLOCK_SIZE);
+        Self {
+            config: ServerConfig {
+                block_size,
+                ..config
+            },
+            state: State::Idle,
+            crc: Crc16::new(),
+            deadline: None,
+            tx: Ring::new(),
+            events: Ring::new(),
+            block: [0; BLOCK_BYTES],
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &ServerConfig {
+        &self.config
+    }
+
+    /// Whether no transfer is in progress.
+    pub fn is_idle(&self) -> bool {
+        matches!(self.state, State::Idle)
+    }
+
+    /// The object of the transfer in progress.
+    pub fn current(&self) -> Option<Multiplexer> {
+        self.state.mux()
+    }
+
+    /// Feeds one frame's data from the client (the request COB-ID).
+    pub fn handle_request<O: ObjectAccess + ?Sized>(
+        &mut self,
+        now: Instant,
+        data: &[u8],
+        od: &mut O,
+    ) {
+        let state = core::mem::replace(&mut self.state, State::Idle);
+        let result = match state {
+            State::BlockDownload { held: None, .. } if !is_abort(data) => {
+                match BlockSegment::parse(data) {
+                    Ok(seg) => self.on_block_segment(state, seg, od),
+                    Err(_) => Ok(state),
+                }
+            }
+            _ => match ClientRequest::parse(data) {
+                Ok(req) => self.on_request(state, req, od),
+                Err(DecodeError::UnknownCommand(_)) => Err(Fail(
+                    state.mux().unwrap_or_default(),
+                    AbortCode::INVALID_COMMAND,
+                )),
+                Err(_) => Ok(state),
+            },
+        };
+        match result {
+            Ok(next) => {
+                self.state = next;
+                self.deadline = match next {
+                    State::Idle => None,
+                    _ => Some(now + self.config.timeout),
+                };
+            }
+            Err(Fail(mux, code)) => {
+                if state.is_download() || self.state.is_download() {
+                    if let Some(m) = state.mux() {
+                        od.discard(m);
+                    }
+                }
+                self.abort(mux, code);
+            }
+        }
+    }
+
+    /// Checks the timeout: a client silent for longer than the timeout within a transfer is
+    /// sent abort 0x05040000 and the transfer is dropped.
+    pub fn handle_timeout<O: ObjectAccess + ?Sized>(&mut self, now: Instant, od: &mut O) {
+        if let (Some(deadline), Some(mux)) = (self.deadline, self.state.mux())
+            && now >= deadline
+        {
+            if self.state.is_download() {
+                od.discard(mux);
+            }
+            self.abort(mux, AbortCode::TIMEOUT);
+        }
+    }
+
+    /// The next frame to send to the client (eight data bytes for the response COB-ID).
+    #[must_use]
+    pub fn poll_transmit(&mut self) -> Option<[u8; 8]> {
+        if let Some(frame) = self.tx.pop() {
+            return Some(frame);
+        }
+        let State::BlockUpload {
+            acked,
+            total,
+            count,
+            sent,
+            ..
+        } = &mut self.state
+        else {
+            return None;
+        };
+        if *sent >= *count {
+            return None;
+        }
+        let start = usize::from(*sent) * 7;
+        let mut data = [0u8; 7];
+        data.copy_from_slice(&self.block[start..start + 7]);
+        *sent += 1;
+        Some(
+            BlockSegment {
+                seqno: *sent,
+                last: *acked + u32::from(*sent) >= *total,
+                data,
+            }
+            .emit(),
+        )
+    }
+
+    /// The next event, if any (the last four are kept).
+    #[must_use]
+    pub fn poll_event(&mut self) -> Option<ServerEvent> {
+        self.events.pop()
+    }
+
+    /// When [`handle_timeout`](Self::handle_timeout) must be called next, if a transfer runs.
+    #[must_use]
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        self.deadline
+    }
+
+    fn abort(&mut self, mux: Multiplexer, code: AbortCode) {
+        self.state = State::Idle;
+        self.deadline = None;
+        self.tx.clear();
+        self.tx.push(ServerResponse::Abort { mux, code }.emit());
+        self.events.push(ServerEvent::Aborted { mux, code });
+    }
+
+    fn send(&mut self, response: ServerResponse) {
+        self.tx.push(response.emit());
+    }
+
+    fn on_request<O: ObjectAccess + ?Sized>(
+        &mut self,
+        state: State,
+        req: ClientRequest,
+        od: &mut O,
+    ) -> Result<State, Fail> {
+        let busy = state.mux();
+        match req {
+            ClientRequest::Abort { mux, code } => {
+                return match busy {
+                    Some(current) if mux == current || mux == Multiplexer::default() => {
+                        if state.is_download() {
+                            od.discard(current);
+                        }
+                        self.events.push(ServerEvent::AbortedByClient { mux: current, code });
+                        self.tx.clear();
+                        Ok(State::Idle)
+                    }
+                    _ => Ok(state),
+                };
+            }
+            ClientRequest::InitiateDownload { .. }
+            | ClientRequest::InitiateUpload { .. }
+            | ClientRequest::BlockDownloadInitiate { .. }
+            | ClientRequest::BlockUploadInitiate { .. } => {
+                if let Some(old) = busy {
+                    if state.is_download() {
+                        od.discard(old);
+                    }
+                    self.tx.clear();
+                    self.events.push(ServerEvent::Superseded { mux: old });
+                }
+                return self.on_initiate(req, od);
+            }
+            _ => {}
+        }
+        let unexpected = Fail(busy.unwrap_or_default(), AbortCode::INVALID_COMMAND);
+        match (state, req) {
+            (
+                State::Download {
+                    mux,
+                    toggle,
+                    received,
+                    size,
+                    accepts,
+                },
+                ClientRequest::DownloadSegment(seg),
+            ) => {
+                if seg.toggle != toggle {
+                    return Err(Fail(mux, AbortCode::TOGGLE_BIT_NOT_ALTERNATED));
+                }
+                let bytes = seg.bytes();
+                let end = received.saturating_add(bytes.len() as u32);
+                check_progress(end, size, accepts).map_err(|c| Fail(mux, c))?;
+                od.write(mux, received, bytes).map_err(|c| Fail(mux, c))?;
+                if seg.last {
+                    check_end(end, size, accepts).map_err(|c| Fail(mux, c))?;
+                    od.commit(mux, end).map_err(|c| Fail(mux, c))?;
+                    self.send(ServerResponse::DownloadSegment { toggle });
+                    self.events.push(ServerEvent::Downloaded { mux, len: end });
+                    return Ok(State::Idle);
+                }
+                self.send(ServerResponse::DownloadSegment { toggle });
+                Ok(State::Download {
+                    mux,
+                    toggle: !toggle,
+                    received: end,
+                    size,
+                    accepts,
+                })
+            }
+            (
+                State::Upload {
+                    mux,
+                    toggle,
+                    offset,
+                    len,
+                },
+                ClientRequest::UploadSegment { toggle: t },
+            ) => {
+                if t != toggle {
+                    return Err(Fail(mux, AbortCode::TOGGLE_BIT_NOT_ALTERNATED));
+                }
+                let want = len.saturating_sub(offset).min(7) as usize;
+                let mut data = [0u8; 7];
+                let n = read_exact(od, mux, offset, &mut data[..want])?;
+                let end = offset + n as u32;
+                let last = end >= len;
+                self.send(ServerResponse::UploadSegment(Segment::new(
+                    toggle,
+                    &data[..n],
+                    last,
+                )));
+                if last {
+                    self.events.push(ServerEvent::Uploaded { mux, len });
+                    return Ok(State::Idle);
+                }
+                Ok(State::Upload {
+                    mux,
+                    toggle: !toggle,
+                    offset: end,
+                    len,
+                })
+            }
+            (
+                State::BlockDownload {
+                    mux,
+                    crc,
+                    received,
+                    size,
+                    accepts,
+                    held: Some(held),
+                    ..
+                },
+                ClientRequest::BlockDownloadEnd {
+                    unused,
+                    crc: their_crc,
+                },
+            ) => {
+                let bytes = &held[..usize::from(7 - unused.min(7))];
+                let end = received.saturating_add(bytes.len() as u32);
+                check_progress(end, size, accepts).map_err(|c| Fail(mux, c))?;
+                check_end(end, size, accepts).map_err(|c| Fail(mux, c))?;
+                self.crc.update(bytes);
+                if crc && self.crc.get() != their_crc {
+                    return Err(Fail(mux, AbortCode::CRC_ERROR));
+                }
+                od.write(mux, received, bytes).map_err(|c| Fail(mux, c))?;
+                od.commit(mux, end).map_err(|c| Fail(mux, c))?;
+                self.send(ServerResponse::BlockDownloadEnd);
+                self.events.push(ServerEvent::Downloaded { mux, len: end });
+                Ok(State::Idle)
+            }
+            (
+                State::BlockUploadStart {
+                    mux,
+                    crc,
+                    blksize,
+                    len,
+                },
+                ClientRequest::BlockUploadStart,
+            ) => {
+                let total = segments_for(len);
+                let count = self.fill_block(od, mux, len, 0, total, blksize)?;
+                Ok(State::BlockUpload {
+                    mux,
+                    crc,
+                    len,
+                    acked: 0,
+                    total,
+                    count,
+                    sent: 0,
+                })
+            }
+            (
+                State::BlockUpload {
+                    mux,
+                    crc,
+                    len,
+                    acked,
+                    total,
+                    sent,
+                    ..
+                },
+                ClientRequest::BlockUploadAck { ackseq, blksize },
+            ) => {
+                if ackseq > sent {
+                    return Err(Fail(mux, AbortCode::INVALID_SEQUENCE_NUMBER));
+                }
+                if blksize == 0 || blksize > MAX_BLOCK_SIZE {
+                    return Err(Fail(mux, AbortCode::INVALID_BLOCK_SIZE));
+                }
+                let start = acked.saturating_mul(7);
+                let acked_bytes = (u32::from(ackseq) * 7).min(len.saturating_sub(start));
+                self.crc.update(&self.block[..acked_bytes as usize]);
+                let acked = acked + u32::from(ackseq);
+                if acked >= total {
+                    let crc = if crc { self.crc.get() } else { 0 };
+                    self.send(ServerResponse::BlockUploadEnd {
+                        unused: unused_in_last(len),
+                        crc,
+                    });
+                    return Ok(State::BlockUploadEnd { mux, len });
+                }
+                let count = self.fill_block(od, mux, len, acked, total, blksize)?;
+                Ok(State::BlockUpload {
+                    mux,
+                    crc,
+                    len,
+                    acked,
+                    total,
+                    count,
+                    sent: 0,
+                })
+            }
+            (State::BlockUploadEnd { mux, len }, ClientRequest::BlockUploadEnd) => {
+                self.events.push(ServerEvent::Uploaded { mux, len });
+                Ok(State::Idle)
+            }
+            _ => Err(unexpected),
+        }
+    }
+
+    fn on_initiate<O: ObjectAccess + ?Sized>(
+        &mut self,
+        req: ClientRequest,
+        od: &mut O,
+    ) -> Result<State, Fail> {
+        self.crc = Crc16::new();
+        match req {
+            ClientRequest::InitiateDownload { mux, data } => {
+                let info = writable(od, mux)?;
+                match data {
+                    Initiate::Expedited { data: bytes, size } => {
+                        let len = match (size, info.accepts) {
+                            (Some(n), _) => n.clamp(1, 4),
+                            // Size not indicated: a fixed-length object takes its own length.
+                            (None, LengthRule::Exact(n)) if n <= 4 => n as u8,
+                            (None, rule) => rule.max().min(4) as u8,
+                        };
+                        let bytes = &bytes[..usize::from(len)];
+                        info.accepts
+                            .check(u32::from(len))
+                            .map_err(|c| Fail(mux, c))?;
+                        od.write(mux, 0, bytes).map_err(|c| Fail(mux, c))?;
+                        if let Err(code) = od.commit(mux, u32::from(len)) {
+                            od.discard(mux);
+                            return Err(Fail(mux, code));
+                        }
+                        self.send(ServerResponse::InitiateDownload { mux });
+                        self.events.push(ServerEvent::Downloaded {
+                            mux,
+                            len: u32::from(len),
+                        });
+                        Ok(State::Idle)
+                    }
+                    Initiate::Segmented { size } => {
+                        if let Some(size) = size {
+                            info.accepts.check(size).map_err(|c| Fail(mux, c))?;
+                        }
+                        self.send(ServerResponse::InitiateDownload { mux });
+                        Ok(State::Download {
+                            mux,
+                            toggle: false,
+                            received: 0,
+                            size,
+                            accepts: info.accepts,
+                        })
+                    }
+                }
+            }
+            ClientRequest::InitiateUpload { mux } => {
+                let info = readable(od, mux)?;
+                self.initiate_normal_upload(od, mux, info.len)
+            }
+            ClientRequest::BlockDownloadInitiate { mux, crc, size } => {
+                let info = writable(od, mux)?;
+                if let Some(size) = size {
+                    info.accepts.check(size).map_err(|c| Fail(mux, c))?;
+                }
+                self.send(ServerResponse::BlockDownloadInitiate {
+                    mux,
+                    crc: self.config.crc,
+                    blksize: self.config.block_size,
+                });
+                Ok(State::BlockDownload {
+                    mux,
+                    crc: crc && self.config.crc,
+                    expected: 1,
+                    received: 0,
+                    size,
+                    accepts: info.accepts,
+                    held: None,
+                })
+            }
+            ClientRequest::BlockUploadInitiate {
+                mux,
+                crc,
+                blksize,
+                pst,
+            } => {
+                let info = readable(od, mux)?;
+                if blksize == 0 || blksize > MAX_BLOCK_SIZE {
+                    return Err(Fail(mux, AbortCode::INVALID_BLOCK_SIZE));
+                }
+                if pst != 0 && info.len <= u32::from(pst) {
+                    // Protocol switch: answer with a normal upload.
+                    return self.initiate_normal_upload(od, mux, info.len);
+                }
+                self.send(ServerResponse::BlockUploadInitiate {
+                    mux,
+                    crc: self.config.crc,
+                    size: Some(info.len),
+                });
+                Ok(State::BlockUploadStart {
+                    mux,
+                    crc: crc && self.config.crc,
+                    blksize,
+                    len: info.len,
+                })
+            }
+            _ => Err(Fail(Multiplexer::default(), AbortCode::INVALID_COMMAND)),
+        }
+    }
+
+    fn initiate_normal_upload<O: ObjectAccess + ?Sized>(
+        &mut self,
+        od: &mut O,
+        mux: Multiplexer,
+        len: u32,
+    ) -> Result<State, Fail> {
+        if (1..=4).contains(&len) {
+            let mut data = [0u8; 4];
+            read_exact(od, mux, 0, &mut data[..len as usize])?;
+            self.send(ServerResponse::InitiateUpload {
+                mux,
+                data: Initiate::Expedited {
+                    data,
+                    size: Some(len as u8),
+                },
+            });
+            self.events.push(ServerEvent::Uploaded { mux, len });
+            return Ok(State::Idle);
+        }
+        self.send(ServerResponse::InitiateUpload {
+            mux,
+            data: Initiate::Segmented { size: Some(len) },
+        });
+        Ok(State::Upload {
+            mux,
+            toggle: false,
+            offset: 0,
+            len,
+        })
+    }
+
+    /// Reads the next sub-block (segments `acked..`) into the block buffer; returns its
+    /// segment count.
+    fn fill_block<O: ObjectAccess + ?Sized>(
+        &mut self,
+        od: &mut O,
+        mux: Multiplexer,
+        len: u32,
+        acked: u32,
+        total: u32,
+        blksize: u8,
+    ) -> Result<u8, Fail> {
+        let count = (total - acked).min(u32::from(blksize)) as u8;
+        let offset = acked.saturating_mul(7);
+        let want = (usize::from(count) * 7).min(len.saturating_sub(offset) as usize);
+        self.block = [0; BLOCK_BYTES];
+        read_exact(od, mux, offset, &mut self.block[..want])?;
+        Ok(count)
+    }
+
+    fn on_block_segment<O: ObjectAccess + ?Sized>(
+        &mut self,
+        state: State,
+        seg: BlockSegment,
+        od: &mut O,
+    ) -> Result<State, Fail> {
+        let State::BlockDownload {
+            mux,
+            crc,
+            mut expected,
+            mut received,
+            size,
+            accepts,
+            held: None,
+        } = state
+        else {
+            return Ok(state);
+        };
+        let blksize = self.config.block_size;
+        if seg.seqno == 0 || seg.seqno > blksize {
+            return Err(Fail(mux, AbortCode::INVALID_SEQUENCE_NUMBER));
+        }
+        let mut held = None;
+        if seg.seqno == expected {
+            if seg.last {
+                held = Some(seg.data);
+            } else {
+                let end = received.saturating_add(7);
+                check_progress(end, size, accepts).map_err(|c| Fail(mux, c))?;
+                od.write(mux, received, &seg.data).map_err(|c| Fail(mux, c))?;
+                self.crc.update(&seg.data);
+                received = end;
+            }
+            expected += 1;
+        }
+        if seg.last || seg.seqno == blksize {
+            self.send(ServerResponse::BlockDownloadAck {
+                ackseq: expected - 1,
+                blksize,
+            });
+            if held.is_none() {
+                expected = 1;
+            }
+        }
+        Ok(State::BlockDownload {
+            mux,
+            crc,
+            expected,
+            received,
+            size,
+            accepts,
+            held,
+        })
+    }
+}
+
+fn writable<O: ObjectAccess + ?Sized>(od: &mut O, mux: Multiplexer) -> Result<ObjectInfo, Fail> {
+    let info = od.info(mux).map_err(|c| Fail(mux, c))?;
+    if !info.access.writable() {
+        return Err(Fail(mux, AbortCode::READ_ONLY));
+    }
+    Ok(info)
+}
+
+fn readable<O: ObjectAccess + ?Sized>(od: &mut O, mux: Multiplexer) -> Result<ObjectInfo, Fail> {
+    let info = od.info(mux).map_err(|c| Fail(mux, c))?;
+    if !info.access.readable() {
+        return Err(Fail(mux, AbortCode::WRITE_ONLY));
+    }
+    Ok(info)
+}
+
+/// Reads exactly `buf.len()` bytes (in as many calls as the object needs).
+fn read_exact<O: ObjectAccess + ?Sized>(
+    od: &mut O,
+    mux: Multiplexer,
+    offset: u32,
+    buf: &mut [u8],
+) -> Result<usize, Fail> {
+    let mut done = 0;
+    while done < buf.len() {
+        let n = od
+            .read(mux, offset + done as u32, &mut buf[done..])
+            .map_err(|c| Fail(mux, c))?;
+        if n == 0 || n > buf.len() - done {
+            // The object is shorter than it said.
+            return Err(Fail(mux, AbortCode::NO_DATA_AVAILABLE));
+        }
+        done += n;
+    }
+    Ok(done)
+}
+
+/// Data so far may not exceed the announced size or the object's maximum.
+fn check_progress(end: u32, size: Option<u32>, accepts: LengthRule) -> Result<(), AbortCode> {
+    if let Some(size) = size
+        && end > size
+    {
+        return Err(AbortCode::LENGTH_MISMATCH);
+    }
+    if end > accepts.max() {
+        return Err(AbortCode::LENGTH_TOO_HIGH);
+    }
+    Ok(())
+}
+
+/// The complete data must have the announced size and a length the object accepts.
+fn check_end(end: u32, size: Option<u32>, accepts: LengthRule) -> Result<(), AbortCode> {
+    if let Some(size) = size
+        && end != size
+    {
+        return Err(AbortCode::LENGTH_MISMATCH);
+    }
+    accepts.check(end)
+}

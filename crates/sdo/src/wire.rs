@@ -1,0 +1,667 @@
+//! The SDO messages on the wire (CiA 301 §7.2.4.3): every client request and server response,
+//! as typed values with a total `parse` and an `emit`.
+//!
+//! Every SDO message is eight data bytes. Byte 0 is the command byte: the command specifier
+//! (`ccs` for client requests, `scs` for server responses) in bits 7..5 and per-command flags
+//! below. The initiate messages and the abort carry the multiplexer (index little-endian in bytes
+//! 1..=2, sub-index in byte 3).
+//!
+//! | ccs | client → server                         | scs | server → client                     |
+//! |-----|-----------------------------------------|-----|-------------------------------------|
+//! | 0   | download segment (t, n, c)               | 0   | upload segment (t, n, c)            |
+//! | 1   | initiate download (n, e, s)              | 1   | download segment (t)                |
+//! | 2   | initiate upload                          | 2   | initiate upload (n, e, s)           |
+//! | 3   | upload segment (t)                       | 3   | initiate download                   |
+//! | 4   | abort transfer                           | 4   | abort transfer                      |
+//! | 5   | block upload: initiate / end / ack / start | 5 | block download: initiate / end / ack |
+//! | 6   | block download: initiate / end           | 6   | block upload: initiate / end        |
+//!
+//! The segments of a block transfer's sub-block carry no command specifier (byte 0 is `c` and
+//! the 7-bit sequence number), so they cannot be told apart from other messages by their bytes:
+//! the receiving state machine parses them with [`BlockSegment::parse`] while it expects a
+//! sub-block, and with [`ClientRequest::parse`] / [`ServerResponse::parse`] otherwise.
+//!
+//! All `parse` functions are total: any byte slice gives a value or a [`DecodeError`], never a
+//! panic. Reserved bits are ignored on parse and written as zero by `emit`, so
+//! `parse(emit(m)) == m` for every message `m` built from in-range fields.
+
+use crate::abort::AbortCode;
+
+/// Byte offsets and bit masks of the SDO messages.
+mod field {
+    use core::ops::Range;
+
+    pub(super) const COMMAND: usize = 0;
+    pub(super) const INDEX: Range<usize> = 1..3;
+    pub(super) const SUBINDEX: usize = 3;
+    /// Initiate data, size, or abort code.
+    pub(super) const DATA: Range<usize> = 4..8;
+    /// Segment data (normal and block segments).
+    pub(super) const SEGMENT: Range<usize> = 1..8;
+    /// Block upload initiate request: blksize and protocol switch threshold.
+    pub(super) const INIT_BLKSIZE: usize = 4;
+    pub(super) const PST: usize = 5;
+    /// Block download initiate response: blksize.
+    pub(super) const INIT_RESP_BLKSIZE: usize = 4;
+    /// Block acknowledge: ackseq and blksize.
+    pub(super) const ACKSEQ: usize = 1;
+    pub(super) const ACK_BLKSIZE: usize = 2;
+    /// Block end: CRC.
+    pub(super) const CRC: Range<usize> = 1..3;
+
+    pub(super) const CS_SHIFT: u8 = 5;
+    /// Segments: toggle bit t.
+    pub(super) const TOGGLE: u8 = 0x10;
+    /// Segments: n (bytes without data), bits 3..1.
+    pub(super) const SEG_N_MASK: u8 = 0x0E;
+    pub(super) const SEG_N_SHIFT: u8 = 1;
+    /// Segments: c (no more segments).
+    pub(super) const LAST: u8 = 0x01;
+    /// Initiate: n (bytes of d without data, expedited), bits 3..2; e; s.
+    pub(super) const INIT_N_MASK: u8 = 0x0C;
+    pub(super) const INIT_N_SHIFT: u8 = 2;
+    pub(super) const EXPEDITED: u8 = 0x02;
+    pub(super) const SIZE: u8 = 0x01;
+    /// Block initiate: cc / sc (CRC support) and s (size indicated).
+    pub(super) const BLOCK_CRC: u8 = 0x04;
+    pub(super) const BLOCK_SIZE: u8 = 0x02;
+    /// Block end: n, bits 4..2.
+    pub(super) const END_N_MASK: u8 = 0x1C;
+    pub(super) const END_N_SHIFT: u8 = 2;
+    /// Block segment: c and seqno.
+    pub(super) const SEQ_LAST: u8 = 0x80;
+    pub(super) const SEQNO: u8 = 0x7F;
+}
+
+/// The object a transfer addresses: index and sub-index (the "multiplexer" of CiA 301).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct Multiplexer {
+    /// Object index.
+    pub index: u16,
+    /// Sub-index.
+    pub subindex: u8,
+}
+
+impl Multiplexer {
+    /// `index:subindex`.
+    pub const fn new(index: u16, subindex: u8) -> Self {
+        Self { index, subindex }
+    }
+
+    fn read(b: &[u8; 8]) -> Self {
+        Self {
+            index: u16::from_le_bytes([b[field::INDEX.start], b[field::INDEX.start + 1]]),
+            subindex: b[field::SUBINDEX],
+        }
+    }
+
+    fn write(self, b: &mut [u8; 8]) {
+        b[field::INDEX].copy_from_slice(&self.index.to_le_bytes());
+        b[field::SUBINDEX] = self.subindex;
+    }
+}
+
+impl core::fmt::Display for Multiplexer {
+    /// `0x1018:02`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{:#06x}:{:02x}", self.index, self.subindex)
+    }
+}
+
+/// Why bytes are not an SDO message.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum DecodeError {
+    /// SDO messages are always eight bytes long.
+    #[error("an SDO message has 8 data bytes, this one has {0}")]
+    Length(usize),
+    /// The command specifier (or the block sub-command) is not defined in this direction.
+    #[error("unknown SDO command byte {0:#04x}")]
+    UnknownCommand(u8),
+}
+
+fn bytes8(data: &[u8]) -> Result<&[u8; 8], DecodeError> {
+    <&[u8; 8]>::try_from(data).map_err(|_| DecodeError::Length(data.len()))
+}
+
+fn data4(b: &[u8; 8]) -> [u8; 4] {
+    [b[4], b[5], b[6], b[7]]
+}
+
+fn u32_at_data(b: &[u8; 8]) -> u32 {
+    u32::from_le_bytes(data4(b))
+}
+
+fn seg7(b: &[u8; 8]) -> [u8; 7] {
+    [b[1], b[2], b[3], b[4], b[5], b[6], b[7]]
+}
+
+/// The payload of an initiate download request or an initiate upload response.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Initiate {
+    /// e = 1: the data travels in this message.
+    Expedited {
+        /// Bytes 4..=7; only the first `size` (or all four when `size` is `None`) are data.
+        data: [u8; 4],
+        /// s = 1: 1..=4 data bytes (n = 4 − size). `None` (s = 0): unspecified, take all four.
+        size: Option<u8>,
+    },
+    /// e = 0: a segmented transfer follows.
+    Segmented {
+        /// s = 1: the object size in bytes; `None` when not indicated.
+        size: Option<u32>,
+    },
+}
+
+impl Initiate {
+    /// An expedited payload with size indicated; `None` unless `data` has 1..=4 bytes.
+    pub fn expedited(data: &[u8]) -> Option<Self> {
+        if data.is_empty() || data.len() > 4 {
+            return None;
+        }
+        let mut buf = [0u8; 4];
+        buf[..data.len()].copy_from_slice(data);
+        Some(Self::Expedited {
+            data: buf,
+            size: Some(data.len() as u8),
+        })
+    }
+
+    fn parse(b: &[u8; 8]) -> Self {
+        let cmd = b[field::COMMAND];
+        let sized = cmd & field::SIZE != 0;
+        if cmd & field::EXPEDITED != 0 {
+            let n = (cmd & field::INIT_N_MASK) >> field::INIT_N_SHIFT;
+            Self::Expedited {
+                data: data4(b),
+                size: sized.then_some(4 - n),
+            }
+        } else {
+            Self::Segmented {
+                size: sized.then(|| u32_at_data(b)),
+            }
+        }
+    }
+
+    /// Flags for byte 0 and the four data bytes. An expedited size outside 1..=4 is clamped.
+    fn emit(self) -> (u8, [u8; 4]) {
+        match self {
+            Self::Expedited { data, size: None } => (field::EXPEDITED, data),
+            Self::Expedited {
+                data,
+                size: Some(size),
+            } => {
+                let n = 4 - size.clamp(1, 4);
+                (
+                    field::EXPEDITED | field::SIZE | (n << field::INIT_N_SHIFT),
+                    data,
+                )
+            }
+            Self::Segmented { size: None } => (0, [0; 4]),
+            Self::Segmented { size: Some(size) } => (field::SIZE, size.to_le_bytes()),
+        }
+    }
+
+    /// The expedited data bytes (empty for a segmented initiate).
+    pub fn expedited_data(&self) -> &[u8] {
+        match self {
+            Self::Expedited { data, size } => {
+                let len = usize::from(size.unwrap_or(4)).clamp(1, 4);
+                &data[..len]
+            }
+            Self::Segmented { .. } => &[],
+        }
+    }
+}
+
+/// A download segment request or an upload segment response: up to seven data bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Segment {
+    /// Toggle bit t: 0 for the first segment, alternating after.
+    pub toggle: bool,
+    /// Bytes 1..=7; the first `len` are data.
+    pub data: [u8; 7],
+    /// Number of data bytes, 0..=7 (n = 7 − len).
+    pub len: u8,
+    /// c: no more segments follow.
+    pub last: bool,
+}
+
+impl Segment {
+    /// A segment carrying `data` (at most seven bytes; more are cut off).
+    pub fn new(toggle: bool, data: &[u8], last: bool) -> Self {
+        let len = data.len().min(7);
+        let mut buf = [0u8; 7];
+        buf[..len].copy_from_slice(&data[..len]);
+        Self {
+            toggle,
+            data: buf,
+            len: len as u8,
+            last,
+        }
+    }
+
+    /// The data bytes.
+    pub fn bytes(&self) -> &[u8] {
+        &self.data[..usize::from(self.len.min(7))]
+    }
+
+    fn parse(b: &[u8; 8]) -> Self {
+        let cmd = b[field::COMMAND];
+        let n = (cmd & field::SEG_N_MASK) >> field::SEG_N_SHIFT;
+        Self {
+            toggle: cmd & field::TOGGLE != 0,
+            data: seg7(b),
+            len: 7 - n,
+            last: cmd & field::LAST != 0,
+        }
+    }
+
+    fn emit(&self, cs: u8) -> [u8; 8] {
+        let n = 7 - self.len.min(7);
+        let mut b = [0u8; 8];
+        b[field::COMMAND] = (cs << field::CS_SHIFT)
+            | if self.toggle { field::TOGGLE } else { 0 }
+            | (n << field::SEG_N_SHIFT)
+            | if self.last { field::LAST } else { 0 };
+        b[field::SEGMENT].copy_from_slice(&self.data);
+        b
+    }
+}
+
+/// A message from the SDO client to the server (except block download sub-block segments, see
+/// [`BlockSegment`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ClientRequest {
+    /// ccs = 1: initiate download (write), expedited or segmented.
+    InitiateDownload {
+        /// The object.
+        mux: Multiplexer,
+        /// Expedited data or the announced size.
+        data: Initiate,
+    },
+    /// ccs = 0: download segment.
+    DownloadSegment(Segment),
+    /// ccs = 2: initiate upload (read).
+    InitiateUpload {
+        /// The object.
+        mux: Multiplexer,
+    },
+    /// ccs = 3: upload segment request.
+    UploadSegment {
+        /// Toggle bit t.
+        toggle: bool,
+    },
+    /// ccs = 4: abort transfer.
+    Abort {
+        /// The object of the aborted transfer.
+        mux: Multiplexer,
+        /// Why.
+        code: AbortCode,
+    },
+    /// ccs = 6, cs = 0: initiate block download.
+    BlockDownloadInitiate {
+        /// The object.
+        mux: Multiplexer,
+        /// cc: the client supports CRC generation.
+        crc: bool,
+        /// s = 1: the object size.
+        size: Option<u32>,
+    },
+    /// ccs = 6, cs = 1: end block download.
+    BlockDownloadEnd {
+        /// n: bytes of the last segment that carry no data (0..=7).
+        unused: u8,
+        /// CRC of the whole data (meaningful when both sides agreed on CRC).
+        crc: u16,
+    },
+    /// ccs = 5, cs = 0: initiate block upload.
+    BlockUploadInitiate {
+        /// The object.
+        mux: Multiplexer,
+        /// cc: the client supports CRC checking.
+        crc: bool,
+        /// Segments per sub-block the client accepts, 1..=127.
+        blksize: u8,
+        /// Protocol switch threshold: the server may answer with a normal (expedited or
+        /// segmented) upload when the object has at most `pst` bytes; 0 forbids switching.
+        pst: u8,
+    },
+    /// ccs = 5, cs = 3: start sending the sub-blocks.
+    BlockUploadStart,
+    /// ccs = 5, cs = 2: sub-block acknowledged.
+    BlockUploadAck {
+        /// Sequence number of the last segment received in order (0: none).
+        ackseq: u8,
+        /// Segments per sub-block for the next sub-block, 1..=127.
+        blksize: u8,
+    },
+    /// ccs = 5, cs = 1: end block upload (answer to the server's end message).
+    BlockUploadEnd,
+}
+
+impl ClientRequest {
+    /// Decodes a client request. Never panics.
+    pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
+        let b = bytes8(data)?;
+        let cmd = b[field::COMMAND];
+        let unknown = Err(DecodeError::UnknownCommand(cmd));
+        Ok(match cmd >> field::CS_SHIFT {
+            0 => Self::DownloadSegment(Segment::parse(b)),
+            1 => Self::InitiateDownload {
+                mux: Multiplexer::read(b),
+                data: Initiate::parse(b),
+            },
+            2 => Self::InitiateUpload {
+                mux: Multiplexer::read(b),
+            },
+            3 => Self::UploadSegment {
+                toggle: cmd & field::TOGGLE != 0,
+            },
+            4 => Self::Abort {
+                mux: Multiplexer::read(b),
+                code: AbortCode(u32_at_data(b)),
+            },
+            5 => match cmd & 0x03 {
+                0 => Self::BlockUploadInitiate {
+                    mux: Multiplexer::read(b),
+                    crc: cmd & field::BLOCK_CRC != 0,
+                    blksize: b[field::INIT_BLKSIZE],
+                    pst: b[field::PST],
+                },
+                1 => Self::BlockUploadEnd,
+                2 => Self::BlockUploadAck {
+                    ackseq: b[field::ACKSEQ],
+                    blksize: b[field::ACK_BLKSIZE],
+                },
+                _ => Self::BlockUploadStart,
+            },
+            6 => {
+                if cmd & 0x01 == 0 {
+                    Self::BlockDownloadInitiate {
+                        mux: Multiplexer::read(b),
+                        crc: cmd & field::BLOCK_CRC != 0,
+                        size: (cmd & field::BLOCK_SIZE != 0).then(|| u32_at_data(b)),
+                    }
+                } else {
+                    Self::BlockDownloadEnd {
+                        unused: (cmd & field::END_N_MASK) >> field::END_N_SHIFT,
+                        crc: u16::from_le_bytes([b[field::CRC.start], b[field::CRC.start + 1]]),
+                    }
+                }
+            }
+            _ => return unknown,
+        })
+    }
+
+    /// Encodes the request into its eight bytes. Out-of-range fields are clamped.
+    pub fn emit(&self) -> [u8; 8] {
+        let mut b = [0u8; 8];
+        match *self {
+            Self::DownloadSegment(seg) => return seg.emit(0),
+            Self::InitiateDownload { mux, data } => {
+                let (flags, d) = data.emit();
+                b[field::COMMAND] = (1 << field::CS_SHIFT) | flags;
+                mux.write(&mut b);
+                b[field::DATA].copy_from_slice(&d);
+            }
+            Self::InitiateUpload { mux } => {
+                b[field::COMMAND] = 2 << field::CS_SHIFT;
+                mux.write(&mut b);
+            }
+            Self::UploadSegment { toggle } => {
+                b[field::COMMAND] = (3 << field::CS_SHIFT) | if toggle { field::TOGGLE } else { 0 };
+            }
+            Self::Abort { mux, code } => return emit_abort(mux, code),
+            Self::BlockUploadInitiate {
+                mux,
+                crc,
+                blksize,
+                pst,
+            } => {
+                b[field::COMMAND] = (5 << field::CS_SHIFT) | crc_flag(crc);
+                mux.write(&mut b);
+                b[field::INIT_BLKSIZE] = blksize;
+                b[field::PST] = pst;
+            }
+            Self::BlockUploadEnd => b[field::COMMAND] = (5 << field::CS_SHIFT) | 1,
+            Self::BlockUploadAck { ackseq, blksize } => {
+                b[field::COMMAND] = (5 << field::CS_SHIFT) | 2;
+                b[field::ACKSEQ] = ackseq;
+                b[field::ACK_BLKSIZE] = blksize;
+            }
+            Self::BlockUploadStart => b[field::COMMAND] = (5 << field::CS_SHIFT) | 3,
+            Self::BlockDownloadInitiate { mux, crc, size } => {
+                b[field::COMMAND] = (6 << field::CS_SHIFT)
+                    | crc_flag(crc)
+                    | if size.is_some() { field::BLOCK_SIZE } else { 0 };
+                mux.write(&mut b);
+                b[field::DATA].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+            }
+            Self::BlockDownloadEnd { unused, crc } => return emit_block_end(6, unused, crc),
+        }
+        b
+    }
+}
+
+/// A message from the SDO server to the client (except block upload sub-block segments, see
+/// [`BlockSegment`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ServerResponse {
+    /// scs = 2: initiate upload response, expedited data or the announced size.
+    InitiateUpload {
+        /// The object.
+        mux: Multiplexer,
+        /// Expedited data or the size of the segmented transfer.
+        data: Initiate,
+    },
+    /// scs = 0: upload segment.
+    UploadSegment(Segment),
+    /// scs = 3: initiate download response.
+    InitiateDownload {
+        /// The object.
+        mux: Multiplexer,
+    },
+    /// scs = 1: download segment response.
+    DownloadSegment {
+        /// Toggle bit t of the acknowledged segment.
+        toggle: bool,
+    },
+    /// scs = 4: abort transfer.
+    Abort {
+        /// The object of the aborted transfer.
+        mux: Multiplexer,
+        /// Why.
+        code: AbortCode,
+    },
+    /// scs = 5, ss = 0: initiate block download response.
+    BlockDownloadInitiate {
+        /// The object.
+        mux: Multiplexer,
+        /// sc: the server supports CRC checking.
+        crc: bool,
+        /// Segments per sub-block the server accepts, 1..=127.
+        blksize: u8,
+    },
+    /// scs = 5, ss = 2: sub-block acknowledged.
+    BlockDownloadAck {
+        /// Sequence number of the last segment received in order (0: none).
+        ackseq: u8,
+        /// Segments per sub-block for the next sub-block, 1..=127.
+        blksize: u8,
+    },
+    /// scs = 5, ss = 1: end block download response.
+    BlockDownloadEnd,
+    /// scs = 6, ss = 0: initiate block upload response.
+    BlockUploadInitiate {
+        /// The object.
+        mux: Multiplexer,
+        /// sc: the server supports CRC generation.
+        crc: bool,
+        /// s = 1: the object size.
+        size: Option<u32>,
+    },
+    /// scs = 6, ss = 1: end block upload.
+    BlockUploadEnd {
+        /// n: bytes of the last segment that carry no data (0..=7).
+        unused: u8,
+        /// CRC of the whole data.
+        crc: u16,
+    },
+}
+
+impl ServerResponse {
+    /// Decodes a server response. Never panics.
+    pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
+        let b = bytes8(data)?;
+        let cmd = b[field::COMMAND];
+        let unknown = Err(DecodeError::UnknownCommand(cmd));
+        Ok(match cmd >> field::CS_SHIFT {
+            0 => Self::UploadSegment(Segment::parse(b)),
+            1 => Self::DownloadSegment {
+                toggle: cmd & field::TOGGLE != 0,
+            },
+            2 => Self::InitiateUpload {
+                mux: Multiplexer::read(b),
+                data: Initiate::parse(b),
+            },
+            3 => Self::InitiateDownload {
+                mux: Multiplexer::read(b),
+            },
+            4 => Self::Abort {
+                mux: Multiplexer::read(b),
+                code: AbortCode(u32_at_data(b)),
+            },
+            5 => match cmd & 0x03 {
+                0 => Self::BlockDownloadInitiate {
+                    mux: Multiplexer::read(b),
+                    crc: cmd & field::BLOCK_CRC != 0,
+                    blksize: b[field::INIT_RESP_BLKSIZE],
+                },
+                1 => Self::BlockDownloadEnd,
+                2 => Self::BlockDownloadAck {
+                    ackseq: b[field::ACKSEQ],
+                    blksize: b[field::ACK_BLKSIZE],
+                },
+                _ => return unknown,
+            },
+            6 => {
+                if cmd & 0x01 == 0 {
+                    Self::BlockUploadInitiate {
+                        mux: Multiplexer::read(b),
+                        crc: cmd & field::BLOCK_CRC != 0,
+                        size: (cmd & field::BLOCK_SIZE != 0).then(|| u32_at_data(b)),
+                    }
+                } else {
+                    Self::BlockUploadEnd {
+                        unused: (cmd & field::END_N_MASK) >> field::END_N_SHIFT,
+                        crc: u16::from_le_bytes([b[field::CRC.start], b[field::CRC.start + 1]]),
+                    }
+                }
+            }
+            _ => return unknown,
+        })
+    }
+
+    /// Encodes the response into its eight bytes. Out-of-range fields are clamped.
+    pub fn emit(&self) -> [u8; 8] {
+        let mut b = [0u8; 8];
+        match *self {
+            Self::UploadSegment(seg) => return seg.emit(0),
+            Self::DownloadSegment { toggle } => {
+                b[field::COMMAND] = (1 << field::CS_SHIFT) | if toggle { field::TOGGLE } else { 0 };
+            }
+            Self::InitiateUpload { mux, data } => {
+                let (flags, d) = data.emit();
+                b[field::COMMAND] = (2 << field::CS_SHIFT) | flags;
+                mux.write(&mut b);
+                b[field::DATA].copy_from_slice(&d);
+            }
+            Self::InitiateDownload { mux } => {
+                b[field::COMMAND] = 3 << field::CS_SHIFT;
+                mux.write(&mut b);
+            }
+            Self::Abort { mux, code } => return emit_abort(mux, code),
+            Self::BlockDownloadInitiate { mux, crc, blksize } => {
+                b[field::COMMAND] = (5 << field::CS_SHIFT) | crc_flag(crc);
+                mux.write(&mut b);
+                b[field::INIT_RESP_BLKSIZE] = blksize;
+            }
+            Self::BlockDownloadAck { ackseq, blksize } => {
+                b[field::COMMAND] = (5 << field::CS_SHIFT) | 2;
+                b[field::ACKSEQ] = ackseq;
+                b[field::ACK_BLKSIZE] = blksize;
+            }
+            Self::BlockDownloadEnd => b[field::COMMAND] = (5 << field::CS_SHIFT) | 1,
+            Self::BlockUploadInitiate { mux, crc, size } => {
+                b[field::COMMAND] = (6 << field::CS_SHIFT)
+                    | crc_flag(crc)
+                    | if size.is_some() { field::BLOCK_SIZE } else { 0 };
+                mux.write(&mut b);
+                b[field::DATA].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+            }
+            Self::BlockUploadEnd { unused, crc } => return emit_block_end(6, unused, crc),
+        }
+        b
+    }
+}
+
+fn crc_flag(crc: bool) -> u8 {
+    if crc { field::BLOCK_CRC } else { 0 }
+}
+
+fn emit_abort(mux: Multiplexer, code: AbortCode) -> [u8; 8] {
+    let mut b = [0u8; 8];
+    b[field::COMMAND] = 4 << field::CS_SHIFT;
+    mux.write(&mut b);
+    b[field::DATA].copy_from_slice(&code.0.to_le_bytes());
+    b
+}
+
+fn emit_block_end(cs: u8, unused: u8, crc: u16) -> [u8; 8] {
+    let mut b = [0u8; 8];
+    b[field::COMMAND] = (cs << field::CS_SHIFT) | ((unused.min(7)) << field::END_N_SHIFT) | 1;
+    b[field::CRC].copy_from_slice(&crc.to_le_bytes());
+    b
+}
+
+/// One segment of a block transfer's sub-block: `c`, a sequence number and seven bytes.
+///
+/// Sent by the client during block download and by the server during block upload. Valid
+/// sequence numbers are 1..=127; `parse` keeps 0 as it is so the machine can answer it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct BlockSegment {
+    /// Sequence number within the sub-block, 1..=blksize (7 bits on the wire).
+    pub seqno: u8,
+    /// c: the last segment of the whole transfer.
+    pub last: bool,
+    /// Seven bytes; padding in the last segment is told by the end message's `n`.
+    pub data: [u8; 7],
+}
+
+impl BlockSegment {
+    /// Decodes a sub-block segment. Never panics.
+    pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
+        let b = bytes8(data)?;
+        Ok(Self {
+            seqno: b[field::COMMAND] & field::SEQNO,
+            last: b[field::COMMAND] & field::SEQ_LAST != 0,
+            data: seg7(b),
+        })
+    }
+
+    /// Encodes the segment; a sequence number above 127 loses its top bit.
+    pub fn emit(&self) -> [u8; 8] {
+        let mut b = [0u8; 8];
+        b[field::COMMAND] =
+            (self.seqno & field::SEQNO) | if self.last { field::SEQ_LAST } else { 0 };
+        b[field::SEGMENT].copy_from_slice(&self.data);
+        b
+    }
+}
+
+/// Whether bytes received while a sub-block is expected are an abort transfer message rather
+/// than a segment: byte 0 `0x80` would be a segment with the invalid sequence number 0.
+pub(crate) fn is_abort(data: &[u8]) -> bool {
+    data.len() == 8 && data.first() == Some(&0x80)
+}
