@@ -38,6 +38,10 @@ pub mod sim;
 
 pub use action::{ActionId, ActionRequest, ActionStatus, ErrorCode};
 pub use channel::{ActionBusy, ActionSource, Channel, DiagnosticCode, Instruction};
+pub use client::{
+    ActionOutcome, Client, ClientConfig, ClientError, Event, Failure, Refusal, Reply, RequestId,
+};
+pub use sim::{SimConfig, SimulatedCpos};
 
 pub use image::{DeviceImage, DigitalInputs, DigitalOutputs, ImageError, MasterImage, PerMille};
 pub use params::{Access, ParamDef, ParamId, RangeError, Unit, ValueKind};
