@@ -1,0 +1,262 @@
+//! `canopen eds ...`: check, show, convert and generate code from CiA 306 EDS/DCF files.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use canopen_od::{Diagnostic, ObjectDictionary, Severity};
+use clap::Subcommand;
+use serde_json::{Value as Json, json};
+
+use crate::Global;
+
+#[derive(Debug, Subcommand)]
+pub(crate) enum EdsCommand {
+    /// Parse files; exit 0 when all parse. Warnings and errors go to stderr as FILE:LINE.
+    Check {
+        /// EDS or DCF files.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Print the objects of a file as a table (or JSON with --json).
+    Show {
+        /// EDS or DCF file.
+        file: PathBuf,
+    },
+    /// Write a DCF for a node: $NODEID resolved into ParameterValue, [DeviceComissioning] set.
+    ToDcf {
+        /// EDS file.
+        file: PathBuf,
+        /// Node-ID, 1..=127.
+        #[arg(long, value_parser = clap::value_parser!(u8).range(1..=127))]
+        node_id: u8,
+        /// Bit rate in kbit/s for [DeviceComissioning].
+        #[arg(long)]
+        baudrate: Option<u16>,
+        /// Output file (default: stdout).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Generate typed Rust entries (what `canopen_codegen::compile_eds` writes in build.rs).
+    Codegen {
+        /// EDS file.
+        file: PathBuf,
+        /// Also emit a static, allocation-free dictionary of every sub-object.
+        #[arg(long)]
+        static_dictionary: bool,
+        /// Output file (default: stdout).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+}
+
+pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
+    match cmd {
+        EdsCommand::Check { files } => check(&files, global),
+        EdsCommand::Show { file } => with_od(&file, |od| show(od, global)),
+        EdsCommand::ToDcf {
+            file,
+            node_id,
+            baudrate,
+            output,
+        } => with_od(&file, |od| {
+            emit(
+                output.as_deref(),
+                &canopen_od::write_dcf(od, node_id, baudrate),
+            )
+        }),
+        EdsCommand::Codegen {
+            file,
+            static_dictionary,
+            output,
+        } => with_od(&file, |od| {
+            let name = file.file_name().map_or_else(
+                || file.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            let code = canopen_codegen::Config::new()
+                .static_dictionary(static_dictionary)
+                .generate(od, &name);
+            emit(output.as_deref(), &code)
+        }),
+    }
+}
+
+/// Reads and parses a file, printing its diagnostics; `None` (after printing) when it fails.
+fn load(file: &Path) -> Result<(ObjectDictionary, Vec<Diagnostic>), Vec<String>> {
+    let name = file.display().to_string();
+    let bytes = std::fs::read(file).map_err(|e| vec![format!("{name}: error: {e}")])?;
+    match canopen_od::parse(&bytes) {
+        Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
+        Err(e) => Err(e
+            .diagnostics
+            .iter()
+            .map(|d| d.render(&name).to_string())
+            .collect()),
+    }
+}
+
+fn with_od(file: &Path, f: impl FnOnce(&ObjectDictionary) -> ExitCode) -> ExitCode {
+    match load(file) {
+        Ok((od, diagnostics)) => {
+            let name = file.display().to_string();
+            for d in &diagnostics {
+                eprintln!("{}", d.render(&name));
+            }
+            f(&od)
+        }
+        Err(lines) => {
+            for l in lines {
+                eprintln!("{l}");
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn emit(output: Option<&Path>, text: &str) -> ExitCode {
+    match output {
+        None => {
+            crate::out(text);
+            ExitCode::SUCCESS
+        }
+        Some(path) => match std::fs::write(path, text) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("{}: error: {e}", path.display());
+                ExitCode::FAILURE
+            }
+        },
+    }
+}
+
+fn check(files: &[PathBuf], global: Global) -> ExitCode {
+    let mut all_ok = true;
+    let mut report = Vec::new();
+    for file in files {
+        let name = file.display().to_string();
+        match load(file) {
+            Ok((od, diagnostics)) => {
+                for d in &diagnostics {
+                    eprintln!("{}", d.render(&name));
+                }
+                let warnings = diagnostics
+                    .iter()
+                    .filter(|d| d.severity == Severity::Warning)
+                    .count();
+                if global.json {
+                    report.push(json!({"file": name, "ok": true, "objects": od.objects.len(), "warnings": warnings}));
+                } else {
+                    crate::outln(&format!(
+                        "{name}: ok, {} objects, {warnings} warnings",
+                        od.objects.len()
+                    ));
+                }
+            }
+            Err(lines) => {
+                all_ok = false;
+                for l in &lines {
+                    eprintln!("{l}");
+                }
+                if global.json {
+                    report.push(json!({"file": name, "ok": false, "errors": lines}));
+                } else {
+                    crate::outln(&format!("{name}: FAILED"));
+                }
+            }
+        }
+    }
+    if global.json {
+        crate::outln(&Json::Array(report).to_string());
+    }
+    if all_ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}
+
+fn default_text(sub: &canopen_od::SubObject) -> Option<String> {
+    sub.default_value.as_ref().map(|d| d.text.trim().to_owned())
+}
+
+fn show(od: &ObjectDictionary, global: Global) -> ExitCode {
+    if global.json {
+        let objects: Vec<Json> = od
+            .objects
+            .values()
+            .map(|obj| {
+                let subs: Vec<Json> = obj
+                    .subs
+                    .values()
+                    .map(|s| {
+                        json!({
+                            "subindex": s.sub_index,
+                            "name": s.name,
+                            "data_type": s.data_type.code(),
+                            "access": s.access.as_str(),
+                            "pdo_mapping": s.pdo_mapping,
+                            "default": default_text(s),
+                        })
+                    })
+                    .collect();
+                json!({
+                    "index": obj.index,
+                    "name": obj.name,
+                    "object_type": obj.object_code.code(),
+                    "subs": subs,
+                })
+            })
+            .collect();
+        crate::outln(&json!({ "objects": objects }).to_string());
+        return ExitCode::SUCCESS;
+    }
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{:<6} {:<4} {:<40} {:<15} {:<6} {:<4} DEFAULT",
+        "INDEX", "SUB", "NAME", "TYPE", "ACCESS", "PDO"
+    );
+    for obj in od.objects.values() {
+        if !obj.is_simple() {
+            let _ = writeln!(
+                out,
+                "{:04X}   {:<4} {:<40} [{:?}]",
+                obj.index,
+                "",
+                truncate(&obj.name, 40),
+                obj.object_code
+            );
+        }
+        for s in obj.subs.values() {
+            let name = if obj.is_simple() { &obj.name } else { &s.name };
+            let _ = writeln!(
+                out,
+                "{:<6} {:<4} {:<40} {:<15} {:<6} {:<4} {}",
+                if obj.is_simple() {
+                    format!("{:04X}", obj.index)
+                } else {
+                    String::new()
+                },
+                s.sub_index,
+                truncate(name, 40),
+                s.data_type.name().unwrap_or("?"),
+                s.access.as_str(),
+                if s.pdo_mapping { "yes" } else { "" },
+                default_text(s).unwrap_or_default()
+            );
+        }
+    }
+    crate::out(&out);
+    ExitCode::SUCCESS
+}
+
+fn truncate(s: &str, max: usize) -> String {
+    if s.chars().count() <= max {
+        s.to_owned()
+    } else {
+        let mut t: String = s.chars().take(max - 1).collect();
+        t.push('…');
+        t
+    }
+}

@@ -1,0 +1,191 @@
+//! `canopen eds ...` run as a process, the way users and scripts call it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn canopen(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn repo(rel: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(rel)
+        .display()
+        .to_string()
+}
+
+fn corpus() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/eds-corpus");
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("CANOPEN_REQUIRE_CORPUS").is_none(),
+        "CANOPEN_REQUIRE_CORPUS=1 but the corpus is missing"
+    );
+    eprintln!("SKIPPED: ../shared/eds-corpus not found beside the checkout");
+    None
+}
+
+#[test]
+fn check_accepts_the_burkert_eds_without_warnings() {
+    let out = canopen(&["eds", "check", &repo("eds/burkert-generic.eds")]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("ok, 49 objects, 0 warnings"));
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn check_reports_errors_with_file_and_line_and_exits_1() {
+    let Some(dir) = corpus() else { return };
+    let broken = dir.join("kaco__401.eds").display().to_string();
+    let good = dir.join("zencan__example1.eds").display().to_string();
+    let out = canopen(&["eds", "check", &good, &broken]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let first = stderr
+        .lines()
+        .find(|l| l.contains(": error: "))
+        .expect("an error line");
+    let mut parts = first.splitn(3, ':');
+    assert_eq!(parts.next(), Some(broken.as_str()));
+    assert!(
+        parts.next().unwrap().parse::<u32>().is_ok(),
+        "FILE:LINE: error: ... but got {first}"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains(&format!("{good}: ok")), "{stdout}");
+}
+
+#[test]
+fn check_passes_every_corpus_file_but_the_broken_one() {
+    let Some(dir) = corpus() else { return };
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.extension().is_some_and(|e| e == "eds" || e == "dcf") && !p.ends_with("kaco__401.eds")
+        })
+        .map(|p| p.display().to_string())
+        .collect();
+    files.sort();
+    let mut args = vec!["eds", "check"];
+    args.extend(files.iter().map(String::as_str));
+    let out = canopen(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .filter(|l| l.contains(": ok,"))
+            .count(),
+        files.len()
+    );
+}
+
+#[test]
+fn show_json_has_the_documented_shape() {
+    let out = canopen(&["eds", "show", "--json", &repo("eds/burkert-generic.eds")]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    let objects = v["objects"].as_array().unwrap();
+    let hb = objects.iter().find(|o| o["index"] == 0x1017).unwrap();
+    assert_eq!(hb["object_type"], 7);
+    assert_eq!(hb["name"], "Producer Heartbeat Time");
+    let subs = hb["subs"].as_array().unwrap();
+    assert_eq!(subs.len(), 1, "a VAR has one sub");
+    assert_eq!(
+        subs[0],
+        serde_json::json!({"subindex": 0, "name": "Producer Heartbeat Time", "data_type": 6,
+                           "access": "rw", "pdo_mapping": false, "default": "500"})
+    );
+    let logbook = objects.iter().find(|o| o["index"] == 0x2003).unwrap();
+    assert_eq!(logbook["object_type"], 9);
+    let domain = logbook["subs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["subindex"] == 4)
+        .unwrap();
+    assert_eq!(domain["data_type"], 0x0F);
+    assert_eq!(
+        domain["default"],
+        serde_json::Value::Null,
+        "no DefaultValue is null"
+    );
+    let emcy = objects.iter().find(|o| o["index"] == 0x1014).unwrap();
+    assert_eq!(
+        emcy["subs"][0]["default"], "$NODEID+0x80",
+        "the text as written"
+    );
+}
+
+#[test]
+fn show_table_lists_objects() {
+    let out = canopen(&["eds", "show", &repo("eds/burkert-generic.eds")]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("1017") && l.contains("UNSIGNED16") && l.ends_with("500"))
+    );
+}
+
+#[test]
+fn to_dcf_resolves_node_id() {
+    let dir = std::env::temp_dir().join(format!("canopen-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let dcf = dir.join("node5.dcf");
+    let out = canopen(&[
+        "eds",
+        "to-dcf",
+        &repo("eds/burkert-generic.eds"),
+        "--node-id",
+        "5",
+        "-o",
+        &dcf.display().to_string(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&dcf).unwrap();
+    assert!(text.contains("NodeID=5"));
+    // The written DCF parses again, and 0x1014 = $NODEID+0x80 is 0x85 for node 5.
+    let parsed = canopen_od::parse(text.as_bytes()).expect("the DCF parses");
+    let emcy = parsed.od.sub(0x1014, 0).unwrap();
+    assert_eq!(
+        emcy.parameter_value.as_ref().and_then(|p| p.resolve(5)),
+        Some(canopen_od::Value::Unsigned32(0x85))
+    );
+    let bad = canopen(&[
+        "eds",
+        "to-dcf",
+        &repo("eds/burkert-generic.eds"),
+        "--node-id",
+        "0",
+    ]);
+    assert!(!bad.status.success(), "node-ID 0 is refused");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn codegen_writes_typed_entries() {
+    let out = canopen(&["eds", "codegen", &repo("eds/burkert-generic.eds")]);
+    assert!(out.status.success());
+    let code = String::from_utf8_lossy(&out.stdout);
+    assert!(code.starts_with("// @generated by canopen-codegen"));
+    assert!(code.contains("pub const PRODUCER_HEARTBEAT_TIME: ::canopen_od::Entry<u16>"));
+}
