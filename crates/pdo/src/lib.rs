@@ -1,0 +1,51 @@
+//! CANopen process data: PDOs and MPDOs (CiA 301 §7.2.2, §7.2.3, objects §7.4.8).
+//!
+//! Layers, bottom up:
+//! - [`comm`] — communication parameters (0x1400.., 0x1800..): COB-ID bits, transmission
+//!   type, inhibit time, event timer, SYNC start value.
+//! - [`mapping`] — mapping parameters (0x1600.., 0x1A00..): up to 64 entries and 64 bits,
+//!   dummy entries, validation against an object dictionary through [`Catalog`].
+//! - [`pack`] — bit-level [`pack`](pack::pack) and [`unpack`](pack::unpack) into typed
+//!   [`Value`]s (unaligned fields, 1-bit booleans, 24/40/48/56-bit integers, sign extension).
+//! - [`engine`] — the sans-IO [`Engine`] a master and a device simulator both run: consumes
+//!   receive PDOs into an [`ObjectStore`] and produces transmit PDOs from it, by transmission
+//!   type, with inhibit time, event timer, SYNC counter and receive deadlines. Its docs give the
+//!   call order.
+//! - [`remote`] — the SDO writes that remap a node's PDO the CiA 301 way, as data.
+//! - [`mpdo`] — SAM/DAM multiplexed PDOs with object scanner and dispatcher lists.
+//!
+//! The crate is `#![no_std]` and needs no allocator; tables are `heapless`. The `alloc` feature
+//! adds [`MapStore`], a `BTreeMap` object store for simulators and tests; `std` (default) implies
+//! it. The `od` feature (planned) adapts the `canopen-od` model to [`Dictionary`].
+//!
+//! Every decoder of bus bytes here is total: frames of any length and content give a typed
+//! value, a typed error or an [`Event`], never a panic.
+#![no_std]
+#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod comm;
+pub mod dictionary;
+pub mod engine;
+pub mod mapping;
+pub mod mpdo;
+pub mod pack;
+pub mod remote;
+
+pub use comm::{CommError, CommParams, Direction, PdoCobId, TransmissionType};
+#[cfg(feature = "alloc")]
+pub use dictionary::MapStore;
+pub use dictionary::{
+    Catalog, Dictionary, NullStore, ObjectAddr, ObjectInfo, ObjectStore, ReadError, StoreError,
+};
+pub use engine::{Engine, EngineError, Event, PdoConfig, PdoRef, RpdoId, TpdoId};
+pub use mapping::{MappedObject, Mapping, MappingEntry, MappingError, ValueKind};
+pub use mpdo::{
+    DispatcherEntry, Mpdo, MpdoAddress, MpdoConsumer, MpdoError, SamProducer, ScannerEntry,
+};
+pub use pack::{PackError, Unpacked, Value, pack, unpack};
+pub use remote::{RemapError, RemapSteps, RemoteObjects, SdoWrite, remap};
