@@ -9,10 +9,21 @@
 #![cfg_attr(docsrs, feature(doc_auto_cfg))]
 
 pub mod candump;
+mod core;
+pub mod error;
 pub mod mem;
+pub mod network;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
 pub mod transport;
 
+pub use crate::core::{CANCEL_ABORT, Completion, Entry, NetworkEvent, RequestId, TransferProgress};
+pub use error::{Error, SdoError, SdoErrorKind, describe_abort};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
+pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
+#[cfg(feature = "tokio")]
+pub mod asynch;
+pub mod sim;
+pub use crate::core::ProgressFn;
+pub use sim::{DeviceHook, HookActions, SimDevice, Values};

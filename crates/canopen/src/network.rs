@@ -1,0 +1,617 @@
+//! [`Network`]: one transport, one clock, one [`Core`](crate::core) of protocol machines, and
+//! the blocking API on top.
+//!
+//! Driving: whoever waits drives. A blocking call submits its request to the core, then loops:
+//! if its result is there it returns; otherwise, if no other thread is driving, it takes the
+//! transport and runs one step (send what the core produced, receive until the core's next
+//! deadline or a short slice, feed the core, fire due timers); else it waits for the driving
+//! thread to make progress. So one thread alone is deterministic on a virtual-clock bus, and
+//! several threads share one transport safely. Requests to different nodes progress together
+//! whichever of them is being waited on; requests to one node run in submission order.
+//!
+//! The async API (`tokio` feature, [`crate::asynch`]) runs the same wait loop on tokio's
+//! blocking pool and cancels the request when the future is dropped.
+
+use std::io::{Read, Write};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
+
+use can_frame::{CanFrame, Duration, Instant, NodeId};
+use canopen_nmt::{CommandSpecifier, NmtState, NmtTarget, SyncConfig};
+use canopen_od::{ObjectDictionary, Value};
+use canopen_sdo::Method;
+
+use crate::core::{
+    Completion, Core, DownSource, Entry, NetworkEvent, Op, ProgressFn, RequestId, SdoRequest,
+    TransferProgress, UpSink,
+};
+use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::transport::{Received, Transport};
+
+/// Default SDO response timeout.
+pub const DEFAULT_SDO_TIMEOUT: Duration = Duration::from_millis(1000);
+
+/// Longest a driving step waits on the transport when the core has no earlier deadline, so
+/// requests submitted by other threads start promptly on a real clock.
+const DRIVE_SLICE: Duration = Duration::from_millis(2);
+
+pub(crate) struct Inner {
+    core: Mutex<Core>,
+    cond: Condvar,
+    io: Mutex<Box<dyn Transport>>,
+}
+
+/// A CANopen network: the master side of one CAN bus. Cheap to clone (a shared handle).
+#[derive(Clone)]
+pub struct Network {
+    pub(crate) inner: Arc<Inner>,
+}
+
+impl core::fmt::Debug for Network {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Network").finish_non_exhaustive()
+    }
+}
+
+fn relock<T>(r: std::sync::LockResult<T>) -> T {
+    r.unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+impl Network {
+    /// A network on `transport` (its clock is the network's clock).
+    pub fn new(transport: impl Transport + 'static) -> Self {
+        let mut core = Core::new();
+        core.set_now(transport.now());
+        Self {
+            inner: Arc::new(Inner {
+                core: Mutex::new(core),
+                cond: Condvar::new(),
+                io: Mutex::new(Box::new(transport)),
+            }),
+        }
+    }
+
+    pub(crate) fn core(&self) -> MutexGuard<'_, Core> {
+        relock(self.inner.core.lock())
+    }
+
+    /// The current time on the transport's clock.
+    pub fn now(&self) -> Instant {
+        relock(self.inner.io.lock()).now()
+    }
+
+    /// Adds a node without a dictionary (values are raw bytes).
+    pub fn add_node(&self, id: NodeId) -> Node {
+        self.core().add_node(id, None);
+        self.node(id)
+    }
+
+    /// Adds a node with its object dictionary (from an EDS/DCF or generated code): errors then
+    /// name objects, and typed reads decode values.
+    pub fn add_node_with_dictionary(&self, id: NodeId, od: ObjectDictionary) -> Node {
+        self.core().add_node(id, Some(Arc::new(od)));
+        self.node(id)
+    }
+
+    /// A handle to a node (added on first use if needed).
+    pub fn node(&self, id: NodeId) -> Node {
+        Node {
+            net: self.clone(),
+            id,
+        }
+    }
+
+    /// Subscribes to heartbeat, EMCY, PDO, LSS and bus events. Events published after this
+    /// call arrive in order; a dropped receiver unsubscribes.
+    pub fn subscribe(&self) -> mpsc::Receiver<NetworkEvent> {
+        self.core().subscribe()
+    }
+
+    /// Watches a node's heartbeat: a `Lost` event when none arrives within `timeout`.
+    pub fn monitor_heartbeat(&self, id: NodeId, timeout: Duration) -> bool {
+        self.core().monitor_heartbeat(id, timeout)
+    }
+
+    /// The last NMT state a node reported by heartbeat or boot-up.
+    pub fn last_state(&self, id: NodeId) -> Option<NmtState> {
+        self.core().last_state(id)
+    }
+
+    /// Starts producing SYNC (CiA 301 §7.2.3) with the given period, COB-ID 0x080.
+    pub fn start_sync(&self, period: Duration) {
+        if let Ok(cfg) = SyncConfig::new(period, 0) {
+            self.core().start_sync(cfg);
+        }
+        self.wake();
+    }
+
+    /// Starts producing SYNC with a full configuration (COB-ID, period, counter overflow).
+    pub fn start_sync_with(&self, config: SyncConfig) {
+        self.core().start_sync(config);
+        self.wake();
+    }
+
+    /// Stops the SYNC producer.
+    pub fn stop_sync(&self) {
+        self.core().stop_sync();
+    }
+
+    /// Sends an NMT command to every node.
+    pub fn nmt_all(&self, cmd: CommandSpecifier) -> Result<(), Error> {
+        self.core().nmt(cmd, NmtTarget::All);
+        self.flush()
+    }
+
+    /// Sends a raw frame.
+    pub fn send(&self, frame: CanFrame) -> Result<(), Error> {
+        self.core().send_raw(frame);
+        self.flush()
+    }
+
+    /// Drives the network for `d` (receives, dispatches events, runs timers). On a virtual-clock
+    /// bus this advances simulated time.
+    pub fn run_for(&self, d: Duration) -> Result<(), Error> {
+        let until = self.now() + d;
+        self.run_until(until)
+    }
+
+    /// Drives the network until `until` on its clock.
+    pub fn run_until(&self, until: Instant) -> Result<(), Error> {
+        loop {
+            let mut io = relock(self.inner.io.lock());
+            if io.now() >= until {
+                self.step(&mut io, Some(until))?;
+                return Ok(());
+            }
+            self.step(&mut io, Some(until))?;
+        }
+    }
+
+    /// Sends what the core has queued, without waiting for anything.
+    pub fn flush(&self) -> Result<(), Error> {
+        let mut io = relock(self.inner.io.lock());
+        let now = io.now();
+        let frames = {
+            let mut c = self.core();
+            c.handle_timeout(now);
+            std::iter::from_fn(|| c.poll_transmit()).collect::<Vec<_>>()
+        };
+        for f in frames {
+            io.send(&f)?;
+        }
+        drop(io);
+        self.inner.cond.notify_all();
+        Ok(())
+    }
+
+    fn wake(&self) {
+        self.inner.cond.notify_all();
+    }
+
+    /// One driving step: flush, receive until the next deadline (bounded by `limit` and the
+    /// drive slice), feed the core.
+    fn step(&self, io: &mut Box<dyn Transport>, limit: Option<Instant>) -> Result<(), Error> {
+        let now = io.now();
+        let (frames, next) = {
+            let mut c = self.core();
+            c.handle_timeout(now);
+            let frames: Vec<_> = std::iter::from_fn(|| c.poll_transmit()).collect();
+            (frames, c.poll_timeout())
+        };
+        for f in &frames {
+            io.send(f)?;
+        }
+        let mut deadline = now + DRIVE_SLICE;
+        if let Some(t) = next {
+            deadline = deadline.min(t);
+        }
+        if let Some(l) = limit {
+            deadline = deadline.min(l);
+        }
+        let got = io.recv_until(deadline.max(now));
+        let now = io.now();
+        let more = {
+            let mut c = self.core();
+            match got {
+                Ok(Some(Received::Frame { frame, at })) => c.handle_frame(at, &frame),
+                Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
+                Ok(None) => {}
+                Err(e) => {
+                    drop(c);
+                    self.inner.cond.notify_all();
+                    return Err(e.into());
+                }
+            }
+            c.handle_timeout(now);
+            std::iter::from_fn(|| c.poll_transmit()).collect::<Vec<_>>()
+        };
+        for f in &more {
+            io.send(f)?;
+        }
+        self.inner.cond.notify_all();
+        Ok(())
+    }
+
+    pub(crate) fn submit(&self, req: SdoRequest) -> RequestId {
+        let id = self.core().submit(req);
+        self.wake();
+        id
+    }
+
+    pub(crate) fn cancel(&self, id: RequestId) {
+        self.core().cancel(id);
+        self.wake();
+        // Put the abort on the bus now if nobody is driving.
+        if let Ok(mut io) = self.inner.io.try_lock() {
+            let frames: Vec<_> = {
+                let mut c = self.core();
+                std::iter::from_fn(|| c.poll_transmit()).collect()
+            };
+            for f in &frames {
+                let _ = io.send(f);
+            }
+        }
+    }
+
+    /// Blocks until request `id` finishes, driving the network meanwhile.
+    pub(crate) fn wait(&self, id: RequestId) -> Result<Completion, SdoError> {
+        loop {
+            {
+                let mut c = self.core();
+                if let Some(r) = c.take_result(id) {
+                    return r.map_err(|e| c.name_error(e));
+                }
+            }
+            match self.inner.io.try_lock() {
+                Ok(mut io) => {
+                    if let Err(e) = self.step(&mut io, None) {
+                        let mut c = self.core();
+                        c.cancel(id);
+                        return Err(SdoError {
+                            node: NodeId::MIN,
+                            entry: Entry::new(0, 0),
+                            name: None,
+                            kind: SdoErrorKind::Transport(e.to_string()),
+                        });
+                    }
+                }
+                Err(_) => {
+                    let c = self.core();
+                    if c.is_done(id) {
+                        continue;
+                    }
+                    let _ = relock(
+                        self.inner
+                            .cond
+                            .wait_timeout(c, std::time::Duration::from_millis(5)),
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A node on the network.
+#[derive(Clone, Debug)]
+pub struct Node {
+    net: Network,
+    id: NodeId,
+}
+
+impl Node {
+    /// The node-ID.
+    pub fn id(&self) -> NodeId {
+        self.id
+    }
+
+    /// The network.
+    pub fn network(&self) -> &Network {
+        &self.net
+    }
+
+    /// The node's SDO client with default settings (normal transfer, 1 s response timeout).
+    pub fn sdo(&self) -> Sdo {
+        Sdo {
+            net: self.net.clone(),
+            node: self.id,
+            method: Method::Normal,
+            timeout: DEFAULT_SDO_TIMEOUT,
+            progress: None,
+        }
+    }
+
+    /// NMT commands to this node.
+    pub fn nmt(&self) -> Nmt {
+        Nmt {
+            net: self.net.clone(),
+            target: NmtTarget::Node(self.id),
+        }
+    }
+
+    /// The node's dictionary, if it was added with one.
+    pub fn dictionary(&self) -> Option<Arc<ObjectDictionary>> {
+        self.net.core().dictionary(self.id)
+    }
+}
+
+/// NMT module control (CiA 301 §7.2.8.3.1) for one node or all.
+#[derive(Clone, Debug)]
+pub struct Nmt {
+    net: Network,
+    target: NmtTarget,
+}
+
+impl Nmt {
+    /// NMT commands to all nodes (node-ID 0).
+    pub fn all(net: &Network) -> Self {
+        Self {
+            net: net.clone(),
+            target: NmtTarget::All,
+        }
+    }
+
+    fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
+        self.net.core().nmt(cmd, self.target);
+        self.net.flush()
+    }
+
+    /// Start remote node (to Operational).
+    pub fn start(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::Start)
+    }
+    /// Stop remote node (to Stopped).
+    pub fn stop(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::Stop)
+    }
+    /// Enter Pre-Operational.
+    pub fn enter_preoperational(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::EnterPreOperational)
+    }
+    /// Reset node (application reset).
+    pub fn reset_node(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::ResetNode)
+    }
+    /// Reset communication.
+    pub fn reset_communication(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::ResetCommunication)
+    }
+}
+
+/// A request in flight. Waiting drives the network; dropping it cancels the request (a running
+/// transfer is aborted on the bus with 0x08000000).
+#[must_use = "dropping a pending request cancels it"]
+#[derive(Debug)]
+pub struct Pending {
+    net: Network,
+    id: Option<RequestId>,
+}
+
+impl Pending {
+    /// Blocks until the request finishes.
+    pub fn wait(mut self) -> Result<Completion, SdoError> {
+        match self.id.take() {
+            Some(id) => self.net.wait(id),
+            None => Err(SdoError {
+                node: NodeId::MIN,
+                entry: Entry::new(0, 0),
+                name: None,
+                kind: SdoErrorKind::Cancelled,
+            }),
+        }
+    }
+
+    /// Whether the request has finished (its result is ready for [`wait`](Self::wait)).
+    pub fn is_done(&self) -> bool {
+        self.id.is_none_or(|id| self.net.core().is_done(id))
+    }
+
+    /// Cancels the request (same as dropping it).
+    pub fn cancel(mut self) {
+        if let Some(id) = self.id.take() {
+            self.net.cancel(id);
+        }
+    }
+
+    #[cfg(feature = "tokio")]
+    pub(crate) fn into_parts(mut self) -> (Network, Option<RequestId>) {
+        let id = self.id.take();
+        (self.net.clone(), id)
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if let Some(id) = self.id.take() {
+            self.net.cancel(id);
+        }
+    }
+}
+
+/// A value that can be written by SDO (little-endian bytes, CiA 301 §7.1).
+pub trait SdoValue {
+    /// The bytes to download.
+    fn to_sdo_bytes(&self) -> Vec<u8>;
+}
+
+macro_rules! le_value {
+    ($($t:ty),*) => {$(
+        impl SdoValue for $t {
+            fn to_sdo_bytes(&self) -> Vec<u8> {
+                self.to_le_bytes().to_vec()
+            }
+        }
+    )*};
+}
+le_value!(u8, u16, u32, u64, i8, i16, i32, i64, f32, f64);
+
+impl SdoValue for [u8] {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.to_vec()
+    }
+}
+impl<const N: usize> SdoValue for [u8; N] {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.to_vec()
+    }
+}
+impl SdoValue for Vec<u8> {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.clone()
+    }
+}
+impl SdoValue for str {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.as_bytes().to_vec()
+    }
+}
+impl SdoValue for Value {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.to_le_bytes()
+    }
+}
+impl<T: SdoValue + ?Sized> SdoValue for &T {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        (**self).to_sdo_bytes()
+    }
+}
+
+/// A node's SDO client (CiA 301 §7.2.4) as a builder: settings, then one operation.
+pub struct Sdo {
+    net: Network,
+    node: NodeId,
+    method: Method,
+    timeout: Duration,
+    progress: Option<ProgressFn>,
+}
+
+impl core::fmt::Debug for Sdo {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Sdo")
+            .field("node", &self.node)
+            .field("method", &self.method)
+            .field("timeout", &self.timeout)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Sdo {
+    /// Uses block transfer (CiA 301 §7.2.4.3.9) when `on`.
+    pub fn block(mut self, on: bool) -> Self {
+        self.method = if on { Method::Block } else { Method::Normal };
+        self
+    }
+
+    /// Chooses the transfer method.
+    pub fn method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// Sets the response timeout (per server response).
+    pub fn timeout(mut self, timeout: Duration) -> Self {
+        self.timeout = timeout;
+        self
+    }
+
+    /// Calls `f` as the transfer progresses.
+    pub fn on_progress(mut self, f: impl FnMut(TransferProgress) + Send + 'static) -> Self {
+        self.progress = Some(Box::new(f));
+        self
+    }
+
+    fn request(self, entry: Entry, op: Op) -> Pending {
+        let req = SdoRequest {
+            node: self.node,
+            entry,
+            op,
+            method: self.method,
+            timeout: self.timeout,
+            progress: self.progress,
+        };
+        let id = self.net.submit(req);
+        Pending {
+            net: self.net,
+            id: Some(id),
+        }
+    }
+
+    /// Starts an upload into memory without waiting.
+    pub fn submit_read(self, entry: impl Into<Entry>) -> Pending {
+        self.request(entry.into(), Op::Upload(UpSink::Mem(Vec::new())))
+    }
+
+    /// Starts a download without waiting.
+    pub fn submit_write(self, entry: impl Into<Entry>, value: impl SdoValue) -> Pending {
+        let data = value.to_sdo_bytes();
+        self.request(entry.into(), Op::Download(DownSource(data)))
+    }
+
+    /// Reads an object's bytes (SDO upload).
+    pub fn read(self, entry: impl Into<Entry>) -> Result<Vec<u8>, Error> {
+        match self.submit_read(entry).wait()? {
+            Completion::Data(v) => Ok(v),
+            _ => Ok(Vec::new()),
+        }
+    }
+
+    /// Reads an object and decodes it with the type from the node's dictionary.
+    pub fn read_value(self, entry: impl Into<Entry>) -> Result<Value, Error> {
+        let entry = entry.into();
+        let node = self.node;
+        let od = self.net.core().dictionary(node);
+        let dt = od
+            .as_ref()
+            .and_then(|od| od.sub(entry.index, entry.sub))
+            .map(|s| s.data_type);
+        let bytes = self.read(entry)?;
+        let Some(dt) = dt else {
+            return Err(Error::Value {
+                node,
+                entry,
+                message: "the node's dictionary does not describe this object".into(),
+            });
+        };
+        Value::from_le_bytes(dt, &bytes).map_err(|e| Error::Value {
+            node,
+            entry,
+            message: e.to_string(),
+        })
+    }
+
+    /// Writes an object (SDO download).
+    pub fn write(self, entry: impl Into<Entry>, value: impl SdoValue) -> Result<(), Error> {
+        self.submit_write(entry, value).wait()?;
+        Ok(())
+    }
+
+    /// Uploads an object into `writer`, streaming as segments arrive. Returns the byte count.
+    pub fn upload_to(
+        self,
+        entry: impl Into<Entry>,
+        writer: impl Write + Send + 'static,
+    ) -> Result<u64, Error> {
+        let sink = UpSink::Stream {
+            w: Box::new(writer),
+            written: 0,
+            error: None,
+        };
+        match self.request(entry.into(), Op::Upload(sink)).wait()? {
+            Completion::Streamed(n) => Ok(n),
+            Completion::Data(v) => Ok(v.len() as u64),
+            Completion::Written => Ok(0),
+        }
+    }
+
+    /// Downloads the whole content of `reader` into an object. Returns the byte count.
+    pub fn download_from(
+        self,
+        entry: impl Into<Entry>,
+        mut reader: impl Read,
+    ) -> Result<u64, Error> {
+        let mut data = Vec::new();
+        reader.read_to_end(&mut data)?;
+        let n = data.len() as u64;
+        self.request(entry.into(), Op::Download(DownSource(data)))
+            .wait()?;
+        Ok(n)
+    }
+}

@@ -1,0 +1,509 @@
+//! The device simulator: a CANopen slave built from any object dictionary (EDS/DCF or generated).
+//!
+//! A [`SimDevice`] composes the device-side machines of the protocol crates:
+//! * NMT slave with boot-up and heartbeat producer (`canopen-nmt`, CiA 301 §7.2.8, §7.3.2);
+//! * SDO server for expedited, segmented and block transfers (`canopen-sdo`, CiA 301 §7.2.4)
+//!   over the dictionary's values;
+//! * EMCY producer (`canopen-nmt`, CiA 301 §7.2.7).
+//!
+//! It implements [`Station`], so it runs attached to an in-memory bus
+//! ([`MemoryBus::attach`](crate::mem::MemoryBus::attach), deterministic on the virtual clock) or
+//! on any transport with [`run_station`](crate::transport::run_station) (e.g. SocketCAN for
+//! `canopen simulate`). Several devices share one bus.
+//!
+//! Device-specific behaviour plugs in through [`DeviceHook`]: hooks see every SDO write before it
+//! is stored (and may refuse it with an abort code), may serve reads themselves (a generated
+//! DOMAIN such as a logbook), get their own timers, and can request a reset or an emergency.
+//!
+//! Communication objects with side effects handled here: 0x1017 producer heartbeat time.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use can_frame::cob::FunctionCode;
+use can_frame::{CanFrame, CanId, Instant, NodeId};
+use canopen_nmt::{DeviceState, Emcy, EmcyProducer, NmtSlave, Service, SlaveConfig, SlaveEvent};
+use canopen_od::{AccessType, ObjectDictionary};
+use canopen_sdo::{
+    AbortCode, Access, LengthRule, Multiplexer, ObjectAccess, ObjectInfo, Server, ServerConfig,
+};
+
+use crate::transport::Station;
+
+/// Longest value a variable-size object (string, DOMAIN) accepts by download.
+pub const MAX_VARIABLE_SIZE: u32 = 1 << 20;
+
+/// What a hook may do to the device besides answering.
+#[derive(Debug, Default)]
+pub struct HookActions {
+    /// Emergencies to send.
+    pub emcy: Vec<Emcy>,
+    /// Reset the application (as NMT reset node).
+    pub reset_node: bool,
+    /// Reset communication.
+    pub reset_communication: bool,
+}
+
+/// Device-specific behaviour. Every method has a default that does nothing.
+pub trait DeviceHook: Send {
+    /// An SDO download of `value` to `entry` completed; return `Err(code)` to refuse it (the
+    /// value is then not stored and the client gets the abort code).
+    fn on_write(
+        &mut self,
+        now: Instant,
+        values: &mut Values,
+        index: u16,
+        sub: u8,
+        value: &[u8],
+        actions: &mut HookActions,
+    ) -> Result<(), AbortCode> {
+        let _ = (now, values, index, sub, value, actions);
+        Ok(())
+    }
+
+    /// An SDO upload of `entry` starts; return `Some` to serve the value (or an abort) instead of
+    /// the stored one.
+    fn on_read(
+        &mut self,
+        now: Instant,
+        values: &Values,
+        index: u16,
+        sub: u8,
+    ) -> Option<Result<Vec<u8>, AbortCode>> {
+        let _ = (now, values, index, sub);
+        None
+    }
+
+    /// The hook's timer passed.
+    fn on_timeout(&mut self, now: Instant, values: &mut Values, actions: &mut HookActions) {
+        let _ = (now, values, actions);
+    }
+
+    /// When [`on_timeout`](Self::on_timeout) wants to be called.
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+
+    /// The device's NMT state changed (or it was reset: `Initialising`).
+    fn on_state(&mut self, now: Instant, state: DeviceState, values: &mut Values) {
+        let _ = (now, state, values);
+    }
+}
+
+/// The device's current object values (little-endian bytes, CiA 301 §7.1).
+#[derive(Debug, Clone, Default)]
+pub struct Values {
+    map: BTreeMap<(u16, u8), Vec<u8>>,
+}
+
+impl Values {
+    /// The value of `index:sub`.
+    pub fn get(&self, index: u16, sub: u8) -> Option<&[u8]> {
+        self.map.get(&(index, sub)).map(Vec::as_slice)
+    }
+
+    /// Sets the value of `index:sub`.
+    pub fn set(&mut self, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
+        self.map.insert((index, sub), value.into());
+    }
+
+    /// An unsigned value of up to 8 bytes.
+    pub fn get_u64(&self, index: u16, sub: u8) -> Option<u64> {
+        let b = self.get(index, sub)?;
+        let mut buf = [0u8; 8];
+        let n = b.len().min(8);
+        buf[..n].copy_from_slice(&b[..n]);
+        Some(u64::from_le_bytes(buf))
+    }
+
+    fn defaults(od: &ObjectDictionary, node: NodeId) -> Self {
+        let mut map = BTreeMap::new();
+        for (index, sub) in od.entries() {
+            let bytes = sub
+                .effective_value(node.get())
+                .map(|v| v.to_le_bytes())
+                .unwrap_or_else(|| vec![0; sub.data_type.size().unwrap_or(0)]);
+            map.insert((index, sub.sub_index), bytes);
+        }
+        Self { map }
+    }
+}
+
+/// The objects as the SDO server sees them: dictionary metadata plus current values.
+struct Objects<'a> {
+    od: &'a ObjectDictionary,
+    values: &'a mut Values,
+    staging: &'a mut Vec<u8>,
+    hooks: &'a mut Vec<Box<dyn DeviceHook>>,
+    actions: &'a mut HookActions,
+    written: &'a mut Vec<(u16, u8)>,
+    now: Instant,
+}
+
+fn access(a: AccessType) -> Access {
+    match a {
+        AccessType::Ro => Access::ReadOnly,
+        AccessType::Wo => Access::WriteOnly,
+        AccessType::Const => Access::Const,
+        _ => Access::ReadWrite,
+    }
+}
+
+impl ObjectAccess for Objects<'_> {
+    fn info(&mut self, mux: Multiplexer) -> Result<ObjectInfo, AbortCode> {
+        let (index, sub) = (mux.index, mux.subindex);
+        let Some(obj) = self.od.get(index) else {
+            return Err(AbortCode::OBJECT_DOES_NOT_EXIST);
+        };
+        let Some(s) = obj.sub(sub) else {
+            return Err(AbortCode::SUBINDEX_DOES_NOT_EXIST);
+        };
+        // A hook may serve the value: its length counts.
+        for h in self.hooks.iter_mut() {
+            if let Some(r) = h.on_read(self.now, self.values, index, sub) {
+                let v = r?;
+                self.values.set(index, sub, v);
+                break;
+            }
+        }
+        let len = self.values.get(index, sub).map_or(0, |v| v.len()) as u32;
+        let acc = access(s.access);
+        Ok(match s.data_type.size() {
+            Some(n) if !s.data_type.is_variable_size() => ObjectInfo {
+                access: acc,
+                len,
+                accepts: LengthRule::Exact(n as u32),
+            },
+            _ => ObjectInfo::variable(acc, len, MAX_VARIABLE_SIZE),
+        })
+    }
+
+    fn read(&mut self, mux: Multiplexer, offset: u32, buf: &mut [u8]) -> Result<usize, AbortCode> {
+        let v = self
+            .values
+            .get(mux.index, mux.subindex)
+            .ok_or(AbortCode::NO_DATA_AVAILABLE)?;
+        let start = (offset as usize).min(v.len());
+        let n = buf.len().min(v.len() - start);
+        buf[..n].copy_from_slice(&v[start..start + n]);
+        Ok(n)
+    }
+
+    fn write(&mut self, _mux: Multiplexer, offset: u32, data: &[u8]) -> Result<(), AbortCode> {
+        let offset = offset as usize;
+        if offset == 0 {
+            self.staging.clear();
+        }
+        let end = offset + data.len();
+        if end > MAX_VARIABLE_SIZE as usize {
+            return Err(AbortCode::OUT_OF_MEMORY);
+        }
+        if self.staging.len() < end {
+            self.staging.resize(end, 0);
+        }
+        self.staging[offset..end].copy_from_slice(data);
+        Ok(())
+    }
+
+    fn commit(&mut self, mux: Multiplexer, len: u32) -> Result<(), AbortCode> {
+        let value: Vec<u8> = self.staging.iter().take(len as usize).copied().collect();
+        self.staging.clear();
+        let (index, sub) = (mux.index, mux.subindex);
+        // Range check against the dictionary's limits for integers.
+        if let Some(s) = self.od.sub(index, sub) {
+            let v = canopen_od::Value::from_le_bytes(s.data_type, &value)
+                .map_err(|_| AbortCode::LENGTH_MISMATCH)?;
+            if let Some(x) = v.as_i128() {
+                let limit = |f: &Option<canopen_od::FieldValue>| {
+                    f.as_ref()
+                        .and_then(|f| f.resolve(0))
+                        .and_then(|v| v.as_i128())
+                };
+                if limit(&s.low_limit).is_some_and(|lo| x < lo) {
+                    return Err(AbortCode::VALUE_TOO_LOW);
+                }
+                if limit(&s.high_limit).is_some_and(|hi| x > hi) {
+                    return Err(AbortCode::VALUE_TOO_HIGH);
+                }
+            }
+        }
+        for h in self.hooks.iter_mut() {
+            h.on_write(self.now, self.values, index, sub, &value, self.actions)?;
+        }
+        self.values.set(index, sub, value);
+        self.written.push((index, sub));
+        Ok(())
+    }
+
+    fn discard(&mut self, _mux: Multiplexer) {
+        self.staging.clear();
+    }
+}
+
+/// A simulated CANopen device. See the module docs.
+pub struct SimDevice {
+    node: NodeId,
+    od: ObjectDictionary,
+    values: Values,
+    staging: Vec<u8>,
+    nmt: NmtSlave,
+    sdo: Server,
+    emcy: EmcyProducer,
+    hooks: Vec<Box<dyn DeviceHook>>,
+    out: VecDeque<CanFrame>,
+    booted: bool,
+    last_state: DeviceState,
+    /// SDO requests served, for tests and statistics.
+    pub sdo_requests: u64,
+}
+
+impl core::fmt::Debug for SimDevice {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SimDevice")
+            .field("node", &self.node)
+            .field("state", &self.nmt.state())
+            .finish_non_exhaustive()
+    }
+}
+
+fn std_id(raw: u16) -> CanId {
+    CanId::standard(raw & 0x7FF).unwrap_or(CanId::Standard(ZERO))
+}
+
+const ZERO: can_frame::StandardId = match can_frame::StandardId::new(0) {
+    Ok(id) => id,
+    Err(_) => panic!("0 is a valid identifier"),
+};
+
+impl SimDevice {
+    /// A device with node-ID `node` and the dictionary `od` (values from ParameterValue or
+    /// DefaultValue, `$NODEID` resolved). It boots (sends its boot-up message) at the first
+    /// timer step.
+    pub fn new(node: NodeId, od: ObjectDictionary) -> Self {
+        let values = Values::defaults(&od, node);
+        let heartbeat_ms = values.get_u64(0x1017, 0).unwrap_or(0) as u16;
+        let nmt = NmtSlave::new(
+            node,
+            SlaveConfig {
+                heartbeat_ms,
+                guard_time_ms: values.get_u64(0x100C, 0).unwrap_or(0) as u16,
+                life_time_factor: values.get_u64(0x100D, 0).unwrap_or(0) as u8,
+            },
+        );
+        let emcy_cob = FunctionCode::Emcy.cob_id(node);
+        Self {
+            node,
+            od,
+            values,
+            staging: Vec::new(),
+            nmt,
+            sdo: Server::new(ServerConfig::default()),
+            emcy: EmcyProducer::new(emcy_cob, 0),
+            hooks: Vec::new(),
+            out: VecDeque::new(),
+            booted: false,
+            last_state: DeviceState::Initialising,
+            sdo_requests: 0,
+        }
+    }
+
+    /// Parses an EDS/DCF text and builds a device from it.
+    pub fn from_eds(node: NodeId, text: &[u8]) -> Result<Self, canopen_od::ParseError> {
+        Ok(Self::new(node, canopen_od::parse(text)?.od))
+    }
+
+    /// Adds device-specific behaviour.
+    pub fn with_hook(mut self, hook: impl DeviceHook + 'static) -> Self {
+        self.hooks.push(Box::new(hook));
+        self
+    }
+
+    /// The node-ID.
+    pub fn node(&self) -> NodeId {
+        self.node
+    }
+
+    /// The NMT state.
+    pub fn state(&self) -> DeviceState {
+        self.nmt.state()
+    }
+
+    /// The current values.
+    pub fn values(&self) -> &Values {
+        &self.values
+    }
+
+    /// The current values, to change them (e.g. a sensor reading).
+    pub fn values_mut(&mut self) -> &mut Values {
+        &mut self.values
+    }
+
+    /// The dictionary.
+    pub fn dictionary(&self) -> &ObjectDictionary {
+        &self.od
+    }
+
+    /// Sends an emergency (when the NMT state allows EMCY).
+    pub fn signal_emcy(&mut self, now: Instant, emcy: Emcy) {
+        if self.nmt.allows(Service::Emcy) {
+            let _ = self.emcy.signal(now, emcy);
+            self.collect();
+        }
+    }
+
+    fn collect(&mut self) {
+        while let Some(f) = self.nmt.poll_transmit() {
+            self.out.push_back(f);
+        }
+        while let Some(data) = self.sdo.poll_transmit() {
+            let id = std_id(FunctionCode::SdoTx.cob_id(self.node));
+            self.out.push_back(CanFrame::from_array(id, data));
+        }
+        while let Some(f) = self.emcy.poll_transmit() {
+            self.out.push_back(f);
+        }
+    }
+
+    fn reset(&mut self, now: Instant, application: bool) {
+        if application {
+            self.values = Values::defaults(&self.od, self.node);
+        }
+        let hb = self.values.get_u64(0x1017, 0).unwrap_or(0) as u16;
+        self.nmt = NmtSlave::new(
+            self.node,
+            SlaveConfig {
+                heartbeat_ms: hb,
+                guard_time_ms: self.values.get_u64(0x100C, 0).unwrap_or(0) as u16,
+                life_time_factor: self.values.get_u64(0x100D, 0).unwrap_or(0) as u8,
+            },
+        );
+        self.sdo = Server::new(ServerConfig::default());
+        self.nmt.boot(now);
+        self.after_nmt(now);
+    }
+
+    fn after_nmt(&mut self, now: Instant) {
+        let mut resets = Vec::new();
+        while let Some(ev) = self.nmt.poll_event() {
+            match ev {
+                SlaveEvent::ResetNode => resets.push(true),
+                SlaveEvent::ResetCommunication => resets.push(false),
+                _ => {}
+            }
+        }
+        let state = self.nmt.state();
+        if state != self.last_state {
+            self.last_state = state;
+            for h in self.hooks.iter_mut() {
+                h.on_state(now, state, &mut self.values);
+            }
+        }
+        self.collect();
+        if let Some(app) = resets.first() {
+            self.reset(now, *app);
+        }
+    }
+
+    fn apply(&mut self, now: Instant, actions: HookActions, written: &[(u16, u8)]) {
+        for &(index, sub) in written {
+            if (index, sub) == (0x1017, 0) {
+                let ms = self.values.get_u64(0x1017, 0).unwrap_or(0) as u16;
+                self.nmt.set_heartbeat_time(now, ms);
+            }
+        }
+        for e in actions.emcy {
+            let _ = self.emcy.signal(now, e);
+        }
+        self.collect();
+        if actions.reset_node || actions.reset_communication {
+            self.reset(now, actions.reset_node);
+        }
+    }
+}
+
+impl Station for SimDevice {
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
+        if !self.booted {
+            return;
+        }
+        let Some(cob) = frame.cob_id() else { return };
+        if cob == FunctionCode::SdoRx.cob_id(self.node) {
+            if !self.nmt.allows(Service::Sdo) {
+                return;
+            }
+            self.sdo_requests += 1;
+            let mut actions = HookActions::default();
+            let mut written = Vec::new();
+            let mut objs = Objects {
+                od: &self.od,
+                values: &mut self.values,
+                staging: &mut self.staging,
+                hooks: &mut self.hooks,
+                actions: &mut actions,
+                written: &mut written,
+                now,
+            };
+            self.sdo.handle_request(now, frame.data(), &mut objs);
+            self.apply(now, actions, &written);
+            return;
+        }
+        if self.nmt.handle_frame(now, frame).unwrap_or(false) {
+            self.after_nmt(now);
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if !self.booted {
+            self.booted = true;
+            self.nmt.boot(now);
+            self.after_nmt(now);
+        }
+        if self.nmt.poll_timeout().is_some_and(|t| t <= now) {
+            self.nmt.handle_timeout(now);
+            self.after_nmt(now);
+        }
+        if self.sdo.poll_timeout().is_some_and(|t| t <= now) {
+            let mut actions = HookActions::default();
+            let mut written = Vec::new();
+            let mut objs = Objects {
+                od: &self.od,
+                values: &mut self.values,
+                staging: &mut self.staging,
+                hooks: &mut self.hooks,
+                actions: &mut actions,
+                written: &mut written,
+                now,
+            };
+            self.sdo.handle_timeout(now, &mut objs);
+            self.apply(now, actions, &written);
+        }
+        if self.emcy.poll_timeout().is_some_and(|t| t <= now) {
+            self.emcy.handle_timeout(now);
+        }
+        let mut actions = HookActions::default();
+        for h in self.hooks.iter_mut() {
+            if h.poll_timeout().is_some_and(|t| t <= now) {
+                h.on_timeout(now, &mut self.values, &mut actions);
+            }
+        }
+        self.apply(now, actions, &[]);
+    }
+
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        self.out.pop_front()
+    }
+
+    fn poll_timeout(&self) -> Option<Instant> {
+        if !self.booted {
+            return Some(Instant::ZERO);
+        }
+        [
+            self.nmt.poll_timeout(),
+            self.sdo.poll_timeout(),
+            self.emcy.poll_timeout(),
+        ]
+        .into_iter()
+        .chain(self.hooks.iter().map(|h| h.poll_timeout()))
+        .flatten()
+        .min()
+    }
+}

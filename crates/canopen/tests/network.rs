@@ -1,0 +1,465 @@
+//! The master against simulated devices on the in-memory bus (virtual clock, deterministic).
+
+use std::sync::mpsc::Receiver;
+
+use can_frame::{CanFrame, Duration, NodeId};
+use canopen::mem::{BusConfig, Faults, MemoryBus, StationId};
+use canopen::transport::{Received, Transport};
+use canopen::{Error, Network, NetworkEvent, SdoErrorKind, SimDevice};
+use canopen_nmt::{DeviceState, Emcy, EmcyCode, ErrorRegister, HeartbeatEvent};
+use canopen_sdo::{AbortCode, ErrorKind};
+
+const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+
+fn n(id: u8) -> NodeId {
+    NodeId::new(id).unwrap()
+}
+
+fn device(id: u8) -> SimDevice {
+    SimDevice::from_eds(n(id), EDS).expect("the Bürkert EDS parses")
+}
+
+fn od() -> canopen_od::ObjectDictionary {
+    canopen_od::parse(EDS).unwrap().od
+}
+
+struct Rig {
+    bus: MemoryBus,
+    net: Network,
+    devices: Vec<StationId<SimDevice>>,
+}
+
+fn rig_with(config: BusConfig, ids: &[u8]) -> Rig {
+    let bus = MemoryBus::with_config(config);
+    let net = Network::new(bus.endpoint());
+    let devices = ids.iter().map(|id| bus.attach(device(*id))).collect();
+    for id in ids {
+        net.add_node_with_dictionary(n(*id), od());
+    }
+    Rig { bus, net, devices }
+}
+
+fn rig(ids: &[u8]) -> Rig {
+    rig_with(BusConfig::default(), ids)
+}
+
+fn logbook(len: usize) -> Vec<u8> {
+    (0..len).map(|i| b"<log entry=\"x\"/>\n"[i % 17]).collect()
+}
+
+#[test]
+fn expedited_read_and_write() {
+    let r = rig(&[5]);
+    let node = r.net.node(n(5));
+    assert_eq!(node.sdo().read((0x1018, 1)).unwrap(), 0x39u32.to_le_bytes());
+    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 500u16.to_le_bytes());
+    node.sdo().write((0x1017, 0), 100u16).unwrap();
+    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 100u16.to_le_bytes());
+    let v = node.sdo().read_value((0x1017, 0)).unwrap();
+    assert_eq!(v, canopen_od::Value::Unsigned16(100));
+    assert_eq!(
+        r.bus
+            .with_station(r.devices[0], |d| d.values().get_u64(0x1017, 0)),
+        Some(Some(100))
+    );
+}
+
+#[test]
+fn segmented_read_and_write() {
+    let r = rig(&[5]);
+    let node = r.net.node(n(5));
+    assert_eq!(
+        node.sdo().read((0x1008, 0)).unwrap(),
+        b"Buerkert generic device"
+    );
+    node.sdo()
+        .write((0x2002, 2), "Hall 3, line 7, valve island A")
+        .unwrap();
+    assert_eq!(
+        node.sdo().read((0x2002, 2)).unwrap(),
+        b"Hall 3, line 7, valve island A"
+    );
+}
+
+#[test]
+fn block_upload_and_download_with_progress() {
+    let r = rig(&[5]);
+    let data = logbook(5000);
+    r.bus
+        .with_station(r.devices[0], |d| {
+            d.values_mut().set(0x2003, 4, data.clone())
+        })
+        .unwrap();
+    let node = r.net.node(n(5));
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let seen2 = seen.clone();
+    let got = node
+        .sdo()
+        .block(true)
+        .on_progress(move |p| seen2.lock().unwrap().push((p.done, p.total)))
+        .read((0x2003, 4))
+        .unwrap();
+    assert_eq!(got, data);
+    let seen = seen.lock().unwrap();
+    assert!(seen.len() > 3, "{seen:?}");
+    assert_eq!(seen.last().unwrap().1, Some(5000));
+
+    // Streaming upload into a writer.
+    let buf = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    struct W(std::sync::Arc<std::sync::Mutex<Vec<u8>>>);
+    impl std::io::Write for W {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(b);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    let len = node.sdo().upload_to((0x2003, 4), W(buf.clone())).unwrap();
+    assert_eq!(len, 5000);
+    assert_eq!(*buf.lock().unwrap(), data);
+
+    let text = logbook(3000);
+    let len = node
+        .sdo()
+        .block(true)
+        .download_from((0x2002, 3), text.as_slice())
+        .unwrap();
+    assert_eq!(len, 3000);
+    assert_eq!(node.sdo().block(true).read((0x2002, 3)).unwrap(), text);
+}
+
+#[test]
+fn abort_is_explained_with_node_object_and_meaning() {
+    let r = rig(&[5]);
+    let node = r.net.node(n(5));
+    let e = node.sdo().read((0x1234, 0)).unwrap_err();
+    assert_eq!(e.server_abort(), Some(AbortCode::OBJECT_DOES_NOT_EXIST));
+    let text = e.to_string();
+    assert!(text.contains("node 5"), "{text}");
+    assert!(text.contains("0x1234"), "{text}");
+    assert!(text.contains("0x06020000"), "{text}");
+    // Read-only object: the dictionary name appears.
+    let e = node.sdo().write((0x1008, 0), "x").unwrap_err();
+    assert_eq!(e.server_abort(), Some(AbortCode::READ_ONLY));
+    assert!(e.to_string().contains("Manufacturer Device Name"), "{e}");
+}
+
+#[test]
+fn no_device_times_out_cleanly() {
+    let r = rig(&[5]);
+    let node = r.net.node(n(9));
+    let e = node
+        .sdo()
+        .timeout(Duration::from_millis(100))
+        .read((0x1000, 0))
+        .unwrap_err();
+    match e {
+        Error::Sdo(s) => {
+            assert_eq!(s.node, n(9));
+            assert_eq!(s.kind, SdoErrorKind::Transfer(ErrorKind::Timeout));
+        }
+        other => panic!("{other}"),
+    }
+}
+
+#[test]
+fn parallel_nodes_and_same_node_order() {
+    let r = rig(&[5, 6, 7]);
+    let tap_bus = r.bus.clone();
+    let mut tap = tap_bus.endpoint();
+    // Three requests to node 5 and one each to 6 and 7, all submitted before any runs.
+    let a1 = r.net.node(n(5)).sdo().submit_write((0x2002, 2), "first");
+    let a2 = r.net.node(n(5)).sdo().submit_read((0x2002, 2));
+    let a3 = r.net.node(n(5)).sdo().submit_write((0x2002, 2), "third");
+    let b = r.net.node(n(6)).sdo().submit_read((0x1018, 1));
+    let c = r.net.node(n(7)).sdo().submit_read((0x1017, 0));
+    // Waiting for the last one drives all of them.
+    assert!(matches!(a3.wait(), Ok(canopen::Completion::Written)));
+    assert!(a1.is_done() && a2.is_done());
+    a1.wait().unwrap();
+    assert_eq!(
+        a2.wait().unwrap(),
+        canopen::Completion::Data(b"first".to_vec())
+    );
+    assert_eq!(
+        b.wait().unwrap(),
+        canopen::Completion::Data(0x39u32.to_le_bytes().to_vec())
+    );
+    assert_eq!(
+        c.wait().unwrap(),
+        canopen::Completion::Data(500u16.to_le_bytes().to_vec())
+    );
+
+    // On the wire, the requests to 6 and 7 went out before node 5's first transfer ended.
+    let mut order = Vec::new();
+    while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
+        if let Some(id) = frame.cob_id()
+            && (0x600..0x680).contains(&id)
+        {
+            order.push(id - 0x600);
+        }
+    }
+    let first6 = order.iter().position(|x| *x == 6).unwrap();
+    let last5 = order.iter().rposition(|x| *x == 5).unwrap();
+    assert!(first6 < last5, "{order:?}");
+}
+
+#[test]
+fn threads_share_one_network() {
+    let r = rig(&[5, 6]);
+    let handles: Vec<_> = [5u8, 6]
+        .into_iter()
+        .map(|id| {
+            let net = r.net.clone();
+            std::thread::spawn(move || {
+                for i in 0..20u16 {
+                    net.node(n(id))
+                        .sdo()
+                        .write((0x1017, 0), i + u16::from(id))
+                        .unwrap();
+                    let v = net.node(n(id)).sdo().read((0x1017, 0)).unwrap();
+                    assert_eq!(v, (i + u16::from(id)).to_le_bytes());
+                }
+            })
+        })
+        .collect();
+    for h in handles {
+        h.join().unwrap();
+    }
+}
+
+#[test]
+fn cancel_sends_abort_and_late_response_is_ignored() {
+    let r = rig(&[5]);
+    let mut tap = r.bus.endpoint();
+    // Slow the device down: detach it, so the request gets no answer.
+    let dev = r.bus.detach(r.devices[0]).unwrap();
+    let pending = r.net.node(n(5)).sdo().submit_read((0x1018, 1));
+    r.net.run_for(Duration::from_millis(10)).unwrap();
+    drop(pending); // cancel
+    r.net.run_for(Duration::from_millis(10)).unwrap();
+    let mut frames = Vec::new();
+    while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
+        frames.push(frame);
+    }
+    let abort = frames
+        .iter()
+        .find(|f| f.cob_id() == Some(0x605) && f.data()[0] == 0x80)
+        .expect("an SDO abort was sent");
+    assert_eq!(&abort.data()[1..4], &[0x18, 0x10, 0x01]);
+    assert_eq!(&abort.data()[4..8], &0x0800_0000u32.to_le_bytes());
+
+    // A late answer to the cancelled read arrives while the next request (0x1017) runs: it
+    // must not complete the new request.
+    r.bus.attach(dev);
+    let next = r.net.node(n(5)).sdo().submit_read((0x1017, 0));
+    let late = CanFrame::new(
+        can_frame::CanId::standard(0x585).unwrap(),
+        &[0x43, 0x18, 0x10, 0x01, 0xEF, 0xBE, 0xAD, 0xDE],
+    )
+    .unwrap();
+    tap.send(&late).unwrap();
+    assert_eq!(
+        next.wait().unwrap(),
+        canopen::Completion::Data(500u16.to_le_bytes().to_vec())
+    );
+}
+
+fn drain(rx: &Receiver<NetworkEvent>) -> Vec<NetworkEvent> {
+    rx.try_iter().collect()
+}
+
+#[test]
+fn boot_up_nmt_and_heartbeat_loss_and_recovery() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let events = net.subscribe();
+    net.monitor_heartbeat(n(5), Duration::from_millis(750));
+    let dev = bus.attach(device(5));
+    net.run_for(Duration::from_millis(100)).unwrap();
+    let ev = drain(&events);
+    assert!(
+        ev.contains(&NetworkEvent::Heartbeat(HeartbeatEvent::BootUp {
+            node: n(5)
+        })),
+        "{ev:?}"
+    );
+    net.node(n(5)).nmt().start().unwrap();
+    net.run_for(Duration::from_millis(600)).unwrap();
+    assert_eq!(
+        bus.with_station(dev, |d| d.state()),
+        Some(DeviceState::Operational)
+    );
+    assert_eq!(
+        net.last_state(n(5)),
+        Some(canopen_nmt::NmtState::Operational)
+    );
+    // The device disappears: loss after 750 ms without heartbeat.
+    let d = bus.detach(dev).unwrap();
+    net.run_for(Duration::from_secs(2)).unwrap();
+    let ev = drain(&events);
+    assert!(
+        ev.iter().any(|e| matches!(e, NetworkEvent::Heartbeat(HeartbeatEvent::Lost { node, .. }) if *node == n(5))),
+        "{ev:?}"
+    );
+    // It comes back (same state, no reboot): recovery.
+    bus.attach(d);
+    net.run_for(Duration::from_secs(1)).unwrap();
+    let ev = drain(&events);
+    assert!(
+        ev.iter().any(|e| matches!(e, NetworkEvent::Heartbeat(HeartbeatEvent::Recovered { node, .. }) if *node == n(5))),
+        "{ev:?}"
+    );
+}
+
+#[test]
+fn emcy_reaches_subscribers() {
+    let r = rig(&[5]);
+    let events = r.net.subscribe();
+    let now = r.bus.now();
+    r.bus
+        .with_station(r.devices[0], |d| {
+            d.signal_emcy(now, Emcy::new(EmcyCode(0x4210), ErrorRegister(0x09)))
+        })
+        .unwrap();
+    r.net.run_for(Duration::from_millis(10)).unwrap();
+    let ev = drain(&r.events_or(events));
+    assert!(
+        ev.iter().any(|e| matches!(e, NetworkEvent::Emcy(x) if x.node == n(5) && x.emcy.code == EmcyCode(0x4210))),
+        "{ev:?}"
+    );
+}
+
+impl Rig {
+    fn events_or(&self, rx: Receiver<NetworkEvent>) -> Receiver<NetworkEvent> {
+        rx
+    }
+}
+
+#[test]
+fn nmt_reset_node_reboots_with_defaults() {
+    let r = rig(&[5]);
+    let events = r.net.subscribe();
+    let node = r.net.node(n(5));
+    node.sdo().write((0x1017, 0), 200u16).unwrap();
+    node.nmt().reset_node().unwrap();
+    r.net.run_for(Duration::from_millis(50)).unwrap();
+    assert!(
+        drain(&events).contains(&NetworkEvent::Heartbeat(HeartbeatEvent::BootUp {
+            node: n(5)
+        }))
+    );
+    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 500u16.to_le_bytes());
+}
+
+/// Every SDO method under 5 % drop and 5 % duplication: correct data or a clean error.
+#[test]
+fn sdo_under_drop_and_duplication() {
+    for (drop, duplicate, seed) in [(0.05, 0.0, 1u64), (0.0, 0.05, 2), (0.05, 0.05, 3)] {
+        let r = rig_with(
+            BusConfig {
+                faults: Faults {
+                    drop,
+                    duplicate,
+                    seed,
+                    ..Faults::none()
+                },
+                ..BusConfig::default()
+            },
+            &[5],
+        );
+        let data = logbook(2000);
+        r.bus
+            .with_station(r.devices[0], |d| {
+                d.values_mut().set(0x2003, 4, data.clone())
+            })
+            .unwrap();
+        let node = r.net.node(n(5));
+        let (mut ok, mut failed) = (0, 0);
+        for i in 0..30u16 {
+            let t = Duration::from_millis(100);
+            let results: Vec<Result<(), Error>> = vec![
+                node.sdo()
+                    .timeout(t)
+                    .write((0x1017, 0), 100 + i)
+                    .map(|_| ()),
+                node.sdo()
+                    .timeout(t)
+                    .read((0x1018, 1))
+                    .map(|v| assert_eq!(v, 0x39u32.to_le_bytes())),
+                node.sdo()
+                    .timeout(t)
+                    .read((0x1008, 0))
+                    .map(|v| assert_eq!(v, b"Buerkert generic device")),
+                node.sdo()
+                    .timeout(t)
+                    .write((0x2002, 2), "segmented location text")
+                    .map(|_| ()),
+                node.sdo()
+                    .timeout(t)
+                    .block(true)
+                    .read((0x2003, 4))
+                    .map(|v| assert_eq!(v, data)),
+                node.sdo()
+                    .timeout(t)
+                    .block(true)
+                    .write((0x2002, 3), logbook(300))
+                    .map(|_| ()),
+            ];
+            for res in results {
+                match res {
+                    Ok(()) => ok += 1,
+                    Err(Error::Sdo(e)) => {
+                        failed += 1;
+                        // A clean error names the node and object and carries an abort code.
+                        assert_eq!(e.node, n(5));
+                        assert!(e.abort_code().is_some(), "{e}");
+                        assert!(e.to_string().contains("node 5"));
+                    }
+                    Err(other) => panic!("unexpected error {other}"),
+                }
+            }
+        }
+        eprintln!("drop {drop} dup {duplicate}: {ok} ok, {failed} failed cleanly");
+        assert!(
+            ok > 0,
+            "drop {drop} dup {duplicate}: {ok} ok, {failed} failed"
+        );
+        // After faults, a clean read still works and returns the right data.
+        r.bus.set_faults(Faults::none());
+        assert_eq!(node.sdo().read((0x1018, 1)).unwrap(), 0x39u32.to_le_bytes());
+    }
+}
+
+#[test]
+fn timing_model_bus_works_end_to_end() {
+    let r = rig_with(
+        BusConfig {
+            bitrate: Some(125_000),
+            worst_case_stuffing: true,
+            ..BusConfig::default()
+        },
+        &[5],
+    );
+    let data = logbook(1000);
+    r.bus
+        .with_station(r.devices[0], |d| {
+            d.values_mut().set(0x2003, 4, data.clone())
+        })
+        .unwrap();
+    let t0 = r.net.now();
+    assert_eq!(
+        r.net
+            .node(n(5))
+            .sdo()
+            .block(true)
+            .read((0x2003, 4))
+            .unwrap(),
+        data
+    );
+    let took = r.net.now() - t0;
+    // 1000 bytes = 143 segments of 135 bits at 125 kbit/s is at least 154 ms of wire time.
+    assert!(took >= Duration::from_millis(154), "{took}");
+}
