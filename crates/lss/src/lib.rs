@@ -21,6 +21,53 @@
 //! `#![no_std]` without an allocator (fixed-size `heapless` lists, at most 127 slaves per
 //! result since that is how many node-IDs exist); the `std` feature (default) only adds
 //! `std::error::Error` through `can-frame`.
+//!
+//! # Driving a machine
+//! Every master machine has the same loop (see [`machine`] for the details): put
+//! [`LssMachine::poll_transmit_frame`] frames on the bus, feed received frames to
+//! [`LssMachine::handle_frame`], call [`LssMachine::handle_timeout`] at
+//! [`LssMachine::poll_timeout`], and read [`LssMachine::poll_event`] until
+//! [`MasterEvent::Done`]. Here two simulated slaves stand in for the bus, on a virtual clock:
+//!
+//! ```
+//! use can_frame::{Instant, NodeId};
+//! use canopen_lss::{
+//!     AssignAll, AssignConfig, LssAddress, LssMachine, LssSlave, MasterEvent, NodeIdPool,
+//!     SlaveConfig,
+//! };
+//!
+//! let mut slaves = [
+//!     LssSlave::new(SlaveConfig::unconfigured(LssAddress::new(0x78, 1, 1, 100))),
+//!     LssSlave::new(SlaveConfig::unconfigured(LssAddress::new(0x78, 1, 1, 200))),
+//! ];
+//! let pool = NodeIdPool::range(NodeId::new(10).unwrap(), NodeId::new(20).unwrap());
+//! let mut master = AssignAll::new(AssignConfig::with_pool(pool));
+//! let mut now = Instant::ZERO;
+//! master.start(now).unwrap();
+//! let report = loop {
+//!     while let Some(frame) = master.poll_transmit_frame() {
+//!         for slave in &mut slaves {
+//!             slave.handle_frame(now, &frame);
+//!         }
+//!     }
+//!     // Identical answers of several slaves reach the master as one frame here.
+//!     let mut answers: Vec<_> = slaves.iter_mut().filter_map(|s| s.poll_transmit_frame()).collect();
+//!     answers.dedup();
+//!     for frame in &answers {
+//!         master.handle_frame(now, frame);
+//!     }
+//!     if let Some(MasterEvent::Done(result)) = master.poll_event() {
+//!         break result.unwrap();
+//!     }
+//!     if answers.is_empty() && let Some(t) = master.poll_timeout() {
+//!         now = t;
+//!         master.handle_timeout(now);
+//!     }
+//! };
+//! let ids: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
+//! assert_eq!(ids, [10, 11]);
+//! assert_eq!(slaves[1].active_node_id(), 11);
+//! ```
 #![no_std]
 
 #[cfg(any(feature = "std", test))]

@@ -890,3 +890,61 @@ fn fastscan_timing_figure() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Properties
+
+mod props {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Addresses drawn from few values, so that slaves share long prefixes.
+    fn address() -> impl Strategy<Value = LssAddress> {
+        let part = prop_oneof![
+            Just(0u32),
+            Just(1),
+            Just(0x8000_0000),
+            Just(u32::MAX),
+            any::<u32>()
+        ];
+        (part.clone(), part.clone(), part.clone(), part)
+            .prop_map(|(v, p, r, s)| LssAddress::new(v, p, r, s))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(32))]
+
+        /// Discover-all and assign-all find exactly the unconfigured slaves, however their
+        /// addresses collide, and assign-all never repeats a node-ID.
+        #[test]
+        fn scans_find_exactly_the_unconfigured(
+            addrs in proptest::collection::btree_set(address(), 1..6),
+            configured in proptest::collection::vec(address(), 0..3),
+            merged in any::<bool>(),
+        ) {
+            let delivery = if merged { DELIVERIES[0] } else { DELIVERIES[1] };
+            let addrs: Vec<LssAddress> = addrs.into_iter().collect();
+            let mut bus = Bus::with_unconfigured(delivery, &addrs);
+            for (i, a) in configured.iter().enumerate() {
+                let mut c = SlaveConfig::unconfigured(*a);
+                c.node_id = 100 + i as u8;
+                bus.add(c);
+            }
+            let mut m = DiscoverAll::new(fast(ResponsePolicy::WholeWindow));
+            m.start(bus.now).unwrap();
+            let found = bus.run(&mut m).0.unwrap();
+            prop_assert_eq!(found.as_slice(), addrs.as_slice());
+
+            let mut config = AssignConfig::with_pool(NodeIdPool::range(id(1), id(99)));
+            config.fastscan = fast(ResponsePolicy::WholeWindow);
+            let mut m = AssignAll::new(config);
+            m.start(bus.now).unwrap();
+            let report = bus.run(&mut m).0.unwrap();
+            prop_assert_eq!(report.stopped, None);
+            let got: Vec<LssAddress> = report.assigned().map(|(a, _)| a).collect();
+            prop_assert_eq!(got.as_slice(), addrs.as_slice());
+            let ids: BTreeSet<NodeId> = report.assigned().map(|(_, i)| i).collect();
+            prop_assert_eq!(ids.len(), addrs.len());
+        }
+    }
+}
