@@ -5,6 +5,7 @@
 
 extern crate burkert_profile;
 extern crate can_frame;
+extern crate canopen_lss;
 extern crate canopen_nmt;
 
 use core::panic::PanicInfo;
