@@ -665,3 +665,326 @@ impl BlockSegment {
 pub(crate) fn is_abort(data: &[u8]) -> bool {
     data.len() == 8 && data.first() == Some(&0x80)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const M1000: Multiplexer = Multiplexer::new(0x1000, 0);
+    const M1017: Multiplexer = Multiplexer::new(0x1017, 0);
+    const M1008: Multiplexer = Multiplexer::new(0x1008, 0);
+
+    fn client(bytes: [u8; 8], msg: ClientRequest) {
+        assert_eq!(ClientRequest::parse(&bytes), Ok(msg), "parse {bytes:02x?}");
+        assert_eq!(msg.emit(), bytes, "emit {msg:?}");
+    }
+
+    fn server(bytes: [u8; 8], msg: ServerResponse) {
+        assert_eq!(ServerResponse::parse(&bytes), Ok(msg), "parse {bytes:02x?}");
+        assert_eq!(msg.emit(), bytes, "emit {msg:?}");
+    }
+
+    #[test]
+    fn initiate_upload_expedited() {
+        // Read the device type 0x1000:00 = 0x00020191 (CiA 301 expedited upload).
+        client(
+            [0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0],
+            ClientRequest::InitiateUpload { mux: M1000 },
+        );
+        server(
+            [0x43, 0x00, 0x10, 0x00, 0x91, 0x01, 0x02, 0x00],
+            ServerResponse::InitiateUpload {
+                mux: M1000,
+                data: Initiate::Expedited {
+                    data: [0x91, 0x01, 0x02, 0x00],
+                    size: Some(4),
+                },
+            },
+        );
+        // 1, 2 and 3 data bytes: n = 3, 2, 1.
+        for (cmd, size) in [(0x4F, 1), (0x4B, 2), (0x47, 3)] {
+            server(
+                [cmd, 0x00, 0x10, 0x00, 0x05, 0, 0, 0],
+                ServerResponse::InitiateUpload {
+                    mux: M1000,
+                    data: Initiate::Expedited {
+                        data: [0x05, 0, 0, 0],
+                        size: Some(size),
+                    },
+                },
+            );
+        }
+        // e = 1, s = 0: four bytes of unspecified meaning.
+        let msg = ServerResponse::parse(&[0x42, 0x00, 0x10, 0x00, 1, 2, 3, 4]).unwrap();
+        assert_eq!(
+            msg,
+            ServerResponse::InitiateUpload {
+                mux: M1000,
+                data: Initiate::Expedited {
+                    data: [1, 2, 3, 4],
+                    size: None
+                }
+            }
+        );
+    }
+
+    #[test]
+    fn initiate_download_expedited() {
+        // Write the producer heartbeat time 0x1017:00 = 1000 ms (UNSIGNED16).
+        client(
+            [0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0x00, 0x00],
+            ClientRequest::InitiateDownload {
+                mux: M1017,
+                data: Initiate::expedited(&[0xE8, 0x03]).unwrap(),
+            },
+        );
+        server(
+            [0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0],
+            ServerResponse::InitiateDownload { mux: M1017 },
+        );
+        client(
+            [0x2F, 0x17, 0x10, 0x00, 0x01, 0, 0, 0],
+            ClientRequest::InitiateDownload {
+                mux: M1017,
+                data: Initiate::expedited(&[0x01]).unwrap(),
+            },
+        );
+        client(
+            [0x23, 0x17, 0x10, 0x00, 1, 2, 3, 4],
+            ClientRequest::InitiateDownload {
+                mux: M1017,
+                data: Initiate::expedited(&[1, 2, 3, 4]).unwrap(),
+            },
+        );
+        client(
+            [0x22, 0x17, 0x10, 0x00, 1, 2, 3, 4],
+            ClientRequest::InitiateDownload {
+                mux: M1017,
+                data: Initiate::Expedited {
+                    data: [1, 2, 3, 4],
+                    size: None,
+                },
+            },
+        );
+        assert_eq!(Initiate::expedited(&[]), None);
+        assert_eq!(Initiate::expedited(&[0; 5]), None);
+    }
+
+    #[test]
+    fn segmented_upload() {
+        // Read the 26-byte device name 0x1008:00.
+        server(
+            [0x41, 0x08, 0x10, 0x00, 0x1A, 0x00, 0x00, 0x00],
+            ServerResponse::InitiateUpload {
+                mux: M1008,
+                data: Initiate::Segmented { size: Some(26) },
+            },
+        );
+        server(
+            [0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0],
+            ServerResponse::InitiateUpload {
+                mux: M1008,
+                data: Initiate::Segmented { size: None },
+            },
+        );
+        client([0x60, 0, 0, 0, 0, 0, 0, 0], ClientRequest::UploadSegment { toggle: false });
+        client([0x70, 0, 0, 0, 0, 0, 0, 0], ClientRequest::UploadSegment { toggle: true });
+        server(
+            [0x00, b'B', b'u', b'r', b'k', b'e', b'r', b't'],
+            ServerResponse::UploadSegment(Segment::new(false, b"Burkert", false)),
+        );
+        // Last segment, toggle 1, 3 data bytes: n = 4 -> 0x10 | 4 << 1 | 1.
+        server(
+            [0x19, b'x', b'y', b'z', 0, 0, 0, 0],
+            ServerResponse::UploadSegment(Segment::new(true, b"xyz", true)),
+        );
+        // Empty last segment (zero-length object): n = 7.
+        server(
+            [0x0F, 0, 0, 0, 0, 0, 0, 0],
+            ServerResponse::UploadSegment(Segment::new(false, b"", true)),
+        );
+    }
+
+    #[test]
+    fn segmented_download() {
+        client(
+            [0x21, 0x08, 0x10, 0x00, 0x14, 0x00, 0x00, 0x00],
+            ClientRequest::InitiateDownload {
+                mux: M1008,
+                data: Initiate::Segmented { size: Some(20) },
+            },
+        );
+        client(
+            [0x00, 1, 2, 3, 4, 5, 6, 7],
+            ClientRequest::DownloadSegment(Segment::new(false, &[1, 2, 3, 4, 5, 6, 7], false)),
+        );
+        // Toggle 1, last, 6 data bytes: 0x10 | 1 << 1 | 1.
+        client(
+            [0x13, 1, 2, 3, 4, 5, 6, 0],
+            ClientRequest::DownloadSegment(Segment::new(true, &[1, 2, 3, 4, 5, 6], true)),
+        );
+        server(
+            [0x20, 0, 0, 0, 0, 0, 0, 0],
+            ServerResponse::DownloadSegment { toggle: false },
+        );
+        server(
+            [0x30, 0, 0, 0, 0, 0, 0, 0],
+            ServerResponse::DownloadSegment { toggle: true },
+        );
+    }
+
+    #[test]
+    fn abort() {
+        // Object 0x6000:01 does not exist.
+        let bytes = [0x80, 0x00, 0x60, 0x01, 0x00, 0x00, 0x02, 0x06];
+        let mux = Multiplexer::new(0x6000, 1);
+        client(
+            bytes,
+            ClientRequest::Abort {
+                mux,
+                code: AbortCode::OBJECT_DOES_NOT_EXIST,
+            },
+        );
+        server(
+            bytes,
+            ServerResponse::Abort {
+                mux,
+                code: AbortCode::OBJECT_DOES_NOT_EXIST,
+            },
+        );
+        assert!(is_abort(&bytes));
+    }
+
+    #[test]
+    fn block_download() {
+        let mux = Multiplexer::new(0x1F50, 1);
+        // Initiate with CRC and size 1000.
+        client(
+            [0xC6, 0x50, 0x1F, 0x01, 0xE8, 0x03, 0x00, 0x00],
+            ClientRequest::BlockDownloadInitiate {
+                mux,
+                crc: true,
+                size: Some(1000),
+            },
+        );
+        client(
+            [0xC0, 0x50, 0x1F, 0x01, 0, 0, 0, 0],
+            ClientRequest::BlockDownloadInitiate {
+                mux,
+                crc: false,
+                size: None,
+            },
+        );
+        server(
+            [0xA4, 0x50, 0x1F, 0x01, 0x7F, 0, 0, 0],
+            ServerResponse::BlockDownloadInitiate {
+                mux,
+                crc: true,
+                blksize: 127,
+            },
+        );
+        assert_eq!(
+            BlockSegment::parse(&[0x05, 1, 2, 3, 4, 5, 6, 7]),
+            Ok(BlockSegment {
+                seqno: 5,
+                last: false,
+                data: [1, 2, 3, 4, 5, 6, 7]
+            })
+        );
+        let last = BlockSegment {
+            seqno: 0x7F,
+            last: true,
+            data: [9; 7],
+        };
+        assert_eq!(last.emit(), [0xFF, 9, 9, 9, 9, 9, 9, 9]);
+        server(
+            [0xA2, 0x7F, 0x40, 0, 0, 0, 0, 0],
+            ServerResponse::BlockDownloadAck {
+                ackseq: 127,
+                blksize: 64,
+            },
+        );
+        // End: 5 unused bytes, CRC 0x1234: 0xC1 | 5 << 2.
+        client(
+            [0xD5, 0x34, 0x12, 0, 0, 0, 0, 0],
+            ClientRequest::BlockDownloadEnd {
+                unused: 5,
+                crc: 0x1234,
+            },
+        );
+        server([0xA1, 0, 0, 0, 0, 0, 0, 0], ServerResponse::BlockDownloadEnd);
+    }
+
+    #[test]
+    fn block_upload() {
+        let mux = Multiplexer::new(0x2010, 0);
+        client(
+            [0xA4, 0x10, 0x20, 0x00, 0x7F, 0x15, 0, 0],
+            ClientRequest::BlockUploadInitiate {
+                mux,
+                crc: true,
+                blksize: 127,
+                pst: 21,
+            },
+        );
+        server(
+            [0xC6, 0x10, 0x20, 0x00, 0x00, 0x10, 0x00, 0x00],
+            ServerResponse::BlockUploadInitiate {
+                mux,
+                crc: true,
+                size: Some(4096),
+            },
+        );
+        client([0xA3, 0, 0, 0, 0, 0, 0, 0], ClientRequest::BlockUploadStart);
+        client(
+            [0xA2, 0x10, 0x7F, 0, 0, 0, 0, 0],
+            ClientRequest::BlockUploadAck {
+                ackseq: 16,
+                blksize: 127,
+            },
+        );
+        server(
+            [0xC9, 0xC3, 0x31, 0, 0, 0, 0, 0],
+            ServerResponse::BlockUploadEnd {
+                unused: 2,
+                crc: 0x31C3,
+            },
+        );
+        client([0xA1, 0, 0, 0, 0, 0, 0, 0], ClientRequest::BlockUploadEnd);
+    }
+
+    #[test]
+    fn errors() {
+        assert_eq!(ClientRequest::parse(&[]), Err(DecodeError::Length(0)));
+        assert_eq!(ServerResponse::parse(&[0x60; 7]), Err(DecodeError::Length(7)));
+        assert_eq!(BlockSegment::parse(&[0; 9]), Err(DecodeError::Length(9)));
+        assert_eq!(
+            ClientRequest::parse(&[0xE0, 0, 0, 0, 0, 0, 0, 0]),
+            Err(DecodeError::UnknownCommand(0xE0))
+        );
+        assert_eq!(
+            ServerResponse::parse(&[0xE0, 0, 0, 0, 0, 0, 0, 0]),
+            Err(DecodeError::UnknownCommand(0xE0))
+        );
+        // scs = 5 with ss = 3 is not defined.
+        assert_eq!(
+            ServerResponse::parse(&[0xA3, 0, 0, 0, 0, 0, 0, 0]),
+            Err(DecodeError::UnknownCommand(0xA3))
+        );
+    }
+
+    #[test]
+    fn every_byte_pattern_parses_or_errors_and_reemits_canonically() {
+        for cmd in 0..=255u8 {
+            let bytes = [cmd, 0x34, 0x12, 0x05, 0xAA, 0xBB, 0xCC, 0xDD];
+            if let Ok(msg) = ClientRequest::parse(&bytes) {
+                assert_eq!(ClientRequest::parse(&msg.emit()), Ok(msg));
+            }
+            if let Ok(msg) = ServerResponse::parse(&bytes) {
+                assert_eq!(ServerResponse::parse(&msg.emit()), Ok(msg));
+            }
+            let seg = BlockSegment::parse(&bytes).unwrap();
+            assert_eq!(seg.emit(), bytes);
+        }
+    }
+}
