@@ -390,7 +390,7 @@ fn check_entry<C: Catalog + ?Sized>(
     }
     let kind = ValueKind::from_data_type(info.data_type);
     if kind.needs_whole_bytes() {
-        if e.bits() % 8 != 0 {
+        if !e.bits().is_multiple_of(8) {
             return Err(MappingError::NotWholeBytes {
                 addr,
                 mapped_bits: e.bits(),
