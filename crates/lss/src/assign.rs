@@ -138,6 +138,20 @@ pub struct AssignEntry {
     pub outcome: AssignOutcome,
 }
 
+impl core::fmt::Display for AssignEntry {
+    /// One report line: `address: node-ID n`, with the error when there is one.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{}: ", self.address)?;
+        match (self.node_id, self.outcome) {
+            (Some(id), AssignOutcome::Assigned) => write!(f, "node-ID {id}"),
+            (Some(id), AssignOutcome::StoreFailed(e)) => write!(f, "node-ID {id}, not stored: {e}"),
+            (Some(id), AssignOutcome::Failed(e)) => write!(f, "node-ID {id} failed: {e}"),
+            (None, AssignOutcome::Failed(e)) => write!(f, "failed: {e}"),
+            (None, _) => f.write_str("no node-ID"),
+        }
+    }
+}
+
 /// The workflow's result.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct AssignReport {
@@ -399,6 +413,30 @@ mod tests {
         assert!(!all.contains(id(1)) || all.take_lowest() == Some(id(1)));
         all.insert(id(1));
         assert!(all.contains(id(1)));
+    }
+
+    #[test]
+    fn entries_print_as_report_lines() {
+        use std::string::ToString;
+        let address = LssAddress::new(0x78, 1, 2, 3);
+        let ok = AssignEntry {
+            address,
+            node_id: Some(id(5)),
+            outcome: AssignOutcome::Assigned,
+        };
+        assert_eq!(
+            ok.to_string(),
+            "00000078:00000001:00000002:00000003: node-ID 5"
+        );
+        let none = AssignEntry {
+            address,
+            node_id: None,
+            outcome: AssignOutcome::Failed(LssError::NoFreeNodeId),
+        };
+        assert_eq!(
+            none.to_string(),
+            "00000078:00000001:00000002:00000003: failed: no free node-ID left for the slave"
+        );
     }
 
     #[test]

@@ -12,7 +12,10 @@
 //!    move on to that part, the others drop out of this scan. Confirming the serial number with
 //!    `LSSNext` = 0 puts the one remaining slave into configuration state.
 //!
-//! A scan costs 1 + 4 × 33 = 133 exchanges. Every silent exchange costs one response timeout;
+//! Parts the master already knows ([`FastscanConfig::known`], say the vendor-ID) are confirmed
+//! with one request each instead of being searched.
+//!
+//! A scan costs 1 + 4 × 33 = 133 exchanges (34 fewer per known part). Every silent exchange costs one response timeout;
 //! under [`ResponsePolicy::WholeWindow`] answered ones do too.
 //!
 //! Slaves in configuration state ignore Fastscan, so [`DiscoverAll`] finds every unconfigured
@@ -37,6 +40,12 @@ pub struct FastscanConfig {
     pub response_timeout: Duration,
     /// When to move on after an answer.
     pub policy: ResponsePolicy,
+    /// Address parts the master already knows (e.g. the vendor-ID of the devices it commissions),
+    /// indexed by [`AddressPart::index`]. Only the leading run of known parts is used (vendor-ID;
+    /// vendor-ID and product code; ...): each is confirmed with one request instead of being
+    /// searched bit by bit, saving 32 exchanges per part, and only slaves with these values are
+    /// found.
+    pub known: [Option<u32>; 4],
 }
 
 impl FastscanConfig {
@@ -50,6 +59,7 @@ impl Default for FastscanConfig {
         Self {
             response_timeout: Self::DEFAULT_TIMEOUT,
             policy: ResponsePolicy::WholeWindow,
+            known: [None; 4],
         }
     }
 }
@@ -57,8 +67,15 @@ impl Default for FastscanConfig {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum ScanState {
     Check,
-    Bit { part: AddressPart, bit: u8 },
-    Confirm { part: AddressPart },
+    Bit {
+        part: AddressPart,
+        bit: u8,
+    },
+    /// `known`: the value came from the configuration, not from the search.
+    Confirm {
+        part: AddressPart,
+        known: bool,
+    },
 }
 
 /// What one step of a scan produced.
@@ -122,6 +139,22 @@ impl ScanCore {
         );
     }
 
+    /// Starts on `part`: confirms a known value at once, or searches from bit 31.
+    fn begin_part(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart) {
+        let leading_known = AddressPart::ALL
+            .iter()
+            .take_while(|p| p.index() <= part.index())
+            .all(|p| self.config.known[usize::from(p.index())].is_some());
+        match self.config.known[usize::from(part.index())] {
+            Some(value) if leading_known => {
+                self.address.set(part, value);
+                self.state = ScanState::Confirm { part, known: true };
+                self.ask(ex, now, value, 0, part, part.next());
+            }
+            _ => self.ask_bit(ex, now, part, 31),
+        }
+    }
+
     fn ask_bit(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart, bit: u8) {
         self.state = ScanState::Bit { part, bit };
         let value = self.address.get(part);
@@ -136,7 +169,7 @@ impl ScanCore {
                 if !answered {
                     return ScanStep::NoneLeft;
                 }
-                self.ask_bit(ex, now, AddressPart::Vendor, 31);
+                self.begin_part(ex, now, AddressPart::Vendor);
             }
             ScanState::Bit { part, bit } => {
                 if !answered {
@@ -145,21 +178,27 @@ impl ScanCore {
                     self.address.set(part, value);
                 }
                 if bit == 0 {
-                    self.state = ScanState::Confirm { part };
+                    self.state = ScanState::Confirm { part, known: false };
                     let value = self.address.get(part);
                     self.ask(ex, now, value, 0, part, part.next());
                 } else {
                     self.ask_bit(ex, now, part, bit - 1);
                 }
             }
-            ScanState::Confirm { part } => {
+            ScanState::Confirm { part, known } => {
                 if !answered {
-                    return ScanStep::Lost(part);
+                    // No unconfigured slave has the known prefix; a searched value that nobody
+                    // confirms means the slave went away.
+                    return if known {
+                        ScanStep::NoneLeft
+                    } else {
+                        ScanStep::Lost(part)
+                    };
                 }
                 if part == AddressPart::Serial {
                     return ScanStep::Found(self.address);
                 }
-                self.ask_bit(ex, now, part.next(), 31);
+                self.begin_part(ex, now, part.next());
             }
         }
         ScanStep::Continue

@@ -463,7 +463,8 @@ impl LssMaster {
             Step::InquireNodeId => Service::InquireNodeId,
             Step::IdentifyRemoteSlave(_) => Service::IdentifyRemoteSlave,
             Step::IdentifyNonConfigured => Service::IdentifyNonConfigured,
-            // Steps without an answer never wait for one.
+            // Never asked: these steps complete without an answer, so `on_reply` never sees
+            // them. A value is still needed for the match.
             Step::SwitchModeGlobal(_) | Step::ActivateBitTiming { .. } | Step::Wait(_) => {
                 Service::SwitchModeSelective
             }

@@ -28,6 +28,7 @@ fn fast(policy: ResponsePolicy) -> FastscanConfig {
     FastscanConfig {
         response_timeout: Duration::from_millis(10),
         policy,
+        known: [None; 4],
     }
 }
 
@@ -848,32 +849,43 @@ fn slowscan_ranges() {
 #[test]
 fn fastscan_timing_figure() {
     let mut rng = Rng::new(2026);
-    let addrs = random_addresses(&mut rng, 20);
-    println!("timeout  policy        discover-20 [s]  assign-20 [s]  requests(discover)");
-    for (timeout_ms, policy) in [
-        (25, ResponsePolicy::WholeWindow),
-        (25, ResponsePolicy::FirstAnswer),
-        (10, ResponsePolicy::WholeWindow),
-        (5, ResponsePolicy::WholeWindow),
-        (5, ResponsePolicy::FirstAnswer),
+    let mut addrs = random_addresses(&mut rng, 20);
+    // One vendor (Bürkert's CiA vendor-ID is 0x78), random product, revision, serial.
+    for a in &mut addrs {
+        a.vendor_id = 0x78;
+    }
+    println!("timeout  policy        vendor   discover-20 [s]  assign-20 [s]  requests(discover)");
+    for (timeout_ms, policy, known_vendor) in [
+        (25, ResponsePolicy::WholeWindow, false),
+        (25, ResponsePolicy::FirstAnswer, false),
+        (25, ResponsePolicy::WholeWindow, true),
+        (10, ResponsePolicy::WholeWindow, false),
+        (5, ResponsePolicy::WholeWindow, false),
+        (5, ResponsePolicy::FirstAnswer, false),
+        (5, ResponsePolicy::FirstAnswer, true),
     ] {
         let config = FastscanConfig {
             response_timeout: Duration::from_millis(timeout_ms),
             policy,
+            known: [known_vendor.then_some(0x78), None, None, None],
         };
         let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
         let mut m = DiscoverAll::new(config);
         m.start(bus.now).unwrap();
         assert_eq!(bus.run(&mut m).0.unwrap().len(), 20);
         let discover = bus.now - Instant::ZERO;
-        let requests = bus.sent.len();
-        if policy == ResponsePolicy::WholeWindow {
-            assert_eq!(
-                discover,
-                Duration::from_millis(timeout_ms).saturating_mul(20 * 133 + 1)
-            );
+        let requests = bus.sent.len() - 1; // without the final switch mode global
+        let exchanges: u64 = if known_vendor {
+            20 * 101 + 1
         } else {
-            assert!(discover < Duration::from_millis(timeout_ms).saturating_mul(20 * 133 + 1));
+            20 * 133 + 1
+        };
+        assert_eq!(requests as u64, exchanges);
+        let all_windows = Duration::from_millis(timeout_ms).saturating_mul(exchanges);
+        if policy == ResponsePolicy::WholeWindow {
+            assert_eq!(discover, all_windows);
+        } else {
+            assert!(discover < all_windows);
         }
 
         let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
@@ -884,7 +896,8 @@ fn fastscan_timing_figure() {
         assert_eq!(bus.run(&mut m).0.unwrap().assigned().count(), 20);
         let commission = bus.now - Instant::ZERO;
         println!(
-            "{timeout_ms:>4} ms  {policy:<12?}  {:>15.3}  {:>13.3}  {requests}",
+            "{timeout_ms:>4} ms  {policy:<12?}  {:<7}  {:>15.3}  {:>13.3}  {requests}",
+            if known_vendor { "known" } else { "search" },
             discover.as_micros() as f64 / 1e6,
             commission.as_micros() as f64 / 1e6
         );
@@ -947,4 +960,35 @@ mod props {
             prop_assert_eq!(ids.len(), addrs.len());
         }
     }
+}
+
+#[test]
+fn known_vendor_and_product_are_confirmed_not_searched() {
+    let mut rng = Rng::new(91);
+    let mut addrs = random_addresses(&mut rng, 6);
+    for a in addrs.iter_mut().take(4) {
+        a.vendor_id = 0x78;
+        a.product_code = 0x42;
+    }
+    addrs[4].vendor_id = 0x78; // same vendor, other product: not wanted
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+    let mut config = fast(ResponsePolicy::WholeWindow);
+    config.known = [Some(0x78), Some(0x42), None, None];
+    let mut m = DiscoverAll::new(config);
+    m.start(bus.now).unwrap();
+    let found = bus.run(&mut m).0.unwrap();
+    let mut want = addrs[..4].to_vec();
+    want.sort();
+    assert_eq!(found.as_slice(), want.as_slice());
+    // Per slave: bit check, 2 confirmations, 2 × 33 searched; then bit check + vendor
+    // confirmation + product confirmation find nobody left.
+    assert_eq!(bus.sent.len() - 1, 4 * (1 + 2 + 66) + 3);
+    // A known part after an unknown one is not used.
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs[..1]);
+    let mut config = fast(ResponsePolicy::WholeWindow);
+    config.known = [None, Some(0x42), None, None];
+    let mut m = Fastscan::new(config);
+    m.start(bus.now).unwrap();
+    assert_eq!(bus.run(&mut m).0, Ok(Some(addrs[0])));
+    assert_eq!(bus.sent.len(), 133);
 }
