@@ -992,3 +992,44 @@ fn known_vendor_and_product_are_confirmed_not_searched() {
     assert_eq!(bus.run(&mut m).0, Ok(Some(addrs[0])));
     assert_eq!(bus.sent.len(), 133);
 }
+
+/// Fastscan for one slave as a frame transcript with timestamps: answered exchanges take the
+/// 0.5 ms answer latency, silent ones (a 1 bit) the 10 ms timeout.
+#[test]
+fn fastscan_transcript() {
+    let a = LssAddress::new(0x78, 1, 2, 3);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    let mut m = Fastscan::new(fast(ResponsePolicy::FirstAnswer));
+    m.start(bus.now).unwrap();
+    assert_eq!(bus.run(&mut m).0, Ok(Some(a)));
+    let frames: Vec<(u64, [u8; 8])> = bus
+        .sent
+        .iter()
+        .map(|(t, r)| (t.as_micros(), r.to_frame().data().try_into().unwrap()))
+        .collect();
+    assert_eq!(frames[0], (0, [0x51, 0, 0, 0, 0, 0x80, 0, 0]));
+    assert_eq!(frames[1], (500, [0x51, 0, 0, 0, 0, 31, 0, 0]));
+    assert_eq!(frames[2], (1000, [0x51, 0, 0, 0, 0, 30, 0, 0]));
+    // Bits 31..7 of 0x78 are 0 (answered); bit 6 is 1: its request goes unanswered.
+    assert_eq!(frames[26], (13_000, [0x51, 0, 0, 0, 0, 6, 0, 0]));
+    assert_eq!(frames[27], (23_000, [0x51, 0x40, 0, 0, 0, 5, 0, 0]));
+    // Confirmations move every part on; the serial's wraps to the vendor-ID.
+    let confirm = |sub: u8, v: u8, next: u8| [0x51, v, 0, 0, 0, 0, sub, next];
+    let confirms: Vec<[u8; 8]> = frames
+        .iter()
+        .map(|f| f.1)
+        .filter(|d| d[5] == 0 && d[6] != d[7])
+        .collect();
+    assert_eq!(
+        confirms,
+        vec![
+            confirm(0, 0x78, 1),
+            confirm(1, 1, 2),
+            confirm(2, 2, 3),
+            confirm(3, 3, 0)
+        ]
+    );
+    // 133 exchanges, 8 of them silent (the 1 bits of 0x78, 1, 2, 3).
+    assert_eq!(frames.len(), 133);
+    assert_eq!(bus.now, Instant::from_micros(8 * 10_000 + 125 * 500));
+}
