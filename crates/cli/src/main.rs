@@ -7,6 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bus;
+mod demo;
 mod eds;
 
 /// CANopen master tools: EDS files, and (with the bus commands) devices on SocketCAN or a
@@ -18,6 +20,9 @@ struct Cli {
     #[arg(long, global = true)]
     json: bool,
 
+    #[command(flatten)]
+    bus: bus::BusOpts,
+
     #[command(subcommand)]
     command: Command,
 }
@@ -27,6 +32,52 @@ enum Command {
     /// EDS/DCF files: check, lint, show, convert to DCF, generate Rust.
     #[command(subcommand)]
     Eds(eds::EdsCommand),
+    /// SDO upload/download: read, write, upload to a file, download from a file.
+    #[command(subcommand)]
+    Sdo(bus::SdoCommand),
+    /// NMT module control: start|stop|preop|reset|reset-comm NODE|all.
+    Nmt {
+        /// The command.
+        #[arg(value_enum)]
+        command: bus::NmtCmd,
+        /// Node-ID or `all`.
+        target: String,
+    },
+    /// List the nodes that answer, with their identity (0x1018).
+    Scan,
+    /// Decoded live traffic.
+    Monitor {
+        /// Stop after this many seconds (required on the in-memory bus).
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+    /// Run a simulated device from an EDS on the bus.
+    Simulate {
+        /// EDS/DCF file.
+        eds: std::path::PathBuf,
+        /// Node-ID.
+        #[arg(long, value_parser = clap::value_parser!(u8).range(1..=127))]
+        node_id: u8,
+        /// Stop after this many seconds (required on the in-memory bus).
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+    /// Record traffic in the candump log format.
+    Record {
+        /// Output file.
+        #[arg(short, long)]
+        output: std::path::PathBuf,
+        /// Stop after this many seconds (required on the in-memory bus).
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+    /// Replay a candump log with its recorded timing.
+    Replay {
+        /// candump log file.
+        file: std::path::PathBuf,
+    },
+    /// Walk through commissioning simulated devices (no hardware, no flags).
+    Demo,
 }
 
 /// Options every command group may read.
@@ -60,5 +111,23 @@ fn main() -> ExitCode {
     let global = Global { json: cli.json };
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
+        Command::Sdo(cmd) => bus::run_sdo(cmd, &cli.bus, global),
+        Command::Nmt { command, target } => bus::run_nmt(command, &target, &cli.bus, global),
+        Command::Scan => bus::run_scan(&cli.bus, global),
+        Command::Monitor { duration } => bus::run_monitor(&cli.bus, duration, global),
+        Command::Simulate {
+            eds,
+            node_id,
+            duration,
+        } => match can_frame::NodeId::new(node_id) {
+            Ok(n) => bus::run_simulate(&cli.bus, &eds, n, duration, global),
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        Command::Record { output, duration } => bus::run_record(&cli.bus, &output, duration),
+        Command::Replay { file } => bus::run_replay(&cli.bus, &file, global),
+        Command::Demo => demo::run(),
     }
 }
