@@ -1,6 +1,6 @@
-//! The LSS address (CiA 305 §4.1): the 128-bit identity of a device, made of the four
+//! The LSS address (CiA 305): the 128-bit identity of a device, made of the four
 //! UNSIGNED32 values of its identity object 0x1018 (vendor-ID, product code, revision number,
-//! serial number), and the bit timing tables of configure bit timing (CiA 305 §6.4.3).
+//! serial number), and the bit timing tables of configure bit timing (CiA 305).
 
 use core::fmt;
 
@@ -126,7 +126,7 @@ impl fmt::Display for LssAddress {
     }
 }
 
-/// A bit rate of the CiA bit timing table (table selector 0, CiA 305 §6.4.3).
+/// A bit rate of the CiA bit timing table (table selector 0, CiA 305 configure bit timing).
 ///
 /// Index 5 is 100 kbit/s as in DSP 305 V2.x and the project's seed notes (newer CiA 305
 /// editions mark it reserved; a slave that does not offer it answers "not supported").

@@ -1,5 +1,5 @@
 //! The commissioning workflow: find every unconfigured slave, give each a node-ID, store it, and
-//! report (CiA 305 Fastscan §6.7 + configure node-ID §6.4.2 + store configuration §6.4.5).
+//! report (CiA 305 Fastscan, configure node-ID and store configuration).
 //!
 //! For each slave: one Fastscan finds its address and puts it alone into configuration state;
 //! the node-ID comes from the table keyed by LSS address if the address is listed, otherwise

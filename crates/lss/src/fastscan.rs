@@ -1,4 +1,4 @@
-//! LSS Fastscan (CiA 305 §6.7): finding the full LSS address of an unconfigured slave by a
+//! LSS Fastscan (CiA 305, added in DSP 305 V2.2): finding the full LSS address of an unconfigured slave by a
 //! bit-wise search, and finding every unconfigured slave by repeating it.
 //!
 //! One scan is the standard search:

@@ -3,7 +3,7 @@
 //!
 //! Layers, bottom up:
 //! - [`address`]: the LSS address (identity object 0x1018) and the bit timing tables.
-//! - [`wire`]: every LSS message of CiA 305 §6, typed, with a total decoder ([`Request`] on
+//! - [`wire`]: every LSS message of CiA 305, typed, with a total decoder ([`Request`] on
 //!   COB-ID 0x7E5 master→slave, [`Response`] on 0x7E4 slave→master).
 //! - Master machines, sans-IO (time and responses in, requests and events out), all driven
 //!   through [`LssMachine`]:

@@ -1,4 +1,4 @@
-//! The LSS master for single services and short procedures (CiA 305 §6.2..§6.6, §6.8).
+//! The LSS master for single services and short procedures (CiA 305 switch mode, configuration, inquiry and identification services).
 //!
 //! A [`Procedure`] is a list of [`Step`]s that [`LssMaster`] performs in order, stopping at the
 //! first error. The seed's sequences (Bürkert manual §2.3.1) are ready-made:

@@ -1,4 +1,4 @@
-//! The LSS slave (CiA 305 §5 state machine and §6 slave-side protocols), sans-IO, for the
+//! The LSS slave (CiA 305: the LSS slave state machine and the slave side of the LSS protocols), sans-IO, for the
 //! device simulator.
 //!
 //! States: **waiting** (the power-on state; answers switch mode selective, identify and

@@ -1,6 +1,6 @@
 //! Identify-range scan ("slowscan"): finding slaves of a known vendor and product by binary
 //! search over serial numbers (and revision numbers) with identify remote slave
-//! (CiA 305 §6.6.1, requests 0x46..=0x4B, answer 0x4F).
+//! (CiA 305, requests 0x46..=0x4B, answer 0x4F).
 //!
 //! Each probe sends the six identify requests for a revision range and a serial range; every
 //! slave inside both ranges answers. An answered probe whose serial range holds more than one

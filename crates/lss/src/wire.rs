@@ -1,4 +1,4 @@
-//! The LSS messages of CiA 305 §6 (protocols): every request a master sends on COB-ID 0x7E5 and
+//! The LSS messages of CiA 305 (the LSS protocols): every request a master sends on COB-ID 0x7E5 and
 //! every response a slave sends on 0x7E4.
 //!
 //! Each message is exactly eight data bytes: the command specifier (`cs`) in byte 0, service
@@ -45,7 +45,7 @@ mod field {
     pub(super) const LSS_NEXT: usize = 7;
 }
 
-/// Command specifiers (CiA 305 §6).
+/// Command specifiers (CiA 305).
 pub mod cs {
     /// Switch mode global.
     pub const SWITCH_MODE_GLOBAL: u8 = 0x04;
@@ -100,7 +100,7 @@ pub enum DecodeError {
     Remote,
 }
 
-/// The two states of an LSS slave (CiA 305 §5.2), as carried by switch mode global.
+/// The two states of an LSS slave (CiA 305), as carried by switch mode global.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Mode {
     /// LSS waiting state (0).
@@ -229,7 +229,7 @@ impl ConfigStatus {
     }
 }
 
-/// What a slave said no with (CiA 305 §6.4.2, §6.4.3, §6.4.5): the peer's answer, never a local
+/// What a slave said no with (CiA 305 configure node-ID, configure bit timing, store configuration): the peer's answer, never a local
 /// failure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
 #[non_exhaustive]
