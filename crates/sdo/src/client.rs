@@ -310,7 +310,7 @@ impl Violation {
 
 /// Number of segments of `len` bytes in a block transfer (an empty object still takes one).
 pub(crate) const fn segments_for(len: u32) -> u32 {
-    let n = len / 7 + if len % 7 != 0 { 1 } else { 0 };
+    let n = len / 7 + if len.is_multiple_of(7) { 0 } else { 1 };
     if n == 0 { 1 } else { n }
 }
 
@@ -761,15 +761,13 @@ impl<S: Sink, D: Source> Client<S, D> {
                         }
                         *total = size;
                         *phase = UpPhase::Segment { toggle: false };
-                        self.tx.push(ClientRequest::UploadSegment { toggle: false }.emit());
+                        self.tx
+                            .push(ClientRequest::UploadSegment { toggle: false }.emit());
                         Ok(Flow::Continue)
                     }
                 }
             }
-            (
-                UpPhase::BlockInitiate,
-                ServerResponse::BlockUploadInitiate { mux: m, crc, size },
-            ) => {
+            (UpPhase::BlockInitiate, ServerResponse::BlockUploadInitiate { mux: m, crc, size }) => {
                 if m != mux {
                     return Ok(Flow::Ignore);
                 }
@@ -810,10 +808,17 @@ impl<S: Sink, D: Source> Client<S, D> {
                     return Ok(Flow::Done);
                 }
                 *phase = UpPhase::Segment { toggle: !toggle };
-                self.tx.push(ClientRequest::UploadSegment { toggle: !toggle }.emit());
+                self.tx
+                    .push(ClientRequest::UploadSegment { toggle: !toggle }.emit());
                 Ok(Flow::Continue)
             }
-            (&UpPhase::BlockEnd { crc, held }, ServerResponse::BlockUploadEnd { unused, crc: received }) => {
+            (
+                &UpPhase::BlockEnd { crc, held },
+                ServerResponse::BlockUploadEnd {
+                    unused,
+                    crc: received,
+                },
+            ) => {
                 let bytes = &held[..usize::from(7 - unused.min(7))];
                 let done = active.done.saturating_add(bytes.len() as u32);
                 if let Some(size) = *total {
@@ -852,17 +857,19 @@ impl<S: Sink, D: Source> Client<S, D> {
         let blksize = self.config.block_size;
         let Kind::Up {
             sink,
-            phase: UpPhase::SubBlock { crc, expected, held },
+            phase:
+                UpPhase::SubBlock {
+                    crc,
+                    expected,
+                    held,
+                },
             total,
         } = &mut active.kind
         else {
             return Step::Continue(active);
         };
         if seg.seqno == 0 || seg.seqno > blksize {
-            return Step::Finish(
-                active,
-                Err(protocol(Violation::SequenceNumber(seg.seqno))),
-            );
+            return Step::Finish(active, Err(protocol(Violation::SequenceNumber(seg.seqno))));
         }
         if seg.seqno == *expected {
             if seg.last {
@@ -1023,7 +1030,8 @@ impl<S: Sink, D: Source> Client<S, D> {
         // A source that returns less than it promised ends the transfer here; the server
         // then sees the size mismatch.
         let last = end >= len || n < want;
-        self.tx.push(ClientRequest::DownloadSegment(Segment::new(toggle, &data[..n], last)).emit());
+        self.tx
+            .push(ClientRequest::DownloadSegment(Segment::new(toggle, &data[..n], last)).emit());
         DownPhase::Segment { toggle, end, last }
     }
 }

@@ -83,16 +83,14 @@ pub mod server;
 pub mod wire;
 
 pub use abort::AbortCode;
-pub use buffer::{Full, SliceSink, Sink, Source};
+pub use buffer::{Full, Sink, SliceSink, Source};
 pub use client::{
     Buffer, Busy, Client, ClientConfig, Direction, ErrorKind, Event, Method, Progress,
     TransferError, Violation,
 };
 pub use cob::SdoCobIds;
 pub use crc::{Crc16, crc16};
-pub use server::{
-    Access, LengthRule, ObjectAccess, ObjectInfo, Server, ServerConfig, ServerEvent,
-};
+pub use server::{Access, LengthRule, ObjectAccess, ObjectInfo, Server, ServerConfig, ServerEvent};
 pub use wire::{
     BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, Segment, ServerResponse,
 };

@@ -272,7 +272,10 @@ enum State {
         sent: u8,
     },
     /// Block upload end sent; waiting for the client's end response.
-    BlockUploadEnd { mux: Multiplexer, len: u32 },
+    BlockUploadEnd {
+        mux: Multiplexer,
+        len: u32,
+    },
 }
 
 impl State {
@@ -375,10 +378,10 @@ impl Server {
                 };
             }
             Err(Fail(mux, code)) => {
-                if state.is_download() || self.state.is_download() {
-                    if let Some(m) = state.mux() {
-                        od.discard(m);
-                    }
+                if state.is_download()
+                    && let Some(m) = state.mux()
+                {
+                    od.discard(m);
                 }
                 self.abort(mux, code);
             }
@@ -469,7 +472,8 @@ impl Server {
                         if state.is_download() {
                             od.discard(current);
                         }
-                        self.events.push(ServerEvent::AbortedByClient { mux: current, code });
+                        self.events
+                            .push(ServerEvent::AbortedByClient { mux: current, code });
                         self.tx.clear();
                         Ok(State::Idle)
                     }
@@ -839,7 +843,8 @@ impl Server {
             } else {
                 let end = received.saturating_add(7);
                 check_progress(end, size, accepts).map_err(|c| Fail(mux, c))?;
-                od.write(mux, received, &seg.data).map_err(|c| Fail(mux, c))?;
+                od.write(mux, received, &seg.data)
+                    .map_err(|c| Fail(mux, c))?;
                 self.crc.update(&seg.data);
                 received = end;
             }

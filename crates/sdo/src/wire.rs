@@ -787,8 +787,14 @@ mod tests {
                 data: Initiate::Segmented { size: None },
             },
         );
-        client([0x60, 0, 0, 0, 0, 0, 0, 0], ClientRequest::UploadSegment { toggle: false });
-        client([0x70, 0, 0, 0, 0, 0, 0, 0], ClientRequest::UploadSegment { toggle: true });
+        client(
+            [0x60, 0, 0, 0, 0, 0, 0, 0],
+            ClientRequest::UploadSegment { toggle: false },
+        );
+        client(
+            [0x70, 0, 0, 0, 0, 0, 0, 0],
+            ClientRequest::UploadSegment { toggle: true },
+        );
         server(
             [0x00, b'B', b'u', b'r', b'k', b'e', b'r', b't'],
             ServerResponse::UploadSegment(Segment::new(false, b"Burkert", false)),
@@ -912,7 +918,10 @@ mod tests {
                 crc: 0x1234,
             },
         );
-        server([0xA1, 0, 0, 0, 0, 0, 0, 0], ServerResponse::BlockDownloadEnd);
+        server(
+            [0xA1, 0, 0, 0, 0, 0, 0, 0],
+            ServerResponse::BlockDownloadEnd,
+        );
     }
 
     #[test]
@@ -956,7 +965,10 @@ mod tests {
     #[test]
     fn errors() {
         assert_eq!(ClientRequest::parse(&[]), Err(DecodeError::Length(0)));
-        assert_eq!(ServerResponse::parse(&[0x60; 7]), Err(DecodeError::Length(7)));
+        assert_eq!(
+            ServerResponse::parse(&[0x60; 7]),
+            Err(DecodeError::Length(7))
+        );
         assert_eq!(BlockSegment::parse(&[0; 9]), Err(DecodeError::Length(9)));
         assert_eq!(
             ClientRequest::parse(&[0xE0, 0, 0, 0, 0, 0, 0, 0]),

@@ -25,8 +25,14 @@ fn initiate() -> impl Strategy<Value = Initiate> {
 }
 
 fn segment() -> impl Strategy<Value = Segment> {
-    (any::<bool>(), any::<[u8; 7]>(), 0u8..=7, any::<bool>())
-        .prop_map(|(toggle, data, len, last)| Segment { toggle, data, len, last })
+    (any::<bool>(), any::<[u8; 7]>(), 0u8..=7, any::<bool>()).prop_map(
+        |(toggle, data, len, last)| Segment {
+            toggle,
+            data,
+            len,
+            last,
+        },
+    )
 }
 
 fn client_request() -> impl Strategy<Value = ClientRequest> {
@@ -35,14 +41,21 @@ fn client_request() -> impl Strategy<Value = ClientRequest> {
         segment().prop_map(ClientRequest::DownloadSegment),
         mux().prop_map(|mux| ClientRequest::InitiateUpload { mux }),
         any::<bool>().prop_map(|toggle| ClientRequest::UploadSegment { toggle }),
-        (mux(), any::<u32>())
-            .prop_map(|(mux, c)| ClientRequest::Abort { mux, code: AbortCode(c) }),
+        (mux(), any::<u32>()).prop_map(|(mux, c)| ClientRequest::Abort {
+            mux,
+            code: AbortCode(c)
+        }),
         (mux(), any::<bool>(), proptest::option::of(any::<u32>()))
             .prop_map(|(mux, crc, size)| ClientRequest::BlockDownloadInitiate { mux, crc, size }),
         (0u8..=7, any::<u16>())
             .prop_map(|(unused, crc)| ClientRequest::BlockDownloadEnd { unused, crc }),
         (mux(), any::<bool>(), any::<u8>(), any::<u8>()).prop_map(|(mux, crc, blksize, pst)| {
-            ClientRequest::BlockUploadInitiate { mux, crc, blksize, pst }
+            ClientRequest::BlockUploadInitiate {
+                mux,
+                crc,
+                blksize,
+                pst,
+            }
         }),
         Just(ClientRequest::BlockUploadStart),
         (any::<u8>(), any::<u8>())
@@ -57,8 +70,10 @@ fn server_response() -> impl Strategy<Value = ServerResponse> {
         segment().prop_map(ServerResponse::UploadSegment),
         mux().prop_map(|mux| ServerResponse::InitiateDownload { mux }),
         any::<bool>().prop_map(|toggle| ServerResponse::DownloadSegment { toggle }),
-        (mux(), any::<u32>())
-            .prop_map(|(mux, c)| ServerResponse::Abort { mux, code: AbortCode(c) }),
+        (mux(), any::<u32>()).prop_map(|(mux, c)| ServerResponse::Abort {
+            mux,
+            code: AbortCode(c)
+        }),
         (mux(), any::<bool>(), any::<u8>()).prop_map(|(mux, crc, blksize)| {
             ServerResponse::BlockDownloadInitiate { mux, crc, blksize }
         }),
@@ -73,7 +88,11 @@ fn server_response() -> impl Strategy<Value = ServerResponse> {
 }
 
 fn method() -> impl Strategy<Value = Method> {
-    prop_oneof![Just(Method::Normal), Just(Method::Segmented), Just(Method::Block)]
+    prop_oneof![
+        Just(Method::Normal),
+        Just(Method::Segmented),
+        Just(Method::Block)
+    ]
 }
 
 /// Small deterministic generator for the link's faults.

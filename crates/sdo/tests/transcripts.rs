@@ -10,9 +10,7 @@ use canopen_sdo::{
     Initiate, Method, Multiplexer, Segment, Server, ServerConfig, ServerEvent, ServerResponse,
     TransferError, Violation, crc16,
 };
-use common::{
-    DOMAIN, From, LIMITED, MemOd, Pair, RO, SMALL_STR, TestClient, U16_RW, U32_RW, WO,
-};
+use common::{DOMAIN, From, LIMITED, MemOd, Pair, RO, SMALL_STR, TestClient, U16_RW, U32_RW, WO};
 
 const T0: Instant = Instant::ZERO;
 const SEC: Duration = Duration::from_secs(1);
@@ -63,23 +61,33 @@ fn pattern(len: usize) -> Vec<u8> {
 #[test]
 fn expedited_upload_transcript() {
     let mut p = Pair::new();
-    p.client.start_upload(T0, RO, Vec::new(), Method::Normal).unwrap();
+    p.client
+        .start_upload(T0, RO, Vec::new(), Method::Normal)
+        .unwrap();
     let data = uploaded(p.run());
     assert_eq!(data, [0x91, 0x01, 0x02, 0x00]);
     assert_eq!(
         p.log,
         [
             (From::Client, [0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]),
-            (From::Server, [0x43, 0x00, 0x10, 0x00, 0x91, 0x01, 0x02, 0x00]),
+            (
+                From::Server,
+                [0x43, 0x00, 0x10, 0x00, 0x91, 0x01, 0x02, 0x00]
+            ),
         ]
     );
-    assert_eq!(p.server.poll_event(), Some(ServerEvent::Uploaded { mux: RO, len: 4 }));
+    assert_eq!(
+        p.server.poll_event(),
+        Some(ServerEvent::Uploaded { mux: RO, len: 4 })
+    );
 }
 
 #[test]
 fn expedited_download_transcript() {
     let mut p = Pair::new();
-    p.client.start_download(T0, U16_RW, vec![0x10, 0x27], Method::Normal).unwrap();
+    p.client
+        .start_download(T0, U16_RW, vec![0x10, 0x27], Method::Normal)
+        .unwrap();
     downloaded(p.run());
     assert_eq!(p.od.value(U16_RW), [0x10, 0x27]);
     assert_eq!(
@@ -95,7 +103,9 @@ fn expedited_download_transcript() {
 fn segmented_upload_transcript() {
     let mut p = Pair::new();
     p.od.set(SMALL_STR, b"0123456789".to_vec());
-    p.client.start_upload(T0, SMALL_STR, Vec::new(), Method::Normal).unwrap();
+    p.client
+        .start_upload(T0, SMALL_STR, Vec::new(), Method::Normal)
+        .unwrap();
     assert_eq!(uploaded(p.run()), b"0123456789");
     assert_eq!(
         p.log,
@@ -103,7 +113,10 @@ fn segmented_upload_transcript() {
             (From::Client, [0x40, 0x03, 0x20, 0x00, 0, 0, 0, 0]),
             (From::Server, [0x41, 0x03, 0x20, 0x00, 10, 0, 0, 0]),
             (From::Client, [0x60, 0, 0, 0, 0, 0, 0, 0]),
-            (From::Server, [0x00, b'0', b'1', b'2', b'3', b'4', b'5', b'6']),
+            (
+                From::Server,
+                [0x00, b'0', b'1', b'2', b'3', b'4', b'5', b'6']
+            ),
             (From::Client, [0x70, 0, 0, 0, 0, 0, 0, 0]),
             (From::Server, [0x19, b'7', b'8', b'9', 0, 0, 0, 0]),
         ]
@@ -123,7 +136,10 @@ fn segmented_download_transcript() {
         [
             (From::Client, [0x21, 0x03, 0x20, 0x00, 10, 0, 0, 0]),
             (From::Server, [0x60, 0x03, 0x20, 0x00, 0, 0, 0, 0]),
-            (From::Client, [0x00, b'0', b'1', b'2', b'3', b'4', b'5', b'6']),
+            (
+                From::Client,
+                [0x00, b'0', b'1', b'2', b'3', b'4', b'5', b'6']
+            ),
             (From::Server, [0x20, 0, 0, 0, 0, 0, 0, 0]),
             (From::Client, [0x19, b'7', b'8', b'9', 0, 0, 0, 0]),
             (From::Server, [0x30, 0, 0, 0, 0, 0, 0, 0]),
@@ -134,7 +150,9 @@ fn segmented_download_transcript() {
 #[test]
 fn segmented_download_of_small_data_when_asked() {
     let mut p = Pair::new();
-    p.client.start_download(T0, U16_RW, vec![1, 2], Method::Segmented).unwrap();
+    p.client
+        .start_download(T0, U16_RW, vec![1, 2], Method::Segmented)
+        .unwrap();
     downloaded(p.run());
     assert_eq!(p.od.value(U16_RW), [1, 2]);
     assert_eq!(p.log[0].1[0], 0x21);
@@ -145,7 +163,9 @@ fn segmented_download_of_small_data_when_asked() {
 fn zero_length_objects() {
     // Upload of an empty DOMAIN: segmented, size 0, one empty last segment.
     let mut p = Pair::new();
-    p.client.start_upload(T0, DOMAIN, Vec::new(), Method::Normal).unwrap();
+    p.client
+        .start_upload(T0, DOMAIN, Vec::new(), Method::Normal)
+        .unwrap();
     assert_eq!(uploaded(p.run()), b"");
     assert_eq!(p.log[1].1, [0x41, 0x00, 0x21, 0x00, 0, 0, 0, 0]);
     assert_eq!(p.log[3].1, [0x0F, 0, 0, 0, 0, 0, 0, 0]);
@@ -153,7 +173,9 @@ fn zero_length_objects() {
     // Download of nothing.
     let mut p = Pair::new();
     p.od.set(DOMAIN, vec![1, 2, 3]);
-    p.client.start_download(T0, DOMAIN, Vec::new(), Method::Normal).unwrap();
+    p.client
+        .start_download(T0, DOMAIN, Vec::new(), Method::Normal)
+        .unwrap();
     downloaded(p.run());
     assert_eq!(p.od.value(DOMAIN), b"");
     assert_eq!(p.log[2].1, [0x0F, 0, 0, 0, 0, 0, 0, 0]);
@@ -161,14 +183,18 @@ fn zero_length_objects() {
     // Block download and upload of nothing: one segment, n = 7.
     let mut p = Pair::new();
     p.od.set(DOMAIN, vec![1, 2, 3]);
-    p.client.start_download(T0, DOMAIN, Vec::new(), Method::Block).unwrap();
+    p.client
+        .start_download(T0, DOMAIN, Vec::new(), Method::Block)
+        .unwrap();
     downloaded(p.run());
     assert_eq!(p.od.value(DOMAIN), b"");
     let end = p.frames(From::Client)[2];
     assert_eq!(end[0], 0xC1 | 7 << 2);
 
     let mut p = Pair::new();
-    p.client.start_upload(T0, DOMAIN, Vec::new(), Method::Block).unwrap();
+    p.client
+        .start_upload(T0, DOMAIN, Vec::new(), Method::Block)
+        .unwrap();
     assert_eq!(uploaded(p.run()), b"");
 }
 
@@ -176,7 +202,9 @@ fn zero_length_objects() {
 fn block_download_transcript() {
     let mut p = Pair::new();
     let data = pattern(20);
-    p.client.start_download(T0, DOMAIN, data.clone(), Method::Block).unwrap();
+    p.client
+        .start_download(T0, DOMAIN, data.clone(), Method::Block)
+        .unwrap();
     downloaded(p.run());
     assert_eq!(p.od.value(DOMAIN), data);
     let crc = crc16(&data).to_le_bytes();
@@ -184,7 +212,12 @@ fn block_download_transcript() {
         let mut d = [0u8; 7];
         let n = (data.len() - from).min(7);
         d[..n].copy_from_slice(&data[from..from + n]);
-        BlockSegment { seqno, last, data: d }.emit()
+        BlockSegment {
+            seqno,
+            last,
+            data: d,
+        }
+        .emit()
     };
     assert_eq!(
         p.log,
@@ -204,10 +237,15 @@ fn block_download_transcript() {
 
 #[test]
 fn block_upload_transcript() {
-    let mut p = Pair::with(ClientConfig::default().with_block_size(2), ServerConfig::default());
+    let mut p = Pair::with(
+        ClientConfig::default().with_block_size(2),
+        ServerConfig::default(),
+    );
     let data = pattern(15);
     p.od.set(DOMAIN, data.clone());
-    p.client.start_upload(T0, DOMAIN, Vec::new(), Method::Block).unwrap();
+    p.client
+        .start_upload(T0, DOMAIN, Vec::new(), Method::Block)
+        .unwrap();
     assert_eq!(uploaded(p.run()), data);
     let crc = crc16(&data).to_le_bytes();
     let c = p.frames(From::Client);
@@ -223,7 +261,13 @@ fn block_upload_transcript() {
     // 15 bytes: the third segment holds one byte, n = 6.
     assert_eq!(s[4], [0xC1 | 6 << 2, crc[0], crc[1], 0, 0, 0, 0, 0]);
     assert_eq!(c[4], [0xA1, 0, 0, 0, 0, 0, 0, 0]);
-    assert_eq!(p.server.poll_event(), Some(ServerEvent::Uploaded { mux: DOMAIN, len: 15 }));
+    assert_eq!(
+        p.server.poll_event(),
+        Some(ServerEvent::Uploaded {
+            mux: DOMAIN,
+            len: 15
+        })
+    );
 }
 
 #[test]
@@ -237,13 +281,17 @@ fn block_transfers_without_crc() {
             },
         );
         let data = pattern(100);
-        p.client.start_download(T0, DOMAIN, data.clone(), Method::Block).unwrap();
+        p.client
+            .start_download(T0, DOMAIN, data.clone(), Method::Block)
+            .unwrap();
         downloaded(p.run());
         assert_eq!(p.od.value(DOMAIN), data);
         // No CRC agreed: the end message carries zero.
         let end = *p.frames(From::Client).last().unwrap();
         assert_eq!(&end[1..3], &[0, 0]);
-        p.client.start_upload(p.now, DOMAIN, Vec::new(), Method::Block).unwrap();
+        p.client
+            .start_upload(p.now, DOMAIN, Vec::new(), Method::Block)
+            .unwrap();
         assert_eq!(uploaded(p.run()), data);
     }
 }
@@ -254,7 +302,9 @@ fn block_upload_protocol_switch() {
     let config = ClientConfig::default().with_protocol_switch_threshold(21);
     let mut p = Pair::with(config, ServerConfig::default());
     p.od.set(SMALL_STR, b"0123456789".to_vec());
-    p.client.start_upload(T0, SMALL_STR, Vec::new(), Method::Block).unwrap();
+    p.client
+        .start_upload(T0, SMALL_STR, Vec::new(), Method::Block)
+        .unwrap();
     assert_eq!(uploaded(p.run()), b"0123456789");
     assert_eq!(p.log[0].1, [0xA4, 0x03, 0x20, 0x00, 127, 21, 0, 0]);
     assert_eq!(p.log[1].1, [0x41, 0x03, 0x20, 0x00, 10, 0, 0, 0]);
@@ -262,14 +312,18 @@ fn block_upload_protocol_switch() {
 
     // Four bytes: an expedited answer.
     let mut p = Pair::with(config, ServerConfig::default());
-    p.client.start_upload(T0, RO, Vec::new(), Method::Block).unwrap();
+    p.client
+        .start_upload(T0, RO, Vec::new(), Method::Block)
+        .unwrap();
     assert_eq!(uploaded(p.run()), [0x91, 0x01, 0x02, 0x00]);
     assert_eq!(p.log.len(), 2);
 
     // Above the threshold: a real block upload.
     let mut p = Pair::with(config, ServerConfig::default());
     p.od.set(DOMAIN, pattern(22));
-    p.client.start_upload(T0, DOMAIN, Vec::new(), Method::Block).unwrap();
+    p.client
+        .start_upload(T0, DOMAIN, Vec::new(), Method::Block)
+        .unwrap();
     assert_eq!(uploaded(p.run()), pattern(22));
     assert_eq!(p.log[1].1[0], 0xC6);
 }
@@ -285,10 +339,14 @@ fn large_domain_every_method_with_small_blocks() {
         },
     );
     for method in [Method::Normal, Method::Block] {
-        p.client.start_download(p.now, DOMAIN, data.clone(), method).unwrap();
+        p.client
+            .start_download(p.now, DOMAIN, data.clone(), method)
+            .unwrap();
         downloaded(p.run());
         assert_eq!(p.od.value(DOMAIN), data);
-        p.client.start_upload(p.now, DOMAIN, Vec::new(), method).unwrap();
+        p.client
+            .start_upload(p.now, DOMAIN, Vec::new(), method)
+            .unwrap();
         assert_eq!(uploaded(p.run()), data);
     }
 }
@@ -306,7 +364,9 @@ fn block_download_retransmits_from_last_acknowledged_segment() {
         },
     );
     let data = pattern(60); // 9 segments
-    p.client.start_download(T0, DOMAIN, data.clone(), Method::Block).unwrap();
+    p.client
+        .start_download(T0, DOMAIN, data.clone(), Method::Block)
+        .unwrap();
     let mut dropped = false;
     let mut client_frames = Vec::new();
     let mut server_frames = Vec::new();
@@ -340,10 +400,15 @@ fn block_download_retransmits_from_last_acknowledged_segment() {
 
 #[test]
 fn block_upload_retransmits_when_client_acks_fewer() {
-    let mut p = Pair::with(ClientConfig::default().with_block_size(4), ServerConfig::default());
+    let mut p = Pair::with(
+        ClientConfig::default().with_block_size(4),
+        ServerConfig::default(),
+    );
     let data = pattern(50);
     p.od.set(DOMAIN, data.clone());
-    p.client.start_upload(T0, DOMAIN, Vec::new(), Method::Block).unwrap();
+    p.client
+        .start_upload(T0, DOMAIN, Vec::new(), Method::Block)
+        .unwrap();
     let mut server_count = 0;
     let mut client_frames = Vec::new();
     let mut now = T0;
@@ -370,31 +435,62 @@ fn block_upload_retransmits_when_client_acks_fewer() {
 fn client_follows_block_size_renegotiation() {
     let mut c: TestClient = Client::new(ClientConfig::default());
     let data = pattern(70); // 10 segments
-    c.start_download(T0, DOMAIN, data.clone(), Method::Block).unwrap();
+    c.start_download(T0, DOMAIN, data.clone(), Method::Block)
+        .unwrap();
     drain(&mut c);
     c.handle_response(
         T0,
-        &ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 3 }.emit(),
+        &ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: true,
+            blksize: 3,
+        }
+        .emit(),
     );
     assert_eq!(drain(&mut c).len(), 3);
     // Ack all three, shrink to 2.
-    c.handle_response(T0, &ServerResponse::BlockDownloadAck { ackseq: 3, blksize: 2 }.emit());
+    c.handle_response(
+        T0,
+        &ServerResponse::BlockDownloadAck {
+            ackseq: 3,
+            blksize: 2,
+        }
+        .emit(),
+    );
     let block = drain(&mut c);
     assert_eq!(block.len(), 2);
     assert_eq!(&block[0][1..], &data[21..28]);
     // Ack one of two, grow to 127: the rest (segments 5..=10) in one sub-block.
-    c.handle_response(T0, &ServerResponse::BlockDownloadAck { ackseq: 1, blksize: 127 }.emit());
+    c.handle_response(
+        T0,
+        &ServerResponse::BlockDownloadAck {
+            ackseq: 1,
+            blksize: 127,
+        }
+        .emit(),
+    );
     let block = drain(&mut c);
     assert_eq!(block.len(), 6);
     assert_eq!(&block[0][1..], &data[28..35]);
     assert_eq!(block[5][0], 0x86);
     let progress = c.progress().unwrap();
     assert_eq!((progress.done, progress.total), (28, Some(70)));
-    c.handle_response(T0, &ServerResponse::BlockDownloadAck { ackseq: 6, blksize: 127 }.emit());
+    c.handle_response(
+        T0,
+        &ServerResponse::BlockDownloadAck {
+            ackseq: 6,
+            blksize: 127,
+        }
+        .emit(),
+    );
     let end = drain(&mut c);
     assert_eq!(
         end,
-        [ClientRequest::BlockDownloadEnd { unused: 0, crc: crc16(&data) }.emit()]
+        [ClientRequest::BlockDownloadEnd {
+            unused: 0,
+            crc: crc16(&data)
+        }
+        .emit()]
     );
     c.handle_response(T0, &ServerResponse::BlockDownloadEnd.emit());
     assert!(matches!(c.poll_event(), Some(Event::Downloaded { .. })));
@@ -414,7 +510,10 @@ fn server_refuses(mux: Multiplexer, upload: bool, data: Vec<u8>, method: Method)
     assert_eq!((error.index, error.subindex), (mux.index, mux.subindex));
     assert!(error.is_server_abort(), "{error}");
     let code = error.abort_code();
-    assert_eq!(p.server.poll_event(), Some(ServerEvent::Aborted { mux, code }));
+    assert_eq!(
+        p.server.poll_event(),
+        Some(ServerEvent::Aborted { mux, code })
+    );
     assert!(p.server.is_idle());
     code
 }
@@ -431,8 +530,14 @@ fn server_abort_codes_for_objects() {
             server_refuses(Multiplexer::new(0x2000, 9), false, vec![1, 2], method),
             AbortCode::SUBINDEX_DOES_NOT_EXIST
         );
-        assert_eq!(server_refuses(WO, true, vec![], method), AbortCode::WRITE_ONLY);
-        assert_eq!(server_refuses(RO, false, vec![1, 2, 3, 4], method), AbortCode::READ_ONLY);
+        assert_eq!(
+            server_refuses(WO, true, vec![], method),
+            AbortCode::WRITE_ONLY
+        );
+        assert_eq!(
+            server_refuses(RO, false, vec![1, 2, 3, 4], method),
+            AbortCode::READ_ONLY
+        );
         assert_eq!(
             server_refuses(U32_RW, false, vec![1, 2], method),
             AbortCode::LENGTH_TOO_LOW
@@ -446,7 +551,10 @@ fn server_abort_codes_for_objects() {
             AbortCode::LENGTH_TOO_HIGH
         );
         // The object refuses the value when it is committed.
-        assert_eq!(server_refuses(LIMITED, false, vec![200], method), AbortCode::VALUE_TOO_HIGH);
+        assert_eq!(
+            server_refuses(LIMITED, false, vec![200], method),
+            AbortCode::VALUE_TOO_HIGH
+        );
     }
 }
 
@@ -463,7 +571,11 @@ impl Scripted {
     }
 
     fn with(config: ServerConfig) -> Self {
-        Self { server: Server::new(config), od: MemOd::new(), now: T0 }
+        Self {
+            server: Server::new(config),
+            od: MemOd::new(),
+            now: T0,
+        }
     }
 
     fn send(&mut self, req: ClientRequest) -> Vec<[u8; 8]> {
@@ -485,7 +597,10 @@ impl Scripted {
 }
 
 fn seg_download(mux: Multiplexer, size: Option<u32>) -> ClientRequest {
-    ClientRequest::InitiateDownload { mux, data: Initiate::Segmented { size } }
+    ClientRequest::InitiateDownload {
+        mux,
+        data: Initiate::Segmented { size },
+    }
 }
 
 #[test]
@@ -493,8 +608,12 @@ fn server_protocol_abort_codes() {
     // Toggle bit not alternated (segmented download).
     let mut s = Scripted::new();
     s.send(seg_download(DOMAIN, Some(14)));
-    s.send(ClientRequest::DownloadSegment(Segment::new(false, &[1; 7], false)));
-    let r = s.send(ClientRequest::DownloadSegment(Segment::new(false, &[1; 7], true)));
+    s.send(ClientRequest::DownloadSegment(Segment::new(
+        false, &[1; 7], false,
+    )));
+    let r = s.send(ClientRequest::DownloadSegment(Segment::new(
+        false, &[1; 7], true,
+    )));
     s.aborted(DOMAIN, AbortCode::TOGGLE_BIT_NOT_ALTERNATED, r);
     assert_eq!(s.od.discards, 1);
 
@@ -524,21 +643,31 @@ fn server_protocol_abort_codes() {
     // Length: more than the announced size (0x06070010), fewer (0x06070010).
     let mut s = Scripted::new();
     s.send(seg_download(DOMAIN, Some(3)));
-    let r = s.send(ClientRequest::DownloadSegment(Segment::new(false, &[1; 4], true)));
+    let r = s.send(ClientRequest::DownloadSegment(Segment::new(
+        false, &[1; 4], true,
+    )));
     s.aborted(DOMAIN, AbortCode::LENGTH_MISMATCH, r);
     let mut s = Scripted::new();
     s.send(seg_download(DOMAIN, Some(5)));
-    let r = s.send(ClientRequest::DownloadSegment(Segment::new(false, &[1; 4], true)));
+    let r = s.send(ClientRequest::DownloadSegment(Segment::new(
+        false, &[1; 4], true,
+    )));
     s.aborted(DOMAIN, AbortCode::LENGTH_MISMATCH, r);
     // Size not indicated: the object's limits still apply.
     let mut s = Scripted::new();
     s.send(seg_download(SMALL_STR, None));
-    s.send(ClientRequest::DownloadSegment(Segment::new(false, &[1; 7], false)));
-    let r = s.send(ClientRequest::DownloadSegment(Segment::new(true, &[1; 7], true)));
+    s.send(ClientRequest::DownloadSegment(Segment::new(
+        false, &[1; 7], false,
+    )));
+    let r = s.send(ClientRequest::DownloadSegment(Segment::new(
+        true, &[1; 7], true,
+    )));
     s.aborted(SMALL_STR, AbortCode::LENGTH_TOO_HIGH, r);
     let mut s = Scripted::new();
     s.send(seg_download(U32_RW, None));
-    let r = s.send(ClientRequest::DownloadSegment(Segment::new(false, &[1; 3], true)));
+    let r = s.send(ClientRequest::DownloadSegment(Segment::new(
+        false, &[1; 3], true,
+    )));
     s.aborted(U32_RW, AbortCode::LENGTH_TOO_LOW, r);
 }
 
@@ -547,7 +676,10 @@ fn server_expedited_without_size_takes_object_length() {
     let mut s = Scripted::new();
     let r = s.send(ClientRequest::InitiateDownload {
         mux: U16_RW,
-        data: Initiate::Expedited { data: [7, 8, 9, 10], size: None },
+        data: Initiate::Expedited {
+            data: [7, 8, 9, 10],
+            size: None,
+        },
     });
     assert_eq!(r, [ServerResponse::InitiateDownload { mux: U16_RW }.emit()]);
     assert_eq!(s.od.value(U16_RW), [7, 8]);
@@ -557,60 +689,195 @@ fn server_expedited_without_size_takes_object_length() {
 fn server_block_abort_codes() {
     // CRC mismatch.
     let mut s = Scripted::new();
-    let r = s.send(ClientRequest::BlockDownloadInitiate { mux: DOMAIN, crc: true, size: Some(10) });
+    let r = s.send(ClientRequest::BlockDownloadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        size: Some(10),
+    });
     assert_eq!(
         r,
-        [ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 127 }.emit()]
+        [ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: true,
+            blksize: 127
+        }
+        .emit()]
     );
-    s.raw(BlockSegment { seqno: 1, last: false, data: [1; 7] }.emit());
-    let r = s.raw(BlockSegment { seqno: 2, last: true, data: [2; 7] }.emit());
-    assert_eq!(r, [ServerResponse::BlockDownloadAck { ackseq: 2, blksize: 127 }.emit()]);
+    s.raw(
+        BlockSegment {
+            seqno: 1,
+            last: false,
+            data: [1; 7],
+        }
+        .emit(),
+    );
+    let r = s.raw(
+        BlockSegment {
+            seqno: 2,
+            last: true,
+            data: [2; 7],
+        }
+        .emit(),
+    );
+    assert_eq!(
+        r,
+        [ServerResponse::BlockDownloadAck {
+            ackseq: 2,
+            blksize: 127
+        }
+        .emit()]
+    );
     let good = crc16(&[1, 1, 1, 1, 1, 1, 1, 2, 2, 2]);
-    let r = s.send(ClientRequest::BlockDownloadEnd { unused: 4, crc: good ^ 1 });
+    let r = s.send(ClientRequest::BlockDownloadEnd {
+        unused: 4,
+        crc: good ^ 1,
+    });
     s.aborted(DOMAIN, AbortCode::CRC_ERROR, r);
     assert_eq!(s.od.commits, 0);
     assert_eq!(s.od.discards, 1);
 
     // Without CRC agreed the same bytes pass.
     let mut s = Scripted::new();
-    s.send(ClientRequest::BlockDownloadInitiate { mux: DOMAIN, crc: false, size: Some(10) });
-    s.raw(BlockSegment { seqno: 1, last: false, data: [1; 7] }.emit());
-    s.raw(BlockSegment { seqno: 2, last: true, data: [2; 7] }.emit());
-    let r = s.send(ClientRequest::BlockDownloadEnd { unused: 4, crc: 0xDEAD });
+    s.send(ClientRequest::BlockDownloadInitiate {
+        mux: DOMAIN,
+        crc: false,
+        size: Some(10),
+    });
+    s.raw(
+        BlockSegment {
+            seqno: 1,
+            last: false,
+            data: [1; 7],
+        }
+        .emit(),
+    );
+    s.raw(
+        BlockSegment {
+            seqno: 2,
+            last: true,
+            data: [2; 7],
+        }
+        .emit(),
+    );
+    let r = s.send(ClientRequest::BlockDownloadEnd {
+        unused: 4,
+        crc: 0xDEAD,
+    });
     assert_eq!(r, [ServerResponse::BlockDownloadEnd.emit()]);
     assert_eq!(s.od.value(DOMAIN), [1, 1, 1, 1, 1, 1, 1, 2, 2, 2]);
 
     // Invalid sequence number: above the block size.
-    let mut s = Scripted::with(ServerConfig { block_size: 4, ..ServerConfig::default() });
-    s.send(ClientRequest::BlockDownloadInitiate { mux: DOMAIN, crc: true, size: None });
-    let r = s.raw(BlockSegment { seqno: 5, last: false, data: [1; 7] }.emit());
+    let mut s = Scripted::with(ServerConfig {
+        block_size: 4,
+        ..ServerConfig::default()
+    });
+    s.send(ClientRequest::BlockDownloadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        size: None,
+    });
+    let r = s.raw(
+        BlockSegment {
+            seqno: 5,
+            last: false,
+            data: [1; 7],
+        }
+        .emit(),
+    );
     s.aborted(DOMAIN, AbortCode::INVALID_SEQUENCE_NUMBER, r);
 
     // Out-of-order segments are ignored; the ack names the last good one.
-    let mut s = Scripted::with(ServerConfig { block_size: 4, ..ServerConfig::default() });
-    s.send(ClientRequest::BlockDownloadInitiate { mux: DOMAIN, crc: true, size: None });
-    assert!(s.raw(BlockSegment { seqno: 1, last: false, data: [1; 7] }.emit()).is_empty());
-    assert!(s.raw(BlockSegment { seqno: 3, last: false, data: [3; 7] }.emit()).is_empty());
-    let r = s.raw(BlockSegment { seqno: 4, last: false, data: [4; 7] }.emit());
-    assert_eq!(r, [ServerResponse::BlockDownloadAck { ackseq: 1, blksize: 4 }.emit()]);
+    let mut s = Scripted::with(ServerConfig {
+        block_size: 4,
+        ..ServerConfig::default()
+    });
+    s.send(ClientRequest::BlockDownloadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        size: None,
+    });
+    assert!(
+        s.raw(
+            BlockSegment {
+                seqno: 1,
+                last: false,
+                data: [1; 7]
+            }
+            .emit()
+        )
+        .is_empty()
+    );
+    assert!(
+        s.raw(
+            BlockSegment {
+                seqno: 3,
+                last: false,
+                data: [3; 7]
+            }
+            .emit()
+        )
+        .is_empty()
+    );
+    let r = s.raw(
+        BlockSegment {
+            seqno: 4,
+            last: false,
+            data: [4; 7],
+        }
+        .emit(),
+    );
+    assert_eq!(
+        r,
+        [ServerResponse::BlockDownloadAck {
+            ackseq: 1,
+            blksize: 4
+        }
+        .emit()]
+    );
 
     // Invalid block size in block upload initiate and in an ack.
     let mut s = Scripted::new();
     s.od.set(DOMAIN, pattern(100));
-    let r = s.send(ClientRequest::BlockUploadInitiate { mux: DOMAIN, crc: true, blksize: 0, pst: 0 });
+    let r = s.send(ClientRequest::BlockUploadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        blksize: 0,
+        pst: 0,
+    });
     s.aborted(DOMAIN, AbortCode::INVALID_BLOCK_SIZE, r);
-    let r = s.send(ClientRequest::BlockUploadInitiate { mux: DOMAIN, crc: true, blksize: 128, pst: 0 });
+    let r = s.send(ClientRequest::BlockUploadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        blksize: 128,
+        pst: 0,
+    });
     s.aborted(DOMAIN, AbortCode::INVALID_BLOCK_SIZE, r);
-    s.send(ClientRequest::BlockUploadInitiate { mux: DOMAIN, crc: true, blksize: 4, pst: 0 });
+    s.send(ClientRequest::BlockUploadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        blksize: 4,
+        pst: 0,
+    });
     s.send(ClientRequest::BlockUploadStart);
-    let r = s.send(ClientRequest::BlockUploadAck { ackseq: 4, blksize: 200 });
+    let r = s.send(ClientRequest::BlockUploadAck {
+        ackseq: 4,
+        blksize: 200,
+    });
     s.aborted(DOMAIN, AbortCode::INVALID_BLOCK_SIZE, r);
 
     // An ack for more segments than were sent.
-    s.send(ClientRequest::BlockUploadInitiate { mux: DOMAIN, crc: true, blksize: 4, pst: 0 });
+    s.send(ClientRequest::BlockUploadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        blksize: 4,
+        pst: 0,
+    });
     let segs = s.send(ClientRequest::BlockUploadStart);
     assert_eq!(segs.len(), 4);
-    let r = s.send(ClientRequest::BlockUploadAck { ackseq: 5, blksize: 4 });
+    let r = s.send(ClientRequest::BlockUploadAck {
+        ackseq: 5,
+        blksize: 4,
+    });
     s.aborted(DOMAIN, AbortCode::INVALID_SEQUENCE_NUMBER, r);
 }
 
@@ -622,25 +889,47 @@ fn server_timeouts() {
         (DOMAIN, vec![ClientRequest::InitiateUpload { mux: DOMAIN }]),
         (
             DOMAIN,
-            vec![ClientRequest::BlockDownloadInitiate { mux: DOMAIN, crc: true, size: Some(20) }],
+            vec![ClientRequest::BlockDownloadInitiate {
+                mux: DOMAIN,
+                crc: true,
+                size: Some(20),
+            }],
         ),
         (
             DOMAIN,
-            vec![ClientRequest::BlockUploadInitiate { mux: DOMAIN, crc: true, blksize: 4, pst: 0 }],
+            vec![ClientRequest::BlockUploadInitiate {
+                mux: DOMAIN,
+                crc: true,
+                blksize: 4,
+                pst: 0,
+            }],
         ),
         (
             DOMAIN,
             vec![
-                ClientRequest::BlockUploadInitiate { mux: DOMAIN, crc: true, blksize: 4, pst: 0 },
+                ClientRequest::BlockUploadInitiate {
+                    mux: DOMAIN,
+                    crc: true,
+                    blksize: 4,
+                    pst: 0,
+                },
                 ClientRequest::BlockUploadStart,
             ],
         ),
         (
             DOMAIN,
             vec![
-                ClientRequest::BlockUploadInitiate { mux: DOMAIN, crc: true, blksize: 127, pst: 0 },
+                ClientRequest::BlockUploadInitiate {
+                    mux: DOMAIN,
+                    crc: true,
+                    blksize: 127,
+                    pst: 0,
+                },
                 ClientRequest::BlockUploadStart,
-                ClientRequest::BlockUploadAck { ackseq: 15, blksize: 127 },
+                ClientRequest::BlockUploadAck {
+                    ackseq: 15,
+                    blksize: 127,
+                },
             ],
         ),
     ];
@@ -652,7 +941,8 @@ fn server_timeouts() {
         }
         let deadline = s.server.poll_timeout().expect("a deadline while busy");
         assert_eq!(deadline, T0 + timeout);
-        s.server.handle_timeout(deadline - Duration::from_micros(1), &mut s.od);
+        s.server
+            .handle_timeout(deadline - Duration::from_micros(1), &mut s.od);
         assert!(!s.server.is_idle());
         s.server.handle_timeout(deadline, &mut s.od);
         let r = drain_server(&mut s.server);
@@ -664,7 +954,9 @@ fn server_timeouts() {
 fn server_new_initiate_during_transfer_and_client_abort() {
     let mut s = Scripted::new();
     s.send(seg_download(DOMAIN, Some(20)));
-    s.send(ClientRequest::DownloadSegment(Segment::new(false, &[1; 7], false)));
+    s.send(ClientRequest::DownloadSegment(Segment::new(
+        false, &[1; 7], false,
+    )));
     // The client gave up and reads another object.
     let r = s.send(ClientRequest::InitiateUpload { mux: RO });
     assert_eq!(
@@ -675,24 +967,46 @@ fn server_new_initiate_during_transfer_and_client_abort() {
         }
         .emit()]
     );
-    assert_eq!(s.server.poll_event(), Some(ServerEvent::Superseded { mux: DOMAIN }));
-    assert_eq!(s.server.poll_event(), Some(ServerEvent::Uploaded { mux: RO, len: 4 }));
+    assert_eq!(
+        s.server.poll_event(),
+        Some(ServerEvent::Superseded { mux: DOMAIN })
+    );
+    assert_eq!(
+        s.server.poll_event(),
+        Some(ServerEvent::Uploaded { mux: RO, len: 4 })
+    );
     assert_eq!(s.od.discards, 1);
     assert_eq!(s.od.value(DOMAIN), b"");
 
     // An abort for another object is ignored; the right one ends the transfer silently.
     s.send(seg_download(DOMAIN, Some(20)));
-    assert!(s.send(ClientRequest::Abort { mux: RO, code: AbortCode::GENERAL_ERROR }).is_empty());
+    assert!(
+        s.send(ClientRequest::Abort {
+            mux: RO,
+            code: AbortCode::GENERAL_ERROR
+        })
+        .is_empty()
+    );
     assert!(!s.server.is_idle());
-    let r = s.send(ClientRequest::Abort { mux: DOMAIN, code: AbortCode::GENERAL_ERROR });
+    let r = s.send(ClientRequest::Abort {
+        mux: DOMAIN,
+        code: AbortCode::GENERAL_ERROR,
+    });
     assert!(r.is_empty());
     assert!(s.server.is_idle());
     assert_eq!(
         s.server.poll_event(),
-        Some(ServerEvent::AbortedByClient { mux: DOMAIN, code: AbortCode::GENERAL_ERROR })
+        Some(ServerEvent::AbortedByClient {
+            mux: DOMAIN,
+            code: AbortCode::GENERAL_ERROR
+        })
     );
     // An abort in a block download sub-block (byte 0 = 0x80) is an abort, not a segment.
-    s.send(ClientRequest::BlockDownloadInitiate { mux: DOMAIN, crc: true, size: None });
+    s.send(ClientRequest::BlockDownloadInitiate {
+        mux: DOMAIN,
+        crc: true,
+        size: None,
+    });
     let r = s.raw(abort_bytes(DOMAIN, AbortCode::TIMEOUT));
     assert!(r.is_empty());
     assert!(s.server.is_idle());
@@ -731,7 +1045,11 @@ fn violates(c: &mut TestClient, frame: [u8; 8], violation: Violation) {
 }
 
 fn up_init(size: Option<u32>) -> [u8; 8] {
-    ServerResponse::InitiateUpload { mux: DOMAIN, data: Initiate::Segmented { size } }.emit()
+    ServerResponse::InitiateUpload {
+        mux: DOMAIN,
+        data: Initiate::Segmented { size },
+    }
+    .emit()
 }
 
 fn up_seg(toggle: bool, data: &[u8], last: bool) -> [u8; 8] {
@@ -748,7 +1066,11 @@ fn client_toggle_error() {
     let mut c = started_download(pattern(20), Method::Normal);
     c.handle_response(T0, &ServerResponse::InitiateDownload { mux: DOMAIN }.emit());
     drain(&mut c);
-    violates(&mut c, ServerResponse::DownloadSegment { toggle: true }.emit(), Violation::Toggle);
+    violates(
+        &mut c,
+        ServerResponse::DownloadSegment { toggle: true }.emit(),
+        Violation::Toggle,
+    );
 }
 
 #[test]
@@ -757,7 +1079,11 @@ fn client_wrong_size() {
     let mut c = started_upload(Method::Normal);
     c.handle_response(T0, &up_init(Some(5)));
     drain(&mut c);
-    violates(&mut c, up_seg(false, &[1; 6], true), Violation::TooLong { size: 5 });
+    violates(
+        &mut c,
+        up_seg(false, &[1; 6], true),
+        Violation::TooLong { size: 5 },
+    );
     // Fewer than announced.
     let mut c = started_upload(Method::Normal);
     c.handle_response(T0, &up_init(Some(10)));
@@ -765,7 +1091,10 @@ fn client_wrong_size() {
     violates(
         &mut c,
         up_seg(false, &[1; 6], true),
-        Violation::TooShort { size: 10, received: 6 },
+        Violation::TooShort {
+            size: 10,
+            received: 6,
+        },
     );
     // Size not indicated: whatever arrives is taken, n honoured.
     let mut c = started_upload(Method::Normal);
@@ -786,11 +1115,17 @@ fn client_wrong_size() {
         T0,
         &ServerResponse::InitiateUpload {
             mux: DOMAIN,
-            data: Initiate::Expedited { data: [1, 2, 3, 4], size: None },
+            data: Initiate::Expedited {
+                data: [1, 2, 3, 4],
+                size: None,
+            },
         }
         .emit(),
     );
-    assert!(matches!(c.poll_event(), Some(Event::Uploaded { len: 4, .. })));
+    assert!(matches!(
+        c.poll_event(),
+        Some(Event::Uploaded { len: 4, .. })
+    ));
 }
 
 #[test]
@@ -798,57 +1133,124 @@ fn client_block_upload_violations() {
     let start = |c: &mut TestClient| {
         c.handle_response(
             T0,
-            &ServerResponse::BlockUploadInitiate { mux: DOMAIN, crc: true, size: Some(10) }.emit(),
+            &ServerResponse::BlockUploadInitiate {
+                mux: DOMAIN,
+                crc: true,
+                size: Some(10),
+            }
+            .emit(),
         );
         assert_eq!(drain(c), [ClientRequest::BlockUploadStart.emit()]);
     };
     // CRC mismatch.
     let mut c = started_upload(Method::Block);
     start(&mut c);
-    c.handle_response(T0, &BlockSegment { seqno: 1, last: false, data: [1; 7] }.emit());
+    c.handle_response(
+        T0,
+        &BlockSegment {
+            seqno: 1,
+            last: false,
+            data: [1; 7],
+        }
+        .emit(),
+    );
     assert!(drain(&mut c).is_empty());
-    c.handle_response(T0, &BlockSegment { seqno: 2, last: true, data: [2; 7] }.emit());
-    assert_eq!(drain(&mut c), [ClientRequest::BlockUploadAck { ackseq: 2, blksize: 127 }.emit()]);
+    c.handle_response(
+        T0,
+        &BlockSegment {
+            seqno: 2,
+            last: true,
+            data: [2; 7],
+        }
+        .emit(),
+    );
+    assert_eq!(
+        drain(&mut c),
+        [ClientRequest::BlockUploadAck {
+            ackseq: 2,
+            blksize: 127
+        }
+        .emit()]
+    );
     let crc = crc16(&[1, 1, 1, 1, 1, 1, 1, 2, 2, 2]);
     violates(
         &mut c,
-        ServerResponse::BlockUploadEnd { unused: 4, crc: crc ^ 0x100 }.emit(),
-        Violation::Crc { computed: crc, received: crc ^ 0x100 },
+        ServerResponse::BlockUploadEnd {
+            unused: 4,
+            crc: crc ^ 0x100,
+        }
+        .emit(),
+        Violation::Crc {
+            computed: crc,
+            received: crc ^ 0x100,
+        },
     );
     // Sequence number 0 (not an abort: c clear) and above blksize.
     let mut c = started_upload(Method::Block);
     start(&mut c);
     violates(
         &mut c,
-        BlockSegment { seqno: 0, last: false, data: [1; 7] }.emit(),
+        BlockSegment {
+            seqno: 0,
+            last: false,
+            data: [1; 7],
+        }
+        .emit(),
         Violation::SequenceNumber(0),
     );
     let mut c: TestClient = Client::new(ClientConfig::default().with_block_size(3));
-    c.start_upload(T0, DOMAIN, Vec::new(), Method::Block).unwrap();
+    c.start_upload(T0, DOMAIN, Vec::new(), Method::Block)
+        .unwrap();
     drain(&mut c);
     start(&mut c);
     violates(
         &mut c,
-        BlockSegment { seqno: 4, last: false, data: [1; 7] }.emit(),
+        BlockSegment {
+            seqno: 4,
+            last: false,
+            data: [1; 7],
+        }
+        .emit(),
         Violation::SequenceNumber(4),
     );
     // Wrong end length.
     let mut c = started_upload(Method::Block);
     start(&mut c);
-    c.handle_response(T0, &BlockSegment { seqno: 1, last: true, data: [1; 7] }.emit());
+    c.handle_response(
+        T0,
+        &BlockSegment {
+            seqno: 1,
+            last: true,
+            data: [1; 7],
+        }
+        .emit(),
+    );
     drain(&mut c);
     violates(
         &mut c,
         ServerResponse::BlockUploadEnd { unused: 0, crc: 0 }.emit(),
-        Violation::TooShort { size: 10, received: 7 },
+        Violation::TooShort {
+            size: 10,
+            received: 7,
+        },
     );
     // A server abort arriving in the middle of a sub-block.
     let mut c = started_upload(Method::Block);
     start(&mut c);
-    c.handle_response(T0, &ServerResponse::Abort { mux: DOMAIN, code: AbortCode::HARDWARE_ERROR }.emit());
+    c.handle_response(
+        T0,
+        &ServerResponse::Abort {
+            mux: DOMAIN,
+            code: AbortCode::HARDWARE_ERROR,
+        }
+        .emit(),
+    );
     assert!(drain(&mut c).is_empty());
     let error = failed(c.poll_event());
-    assert_eq!(error.kind, ErrorKind::ServerAbort(AbortCode::HARDWARE_ERROR));
+    assert_eq!(
+        error.kind,
+        ErrorKind::ServerAbort(AbortCode::HARDWARE_ERROR)
+    );
 }
 
 #[test]
@@ -856,35 +1258,63 @@ fn client_block_download_violations() {
     let mut c = started_download(pattern(20), Method::Block);
     violates(
         &mut c,
-        ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 0 }.emit(),
+        ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: true,
+            blksize: 0,
+        }
+        .emit(),
         Violation::BlockSize(0),
     );
     let mut c = started_download(pattern(20), Method::Block);
     violates(
         &mut c,
-        ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 200 }.emit(),
+        ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: true,
+            blksize: 200,
+        }
+        .emit(),
         Violation::BlockSize(200),
     );
     let mut c = started_download(pattern(20), Method::Block);
     c.handle_response(
         T0,
-        &ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 2 }.emit(),
+        &ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: true,
+            blksize: 2,
+        }
+        .emit(),
     );
     assert_eq!(drain(&mut c).len(), 2);
     violates(
         &mut c,
-        ServerResponse::BlockDownloadAck { ackseq: 3, blksize: 2 }.emit(),
+        ServerResponse::BlockDownloadAck {
+            ackseq: 3,
+            blksize: 2,
+        }
+        .emit(),
         Violation::SequenceNumber(3),
     );
     let mut c = started_download(pattern(20), Method::Block);
     c.handle_response(
         T0,
-        &ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 2 }.emit(),
+        &ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: true,
+            blksize: 2,
+        }
+        .emit(),
     );
     drain(&mut c);
     violates(
         &mut c,
-        ServerResponse::BlockDownloadAck { ackseq: 2, blksize: 128 }.emit(),
+        ServerResponse::BlockDownloadAck {
+            ackseq: 2,
+            blksize: 128,
+        }
+        .emit(),
         Violation::BlockSize(128),
     );
 }
@@ -900,12 +1330,21 @@ fn client_unexpected_and_unknown_commands() {
     );
     // scs = 7.
     let mut c = started_upload(Method::Normal);
-    violates(&mut c, [0xE0, 0, 0, 0, 0, 0, 0, 0], Violation::UnexpectedCommand);
+    violates(
+        &mut c,
+        [0xE0, 0, 0, 0, 0, 0, 0, 0],
+        Violation::UnexpectedCommand,
+    );
     // A block download response to a normal download.
     let mut c = started_download(pattern(20), Method::Normal);
     violates(
         &mut c,
-        ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 5 }.emit(),
+        ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: true,
+            blksize: 5,
+        }
+        .emit(),
         Violation::UnexpectedCommand,
     );
 }
@@ -913,7 +1352,8 @@ fn client_unexpected_and_unknown_commands() {
 #[test]
 fn client_out_of_memory() {
     let mut c: Client<heapless::Vec<u8, 8>, &[u8]> = Client::new(ClientConfig::default());
-    c.start_upload(T0, DOMAIN, heapless::Vec::new(), Method::Normal).unwrap();
+    c.start_upload(T0, DOMAIN, heapless::Vec::new(), Method::Normal)
+        .unwrap();
     let _ = std::iter::from_fn(|| c.poll_transmit()).count();
     c.handle_response(T0, &up_init(Some(20)));
     assert_eq!(
@@ -924,16 +1364,23 @@ fn client_out_of_memory() {
     assert_eq!(error.kind, ErrorKind::BufferFull);
     assert_eq!(error.abort_code(), AbortCode::OUT_OF_MEMORY);
     // Without a size, the overflow is found by the segment that does not fit.
-    c.start_upload(T0, DOMAIN, heapless::Vec::new(), Method::Normal).unwrap();
+    c.start_upload(T0, DOMAIN, heapless::Vec::new(), Method::Normal)
+        .unwrap();
     let _ = std::iter::from_fn(|| c.poll_transmit()).count();
     c.handle_response(T0, &up_init(None));
     let _ = c.poll_transmit();
     c.handle_response(T0, &up_seg(false, &[1; 7], false));
     let _ = c.poll_transmit();
     c.handle_response(T0, &up_seg(true, &[1; 7], false));
-    assert_eq!(c.poll_transmit(), Some(abort_bytes(DOMAIN, AbortCode::OUT_OF_MEMORY)));
+    assert_eq!(
+        c.poll_transmit(),
+        Some(abort_bytes(DOMAIN, AbortCode::OUT_OF_MEMORY))
+    );
     match c.poll_event() {
-        Some(Event::Failed { buffer: Buffer::Sink(sink), .. }) => assert_eq!(sink.len(), 7),
+        Some(Event::Failed {
+            buffer: Buffer::Sink(sink),
+            ..
+        }) => assert_eq!(sink.len(), 7),
         other => panic!("{other:?}"),
     }
 }
@@ -952,15 +1399,33 @@ fn client_timeouts_in_every_phase() {
         ("block upload sub-block", Method::Block, true, |c| {
             c.handle_response(
                 T0,
-                &ServerResponse::BlockUploadInitiate { mux: DOMAIN, crc: true, size: None }.emit(),
+                &ServerResponse::BlockUploadInitiate {
+                    mux: DOMAIN,
+                    crc: true,
+                    size: None,
+                }
+                .emit(),
             );
         }),
         ("block upload end", Method::Block, true, |c| {
             c.handle_response(
                 T0,
-                &ServerResponse::BlockUploadInitiate { mux: DOMAIN, crc: true, size: None }.emit(),
+                &ServerResponse::BlockUploadInitiate {
+                    mux: DOMAIN,
+                    crc: true,
+                    size: None,
+                }
+                .emit(),
             );
-            c.handle_response(T0, &BlockSegment { seqno: 1, last: true, data: [0; 7] }.emit());
+            c.handle_response(
+                T0,
+                &BlockSegment {
+                    seqno: 1,
+                    last: true,
+                    data: [0; 7],
+                }
+                .emit(),
+            );
         }),
         ("initiate download", Method::Normal, false, |_| {}),
         ("download segment", Method::Normal, false, |c| {
@@ -970,18 +1435,33 @@ fn client_timeouts_in_every_phase() {
         ("block download ack", Method::Block, false, |c| {
             c.handle_response(
                 T0,
-                &ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 127 }
-                    .emit(),
+                &ServerResponse::BlockDownloadInitiate {
+                    mux: DOMAIN,
+                    crc: true,
+                    blksize: 127,
+                }
+                .emit(),
             );
         }),
         ("block download end", Method::Block, false, |c| {
             c.handle_response(
                 T0,
-                &ServerResponse::BlockDownloadInitiate { mux: DOMAIN, crc: true, blksize: 127 }
-                    .emit(),
+                &ServerResponse::BlockDownloadInitiate {
+                    mux: DOMAIN,
+                    crc: true,
+                    blksize: 127,
+                }
+                .emit(),
             );
             let _ = std::iter::from_fn(|| c.poll_transmit()).count();
-            c.handle_response(T0, &ServerResponse::BlockDownloadAck { ackseq: 3, blksize: 127 }.emit());
+            c.handle_response(
+                T0,
+                &ServerResponse::BlockDownloadAck {
+                    ackseq: 3,
+                    blksize: 127,
+                }
+                .emit(),
+            );
         }),
     ];
     for (name, method, upload, setup) in setups {
@@ -997,7 +1477,11 @@ fn client_timeouts_in_every_phase() {
         c.handle_timeout(T0 + timeout - Duration::from_micros(1));
         assert!(c.poll_event().is_none(), "{name}");
         c.handle_timeout(T0 + timeout);
-        assert_eq!(drain(&mut c), [abort_bytes(DOMAIN, AbortCode::TIMEOUT)], "{name}");
+        assert_eq!(
+            drain(&mut c),
+            [abort_bytes(DOMAIN, AbortCode::TIMEOUT)],
+            "{name}"
+        );
         let error = failed(c.poll_event());
         assert_eq!(error.kind, ErrorKind::Timeout, "{name}");
         assert_eq!(error.abort_code(), AbortCode::TIMEOUT);
@@ -1019,10 +1503,19 @@ fn client_timeout_restarts_on_each_response() {
 fn client_cancel_sends_abort() {
     let mut c = started_download(pattern(100), Method::Block);
     assert!(c.abort(T0, AbortCode::CANNOT_STORE_LOCAL_CONTROL));
-    assert_eq!(drain(&mut c), [abort_bytes(DOMAIN, AbortCode::CANNOT_STORE_LOCAL_CONTROL)]);
+    assert_eq!(
+        drain(&mut c),
+        [abort_bytes(DOMAIN, AbortCode::CANNOT_STORE_LOCAL_CONTROL)]
+    );
     match c.poll_event() {
-        Some(Event::Failed { error, buffer: Buffer::Source(source) }) => {
-            assert_eq!(error.kind, ErrorKind::Cancelled(AbortCode::CANNOT_STORE_LOCAL_CONTROL));
+        Some(Event::Failed {
+            error,
+            buffer: Buffer::Source(source),
+        }) => {
+            assert_eq!(
+                error.kind,
+                ErrorKind::Cancelled(AbortCode::CANNOT_STORE_LOCAL_CONTROL)
+            );
             assert_eq!(source, pattern(100));
         }
         other => panic!("{other:?}"),
@@ -1038,8 +1531,11 @@ fn stray_and_late_frames_never_complete_the_wrong_transfer() {
     let other = Multiplexer::new(0x1017, 0);
     c.handle_response(
         T0,
-        &ServerResponse::InitiateUpload { mux: other, data: Initiate::expedited(&[1, 2]).unwrap() }
-            .emit(),
+        &ServerResponse::InitiateUpload {
+            mux: other,
+            data: Initiate::expedited(&[1, 2]).unwrap(),
+        }
+        .emit(),
     );
     assert!(c.poll_event().is_none());
     assert!(drain(&mut c).is_empty());
@@ -1054,7 +1550,14 @@ fn stray_and_late_frames_never_complete_the_wrong_transfer() {
     );
     assert!(c.poll_event().is_none());
     // An abort for another object: ignored.
-    c.handle_response(T0, &ServerResponse::Abort { mux: other, code: AbortCode::GENERAL_ERROR }.emit());
+    c.handle_response(
+        T0,
+        &ServerResponse::Abort {
+            mux: other,
+            code: AbortCode::GENERAL_ERROR,
+        }
+        .emit(),
+    );
     assert!(c.poll_event().is_none());
     // Short frames: ignored.
     c.handle_response(T0, &[0x43, 0x00, 0x21]);
@@ -1062,8 +1565,11 @@ fn stray_and_late_frames_never_complete_the_wrong_transfer() {
     // The right answer completes it.
     c.handle_response(
         T0,
-        &ServerResponse::InitiateUpload { mux: DOMAIN, data: Initiate::expedited(&[9]).unwrap() }
-            .emit(),
+        &ServerResponse::InitiateUpload {
+            mux: DOMAIN,
+            data: Initiate::expedited(&[9]).unwrap(),
+        }
+        .emit(),
     );
     match c.poll_event() {
         Some(Event::Uploaded { sink, mux, .. }) => {
@@ -1084,13 +1590,25 @@ fn stray_and_late_frames_never_complete_the_wrong_transfer() {
     // A server abort with multiplexer 0000:00 (unknown command) ends it.
     c.handle_response(
         T0,
-        &ServerResponse::Abort { mux: Multiplexer::default(), code: AbortCode::INVALID_COMMAND }
-            .emit(),
+        &ServerResponse::Abort {
+            mux: Multiplexer::default(),
+            code: AbortCode::INVALID_COMMAND,
+        }
+        .emit(),
     );
     let error = failed(c.poll_event());
-    assert_eq!(error.kind, ErrorKind::ServerAbort(AbortCode::INVALID_COMMAND));
-    assert_eq!(error.to_string(), "SDO 0x2100:00: server aborted: 0x05040001 (Client/server command specifier not valid or unknown)");
-    assert!(drain(&mut c).is_empty(), "no abort is sent back for a server abort");
+    assert_eq!(
+        error.kind,
+        ErrorKind::ServerAbort(AbortCode::INVALID_COMMAND)
+    );
+    assert_eq!(
+        error.to_string(),
+        "SDO 0x2100:00: server aborted: 0x05040001 (Client/server command specifier not valid or unknown)"
+    );
+    assert!(
+        drain(&mut c).is_empty(),
+        "no abort is sent back for a server abort"
+    );
 }
 
 #[test]
@@ -1100,7 +1618,14 @@ fn client_refuses_second_transfer_while_busy() {
         Err(busy) => assert_eq!(busy.0, vec![1]),
         Ok(()) => panic!("started twice"),
     }
-    c.handle_response(T0, &ServerResponse::Abort { mux: DOMAIN, code: AbortCode::GENERAL_ERROR }.emit());
+    c.handle_response(
+        T0,
+        &ServerResponse::Abort {
+            mux: DOMAIN,
+            code: AbortCode::GENERAL_ERROR,
+        }
+        .emit(),
+    );
     // The completion must be polled first.
     assert!(c.start_upload(T0, RO, Vec::new(), Method::Normal).is_err());
     assert!(c.poll_event().is_some());
@@ -1111,7 +1636,9 @@ fn client_refuses_second_transfer_while_busy() {
 fn progress_reports_bytes_and_total() {
     let mut p = Pair::new();
     p.od.set(DOMAIN, pattern(30));
-    p.client.start_upload(T0, DOMAIN, Vec::new(), Method::Normal).unwrap();
+    p.client
+        .start_upload(T0, DOMAIN, Vec::new(), Method::Normal)
+        .unwrap();
     let mut seen = Vec::new();
     while p.client.poll_event().is_none() {
         if let Some(progress) = p.client.progress() {
@@ -1127,6 +1654,13 @@ fn progress_reports_bytes_and_total() {
     seen.dedup();
     assert_eq!(
         seen,
-        [(0, None), (0, Some(30)), (7, Some(30)), (14, Some(30)), (21, Some(30)), (28, Some(30))]
+        [
+            (0, None),
+            (0, Some(30)),
+            (7, Some(30)),
+            (14, Some(30)),
+            (21, Some(30)),
+            (28, Some(30))
+        ]
     );
 }

@@ -39,18 +39,50 @@ pub const SMALL_STR: Multiplexer = Multiplexer::new(0x2003, 0);
 impl MemOd {
     pub fn new() -> Self {
         let mut od = Self::default();
-        od.insert(U32_RW, Access::ReadWrite, vec![1, 2, 3, 4], LengthRule::Exact(4));
-        od.insert(U16_RW, Access::ReadWrite, vec![0xE8, 0x03], LengthRule::Exact(2));
-        od.insert(RO, Access::ReadOnly, vec![0x91, 0x01, 0x02, 0x00], LengthRule::Exact(4));
+        od.insert(
+            U32_RW,
+            Access::ReadWrite,
+            vec![1, 2, 3, 4],
+            LengthRule::Exact(4),
+        );
+        od.insert(
+            U16_RW,
+            Access::ReadWrite,
+            vec![0xE8, 0x03],
+            LengthRule::Exact(2),
+        );
+        od.insert(
+            RO,
+            Access::ReadOnly,
+            vec![0x91, 0x01, 0x02, 0x00],
+            LengthRule::Exact(4),
+        );
         od.insert(WO, Access::WriteOnly, vec![0], LengthRule::Exact(1));
-        od.insert(DOMAIN, Access::ReadWrite, Vec::new(), LengthRule::UpTo(1 << 20));
+        od.insert(
+            DOMAIN,
+            Access::ReadWrite,
+            Vec::new(),
+            LengthRule::UpTo(1 << 20),
+        );
         od.insert(LIMITED, Access::ReadWrite, vec![0], LengthRule::Exact(1));
-        od.insert(SMALL_STR, Access::ReadWrite, b"abc".to_vec(), LengthRule::UpTo(10));
+        od.insert(
+            SMALL_STR,
+            Access::ReadWrite,
+            b"abc".to_vec(),
+            LengthRule::UpTo(10),
+        );
         od
     }
 
     pub fn insert(&mut self, mux: Multiplexer, access: Access, value: Vec<u8>, rule: LengthRule) {
-        self.objects.insert((mux.index, mux.subindex), Object { access, value, rule });
+        self.objects.insert(
+            (mux.index, mux.subindex),
+            Object {
+                access,
+                value,
+                rule,
+            },
+        );
     }
 
     pub fn value(&self, mux: Multiplexer) -> &[u8] {
@@ -58,7 +90,10 @@ impl MemOd {
     }
 
     pub fn set(&mut self, mux: Multiplexer, value: Vec<u8>) {
-        self.objects.get_mut(&(mux.index, mux.subindex)).unwrap().value = value;
+        self.objects
+            .get_mut(&(mux.index, mux.subindex))
+            .unwrap()
+            .value = value;
     }
 
     fn get(&self, mux: Multiplexer) -> Result<&Object, AbortCode> {
@@ -95,7 +130,11 @@ impl ObjectAccess for MemOd {
 
     fn write(&mut self, mux: Multiplexer, offset: u32, data: &[u8]) -> Result<(), AbortCode> {
         self.get(mux)?;
-        assert_eq!(offset as usize, self.staging.len(), "writes arrive in order");
+        assert_eq!(
+            offset as usize,
+            self.staging.len(),
+            "writes arrive in order"
+        );
         self.staging.extend_from_slice(data);
         Ok(())
     }
@@ -106,7 +145,10 @@ impl ObjectAccess for MemOd {
             return Err(AbortCode::VALUE_TOO_HIGH);
         }
         let value = std::mem::take(&mut self.staging);
-        self.objects.get_mut(&(mux.index, mux.subindex)).unwrap().value = value;
+        self.objects
+            .get_mut(&(mux.index, mux.subindex))
+            .unwrap()
+            .value = value;
         self.commits += 1;
         Ok(())
     }
@@ -194,6 +236,10 @@ impl Pair {
     }
 
     pub fn frames(&self, from: From) -> Vec<[u8; 8]> {
-        self.log.iter().filter(|(f, _)| *f == from).map(|(_, b)| *b).collect()
+        self.log
+            .iter()
+            .filter(|(f, _)| *f == from)
+            .map(|(_, b)| *b)
+            .collect()
     }
 }
