@@ -17,6 +17,11 @@
 //!
 //! The core is `#![no_std]` without an allocator; the `alloc` feature (on with `std`) types the
 //! string and DOMAIN entries as owned values.
+//!
+//! The `master` feature (std, depends on the `canopen` master) adds:
+//! - `master` — `BurkertNode`, the profile's operations over a `canopen::Node`;
+//! - `sim` — `BurkertDevice`, a simulated Bürkert device for the in-memory bus or SocketCAN;
+//! - `demo` — a short walkthrough (status with the LED colour, locate, logbook download).
 #![no_std]
 
 #[cfg(feature = "std")]
@@ -34,6 +39,18 @@ pub mod objects {
 }
 pub mod status;
 
+#[cfg(feature = "master")]
+pub mod demo;
+#[cfg(feature = "master")]
+pub mod master;
+#[cfg(feature = "master")]
+mod pdo_od;
+#[cfg(feature = "master")]
+pub mod sim;
+
+/// The generic Bürkert EDS (`eds/burkert-generic.eds`) the entries are generated from.
+pub const GENERIC_EDS: &str = include_str!("../../../eds/burkert-generic.eds");
+
 pub use colour::{ColourError, LedColour, PredefinedColour};
 pub use comm::{
     BitRate, BusMode, CanOperationStatus, CommValueError, EdsVersion, ResetCommand, Termination,
@@ -41,3 +58,8 @@ pub use comm::{
 pub use led::{LedIndication, LedMode, LedModeError, LedState, ValveModeColours, ValvePosition};
 pub use ne107::Ne107Status;
 pub use status::{DeviceStatus, Kelvin, TransMemStatus};
+
+#[cfg(feature = "master")]
+pub use master::{BurkertNode, DeviceReport};
+#[cfg(feature = "master")]
+pub use sim::BurkertDevice;

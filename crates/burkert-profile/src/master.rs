@@ -1,0 +1,951 @@
+//! [`BurkertNode`]: the Bürkert profile seen from the master, a typed view over a
+//! [`canopen::Node`].
+//!
+//! Every operation is one or more SDO transfers (CiA 301 §7.2.4) on the objects of the Bürkert
+//! manual (SPEC-NOTES §1): bytes are read with the master's SDO client and decoded with the
+//! generated [`crate::objects`] entries and the semantic types of this crate. Errors are the
+//! master's [`canopen::Error`]: an SDO failure names the node, the object and the abort code; a
+//! value the manual does not define is an [`Error::Value`] naming node and object.
+//!
+//! Changing the node-ID or the bit rate goes through 0x2001 sub 2 / sub 1 and takes effect at
+//! the next reset (0x2001 sub 4 or NMT). The alternative that works without knowing the node-ID
+//! is LSS (CiA 305, the `canopen-lss` crate): switch-global, configure node-ID / bit timing,
+//! activate bit timing, switch-global back.
+//!
+//! PDO helpers remap a TPDO to carry sensor values (0x2500..=0x253F sub 1) and an RPDO to carry
+//! control values (0x2540..=0x257F sub 1) with the CiA 301 remote-configuration sequence of
+//! [`canopen_pdo::remap`]; value types come from the node's dictionary (its EDS), falling back to
+//! the generic Bürkert EDS.
+
+use std::prelude::rust_2024::*;
+use std::format;
+
+use std::io::Write;
+use std::sync::Arc;
+
+use can_frame::{CanFrame, CanId, NodeId};
+use canopen::{Entry as Addr, Error, NetworkEvent, Node, SdoErrorKind, TransferProgress};
+use canopen_od::{DataType, Entry, EntryValue, ObjectDictionary};
+use canopen_pdo::{
+    CommParams, Direction, Mapping, MappingEntry, RemoteObjects, Value as PdoValue,
+    ValueKind,
+};
+use canopen_sdo::{AbortCode, ErrorKind};
+
+use crate::colour::LedColour;
+use crate::comm::{
+    BitRate, BusMode, CanOperationStatus, EdsVersion, ResetCommand, Termination,
+};
+use crate::led::{LedIndication, LedMode, LedState, ValveModeColours};
+use crate::ne107::Ne107Status;
+use crate::objects::{
+    self, buerkert_device_description_object as desc, device_communication_object as comm,
+    device_status_object as st, locating_function, trigger_maintenance_function,
+    valve_mode_configuration as valve,
+};
+use crate::pdo_od::OdCatalog;
+use crate::status::{DeviceStatus, Kelvin, TransMemStatus};
+
+/// First sensor value object (sensor 0); sensors run to 0x253F.
+pub const SENSOR_VALUE_BASE: u16 = 0x2500;
+/// First control value object (control 0); controls run to 0x257F.
+pub const CONTROL_VALUE_BASE: u16 = 0x2540;
+/// Sensor / control values per direction (0x40).
+pub const VALUES_PER_KIND: u8 = 0x40;
+/// Sub-index of the value in a sensor / control value object.
+pub const SUB_VALUE: u8 = 1;
+/// Sub-index of the precision (REAL32) in a sensor / control value object.
+pub const SUB_PRECISION: u8 = 6;
+
+const fn addr<T>(e: &Entry<T>) -> Addr {
+    Addr::new(e.index(), e.sub_index())
+}
+
+/// Object 0x2000, the device description. Sub-objects a device does not implement are `None`.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct DeviceDescription {
+    /// Sub 1.
+    pub device_name: Option<String>,
+    /// Sub 2.
+    pub ident_number: Option<u32>,
+    /// Sub 3.
+    pub manufacture_date: Option<String>,
+    /// Sub 4.
+    pub software_ident_number: Option<u32>,
+    /// Sub 5.
+    pub software_version: Option<u32>,
+    /// Sub 6.
+    pub hardware_version: Option<u32>,
+    /// Sub 7.
+    pub serial_number: Option<u32>,
+    /// Sub 8.
+    pub product_code: Option<u32>,
+    /// Sub 9.
+    pub product_group: Option<u8>,
+}
+
+/// Object 0x2001, device communication, decoded. Sub-objects a device does not implement are
+/// `None`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct DeviceCommunication {
+    /// Sub 1, the stored bit rate (effective after a reset).
+    pub bit_rate: Option<BitRate>,
+    /// Sub 2, the stored node-ID (effective after a reset).
+    pub address: Option<u8>,
+    /// Sub 3.
+    pub bus_mode: Option<BusMode>,
+    /// Sub 5.
+    pub bus_version: Option<u32>,
+    /// Sub 6.
+    pub rx_error_count: Option<u8>,
+    /// Sub 7.
+    pub rx_error_count_max: Option<u8>,
+    /// Sub 8.
+    pub tx_error_count: Option<u8>,
+    /// Sub 9.
+    pub tx_error_count_max: Option<u8>,
+    /// Sub 0x0A, the device's NMT state.
+    pub can_operation_status: Option<CanOperationStatus>,
+    /// Sub 0x0B.
+    pub termination: Option<Termination>,
+    /// Sub 0x0D.
+    pub eds_version: Option<EdsVersion>,
+}
+
+/// Objects 0x2120..=0x2122: how the status LED is configured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LedConfig {
+    /// 0x2120.
+    pub mode: LedMode,
+    /// 0x2121.
+    pub valve: ValveModeColours,
+    /// 0x2122.
+    pub external: LedColour,
+}
+
+/// One device read in one call: description, status, communication, LED.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceReport {
+    /// 0x2000.
+    pub description: DeviceDescription,
+    /// 0x2004.
+    pub status: DeviceStatus,
+    /// 0x2001.
+    pub communication: DeviceCommunication,
+    /// 0x2120..=0x2122.
+    pub led: LedConfig,
+    /// 0x2101 sub 1 reads 1 (a locate was started and not yet set back to 0).
+    pub locating: bool,
+    /// 0x210A sub 1 reads 1.
+    pub maintenance: bool,
+}
+
+impl DeviceReport {
+    /// The colour the status LED shows, as far as the master can tell: the device's valve
+    /// position is unknown to it (valve modes fall back to the NE 107 colour), and "locating"
+    /// means 0x2101 sub 1 reads 1, although the device stops flashing after about 10 s.
+    pub fn led_indication(&self) -> LedIndication {
+        LedState {
+            mode: self.led.mode,
+            status: self.status.ne107.unwrap_or(Ne107Status::DiagnosisInactive),
+            valve: None,
+            valve_colours: self.led.valve,
+            external: self.led.external,
+            locating: self.locating,
+        }
+        .indication()
+    }
+}
+
+/// A sensor value received in a TPDO.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorReading {
+    /// Sensor number: the object is `0x2500 + sensor`.
+    pub sensor: u8,
+    /// The value, typed by the object's data type.
+    pub value: PdoValue,
+}
+
+/// A TPDO of the device configured by [`BurkertNode::map_sensor_values_to_tpdo`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SensorTpdo {
+    node: NodeId,
+    number: u8,
+    sensors: Vec<u8>,
+    mapping: Mapping,
+    cob_id: u32,
+}
+
+impl SensorTpdo {
+    /// TPDO number 1..=4.
+    pub fn number(&self) -> u8 {
+        self.number
+    }
+
+    /// The sensors it carries, in PDO order.
+    pub fn sensors(&self) -> &[u8] {
+        &self.sensors
+    }
+
+    /// The mapping written to the device.
+    pub fn mapping(&self) -> &Mapping {
+        &self.mapping
+    }
+
+    /// The COB-ID written to comm sub 1.
+    pub fn cob_id(&self) -> u32 {
+        self.cob_id
+    }
+
+    /// Decodes the data of one PDO into typed sensor values.
+    pub fn decode(&self, data: &[u8]) -> Result<Vec<SensorReading>, Error> {
+        let unpacked = canopen_pdo::unpack(&self.mapping, data).map_err(|e| Error::Value {
+            node: self.node,
+            entry: Addr::new(0x1800 + u16::from(self.number) - 1, 1),
+            message: format!("TPDO{} data: {e}", self.number),
+        })?;
+        Ok(self
+            .sensors
+            .iter()
+            .zip(unpacked.iter())
+            .map(|(&sensor, (_, value))| SensorReading { sensor, value })
+            .collect())
+    }
+
+    /// The sensor values in a network event, if it is this TPDO of this node.
+    pub fn from_event(&self, event: &NetworkEvent) -> Option<Result<Vec<SensorReading>, Error>> {
+        match event {
+            NetworkEvent::Pdo {
+                node, number, data, ..
+            } if *node == self.node && *number == self.number => Some(self.decode(data)),
+            _ => None,
+        }
+    }
+}
+
+/// An RPDO of the device configured by [`BurkertNode::map_control_values_to_rpdo`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ControlRpdo {
+    node: NodeId,
+    number: u8,
+    controls: Vec<u8>,
+    mapping: Mapping,
+    cob_id: u32,
+}
+
+impl ControlRpdo {
+    /// RPDO number 1..=4.
+    pub fn number(&self) -> u8 {
+        self.number
+    }
+
+    /// The controls it carries, in PDO order.
+    pub fn controls(&self) -> &[u8] {
+        &self.controls
+    }
+
+    /// The mapping written to the device.
+    pub fn mapping(&self) -> &Mapping {
+        &self.mapping
+    }
+
+    /// The COB-ID written to comm sub 1.
+    pub fn cob_id(&self) -> u32 {
+        self.cob_id
+    }
+
+    /// The kinds of the values [`encode`](Self::encode) expects, in PDO order.
+    pub fn kinds(&self) -> Vec<ValueKind> {
+        self.mapping.objects().iter().map(|o| o.kind).collect()
+    }
+
+    /// Packs one value per control into the RPDO frame.
+    pub fn encode(&self, values: &[PdoValue]) -> Result<CanFrame, Error> {
+        let err = |message: String| Error::Value {
+            node: self.node,
+            entry: Addr::new(0x1400 + u16::from(self.number) - 1, 1),
+            message,
+        };
+        let mut buf = [0u8; 8];
+        let n = canopen_pdo::pack(&self.mapping, values, &mut buf)
+            .map_err(|e| err(format!("RPDO{} data: {e}", self.number)))?;
+        let id = CanId::standard((self.cob_id & 0x7FF) as u16)
+            .map_err(|_| err(format!("COB-ID {:#x} is not an 11-bit identifier", self.cob_id)))?;
+        CanFrame::new(id, &buf[..n]).map_err(|_| err("frame longer than 8 bytes".into()))
+    }
+}
+
+/// The Bürkert profile of one node. See the module docs.
+#[derive(Debug, Clone)]
+pub struct BurkertNode {
+    node: Node,
+}
+
+/// Whether an SDO failure means "the device does not implement this sub-object".
+fn is_absent(e: &Error) -> bool {
+    matches!(
+        e.server_abort(),
+        Some(
+            AbortCode::OBJECT_DOES_NOT_EXIST
+                | AbortCode::SUBINDEX_DOES_NOT_EXIST
+                | AbortCode::NO_DATA_AVAILABLE
+        )
+    )
+}
+
+/// Bytes read in a batch, by object.
+struct Batch {
+    node: NodeId,
+    results: Vec<(Addr, Result<Vec<u8>, Error>)>,
+}
+
+impl Batch {
+    fn raw(&self, a: Addr) -> Result<Option<&[u8]>, Error> {
+        match self.results.iter().find(|(x, _)| *x == a) {
+            Some((_, Ok(v))) => Ok(Some(v.as_slice())),
+            Some((_, Err(e))) if is_absent(e) => Ok(None),
+            Some((_, Err(e))) => Err(clone_error(e)),
+            None => Ok(None),
+        }
+    }
+
+    fn get<T: EntryValue>(&self, e: Entry<T>) -> Result<Option<T>, Error> {
+        match self.raw(addr(&e))? {
+            None => Ok(None),
+            Some(bytes) => decode(self.node, &e, bytes).map(Some),
+        }
+    }
+}
+
+/// The master's error is not `Clone`; the batch hands out each failure once per access.
+fn clone_error(e: &Error) -> Error {
+    match e {
+        Error::Sdo(s) => Error::Sdo(s.clone()),
+        Error::Value {
+            node,
+            entry,
+            message,
+        } => Error::Value {
+            node: *node,
+            entry: *entry,
+            message: message.clone(),
+        },
+        other => Error::Timeout(other.to_string()),
+    }
+}
+
+fn decode<T: EntryValue>(node: NodeId, e: &Entry<T>, bytes: &[u8]) -> Result<T, Error> {
+    e.decode(bytes).map_err(|err| Error::Value {
+        node,
+        entry: addr(e),
+        message: err.to_string(),
+    })
+}
+
+fn undefined(node: NodeId, e: Addr, err: impl core::fmt::Display) -> Error {
+    Error::Value {
+        node,
+        entry: e,
+        message: err.to_string(),
+    }
+}
+
+impl BurkertNode {
+    /// A view over `node`. Add the node with its EDS (`add_node_with_dictionary`) so errors
+    /// carry object names and PDO helpers see the device's value types.
+    pub fn new(node: Node) -> Self {
+        Self { node }
+    }
+
+    /// The underlying master node.
+    pub fn node(&self) -> &Node {
+        &self.node
+    }
+
+    /// The node-ID.
+    pub fn id(&self) -> NodeId {
+        self.node.id()
+    }
+
+    /// Reads one entry and decodes it with its generated type.
+    pub fn read<T: EntryValue>(&self, e: Entry<T>) -> Result<T, Error> {
+        let bytes = self.node.sdo().read(addr(&e))?;
+        decode(self.id(), &e, &bytes)
+    }
+
+    /// Encodes a fixed-size value with its generated type and writes it.
+    pub fn write<T: EntryValue>(&self, e: Entry<T>, value: &T) -> Result<(), Error> {
+        let mut buf = [0u8; 8];
+        let n = e.encode(value, &mut buf).map_err(|err| Error::Value {
+            node: self.id(),
+            entry: addr(&e),
+            message: err.to_string(),
+        })?;
+        self.node.sdo().write(addr(&e), &buf[..n])
+    }
+
+    /// Submits every read together (the master queues them on the node and runs them back to
+    /// back; other nodes progress meanwhile), then waits for all of them.
+    fn batch(&self, entries: &[Addr]) -> Batch {
+        let pending: Vec<_> = entries
+            .iter()
+            .map(|&a| (a, self.node.sdo().submit_read(a)))
+            .collect();
+        let results = pending
+            .into_iter()
+            .map(|(a, p)| {
+                let r = match p.wait() {
+                    Ok(canopen::Completion::Data(v)) => Ok(v),
+                    Ok(_) => Ok(Vec::new()),
+                    Err(e) => Err(Error::Sdo(e)),
+                };
+                (a, r)
+            })
+            .collect();
+        Batch {
+            node: self.id(),
+            results,
+        }
+    }
+
+    /// Reads 0x2000, 0x2001, 0x2004, 0x2101, 0x210A and 0x2120..=0x2122 in one batch of
+    /// parallel-submitted SDO reads (see [`DeviceReport`]). Sub-objects the device does not
+    /// implement (abort 0x06020000 / 0x06090011 / 0x08000024) are `None`.
+    pub fn read_report(&self) -> Result<DeviceReport, Error> {
+        let mut all: Vec<Addr> = Vec::new();
+        all.extend(DESCRIPTION.iter().copied());
+        all.extend(STATUS.iter().copied());
+        all.extend(COMMUNICATION.iter().copied());
+        all.extend(LED.iter().copied());
+        all.push(addr(&locating_function::CALL_CANCEL));
+        all.push(addr(&trigger_maintenance_function::CALL_CANCEL));
+        let b = self.batch(&all);
+        Ok(DeviceReport {
+            description: description_from(&b)?,
+            status: status_from(&b)?,
+            communication: communication_from(&b)?,
+            led: led_from(&b)?,
+            locating: b.get(locating_function::CALL_CANCEL)?.unwrap_or(0) != 0,
+            maintenance: b.get(trigger_maintenance_function::CALL_CANCEL)?.unwrap_or(0) != 0,
+        })
+    }
+
+    /// Reads the whole device description (0x2000) and device status (0x2004) in one call:
+    /// all SDO reads are submitted together, then awaited.
+    pub fn read_description_and_status(
+        &self,
+    ) -> Result<(DeviceDescription, DeviceStatus), Error> {
+        let mut all: Vec<Addr> = DESCRIPTION.to_vec();
+        all.extend(STATUS.iter().copied());
+        let b = self.batch(&all);
+        Ok((description_from(&b)?, status_from(&b)?))
+    }
+
+    /// Reads 0x2000.
+    pub fn read_description(&self) -> Result<DeviceDescription, Error> {
+        description_from(&self.batch(&DESCRIPTION))
+    }
+
+    /// Reads 0x2004.
+    pub fn read_status(&self) -> Result<DeviceStatus, Error> {
+        status_from(&self.batch(&STATUS))
+    }
+
+    /// Reads 0x2001.
+    pub fn read_communication(&self) -> Result<DeviceCommunication, Error> {
+        communication_from(&self.batch(&COMMUNICATION))
+    }
+
+    /// Reads the NAMUR NE 107 status (0x2004 sub 1).
+    pub fn ne107(&self) -> Result<Ne107Status, Error> {
+        self.read(st::DEVICE_STATUS_NAMUR_NE107)
+            .map(Ne107Status::from_raw)
+    }
+
+    /// Reads 0x2120..=0x2122.
+    pub fn read_led_config(&self) -> Result<LedConfig, Error> {
+        led_from(&self.batch(&LED))
+    }
+
+    /// Writes the LED mode (0x2120).
+    pub fn set_led_mode(&self, mode: LedMode) -> Result<(), Error> {
+        self.write(objects::LED_MODE, &mode.to_u32())
+    }
+
+    /// Writes the valve-mode colours (0x2121 sub 1..=3).
+    pub fn set_valve_colours(&self, colours: &ValveModeColours) -> Result<(), Error> {
+        self.write(valve::COLOUR_POSITION_CLOSED, &colours.closed.to_u32())?;
+        self.write(valve::COLOUR_POSITION_BETWEEN, &colours.between.to_u32())?;
+        self.write(valve::COLOUR_POSITION_OPEN, &colours.open.to_u32())
+    }
+
+    /// Writes the external (fixed-mode) colour (0x2122).
+    pub fn set_external_colour(&self, colour: LedColour) -> Result<(), Error> {
+        self.write(objects::LED_EXTERN_COLOUR, &colour.to_u32())
+    }
+
+    /// Starts the locating function (0x2101 sub 1 = 1; the LED flashes for about 10 s). The
+    /// manual requires the object to be set back to 0 before a new start, so a 1 still standing
+    /// from an earlier locate is first overwritten with 0.
+    pub fn start_locating(&self) -> Result<(), Error> {
+        if self.read(locating_function::CALL_CANCEL)? != 0 {
+            self.write(locating_function::CALL_CANCEL, &0)?;
+        }
+        self.write(locating_function::CALL_CANCEL, &1)
+    }
+
+    /// Cancels the locating function (0x2101 sub 1 = 0).
+    pub fn stop_locating(&self) -> Result<(), Error> {
+        self.write(locating_function::CALL_CANCEL, &0)
+    }
+
+    /// Whether 0x2101 sub 1 reads 1.
+    pub fn locating(&self) -> Result<bool, Error> {
+        Ok(self.read(locating_function::CALL_CANCEL)? != 0)
+    }
+
+    /// Puts the device into (`true`) or out of the maintenance state (0x210A sub 1). In the
+    /// maintenance state the NE 107 status is "maintenance required" (LED blue) unless an event
+    /// of higher priority is active.
+    pub fn set_maintenance(&self, on: bool) -> Result<(), Error> {
+        self.write(trigger_maintenance_function::CALL_CANCEL, &u8::from(on))
+    }
+
+    /// Whether 0x210A sub 1 reads 1.
+    pub fn maintenance(&self) -> Result<bool, Error> {
+        Ok(self.read(trigger_maintenance_function::CALL_CANCEL)? != 0)
+    }
+
+    /// Uploads the logbook (0x2003 sub 4, a DOMAIN holding an XML document) into `out`, by
+    /// block transfer when `block` is set (segmented otherwise), calling `progress` as it goes.
+    /// Returns the byte count.
+    pub fn download_logbook(
+        &self,
+        out: impl Write + Send + 'static,
+        block: bool,
+        progress: impl FnMut(TransferProgress) + Send + 'static,
+    ) -> Result<u64, Error> {
+        let e = objects::error_management_object::LOGBOOK_DOWNLOAD;
+        self.node
+            .sdo()
+            .block(block)
+            .on_progress(progress)
+            .upload_to(addr(&e), out)
+    }
+
+    /// Uploads the logbook into memory (see [`download_logbook`](Self::download_logbook)).
+    pub fn read_logbook(
+        &self,
+        block: bool,
+        progress: impl FnMut(TransferProgress) + Send + 'static,
+    ) -> Result<Vec<u8>, Error> {
+        let e = objects::error_management_object::LOGBOOK_DOWNLOAD;
+        self.node
+            .sdo()
+            .block(block)
+            .on_progress(progress)
+            .read(addr(&e))
+    }
+
+    /// Stores a new node-ID in 0x2001 sub 2. It takes effect at the next communication or
+    /// device reset ([`reset`](Self::reset)). LSS (CiA 305) is the alternative that does not
+    /// need the current node-ID.
+    pub fn set_node_id(&self, id: NodeId) -> Result<(), Error> {
+        self.write(comm::ADDRESS, &id.get())
+    }
+
+    /// Stores a new bit rate in 0x2001 sub 1 (effective after a reset; every node on the bus
+    /// must change too). Bit rates Bürkert does not offer (800k, 100k) are refused locally.
+    /// LSS configure/activate bit timing (CiA 305) is the alternative.
+    pub fn set_bit_rate(&self, rate: BitRate) -> Result<(), Error> {
+        if !rate.offered_by_burkert() {
+            return Err(undefined(
+                self.id(),
+                addr(&comm::BAUDRATE),
+                format_args!("{rate} is not offered by Bürkert devices"),
+            ));
+        }
+        self.write(comm::BAUDRATE, &rate.code())
+    }
+
+    /// Requests a reset through 0x2001 sub 4 (1 communication, 2 device). A device may restart
+    /// before it confirms the write, so an SDO timeout on this write counts as success.
+    pub fn reset(&self, kind: ResetCommand) -> Result<(), Error> {
+        match self.write(comm::RESET, &kind.to_u8()) {
+            Err(Error::Sdo(e))
+                if kind != ResetCommand::None
+                    && e.kind == SdoErrorKind::Transfer(ErrorKind::Timeout) =>
+            {
+                Ok(())
+            }
+            r => r,
+        }
+    }
+
+    /// Stores `id` in 0x2001 sub 2 and resets communication, then returns the view of the node
+    /// under its new ID (added to the network with this node's dictionary). Wait for its
+    /// boot-up (heartbeat event) before relying on it when the device is slow to restart.
+    pub fn change_node_id(&self, id: NodeId) -> Result<BurkertNode, Error> {
+        self.set_node_id(id)?;
+        self.reset(ResetCommand::Communication)?;
+        let net = self.node.network();
+        let node = match self.node.dictionary() {
+            Some(od) => net.add_node_with_dictionary(id, (*od).clone()),
+            None => net.add_node(id),
+        };
+        Ok(BurkertNode::new(node))
+    }
+
+    /// The node's dictionary, or the generic Bürkert EDS when the node was added without one.
+    fn dictionary(&self) -> Arc<ObjectDictionary> {
+        self.node.dictionary().unwrap_or_else(|| generic_od().clone())
+    }
+
+    fn value_entry(
+        &self,
+        od: &ObjectDictionary,
+        base: u16,
+        number: u8,
+    ) -> Result<(MappingEntry, DataType), Error> {
+        let index = base + u16::from(number);
+        let a = Addr::new(index, SUB_VALUE);
+        if number >= VALUES_PER_KIND {
+            return Err(undefined(
+                self.id(),
+                a,
+                format_args!("value number {number} is outside 0..=63"),
+            ));
+        }
+        let sub = od.sub(index, SUB_VALUE).ok_or_else(|| {
+            undefined(self.id(), a, "the node's dictionary does not describe this object")
+        })?;
+        let bits = sub.data_type.size().unwrap_or(0) * 8;
+        if bits == 0 || bits > 64 {
+            return Err(undefined(
+                self.id(),
+                a,
+                format_args!("{} cannot be mapped into a PDO", sub.data_type),
+            ));
+        }
+        Ok((
+            MappingEntry::new(index, SUB_VALUE, bits as u8),
+            sub.data_type,
+        ))
+    }
+
+    fn remap(
+        &self,
+        direction: Direction,
+        number: u8,
+        base: u16,
+        values: &[u8],
+        comm: Option<CommParams>,
+    ) -> Result<(Mapping, u32), Error> {
+        let id = self.id();
+        let (comm_base, fc) = match direction {
+            Direction::Receive => (0x1400u16, 0x200u16),
+            Direction::Transmit => (0x1800u16, 0x180u16),
+        };
+        if !(1..=4).contains(&number) {
+            return Err(undefined(
+                id,
+                Addr::new(comm_base, 1),
+                format_args!("PDO number {number} is outside 1..=4 (predefined connection set)"),
+            ));
+        }
+        let n = u16::from(number) - 1;
+        let od = self.dictionary();
+        let mut raw = Vec::with_capacity(values.len());
+        for &v in values {
+            raw.push(self.value_entry(&od, base, v)?.0 .0);
+        }
+        let mapping = Mapping::from_raw_checked(direction, &raw, &OdCatalog(&od))
+            .map_err(|e| undefined(id, Addr::new(direction.mapping_index(n), 0), e))?;
+        let comm_index = direction.comm_index(n);
+        let comm = comm.unwrap_or_else(|| {
+            let cob = fc + 0x100 * n + u16::from(id.get());
+            match direction {
+                // The manual's defaults: event-driven (0xFE), inhibit 500 ms, event timer 1 s.
+                Direction::Transmit => CommParams::event_driven(cob)
+                    .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer)
+                    .with_inhibit_time(5000)
+                    .with_event_timer(1000),
+                Direction::Receive => CommParams::event_driven(cob)
+                    .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer),
+            }
+        });
+        let map_index = direction.mapping_index(n);
+        let remote = RemoteObjects {
+            mapping_writable: od
+                .sub(map_index, 0)
+                .is_some_and(|s| s.access.is_writable()),
+            current_mapping: None,
+            has_inhibit_time: od.sub(comm_index, 3).is_some(),
+            has_event_timer: od.sub(comm_index, 5).is_some(),
+            has_sync_start: od.sub(comm_index, 6).is_some(),
+        };
+        let steps = canopen_pdo::remap(direction, n, &comm, &mapping, &remote)
+            .map_err(|e| undefined(id, Addr::new(map_index, 0), e))?;
+        for w in &steps {
+            self.node
+                .sdo()
+                .write(Addr::new(w.index, w.subindex), w.value())?;
+        }
+        Ok((mapping, comm.cob_id.0))
+    }
+
+    /// Maps sensor values (`0x2500 + s`, sub 1, for each `s` in `sensors`) into TPDO `number`
+    /// (1..=4) with the CiA 301 remote-configuration sequence, using `comm` or, when `None`,
+    /// the manual's defaults (COB-ID 0x180 + 0x100·(n−1) + node-ID, type 0xFE, inhibit time
+    /// 500 ms, event timer 1 s). The device sends the TPDO while Operational; decode received
+    /// PDOs with [`SensorTpdo::from_event`].
+    pub fn map_sensor_values_to_tpdo(
+        &self,
+        number: u8,
+        sensors: &[u8],
+        comm: Option<CommParams>,
+    ) -> Result<SensorTpdo, Error> {
+        let (mapping, cob_id) = self.remap(
+            Direction::Transmit,
+            number,
+            SENSOR_VALUE_BASE,
+            sensors,
+            comm,
+        )?;
+        Ok(SensorTpdo {
+            node: self.id(),
+            number,
+            sensors: sensors.to_vec(),
+            mapping,
+            cob_id,
+        })
+    }
+
+    /// Maps control values (`0x2540 + c`, sub 1) into RPDO `number` (1..=4), as
+    /// [`map_sensor_values_to_tpdo`](Self::map_sensor_values_to_tpdo) does for sensors
+    /// (default COB-ID 0x200 + 0x100·(n−1) + node-ID, type 0xFE). Send values with
+    /// [`send_control_values`](Self::send_control_values).
+    pub fn map_control_values_to_rpdo(
+        &self,
+        number: u8,
+        controls: &[u8],
+        comm: Option<CommParams>,
+    ) -> Result<ControlRpdo, Error> {
+        let (mapping, cob_id) = self.remap(
+            Direction::Receive,
+            number,
+            CONTROL_VALUE_BASE,
+            controls,
+            comm,
+        )?;
+        Ok(ControlRpdo {
+            node: self.id(),
+            number,
+            controls: controls.to_vec(),
+            mapping,
+            cob_id,
+        })
+    }
+
+    /// Sends one RPDO with a value per control (typed as the mapping says, e.g.
+    /// [`PdoValue::Real32`] for the generic device). The device applies it while Operational.
+    pub fn send_control_values(&self, rpdo: &ControlRpdo, values: &[PdoValue]) -> Result<(), Error> {
+        let frame = rpdo.encode(values)?;
+        self.node.network().send(frame)
+    }
+
+    /// Reads sensor value `sensor` (0x2500 + sensor, sub 1) by SDO, typed by the dictionary.
+    pub fn read_sensor_value(&self, sensor: u8) -> Result<canopen_od::Value, Error> {
+        self.read_value(SENSOR_VALUE_BASE, sensor)
+    }
+
+    /// Reads control value `control` (0x2540 + control, sub 1) by SDO, typed by the dictionary.
+    pub fn read_control_value(&self, control: u8) -> Result<canopen_od::Value, Error> {
+        self.read_value(CONTROL_VALUE_BASE, control)
+    }
+
+    fn read_value(&self, base: u16, number: u8) -> Result<canopen_od::Value, Error> {
+        let od = self.dictionary();
+        let (e, dt) = self.value_entry(&od, base, number)?;
+        let a = Addr::new(e.index(), SUB_VALUE);
+        let bytes = self.node.sdo().read(a)?;
+        canopen_od::Value::from_le_bytes(dt, &bytes).map_err(|err| undefined(self.id(), a, err))
+    }
+}
+
+/// The generic Bürkert dictionary (eds/burkert-generic.eds), parsed once.
+pub fn generic_od() -> &'static Arc<ObjectDictionary> {
+    static OD: std::sync::OnceLock<Arc<ObjectDictionary>> = std::sync::OnceLock::new();
+    OD.get_or_init(|| {
+        Arc::new(
+            canopen_od::parse(crate::GENERIC_EDS.as_bytes())
+                .map(|p| p.od)
+                .unwrap_or_default(),
+        )
+    })
+}
+
+const DESCRIPTION: [Addr; 9] = [
+    addr(&desc::DEVICE_NAME),
+    addr(&desc::IDENT_NUMBER),
+    addr(&desc::MANUFACTURE_DATE),
+    addr(&desc::SOFTWARE_IDENT_NUMBER),
+    addr(&desc::SOFTWARE_VERSION),
+    addr(&desc::HARDWARE_VERSION),
+    addr(&desc::SERIAL_NUMBER),
+    addr(&desc::PRODUCT_CODE),
+    addr(&desc::PRODUCT_GROUP),
+];
+
+const STATUS: [Addr; 17] = [
+    addr(&st::DEVICE_STATUS_NAMUR_NE107),
+    addr(&st::DEVICE_TEMPERATURE),
+    addr(&st::DEVICE_SUPPLY_VOLTAGE),
+    addr(&st::OPERATION_TIME_S),
+    addr(&st::MAXIMUM_DEVICE_TEMPERATURE),
+    addr(&st::MINIMUM_DEVICE_TEMPERATURE),
+    addr(&st::MAXIMUM_DEVICE_VOLTAGE),
+    addr(&st::MINIMUM_DEVICE_VOLTAGE),
+    addr(&st::DEVICE_CURRENT),
+    addr(&st::MAXIMUM_DEVICE_CURRENT),
+    addr(&st::MINIMUM_DEVICE_CURRENT),
+    addr(&st::DEVICE_BOOT_COUNTER),
+    addr(&st::TRANS_MEM_STATUS),
+    addr(&st::BATTERY_VOLTAGE),
+    addr(&st::VOLTAGE_DROP_COUNTER),
+    addr(&st::OPERATION_TIME_SINCE_LAST_BOOT),
+    addr(&st::ACTUATOR_SUPPLY_VOLTAGE),
+];
+
+const COMMUNICATION: [Addr; 11] = [
+    addr(&comm::BAUDRATE),
+    addr(&comm::ADDRESS),
+    addr(&comm::B_US_MODE),
+    addr(&comm::B_US_VERSION),
+    addr(&comm::RX_ERROR_COUNT),
+    addr(&comm::RX_ERROR_COUNT_MAX),
+    addr(&comm::TX_ERROR_COUNT),
+    addr(&comm::TX_ERROR_COUNT_MAX),
+    addr(&comm::CAN_OPERATION_STATUS),
+    addr(&comm::TERMINATION_RESISTOR),
+    addr(&comm::EDS_VERSION),
+];
+
+const LED: [Addr; 5] = [
+    addr(&objects::LED_MODE),
+    addr(&valve::COLOUR_POSITION_CLOSED),
+    addr(&valve::COLOUR_POSITION_BETWEEN),
+    addr(&valve::COLOUR_POSITION_OPEN),
+    addr(&objects::LED_EXTERN_COLOUR),
+];
+
+fn description_from(b: &Batch) -> Result<DeviceDescription, Error> {
+    Ok(DeviceDescription {
+        device_name: b.get(desc::DEVICE_NAME)?,
+        ident_number: b.get(desc::IDENT_NUMBER)?,
+        manufacture_date: b.get(desc::MANUFACTURE_DATE)?,
+        software_ident_number: b.get(desc::SOFTWARE_IDENT_NUMBER)?,
+        software_version: b.get(desc::SOFTWARE_VERSION)?,
+        hardware_version: b.get(desc::HARDWARE_VERSION)?,
+        serial_number: b.get(desc::SERIAL_NUMBER)?,
+        product_code: b.get(desc::PRODUCT_CODE)?,
+        product_group: b.get(desc::PRODUCT_GROUP)?,
+    })
+}
+
+fn status_from(b: &Batch) -> Result<DeviceStatus, Error> {
+    Ok(DeviceStatus {
+        ne107: b
+            .get(st::DEVICE_STATUS_NAMUR_NE107)?
+            .map(Ne107Status::from_raw),
+        temperature: b.get(st::DEVICE_TEMPERATURE)?.map(Kelvin),
+        supply_voltage: b.get(st::DEVICE_SUPPLY_VOLTAGE)?,
+        operation_time_s: b.get(st::OPERATION_TIME_S)?,
+        max_temperature_k: b.get(st::MAXIMUM_DEVICE_TEMPERATURE)?,
+        min_temperature_k: b.get(st::MINIMUM_DEVICE_TEMPERATURE)?,
+        max_voltage: b.get(st::MAXIMUM_DEVICE_VOLTAGE)?,
+        min_voltage: b.get(st::MINIMUM_DEVICE_VOLTAGE)?,
+        current: b.get(st::DEVICE_CURRENT)?,
+        max_current: b.get(st::MAXIMUM_DEVICE_CURRENT)?,
+        min_current: b.get(st::MINIMUM_DEVICE_CURRENT)?,
+        boot_counter: b.get(st::DEVICE_BOOT_COUNTER)?,
+        trans_mem: b.get(st::TRANS_MEM_STATUS)?.map(TransMemStatus::from_u8),
+        battery_voltage: b.get(st::BATTERY_VOLTAGE)?,
+        voltage_drop_counter: b.get(st::VOLTAGE_DROP_COUNTER)?,
+        time_since_boot_s: b.get(st::OPERATION_TIME_SINCE_LAST_BOOT)?,
+        actuator_voltage: b.get(st::ACTUATOR_SUPPLY_VOLTAGE)?,
+    })
+}
+
+fn typed<T, E: core::fmt::Display>(
+    node: NodeId,
+    e: Addr,
+    v: Option<u8>,
+    f: impl FnOnce(u8) -> Result<T, E>,
+) -> Result<Option<T>, Error> {
+    v.map(f).transpose().map_err(|err| undefined(node, e, err))
+}
+
+fn communication_from(b: &Batch) -> Result<DeviceCommunication, Error> {
+    let n = b.node;
+    Ok(DeviceCommunication {
+        bit_rate: typed(
+            n,
+            addr(&comm::BAUDRATE),
+            b.get(comm::BAUDRATE)?,
+            BitRate::from_code,
+        )?,
+        address: b.get(comm::ADDRESS)?,
+        bus_mode: typed(
+            n,
+            addr(&comm::B_US_MODE),
+            b.get(comm::B_US_MODE)?,
+            BusMode::from_u8,
+        )?,
+        bus_version: b.get(comm::B_US_VERSION)?,
+        rx_error_count: b.get(comm::RX_ERROR_COUNT)?,
+        rx_error_count_max: b.get(comm::RX_ERROR_COUNT_MAX)?,
+        tx_error_count: b.get(comm::TX_ERROR_COUNT)?,
+        tx_error_count_max: b.get(comm::TX_ERROR_COUNT_MAX)?,
+        can_operation_status: b
+            .get(comm::CAN_OPERATION_STATUS)?
+            .map(CanOperationStatus::from_u8),
+        termination: typed(
+            n,
+            addr(&comm::TERMINATION_RESISTOR),
+            b.get(comm::TERMINATION_RESISTOR)?,
+            Termination::from_u8,
+        )?,
+        eds_version: b.get(comm::EDS_VERSION)?.map(EdsVersion::from_u8),
+    })
+}
+
+fn colour(b: &Batch, e: Entry<u32>, default: LedColour) -> Result<LedColour, Error> {
+    match b.get(e)? {
+        None => Ok(default),
+        Some(raw) => LedColour::from_u32(raw).map_err(|err| undefined(b.node, addr(&e), err)),
+    }
+}
+
+fn led_from(b: &Batch) -> Result<LedConfig, Error> {
+    let d = ValveModeColours::default();
+    let mode = match b.get(objects::LED_MODE)? {
+        None => LedMode::default(),
+        Some(raw) => {
+            LedMode::from_u32(raw).map_err(|err| undefined(b.node, addr(&objects::LED_MODE), err))?
+        }
+    };
+    Ok(LedConfig {
+        mode,
+        valve: ValveModeColours {
+            closed: colour(b, valve::COLOUR_POSITION_CLOSED, d.closed)?,
+            between: colour(b, valve::COLOUR_POSITION_BETWEEN, d.between)?,
+            open: colour(b, valve::COLOUR_POSITION_OPEN, d.open)?,
+        },
+        external: colour(
+            b,
+            objects::LED_EXTERN_COLOUR,
+            crate::colour::PredefinedColour::White.into(),
+        )?,
+    })
+}
