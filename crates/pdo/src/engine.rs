@@ -178,6 +178,9 @@ pub enum EngineError {
     /// No such PDO in this engine.
     #[error("no such PDO")]
     UnknownPdo,
+    /// The PDO's COB-ID is marked invalid (bit 31): it does not exist on the bus.
+    #[error("the PDO's COB-ID is not valid")]
+    NotValid,
 }
 
 /// Matching key of a CAN identifier: the raw value, bit 31 set for 29-bit identifiers.
@@ -733,8 +736,8 @@ impl<const RX: usize, const TX: usize> Engine<RX, TX> {
     /// devices' TPDOs of type 252/253 with RTR allowed).
     pub fn request(&mut self, id: RpdoId) -> Result<(), EngineError> {
         let rx = self.rx.get(id.index()).ok_or(EngineError::UnknownPdo)?;
-        let Some(can_id) = rx.can_id else {
-            return Err(EngineError::UnknownPdo);
+        let Some(can_id) = rx.can_id.filter(|_| rx.config.comm.cob_id.is_valid()) else {
+            return Err(EngineError::NotValid);
         };
         if let Ok(frame) = CanFrame::remote(can_id, rx.config.mapping.byte_len()) {
             push_frame(&mut self.transmit, &mut self.lost_frames, frame);

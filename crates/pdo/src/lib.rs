@@ -5,7 +5,7 @@
 //!   type, inhibit time, event timer, SYNC start value.
 //! - [`mapping`] — mapping parameters (0x1600.., 0x1A00..): up to 64 entries and 64 bits,
 //!   dummy entries, validation against an object dictionary through [`Catalog`].
-//! - [`pack`] — bit-level [`pack`](pack::pack) and [`unpack`](pack::unpack) into typed
+//! - [`mod@pack`] — bit-level [`fn@pack`] and [`unpack`] into typed
 //!   [`Value`]s (unaligned fields, 1-bit booleans, 24/40/48/56-bit integers, sign extension).
 //! - [`engine`] — the sans-IO [`Engine`] a master and a device simulator both run: consumes
 //!   receive PDOs into an [`ObjectStore`] and produces transmit PDOs from it, by transmission
@@ -16,7 +16,8 @@
 //!
 //! The crate is `#![no_std]` and needs no allocator; tables are `heapless`. The `alloc` feature
 //! adds [`MapStore`], a `BTreeMap` object store for simulators and tests; `std` (default) implies
-//! it. The `od` feature (planned) adapts the `canopen-od` model to [`Dictionary`].
+//! it. The `od` feature adapts the `canopen-od` model (EDS/DCF) to [`Catalog`] and [`Dictionary`]
+//! (`od::OdView`).
 //!
 //! Every decoder of bus bytes here is total: frames of any length and content give a typed
 //! value, a typed error or an [`Event`], never a panic.
@@ -33,6 +34,8 @@ pub mod dictionary;
 pub mod engine;
 pub mod mapping;
 pub mod mpdo;
+#[cfg(feature = "od")]
+pub mod od;
 pub mod pack;
 pub mod remote;
 
