@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bus;
+mod cpos;
 mod demo;
 mod eds;
 
@@ -32,6 +33,8 @@ enum Command {
     /// EDS/DCF files: check, lint, show, convert to DCF, generate Rust.
     #[command(subcommand)]
     Eds(eds::EdsCommand),
+    /// GEMÜ 1436 cPos positioner: parameters, actions, error list (against a SIMULATED positioner).
+    Cpos(cpos::CposArgs),
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
     Sdo(bus::SdoCommand),
@@ -129,5 +132,6 @@ fn main() -> ExitCode {
         Command::Record { output, duration } => bus::run_record(&cli.bus, &output, duration),
         Command::Replay { file } => bus::run_replay(&cli.bus, &file, global),
         Command::Demo => demo::run(),
+        Command::Cpos(args) => cpos::run(args, global),
     }
 }

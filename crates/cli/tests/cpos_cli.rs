@@ -1,0 +1,89 @@
+//! `canopen cpos ...` run as a process against the simulated GEMÜ 1436 cPos.
+
+use std::process::{Command, Output};
+
+fn canopen(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn demo_shows_every_init_valve_phase() {
+    let out = canopen(&["cpos", "demo"]);
+    assert!(out.status.success(), "{out:?}");
+    let text = stdout(&out);
+    for phase in [
+        "determining the closed position (0x00000001)",
+        "determining the open position (0x00000002)",
+        "determining the valve control function (0x00000003)",
+        "measuring the opening and closing times (0x00000004)",
+        "measuring the valve characteristics (0x00000005)",
+        "checking the pilot valves (0x00000006)",
+        "ended: initialisation inactive",
+        "parameter adjTimeClose (0x0835) changed to 23",
+        "valve initialised: true",
+    ] {
+        assert!(text.contains(phase), "missing {phase:?} in\n{text}");
+    }
+}
+
+#[test]
+fn get_and_set_by_name_with_json() {
+    let out = canopen(&["--json", "cpos", "set", "Mode", "manual"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    assert_eq!(v["id"], 100);
+    assert_eq!(v["value"], 2);
+    assert_eq!(v["label"], "Manual");
+    let out = canopen(&["cpos", "get", "0x0834"]);
+    assert_eq!(stdout(&out).trim(), "CtrlFn (0x0834) = 0 (NC)");
+    // Range and access are checked before sending.
+    let out = canopen(&["cpos", "set", "openTight", "10"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("below the minimum 800"));
+    let out = canopen(&["cpos", "set", "Pot Min", "10"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("read-only"));
+}
+
+#[test]
+fn error_list_and_refused_actions() {
+    let out = canopen(&[
+        "--json",
+        "cpos",
+        "--raise-error",
+        "20",
+        "--raise-error",
+        "22",
+        "errors",
+    ]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    assert_eq!(v["error_list"][0]["code"], 22);
+    assert_eq!(v["error_list"][1]["name"], "PotWrongDir");
+    assert_eq!(v["active_errors"].as_array().unwrap().len(), 2);
+    let out = canopen(&["cpos", "--no-air", "action", "init-valve"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Init Valve cannot be started"));
+    let out = canopen(&["cpos", "--initialised", "action", "no-init", "open-fast"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("diagnostic 0x42"));
+    let out = canopen(&[
+        "--json",
+        "cpos",
+        "action",
+        "init-valve",
+        "--fault",
+        "22",
+        "--fault-step",
+        "3",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    let events = v["events"].as_array().unwrap();
+    assert!(events.iter().any(|e| e["value"] == 0x16FE));
+    assert!(events.iter().any(|e| e["value"] == 0x16FF));
+}
