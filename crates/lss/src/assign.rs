@@ -1,26 +1,29 @@
 //! The commissioning workflow: find every unconfigured slave, give each a node-ID, store it, and
 //! report (CiA 305 Fastscan, configure node-ID and store configuration).
 //!
-//! For each slave: one Fastscan finds its address and puts it alone into configuration state;
-//! the node-ID comes from the table keyed by LSS address if the address is listed, otherwise
-//! the lowest free node-ID of the pool; configure node-ID; store configuration (if asked);
-//! switch mode global (waiting). A slave that got a node-ID no longer answers Fastscan (on
-//! leaving configuration state it makes the node-ID active and resets its communication), so
-//! the next scan finds the next slave. The workflow ends when the bit check 0x80 stays
-//! unanswered.
+//! Two phases:
+//! 1. **Discovery**, as [`DiscoverAll`](crate::DiscoverAll): Fastscan until the bit check 0x80
+//!    stays unanswered. Each found slave waits in configuration state meanwhile, which keeps it
+//!    out of the following scans; then switch mode global (waiting) releases them all.
+//! 2. **Configuration**, slave by slave in the order found (ascending LSS address): the node-ID
+//!    comes from the table keyed by LSS address if the address is listed, otherwise the lowest
+//!    free node-ID of the pool; switch mode selective to that slave's address; configure
+//!    node-ID; store configuration (if asked); switch mode global (waiting), on which a slave
+//!    that had no node-ID makes the new one active and resets its communication.
 //!
-//! Failures are per slave where the workflow can go on and final where it cannot:
-//! - store configuration failing (rejected or silent) is recorded for that slave
-//!   ([`AssignOutcome::StoreFailed`]); the node-ID is still configured, so the workflow goes on;
-//! - configure node-ID rejected or unanswered, or no node-ID left, ends the workflow: the slave
-//!   keeps no node-ID, would be found again by the next scan, and cannot be skipped by Fastscan.
-//!   The report lists the slaves handled so far, this one with its error, and the reason in
-//!   [`AssignReport::stopped`]. A Fastscan that loses its slave ends it too.
+//! Addressing each slave selectively in phase 2 keeps failures per slave: a slave without a
+//! node-ID to give (not in the table, pool empty), one that rejects or ignores switch mode
+//! selective or configure node-ID, is recorded with its error ([`AssignOutcome::Failed`]) and
+//! stays unconfigured, and the workflow goes on with the next. Store configuration failing is
+//! recorded as [`AssignOutcome::StoreFailed`] (the node-ID is configured but not persistent).
+//! Only a Fastscan that loses its slave, or more than [`MAX_SLAVES`] slaves, ends discovery
+//! early; the slaves found until then are still configured and the reason is in
+//! [`AssignReport::stopped`].
 
 use can_frame::{Instant, NodeId};
 use heapless::Vec;
 
-use crate::address::LssAddress;
+use crate::address::{AddressPart, LssAddress};
 use crate::error::{LssError, Service};
 use crate::fastscan::{FastscanConfig, MAX_SLAVES, ScanCore, ScanStep};
 use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, timeout};
@@ -157,7 +160,7 @@ impl core::fmt::Display for AssignEntry {
 pub struct AssignReport {
     /// Every slave found, in the order found.
     pub entries: Vec<AssignEntry, MAX_SLAVES>,
-    /// Why the workflow ended before the bus had no unconfigured slave left.
+    /// Why discovery ended before the bus had no unconfigured slave left.
     pub stopped: Option<LssError>,
 }
 
@@ -178,19 +181,23 @@ impl AssignReport {
 #[derive(Debug, Clone)]
 enum Phase {
     Idle,
+    /// Discovering: slaves found so far wait in configuration state.
     Scan(ScanCore),
-    Configure(LssAddress, NodeId),
-    Store(LssAddress, NodeId),
+    /// Switch mode selective to `found[index]`.
+    Select(usize, NodeId),
+    Configure(usize, NodeId),
+    Store(usize, NodeId),
 }
 
 /// The assign-all workflow machine; see the module docs. Output: the [`AssignReport`] (also
-/// when the workflow stopped early; see [`AssignReport::stopped`]).
+/// when discovery stopped early; see [`AssignReport::stopped`]).
 #[derive(Debug, Clone)]
 pub struct AssignAll {
     config: AssignConfig,
     pool: NodeIdPool,
     ex: Exchange,
     phase: Phase,
+    found: Vec<LssAddress, MAX_SLAVES>,
     report: AssignReport,
     events: Events<AssignReport>,
     finished: bool,
@@ -204,6 +211,7 @@ impl AssignAll {
             config,
             ex: Exchange::new(),
             phase: Phase::Idle,
+            found: Vec::new(),
             report: AssignReport::default(),
             events: Events::new(),
             finished: false,
@@ -230,79 +238,123 @@ impl AssignAll {
         }
         self.ex.clear();
         self.events.clear();
+        self.found.clear();
         self.report = AssignReport::default();
         self.finished = false;
         self.phase = Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
         Ok(())
     }
 
-    fn record(&mut self, entry: AssignEntry) {
-        // At most 127 slaves can get a node-ID and the workflow stops at the first slave that
-        // cannot, so the list never overflows.
+    fn record(&mut self, index: usize, node_id: Option<NodeId>, outcome: AssignOutcome) {
+        let Some(&address) = self.found.get(index) else {
+            return;
+        };
+        let entry = AssignEntry {
+            address,
+            node_id,
+            outcome,
+        };
+        // One entry per found slave, and `found` has the same capacity.
         let _ = self.report.entries.push(entry);
         self.events.push(MasterEvent::Assigned(entry));
     }
 
-    fn finish(&mut self, stopped: Option<LssError>) {
-        if stopped.is_some() {
-            // Release a slave left in configuration state.
-            self.ex.clear();
-            self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+    /// Discovery is over (`stopped` says why, if early): release the found slaves to waiting
+    /// state and configure them one by one.
+    fn end_discovery(&mut self, now: Instant, stopped: Option<LssError>) {
+        self.report.stopped = stopped;
+        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.configure_from(now, 0);
+    }
+
+    /// Starts on `found[index]`, skipping slaves without a node-ID to give.
+    fn configure_from(&mut self, now: Instant, mut index: usize) {
+        while let Some(&address) = self.found.get(index) {
+            let listed = self
+                .config
+                .table
+                .iter()
+                .find(|(a, _)| *a == address)
+                .map(|(_, id)| *id);
+            if let Some(node_id) = listed.or_else(|| self.pool.take_lowest()) {
+                for part in [
+                    AddressPart::Vendor,
+                    AddressPart::Product,
+                    AddressPart::Revision,
+                ] {
+                    self.ex
+                        .send(Request::SwitchModeSelective(part, address.get(part)));
+                }
+                self.ex.ask(
+                    now,
+                    Request::SwitchModeSelective(AddressPart::Serial, address.serial_number),
+                    cs::SWITCH_SELECTIVE_RESPONSE,
+                    self.config.services.response_timeout,
+                    false,
+                );
+                self.phase = Phase::Select(index, node_id);
+                return;
+            }
+            self.record(index, None, AssignOutcome::Failed(LssError::NoFreeNodeId));
+            index += 1;
         }
         self.phase = Phase::Idle;
         self.finished = true;
-        self.report.stopped = stopped;
         self.events.finish(Ok(self.report.clone()));
     }
 
-    fn next_slave(&mut self, now: Instant) {
+    /// Done with `found[index]`: back to waiting state (which activates a new node-ID), then
+    /// the next slave.
+    fn next_slave(&mut self, now: Instant, index: usize) {
         self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-        self.phase = Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
-    }
-
-    fn found(&mut self, now: Instant, address: LssAddress) {
-        self.events.push(MasterEvent::Found(address));
-        let listed = self
-            .config
-            .table
-            .iter()
-            .find(|(a, _)| *a == address)
-            .map(|(_, id)| *id);
-        let Some(node_id) = listed.or_else(|| self.pool.take_lowest()) else {
-            self.record(AssignEntry {
-                address,
-                node_id: None,
-                outcome: AssignOutcome::Failed(LssError::NoFreeNodeId),
-            });
-            self.finish(Some(LssError::NoFreeNodeId));
-            return;
-        };
-        self.ex.ask(
-            now,
-            Request::ConfigureNodeId(node_id.get()),
-            cs::CONFIGURE_NODE_ID,
-            self.config.services.response_timeout,
-            false,
-        );
-        self.phase = Phase::Configure(address, node_id);
+        self.configure_from(now, index + 1);
     }
 
     fn on_reply(&mut self, now: Instant, reply: Reply) {
+        let services = self.config.services;
         match core::mem::replace(&mut self.phase, Phase::Idle) {
             Phase::Idle => {}
             Phase::Scan(mut scan) => match scan.step(&mut self.ex, now, reply) {
                 ScanStep::Continue => self.phase = Phase::Scan(scan),
-                ScanStep::Found(a) => self.found(now, a),
-                ScanStep::NoneLeft => self.finish(None),
-                ScanStep::Lost(part) => self.finish(Some(LssError::FastscanLost { part })),
+                ScanStep::Found(a) => {
+                    self.events.push(MasterEvent::Found(a));
+                    if self.found.push(a).is_err() {
+                        self.end_discovery(now, Some(LssError::TooMany(MAX_SLAVES)));
+                    } else {
+                        // The found slave waits in configuration state, out of the next scan.
+                        self.phase =
+                            Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
+                    }
+                }
+                ScanStep::NoneLeft => self.end_discovery(now, None),
+                ScanStep::Lost(part) => {
+                    self.end_discovery(now, Some(LssError::FastscanLost { part }))
+                }
             },
-            Phase::Configure(address, node_id) => {
+            Phase::Select(index, node_id) => match reply {
+                Reply::Answer(_) => {
+                    self.ex.ask(
+                        now,
+                        Request::ConfigureNodeId(node_id.get()),
+                        cs::CONFIGURE_NODE_ID,
+                        services.response_timeout,
+                        false,
+                    );
+                    self.phase = Phase::Configure(index, node_id);
+                }
+                Reply::Silence => {
+                    let e = timeout(Service::SwitchModeSelective, services.response_timeout);
+                    self.record(index, Some(node_id), AssignOutcome::Failed(e));
+                    self.next_slave(now, index);
+                }
+            },
+            Phase::Configure(index, node_id) => {
                 let service = Service::ConfigureNodeId;
                 let result = match reply {
                     Reply::Answer(Response::ConfigureNodeId(s)) => s
                         .result()
                         .map_err(|error| LssError::Rejected { service, error }),
-                    _ => Err(timeout(service, self.config.services.response_timeout)),
+                    _ => Err(timeout(service, services.response_timeout)),
                 };
                 match result {
                     Ok(()) if self.config.store => {
@@ -310,30 +362,22 @@ impl AssignAll {
                             now,
                             Request::StoreConfiguration,
                             cs::STORE_CONFIGURATION,
-                            self.config.services.store_timeout,
+                            services.store_timeout,
                             false,
                         );
-                        self.phase = Phase::Store(address, node_id);
+                        self.phase = Phase::Store(index, node_id);
                     }
                     Ok(()) => {
-                        self.record(AssignEntry {
-                            address,
-                            node_id: Some(node_id),
-                            outcome: AssignOutcome::Assigned,
-                        });
-                        self.next_slave(now);
+                        self.record(index, Some(node_id), AssignOutcome::Assigned);
+                        self.next_slave(now, index);
                     }
                     Err(e) => {
-                        self.record(AssignEntry {
-                            address,
-                            node_id: Some(node_id),
-                            outcome: AssignOutcome::Failed(e),
-                        });
-                        self.finish(Some(e));
+                        self.record(index, Some(node_id), AssignOutcome::Failed(e));
+                        self.next_slave(now, index);
                     }
                 }
             }
-            Phase::Store(address, node_id) => {
+            Phase::Store(index, node_id) => {
                 let service = Service::StoreConfiguration;
                 let outcome = match reply {
                     Reply::Answer(Response::StoreConfiguration(s)) => match s.result() {
@@ -342,17 +386,10 @@ impl AssignAll {
                             AssignOutcome::StoreFailed(LssError::Rejected { service, error })
                         }
                     },
-                    _ => AssignOutcome::StoreFailed(timeout(
-                        service,
-                        self.config.services.store_timeout,
-                    )),
+                    _ => AssignOutcome::StoreFailed(timeout(service, services.store_timeout)),
                 };
-                self.record(AssignEntry {
-                    address,
-                    node_id: Some(node_id),
-                    outcome,
-                });
-                self.next_slave(now);
+                self.record(index, Some(node_id), outcome);
+                self.next_slave(now, index);
             }
         }
     }

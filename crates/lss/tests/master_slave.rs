@@ -272,22 +272,41 @@ fn assign_all_uses_the_table_first() {
 }
 
 #[test]
-fn assign_all_stops_when_the_pool_runs_dry() {
+fn assign_all_records_slaves_left_without_a_node_id() {
     let mut rng = Rng::new(41);
-    let addrs = random_addresses(&mut rng, 3);
+    let mut addrs = random_addresses(&mut rng, 4);
+    addrs.sort();
     let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
     let mut config = AssignConfig::with_pool(NodeIdPool::range(id(5), id(6)));
     config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    // The largest address is in the table: it is configured although the pool ran dry before.
+    config.table.push((addrs[3], id(50))).unwrap();
     let mut m = AssignAll::new(config);
     m.start(bus.now).unwrap();
     let report = bus.run(&mut m).0.unwrap();
-    assert_eq!(report.stopped, Some(LssError::NoFreeNodeId));
-    assert_eq!(report.assigned().count(), 2);
-    let last = report.entries.last().unwrap();
-    assert_eq!(last.outcome, AssignOutcome::Failed(LssError::NoFreeNodeId));
-    assert_eq!(last.node_id, None);
-    // The slave without a node-ID was released to waiting state.
-    assert_eq!(bus.slave(last.address).state(), SlaveState::Waiting);
+    assert_eq!(report.stopped, None);
+    let outcomes: Vec<(LssAddress, Option<NodeId>, AssignOutcome)> = report
+        .entries
+        .iter()
+        .map(|e| (e.address, e.node_id, e.outcome))
+        .collect();
+    assert_eq!(
+        outcomes,
+        vec![
+            (addrs[0], Some(id(5)), AssignOutcome::Assigned),
+            (addrs[1], Some(id(6)), AssignOutcome::Assigned),
+            (
+                addrs[2],
+                None,
+                AssignOutcome::Failed(LssError::NoFreeNodeId)
+            ),
+            (addrs[3], Some(id(50)), AssignOutcome::Assigned),
+        ]
+    );
+    // The slave without a node-ID is back in waiting state, still unconfigured.
+    assert_eq!(bus.slave(addrs[2]).state(), SlaveState::Waiting);
+    assert!(bus.slave(addrs[2]).is_unconfigured());
+    assert_eq!(bus.slave(addrs[3]).active_node_id(), 50);
     assert!(matches!(
         bus.sent.last().unwrap().1,
         Request::SwitchModeGlobal(Mode::Waiting)
@@ -335,30 +354,88 @@ fn assign_all_records_store_failures_and_goes_on() {
 }
 
 #[test]
-fn assign_all_stops_on_a_rejected_node_id() {
-    {
-        let (ext, expect) = (Some(0x99), ResponseError::VendorSpecific(0x99));
-        let mut bus = Bus::new(Delivery::Merged);
-        let a = LssAddress::new(7, 7, 7, 7);
-        let mut c = SlaveConfig::unconfigured(a);
-        c.node_id_vendor_error = ext;
-        bus.add(c);
-        bus.add(SlaveConfig::unconfigured(LssAddress::new(8, 8, 8, 8)));
-        let mut config = AssignConfig::with_pool(NodeIdPool::all());
-        config.fastscan = fast(ResponsePolicy::FirstAnswer);
-        let mut m = AssignAll::new(config);
-        m.start(bus.now).unwrap();
-        let report = bus.run(&mut m).0.unwrap();
-        let e = LssError::Rejected {
-            service: Service::ConfigureNodeId,
-            error: expect,
-        };
-        assert_eq!(report.stopped, Some(e));
-        assert_eq!(report.entries.len(), 1);
-        assert_eq!(report.entries[0].outcome, AssignOutcome::Failed(e));
-        assert_eq!(bus.slave(a).state(), SlaveState::Waiting);
-        assert!(bus.slave(a).is_unconfigured());
-    }
+fn assign_all_goes_on_after_a_rejected_node_id() {
+    let mut bus = Bus::new(Delivery::Merged);
+    let a = LssAddress::new(7, 7, 7, 7);
+    let b = LssAddress::new(8, 8, 8, 8);
+    let mut c = SlaveConfig::unconfigured(a);
+    c.node_id_vendor_error = Some(0x99);
+    bus.add(c);
+    bus.add(SlaveConfig::unconfigured(b));
+    let mut config = AssignConfig::with_pool(NodeIdPool::all());
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    let e = LssError::Rejected {
+        service: Service::ConfigureNodeId,
+        error: ResponseError::VendorSpecific(0x99),
+    };
+    assert_eq!(report.stopped, None);
+    assert_eq!(report.entries.len(), 2);
+    assert_eq!(report.entries[0].address, a);
+    assert_eq!(report.entries[0].outcome, AssignOutcome::Failed(e));
+    assert_eq!(report.entries[1].address, b);
+    assert_eq!(report.entries[1].outcome, AssignOutcome::Assigned);
+    assert_eq!(bus.slave(a).state(), SlaveState::Waiting);
+    assert!(bus.slave(a).is_unconfigured());
+    // Node-ID 1 went to the slave that refused it; the next one got 2.
+    assert_eq!(bus.slave(b).active_node_id(), 2);
+}
+
+#[test]
+fn assign_all_records_a_silent_selective_switch() {
+    // Answers Fastscan like a slave but ignores switch mode selective.
+    let a = LssAddress::new(3, 3, 3, 3);
+    let mut bus = Bus::new(Delivery::Merged);
+    let mut inner = LssSlave::new(SlaveConfig::unconfigured(a));
+    bus.scripts.push(Box::new(move |r| {
+        inner.handle_request(Instant::ZERO, r);
+        let answer = inner.poll_transmit();
+        if matches!(r, Request::SwitchModeSelective(..)) {
+            None
+        } else {
+            answer
+        }
+    }));
+    let mut config = AssignConfig::with_pool(NodeIdPool::all());
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    assert_eq!(
+        report.entries[0].outcome,
+        AssignOutcome::Failed(LssError::Timeout {
+            service: Service::SwitchModeSelective,
+            timeout: Duration::from_millis(100)
+        })
+    );
+}
+
+#[test]
+fn assign_all_reports_a_lost_scan_and_configures_the_found() {
+    // A real slave, and a script that answers the bit check only: the first scan finds the real
+    // slave (its answers cover the script's silence), the second loses the phantom.
+    let a = LssAddress::new(1, 1, 1, 1);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    bus.scripts.push(Box::new(|r| match r {
+        Request::Fastscan {
+            bit_check: 0x80, ..
+        } => Some(Response::IdentifySlave),
+        _ => None,
+    }));
+    let mut config = AssignConfig::with_pool(NodeIdPool::all());
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    assert_eq!(
+        report.stopped,
+        Some(LssError::FastscanLost {
+            part: AddressPart::Vendor
+        })
+    );
+    assert_eq!(report.assigned().collect::<Vec<_>>(), vec![(a, id(1))]);
 }
 
 /// A scripted unconfigured slave: a real slave's Fastscan answers, but a chosen answer to
@@ -404,7 +481,8 @@ fn assign_all_configure_node_id_invalid_and_timeout() {
         let mut m = AssignAll::new(config);
         m.start(bus.now).unwrap();
         let report = bus.run(&mut m).0.unwrap();
-        assert_eq!(report.stopped, Some(expect));
+        assert_eq!(report.stopped, None);
+        assert_eq!(report.entries[0].outcome, AssignOutcome::Failed(expect));
         assert_eq!(report.entries[0].address, a);
         assert_eq!(report.entries[0].node_id, Some(id(1)));
     }
