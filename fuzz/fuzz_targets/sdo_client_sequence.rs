@@ -10,8 +10,17 @@ use libfuzzer_sys::fuzz_target;
 
 #[derive(Debug, Arbitrary)]
 enum Op {
-    Upload { index: u16, subindex: u8, method: u8 },
-    Download { index: u16, subindex: u8, method: u8, len: u16 },
+    Upload {
+        index: u16,
+        subindex: u8,
+        method: u8,
+    },
+    Download {
+        index: u16,
+        subindex: u8,
+        method: u8,
+        len: u16,
+    },
     Frame([u8; 8]),
     ShortFrame(Vec<u8>),
     Advance(u16),
@@ -51,9 +60,18 @@ fuzz_target!(|input: Input| {
     let mut running = false;
     for op in input.ops.into_iter().take(2000) {
         match op {
-            Op::Upload { index, subindex, method: m } => {
+            Op::Upload {
+                index,
+                subindex,
+                method: m,
+            } => {
                 if let Some(buf) = sink_slot.take() {
-                    match client.start_upload(now, Multiplexer::new(index, subindex), SliceSink::new(buf), method(m)) {
+                    match client.start_upload(
+                        now,
+                        Multiplexer::new(index, subindex),
+                        SliceSink::new(buf),
+                        method(m),
+                    ) {
                         Ok(()) => {
                             assert!(!running);
                             running = true;
@@ -65,9 +83,15 @@ fuzz_target!(|input: Input| {
                     }
                 }
             }
-            Op::Download { index, subindex, method: m, len } => {
+            Op::Download {
+                index,
+                subindex,
+                method: m,
+                len,
+            } => {
                 let data = &SOURCE[..usize::from(len) % SOURCE.len()];
-                match client.start_download(now, Multiplexer::new(index, subindex), data, method(m)) {
+                match client.start_download(now, Multiplexer::new(index, subindex), data, method(m))
+                {
                     Ok(()) => {
                         assert!(!running);
                         running = true;
@@ -109,7 +133,10 @@ fuzz_target!(|input: Input| {
                     assert_eq!(sink.len(), len as usize);
                     sink_slot = Some(sink.into_inner().0);
                 }
-                Event::Failed { buffer: canopen_sdo::Buffer::Sink(sink), error } => {
+                Event::Failed {
+                    buffer: canopen_sdo::Buffer::Sink(sink),
+                    error,
+                } => {
                     let _ = error.to_string();
                     sink_slot = Some(sink.into_inner().0);
                 }

@@ -5,9 +5,7 @@
 
 use arbitrary::Arbitrary;
 use can_frame::{Duration, Instant};
-use canopen_sdo::{
-    AbortCode, Access, Multiplexer, ObjectAccess, ObjectInfo, Server, ServerConfig,
-};
+use canopen_sdo::{AbortCode, Access, Multiplexer, ObjectAccess, ObjectInfo, Server, ServerConfig};
 use libfuzzer_sys::fuzz_target;
 
 #[derive(Debug, Arbitrary)]
@@ -43,7 +41,11 @@ impl ObjectAccess for Od {
         self.staged = 0;
         self.writing = None;
         match mux.subindex {
-            0 => Ok(ObjectInfo::variable(Access::ReadWrite, self.domain_len, 2048)),
+            0 => Ok(ObjectInfo::variable(
+                Access::ReadWrite,
+                self.domain_len,
+                2048,
+            )),
             1 => Ok(ObjectInfo::fixed(Access::ReadWrite, 4)),
             2 => Ok(ObjectInfo::fixed(Access::Const, 2)),
             3 => Ok(ObjectInfo::fixed(Access::WriteOnly, 1)),
