@@ -3,7 +3,10 @@ device side of canopen_sdo_check.py (and of interop tests that need an independe
 server). Boots (boot-up message, then heartbeats per 0x1017), prints READY and serves until its
 standard input closes or says `quit`.
 
-usage: canopen_server.py [NODE_ID] [EDS]"""
+With --tpdo-ms N it also sends TPDO1 (configured from the EDS: 0x1800/0x1A00, 0x2000 mapped)
+every N ms; an SDO write to 0x2000 changes the value the following PDOs carry.
+
+usage: canopen_server.py [--tpdo-ms N] [NODE_ID] [EDS]"""
 
 import os
 import sys
@@ -13,9 +16,29 @@ import canopen
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+def start_tpdo1(node, period_ms):
+    node.tpdo.read(from_od=True)
+    tpdo = node.tpdo[1]
+    var = tpdo[0]
+    var.raw = node.sdo[var.index][var.subindex].raw if var.subindex else node.sdo[var.index].raw
+
+    def on_write(index, subindex, od, data):
+        if index == var.index and subindex == var.subindex:
+            var.set_data(data)
+            tpdo.update()
+
+    node.add_write_callback(on_write)
+    tpdo.start(period_ms / 1000.0)
+
+
 def main():
-    node_id = int(sys.argv[1], 0) if len(sys.argv) > 1 else 0x22
-    eds = sys.argv[2] if len(sys.argv) > 2 else os.path.join(HERE, "test-device.eds")
+    args = sys.argv[1:]
+    tpdo_ms = 0
+    if args[:1] == ["--tpdo-ms"]:
+        tpdo_ms = int(args[1])
+        args = args[2:]
+    node_id = int(args[0], 0) if len(args) > 0 else 0x22
+    eds = args[1] if len(args) > 1 else os.path.join(HERE, "test-device.eds")
     channel = os.environ.get("CANOPEN_VCAN_IFACE", "vcan0")
     network = canopen.Network()
     network.connect(interface="socketcan", channel=channel)
@@ -25,6 +48,8 @@ def main():
         # INITIALISING sends the boot-up message; PRE-OPERATIONAL starts the heartbeat (0x1017).
         node.nmt.state = "INITIALISING"
         node.nmt.state = "PRE-OPERATIONAL"
+        if tpdo_ms:
+            start_tpdo1(node, tpdo_ms)
         print(f"READY node {node_id} on {channel}", flush=True)
         for line in sys.stdin:
             if line.strip() == "quit":

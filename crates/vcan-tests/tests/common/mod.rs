@@ -1,0 +1,144 @@
+//! Shared by the master's real-bus tests: the simulator on its own SocketCAN socket in a thread,
+//! and the test EDS.
+
+#![allow(dead_code, unreachable_pub)]
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+
+use can_frame::NodeId;
+use canopen::socketcan::SocketCan;
+use canopen::{SimDevice, run_station};
+
+/// The rig's test EDS (`tests/vcan/test-device.eds`).
+pub const EDS: &[u8] = include_bytes!("../../../../tests/vcan/test-device.eds");
+
+/// Path of a file under `tests/vcan/` of the repository.
+pub fn rig_file(name: &str) -> String {
+    format!("{}/../../tests/vcan/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn node(id: u8) -> NodeId {
+    NodeId::new(id).expect("node-ID 1..=127")
+}
+
+/// A simulated device from [`EDS`].
+pub fn device(id: u8) -> SimDevice {
+    SimDevice::from_eds(node(id), EDS).expect("the test EDS parses")
+}
+
+/// A [`SimDevice`] served on its own socket by a thread until stopped.
+pub struct RunningSim {
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<SimDevice>>,
+}
+
+impl RunningSim {
+    /// Starts serving `dev` on the rig's interface (boot-up message first).
+    pub fn start(mut dev: SimDevice) -> Self {
+        let mut transport =
+            SocketCan::open(&vcan_tests::interface()).expect("open the simulator's socket");
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let thread = std::thread::spawn(move || {
+            run_station(&mut transport, &mut dev, || flag.load(Ordering::Relaxed))
+                .expect("the simulator's transport failed");
+            dev
+        });
+        Self {
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    /// Stops serving (the device goes silent) and returns the device with its state.
+    pub fn stop(mut self) -> SimDevice {
+        self.stop.store(true, Ordering::Relaxed);
+        self.thread
+            .take()
+            .expect("running")
+            .join()
+            .expect("simulator thread")
+    }
+}
+
+impl Drop for RunningSim {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// python-canopen's LocalNode (`tests/vcan/canopen_server.py`) in a child process, serving the
+/// test EDS. Needs `CANOPEN_PYTHON` (run-all sets it to the project's venv python).
+pub struct PythonDevice {
+    child: std::process::Child,
+}
+
+impl PythonDevice {
+    /// Starts the LocalNode with `args` (e.g. `["--tpdo-ms", "100", "0x43"]`) and waits until it
+    /// serves (its READY line; Python under TCG needs several seconds to import canopen).
+    pub fn start(args: &[&str]) -> Self {
+        use std::io::BufRead;
+        use std::process::{Command, Stdio};
+
+        let python = std::env::var("CANOPEN_PYTHON").expect(
+            "CANOPEN_PYTHON must name a python with python-canopen (tests/vcan/run-all sets it)",
+        );
+        let mut child = Command::new(&python)
+            .arg("-u")
+            .arg(rig_file("canopen_server.py"))
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("start {python}: {e}"));
+        let stdout = child.stdout.take().expect("piped stdout");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                eprintln!("python-canopen: {line}");
+                if line.starts_with("READY") {
+                    let _ = tx.send(());
+                }
+            }
+        });
+        let mut device = Self { child };
+        if rx
+            .recv_timeout(std::time::Duration::from_secs(180))
+            .is_err()
+        {
+            let status = device.child.try_wait();
+            panic!("the python-canopen LocalNode did not get ready (process: {status:?})");
+        }
+        device
+    }
+
+    /// Asks the process to quit and returns its exit status.
+    pub fn stop(mut self) -> std::process::ExitStatus {
+        self.quit()
+    }
+
+    fn quit(&mut self) -> std::process::ExitStatus {
+        use std::io::Write;
+        if let Some(mut stdin) = self.child.stdin.take() {
+            let _ = stdin.write_all(b"quit\n");
+        }
+        self.child
+            .wait()
+            .expect("wait for the python-canopen process")
+    }
+}
+
+impl Drop for PythonDevice {
+    fn drop(&mut self) {
+        if self.child.stdin.is_some() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
