@@ -17,7 +17,7 @@ use canopen_od::{DataType, ObjectDictionary, Value};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
-use crate::{outln, Global};
+use crate::{Global, outln};
 
 /// Options of the bus commands.
 #[derive(Debug, Clone, Args)]
@@ -27,8 +27,8 @@ pub(crate) struct BusOpts {
     iface: Option<String>,
     /// Object dictionary of a node, NODE=FILE (repeatable). On the in-memory bus the node is
     /// also simulated from that file.
-    #[arg(long = "eds", value_name = "NODE=FILE", global = true)]
-    eds: Vec<String>,
+    #[arg(id = "node_eds", long = "eds", value_name = "NODE=FILE", global = true)]
+    node_eds: Vec<String>,
 }
 
 fn parse_u16(s: &str) -> Result<u16, String> {
@@ -196,14 +196,14 @@ fn load_eds(spec: &str) -> Result<(NodeId, ObjectDictionary), String> {
 
 fn open(opts: &BusOpts) -> Result<Bus, String> {
     let dictionaries = opts
-        .eds
+        .node_eds
         .iter()
         .map(|s| load_eds(s))
         .collect::<Result<Vec<_>, _>>()?;
     match &opts.iface {
         Some(iface) => {
-            let t = canopen::socketcan::SocketCan::open(iface)
-                .map_err(|e| format!("{iface}: {e}"))?;
+            let t =
+                canopen::socketcan::SocketCan::open(iface).map_err(|e| format!("{iface}: {e}"))?;
             Ok(Bus {
                 transport: Box::new(t),
                 memory: None,
@@ -212,11 +212,13 @@ fn open(opts: &BusOpts) -> Result<Bus, String> {
         }
         None => {
             let bus = MemoryBus::new();
+            // The master's endpoint first, so it sees the devices' boot-up messages.
+            let endpoint = bus.endpoint();
             for (node, od) in &dictionaries {
                 bus.attach(SimDevice::new(*node, od.clone()));
             }
             Ok(Bus {
-                transport: Box::new(bus.endpoint()),
+                transport: Box::new(endpoint),
                 memory: Some(bus),
                 dictionaries,
             })
@@ -417,7 +419,10 @@ pub(crate) fn run_sdo(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
             match net.node(node).sdo().block(block).write(entry, bytes) {
                 Ok(()) => {
                     if g.json {
-                        outln(&json!({"node": node.get(), "index": index, "sub": sub, "ok": true}).to_string());
+                        outln(
+                            &json!({"node": node.get(), "index": index, "sub": sub, "ok": true})
+                                .to_string(),
+                        );
                     }
                     ExitCode::SUCCESS
                 }
@@ -446,7 +451,10 @@ pub(crate) fn run_sdo(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
             match r {
                 Ok(n) => {
                     if g.json {
-                        outln(&json!({"node": node.get(), "index": index, "sub": sub, "bytes": n}).to_string());
+                        outln(
+                            &json!({"node": node.get(), "index": index, "sub": sub, "bytes": n})
+                                .to_string(),
+                        );
                     } else {
                         eprintln!("{n} bytes written to {}", output.display());
                     }
@@ -477,7 +485,10 @@ pub(crate) fn run_sdo(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
             match r {
                 Ok(n) => {
                     if g.json {
-                        outln(&json!({"node": node.get(), "index": index, "sub": sub, "bytes": n}).to_string());
+                        outln(
+                            &json!({"node": node.get(), "index": index, "sub": sub, "bytes": n})
+                                .to_string(),
+                        );
                     }
                     ExitCode::SUCCESS
                 }
@@ -522,7 +533,10 @@ pub(crate) fn run_nmt(cmd: NmtCmd, target: &str, opts: &BusOpts, g: Global) -> E
     match r {
         Ok(()) => {
             if g.json {
-                outln(&json!({"nmt": format!("{cmd:?}").to_lowercase(), "target": target}).to_string());
+                outln(
+                    &json!({"nmt": format!("{cmd:?}").to_lowercase(), "target": target})
+                        .to_string(),
+                );
             }
             ExitCode::SUCCESS
         }
@@ -533,13 +547,20 @@ pub(crate) fn run_nmt(cmd: NmtCmd, target: &str, opts: &BusOpts, g: Global) -> E
 /// Reads the identity object (0x1018 sub 1..=4) of every node that answers.
 fn scan_nodes(net: &Network, timeout: Duration) -> Vec<(NodeId, [Option<u32>; 4])> {
     let pending: Vec<_> = NodeId::all()
-        .map(|n| (n, net.node(n).sdo().timeout(timeout).submit_read((0x1018, 1))))
+        .map(|n| {
+            (
+                n,
+                net.node(n).sdo().timeout(timeout).submit_read((0x1018, 1)),
+            )
+        })
         .collect();
     let mut found = Vec::new();
     for (n, p) in pending {
         if let Ok(canopen::Completion::Data(v)) = p.wait() {
             let mut ident = [None; 4];
-            ident[0] = v.get(..4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+            ident[0] = v
+                .get(..4)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
             for s in 2..=4u8 {
                 if let Ok(v) = net.node(n).sdo().timeout(timeout).read((0x1018, s))
                     && let Some(b) = v.get(..4)
@@ -615,10 +636,15 @@ pub(crate) fn decode(frame: &CanFrame) -> String {
             (F::Rpdo(p), Some(n)) => format!("RPDO{} node {n}: {}", p.get(), hex(d)),
             (F::SdoRx, Some(n)) => format!("SDO request to node {n}: {}", sdo_text(d, true)),
             (F::SdoTx, Some(n)) => format!("SDO response from node {n}: {}", sdo_text(d, false)),
-            (F::NmtErrorControl, Some(n)) if frame.is_remote() => format!("node guarding request to node {n}"),
+            (F::NmtErrorControl, Some(n)) if frame.is_remote() => {
+                format!("node guarding request to node {n}")
+            }
             (F::NmtErrorControl, Some(n)) => match d.first() {
                 Some(0) => format!("boot-up of node {n}"),
-                Some(b) => format!("heartbeat node {n}: {}", canopen_nmt::NmtState::from_u8(b & 0x7F)),
+                Some(b) => format!(
+                    "heartbeat node {n}: {}",
+                    canopen_nmt::NmtState::from_u8(b & 0x7F)
+                ),
                 None => format!("error control node {n}: empty"),
             },
             (F::LssMasterToSlave, _) => format!("LSS request: {}", hex(d)),
@@ -648,7 +674,11 @@ fn sdo_text(d: &[u8], request: bool) -> String {
     match (request, ccs) {
         (true, 1) => initiate("initiate download"),
         (true, 2) => initiate("initiate upload"),
-        (true, 0) => format!("download segment (toggle {}, last {})", (cmd >> 4) & 1, cmd & 1),
+        (true, 0) => format!(
+            "download segment (toggle {}, last {})",
+            (cmd >> 4) & 1,
+            cmd & 1
+        ),
         (true, 3) => format!("upload segment request (toggle {})", (cmd >> 4) & 1),
         (true, 5) if cmd & 0x03 == 0 => initiate("initiate block upload"),
         (true, 5) => format!("block upload command {:#04x}", cmd),
@@ -659,7 +689,10 @@ fn sdo_text(d: &[u8], request: bool) -> String {
         (false, 1) => format!("download segment response (toggle {})", (cmd >> 4) & 1),
         (false, 6) if cmd & 0x01 == 0 => initiate("initiate block upload response"),
         (false, 5) if cmd & 0x03 == 0 => initiate("initiate block download response"),
-        (false, 5) if cmd & 0x03 == 2 => format!("block download ack (seq {})", d.get(1).copied().unwrap_or(0)),
+        (false, 5) if cmd & 0x03 == 2 => format!(
+            "block download ack (seq {})",
+            d.get(1).copied().unwrap_or(0)
+        ),
         (false, 5) => "end block download response".into(),
         // Upload segments and block segments share the other codes; without transfer state
         // they read as data.
@@ -670,7 +703,11 @@ fn sdo_text(d: &[u8], request: bool) -> String {
 
 /// Runs the in-memory bus (and its simulated devices) or the real one for `secs`, handing each
 /// received frame to `f`.
-fn pump(bus: &mut Bus, secs: Option<f64>, mut f: impl FnMut(&CanFrame, can_frame::Instant)) -> Result<(), String> {
+fn pump(
+    bus: &mut Bus,
+    secs: Option<f64>,
+    mut f: impl FnMut(&CanFrame, can_frame::Instant),
+) -> Result<(), String> {
     let start = bus.transport.now();
     let end = secs.map(|s| start + Duration::from_micros((s * 1e6) as u64));
     if end.is_none() && bus.memory.is_some() {
@@ -789,7 +826,13 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &PathBuf, g: Global) -> ExitCode 
 }
 
 /// `canopen simulate EDS --node-id N`
-pub(crate) fn run_simulate(opts: &BusOpts, eds: &PathBuf, node: NodeId, duration: Option<f64>, g: Global) -> ExitCode {
+pub(crate) fn run_simulate(
+    opts: &BusOpts,
+    eds: &PathBuf,
+    node: NodeId,
+    duration: Option<f64>,
+    g: Global,
+) -> ExitCode {
     let text = match std::fs::read(eds) {
         Ok(t) => t,
         Err(e) => return fail(format!("{}: {e}", eds.display())),
@@ -813,7 +856,10 @@ pub(crate) fn run_simulate(opts: &BusOpts, eds: &PathBuf, node: NodeId, duration
         mem.run_for(Duration::from_micros((secs * 1e6) as u64));
         while let Ok(Some(Received::Frame { frame, at })) = tap.try_recv() {
             if g.json {
-                outln(&json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string()}).to_string());
+                outln(
+                    &json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string()})
+                        .to_string(),
+                );
             } else {
                 outln(&format!("{at}  {}", decode(&frame)));
             }

@@ -70,10 +70,17 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     step("1. Power-on: the devices boot and send their boot-up messages");
     let mut logbook_dev = SimDevice::new(n5, od.clone());
     let log: String = (1..=60)
-        .map(|i| format!("<entry time=\"{i}\" code=\"0x{:04X}\">valve cycle ok</entry>\n", 0x1000 + i))
+        .map(|i| {
+            format!(
+                "<entry time=\"{i}\" code=\"0x{:04X}\">valve cycle ok</entry>\n",
+                0x1000 + i
+            )
+        })
         .collect();
     let log = format!("<?xml version=\"1.0\"?>\n<logbook>\n{log}</logbook>\n");
-    logbook_dev.values_mut().set(0x2003, 4, log.as_bytes().to_vec());
+    logbook_dev
+        .values_mut()
+        .set(0x2003, 4, log.as_bytes().to_vec());
     bus.attach(logbook_dev);
     bus.attach(SimDevice::new(n6, od.clone()));
     net.run_for(Duration::from_millis(10))?;
@@ -87,7 +94,10 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     step("2. Identity (0x1018) of each node, by SDO upload");
     for n in [n5, n6] {
         let sdo = |s: u8| net.node(n).sdo().read((0x1018, s));
-        let u = |v: Vec<u8>| v.get(..4).map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        let u = |v: Vec<u8>| {
+            v.get(..4)
+                .map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        };
         outln(&format!(
             "   node {n}: vendor-ID {:#010x}, product {:#010x}, revision {:#010x}, serial {:#010x}",
             u(sdo(1)?),
@@ -110,7 +120,11 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     }
     outln(&format!(
         "   node 5 0x1017 now reads {} ms",
-        net.node(n5).sdo().read_value((0x1017, 0))?.as_i128().unwrap_or(0)
+        net.node(n5)
+            .sdo()
+            .read_value((0x1017, 0))?
+            .as_i128()
+            .unwrap_or(0)
     ));
     show_traffic(&mut tap, 4);
 
@@ -127,7 +141,10 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         .sdo()
         .write((0x2002, 2), "Hall 3 / line 7 / valve island A")?;
     let back = net.node(n6).sdo().read((0x2002, 2))?;
-    outln(&format!("   read back: \"{}\"", String::from_utf8_lossy(&back)));
+    outln(&format!(
+        "   read back: \"{}\"",
+        String::from_utf8_lossy(&back)
+    ));
     show_traffic(&mut tap, 12);
 
     step("6. A block transfer: the logbook DOMAIN 0x2003 sub 4 (XML) with progress");
@@ -138,7 +155,11 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         .block(true)
         .on_progress(|p| {
             if p.total.is_some() && (p.done % 889 < 7 || Some(p.done) == p.total) {
-                outln(&format!("   progress {}/{} bytes", p.done, p.total.unwrap_or(0)));
+                outln(&format!(
+                    "   progress {}/{} bytes",
+                    p.done,
+                    p.total.unwrap_or(0)
+                ));
             }
         })
         .read((0x2003, 4))?;
