@@ -20,8 +20,59 @@
 //! Every decoder is total: bytes become a typed value or a typed error, never a panic.
 //! `#![no_std]` without an allocator when built with `default-features = false`.
 //!
-//! Ambiguities of the manuals and how this crate resolves them are listed in the module docs of
-//! [`channel`], [`action`], [`params`] and [`sim`], each at the place it matters.
+//! # Example: the client against the simulated positioner
+//!
+//! ```
+//! use can_frame::{Duration, Instant};
+//! use gemu_cpos::client::{Client, ClientConfig, Event, Reply};
+//! use gemu_cpos::params::{Mode, ParamId};
+//! use gemu_cpos::SimulatedCpos;
+//!
+//! let mut client = Client::new(ClientConfig::default());
+//! let mut cpos = SimulatedCpos::default();
+//! let mut now = Instant::ZERO;
+//! let id = client.set(now, ParamId::MODE, Mode::Manual.to_raw()).unwrap();
+//! // The request in the channel is the manual's example: [tg, 'S', 0x00, 0x64, 0, 0, 0, 2].
+//! assert_eq!(client.image().channel.to_bytes()[1..], [0x53, 0x00, 0x64, 0, 0, 0, 2]);
+//! let mut done = None;
+//! while done.is_none() {
+//!     now += Duration::from_millis(10); // one bus cycle
+//!     cpos.handle_master_image(now, &client.image());
+//!     while let Some(d) = cpos.poll_diagnostic() {
+//!         client.handle_diagnostic(now, d);
+//!     }
+//!     client.handle_image(now, &cpos.device_image());
+//!     while let Some(e) = client.poll_event() {
+//!         if let Event::Completed { id: i, result } = e {
+//!             assert_eq!(i, id);
+//!             done = Some(result);
+//!         }
+//!     }
+//! }
+//! assert_eq!(done, Some(Ok(Reply::Value { param: ParamId::MODE, value: 2 })));
+//! ```
+//!
+//! # Ambiguities of the manuals and how they are resolved
+//!
+//! Each is explained where it matters; in short:
+//! - [`image`]: the valve position's byte numbers under 5.4 contradict the layout table; the
+//!   table (bytes 0..1) wins.
+//! - [`channel`]: layout of the "action already active" answer (v3 = 0xFF, v2 = source,
+//!   v1:v0 = action number); split of the 'D'/'W' value (count v3:v2, code v1:v0, from the two
+//!   examples); 'E' error information (code in v1:v0); signed parameter values as two's
+//!   complement; diagnostics travel outside the channel.
+//! - [`action`]: NoInit's function in the high byte and its overlap with "cannot be started";
+//!   what ends each action (GoClose/GoOpen end with "reached" after adopt; "not cleared / not
+//!   loaded" keeps the action active; "inactive" is 1 for four actions); GoOpen "adopt" is 0x02
+//!   (the German copy prints 0x01); adjust time's status list misplaced in the German OCR.
+//! - [`params`]: In 2 = 0x0CE7, DeviceNet Adr = 0x1450, unreadable enumerations as integers
+//!   (range 0..=1 from the two-line cells), CalPointQty [1..9], spelling fixes.
+//! - [`client`]: while an action runs, the channel keeps its 'A' request (other requests wait),
+//!   because the device shows a status only as the answer to the current request; a carrier's
+//!   diagnostic is attributed to the request in flight.
+//! - [`sim`]: everything the manual leaves open about the device's behaviour (answers to 'S' on a
+//!   read-only parameter, error-list size, when an action "cannot be started", the answer to a
+//!   refused NoInit, the toggle byte of change notices, defaults).
 
 #![no_std]
 #![cfg_attr(docsrs, feature(doc_cfg))]
