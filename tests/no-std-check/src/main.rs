@@ -7,6 +7,7 @@ extern crate burkert_profile;
 extern crate can_frame;
 extern crate canopen_lss;
 extern crate canopen_nmt;
+extern crate canopen_sdo;
 
 use core::panic::PanicInfo;
 
@@ -31,7 +32,14 @@ pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
     let id = can_frame::NodeId::new(5);
     let colour = burkert_profile::LedColour::from_u32(0x1000_0002);
     let heartbeat = canopen_nmt::Heartbeat::parse(&[0x7F]);
-    if id.is_ok() && colour.is_ok() && heartbeat.is_ok() {
+    let sdo = canopen_sdo::ClientRequest::parse(&[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
+    let mut server = canopen_sdo::Server::new(canopen_sdo::ServerConfig::default());
+    if id.is_ok()
+        && colour.is_ok()
+        && heartbeat.is_ok()
+        && sdo.is_ok()
+        && server.poll_transmit().is_none()
+    {
         0
     } else {
         1
