@@ -270,6 +270,12 @@ macro_rules! param_enum {
             }
         }
 
+        impl From<$name> for i32 {
+            fn from(v: $name) -> i32 {
+                v.to_raw()
+            }
+        }
+
         impl fmt::Display for $name {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 f.write_str(Self::LABELS[*self as usize])
@@ -714,6 +720,8 @@ mod tests {
         );
         assert_eq!(Mode::from_raw(2), Some(Mode::Manual));
         assert_eq!(Mode::from_raw(5), None);
+        assert_eq!(i32::from(Mode::Test), 4);
+        assert_eq!(Mode::ManualFlex.to_string(), "Manual-Flex");
         assert_eq!(CtrlFn::LABELS.len(), 11);
         assert_eq!(CtrlFn::AutoNoB.to_raw(), 10);
         assert_eq!(OutputFn::LABELS.len(), 16);
