@@ -1,16 +1,22 @@
-//! The interface goes down under the master's SocketCAN transport and comes back: sending fails
-//! with `TransportError::InterfaceDown`, the receive side reports `BusEvent::InterfaceDown`, and
-//! after `ip link set vcan0 up` traffic flows again and `BusEvent::InterfaceUp` is reported.
+//! The interface goes down under the master and comes back (`ip link set vcan0 down/up`):
+//! - at the transport: sending fails with `TransportError::InterfaceDown`, the receive side
+//!   reports `BusEvent::InterfaceDown`, and after `up` traffic flows again and
+//!   `BusEvent::InterfaceUp` is reported;
+//! - during an SDO block upload from the simulator: the transfer ends with a clear error, the
+//!   network reports the bus event, and after `up` the next transfers succeed.
 //!
-//! This binary changes the state of the shared interface, so it holds a single test and
-//! `tests/vcan/run-all` runs it on its own (`--test-threads=1`). Needs root in the guest (`ip`).
+//! These tests change the state of the shared interface, so `tests/vcan/run-all` runs this
+//! binary on its own with `--test-threads=1`. Needs root in the guest (`ip`).
+
+mod common;
 
 use std::process::Command;
 use std::time::Duration as StdDuration;
 
 use can_frame::{CanFrame, CanId, Duration};
 use canopen::socketcan::SocketCan;
-use canopen::{BusEvent, Received, Transport, TransportError};
+use canopen::{BusEvent, Network, NetworkEvent, Received, Transport, TransportError};
+use common::{RunningSim, device, node};
 use socketcan::{CanFilter, EmbeddedFrame, Socket, SocketOptions};
 use vcan_tests::{interface, open};
 
@@ -109,4 +115,75 @@ fn interface_down_is_reported_and_traffic_recovers() {
             None => panic!("no frame from the peer after the link returned"),
         }
     }
+}
+
+#[test]
+#[ignore = "needs vcan0 and root: run by tests/vcan/run-all"]
+fn link_down_during_a_block_upload_ends_it_clearly_and_the_network_recovers() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    let _guard = LinkGuard;
+    const ID: u8 = 0x44;
+    let data: Vec<u8> = (0..65536u32).map(|i| (i * 7 % 251) as u8).collect();
+    let mut dev = device(ID);
+    dev.values_mut().set(0x2001, 0, data.clone());
+    let _sim = RunningSim::start(dev);
+    let net = Network::new(SocketCan::open(&interface()).expect("open the master's socket"));
+    let events = net.subscribe();
+    let n = net.node(node(ID));
+
+    // Take the link down once 8 KiB of the 64 KiB have arrived.
+    let pulled = Arc::new(AtomicBool::new(false));
+    let flag = pulled.clone();
+    let result = n
+        .sdo()
+        .block(true)
+        .timeout(Duration::from_secs(2))
+        .on_progress(move |p| {
+            if p.done >= 8192 && !flag.swap(true, Ordering::SeqCst) {
+                set_link(false);
+            }
+        })
+        .read((0x2001, 0));
+    assert!(
+        pulled.load(Ordering::SeqCst),
+        "the transfer ended before 8 KiB: {result:?}"
+    );
+    let err = result.expect_err("a block upload interrupted by a downed link must fail");
+    let text = err.to_string();
+    eprintln!("the interrupted transfer ended with: {text}");
+    assert!(
+        text.contains("interface is down") || text.contains("time"),
+        "unclear error for a downed link: {text}"
+    );
+    let bus_events: Vec<NetworkEvent> = events.try_iter().collect();
+    assert!(
+        bus_events.contains(&NetworkEvent::Bus(BusEvent::InterfaceDown)),
+        "no InterfaceDown bus event: {bus_events:?}"
+    );
+
+    // The link returns: the network recovers without being rebuilt.
+    set_link(true);
+    let sdo = || n.sdo().timeout(Duration::from_secs(2));
+    let mut first = sdo().read((0x1018, 1));
+    for _ in 0..5 {
+        // The simulator may still be finishing the interrupted transfer (its own timeout).
+        if first.is_ok() {
+            break;
+        }
+        eprintln!("first read after the link returned: {first:?}");
+        first = sdo().read((0x1018, 1));
+    }
+    assert_eq!(
+        first.expect("expedited read after recovery"),
+        0x0ABCu32.to_le_bytes()
+    );
+    assert_eq!(
+        sdo()
+            .block(true)
+            .read((0x2001, 0))
+            .expect("block upload after recovery"),
+        data
+    );
 }

@@ -9,7 +9,7 @@ use std::thread::JoinHandle;
 
 use can_frame::NodeId;
 use canopen::socketcan::SocketCan;
-use canopen::{SimDevice, run_station};
+use canopen::{SimDevice, TransportError, run_station};
 
 /// The rig's test EDS (`tests/vcan/test-device.eds`).
 pub const EDS: &[u8] = include_bytes!("../../../../tests/vcan/test-device.eds");
@@ -42,8 +42,17 @@ impl RunningSim {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
-            run_station(&mut transport, &mut dev, || flag.load(Ordering::Relaxed))
-                .expect("the simulator's transport failed");
+            // Like a device on a real bus, the simulator outlives a downed interface: it keeps
+            // serving once the link returns.
+            loop {
+                match run_station(&mut transport, &mut dev, || flag.load(Ordering::Relaxed)) {
+                    Ok(()) => break,
+                    Err(TransportError::InterfaceDown) => {
+                        std::thread::sleep(std::time::Duration::from_millis(20));
+                    }
+                    Err(e) => panic!("the simulator's transport failed: {e}"),
+                }
+            }
             dev
         });
         Self {
