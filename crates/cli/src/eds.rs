@@ -18,6 +18,12 @@ pub(crate) enum EdsCommand {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
+    /// Consistency checks (SubNumber, object lists, limits, PDO mappings, codes, duplicates):
+    /// findings on stderr as FILE:LINE: warning: ..., exit 1 when there are any.
+    Lint {
+        /// EDS or DCF file.
+        file: PathBuf,
+    },
     /// Print the objects of a file as a table (or JSON with --json).
     Show {
         /// EDS or DCF file.
@@ -53,6 +59,7 @@ pub(crate) enum EdsCommand {
 pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
     match cmd {
         EdsCommand::Check { files } => check(&files, global),
+        EdsCommand::Lint { file } => lint(&file, global),
         EdsCommand::Show { file } => with_od(&file, |od| show(od, global)),
         EdsCommand::ToDcf {
             file,
@@ -170,6 +177,43 @@ fn check(files: &[PathBuf], global: Global) -> ExitCode {
         crate::outln(&Json::Array(report).to_string());
     }
     if all_ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}
+
+fn lint(file: &Path, global: Global) -> ExitCode {
+    let name = file.display().to_string();
+    let bytes = match std::fs::read(file) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("{name}: error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let findings = match canopen_od::lint::lint_source(&bytes) {
+        Ok(f) => f,
+        Err(e) => {
+            for d in &e.diagnostics {
+                eprintln!("{}", d.render(&name));
+            }
+            return ExitCode::FAILURE;
+        }
+    };
+    for d in &findings {
+        eprintln!("{}", d.render(&name));
+    }
+    if global.json {
+        let list: Vec<Json> = findings
+            .iter()
+            .map(|d| json!({"line": d.line, "severity": d.severity.to_string(), "message": d.message}))
+            .collect();
+        crate::outln(&json!({"file": name, "findings": list}).to_string());
+    } else {
+        crate::outln(&format!("{name}: {} findings", findings.len()));
+    }
+    if findings.is_empty() {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE

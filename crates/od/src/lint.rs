@@ -86,12 +86,12 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
         ),
         _ => {}
     }
-    let highest = obj.subs.keys().next_back().copied().unwrap_or(0);
+    let highest = obj.subs.highest().unwrap_or(0);
     // For a RECORD sub-index 0 is the highest sub-index supported (CiA 301 §7.4.3); for an ARRAY
     // and for the PDO mapping records it counts entries in use, which may be fewer.
     let mapping = matches!(obj.index, 0x1600..=0x17FF | 0x1A00..=0x1BFF);
     let record = obj.object_code == ObjectCode::Record && !mapping;
-    if let Some(sub0) = obj.subs.get(&0).filter(|_| record) {
+    if let Some(sub0) = obj.subs.get(0).filter(|_| record) {
         let v = sub0
             .default_value
             .as_ref()
@@ -109,7 +109,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
                 );
             }
         }
-    } else if present > 0 {
+    } else if present > 0 && obj.subs.get(0).is_none() {
         sink.warn(
             K::SubNumber,
             obj.line.0,
@@ -282,7 +282,7 @@ fn pdo_mappings(sink: &mut Sink, od: &ObjectDictionary) {
         let receive = obj.index < 0x1800;
         let count = obj
             .subs
-            .get(&0)
+            .get(0)
             .and_then(|s| s.effective_value(1))
             .and_then(|v| v.as_i128())
             .unwrap_or(0);
