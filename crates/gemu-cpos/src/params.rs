@@ -721,7 +721,7 @@ mod tests {
         assert_eq!(Mode::from_raw(2), Some(Mode::Manual));
         assert_eq!(Mode::from_raw(5), None);
         assert_eq!(i32::from(Mode::Test), 4);
-        assert_eq!(Mode::ManualFlex.to_string(), "Manual-Flex");
+        assert_eq!(format!("{}", Mode::ManualFlex), "Manual-Flex");
         assert_eq!(CtrlFn::LABELS.len(), 11);
         assert_eq!(CtrlFn::AutoNoB.to_raw(), 10);
         assert_eq!(OutputFn::LABELS.len(), 16);
