@@ -1052,3 +1052,52 @@ fn unsolicited_change_notices() {
         value: 5
     }));
 }
+
+#[test]
+fn diagnostics_and_late_answers_without_a_request_in_flight() {
+    let mut client = Client::new(ClientConfig::default());
+    let mut sim = SimulatedCpos::default();
+    let t0 = Instant::ZERO;
+    // A diagnostic with nothing in flight is reported on its own.
+    client.handle_diagnostic(t0, DiagnosticCode(0x99));
+    assert_eq!(
+        client.poll_event(),
+        Some(Event::Diagnostic(DiagnosticCode(0x99)))
+    );
+    assert_eq!(
+        format!("{}", DiagnosticCode::ABOVE_RANGE),
+        "diagnostic 0x21: value above the valid range"
+    );
+    // A request times out, then its answer arrives late: reported as unmatched.
+    let id = client.get(t0, ParamId::MODE).unwrap();
+    let sent = client.image();
+    let deadline = client.poll_timeout().unwrap();
+    client.handle_timeout(deadline);
+    assert_eq!(
+        client.poll_event(),
+        Some(Event::Completed {
+            id,
+            result: Err(Failure::Timeout)
+        })
+    );
+    sim.handle_master_image(deadline, &sent);
+    let late = sim.device_image();
+    client.handle_image(deadline, &late);
+    let events: Vec<_> = std::iter::from_fn(|| client.poll_event()).collect();
+    // A late 'G' looks like a change notice; the client cannot tell it apart and says so.
+    assert!(
+        events.contains(&Event::ParameterChanged {
+            param: ParamId::MODE,
+            value: 1
+        }),
+        "{events:?}"
+    );
+    // An answer of another instruction that matches nothing is unmatched.
+    let mut img = late;
+    img.channel = Channel::from_bytes([0x77, 0x44, 0, 1, 0, 0, 0, 0]);
+    client.handle_image(deadline, &img);
+    assert_eq!(
+        client.poll_event(),
+        Some(Event::UnmatchedAnswer(img.channel))
+    );
+}
