@@ -136,6 +136,14 @@ impl Sink {
         });
     }
 
+    /// Re-reports a diagnostic collected elsewhere (subject to the same per-kind cap).
+    pub(crate) fn push(&mut self, d: Diagnostic) {
+        match d.severity {
+            Severity::Warning => self.warn(d.kind, d.line, d.message),
+            Severity::Error => self.error(d.kind, d.line, d.message),
+        }
+    }
+
     pub(crate) fn has_errors(&self) -> bool {
         self.list.iter().any(|d| d.severity == Severity::Error)
     }

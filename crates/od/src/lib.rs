@@ -46,7 +46,7 @@ pub use lint::{lint, lint_source};
 #[cfg(feature = "alloc")]
 pub use model::{
     DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object, ObjectDictionary,
-    RawSection, SubObject,
+    RawSection, SubObject, SubObjects,
 };
 #[cfg(feature = "alloc")]
 pub use parse::{ParseError, Parsed, parse};

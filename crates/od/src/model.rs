@@ -162,6 +162,134 @@ impl SubObject {
     }
 }
 
+/// The sub-objects of one object, ordered by sub-index.
+///
+/// A sorted vector rather than a map: most objects have one to a few dozen sub-objects, and a
+/// vector keeps them compact and cache-friendly. Look-up is a binary search.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SubObjects(Vec<SubObject>);
+
+impl SubObjects {
+    /// No sub-objects.
+    pub const fn new() -> Self {
+        Self(Vec::new())
+    }
+
+    /// Number of sub-objects.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    fn position(&self, sub_index: u8) -> Result<usize, usize> {
+        self.0.binary_search_by_key(&sub_index, |s| s.sub_index)
+    }
+
+    /// The sub-object with this sub-index.
+    pub fn get(&self, sub_index: u8) -> Option<&SubObject> {
+        self.position(sub_index).ok().and_then(|i| self.0.get(i))
+    }
+
+    /// Mutable access to the sub-object with this sub-index.
+    pub fn get_mut(&mut self, sub_index: u8) -> Option<&mut SubObject> {
+        self.position(sub_index)
+            .ok()
+            .and_then(|i| self.0.get_mut(i))
+    }
+
+    /// True when this sub-index exists.
+    pub fn contains(&self, sub_index: u8) -> bool {
+        self.position(sub_index).is_ok()
+    }
+
+    /// Inserts `sub` at its `sub_index`, returning the one it replaces.
+    pub fn insert(&mut self, sub: SubObject) -> Option<SubObject> {
+        match self.position(sub.sub_index) {
+            Ok(i) => self.0.get_mut(i).map(|slot| core::mem::replace(slot, sub)),
+            Err(i) => {
+                self.0.insert(i, sub);
+                None
+            }
+        }
+    }
+
+    /// Removes and returns the sub-object with this sub-index.
+    pub fn remove(&mut self, sub_index: u8) -> Option<SubObject> {
+        self.position(sub_index).ok().map(|i| self.0.remove(i))
+    }
+
+    /// The sub-objects in sub-index order.
+    pub fn values(&self) -> core::slice::Iter<'_, SubObject> {
+        self.0.iter()
+    }
+
+    /// Mutable sub-objects in sub-index order (do not change their `sub_index`).
+    pub fn values_mut(&mut self) -> core::slice::IterMut<'_, SubObject> {
+        self.0.iter_mut()
+    }
+
+    /// The sub-indices in order.
+    pub fn keys(&self) -> impl DoubleEndedIterator<Item = u8> + '_ {
+        self.0.iter().map(|s| s.sub_index)
+    }
+
+    /// The highest sub-index present.
+    pub fn highest(&self) -> Option<u8> {
+        self.0.last().map(|s| s.sub_index)
+    }
+
+    /// The sub-objects as a slice, in sub-index order.
+    pub fn as_slice(&self) -> &[SubObject] {
+        &self.0
+    }
+}
+
+impl FromIterator<SubObject> for SubObjects {
+    fn from_iter<I: IntoIterator<Item = SubObject>>(iter: I) -> Self {
+        let mut v: Vec<SubObject> = iter.into_iter().collect();
+        v.sort_by_key(|s| s.sub_index);
+        // Later duplicates win, as with repeated inserts.
+        let mut out: Vec<SubObject> = Vec::with_capacity(v.len());
+        for s in v {
+            match out.last_mut() {
+                Some(last) if last.sub_index == s.sub_index => *last = s,
+                _ => out.push(s),
+            }
+        }
+        Self(out)
+    }
+}
+
+impl From<Vec<SubObject>> for SubObjects {
+    /// Sorts by sub-index (keeping the later of two equal sub-indices) in place.
+    fn from(mut v: Vec<SubObject>) -> Self {
+        if !v.windows(2).all(|w| w[0].sub_index < w[1].sub_index) {
+            v.sort_by_key(|s| s.sub_index);
+            v.dedup_by(|later, kept| {
+                if later.sub_index == kept.sub_index {
+                    core::mem::swap(later, kept);
+                    true
+                } else {
+                    false
+                }
+            });
+        }
+        Self(v)
+    }
+}
+
+impl<'a> IntoIterator for &'a SubObjects {
+    type Item = &'a SubObject;
+    type IntoIter = core::slice::Iter<'a, SubObject>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.iter()
+    }
+}
+
 /// One object (one index) of the dictionary.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Object {
@@ -179,7 +307,7 @@ pub struct Object {
     /// Objects listed in the `[xxxxObjectLinks]` section.
     pub object_links: Vec<u16>,
     /// Sub-objects by sub-index. A VAR/DOMAIN/DEFTYPE has exactly sub-index 0.
-    pub subs: BTreeMap<u8, SubObject>,
+    pub subs: SubObjects,
     /// Other keys of the object section.
     pub extra: Extra,
     /// Line of the `[xxxx]` section header.
@@ -192,8 +320,8 @@ impl Object {
     pub fn var(index: u16, mut sub: SubObject) -> Self {
         sub.sub_index = 0;
         let name = sub.name.clone();
-        let mut subs = BTreeMap::new();
-        subs.insert(0, sub);
+        let mut subs = SubObjects::new();
+        subs.insert(sub);
         Self {
             index,
             name,
@@ -214,7 +342,7 @@ impl Object {
         code: ObjectCode,
         subs: impl IntoIterator<Item = SubObject>,
     ) -> Self {
-        let subs: BTreeMap<u8, SubObject> = subs.into_iter().map(|s| (s.sub_index, s)).collect();
+        let subs: SubObjects = subs.into_iter().collect();
         Self {
             index,
             name: name.into(),
@@ -235,12 +363,12 @@ impl Object {
 
     /// A sub-object by sub-index.
     pub fn sub(&self, sub_index: u8) -> Option<&SubObject> {
-        self.subs.get(&sub_index)
+        self.subs.get(sub_index)
     }
 
     /// The sub-object carrying a VAR's data (sub-index 0).
     pub fn var_entry(&self) -> Option<&SubObject> {
-        self.subs.get(&0)
+        self.subs.get(0)
     }
 }
 
@@ -387,16 +515,14 @@ impl ObjectDictionary {
 
     /// A sub-object by index and sub-index (a VAR answers at sub-index 0).
     pub fn sub(&self, index: u16, sub_index: u8) -> Option<&SubObject> {
-        self.objects
-            .get(&index)
-            .and_then(|o| o.subs.get(&sub_index))
+        self.objects.get(&index).and_then(|o| o.subs.get(sub_index))
     }
 
     /// Mutable access to a sub-object.
     pub fn sub_mut(&mut self, index: u16, sub_index: u8) -> Option<&mut SubObject> {
         self.objects
             .get_mut(&index)
-            .and_then(|o| o.subs.get_mut(&sub_index))
+            .and_then(|o| o.subs.get_mut(sub_index))
     }
 
     /// Inserts (or replaces) an object.

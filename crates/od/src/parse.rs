@@ -17,6 +17,7 @@
 //! parse fails with every error listed.
 
 use alloc::borrow::Cow;
+use alloc::boxed::Box;
 use alloc::collections::BTreeMap;
 use alloc::format;
 use alloc::string::{String, ToString};
@@ -26,7 +27,7 @@ use core::fmt;
 use crate::diag::{Diagnostic, DiagnosticKind as K, Severity, Sink};
 use crate::model::{
     BAUD_RATES_KBIT, DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object,
-    ObjectDictionary, RawSection, SubObject,
+    ObjectDictionary, RawSection, SubObject, SubObjects,
 };
 use crate::types::{AccessType, DataType, ObjectCode};
 use crate::value::{TextError, TextNotes, parse_int_literal};
@@ -74,8 +75,9 @@ impl core::error::Error for ParseError {}
 pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
     let mut sink = Sink::default();
     let text = decode(input, &mut sink);
-    let sections = scan(&text, &mut sink);
-    let od = build(&sections, &mut sink);
+    let scan = scan(&text, &mut sink);
+    let sections = sections(&scan.entries, &scan.sections);
+    let od = build(&sections, scan.subs, scan.built, &mut sink);
     if sink.has_errors() {
         Err(ParseError {
             diagnostics: sink.finish(),
@@ -133,19 +135,70 @@ fn decode<'a>(input: &'a [u8], sink: &mut Sink) -> Cow<'a, str> {
 // ---------------------------------------------------------------------------------------------
 // Scanning
 
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 struct Entry<'a> {
     key: &'a str,
     value: &'a str,
     line: u32,
 }
 
+/// A section with its entries (borrowed from the scan's single entry list; copied only when a
+/// duplicate section's keys have to be merged).
 #[derive(Debug)]
-struct Section<'a> {
+struct Section<'e, 'a> {
     name: &'a str,
     kind: SectionKind,
     line: u32,
-    entries: Vec<Entry<'a>>,
+    entries: Cow<'e, [Entry<'a>]>,
+}
+
+/// A `[xxxxsubN]` section, built into a [`SubObject`] as soon as it ends so that its keys need
+/// not be kept (sub sections are most of a file). Its diagnostics are held back until the
+/// owning object decides whether the sub-object is used.
+#[derive(Debug)]
+struct SubRec<'a> {
+    name: &'a str,
+    line: u32,
+    /// Byte span of the section's body (its first line is `line + 1`).
+    first: (usize, usize),
+    /// False when the section could not be read (its diagnostics say why).
+    ok: bool,
+    /// Rarely present, so kept out of line: diagnostics and repeated occurrences.
+    rare: Option<Box<SubRare>>,
+}
+
+/// The uncommon parts of a [`SubRec`].
+#[derive(Debug, Default)]
+struct SubRare {
+    /// Byte span and first line of further occurrences when the section repeats.
+    more: Vec<(usize, usize, u32)>,
+    diags: Vec<Diagnostic>,
+}
+
+impl SubRec<'_> {
+    fn rare(&mut self) -> &mut SubRare {
+        self.rare.get_or_insert_with(Default::default)
+    }
+}
+
+/// The sub section being read.
+struct OpenSub<'a> {
+    key: (u16, u8),
+    name: &'a str,
+    line: u32,
+    entries_start: usize,
+    byte_start: usize,
+}
+
+/// A section as scanned: where its entries are in the entry list.
+#[derive(Debug)]
+struct Scanned<'a> {
+    name: &'a str,
+    kind: SectionKind,
+    line: u32,
+    first: (usize, usize),
+    /// Further spans when the section appears more than once.
+    more: Vec<(usize, usize)>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -258,13 +311,22 @@ fn classify(name: &str) -> (SectionKind, Option<String>) {
 }
 
 /// Splits the text into sections, merging duplicates. Linear in the input.
-fn scan<'a>(text: &'a str, sink: &mut Sink) -> Vec<Section<'a>> {
-    let mut sections: Vec<Section<'a>> = Vec::new();
+fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
+    let mut sections: Vec<Scanned<'a>> = Vec::new();
+    let mut subs: BTreeMap<(u16, u8), SubRec<'a>> = BTreeMap::new();
+    let mut built: BTreeMap<u16, Vec<SubObject>> = BTreeMap::new();
+    let mut open_sub: Option<OpenSub<'a>> = None;
+    let mut offset = 0usize;
+    // Holds the entries of every section but the sub sections, which are built and dropped
+    // as they end.
+    let mut entries: Vec<Entry<'a>> = Vec::with_capacity(1024);
     // Identity of a section (kind, or upper-cased name for `Other`) -> position in `sections`.
     let mut seen: BTreeMap<(SectionKind, String), usize> = BTreeMap::new();
     let mut current: Option<usize> = None;
     let mut hash_comment_reported = false;
     for (i, raw) in text.split('\n').enumerate() {
+        let line_start = offset;
+        offset += raw.len() + 1;
         let line_no = u32::try_from(i + 1).unwrap_or(u32::MAX);
         let line = raw.strip_suffix('\r').unwrap_or(raw);
         let trimmed = line.trim();
@@ -283,6 +345,9 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Vec<Section<'a>> {
             continue;
         }
         if let Some(body) = trimmed.strip_prefix('[') {
+            if let Some(open) = open_sub.take() {
+                finish_sub(text, open, line_start, &mut entries, &mut subs, &mut built);
+            }
             let Some(end) = body.find(']') else {
                 sink.error(
                     K::Syntax,
@@ -313,6 +378,27 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Vec<Section<'a>> {
             if let Some(n) = note {
                 sink.warn(K::Spelling, line_no, n);
             }
+            if let SectionKind::Sub(i, s) = kind {
+                if let Some(rec) = subs.get(&(i, s)) {
+                    sink.warn(
+                        K::Duplicate,
+                        line_no,
+                        format!(
+                            "section [{name}] appears again (first at line {}); keys are merged and later values win",
+                            rec.line
+                        ),
+                    );
+                }
+                open_sub = Some(OpenSub {
+                    key: (i, s),
+                    name,
+                    line: line_no,
+                    entries_start: entries.len(),
+                    byte_start: offset.min(text.len()),
+                });
+                current = None;
+                continue;
+            }
             let id = (
                 kind,
                 if kind == SectionKind::Other {
@@ -330,15 +416,19 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Vec<Section<'a>> {
                         "section [{name}] appears again (first at line {first}); keys are merged and later values win"
                     ),
                 );
+                if let Some(sec) = sections.get_mut(pos) {
+                    sec.more.push((entries.len(), entries.len()));
+                }
                 current = Some(pos);
             } else {
                 seen.insert(id, sections.len());
                 current = Some(sections.len());
-                sections.push(Section {
+                sections.push(Scanned {
                     name,
                     kind,
                     line: line_no,
-                    entries: Vec::new(),
+                    first: (entries.len(), entries.len()),
+                    more: Vec::new(),
                 });
             }
             continue;
@@ -380,12 +470,28 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Vec<Section<'a>> {
                 sink.warn(K::Spelling, line_no, format!("spaces after `{key}=`"));
             }
         }
-        match current.and_then(|c| sections.get_mut(c)) {
-            Some(sec) => sec.entries.push(Entry {
+        if open_sub.is_some() {
+            entries.push(Entry {
                 key,
                 value,
                 line: line_no,
-            }),
+            });
+            continue;
+        }
+        match current.and_then(|c| sections.get_mut(c)) {
+            Some(sec) => {
+                entries.push(Entry {
+                    key,
+                    value,
+                    line: line_no,
+                });
+                // The span being filled is always the section's last one.
+                let end = entries.len();
+                match sec.more.last_mut() {
+                    Some(span) => span.1 = end,
+                    None => sec.first.1 = end,
+                }
+            }
             None => sink.error(
                 K::Syntax,
                 line_no,
@@ -393,7 +499,155 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Vec<Section<'a>> {
             ),
         }
     }
-    sections
+    if let Some(open) = open_sub.take() {
+        finish_sub(text, open, text.len(), &mut entries, &mut subs, &mut built);
+    }
+    Scan {
+        entries,
+        sections,
+        subs,
+        built,
+    }
+}
+
+/// What [`scan`] returns: the entries of all sections but sub sections, and the built
+/// sub-objects.
+struct Scan<'a> {
+    entries: Vec<Entry<'a>>,
+    sections: Vec<Scanned<'a>>,
+    subs: BTreeMap<(u16, u8), SubRec<'a>>,
+    /// The sub-objects read, per index, in file order: the vectors become the objects' storage.
+    built: BTreeMap<u16, Vec<SubObject>>,
+}
+
+/// Builds the sub-object of a sub section that just ended and drops its entries. A repeated
+/// section is rebuilt from all its occurrences, re-read from the text.
+fn finish_sub<'a>(
+    text: &'a str,
+    open: OpenSub<'a>,
+    byte_end: usize,
+    entries: &mut Vec<Entry<'a>>,
+    subs: &mut BTreeMap<(u16, u8), SubRec<'a>>,
+    built: &mut BTreeMap<u16, Vec<SubObject>>,
+) {
+    let byte_end = byte_end.max(open.byte_start);
+    let mut local = Sink::default();
+    let (index, s) = open.key;
+    let list = built.entry(index).or_default();
+    match subs.get_mut(&open.key) {
+        None => {
+            let own = entries.get(open.entries_start..).unwrap_or(&[]);
+            let sub = build_sub(open.key, open.name, open.line, own, &mut local);
+            let ok = sub.is_some();
+            list.extend(sub);
+            let rare = (!local.list.is_empty()).then(|| {
+                Box::new(SubRare {
+                    more: Vec::new(),
+                    diags: local.list,
+                })
+            });
+            subs.insert(
+                open.key,
+                SubRec {
+                    name: open.name,
+                    line: open.line,
+                    first: (open.byte_start, byte_end),
+                    ok,
+                    rare,
+                },
+            );
+        }
+        Some(rec) => {
+            rec.rare()
+                .more
+                .push((open.byte_start, byte_end, open.line + 1));
+            let mut all = Vec::new();
+            let (a, b) = rec.first;
+            rescan(text.get(a..b).unwrap_or(""), rec.line + 1, &mut all);
+            for &(a, b, first_line) in rec.rare().more.iter() {
+                rescan(text.get(a..b).unwrap_or(""), first_line, &mut all);
+            }
+            let sub = build_sub(open.key, rec.name, rec.line, &all, &mut local);
+            list.retain(|x| x.sub_index != s);
+            rec.ok = sub.is_some();
+            list.extend(sub);
+            rec.rare().diags = local.list;
+        }
+    }
+    entries.truncate(open.entries_start);
+}
+
+/// Re-reads the `key=value` lines of a section body (already reported on by [`scan`]).
+fn rescan<'a>(body: &'a str, first_line: u32, out: &mut Vec<Entry<'a>>) {
+    for (i, raw) in body.split('\n').enumerate() {
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with(';') || line.starts_with('#') {
+            continue;
+        }
+        if let Some((k, v)) = line.split_once('=') {
+            let k = k.trim();
+            if !k.is_empty() {
+                out.push(Entry {
+                    key: k,
+                    value: v.trim(),
+                    line: first_line.saturating_add(i as u32),
+                });
+            }
+        }
+    }
+}
+
+/// Reads one sub section into a [`SubObject`].
+fn build_sub(
+    (index, s): (u16, u8),
+    name: &str,
+    line: u32,
+    entries: &[Entry<'_>],
+    sink: &mut Sink,
+) -> Option<SubObject> {
+    let sec = Section {
+        name,
+        kind: SectionKind::Sub(index, s),
+        line,
+        entries: Cow::Borrowed(entries),
+    };
+    let swhat = format!("sub-object {index:04X}sub{s:X}");
+    let sk = resolve_keys(&sec, &OBJ_KEYS, sink);
+    let scode = object_code(sink, &sk, &swhat)?;
+    let sub = sub_object(sink, &sk, s, scode, line, &swhat)?;
+    if let Some((_, l)) = sk.slots[P_SUBNUMBER].or(sk.slots[P_COMPACT]) {
+        sink.warn(
+            K::Structure,
+            l,
+            format!("{swhat}: SubNumber/CompactSubObj on a sub-object ignored"),
+        );
+    }
+    Some(sub)
+}
+
+/// Borrows each section's entries from the entry list (merging duplicate sections' spans).
+fn sections<'e, 'a>(entries: &'e [Entry<'a>], scanned: &[Scanned<'a>]) -> Vec<Section<'e, 'a>> {
+    scanned
+        .iter()
+        .map(|s| {
+            let span = |(a, b): (usize, usize)| entries.get(a..b).unwrap_or(&[]);
+            let entries = if s.more.is_empty() {
+                Cow::Borrowed(span(s.first))
+            } else {
+                let mut all = span(s.first).to_vec();
+                for &m in &s.more {
+                    all.extend_from_slice(span(m));
+                }
+                Cow::Owned(all)
+            };
+            Section {
+                name: s.name,
+                kind: s.kind,
+                line: s.line,
+                entries,
+            }
+        })
+        .collect()
 }
 
 fn truncate(s: &str) -> &str {
@@ -413,7 +667,7 @@ struct Keys<'a, const N: usize> {
 }
 
 fn resolve_keys<'a, const N: usize>(
-    sec: &Section<'a>,
+    sec: &Section<'_, 'a>,
     table: &[&str; N],
     sink: &mut Sink,
 ) -> Keys<'a, N> {
@@ -421,7 +675,7 @@ fn resolve_keys<'a, const N: usize>(
         slots: [None; N],
         extra: Vec::new(),
     };
-    for e in &sec.entries {
+    for e in sec.entries.iter() {
         let slot = table.iter().position(|c| c.eq_ignore_ascii_case(e.key));
         match slot {
             Some(i) => {
@@ -543,14 +797,18 @@ fn string(sink: &mut Sink, (text, line): (&str, u32), what: &str) -> String {
     }
 }
 
-fn build(sections: &[Section<'_>], sink: &mut Sink) -> ObjectDictionary {
+fn build(
+    sections: &[Section<'_, '_>],
+    subs: BTreeMap<(u16, u8), SubRec<'_>>,
+    mut built: BTreeMap<u16, Vec<SubObject>>,
+    sink: &mut Sink,
+) -> ObjectDictionary {
     let mut od = ObjectDictionary::default();
-    let mut objects: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
-    let mut subs: BTreeMap<(u16, u8), &Section<'_>> = BTreeMap::new();
-    let mut names: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
-    let mut values: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
-    let mut denotations: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
-    let mut links: BTreeMap<u16, &Section<'_>> = BTreeMap::new();
+    let mut objects: BTreeMap<u16, &Section<'_, '_>> = BTreeMap::new();
+    let mut names: BTreeMap<u16, &Section<'_, '_>> = BTreeMap::new();
+    let mut values: BTreeMap<u16, &Section<'_, '_>> = BTreeMap::new();
+    let mut denotations: BTreeMap<u16, &Section<'_, '_>> = BTreeMap::new();
+    let mut links: BTreeMap<u16, &Section<'_, '_>> = BTreeMap::new();
     for sec in sections {
         match sec.kind {
             SectionKind::FileInfo => od.file_info = file_info(sec, sink),
@@ -575,9 +833,7 @@ fn build(sections: &[Section<'_>], sink: &mut Sink) -> ObjectDictionary {
             SectionKind::Object(i) => {
                 objects.insert(i, sec);
             }
-            SectionKind::Sub(i, s) => {
-                subs.insert((i, s), sec);
-            }
+            SectionKind::Sub(..) => {}
             SectionKind::Names(i) => {
                 names.insert(i, sec);
             }
@@ -638,11 +894,22 @@ fn build(sections: &[Section<'_>], sink: &mut Sink) -> ObjectDictionary {
         }
     }
 
+    // Both maps are in index order: hand each object its sub sections in one merge pass.
+    let mut subs = subs.into_iter().peekable();
     for (&index, sec) in &objects {
-        let own_subs = subs
-            .range((index, 0)..=(index, 255))
-            .map(|(&(_, s), sec)| (s, *sec));
-        if let Some(mut obj) = object(index, sec, own_subs, sink) {
+        let mut own_subs = Vec::new();
+        while let Some(((i, _), _)) = subs.peek() {
+            if *i > index {
+                break;
+            }
+            if let Some(((i, s), rec)) = subs.next() {
+                if i == index {
+                    own_subs.push((s, rec));
+                }
+            }
+        }
+        let own_built = built.remove(&index).unwrap_or_default();
+        if let Some(mut obj) = object(index, sec, own_subs, own_built, sink) {
             if let Some(names_sec) = names.remove(&index) {
                 apply_names(&mut obj, names_sec, sink);
             }
@@ -871,10 +1138,11 @@ fn sub_object(
     Some(sub)
 }
 
-fn object<'a>(
+fn object(
     index: u16,
-    sec: &Section<'a>,
-    sub_secs: impl Iterator<Item = (u8, &'a Section<'a>)>,
+    sec: &Section<'_, '_>,
+    sub_secs: Vec<(u8, SubRec<'_>)>,
+    built: Vec<SubObject>,
     sink: &mut Sink,
 ) -> Option<Object> {
     let what = format!("object {index:04X}");
@@ -947,7 +1215,7 @@ fn object<'a>(
             ));
         let mut count = count;
         count.line = Line(sec.line);
-        obj.subs.insert(0, count);
+        obj.subs.insert(count);
         let mut proto_keys = Keys {
             slots: k.slots,
             extra: Vec::new(),
@@ -962,7 +1230,7 @@ fn object<'a>(
                     let mut s = proto.clone();
                     s.sub_index = i;
                     s.name = format!("{}{}", obj.name, i);
-                    obj.subs.insert(i, s);
+                    obj.subs.insert(s);
                 }
             }
             None => ok = false,
@@ -988,47 +1256,39 @@ fn object<'a>(
         }
         obj.extra.extend(extra_owned(&k.extra));
     }
-    for (s, ssec) in sub_secs {
-        let swhat = format!("sub-object {index:04X}sub{s:X}");
-        let sk = resolve_keys(ssec, &OBJ_KEYS, sink);
-        let Some(scode) = object_code(sink, &sk, &swhat) else {
-            ok = false;
-            continue;
-        };
-        match sub_object(sink, &sk, s, scode, ssec.line, &swhat) {
-            Some(sub) => {
-                if let Some((_, l)) = sk.slots[P_SUBNUMBER].or(sk.slots[P_COMPACT]) {
-                    sink.warn(
-                        K::Structure,
-                        l,
-                        format!("{swhat}: SubNumber/CompactSubObj on a sub-object ignored"),
-                    );
-                }
-                if compact.is_some() && obj.subs.contains_key(&s) {
-                    sink.warn(
-                        K::Duplicate,
-                        ssec.line,
-                        format!(
-                            "{swhat} also defined by CompactSubObj; the [{}] section wins",
-                            ssec.name
-                        ),
-                    );
-                }
-                obj.subs.insert(s, sub);
-            }
-            None => ok = false,
+    for (s, rec) in sub_secs {
+        for d in rec.rare.map(|r| r.diags).unwrap_or_default() {
+            sink.push(d);
+        }
+        ok &= rec.ok;
+        if compact.is_some() && rec.ok && obj.subs.contains(s) {
+            sink.warn(
+                K::Duplicate,
+                rec.line,
+                format!(
+                    "sub-object {index:04X}sub{s:X} also defined by CompactSubObj; the [{}] section wins",
+                    rec.name
+                ),
+            );
+        }
+    }
+    if obj.subs.is_empty() {
+        obj.subs = SubObjects::from(built);
+    } else {
+        for sub in built {
+            obj.subs.insert(sub);
         }
     }
     ok.then_some(obj)
 }
 
 /// `[xxxxName]`: `NrOfEntries=n`, then `sub=name` lines.
-fn apply_names(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
+fn apply_names(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Sink) {
     for_numbered(
         sec,
         sink,
         "NrOfEntries",
-        |sub, value, line, sink| match obj.subs.get_mut(&sub) {
+        |sub, value, line, sink| match obj.subs.get_mut(sub) {
             Some(s) => s.name = value.to_string(),
             None => sink.warn(
                 K::Structure,
@@ -1043,12 +1303,12 @@ fn apply_names(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
 }
 
 /// `[xxxxValue]`: `NrOfEntries=n`, then `sub=value` lines (DCF `ParameterValue`).
-fn apply_values(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
+fn apply_values(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Sink) {
     for_numbered(
         sec,
         sink,
         "NrOfEntries",
-        |sub, value, line, sink| match obj.subs.get_mut(&sub) {
+        |sub, value, line, sink| match obj.subs.get_mut(sub) {
             Some(s) => {
                 let (f, res) = FieldValue::from_text(s.data_type, value);
                 match res {
@@ -1079,12 +1339,12 @@ fn apply_values(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
 }
 
 /// `[xxxxDenotation]`: `NrOfEntries=n`, then `sub=denotation` lines.
-fn apply_denotations(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
+fn apply_denotations(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Sink) {
     for_numbered(
         sec,
         sink,
         "NrOfEntries",
-        |sub, value, line, sink| match obj.subs.get_mut(&sub) {
+        |sub, value, line, sink| match obj.subs.get_mut(sub) {
             Some(s) => s.denotation = Some(value.to_string()),
             None => sink.warn(
                 K::Structure,
@@ -1101,14 +1361,14 @@ fn apply_denotations(obj: &mut Object, sec: &Section<'_>, sink: &mut Sink) {
 /// Calls `f(n, value, line)` for each `n=value` key (n decimal or 0x hex, 0..=255) of a
 /// numbered section; checks the count key.
 fn for_numbered(
-    sec: &Section<'_>,
+    sec: &Section<'_, '_>,
     sink: &mut Sink,
     count_key: &str,
     mut f: impl FnMut(u8, &str, u32, &mut Sink),
 ) {
     let mut count: Option<(u64, u32)> = None;
     let mut seen = 0u64;
-    for e in &sec.entries {
+    for e in sec.entries.iter() {
         if e.key.eq_ignore_ascii_case(count_key) {
             count = uint(sink, (e.value, e.line), count_key, u64::MAX).map(|c| (c, e.line));
             continue;
@@ -1142,10 +1402,10 @@ fn for_numbered(
 
 /// `[MandatoryObjects]`-style lists and `[xxxxObjectLinks]`: `SupportedObjects=n` or
 /// `ObjectLinks=n`, then `1=0x1000` ...
-fn object_list(sec: &Section<'_>, sink: &mut Sink) -> Vec<u16> {
+fn object_list(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<u16> {
     let mut count: Option<(u64, u32)> = None;
     let mut items: BTreeMap<u64, (u16, u32)> = BTreeMap::new();
-    for e in &sec.entries {
+    for e in sec.entries.iter() {
         if e.key.eq_ignore_ascii_case("SupportedObjects")
             || e.key.eq_ignore_ascii_case("ObjectLinks")
         {
@@ -1194,10 +1454,10 @@ fn object_list(sec: &Section<'_>, sink: &mut Sink) -> Vec<u16> {
     items.into_values().map(|(i, _)| i).collect()
 }
 
-fn comments(sec: &Section<'_>, sink: &mut Sink) -> Vec<String> {
+fn comments(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<String> {
     let mut lines: BTreeMap<u64, String> = BTreeMap::new();
     let mut declared = None;
-    for e in &sec.entries {
+    for e in sec.entries.iter() {
         if e.key.eq_ignore_ascii_case("Lines") {
             declared = uint(sink, (e.value, e.line), "Lines", u64::MAX).map(|c| (c, e.line));
         } else if let Some(n) = strip_prefix_ci(e.key, "Line").and_then(|n| n.parse::<u64>().ok()) {
@@ -1225,9 +1485,9 @@ fn comments(sec: &Section<'_>, sink: &mut Sink) -> Vec<String> {
     lines.into_values().collect()
 }
 
-fn dummy_usage(sec: &Section<'_>, sink: &mut Sink) -> BTreeMap<u16, bool> {
+fn dummy_usage(sec: &Section<'_, '_>, sink: &mut Sink) -> BTreeMap<u16, bool> {
     let mut out = BTreeMap::new();
-    for e in &sec.entries {
+    for e in sec.entries.iter() {
         match strip_prefix_ci(e.key, "Dummy").and_then(hex4) {
             Some(dt) => {
                 if let Some(b) = boolean(sink, (e.value, e.line), e.key) {
@@ -1258,7 +1518,7 @@ const FILE_KEYS: [&str; 11] = [
     "ModifiedBy",
 ];
 
-fn file_info(sec: &Section<'_>, sink: &mut Sink) -> FileInfo {
+fn file_info(sec: &Section<'_, '_>, sink: &mut Sink) -> FileInfo {
     let k = resolve_keys(sec, &FILE_KEYS, sink);
     let s = |i: usize| k.slots[i].map(|(t, _)| t.to_string());
     if let Some((v, line)) = k.slots[3] {
@@ -1312,7 +1572,7 @@ const DEVICE_KEYS: [&str; 23] = [
     "CompactPDO",
 ];
 
-fn device_info(sec: &Section<'_>, sink: &mut Sink) -> DeviceInfo {
+fn device_info(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceInfo {
     let k = resolve_keys(sec, &DEVICE_KEYS, sink);
     let mut extra = extra_owned(&k.extra);
     // A known key whose value cannot be read is kept verbatim so the file round-trips.
@@ -1375,7 +1635,7 @@ const COMM_KEYS: [&str; 7] = [
     "LSS_SerialNumber",
 ];
 
-fn commissioning(sec: &Section<'_>, sink: &mut Sink) -> DeviceCommissioning {
+fn commissioning(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceCommissioning {
     let k = resolve_keys(sec, &COMM_KEYS, sink);
     let mut extra = extra_owned(&k.extra);
     let mut num = |i: usize, max: u64| -> Option<u64> {
@@ -1487,6 +1747,34 @@ mod tests {
                 .unwrap()
                 .resolve(0),
             Some(Value::Unsigned32(0x0005_0064))
+        );
+    }
+
+    #[test]
+    fn duplicate_sub_sections_merge_and_ignored_subs_do_not_fail() {
+        let src = "[1000]\nParameterName=Device type\nDataType=0x0007\nAccessType=ro\n\
+[1000sub1]\nParameterName=ignored, and broken\nDataType=oops\n\
+[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=1\n\
+[1018sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+[1018sub0]\nDefaultValue=4\n";
+        let p = parse(src.as_bytes()).unwrap();
+        let sub0 = p.od.sub(0x1018, 0).unwrap();
+        assert_eq!(sub0.name, "n");
+        assert_eq!(sub0.default_value.as_ref().unwrap().text, "4");
+        assert!(
+            p.diagnostics
+                .iter()
+                .any(|d| d.kind == K::Duplicate && d.line == 17)
+        );
+        assert!(
+            p.diagnostics
+                .iter()
+                .any(|d| d.kind == K::Duplicate && d.line == 18)
+        );
+        assert!(
+            p.diagnostics
+                .iter()
+                .any(|d| d.kind == K::Structure && d.line == 5)
         );
     }
 

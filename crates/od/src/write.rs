@@ -183,7 +183,7 @@ fn write_object(o: &mut Out, obj: &Object) {
     }
     let simple = obj.is_simple() || matches!(obj.object_code, crate::types::ObjectCode::Other(_));
     if simple {
-        if let Some(sub) = obj.subs.get(&0) {
+        if let Some(sub) = obj.subs.get(0) {
             write_sub_fields(o, sub);
         }
         o.extra(&obj.extra);

@@ -19,7 +19,8 @@ fn first_difference(a: &ObjectDictionary, b: &ObjectDictionary) -> String {
         match b.objects.get(i) {
             None => return format!("object {i:04X} missing after round trip"),
             Some(ob) if ob != oa => {
-                for (s, sa) in &oa.subs {
+                for sa in &oa.subs {
+                    let s = sa.sub_index;
                     if ob.subs.get(s) != Some(sa) {
                         return format!("{i:04X}sub{s:X}: {sa:?} vs {:?}", ob.subs.get(s));
                     }
