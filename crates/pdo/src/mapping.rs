@@ -229,11 +229,35 @@ impl Mapping {
         }
     }
 
-    /// Appends an object of `kind`. Checks the entry count, the zero length and the 64-bit limit
-    /// (not the dictionary; see [`Mapping::from_raw_checked`]).
+    /// Appends an object of `kind`. Checks the entry count, the zero length, the 64-bit limit and
+    /// that fixed-width kinds have their width (BOOLEAN 1, REAL32 32, REAL64 64 bits; bytes whole
+    /// bytes) — not the dictionary; see [`Mapping::from_raw_checked`].
     pub fn push(&mut self, entry: MappingEntry, kind: ValueKind) -> Result<(), MappingError> {
         if entry.bits() == 0 {
             return Err(MappingError::ZeroLength(entry.addr()));
+        }
+        // A kind with a fixed width must be mapped with exactly that width, so decoding and
+        // encoding stay lossless.
+        let fixed = match kind {
+            ValueKind::Boolean => Some(1),
+            ValueKind::Real32 => Some(32),
+            ValueKind::Real64 => Some(64),
+            ValueKind::Bytes if !entry.bits().is_multiple_of(8) => {
+                return Err(MappingError::NotWholeBytes {
+                    addr: entry.addr(),
+                    mapped_bits: entry.bits(),
+                });
+            }
+            _ => None,
+        };
+        if let Some(width) = fixed
+            && width != entry.bits()
+        {
+            return Err(MappingError::LengthMismatch {
+                addr: entry.addr(),
+                object_bits: width as u16,
+                mapped_bits: entry.bits(),
+            });
         }
         let total = self.bits as u32 + entry.bits() as u32;
         if total > MAX_BITS {
@@ -257,8 +281,8 @@ impl Mapping {
         Ok(self)
     }
 
-    /// A mapping from raw entries without a dictionary: dummy entries get their data type's
-    /// kind, every other object is read as [`ValueKind::Unsigned`].
+    /// A mapping from raw entries without a dictionary: dummy entries of their type's size get
+    /// their data type's kind, every other entry is read as [`ValueKind::Unsigned`].
     pub fn from_raw(entries: &[u32]) -> Result<Self, MappingError> {
         if entries.len() > MAX_ENTRIES {
             return Err(MappingError::TooManyEntries(entries.len()));
@@ -266,7 +290,7 @@ impl Mapping {
         let mut m = Self::new();
         for &raw in entries {
             let e = MappingEntry(raw);
-            let kind = if e.is_dummy() {
+            let kind = if dummy_bits(e.index()) == Some(e.bits()) {
                 ValueKind::from_data_type(e.index())
             } else {
                 ValueKind::Unsigned
@@ -461,6 +485,31 @@ mod tests {
         assert_eq!(offs, [0, 1, 8]);
         assert_eq!(m.bit_len(), 24);
         assert_eq!(m.byte_len(), 3);
+    }
+
+    #[test]
+    fn kinds_keep_their_width() {
+        let mut m = Mapping::new();
+        assert!(matches!(
+            m.push(MappingEntry(0x2000_0108), ValueKind::Boolean),
+            Err(MappingError::LengthMismatch { object_bits: 1, .. })
+        ));
+        assert!(matches!(
+            m.push(MappingEntry(0x2000_0110), ValueKind::Real32),
+            Err(MappingError::LengthMismatch {
+                object_bits: 32,
+                ..
+            })
+        ));
+        assert!(matches!(
+            m.push(MappingEntry(0x2000_010C), ValueKind::Bytes),
+            Err(MappingError::NotWholeBytes { .. })
+        ));
+        // An odd-sized "dummy" without a catalog is just unsigned bits.
+        let m = Mapping::from_raw(&[0x0001_0009]).unwrap();
+        assert_eq!(m.objects()[0].kind, ValueKind::Unsigned);
+        let m = Mapping::from_raw(&[0x0001_0001]).unwrap();
+        assert_eq!(m.objects()[0].kind, ValueKind::Boolean);
     }
 
     #[test]
