@@ -17,25 +17,22 @@
 //! [`canopen_pdo::remap`]; value types come from the node's dictionary (its EDS), falling back to
 //! the generic Bürkert EDS.
 
-use std::prelude::rust_2024::*;
 use std::format;
+use std::prelude::rust_2024::*;
 
 use std::io::Write;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use can_frame::{CanFrame, CanId, NodeId};
 use canopen::{Entry as Addr, Error, NetworkEvent, Node, SdoErrorKind, TransferProgress};
 use canopen_od::{DataType, Entry, EntryValue, ObjectDictionary};
 use canopen_pdo::{
-    CommParams, Direction, Mapping, MappingEntry, RemoteObjects, Value as PdoValue,
-    ValueKind,
+    CommParams, Direction, Mapping, MappingEntry, RemoteObjects, Value as PdoValue, ValueKind,
 };
 use canopen_sdo::{AbortCode, ErrorKind};
 
 use crate::colour::LedColour;
-use crate::comm::{
-    BitRate, BusMode, CanOperationStatus, EdsVersion, ResetCommand, Termination,
-};
+use crate::comm::{BitRate, BusMode, CanOperationStatus, EdsVersion, ResetCommand, Termination};
 use crate::led::{LedIndication, LedMode, LedState, ValveModeColours};
 use crate::ne107::Ne107Status;
 use crate::objects::{
@@ -269,9 +266,52 @@ impl ControlRpdo {
         let mut buf = [0u8; 8];
         let n = canopen_pdo::pack(&self.mapping, values, &mut buf)
             .map_err(|e| err(format!("RPDO{} data: {e}", self.number)))?;
-        let id = CanId::standard((self.cob_id & 0x7FF) as u16)
-            .map_err(|_| err(format!("COB-ID {:#x} is not an 11-bit identifier", self.cob_id)))?;
+        let id = CanId::standard((self.cob_id & 0x7FF) as u16).map_err(|_| {
+            err(format!(
+                "COB-ID {:#x} is not an 11-bit identifier",
+                self.cob_id
+            ))
+        })?;
         CanFrame::new(id, &buf[..n]).map_err(|_| err("frame longer than 8 bytes".into()))
+    }
+}
+
+/// A progress callback that is called once more with the final length when the master's last
+/// report fell short of it (the master reports before the last segment / block is stored).
+struct FinalProgress {
+    /// The caller's callback and the last `done` it was given.
+    inner: Arc<Mutex<(canopen::ProgressFn, u64)>>,
+}
+
+impl FinalProgress {
+    fn new(f: impl FnMut(TransferProgress) + Send + 'static) -> Self {
+        Self {
+            inner: Arc::new(Mutex::new((Box::new(f), 0))),
+        }
+    }
+
+    fn callback(&self) -> impl FnMut(TransferProgress) + Send + 'static {
+        let inner = self.inner.clone();
+        move |p| {
+            if let Ok(mut g) = inner.lock() {
+                g.1 = p.done;
+                (g.0)(p);
+            }
+        }
+    }
+
+    fn finish(&self, node: NodeId, entry: Addr, len: u64) {
+        if let Ok(mut g) = self.inner.lock()
+            && g.1 != len
+        {
+            g.1 = len;
+            (g.0)(TransferProgress {
+                node,
+                entry,
+                done: len,
+                total: Some(len),
+            });
+        }
     }
 }
 
@@ -426,15 +466,16 @@ impl BurkertNode {
             communication: communication_from(&b)?,
             led: led_from(&b)?,
             locating: b.get(locating_function::CALL_CANCEL)?.unwrap_or(0) != 0,
-            maintenance: b.get(trigger_maintenance_function::CALL_CANCEL)?.unwrap_or(0) != 0,
+            maintenance: b
+                .get(trigger_maintenance_function::CALL_CANCEL)?
+                .unwrap_or(0)
+                != 0,
         })
     }
 
     /// Reads the whole device description (0x2000) and device status (0x2004) in one call:
     /// all SDO reads are submitted together, then awaited.
-    pub fn read_description_and_status(
-        &self,
-    ) -> Result<(DeviceDescription, DeviceStatus), Error> {
+    pub fn read_description_and_status(&self) -> Result<(DeviceDescription, DeviceStatus), Error> {
         let mut all: Vec<Addr> = DESCRIPTION.to_vec();
         all.extend(STATUS.iter().copied());
         let b = self.batch(&all);
@@ -517,8 +558,8 @@ impl BurkertNode {
     }
 
     /// Uploads the logbook (0x2003 sub 4, a DOMAIN holding an XML document) into `out`, by
-    /// block transfer when `block` is set (segmented otherwise), calling `progress` as it goes.
-    /// Returns the byte count.
+    /// block transfer when `block` is set (segmented otherwise), calling `progress` as it goes;
+    /// the last call always reports the whole length. Returns the byte count.
     pub fn download_logbook(
         &self,
         out: impl Write + Send + 'static,
@@ -526,11 +567,15 @@ impl BurkertNode {
         progress: impl FnMut(TransferProgress) + Send + 'static,
     ) -> Result<u64, Error> {
         let e = objects::error_management_object::LOGBOOK_DOWNLOAD;
-        self.node
+        let p = FinalProgress::new(progress);
+        let n = self
+            .node
             .sdo()
             .block(block)
-            .on_progress(progress)
-            .upload_to(addr(&e), out)
+            .on_progress(p.callback())
+            .upload_to(addr(&e), out)?;
+        p.finish(self.id(), addr(&e), n);
+        Ok(n)
     }
 
     /// Uploads the logbook into memory (see [`download_logbook`](Self::download_logbook)).
@@ -540,11 +585,15 @@ impl BurkertNode {
         progress: impl FnMut(TransferProgress) + Send + 'static,
     ) -> Result<Vec<u8>, Error> {
         let e = objects::error_management_object::LOGBOOK_DOWNLOAD;
-        self.node
+        let p = FinalProgress::new(progress);
+        let data = self
+            .node
             .sdo()
             .block(block)
-            .on_progress(progress)
-            .read(addr(&e))
+            .on_progress(p.callback())
+            .read(addr(&e))?;
+        p.finish(self.id(), addr(&e), data.len() as u64);
+        Ok(data)
     }
 
     /// Stores a new node-ID in 0x2001 sub 2. It takes effect at the next communication or
@@ -598,7 +647,9 @@ impl BurkertNode {
 
     /// The node's dictionary, or the generic Bürkert EDS when the node was added without one.
     fn dictionary(&self) -> Arc<ObjectDictionary> {
-        self.node.dictionary().unwrap_or_else(|| generic_od().clone())
+        self.node
+            .dictionary()
+            .unwrap_or_else(|| generic_od().clone())
     }
 
     fn value_entry(
@@ -617,7 +668,11 @@ impl BurkertNode {
             ));
         }
         let sub = od.sub(index, SUB_VALUE).ok_or_else(|| {
-            undefined(self.id(), a, "the node's dictionary does not describe this object")
+            undefined(
+                self.id(),
+                a,
+                "the node's dictionary does not describe this object",
+            )
         })?;
         let bits = sub.data_type.size().unwrap_or(0) * 8;
         if bits == 0 || bits > 64 {
@@ -657,7 +712,7 @@ impl BurkertNode {
         let od = self.dictionary();
         let mut raw = Vec::with_capacity(values.len());
         for &v in values {
-            raw.push(self.value_entry(&od, base, v)?.0 .0);
+            raw.push(self.value_entry(&od, base, v)?.0.0);
         }
         let mapping = Mapping::from_raw_checked(direction, &raw, &OdCatalog(&od))
             .map_err(|e| undefined(id, Addr::new(direction.mapping_index(n), 0), e))?;
@@ -676,9 +731,7 @@ impl BurkertNode {
         });
         let map_index = direction.mapping_index(n);
         let remote = RemoteObjects {
-            mapping_writable: od
-                .sub(map_index, 0)
-                .is_some_and(|s| s.access.is_writable()),
+            mapping_writable: od.sub(map_index, 0).is_some_and(|s| s.access.is_writable()),
             current_mapping: None,
             has_inhibit_time: od.sub(comm_index, 3).is_some(),
             has_event_timer: od.sub(comm_index, 5).is_some(),
@@ -749,7 +802,11 @@ impl BurkertNode {
 
     /// Sends one RPDO with a value per control (typed as the mapping says, e.g.
     /// [`PdoValue::Real32`] for the generic device). The device applies it while Operational.
-    pub fn send_control_values(&self, rpdo: &ControlRpdo, values: &[PdoValue]) -> Result<(), Error> {
+    pub fn send_control_values(
+        &self,
+        rpdo: &ControlRpdo,
+        values: &[PdoValue],
+    ) -> Result<(), Error> {
         let frame = rpdo.encode(values)?;
         self.node.network().send(frame)
     }
@@ -931,9 +988,8 @@ fn led_from(b: &Batch) -> Result<LedConfig, Error> {
     let d = ValveModeColours::default();
     let mode = match b.get(objects::LED_MODE)? {
         None => LedMode::default(),
-        Some(raw) => {
-            LedMode::from_u32(raw).map_err(|err| undefined(b.node, addr(&objects::LED_MODE), err))?
-        }
+        Some(raw) => LedMode::from_u32(raw)
+            .map_err(|err| undefined(b.node, addr(&objects::LED_MODE), err))?,
     };
     Ok(LedConfig {
         mode,

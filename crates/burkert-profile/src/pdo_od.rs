@@ -8,7 +8,9 @@ use std::prelude::rust_2024::*;
 
 use canopen::Values;
 use canopen_od::ObjectDictionary;
-use canopen_pdo::{Catalog, Dictionary, ObjectAddr, ObjectInfo, ObjectStore, ReadError, StoreError};
+use canopen_pdo::{
+    Catalog, Dictionary, ObjectAddr, ObjectInfo, ObjectStore, ReadError, StoreError,
+};
 
 /// What a dictionary says about `addr`, in the PDO crate's terms.
 fn info(od: &ObjectDictionary, addr: ObjectAddr) -> Option<ObjectInfo> {

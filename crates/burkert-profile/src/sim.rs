@@ -162,13 +162,19 @@ fn history() -> Vec<LogEntry> {
             "supply voltage below 18 V for 120 ms",
             Ne107Status::OutOfSpecification,
         ),
-        ("supply voltage back in range", Ne107Status::DiagnosisInactive),
+        (
+            "supply voltage back in range",
+            Ne107Status::DiagnosisInactive,
+        ),
         (
             "maintenance interval reached (100000 switching cycles)",
             Ne107Status::MaintenanceRequired,
         ),
         ("maintenance acknowledged", Ne107Status::DiagnosisInactive),
-        ("parameter set changed over bUS", Ne107Status::DiagnosisActive),
+        (
+            "parameter set changed over bUS",
+            Ne107Status::DiagnosisActive,
+        ),
     ];
     (0..HISTORIC_LOG_ENTRIES)
         .map(|i| {
@@ -444,7 +450,8 @@ impl BurkertDevice {
         let mut sim = SimDevice::new(node, (*od).clone()).with_hook(BurkertHook {
             shared: shared.clone(),
         });
-        sim.values_mut().set(0x2004, 0x0D, 1u32.to_le_bytes().to_vec());
+        sim.values_mut()
+            .set(0x2004, 0x0D, 1u32.to_le_bytes().to_vec());
         let mut dev = Self {
             sim,
             od,
@@ -615,7 +622,9 @@ impl BurkertDevice {
                 .get(&sensor)
                 .copied()
                 .unwrap_or_else(|| Self::sensor_reading(sensor, now));
-            self.sim.values_mut().set(index, 1, v.to_le_bytes().to_vec());
+            self.sim
+                .values_mut()
+                .set(index, 1, v.to_le_bytes().to_vec());
         }
     }
 
