@@ -6,9 +6,9 @@
 extern crate burkert_profile;
 extern crate can_frame;
 extern crate canopen_lss;
+extern crate canopen_nmt;
 extern crate canopen_od;
 extern crate canopen_pdo;
-extern crate canopen_nmt;
 extern crate canopen_sdo;
 extern crate gemu_cpos;
 
