@@ -885,12 +885,14 @@ impl<const RX: usize, const TX: usize> Engine<RX, TX> {
     }
 }
 
+#[inline]
 fn push_event(q: &mut Deque<Event, EVENT_QUEUE>, lost: &mut u32, e: Event) {
     if q.push_back(e).is_err() {
         *lost = lost.saturating_add(1);
     }
 }
 
+#[inline]
 fn push_frame(q: &mut Deque<CanFrame, TRANSMIT_QUEUE>, lost: &mut u32, f: CanFrame) {
     if q.push_back(f).is_err() {
         *lost = lost.saturating_add(1);

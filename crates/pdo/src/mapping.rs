@@ -142,6 +142,7 @@ impl MappedObject {
 }
 
 /// `bits` low bits set (0..=64).
+#[inline]
 pub(crate) const fn field_mask(bits: u8) -> u64 {
     if bits >= 64 {
         u64::MAX

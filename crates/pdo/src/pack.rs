@@ -94,10 +94,15 @@ pub enum PackError {
 /// Reads up to eight bytes as a little-endian word (missing bytes are zero).
 #[inline]
 pub(crate) fn load_word(data: &[u8]) -> u64 {
-    let mut buf = [0u8; 8];
-    let n = data.len().min(8);
-    buf[..n].copy_from_slice(&data[..n]);
-    u64::from_le_bytes(buf)
+    if let Some(b) = data.first_chunk::<8>() {
+        return u64::from_le_bytes(*b);
+    }
+    // Shorter PDOs: assemble byte by byte (no variable-length copy call on the hot path).
+    let mut word = 0u64;
+    for (i, &b) in data.iter().enumerate() {
+        word |= (b as u64) << (8 * i);
+    }
+    word
 }
 
 /// The raw bits of one mapped object in a data word.
