@@ -237,6 +237,8 @@ pub(crate) struct Core {
     /// response to the finished transfer reaches an idle client (which ignores it) rather
     /// than the next transfer.
     pub(crate) settle: Duration,
+    lss: Option<Box<dyn crate::lss::LssJob>>,
+    lss_result: Option<Result<crate::lss::LssOutcome, canopen_lss::LssError>>,
 }
 
 fn sdo_tx_frame(node: NodeId, data: [u8; 8]) -> CanFrame {
@@ -266,6 +268,8 @@ impl Core {
             states: BTreeMap::new(),
             subscribers: Vec::new(),
             settle: Duration::from_millis(1),
+            lss: None,
+            lss_result: None,
         }
     }
 
@@ -334,6 +338,31 @@ impl Core {
 
     pub(crate) fn stop_sync(&mut self) {
         self.sync = None;
+    }
+
+    /// Starts an LSS job (replacing a running one).
+    pub(crate) fn start_lss(&mut self, job: Box<dyn crate::lss::LssJob>) {
+        self.lss_result = None;
+        self.lss = Some(job);
+        self.pump_lss();
+    }
+
+    pub(crate) fn take_lss_result(
+        &mut self,
+    ) -> Option<Result<crate::lss::LssOutcome, canopen_lss::LssError>> {
+        self.lss_result.take()
+    }
+
+    fn pump_lss(&mut self) {
+        if let Some(job) = &mut self.lss {
+            while let Some(f) = job.poll_transmit() {
+                self.tx.push_back(f);
+            }
+            if let Some(r) = job.poll() {
+                self.lss_result = Some(r);
+                self.lss = None;
+            }
+        }
     }
 
     /// Queues an SDO request; it starts when the node's earlier requests are done.
@@ -502,6 +531,10 @@ impl Core {
             return;
         };
         if raw == LSS_SLAVE_TO_MASTER {
+            if let Some(job) = &mut self.lss {
+                job.handle_frame(now, frame);
+                self.pump_lss();
+            }
             let mut data = [0u8; 8];
             data[..frame.data().len()].copy_from_slice(frame.data());
             self.publish(NetworkEvent::Lss { data, at: now });
@@ -589,6 +622,12 @@ impl Core {
             self.heartbeat.handle_timeout(now);
             self.drain_heartbeat();
         }
+        if let Some(job) = &mut self.lss
+            && job.poll_timeout().is_some_and(|t| t <= now)
+        {
+            job.handle_timeout(now);
+            self.pump_lss();
+        }
         if let Some(sync) = &mut self.sync
             && sync.poll_timeout().is_some_and(|t| t <= now)
         {
@@ -625,6 +664,7 @@ impl Core {
             }
         };
         consider(self.sync.as_ref().and_then(|s| s.poll_timeout()));
+        consider(self.lss.as_ref().and_then(|j| j.poll_timeout()));
         for slot in self.nodes.values() {
             consider(slot.client.poll_timeout());
             if slot.active.is_none() && !slot.queue.is_empty() {

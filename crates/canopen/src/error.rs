@@ -115,6 +115,9 @@ pub enum Error {
     /// No answer within the time allowed (for services without their own timeout).
     #[error("timed out: {0}")]
     Timeout(String),
+    /// An LSS service failed (CiA 305).
+    #[error("LSS: {0}")]
+    Lss(canopen_lss::LssError),
     /// A local I/O error (file, writer, reader).
     #[error("I/O: {0}")]
     Io(#[from] std::io::Error),

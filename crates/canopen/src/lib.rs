@@ -11,6 +11,7 @@
 pub mod candump;
 mod core;
 pub mod error;
+pub mod lss;
 pub mod mem;
 pub mod network;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
@@ -26,4 +27,5 @@ pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_
 pub mod asynch;
 pub mod sim;
 pub use crate::core::ProgressFn;
+pub use lss::{Lss, LssOutcome};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};

@@ -254,31 +254,35 @@ impl Network {
 
     /// Blocks until request `id` finishes, driving the network meanwhile.
     pub(crate) fn wait(&self, id: RequestId) -> Result<Completion, SdoError> {
+        let r = self.wait_for(|c| c.take_result(id).map(|r| r.map_err(|e| c.name_error(e))));
+        match r {
+            Ok(r) => r,
+            Err(e) => {
+                self.core().cancel(id);
+                Err(SdoError {
+                    node: NodeId::MIN,
+                    entry: Entry::new(0, 0),
+                    name: None,
+                    kind: SdoErrorKind::Transport(e.to_string()),
+                })
+            }
+        }
+    }
+
+    /// Drives the network until `done` returns a value (whoever waits drives; see the module
+    /// docs).
+    pub(crate) fn wait_for<T>(
+        &self,
+        mut done: impl FnMut(&mut Core) -> Option<T>,
+    ) -> Result<T, Error> {
         loop {
-            {
-                let mut c = self.core();
-                if let Some(r) = c.take_result(id) {
-                    return r.map_err(|e| c.name_error(e));
-                }
+            if let Some(r) = done(&mut self.core()) {
+                return Ok(r);
             }
             match self.inner.io.try_lock() {
-                Ok(mut io) => {
-                    if let Err(e) = self.step(&mut io, None) {
-                        let mut c = self.core();
-                        c.cancel(id);
-                        return Err(SdoError {
-                            node: NodeId::MIN,
-                            entry: Entry::new(0, 0),
-                            name: None,
-                            kind: SdoErrorKind::Transport(e.to_string()),
-                        });
-                    }
-                }
+                Ok(mut io) => self.step(&mut io, None)?,
                 Err(_) => {
                     let c = self.core();
-                    if c.is_done(id) {
-                        continue;
-                    }
                     let _ = relock(
                         self.inner
                             .cond

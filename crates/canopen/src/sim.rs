@@ -4,7 +4,10 @@
 //! * NMT slave with boot-up and heartbeat producer (`canopen-nmt`, CiA 301 §7.2.8, §7.3.2);
 //! * SDO server for expedited, segmented and block transfers (`canopen-sdo`, CiA 301 §7.2.4)
 //!   over the dictionary's values;
-//! * EMCY producer (`canopen-nmt`, CiA 301 §7.2.7).
+//! * EMCY producer (`canopen-nmt`, CiA 301 §7.2.7);
+//! * LSS slave (`canopen-lss`, CiA 305) with the identity from 0x1018 as its LSS address. A
+//!   device made with [`SimDevice::unconfigured`] has no node-ID: it only answers LSS until a
+//!   master assigns one, then boots with it.
 //!
 //! It implements [`Station`], so it runs attached to an in-memory bus
 //! ([`MemoryBus::attach`](crate::mem::MemoryBus::attach), deterministic on the virtual clock) or
@@ -21,6 +24,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use can_frame::cob::FunctionCode;
 use can_frame::{CanFrame, CanId, Instant, NodeId};
+use canopen_lss::{LssAddress, LssSlave, SlaveConfig as LssConfig, SlaveEvent as LssEvent};
 use canopen_nmt::{DeviceState, Emcy, EmcyProducer, NmtSlave, Service, SlaveConfig, SlaveEvent};
 use canopen_od::{AccessType, ObjectDictionary};
 use canopen_sdo::{
@@ -251,6 +255,8 @@ pub struct SimDevice {
     hooks: Vec<Box<dyn DeviceHook>>,
     out: VecDeque<CanFrame>,
     booted: bool,
+    configured: bool,
+    lss: LssSlave,
     last_state: DeviceState,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
@@ -290,6 +296,9 @@ impl SimDevice {
             },
         );
         let emcy_cob = FunctionCode::Emcy.cob_id(node);
+        let id = |sub| values.get_u64(0x1018, sub).unwrap_or(0) as u32;
+        let mut lss_config = LssConfig::unconfigured(LssAddress::new(id(1), id(2), id(3), id(4)));
+        lss_config.node_id = node.get();
         Self {
             node,
             od,
@@ -301,9 +310,55 @@ impl SimDevice {
             hooks: Vec::new(),
             out: VecDeque::new(),
             booted: false,
+            configured: true,
+            lss: LssSlave::new(lss_config),
             last_state: DeviceState::Initialising,
             sdo_requests: 0,
         }
+    }
+
+    /// A device without a node-ID (CiA 305 "unconfigured", 0xFF) whose LSS address is `address`
+    /// (also put into 0x1018). It stays silent except for LSS until a master configures a
+    /// node-ID; then it boots with that node-ID.
+    pub fn unconfigured(od: ObjectDictionary, address: LssAddress) -> Self {
+        let mut dev = Self::new(NodeId::MAX, od);
+        dev.configured = false;
+        dev.lss = LssSlave::new(LssConfig::unconfigured(address));
+        dev.set_identity(address);
+        dev
+    }
+
+    fn set_identity(&mut self, a: LssAddress) {
+        for (sub, v) in [
+            (1, a.vendor_id),
+            (2, a.product_code),
+            (3, a.revision_number),
+            (4, a.serial_number),
+        ] {
+            self.values.set(0x1018, sub, v.to_le_bytes().to_vec());
+        }
+    }
+
+    /// Whether the device has a node-ID.
+    pub fn is_configured(&self) -> bool {
+        self.configured
+    }
+
+    /// The LSS address (identity).
+    pub fn lss_address(&self) -> LssAddress {
+        self.lss.address()
+    }
+
+    /// Takes a new node-ID (after LSS): values back to defaults for that node-ID, machines
+    /// rebuilt, boot-up.
+    fn adopt_node_id(&mut self, now: Instant, node: NodeId) {
+        let address = self.lss.address();
+        self.node = node;
+        self.configured = true;
+        self.values = Values::defaults(&self.od, node);
+        self.set_identity(address);
+        self.emcy = EmcyProducer::new(FunctionCode::Emcy.cob_id(node), 0);
+        self.reset(now, false);
     }
 
     /// Parses an EDS/DCF text and builds a device from it.
@@ -361,11 +416,37 @@ impl SimDevice {
         while let Some(f) = self.emcy.poll_transmit() {
             self.out.push_back(f);
         }
+        while let Some(f) = self.lss.poll_transmit_frame() {
+            self.out.push_back(f);
+        }
+    }
+
+    fn after_lss(&mut self, now: Instant) {
+        let mut adopt = None;
+        while let Some(ev) = self.lss.poll_event() {
+            if let LssEvent::ResetCommunication { node_id } = ev {
+                adopt = Some(node_id);
+            }
+        }
+        self.collect();
+        if let Some(n) = adopt {
+            self.adopt_node_id(now, n);
+        }
     }
 
     fn reset(&mut self, now: Instant, application: bool) {
+        // NMT reset makes a node-ID configured by LSS active (CiA 305).
+        self.lss.reset_communication();
+        if let Ok(n) = NodeId::new(self.lss.active_node_id())
+            && n != self.node
+        {
+            self.node = n;
+            self.emcy = EmcyProducer::new(FunctionCode::Emcy.cob_id(n), 0);
+        }
         if application {
+            let address = self.lss.address();
             self.values = Values::defaults(&self.od, self.node);
+            self.set_identity(address);
         }
         let hb = self.values.get_u64(0x1017, 0).unwrap_or(0) as u16;
         self.nmt = NmtSlave::new(
@@ -426,6 +507,14 @@ impl Station for SimDevice {
             return;
         }
         let Some(cob) = frame.cob_id() else { return };
+        if cob == can_frame::cob::LSS_MASTER_TO_SLAVE {
+            self.lss.handle_frame(now, frame);
+            self.after_lss(now);
+            return;
+        }
+        if !self.configured {
+            return;
+        }
         if cob == FunctionCode::SdoRx.cob_id(self.node) {
             if !self.nmt.allows(Service::Sdo) {
                 return;
@@ -454,8 +543,14 @@ impl Station for SimDevice {
     fn handle_timeout(&mut self, now: Instant) {
         if !self.booted {
             self.booted = true;
-            self.nmt.boot(now);
-            self.after_nmt(now);
+            if self.configured {
+                self.nmt.boot(now);
+                self.after_nmt(now);
+            }
+        }
+        if self.lss.poll_timeout().is_some_and(|t| t <= now) {
+            self.lss.handle_timeout(now);
+            self.after_lss(now);
         }
         if self.nmt.poll_timeout().is_some_and(|t| t <= now) {
             self.nmt.handle_timeout(now);
@@ -500,6 +595,7 @@ impl Station for SimDevice {
             self.nmt.poll_timeout(),
             self.sdo.poll_timeout(),
             self.emcy.poll_timeout(),
+            self.lss.poll_timeout(),
         ]
         .into_iter()
         .chain(self.hooks.iter().map(|h| h.poll_timeout()))

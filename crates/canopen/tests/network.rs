@@ -463,3 +463,50 @@ fn timing_model_bus_works_end_to_end() {
     // 1000 bytes = 143 segments of 135 bits at 125 kbit/s is at least 154 ms of wire time.
     assert!(took >= Duration::from_millis(154), "{took}");
 }
+
+#[test]
+fn lss_assign_all_then_the_devices_boot_and_answer_sdo() {
+    use canopen_lss::{AssignConfig, FastscanConfig, LssAddress, NodeIdPool, Procedure};
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let events = net.subscribe();
+    let a = LssAddress::new(0x39, 0x0100_0001, 1, 1001);
+    let b = LssAddress::new(0x39, 0x0100_0001, 1, 2002);
+    let da = bus.attach(SimDevice::unconfigured(od(), a));
+    let db = bus.attach(SimDevice::unconfigured(od(), b));
+    net.run_for(Duration::from_millis(100)).unwrap();
+    assert!(
+        drain(&events).is_empty(),
+        "unconfigured devices stay silent"
+    );
+
+    // Fastscan finds one of them.
+    let found = net.lss().fastscan(FastscanConfig::default()).unwrap();
+    assert!(found == Some(a) || found == Some(b), "{found:?}");
+    // Leave configuration state again for the workflow.
+    net.lss()
+        .procedure(Procedure::single(canopen_lss::Step::SwitchModeGlobal(
+            canopen_lss::Mode::Waiting,
+        )))
+        .unwrap();
+
+    let pool = NodeIdPool::range(n(20), n(30));
+    let report = net.lss().assign_all(AssignConfig::with_pool(pool)).unwrap();
+    let assigned: Vec<_> = report.assigned().collect();
+    assert_eq!(assigned.len(), 2, "{report:?}");
+    net.run_for(Duration::from_millis(10)).unwrap();
+    let boots: Vec<_> = drain(&events)
+        .into_iter()
+        .filter_map(|e| match e {
+            NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node }) => Some(node.get()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(boots.len(), 2, "{boots:?}");
+    for (addr, id) in assigned {
+        let serial = net.node(id).sdo().read((0x1018, 4)).unwrap();
+        assert_eq!(serial, addr.serial_number.to_le_bytes());
+    }
+    assert!(bus.with_station(da, |d| d.is_configured()).unwrap());
+    assert!(bus.with_station(db, |d| d.is_configured()).unwrap());
+}
