@@ -67,7 +67,7 @@ impl Rng {
 fn entry(out: &mut String, rng: &mut Rng, name: &str, dt_pick: usize, node_relative: bool) {
     let (dt, default) = TYPES[dt_pick % TYPES.len()];
     let access = ["ro", "rw", "rww", "rwr", "const", "wo"][(rng.next() % 6) as usize];
-    let pdo = u8::from(is_integer(dt) && rng.next() % 2 == 0);
+    let pdo = u8::from(is_integer(dt) && rng.next().is_multiple_of(2));
     let _ = write!(
         out,
         "ParameterName={name}\r\nObjectType=0x7\r\nDataType=0x{dt:04X}\r\nAccessType={access}\r\n"
@@ -82,7 +82,7 @@ fn entry(out: &mut String, rng: &mut Rng, name: &str, dt_pick: usize, node_relat
         let _ = write!(out, "DefaultValue={default}\r\n");
     }
     let _ = write!(out, "PDOMapping={pdo}\r\n");
-    if is_unsigned(dt) && rng.next() % 3 == 0 {
+    if is_unsigned(dt) && rng.next().is_multiple_of(3) {
         out.push_str("LowLimit=0x00\r\nHighLimit=0x7F\r\n");
     }
     out.push_str("\r\n");
@@ -191,7 +191,7 @@ fn measure(program: &Path, args: &[&str]) -> (f64, u64, String) {
     let rss = stderr
         .lines()
         .filter_map(|l| l.trim().parse::<u64>().ok())
-        .last()
+        .next_back()
         .unwrap_or(0);
     (
         wall,

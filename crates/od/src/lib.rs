@@ -5,13 +5,22 @@
 //! - [`value`] — typed values of every basic data type with two codecs: little-endian bytes
 //!   (SDO/PDO payloads) and CiA 306 EDS text including `$NODEID` expressions (`alloc`).
 //! - [`model`] — the dictionary: objects, sub-objects, file and device information (`alloc`).
-//! - [`parse`] — the CiA 306 EDS/DCF parser with warnings and errors by line ([`diag`]).
-//! - [`write`] — EDS, DCF and concise DCF (0x1F22) writers.
-//! - [`lint`] — consistency checks (SubNumber, object lists, limits, PDO mappings, codes).
+//! - [`parse`](mod@parse) — the CiA 306 EDS/DCF parser with warnings and errors by line ([`diag`]).
+//! - [`write`](mod@write) — EDS, DCF and concise DCF (0x1F22) writers.
+//! - [`lint`](mod@lint) — consistency checks (SubNumber, object lists, limits, PDO mappings, codes).
 //! - `file` — load/save by path (`std`).
 //!
-//! The crate is `#![no_std]`. Without features only [`types`] is available; `alloc` adds the
-//! model and the value codec, `std` (default) adds file I/O conveniences.
+//! The crate is `#![no_std]`. Without features only [`types`] and [`entry`] are available (no
+//! allocator); `alloc` adds the value codec, the model, parser, writer and linter; `std`
+//! (default) adds file I/O conveniences.
+//!
+//! ```
+//! let eds = "[1017]\nParameterName=Producer heartbeat time\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\n";
+//! let parsed = canopen_od::parse(eds.as_bytes()).expect("parses");
+//! let hb = parsed.od.sub(0x1017, 0).expect("present");
+//! assert_eq!(hb.data_type, canopen_od::DataType::Unsigned16);
+//! assert_eq!(hb.effective_value(5), Some(canopen_od::Value::Unsigned16(1000)));
+//! ```
 #![no_std]
 
 #[cfg(feature = "alloc")]

@@ -97,9 +97,10 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
             .as_ref()
             .and_then(|f| f.resolve(0))
             .and_then(|v| v.as_i128());
-        if let Some(v) = v {
-            if v < i128::from(highest) {
-                sink.warn(
+        if let Some(v) = v
+            && v < i128::from(highest)
+        {
+            sink.warn(
                     K::SubNumber,
                     sub0.line.0,
                     format!(
@@ -107,7 +108,6 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
                         obj.index
                     ),
                 );
-            }
         }
     } else if present > 0 && obj.subs.get(0).is_none() {
         sink.warn(
@@ -137,14 +137,14 @@ fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
             format!("{:04X}sub{:X}", obj.index, sub.sub_index)
         }
     };
-    if let (Some(l), Some(h)) = (low, high) {
-        if l > h {
-            sink.warn(
-                K::Limits,
-                sub.line.0,
-                format!("{}: LowLimit {l} is above HighLimit {h}", what()),
-            );
-        }
+    if let (Some(l), Some(h)) = (low, high)
+        && l > h
+    {
+        sink.warn(
+            K::Limits,
+            sub.line.0,
+            format!("{}: LowLimit {l} is above HighLimit {h}", what()),
+        );
     }
     for (field, label) in [
         (&sub.default_value, "DefaultValue"),
@@ -305,7 +305,7 @@ fn pdo_mappings(sink: &mut Sink, od: &ObjectDictionary) {
                 "{:04X}sub{:X} maps {index:04X}sub{sub_index:X} ({bits} bits)",
                 obj.index, sub.sub_index
             );
-            if index < 0x20 && !od.objects.get(&index).is_some_and(|o| !o.is_simple()) {
+            if index < 0x20 && od.objects.get(&index).is_none_or(|o| o.is_simple()) {
                 // A dummy entry: data type index as object index (CiA 301 §7.5.2.36).
                 if od.dummy_usage.get(&index) != Some(&true) {
                     sink.warn(K::PdoMapping, sub.line.0, format!("{here}: a dummy entry, but [DummyUsage] does not enable Dummy{index:04X}"));
@@ -331,18 +331,18 @@ fn pdo_mappings(sink: &mut Sink, od: &ObjectDictionary) {
                     format!("{here}: the target has PDOMapping=0"),
                 );
             }
-            if let Some(size) = target.data_type.size() {
-                if size as u32 * 8 != bits {
-                    sink.warn(
-                        K::PdoMapping,
-                        sub.line.0,
-                        format!(
-                            "{here}: the target is {} ({} bits)",
-                            target.data_type,
-                            size * 8
-                        ),
-                    );
-                }
+            if let Some(size) = target.data_type.size()
+                && size as u32 * 8 != bits
+            {
+                sink.warn(
+                    K::PdoMapping,
+                    sub.line.0,
+                    format!(
+                        "{here}: the target is {} ({} bits)",
+                        target.data_type,
+                        size * 8
+                    ),
+                );
             }
             if receive && !target.access.is_writable() {
                 sink.warn(

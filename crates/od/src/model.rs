@@ -17,7 +17,7 @@ use crate::value::{EdsValue, TextError, TextNotes, Value};
 ///
 /// Two `Line`s always compare equal: where an object came from is not part of what it is, so a
 /// parsed model equals the model parsed back from its written form.
-#[derive(Debug, Clone, Copy, Default, Eq, PartialOrd, Ord, Hash)]
+#[derive(Debug, Clone, Copy, Default, Eq)]
 pub struct Line(pub u32);
 
 impl PartialEq for Line {

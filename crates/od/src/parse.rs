@@ -902,10 +902,10 @@ fn build(
             if *i > index {
                 break;
             }
-            if let Some(((i, s), rec)) = subs.next() {
-                if i == index {
-                    own_subs.push((s, rec));
-                }
+            if let Some(((i, s), rec)) = subs.next()
+                && i == index
+            {
+                own_subs.push((s, rec));
             }
         }
         let own_built = built.remove(&index).unwrap_or_default();
@@ -1389,14 +1389,14 @@ fn for_numbered(
             ),
         }
     }
-    if let Some((c, line)) = count {
-        if c != seen {
-            sink.warn(
-                K::Structure,
-                line,
-                format!("[{}]: {count_key}={c} but {seen} entries follow", sec.name),
-            );
-        }
+    if let Some((c, line)) = count
+        && c != seen
+    {
+        sink.warn(
+            K::Structure,
+            line,
+            format!("[{}]: {count_key}={c} but {seen} entries follow", sec.name),
+        );
     }
 }
 
@@ -1438,18 +1438,18 @@ fn object_list(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<u16> {
             );
         }
     }
-    if let Some((c, line)) = count {
-        if c != items.len() as u64 {
-            sink.warn(
-                K::ObjectList,
-                line,
-                format!(
-                    "[{}]: count says {c} but {} entries follow",
-                    sec.name,
-                    items.len()
-                ),
-            );
-        }
+    if let Some((c, line)) = count
+        && c != items.len() as u64
+    {
+        sink.warn(
+            K::ObjectList,
+            line,
+            format!(
+                "[{}]: count says {c} but {} entries follow",
+                sec.name,
+                items.len()
+            ),
+        );
     }
     items.into_values().map(|(i, _)| i).collect()
 }
@@ -1470,17 +1470,17 @@ fn comments(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<String> {
             );
         }
     }
-    if let Some((c, line)) = declared {
-        if c != lines.len() as u64 {
-            sink.warn(
-                K::Structure,
-                line,
-                format!(
-                    "[Comments]: Lines={c} but {} LineN keys follow",
-                    lines.len()
-                ),
-            );
-        }
+    if let Some((c, line)) = declared
+        && c != lines.len() as u64
+    {
+        sink.warn(
+            K::Structure,
+            line,
+            format!(
+                "[Comments]: Lines={c} but {} LineN keys follow",
+                lines.len()
+            ),
+        );
     }
     lines.into_values().collect()
 }
@@ -1521,14 +1521,14 @@ const FILE_KEYS: [&str; 11] = [
 fn file_info(sec: &Section<'_, '_>, sink: &mut Sink) -> FileInfo {
     let k = resolve_keys(sec, &FILE_KEYS, sink);
     let s = |i: usize| k.slots[i].map(|(t, _)| t.to_string());
-    if let Some((v, line)) = k.slots[3] {
-        if v != "4.0" {
-            sink.warn(
-                K::Spelling,
-                line,
-                format!("EDSVersion={v}: CiA 306 v1.3 files say 4.0; read as 4.0"),
-            );
-        }
+    if let Some((v, line)) = k.slots[3]
+        && v != "4.0"
+    {
+        sink.warn(
+            K::Spelling,
+            line,
+            format!("EDSVersion={v}: CiA 306 v1.3 files say 4.0; read as 4.0"),
+        );
     }
     FileInfo {
         file_name: s(0),

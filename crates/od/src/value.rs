@@ -606,14 +606,14 @@ impl Value {
 
     /// Decodes the little-endian bytes of an SDO or PDO payload.
     pub fn from_le_bytes(data_type: DataType, bytes: &[u8]) -> Result<Self, BytesError> {
-        if let Some(expected) = data_type.size() {
-            if bytes.len() != expected {
-                return Err(BytesError::WrongLength {
-                    data_type,
-                    expected,
-                    actual: bytes.len(),
-                });
-            }
+        if let Some(expected) = data_type.size()
+            && bytes.len() != expected
+        {
+            return Err(BytesError::WrongLength {
+                data_type,
+                expected,
+                actual: bytes.len(),
+            });
         }
         Ok(match data_type {
             DataType::Boolean => match bytes.first().copied().unwrap_or(0) {
@@ -627,7 +627,7 @@ impl Value {
             DataType::OctetString => Self::OctetString(bytes.to_vec()),
             DataType::Domain => Self::Domain(bytes.to_vec()),
             DataType::UnicodeString => {
-                if bytes.len() % 2 != 0 {
+                if !bytes.len().is_multiple_of(2) {
                     return Err(BytesError::OddUnicodeLength(bytes.len()));
                 }
                 Self::UnicodeString(

@@ -110,13 +110,12 @@ fn compact_objects(text: &str) -> BTreeSet<u16> {
             } else {
                 None
             };
-        } else if let (Some(i), Some((k, v))) = (current, l.split_once('=')) {
-            if k.trim().eq_ignore_ascii_case("CompactSubObj")
-                && v.trim() != "0"
-                && !v.trim().is_empty()
-            {
-                out.insert(i);
-            }
+        } else if let (Some(i), Some((k, v))) = (current, l.split_once('='))
+            && k.trim().eq_ignore_ascii_case("CompactSubObj")
+            && v.trim() != "0"
+            && !v.trim().is_empty()
+        {
+            out.insert(i);
         }
     }
     out
