@@ -683,8 +683,10 @@ impl Server {
                         info.accepts
                             .check(u32::from(len))
                             .map_err(|c| Fail(mux, c))?;
-                        od.write(mux, 0, bytes).map_err(|c| Fail(mux, c))?;
-                        if let Err(code) = od.commit(mux, u32::from(len)) {
+                        if let Err(code) = od
+                            .write(mux, 0, bytes)
+                            .and_then(|()| od.commit(mux, u32::from(len)))
+                        {
                             od.discard(mux);
                             return Err(Fail(mux, code));
                         }

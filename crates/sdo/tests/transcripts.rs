@@ -10,7 +10,9 @@ use canopen_sdo::{
     Initiate, Method, Multiplexer, Segment, Server, ServerConfig, ServerEvent, ServerResponse,
     TransferError, Violation, crc16,
 };
-use common::{DOMAIN, From, LIMITED, MemOd, Pair, RO, SMALL_STR, TestClient, U16_RW, U32_RW, WO};
+use common::{
+    DOMAIN, From, LIAR, LIMITED, MemOd, Pair, RO, SMALL_STR, TestClient, U16_RW, U32_RW, WO,
+};
 
 const T0: Instant = Instant::ZERO;
 const SEC: Duration = Duration::from_secs(1);
@@ -549,6 +551,11 @@ fn server_abort_codes_for_objects() {
         assert_eq!(
             server_refuses(SMALL_STR, false, pattern(11), method),
             AbortCode::LENGTH_TOO_HIGH
+        );
+        // The object delivers less than it announced.
+        assert_eq!(
+            server_refuses(LIAR, true, vec![], method),
+            AbortCode::NO_DATA_AVAILABLE
         );
         // The object refuses the value when it is committed.
         assert_eq!(

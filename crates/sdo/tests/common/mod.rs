@@ -35,6 +35,8 @@ pub const WO: Multiplexer = Multiplexer::new(0x2001, 0);
 pub const DOMAIN: Multiplexer = Multiplexer::new(0x2100, 0);
 pub const LIMITED: Multiplexer = Multiplexer::new(0x2002, 0);
 pub const SMALL_STR: Multiplexer = Multiplexer::new(0x2003, 0);
+/// Claims to be 7 bytes longer than its value.
+pub const LIAR: Multiplexer = Multiplexer::new(0x2004, 0);
 
 impl MemOd {
     pub fn new() -> Self {
@@ -68,6 +70,12 @@ impl MemOd {
         od.insert(
             SMALL_STR,
             Access::ReadWrite,
+            b"abc".to_vec(),
+            LengthRule::UpTo(10),
+        );
+        od.insert(
+            LIAR,
+            Access::ReadOnly,
             b"abc".to_vec(),
             LengthRule::UpTo(10),
         );
@@ -113,7 +121,7 @@ impl ObjectAccess for MemOd {
         let obj = self.get(mux)?;
         let info = ObjectInfo {
             access: obj.access,
-            len: obj.value.len() as u32,
+            len: obj.value.len() as u32 + if mux == LIAR { 7 } else { 0 },
             accepts: obj.rule,
         };
         self.staging.clear();
