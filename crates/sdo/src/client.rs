@@ -32,7 +32,8 @@
 //!   transfer with an abort message to the server ([`ErrorKind::Protocol`]).
 //! - Frames that are not eight bytes long are ignored. Frames while idle are ignored.
 //! - The timeout is the time the server may take for each response (it restarts on every
-//!   step), so long domains do not need a long timeout. On expiry the client sends abort
+//!   step), so long domains do not need a long timeout; [`ClientConfig::transfer_timeout`]
+//!   optionally bounds the whole transfer as well. On expiry the client sends abort
 //!   0x05040000 and reports [`ErrorKind::Timeout`].
 
 use can_frame::{Duration, Instant};
@@ -61,6 +62,9 @@ pub struct ClientConfig {
     /// Protocol switch threshold sent in block upload: the server may answer with a normal
     /// upload when the object has at most this many bytes. 0 (default) forbids switching.
     pub protocol_switch_threshold: u8,
+    /// Upper bound for a whole transfer, however steadily the server answers. `None`
+    /// (default): only the per-response `timeout` applies.
+    pub transfer_timeout: Option<Duration>,
 }
 
 impl Default for ClientConfig {
@@ -70,6 +74,7 @@ impl Default for ClientConfig {
             block_size: MAX_BLOCK_SIZE,
             crc: true,
             protocol_switch_threshold: 0,
+            transfer_timeout: None,
         }
     }
 }
@@ -90,6 +95,12 @@ impl ClientConfig {
     /// Whether to offer CRC in block transfers.
     pub const fn with_crc(mut self, crc: bool) -> Self {
         self.crc = crc;
+        self
+    }
+
+    /// Bounds the duration of a whole transfer.
+    pub const fn with_transfer_timeout(mut self, limit: Duration) -> Self {
+        self.transfer_timeout = Some(limit);
         self
     }
 
@@ -120,7 +131,8 @@ pub enum Method {
     /// Download segmented even when the data would fit an expedited message. For upload the
     /// same as `Normal`.
     Segmented,
-    /// Block transfer (CiA 301 §7.2.4.3.9–16), with CRC when both sides support it.
+    /// Block transfer (CiA 301 §7.2.4.3.9–16), with CRC when both sides support it. A server
+    /// without block transfer typically aborts with 0x05040001; retry with `Normal` then.
     Block,
 }
 
@@ -389,6 +401,15 @@ struct Active<S, D> {
     done: u32,
     crc: Crc16,
     deadline: Instant,
+    /// End of the whole transfer when [`ClientConfig::transfer_timeout`] is set.
+    limit: Instant,
+}
+
+impl<S, D> Active<S, D> {
+    /// Restarts the response timer, never past the transfer's limit.
+    fn rearm(&mut self, now: Instant, timeout: Duration) {
+        self.deadline = (now + timeout).min(self.limit);
+    }
 }
 
 /// The SDO client machine for one server. See the [module docs](self) for the call order.
@@ -441,6 +462,17 @@ impl<S: Sink, D: Source> Client<S, D> {
         self.active.is_none() && self.event.is_none()
     }
 
+    fn limit(&self, now: Instant) -> Instant {
+        match self.config.transfer_timeout {
+            Some(limit) => now + limit,
+            None => Instant::MAX,
+        }
+    }
+
+    fn first_deadline(&self, now: Instant) -> Instant {
+        (now + self.config.timeout).min(self.limit(now))
+    }
+
     /// Reads the object `mux` from the server into `sink` (appending).
     pub fn start_upload(
         &mut self,
@@ -476,7 +508,8 @@ impl<S: Sink, D: Source> Client<S, D> {
             },
             done: 0,
             crc: Crc16::new(),
-            deadline: now + self.config.timeout,
+            deadline: self.first_deadline(now),
+            limit: self.limit(now),
         });
         Ok(())
     }
@@ -533,7 +566,8 @@ impl<S: Sink, D: Source> Client<S, D> {
             },
             done: 0,
             crc: Crc16::new(),
-            deadline: now + self.config.timeout,
+            deadline: self.first_deadline(now),
+            limit: self.limit(now),
         });
         Ok(())
     }
@@ -719,7 +753,7 @@ impl<S: Sink, D: Source> Client<S, D> {
         };
         match result {
             Ok(Flow::Continue) => {
-                active.deadline = now + self.config.timeout;
+                active.rearm(now, self.config.timeout);
                 Step::Continue(active)
             }
             Ok(Flow::Ignore) => Step::Continue(active),
@@ -906,7 +940,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                 }
                 None => *expected = 1,
             }
-            active.deadline = now + self.config.timeout;
+            active.rearm(now, self.config.timeout);
         }
         Step::Continue(active)
     }

@@ -1671,3 +1671,22 @@ fn progress_reports_bytes_and_total() {
         ]
     );
 }
+
+#[test]
+fn transfer_timeout_bounds_the_whole_transfer() {
+    let config = ClientConfig::default().with_transfer_timeout(Duration::from_millis(1500));
+    let mut c: TestClient = Client::new(config);
+    c.start_upload(T0, DOMAIN, Vec::new(), Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    assert_eq!(c.poll_timeout(), Some(T0 + SEC));
+    // The server answers steadily every 800 ms ...
+    let t1 = T0 + Duration::from_millis(800);
+    c.handle_response(t1, &up_init(None));
+    drain(&mut c);
+    // ... but the transfer may not last longer than 1.5 s.
+    assert_eq!(c.poll_timeout(), Some(T0 + Duration::from_millis(1500)));
+    c.handle_timeout(T0 + Duration::from_millis(1500));
+    assert_eq!(drain(&mut c), [abort_bytes(DOMAIN, AbortCode::TIMEOUT)]);
+    assert_eq!(failed(c.poll_event()).kind, ErrorKind::Timeout);
+}
