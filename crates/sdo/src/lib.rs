@@ -63,6 +63,19 @@
 //! }
 //! ```
 //!
+//! # Wiring it into a master or a device
+//!
+//! - Master: one [`Client`] per node (e.g. `Client<Vec<u8>, Vec<u8>>` with `alloc`), one
+//!   transfer at a time; queue further requests until [`Client::is_idle`]. Send
+//!   [`Client::poll_transmit`] bytes with [`SdoCobIds::request_frame`] (0x600 + node, or the
+//!   COB-IDs of 0x1280 via [`SdoCobIds::from_parameters`]); pass the data of frames for which
+//!   [`SdoCobIds::is_response`] holds to [`Client::handle_response`]. A failed transfer gives a
+//!   [`TransferError`] with index, sub-index and [`TransferError::abort_code`];
+//!   [`TransferError::is_server_abort`] tells the device's refusal from local failures. The
+//!   node is the master's to add.
+//! - Device simulator: one [`Server`] per SDO channel, fed with [`Server::handle_request`] and
+//!   an [`ObjectAccess`] implementation over the object dictionary.
+//!
 //! The crate is `#![no_std]` without an allocator; `alloc` adds [`Sink`]/[`Source`] for `Vec`
 //! and `Box`, `std` (default) implies `alloc`.
 #![no_std]
