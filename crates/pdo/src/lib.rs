@@ -19,6 +19,33 @@
 //! it. The `od` feature adapts the `canopen-od` model (EDS/DCF) to [`Catalog`] and [`Dictionary`]
 //! (`od::OdView`).
 //!
+//! # A master consuming a device's TPDO1
+//!
+//! ```
+//! use can_frame::{CanFrame, CanId, Instant};
+//! use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, Value};
+//!
+//! // One engine per node: up to 4 PDOs each way. The device's TPDO1 (0x185, four UNSIGNED16)
+//! // is a receive PDO of the master.
+//! let mut engine: Engine<4, 4> = Engine::new();
+//! let mapping = Mapping::from_raw(&[0x6401_0110, 0x6401_0210, 0x6401_0310, 0x6401_0410])?;
+//! let tpdo1 = engine.add_rpdo(PdoConfig::new(CommParams::event_driven(0x185), mapping))?;
+//!
+//! let frame = CanFrame::new(CanId::standard(0x185)?, &[1, 0, 2, 0, 3, 0, 4, 0])?;
+//! let now = Instant::from_millis(10);
+//! assert!(engine.handle_frame(now, &frame, &mut NullStore));
+//! while let Some(event) = engine.poll_event() {
+//!     if let Event::Received { pdo, changed } = event {
+//!         assert_eq!((pdo, changed), (tpdo1, 0b1111));
+//!         let values: Vec<Value> = engine.received(pdo).unwrap().iter().map(|(_, v)| v).collect();
+//!         assert_eq!(values, [1, 2, 3, 4].map(Value::Unsigned));
+//!     }
+//! }
+//! while let Some(frame) = engine.poll_transmit() { /* send it */ let _ = frame; }
+//! assert_eq!(engine.poll_timeout(), None); // no timers configured
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! Every decoder of bus bytes here is total: frames of any length and content give a typed
 //! value, a typed error or an [`Event`], never a panic.
 #![no_std]

@@ -573,6 +573,44 @@ mod tests {
         assert_eq!(store.get(ObjectAddr::new(0x6200, 3)), None);
     }
 
+    #[test]
+    fn scanner_list_from_a_dictionary() {
+        struct D;
+        impl crate::dictionary::Catalog for D {
+            fn object_info(&self, _: ObjectAddr) -> Option<crate::dictionary::ObjectInfo> {
+                None
+            }
+        }
+        impl Dictionary for D {
+            fn read_u32(&self, index: u16, subindex: u8) -> Result<u32, ReadError> {
+                match (index, subindex) {
+                    (0x1FA0, 0) => Ok(2),
+                    (0x1FA0, 1) => Ok(0x0260_0001),
+                    (0x1FA0, 2) => Ok(0x0164_0101),
+                    _ => Err(ReadError::NoSuchObject { index, subindex }),
+                }
+            }
+        }
+        let mut p: SamProducer<2> = SamProducer::new(n(3));
+        p.read_from(&D, SCANNER_LIST_FIRST).unwrap();
+        assert_eq!(
+            p.entries(),
+            [
+                ScannerEntry::new(2, 0x6000, 1),
+                ScannerEntry::new(1, 0x6401, 1)
+            ]
+        );
+        assert_eq!(
+            p.read_from(&D, 0x1FA1),
+            Err(MpdoError::Read(ReadError::NoSuchObject {
+                index: 0x1FA1,
+                subindex: 0
+            }))
+        );
+        let mut full: SamProducer<1> = SamProducer::new(n(3));
+        assert_eq!(full.read_from(&D, 0x1FA0), Err(MpdoError::ListFull));
+    }
+
     proptest! {
         #[test]
         fn parse_is_total_and_round_trips(data in proptest::collection::vec(any::<u8>(), 0..=9)) {

@@ -2,6 +2,8 @@
 //! and event timer, SYNC start value, RTR, receive deadlines, length errors, and a master engine
 //! talking to a simulated device engine.
 
+#![cfg(feature = "alloc")]
+
 use can_frame::{CanFrame, CanId, Duration, Instant};
 use canopen_pdo::{
     CommParams, Engine, Event, MapStore, Mapping, ObjectAddr, PdoCobId, PdoConfig,
