@@ -1,4 +1,4 @@
-//! The async API (`tokio` feature): the same requests as the blocking [`Sdo`](crate::Sdo), as
+//! The async API (`tokio` feature): the same requests as the blocking [`Sdo`], as
 //! futures.
 //!
 //! Each future submits its request to the one core, then waits for it on tokio's blocking pool

@@ -6,6 +6,26 @@
 //!   transport's clock, bus-state [`BusEvent`]s); implementations are the in-memory bus
 //!   ([`mem`]) and SocketCAN (`socketcan` feature, Linux).
 //! * [`candump`]: the can-utils log format for recording and replaying traffic.
+//! * [`Network`] ([`network`]): owns one transport and its clock, routes received frames by
+//!   COB-ID to per-node machines of the protocol crates (SDO clients, heartbeat consumer, EMCY
+//!   consumer, SYNC producer, LSS master) held in one sans-IO core, and drives their deadlines.
+//!   The blocking API ([`Node::sdo`], [`Node::nmt`], [`Network::lss`], [`Network::subscribe`])
+//!   and the async API ([`asynch`], `tokio` feature) are loops around that one core.
+//! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
+//!
+//! ```
+//! use can_frame::NodeId;
+//! use canopen::{MemoryBus, Network, SimDevice};
+//!
+//! let eds = include_bytes!("../../../eds/burkert-generic.eds");
+//! let node = NodeId::new(5).unwrap();
+//! let bus = MemoryBus::new(); // virtual clock: deterministic
+//! let net = Network::new(bus.endpoint());
+//! bus.attach(SimDevice::from_eds(node, eds).unwrap());
+//! net.node(node).sdo().write((0x1017, 0), 100u16).unwrap();
+//! assert_eq!(net.node(node).sdo().read((0x1017, 0)).unwrap(), 100u16.to_le_bytes());
+//! net.node(node).nmt().start().unwrap();
+//! ```
 #![cfg_attr(docsrs, feature(doc_auto_cfg))]
 
 pub mod candump;

@@ -22,7 +22,7 @@ pub enum LssOutcome {
     /// Every unconfigured slave's address.
     Discovered(Vec<LssAddress>),
     /// The assign-all workflow's report.
-    Assigned(AssignReport),
+    Assigned(Box<AssignReport>),
 }
 
 /// An LSS master machine with its output type erased.
@@ -142,9 +142,9 @@ impl Lss {
         match self.run(
             AssignAll::new(config),
             |m, now| m.start(now),
-            LssOutcome::Assigned,
+            |r| LssOutcome::Assigned(Box::new(r)),
         )? {
-            LssOutcome::Assigned(r) => Ok(r),
+            LssOutcome::Assigned(r) => Ok(*r),
             _ => Err(Error::Timeout("assign-all gave no report".into())),
         }
     }

@@ -1,4 +1,4 @@
-//! [`Network`]: one transport, one clock, one [`Core`](crate::core) of protocol machines, and
+//! [`Network`]: one transport, one clock, one core of protocol machines, and
 //! the blocking API on top.
 //!
 //! Driving: whoever waits drives. A blocking call submits its request to the core, then loops:
