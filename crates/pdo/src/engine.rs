@@ -540,12 +540,19 @@ impl<const RX: usize, const TX: usize> Engine<RX, TX> {
             return;
         };
         let pdo = RpdoId(i as u16);
-        let diff = word ^ rx.word;
+        let objects = rx.config.mapping.objects();
+        let diff = if rx.received {
+            word ^ rx.word
+        } else {
+            u64::MAX
+        };
         let mut changed = 0u64;
-        for (n, o) in rx.config.mapping.objects().iter().enumerate() {
-            if !rx.received || diff & o.mask() != 0 {
-                changed |= 1 << n;
+        if diff != 0 {
+            for (n, o) in objects.iter().enumerate() {
+                changed |= u64::from(diff & o.mask() != 0) << n;
             }
+        }
+        for o in objects {
             if o.is_dummy() {
                 continue;
             }

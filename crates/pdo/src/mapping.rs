@@ -112,6 +112,8 @@ pub struct MappedObject {
     pub offset: u8,
     /// How its bits become a value.
     pub kind: ValueKind,
+    /// The object's bits in the PDO data word (precomputed for the receive hot path).
+    mask: u64,
 }
 
 impl MappedObject {
@@ -136,8 +138,9 @@ impl MappedObject {
     }
 
     /// Mask of the object's bits in the PDO data read as a little-endian `u64`.
-    pub(crate) const fn mask(&self) -> u64 {
-        field_mask(self.entry.bits()) << self.offset
+    #[inline]
+    pub const fn mask(&self) -> u64 {
+        self.mask
     }
 }
 
@@ -268,6 +271,7 @@ impl Mapping {
             entry,
             offset: self.bits,
             kind,
+            mask: field_mask(entry.bits()) << self.bits,
         };
         self.objects
             .push(obj)

@@ -108,7 +108,7 @@ pub(crate) fn load_word(data: &[u8]) -> u64 {
 /// The raw bits of one mapped object in a data word.
 #[inline]
 pub(crate) const fn field(word: u64, obj: &MappedObject) -> u64 {
-    (word >> obj.offset) & field_mask(obj.bits())
+    (word & obj.mask()) >> obj.offset
 }
 
 /// Sign-extends the low `bits` bits of `raw`.
