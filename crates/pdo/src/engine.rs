@@ -36,7 +36,9 @@
 //! | 253     | data sampled and sent on a remote request                                 |
 //! | 254/255 | on trigger, on a changed value ([`Engine::update`]), when the event timer expires, or on a remote request; never within the inhibit time after the previous frame (a due frame is postponed to the end of the inhibit time, with the values of that moment) |
 //!
-//! Receive PDOs of types 0..=240 take effect on the next SYNC, others immediately. A PDO with
+//! Receive PDOs of types 0..=240 take effect on the next SYNC, others immediately. A master that
+//! mirrors a device's synchronous TPDO as its receive PDO and wants the values at once (not one
+//! SYNC later) configures its receive PDO with type 254 or 255. A PDO with
 //! fewer data bytes than its mapping is not processed ([`Event::LengthError`], EMCY 0x8210 on a
 //! device); one with more is processed from its first bytes ([`Event::LengthExceeded`], EMCY
 //! 0x8220). The receive deadline (event timer of a receive PDO) is armed by each reception and
