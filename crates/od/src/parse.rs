@@ -346,7 +346,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         }
         if let Some(body) = trimmed.strip_prefix('[') {
             if let Some(open) = open_sub.take() {
-                finish_sub(text, open, line_start, &mut entries, &mut subs, &mut built);
+                finish_sub(open, line_start, &mut entries, &mut subs, &mut built);
             }
             let Some(end) = body.find(']') else {
                 sink.error(
@@ -500,8 +500,9 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         }
     }
     if let Some(open) = open_sub.take() {
-        finish_sub(text, open, text.len(), &mut entries, &mut subs, &mut built);
+        finish_sub(open, text.len(), &mut entries, &mut subs, &mut built);
     }
+    rebuild_repeated(text, &mut subs, &mut built);
     Scan {
         entries,
         sections,
@@ -523,7 +524,6 @@ struct Scan<'a> {
 /// Builds the sub-object of a sub section that just ended and drops its entries. A repeated
 /// section is rebuilt from all its occurrences, re-read from the text.
 fn finish_sub<'a>(
-    text: &'a str,
     open: OpenSub<'a>,
     byte_end: usize,
     entries: &mut Vec<Entry<'a>>,
@@ -532,7 +532,7 @@ fn finish_sub<'a>(
 ) {
     let byte_end = byte_end.max(open.byte_start);
     let mut local = Sink::default();
-    let (index, s) = open.key;
+    let index = open.key.0;
     let list = built.entry(index).or_default();
     match subs.get_mut(&open.key) {
         None => {
@@ -558,23 +558,40 @@ fn finish_sub<'a>(
             );
         }
         Some(rec) => {
+            // Rebuilt once, from all occurrences, when the scan ends (`rebuild_repeated`).
             rec.rare()
                 .more
                 .push((open.byte_start, byte_end, open.line + 1));
-            let mut all = Vec::new();
-            let (a, b) = rec.first;
-            rescan(text.get(a..b).unwrap_or(""), rec.line + 1, &mut all);
-            for &(a, b, first_line) in rec.rare().more.iter() {
-                rescan(text.get(a..b).unwrap_or(""), first_line, &mut all);
-            }
-            let sub = build_sub(open.key, rec.name, rec.line, &all, &mut local);
-            list.retain(|x| x.sub_index != s);
-            rec.ok = sub.is_some();
-            list.extend(sub);
-            rec.rare().diags = local.list;
         }
     }
     entries.truncate(open.entries_start);
+}
+
+/// Rebuilds every sub section that appeared more than once from all its occurrences (keys
+/// merged, later values win). Each occurrence is re-read once, so this stays linear.
+fn rebuild_repeated<'a>(
+    text: &'a str,
+    subs: &mut BTreeMap<(u16, u8), SubRec<'a>>,
+    built: &mut BTreeMap<u16, Vec<SubObject>>,
+) {
+    for (&(index, s), rec) in subs.iter_mut() {
+        let Some(rare) = rec.rare.as_mut().filter(|r| !r.more.is_empty()) else {
+            continue;
+        };
+        let mut all = Vec::new();
+        let (a, b) = rec.first;
+        rescan(text.get(a..b).unwrap_or(""), rec.line + 1, &mut all);
+        for &(a, b, first_line) in &rare.more {
+            rescan(text.get(a..b).unwrap_or(""), first_line, &mut all);
+        }
+        let mut local = Sink::default();
+        let sub = build_sub((index, s), rec.name, rec.line, &all, &mut local);
+        let list = built.entry(index).or_default();
+        list.retain(|x| x.sub_index != s);
+        rec.ok = sub.is_some();
+        list.extend(sub);
+        rare.diags = local.list;
+    }
 }
 
 /// Re-reads the `key=value` lines of a section body (already reported on by [`scan`]).
@@ -701,24 +718,54 @@ fn resolve_keys<'a, const N: usize>(
                     *s = Some((e.value, e.line));
                 }
             }
-            None => {
-                if let Some(prev) = k.extra.iter_mut().find(|x| x.0.eq_ignore_ascii_case(e.key)) {
-                    sink.warn(
-                        K::Duplicate,
-                        e.line,
-                        format!(
-                            "key `{}` given again in [{}] (first at line {}); this value wins",
-                            e.key, sec.name, prev.2
-                        ),
-                    );
-                    *prev = (e.key, e.value, e.line);
-                } else {
-                    k.extra.push((e.key, e.value, e.line));
-                }
-            }
+            None => k.extra.push((e.key, e.value, e.line)),
         }
     }
+    dedup_extra(&mut k.extra, sec.name, sink);
     k
+}
+
+/// Merges repeated unknown keys (ignoring ASCII case): the first position keeps the last value.
+/// Sorting keeps this O(n log n) however many keys a section has.
+fn dedup_extra(extra: &mut Vec<(&str, &str, u32)>, section: &str, sink: &mut Sink) {
+    if extra.len() < 2 {
+        return;
+    }
+    let lower = |k: &str| {
+        k.bytes()
+            .map(|b| b.to_ascii_lowercase())
+            .collect::<Vec<u8>>()
+    };
+    let mut order: Vec<(Vec<u8>, usize)> = extra
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (lower(e.0), i))
+        .collect();
+    order.sort();
+    let mut drop = alloc::vec![false; extra.len()];
+    let mut group_first = 0usize;
+    for w in 1..order.len() {
+        if order[w].0 == order[group_first].0 {
+            let (first, here) = (order[group_first].1, order[w].1);
+            sink.warn(
+                K::Duplicate,
+                extra[here].2,
+                format!(
+                    "key `{}` given again in [{section}] (first at line {}); this value wins",
+                    extra[here].0, extra[first].2
+                ),
+            );
+            extra[first] = extra[here];
+            drop[here] = true;
+        } else {
+            group_first = w;
+        }
+    }
+    let mut i = 0;
+    extra.retain(|_| {
+        i += 1;
+        !drop[i - 1]
+    });
 }
 
 fn extra_owned(extra: &[(&str, &str, u32)]) -> Vec<(String, String)> {
@@ -1776,6 +1823,25 @@ mod tests {
                 .iter()
                 .any(|d| d.kind == K::Structure && d.line == 5)
         );
+    }
+
+    /// Inputs that a naive merge of repeated sections or keys would handle in quadratic time.
+    /// (No time is asserted; a quadratic parser makes this test take minutes instead of
+    /// milliseconds.)
+    #[test]
+    fn repetition_stays_linear() {
+        let mut src = String::from("[1018]\nParameterName=Identity\nObjectType=0x9\n");
+        for i in 0..20_000 {
+            src.push_str(&format!(
+                "[1018sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue={}\nX{i}=1\nY=2\n",
+                i % 200
+            ));
+        }
+        let p = parse(src.as_bytes()).unwrap();
+        let sub0 = p.od.sub(0x1018, 0).unwrap();
+        assert_eq!(sub0.default_value.as_ref().unwrap().text, "199");
+        // 20 000 distinct unknown keys merged, plus the last `Y`.
+        assert_eq!(sub0.extra.len(), 20_001);
     }
 
     #[test]
