@@ -288,7 +288,8 @@ impl Tx {
 }
 
 /// The PDO engine for up to `RX` receive and `TX` transmit PDOs. See the module docs for the
-/// call order. Memory is fixed (about 0.6 KiB per PDO); a master typically runs one engine per
+/// call order. Memory is fixed: about 1.1 KiB per PDO plus 1.5 KiB of queues (`Engine<4, 4>` is
+/// about 10 KiB; keep large engines off small stacks). A master typically runs one engine per
 /// node with four PDOs each way.
 #[derive(Debug)]
 pub struct Engine<const RX: usize, const TX: usize> {

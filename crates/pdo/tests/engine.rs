@@ -563,3 +563,78 @@ proptest! {
         prop_assert_eq!(sent.last().map(|x| x.1), s.get(a(0x6000, 1)).map(|b| b[0]));
     }
 }
+
+/// A store that refuses every write to 0x6200:1.
+struct Picky(MapStore);
+
+impl canopen_pdo::ObjectStore for Picky {
+    fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), canopen_pdo::StoreError> {
+        self.0.read(addr, out)
+    }
+
+    fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), canopen_pdo::StoreError> {
+        if addr == a(0x6200, 1) {
+            return Err(canopen_pdo::StoreError::ValueRange);
+        }
+        self.0.write(addr, data)
+    }
+}
+
+#[test]
+fn store_failures_are_events_without_retry_storms() {
+    use canopen_pdo::{PdoRef, StoreError};
+    // Transmit side: a mapped object the store does not have.
+    let mut e: Engine<1, 1> = Engine::new();
+    let t = e
+        .add_tpdo(
+            ms(0),
+            PdoConfig::new(
+                CommParams::event_driven(0x185).with_event_timer(100),
+                Mapping::from_raw(&[0x7000_0108]).unwrap(),
+            ),
+        )
+        .unwrap();
+    let mut s = Picky(device_store());
+    e.trigger(ms(1), t, &mut s).unwrap();
+    assert!(drain_frames(&mut e).is_empty());
+    assert_eq!(
+        drain_events(&mut e),
+        [Event::StoreFailed {
+            pdo: PdoRef::Tx(t),
+            addr: a(0x7000, 1),
+            error: StoreError::NoSuchObject
+        }]
+    );
+    assert_eq!(e.poll_timeout(), Some(ms(100)));
+    e.handle_timeout(ms(100), &mut s);
+    assert_eq!(drain_events(&mut e).len(), 1);
+    assert_eq!(
+        e.poll_timeout(),
+        Some(ms(200)),
+        "retried at the next event time only"
+    );
+
+    // Receive side: the other objects are written and the reception is reported.
+    let r = e
+        .add_rpdo(PdoConfig::new(
+            CommParams::event_driven(0x205),
+            Mapping::from_raw(&[0x6200_0108, 0x6200_0208]).unwrap(),
+        ))
+        .unwrap();
+    e.handle_frame(ms(2), &frame(0x205, &[1, 2]), &mut s);
+    assert_eq!(
+        drain_events(&mut e),
+        [
+            Event::StoreFailed {
+                pdo: PdoRef::Rx(r),
+                addr: a(0x6200, 1),
+                error: StoreError::ValueRange
+            },
+            Event::Received {
+                pdo: r,
+                changed: 0b11
+            }
+        ]
+    );
+    assert_eq!(s.0.get(a(0x6200, 2)), Some(&[2][..]));
+}
