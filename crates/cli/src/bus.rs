@@ -226,6 +226,11 @@ fn open(opts: &BusOpts) -> Result<Bus, String> {
     }
 }
 
+/// Opens the bus (see [`BusOpts`]) and a network on it.
+pub(crate) fn open_network(opts: &BusOpts) -> Result<(Network, Option<MemoryBus>), String> {
+    open(opts).map(network)
+}
+
 fn network(bus: Bus) -> (Network, Option<MemoryBus>) {
     let net = Network::new(bus.transport);
     for (node, od) in bus.dictionaries {
@@ -274,7 +279,7 @@ fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
         DataType::VisibleString => Ok(text.as_bytes().to_vec()),
         DataType::Domain | DataType::OctetString => {
             let t = text.trim_start_matches("0x");
-            if t.len() % 2 != 0 {
+            if !t.len().is_multiple_of(2) {
                 return Err(format!("`{text}`: hex bytes need an even number of digits"));
             }
             (0..t.len())
@@ -647,8 +652,14 @@ pub(crate) fn decode(frame: &CanFrame) -> String {
                 ),
                 None => format!("error control node {n}: empty"),
             },
-            (F::LssMasterToSlave, _) => format!("LSS request: {}", hex(d)),
-            (F::LssSlaveToMaster, _) => format!("LSS response: {}", hex(d)),
+            (F::LssMasterToSlave, _) => match canopen_lss::Request::from_frame(frame) {
+                Ok(r) => format!("LSS request {r:?}"),
+                Err(e) => format!("LSS request (bad: {e})"),
+            },
+            (F::LssSlaveToMaster, _) => match canopen_lss::Response::from_frame(frame) {
+                Ok(r) => format!("LSS response {r:?}"),
+                Err(e) => format!("LSS response (bad: {e})"),
+            },
             _ => hex(d),
         },
         None => hex(d),

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod bus;
+mod lss_cmd;
 mod cpos;
 mod demo;
 mod eds;
@@ -79,6 +80,9 @@ enum Command {
         /// candump log file.
         file: std::path::PathBuf,
     },
+    /// LSS (CiA 305): switch mode, configure node-ID and bit rate, inquire, Fastscan,
+    /// assign-all.
+    Lss(lss_cmd::LssArgs),
     /// Walk through commissioning simulated devices (no hardware, no flags).
     Demo,
 }
@@ -132,6 +136,7 @@ fn main() -> ExitCode {
         Command::Record { output, duration } => bus::run_record(&cli.bus, &output, duration),
         Command::Replay { file } => bus::run_replay(&cli.bus, &file, global),
         Command::Demo => demo::run(),
+        Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
         Command::Cpos(args) => cpos::run(args, global),
     }
 }

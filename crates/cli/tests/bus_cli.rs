@@ -180,3 +180,45 @@ fn demo_walks_through_commissioning() {
         assert!(text.contains(want), "missing {want:?} in\n{text}");
     }
 }
+
+#[test]
+fn lss_services_against_unconfigured_devices() {
+    let o = canopen(&[
+        "lss",
+        "--unconfigured",
+        "3",
+        "assign-all",
+        "--first",
+        "20",
+        "--last",
+        "30",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for id in [20, 21, 22] {
+        assert!(text.contains(&format!("node-ID {id}")), "{text}");
+    }
+    let o = canopen(&["--json", "lss", "--unconfigured", "1", "fastscan"]);
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["found"]["serial"], 1001);
+    let o = canopen(&["--json", "lss", "--unconfigured", "2", "discover-all"]);
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["found"].as_array().unwrap().len(), 2);
+    let o = canopen(&[
+        "--json",
+        "lss",
+        "--unconfigured",
+        "1",
+        "identify-non-configured",
+    ]);
+    assert_eq!(stdout(&o).trim(), r#"{"present":true}"#);
+    let o = canopen(&["--json", "lss", "identify-non-configured"]);
+    assert_eq!(stdout(&o).trim(), r#"{"present":false}"#);
+    // Global switch and configure node-ID of the one unconfigured device.
+    let o = canopen(&["lss", "--unconfigured", "1", "configure-node-id", "42"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = canopen(&["lss", "--unconfigured", "1", "set-bit-rate", "250"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = canopen(&["lss", "set-bit-rate", "333"]);
+    assert!(!o.status.success());
+}
