@@ -52,10 +52,10 @@ use crate::dictionary::{ObjectAddr, ObjectStore, StoreError};
 use crate::mapping::{Mapping, field_mask};
 use crate::pack::{Unpacked, field, load_word};
 
-/// Frames the engine buffers between two [`Engine::poll_transmit`] drains.
-pub const TRANSMIT_QUEUE: usize = 32;
-/// Events the engine buffers between two [`Engine::poll_event`] drains.
-pub const EVENT_QUEUE: usize = 32;
+/// Default capacity `Q` of an engine's transmit and event queues: frames and events it buffers
+/// between two drains of [`Engine::poll_transmit`] / [`Engine::poll_event`]. One SYNC can make
+/// every transmit PDO send, so an engine with more than 32 transmit PDOs wants a larger `Q`.
+pub const DEFAULT_QUEUE: usize = 32;
 
 /// The configuration of one PDO: communication and mapping parameters.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -287,31 +287,32 @@ impl Tx {
     }
 }
 
-/// The PDO engine for up to `RX` receive and `TX` transmit PDOs. See the module docs for the
+/// The PDO engine for up to `RX` receive and `TX` transmit PDOs, with queues of `Q` frames and
+/// `Q` events (default [`DEFAULT_QUEUE`]). See the module docs for the
 /// call order. Memory is fixed: about 1.1 KiB per PDO plus 1.5 KiB of queues (`Engine<4, 4>` is
 /// about 10 KiB; keep large engines off small stacks). A master typically runs one engine per
 /// node with four PDOs each way.
 #[derive(Debug)]
-pub struct Engine<const RX: usize, const TX: usize> {
+pub struct Engine<const RX: usize, const TX: usize, const Q: usize = DEFAULT_QUEUE> {
     rx_keys: Vec<u32, RX>,
     rx: Vec<Rx, RX>,
     tx: Vec<Tx, TX>,
     sync_key: u32,
     enabled: bool,
     last_sync_counter: Option<u8>,
-    transmit: Deque<CanFrame, TRANSMIT_QUEUE>,
-    events: Deque<Event, EVENT_QUEUE>,
+    transmit: Deque<CanFrame, Q>,
+    events: Deque<Event, Q>,
     lost_frames: u32,
     lost_events: u32,
 }
 
-impl<const RX: usize, const TX: usize> Default for Engine<RX, TX> {
+impl<const RX: usize, const TX: usize, const Q: usize> Default for Engine<RX, TX, Q> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const RX: usize, const TX: usize> Engine<RX, TX> {
+impl<const RX: usize, const TX: usize, const Q: usize> Engine<RX, TX, Q> {
     /// An enabled engine without PDOs, listening for SYNC on 0x080.
     pub const fn new() -> Self {
         Self {
@@ -896,14 +897,14 @@ impl<const RX: usize, const TX: usize> Engine<RX, TX> {
 }
 
 #[inline]
-fn push_event(q: &mut Deque<Event, EVENT_QUEUE>, lost: &mut u32, e: Event) {
+fn push_event<const Q: usize>(q: &mut Deque<Event, Q>, lost: &mut u32, e: Event) {
     if q.push_back(e).is_err() {
         *lost = lost.saturating_add(1);
     }
 }
 
 #[inline]
-fn push_frame(q: &mut Deque<CanFrame, TRANSMIT_QUEUE>, lost: &mut u32, f: CanFrame) {
+fn push_frame<const Q: usize>(q: &mut Deque<CanFrame, Q>, lost: &mut u32, f: CanFrame) {
     if q.push_back(f).is_err() {
         *lost = lost.saturating_add(1);
     }

@@ -31,7 +31,9 @@ fn four_u16() -> Mapping {
     Mapping::from_raw(&[0x6401_0110, 0x6401_0210, 0x6401_0310, 0x6401_0410]).unwrap()
 }
 
-fn drain_frames<const R: usize, const T: usize>(e: &mut Engine<R, T>) -> Vec<CanFrame> {
+fn drain_frames<const R: usize, const T: usize, const Q: usize>(
+    e: &mut Engine<R, T, Q>,
+) -> Vec<CanFrame> {
     std::iter::from_fn(|| e.poll_transmit()).collect()
 }
 
@@ -637,4 +639,30 @@ fn store_failures_are_events_without_retry_storms() {
         ]
     );
     assert_eq!(s.0.get(a(0x6200, 2)), Some(&[2][..]));
+}
+
+#[test]
+fn queue_capacity_is_a_parameter_and_overflow_is_counted() {
+    let mut e: Engine<0, 3, 2> = Engine::new();
+    for n in 0..3u16 {
+        let mut cfg = tx_u8(TransmissionType::SyncCyclic(1));
+        cfg.comm.cob_id = PdoCobId::standard(0x185 + 0x100 * n);
+        e.add_tpdo(ms(0), cfg).unwrap();
+    }
+    let mut s = device_store();
+    e.handle_sync(ms(1), None, &mut s);
+    assert_eq!(drain_frames(&mut e).len(), 2);
+    assert_eq!(e.lost_frames(), 1);
+    let mut big: Engine<0, 3, 3> = Engine::new();
+    for n in 0..3u16 {
+        let mut cfg = tx_u8(TransmissionType::SyncCyclic(1));
+        cfg.comm.cob_id = PdoCobId::standard(0x185 + 0x100 * n);
+        big.add_tpdo(ms(0), cfg).unwrap();
+    }
+    big.handle_sync(ms(1), None, &mut s);
+    let ids: Vec<u16> = std::iter::from_fn(|| big.poll_transmit())
+        .filter_map(|f| f.cob_id())
+        .collect();
+    assert_eq!(ids, [0x185, 0x285, 0x385]);
+    assert_eq!(big.lost_frames(), 0);
 }
