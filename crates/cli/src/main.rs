@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod burkert;
 mod bus;
 mod lss_cmd;
 mod cpos;
@@ -85,6 +86,8 @@ enum Command {
     Lss(lss_cmd::LssArgs),
     /// Walk through commissioning simulated devices (no hardware, no flags).
     Demo,
+    /// Bürkert devices: status with the LED colour, locate, maintenance, LED, logbook.
+    Burkert(burkert::BurkertArgs),
 }
 
 /// Options every command group may read.
@@ -138,5 +141,6 @@ fn main() -> ExitCode {
         Command::Demo => demo::run(),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
         Command::Cpos(args) => cpos::run(args, global),
+        Command::Burkert(args) => burkert::run(args, global),
     }
 }

@@ -1,0 +1,403 @@
+//! `canopen burkert ...`: the Bürkert profile (SPEC-NOTES §1) of one node, through
+//! `burkert_profile::BurkertNode`.
+//!
+//! The bus is the one the global flags choose (`--iface IFACE` for SocketCAN, else the in-memory
+//! bus on a virtual clock). On the in-memory bus the node is simulated as a Bürkert device
+//! (`burkert_profile::BurkertDevice`: locating, maintenance, NE 107, logbook), from
+//! `--eds NODE=FILE` when given, else from the generic Bürkert EDS.
+
+use std::io::IsTerminal as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+
+use burkert_profile::demo::{led_swatch, progress_bar};
+use burkert_profile::master::generic_od;
+use burkert_profile::{BurkertDevice, BurkertNode, DeviceReport, LedColour, LedMode};
+use can_frame::NodeId;
+use canopen::mem::MemoryBus;
+use canopen::{Error, Network};
+use canopen_od::ObjectDictionary;
+use clap::{Args, Subcommand, ValueEnum};
+use serde_json::json;
+
+use crate::{Global, outln};
+
+/// `canopen burkert NODE ...` arguments.
+#[derive(Debug, Args)]
+pub(crate) struct BurkertArgs {
+    #[command(subcommand)]
+    command: BurkertCommand,
+}
+
+fn parse_node(s: &str) -> Result<NodeId, String> {
+    let v = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(h) => u8::from_str_radix(h, 16),
+        None => s.parse(),
+    }
+    .map_err(|e| format!("`{s}`: {e}"))?;
+    NodeId::new(v).map_err(|e| e.to_string())
+}
+
+/// On or off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum OnOff {
+    On,
+    Off,
+}
+
+#[derive(Debug, Subcommand)]
+enum BurkertCommand {
+    /// Device description, NE 107 status, communication and the LED colour.
+    Status {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+    },
+    /// Start the locating function (the LED flashes for about 10 s).
+    Locate {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        /// Cancel a running locate instead.
+        #[arg(long)]
+        stop: bool,
+    },
+    /// Enter or leave the maintenance state (0x210A).
+    Maintenance {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        /// on or off.
+        #[arg(value_enum)]
+        state: OnOff,
+    },
+    /// Set the LED mode (0x2120) and, optionally, the fixed colour (0x2122).
+    Led {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        /// namur, valve, valve-warnings, fixed, off (or the numeric value).
+        #[arg(long, value_parser = |s: &str| LedMode::from_name(s).map_err(|e| e.to_string()))]
+        mode: LedMode,
+        /// off, white, green, blue, yellow, orange, red (German names too) or #RRGGBB.
+        #[arg(long, value_parser = |s: &str| LedColour::from_name(s).map_err(|e| e.to_string()))]
+        colour: Option<LedColour>,
+    },
+    /// Download the logbook (0x2003 sub 4, XML) into a file.
+    Logbook {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        /// Output file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Segmented transfer instead of block transfer.
+        #[arg(long)]
+        segmented: bool,
+    },
+}
+
+impl BurkertCommand {
+    fn node(&self) -> NodeId {
+        match self {
+            Self::Status { node }
+            | Self::Locate { node, .. }
+            | Self::Maintenance { node, .. }
+            | Self::Led { node, .. }
+            | Self::Logbook { node, .. } => *node,
+        }
+    }
+}
+
+fn fail(e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::FAILURE
+}
+
+/// The global bus flags. `bus::BusOpts` keeps its fields to itself and its bus builder
+/// simulates generic devices, so the two flags are read back from the parsed command line.
+fn bus_flags() -> (Option<String>, Vec<String>) {
+    let matches = <crate::Cli as clap::CommandFactory>::command().try_get_matches();
+    let Ok(m) = matches else {
+        return (None, Vec::new());
+    };
+    let iface = m.get_one::<String>("iface").cloned();
+    let eds = m
+        .get_many::<String>("node_eds")
+        .map(|v| v.cloned().collect())
+        .unwrap_or_default();
+    (iface, eds)
+}
+
+fn load_eds(spec: &str) -> Result<(NodeId, ObjectDictionary), String> {
+    let (node, file) = spec
+        .split_once('=')
+        .ok_or_else(|| format!("--eds {spec}: expected NODE=FILE"))?;
+    let node = parse_node(node)?;
+    let text = std::fs::read(file).map_err(|e| format!("{file}: {e}"))?;
+    let od = canopen_od::parse(&text)
+        .map_err(|e| format!("{file}: {e}"))?
+        .od;
+    Ok((node, od))
+}
+
+/// The network, with `node` as a Bürkert node (and simulated on the in-memory bus). The
+/// memory bus is returned to keep the simulation alive.
+fn open(node: NodeId) -> Result<(Network, Option<MemoryBus>), String> {
+    let (iface, eds) = bus_flags();
+    let mut dictionaries = eds
+        .iter()
+        .map(|s| load_eds(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    if !dictionaries.iter().any(|(n, _)| *n == node) {
+        dictionaries.push((node, (**generic_od()).clone()));
+    }
+    let (net, mem) = match iface {
+        Some(iface) => {
+            let t =
+                canopen::socketcan::SocketCan::open(&iface).map_err(|e| format!("{iface}: {e}"))?;
+            (Network::new(t), None)
+        }
+        None => {
+            let bus = MemoryBus::new();
+            let endpoint = bus.endpoint();
+            for (n, od) in &dictionaries {
+                bus.attach(BurkertDevice::with_dictionary(*n, od.clone()));
+            }
+            (Network::new(endpoint), Some(bus))
+        }
+    };
+    for (n, od) in dictionaries {
+        net.add_node_with_dictionary(n, od);
+    }
+    Ok((net, mem))
+}
+
+/// `canopen burkert ...`
+pub(crate) fn run(args: BurkertArgs, g: Global) -> ExitCode {
+    let id = args.command.node();
+    let (net, _mem) = match open(id) {
+        Ok(x) => x,
+        Err(e) => return fail(e),
+    };
+    let dev = BurkertNode::new(net.node(id));
+    let result = match args.command {
+        BurkertCommand::Status { .. } => dev.read_report().map(|r| print_report(id, &r, g)),
+        BurkertCommand::Locate { stop, .. } => {
+            let r = if stop {
+                dev.stop_locating()
+            } else {
+                dev.start_locating()
+            };
+            r.and_then(|()| dev.read_report()).map(|r| {
+                if g.json {
+                    outln(
+                        &json!({"node": id.get(), "locating": r.locating,
+                                  "led": led_json(&r)})
+                        .to_string(),
+                    );
+                } else if stop {
+                    outln(&format!("node {}: locating cancelled", id.get()));
+                } else {
+                    outln(&format!(
+                        "node {}: locating started, the LED flashes for about 10 s: {}",
+                        id.get(),
+                        led_swatch(&r.led_indication(), ansi(g))
+                    ));
+                }
+            })
+        }
+        BurkertCommand::Maintenance { state, .. } => dev
+            .set_maintenance(state == OnOff::On)
+            .and_then(|()| dev.read_report())
+            .map(|r| {
+                let ne = r
+                    .status
+                    .ne107
+                    .unwrap_or(burkert_profile::Ne107Status::DiagnosisInactive);
+                if g.json {
+                    outln(
+                        &json!({"node": id.get(), "maintenance": r.maintenance,
+                                  "ne107": ne107_json(ne), "led": led_json(&r)})
+                        .to_string(),
+                    );
+                } else {
+                    outln(&format!(
+                        "node {}: maintenance {}; NE 107 status {} ({}); LED {}",
+                        id.get(),
+                        if r.maintenance { "on" } else { "off" },
+                        ne.to_raw(),
+                        ne.meaning_en(),
+                        led_swatch(&r.led_indication(), ansi(g))
+                    ));
+                }
+            }),
+        BurkertCommand::Led { mode, colour, .. } => colour
+            .map_or(Ok(()), |c| dev.set_external_colour(c))
+            .and_then(|()| dev.set_led_mode(mode))
+            .and_then(|()| dev.read_report())
+            .map(|r| {
+                if g.json {
+                    outln(&json!({"node": id.get(), "led": led_json(&r)}).to_string());
+                } else {
+                    outln(&format!(
+                        "node {}: LED mode {}, fixed colour {}; LED {}",
+                        id.get(),
+                        r.led.mode,
+                        r.led.external,
+                        led_swatch(&r.led_indication(), ansi(g))
+                    ));
+                }
+            }),
+        BurkertCommand::Logbook {
+            output, segmented, ..
+        } => logbook(&dev, &output, !segmented, g),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(e),
+    }
+}
+
+/// ANSI colour only for a terminal, never in JSON.
+fn ansi(g: Global) -> bool {
+    !g.json && std::io::stdout().is_terminal()
+}
+
+fn logbook(dev: &BurkertNode, output: &PathBuf, block: bool, g: Global) -> Result<(), Error> {
+    let file = std::fs::File::create(output)?;
+    let bar = std::io::stderr().is_terminal() && !g.json;
+    let last = Arc::new(Mutex::new((0u64, None)));
+    let l2 = last.clone();
+    let n = dev.download_logbook(file, block, move |p| {
+        if bar {
+            eprint!("\r{}", progress_bar(p.done, p.total));
+        }
+        if let Ok(mut v) = l2.lock() {
+            *v = (p.done, p.total);
+        }
+    })?;
+    if bar {
+        eprintln!();
+    }
+    if g.json {
+        outln(
+            &json!({"node": dev.id().get(), "bytes": n, "file": output.display().to_string(),
+                    "transfer": if block { "block" } else { "segmented" }})
+            .to_string(),
+        );
+    } else {
+        outln(&format!(
+            "node {}: logbook, {n} bytes, written to {}",
+            dev.id().get(),
+            output.display()
+        ));
+    }
+    Ok(())
+}
+
+fn ne107_json(ne: burkert_profile::Ne107Status) -> serde_json::Value {
+    json!({"value": ne.to_raw(), "en": ne.meaning_en(), "de": ne.meaning_de(),
+           "colour": ne.colour().map(|c| c.name())})
+}
+
+fn led_json(r: &DeviceReport) -> serde_json::Value {
+    let ind = r.led_indication();
+    let (red, green, blue) = ind.colour.approx_rgb();
+    json!({
+        "mode": r.led.mode.name(),
+        "mode_value": r.led.mode.to_u32(),
+        "colour": ind.colour.to_string(),
+        "code": ind.colour.to_u32(),
+        "rgb": format!("#{red:02X}{green:02X}{blue:02X}"),
+        "flashing": ind.flashing,
+        "external": r.led.external.to_string(),
+        "valve": {"closed": r.led.valve.closed.to_string(),
+                  "between": r.led.valve.between.to_string(),
+                  "open": r.led.valve.open.to_string()},
+    })
+}
+
+fn print_report(id: NodeId, r: &DeviceReport, g: Global) {
+    let d = &r.description;
+    let s = &r.status;
+    let c = &r.communication;
+    if g.json {
+        outln(
+            &json!({
+                "node": id.get(),
+                "description": {
+                    "device_name": d.device_name, "ident_number": d.ident_number,
+                    "manufacture_date": d.manufacture_date,
+                    "software_ident_number": d.software_ident_number,
+                    "software_version": d.software_version,
+                    "hardware_version": d.hardware_version, "serial_number": d.serial_number,
+                    "product_code": d.product_code, "product_group": d.product_group,
+                },
+                "status": {
+                    "ne107": s.ne107.map(ne107_json),
+                    "temperature_k": s.temperature.map(|t| t.0),
+                    "temperature_c": s.temperature.map(|t| t.celsius()),
+                    "supply_voltage": s.supply_voltage,
+                    "operation_time_s": s.operation_time_s,
+                    "boot_counter": s.boot_counter,
+                    "time_since_boot_s": s.time_since_boot_s,
+                    "transferable_memory": s.trans_mem.map(|t| t.meaning()),
+                },
+                "communication": {
+                    "bit_rate_kbit": c.bit_rate.map(|b| b.kbits()),
+                    "address": c.address,
+                    "can_operation_status": c.can_operation_status.map(|x| x.to_string()),
+                    "eds_version": c.eds_version.map(|v| v.to_string()),
+                },
+                "led": led_json(r),
+                "locating": r.locating,
+                "maintenance": r.maintenance,
+            })
+            .to_string(),
+        );
+        return;
+    }
+    let mut t = format!(
+        "node {}: {}\n",
+        id.get(),
+        d.device_name.as_deref().unwrap_or("(no device name)")
+    );
+    let mut line = |k: &str, v: String| t.push_str(&format!("  {k:<16} {v}\n"));
+    if let Some(v) = d.serial_number {
+        line("serial number", v.to_string());
+    }
+    if let Some(v) = d.software_version {
+        line("software", format!("{v:#010x}"));
+    }
+    if let Some(ne) = s.ne107 {
+        line(
+            "NE 107 status",
+            format!("{} {} / {}", ne.to_raw(), ne.meaning_en(), ne.meaning_de()),
+        );
+    }
+    line("LED", led_swatch(&r.led_indication(), ansi(g)));
+    line("LED mode", r.led.mode.to_string());
+    if let Some(v) = s.temperature {
+        line("temperature", v.to_string());
+    }
+    if let Some(v) = s.supply_voltage {
+        line("supply voltage", format!("{v:.2} V"));
+    }
+    if let Some(v) = s.boot_counter {
+        line("boot counter", v.to_string());
+    }
+    if let Some(v) = c.can_operation_status {
+        line("CAN status", v.to_string());
+    }
+    if let Some(v) = c.bit_rate {
+        line("bit rate", v.to_string());
+    }
+    line("locating", if r.locating { "on" } else { "off" }.into());
+    line(
+        "maintenance",
+        if r.maintenance { "on" } else { "off" }.into(),
+    );
+    crate::out(&t);
+}
