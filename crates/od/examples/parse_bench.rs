@@ -132,7 +132,7 @@ Granularity=8\r\nDynamicChannelsSupported=0\r\nGroupMessaging=0\r\nNrOfRXPDO=4\r
                 );
             }
             _ => {
-                let subs = 10 + (rng.next() % 10) as u8;
+                let subs = 9 + (rng.next() % 9) as u8;
                 let code = if kind == 1 { 8 } else { 9 };
                 let _ = write!(
                     s,
@@ -170,12 +170,13 @@ fn workspace_root() -> PathBuf {
     std::fs::canonicalize(&m).unwrap_or(m).join("../..")
 }
 
-/// Runs `cmd` under `/usr/bin/time -f %M`; returns (wall seconds, peak RSS KiB, stdout).
-fn measure(program: &Path, args: &[&str]) -> (f64, u64, String) {
+/// Runs `program` under `/usr/bin/time`; returns wall seconds, peak RSS in KiB, CPU seconds
+/// (user + system) and the child's stdout.
+fn measure(program: &Path, args: &[&str]) -> (f64, u64, f64, String) {
     let start = Instant::now();
     let out = Command::new("/usr/bin/time")
         .arg("-f")
-        .arg("%M")
+        .arg("TIME %M %U %S")
         .arg(program)
         .args(args)
         .output()
@@ -188,16 +189,35 @@ fn measure(program: &Path, args: &[&str]) -> (f64, u64, String) {
         String::from_utf8_lossy(&out.stderr)
     );
     let stderr = String::from_utf8_lossy(&out.stderr);
-    let rss = stderr
+    let fields: Vec<f64> = stderr
         .lines()
-        .filter_map(|l| l.trim().parse::<u64>().ok())
-        .next_back()
-        .unwrap_or(0);
-    (
-        wall,
-        rss,
-        String::from_utf8_lossy(&out.stdout).trim().to_string(),
-    )
+        .rev()
+        .find_map(|l| l.strip_prefix("TIME "))
+        .unwrap_or("")
+        .split_whitespace()
+        .filter_map(|f| f.parse().ok())
+        .collect();
+    let rss = fields.first().copied().unwrap_or(0.0) as u64;
+    let cpu = fields.get(1).copied().unwrap_or(0.0) + fields.get(2).copied().unwrap_or(0.0);
+    let stdout = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    (wall, rss, cpu, stdout)
+}
+
+/// Median wall, max RSS, median CPU, median in-process seconds and the entry count of `runs`
+/// runs.
+fn series(runs: usize, program: &Path, args: &[&str]) -> (f64, u64, f64, f64, String) {
+    let (mut wall, mut rss, mut cpu, mut inproc) = (Vec::new(), 0u64, Vec::new(), Vec::new());
+    let mut entries = String::new();
+    for _ in 0..runs {
+        let (w, r, c, out) = measure(program, args);
+        wall.push(w);
+        rss = rss.max(r);
+        cpu.push(c);
+        let mut it = out.split_whitespace();
+        entries = it.next().unwrap_or("").to_string();
+        inproc.push(it.next().and_then(|t| t.parse().ok()).unwrap_or(0.0));
+    }
+    (median(wall), rss, median(cpu), median(inproc), entries)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -220,6 +240,9 @@ fn main() {
             let p = canopen_od::parse(&bytes).expect("bench file parses");
             let entries = p.od.entries().count();
             println!("{entries} {:.6}", start.elapsed().as_secs_f64());
+            // The process ends here: let the OS reclaim the model instead of freeing its
+            // allocations one by one (what a command-line tool would do too).
+            std::mem::forget(p);
             return;
         }
         _ => {}
@@ -245,43 +268,25 @@ fn main() {
     let py_code = "import sys, time\nt = time.perf_counter()\nimport canopen\nod = canopen.import_od(sys.argv[1])\n\
 n = sum(len(o) if hasattr(o, 'subindices') else 1 for o in od.values())\nprint(n, round(time.perf_counter() - t, 6))";
 
-    let runs_rust = 7;
-    let runs_py = 3;
-    let (mut rw, mut rr, mut rin) = (Vec::new(), 0u64, Vec::new());
-    let mut rust_entries = String::new();
-    for _ in 0..runs_rust {
-        let (w, rss, out) = measure(&me, &["parse", file_s]);
-        rw.push(w);
-        rr = rr.max(rss);
-        let mut it = out.split_whitespace();
-        rust_entries = it.next().unwrap_or("").to_string();
-        rin.push(it.next().and_then(|t| t.parse().ok()).unwrap_or(0.0));
-    }
-    let (mut pw, mut pr, mut pin) = (Vec::new(), 0u64, Vec::new());
-    let mut py_entries = String::new();
-    for _ in 0..runs_py {
-        let (w, rss, out) = measure(&python, &["-c", py_code, file_s]);
-        pw.push(w);
-        pr = pr.max(rss);
-        let mut it = out.split_whitespace();
-        py_entries = it.next().unwrap_or("").to_string();
-        pin.push(it.next().and_then(|t| t.parse().ok()).unwrap_or(0.0));
-    }
-    let (rw, pw, rin, pin) = (median(rw), median(pw), median(rin), median(pin));
+    let (rw, rr, rc, rin, rust_entries) = series(7, &me, &["parse", file_s]);
+    let (pw, pr, pc, pin, py_entries) = series(3, &python, &["-c", py_code, file_s]);
     println!(
-        "canopen-od      : entries {rust_entries:>6}, wall {:8.2} ms (in-process parse {:7.2} ms), peak RSS {rr:>7} KiB",
+        "canopen-od     : entries {rust_entries:>6}, wall {:8.1} ms, CPU {:7.1} ms, in-process parse {:7.1} ms, peak RSS {rr:>7} KiB",
         rw * 1e3,
+        rc * 1e3,
         rin * 1e3
     );
     println!(
-        "python-canopen  : entries {py_entries:>6}, wall {:8.2} ms (in-process import+parse {:7.2} ms), peak RSS {pr:>7} KiB",
+        "python-canopen : entries {py_entries:>6}, wall {:8.1} ms, CPU {:7.1} ms, in-process import+parse {:7.1} ms, peak RSS {pr:>7} KiB",
         pw * 1e3,
+        pc * 1e3,
         pin * 1e3
     );
     println!(
-        "ratio (python / canopen-od): wall time {:.0}x, peak memory {:.1}x  (in-process: {:.0}x)",
+        "ratio python-canopen / canopen-od: wall time {:.0}x, peak RSS {:.1}x (CPU time {:.0}x, in-process {:.0}x)",
         pw / rw,
         pr as f64 / rr.max(1) as f64,
+        pc / rc.max(0.005),
         pin / rin.max(1e-9)
     );
 }

@@ -329,7 +329,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         offset += raw.len() + 1;
         let line_no = u32::try_from(i + 1).unwrap_or(u32::MAX);
         let line = raw.strip_suffix('\r').unwrap_or(raw);
-        let trimmed = line.trim();
+        let trimmed = line.trim_ascii();
         if trimmed.is_empty() || trimmed.starts_with(';') {
             continue;
         }
@@ -358,7 +358,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                 continue;
             };
             let name_raw = &body[..end];
-            let after = body[end + 1..].trim();
+            let after = body[end + 1..].trim_ascii();
             if !after.is_empty() && !after.starts_with(';') {
                 sink.warn(
                     K::Syntax,
@@ -366,7 +366,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                     format!("text `{after}` after section header [{name_raw}] ignored"),
                 );
             }
-            let name = name_raw.trim();
+            let name = name_raw.trim_ascii();
             if name != name_raw {
                 sink.warn(
                     K::Spelling,
@@ -446,7 +446,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         };
         let key_raw = &line[..eq];
         let value_raw = &line[eq + 1..];
-        let key = key_raw.trim();
+        let key = key_raw.trim_ascii();
         if key.is_empty() {
             sink.error(
                 K::Syntax,
@@ -458,9 +458,9 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         if key.len() != key_raw.len() {
             sink.warn(K::Spelling, line_no, format!("spaces around key `{key}`"));
         }
-        let value = value_raw.trim();
+        let value = value_raw.trim_ascii();
         if value.len() != value_raw.len() {
-            if value_raw.trim_end().len() != value_raw.len() {
+            if value_raw.trim_ascii_end().len() != value_raw.len() {
                 sink.warn(
                     K::Spelling,
                     line_no,
@@ -539,7 +539,19 @@ fn finish_sub<'a>(
             let own = entries.get(open.entries_start..).unwrap_or(&[]);
             let sub = build_sub(open.key, open.name, open.line, own, &mut local);
             let ok = sub.is_some();
-            list.extend(sub);
+            if let Some(sub) = sub {
+                if list.is_empty() && sub.sub_index == 0 {
+                    // Sub-index 0 usually gives the highest sub-index: size the list once.
+                    let highest = sub.default_value.as_ref().and_then(|f| f.resolve(0));
+                    if let Some(n) = highest
+                        .and_then(|v| v.as_i128())
+                        .filter(|n| (0..=255).contains(n))
+                    {
+                        list.reserve_exact(n as usize + 1);
+                    }
+                }
+                list.push(sub);
+            }
             let rare = (!local.list.is_empty()).then(|| {
                 Box::new(SubRare {
                     more: Vec::new(),
@@ -597,16 +609,16 @@ fn rebuild_repeated<'a>(
 /// Re-reads the `key=value` lines of a section body (already reported on by [`scan`]).
 fn rescan<'a>(body: &'a str, first_line: u32, out: &mut Vec<Entry<'a>>) {
     for (i, raw) in body.split('\n').enumerate() {
-        let line = raw.trim();
+        let line = raw.trim_ascii();
         if line.is_empty() || line.starts_with(';') || line.starts_with('#') {
             continue;
         }
         if let Some((k, v)) = line.split_once('=') {
-            let k = k.trim();
+            let k = k.trim_ascii();
             if !k.is_empty() {
                 out.push(Entry {
                     key: k,
-                    value: v.trim(),
+                    value: v.trim_ascii(),
                     line: first_line.saturating_add(i as u32),
                 });
             }
@@ -628,10 +640,13 @@ fn build_sub(
         line,
         entries: Cow::Borrowed(entries),
     };
-    let swhat = format!("sub-object {index:04X}sub{s:X}");
+    let swhat = Where {
+        index,
+        sub: Some(s),
+    };
     let sk = resolve_keys(&sec, &OBJ_KEYS, sink);
-    let scode = object_code(sink, &sk, &swhat)?;
-    let sub = sub_object(sink, &sk, s, scode, line, &swhat)?;
+    let scode = object_code(sink, &sk, swhat)?;
+    let sub = sub_object(sink, &sk, s, scode, line, swhat)?;
     if let Some((_, l)) = sk.slots[P_SUBNUMBER].or(sk.slots[P_COMPACT]) {
         sink.warn(
             K::Structure,
@@ -773,6 +788,22 @@ fn extra_owned(extra: &[(&str, &str, u32)]) -> Vec<(String, String)> {
         .iter()
         .map(|(k, v, _)| ((*k).to_string(), (*v).to_string()))
         .collect()
+}
+
+/// Names an object or sub-object in messages; formatted only when a diagnostic is issued.
+#[derive(Debug, Clone, Copy)]
+struct Where {
+    index: u16,
+    sub: Option<u8>,
+}
+
+impl fmt::Display for Where {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.sub {
+            Some(s) => write!(f, "sub-object {:04X}sub{s:X}", self.index),
+            None => write!(f, "object {:04X}", self.index),
+        }
+    }
 }
 
 fn note_warnings(sink: &mut Sink, line: u32, what: &str, notes: TextNotes) {
@@ -1031,7 +1062,7 @@ const P_FLAGS: usize = 10;
 const P_SUBNUMBER: usize = 11;
 const P_COMPACT: usize = 12;
 
-fn object_code(sink: &mut Sink, k: &Keys<'_, 15>, what: &str) -> Option<ObjectCode> {
+fn object_code(sink: &mut Sink, k: &Keys<'_, 15>, what: Where) -> Option<ObjectCode> {
     let Some((text, line)) = k.slots[P_OBJTYPE] else {
         return Some(ObjectCode::Var);
     };
@@ -1070,7 +1101,7 @@ fn sub_object(
     sub_index: u8,
     code: ObjectCode,
     line: u32,
-    what: &str,
+    what: Where,
 ) -> Option<SubObject> {
     let name = match k.slots[P_NAME] {
         Some(v) => string(sink, v, "ParameterName"),
@@ -1192,11 +1223,11 @@ fn object(
     built: Vec<SubObject>,
     sink: &mut Sink,
 ) -> Option<Object> {
-    let what = format!("object {index:04X}");
+    let what = Where { index, sub: None };
     let k = resolve_keys(sec, &OBJ_KEYS, sink);
-    let code = object_code(sink, &k, &what)?;
+    let code = object_code(sink, &k, what)?;
     if code.is_simple() || matches!(code, ObjectCode::Other(_)) {
-        let sub = sub_object(sink, &k, 0, ObjectCode::Var, sec.line, &what)?;
+        let sub = sub_object(sink, &k, 0, ObjectCode::Var, sec.line, what)?;
         let mut obj = Object::var(index, sub);
         obj.object_code = code;
         obj.line = Line(sec.line);
@@ -1271,7 +1302,7 @@ fn object(
         proto_keys.slots[P_SUBNUMBER] = None;
         proto_keys.slots[P_COMPACT] = None;
         proto_keys.slots[P_FLAGS] = None;
-        match sub_object(sink, &proto_keys, 1, ObjectCode::Var, sec.line, &what) {
+        match sub_object(sink, &proto_keys, 1, ObjectCode::Var, sec.line, what) {
             Some(proto) => {
                 for i in 1..=n {
                     let mut s = proto.clone();

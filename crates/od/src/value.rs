@@ -283,6 +283,9 @@ impl EdsValue {
 const NODEID: &str = "$NODEID";
 
 fn find_node_id(text: &str) -> Option<usize> {
+    if !text.contains('$') {
+        return None;
+    }
     let b = text.as_bytes();
     if b.len() < NODEID.len() {
         return None;
