@@ -96,7 +96,7 @@ pub enum Completion {
 }
 
 /// Something that happened on the network, for subscribers.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum NetworkEvent {
     /// A heartbeat consumer event: boot-up, state change, loss, recovery.
@@ -118,6 +118,18 @@ pub enum NetworkEvent {
     Lss {
         /// The eight data bytes.
         data: [u8; 8],
+        /// Reception time.
+        at: Instant,
+    },
+    /// A node's transmit PDO decoded through its dictionary's mapping (nodes added with a
+    /// dictionary; see [`Network::add_node_with_dictionary`](crate::Network::add_node_with_dictionary)).
+    PdoValues {
+        /// The producer.
+        node: NodeId,
+        /// TPDO number 1..=4.
+        number: u8,
+        /// The mapped objects and their values, in mapping order.
+        values: Vec<(Entry, canopen_pdo::Value)>,
         /// Reception time.
         at: Instant,
     },
@@ -198,6 +210,8 @@ enum ReqState {
 
 struct NodeSlot {
     od: Option<Arc<ObjectDictionary>>,
+    /// The node's TPDOs mirrored as receive PDOs, with their TPDO numbers.
+    pdo: Option<(Box<crate::pdo::PdoEngine>, Vec<u8>)>,
     client: Client<UpSink, DownSource>,
     queue: VecDeque<RequestId>,
     active: Option<RequestId>,
@@ -206,8 +220,9 @@ struct NodeSlot {
 }
 
 impl NodeSlot {
-    fn new(od: Option<Arc<ObjectDictionary>>) -> Self {
+    fn new(node: NodeId, od: Option<Arc<ObjectDictionary>>) -> Self {
         Self {
+            pdo: od.as_deref().map(|od| crate::pdo::mirror_engine(od, node)),
             od,
             client: Client::new(ClientConfig::default()),
             queue: VecDeque::new(),
@@ -280,12 +295,13 @@ impl Core {
     pub(crate) fn add_node(&mut self, node: NodeId, od: Option<Arc<ObjectDictionary>>) {
         match self.nodes.get_mut(&node) {
             Some(slot) => {
-                if od.is_some() {
-                    slot.od = od;
+                if let Some(od) = od {
+                    slot.pdo = Some(crate::pdo::mirror_engine(&od, node));
+                    slot.od = Some(od);
                 }
             }
             None => {
-                self.nodes.insert(node, NodeSlot::new(od));
+                self.nodes.insert(node, NodeSlot::new(node, od));
             }
         }
     }
@@ -600,6 +616,35 @@ impl Core {
                     data: frame.data().to_vec(),
                     at: now,
                 });
+                let mut decoded = Vec::new();
+                if let Some(slot) = self.nodes.get_mut(&node)
+                    && let Some((engine, numbers)) = &mut slot.pdo
+                    && engine.handle_frame(now, frame, &mut canopen_pdo::NullStore)
+                {
+                    while let Some(ev) = engine.poll_event() {
+                        if let canopen_pdo::Event::Received { pdo, .. } = ev
+                            && let Some(values) = engine.received(pdo)
+                        {
+                            let number = numbers.get(pdo.index()).copied().unwrap_or(n.get());
+                            let values = values
+                                .iter()
+                                .map(|(obj, v)| {
+                                    let a = obj.addr();
+                                    (Entry::new(a.index, a.subindex), v)
+                                })
+                                .collect();
+                            decoded.push((number, values));
+                        }
+                    }
+                }
+                for (number, values) in decoded {
+                    self.publish(NetworkEvent::PdoValues {
+                        node,
+                        number,
+                        values,
+                        at: now,
+                    });
+                }
             }
             _ => {}
         }

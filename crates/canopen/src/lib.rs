@@ -34,6 +34,7 @@ pub mod error;
 pub mod lss;
 pub mod mem;
 pub mod network;
+mod pdo;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
 pub mod transport;

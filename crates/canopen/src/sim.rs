@@ -5,6 +5,9 @@
 //! * SDO server for expedited, segmented and block transfers (`canopen-sdo`, CiA 301 §7.2.4)
 //!   over the dictionary's values;
 //! * EMCY producer (`canopen-nmt`, CiA 301 §7.2.7);
+//! * TPDOs and RPDOs by the `canopen-pdo` engine, configured from the device's PDO objects
+//!   (0x1400.., 0x1600.., 0x1800.., 0x1A00..) when it enters Operational; SYNC, event timers,
+//!   inhibit times and change-of-state ([`SimDevice::set_value`]) as the engine implements them;
 //! * LSS slave (`canopen-lss`, CiA 305) with the identity from 0x1018 as its LSS address. A
 //!   device made with [`SimDevice::unconfigured`] has no node-ID: it only answers LSS until a
 //!   master assigns one, then boots with it.
@@ -117,6 +120,10 @@ impl Values {
         let n = b.len().min(8);
         buf[..n].copy_from_slice(&b[..n]);
         Some(u64::from_le_bytes(buf))
+    }
+
+    pub(crate) fn defaults_for(od: &ObjectDictionary, node: NodeId) -> Self {
+        Self::defaults(od, node)
     }
 
     fn defaults(od: &ObjectDictionary, node: NodeId) -> Self {
@@ -257,6 +264,7 @@ pub struct SimDevice {
     booted: bool,
     configured: bool,
     lss: LssSlave,
+    pdo: Box<crate::pdo::PdoEngine>,
     last_state: DeviceState,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
@@ -312,6 +320,7 @@ impl SimDevice {
             booted: false,
             configured: true,
             lss: LssSlave::new(lss_config),
+            pdo: Box::new(crate::pdo::PdoEngine::new()),
             last_state: DeviceState::Initialising,
             sdo_requests: 0,
         }
@@ -397,6 +406,31 @@ impl SimDevice {
         &self.od
     }
 
+    /// Sets a value the way the application would (e.g. a new sensor reading): event-driven
+    /// TPDOs that map it go out when it changed (change-of-state, within their inhibit time).
+    pub fn set_value(&mut self, now: Instant, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
+        self.values.set(index, sub, value);
+        if self.nmt.state() == DeviceState::Operational {
+            self.pdo.update(now, &mut crate::pdo::Store(&mut self.values));
+            self.collect();
+        }
+    }
+
+    /// (Re)builds the PDO engine from the current PDO objects; enabled in Operational.
+    fn rebuild_pdos(&mut self, now: Instant) {
+        let view = crate::pdo::View {
+            od: &self.od,
+            values: &self.values,
+        };
+        self.pdo = crate::pdo::device_engine(&view, now);
+        let operational = self.nmt.state() == DeviceState::Operational;
+        self.pdo.set_enabled(now, operational);
+        if operational {
+            // Event-driven TPDOs send their first value when the device starts.
+            self.pdo.update(now, &mut crate::pdo::Store(&mut self.values));
+        }
+    }
+
     /// Sends an emergency (when the NMT state allows EMCY).
     pub fn signal_emcy(&mut self, now: Instant, emcy: Emcy) {
         if self.nmt.allows(Service::Emcy) {
@@ -419,6 +453,10 @@ impl SimDevice {
         while let Some(f) = self.lss.poll_transmit_frame() {
             self.out.push_back(f);
         }
+        while let Some(f) = self.pdo.poll_transmit() {
+            self.out.push_back(f);
+        }
+        while self.pdo.poll_event().is_some() {}
     }
 
     fn after_lss(&mut self, now: Instant) {
@@ -474,6 +512,7 @@ impl SimDevice {
         let state = self.nmt.state();
         if state != self.last_state {
             self.last_state = state;
+            self.rebuild_pdos(now);
             for h in self.hooks.iter_mut() {
                 h.on_state(now, state, &mut self.values);
             }
@@ -485,11 +524,16 @@ impl SimDevice {
     }
 
     fn apply(&mut self, now: Instant, actions: HookActions, written: &[(u16, u8)]) {
+        let mut remapped = false;
         for &(index, sub) in written {
+            remapped |= (0x1400..=0x1BFF).contains(&index);
             if (index, sub) == (0x1017, 0) {
                 let ms = self.values.get_u64(0x1017, 0).unwrap_or(0) as u16;
                 self.nmt.set_heartbeat_time(now, ms);
             }
+        }
+        if remapped {
+            self.rebuild_pdos(now);
         }
         for e in actions.emcy {
             let _ = self.emcy.signal(now, e);
@@ -537,6 +581,13 @@ impl Station for SimDevice {
         }
         if self.nmt.handle_frame(now, frame).unwrap_or(false) {
             self.after_nmt(now);
+            return;
+        }
+        if self
+            .pdo
+            .handle_frame(now, frame, &mut crate::pdo::Store(&mut self.values))
+        {
+            self.collect();
         }
     }
 
@@ -574,6 +625,11 @@ impl Station for SimDevice {
         if self.emcy.poll_timeout().is_some_and(|t| t <= now) {
             self.emcy.handle_timeout(now);
         }
+        if self.pdo.poll_timeout().is_some_and(|t| t <= now) {
+            self.pdo
+                .handle_timeout(now, &mut crate::pdo::Store(&mut self.values));
+            self.collect();
+        }
         let mut actions = HookActions::default();
         for h in self.hooks.iter_mut() {
             if h.poll_timeout().is_some_and(|t| t <= now) {
@@ -596,6 +652,7 @@ impl Station for SimDevice {
             self.sdo.poll_timeout(),
             self.emcy.poll_timeout(),
             self.lss.poll_timeout(),
+            self.pdo.poll_timeout(),
         ]
         .into_iter()
         .chain(self.hooks.iter().map(|h| h.poll_timeout()))

@@ -510,3 +510,70 @@ fn lss_assign_all_then_the_devices_boot_and_answer_sdo() {
     assert!(bus.with_station(da, |d| d.is_configured()).unwrap());
     assert!(bus.with_station(db, |d| d.is_configured()).unwrap());
 }
+
+#[test]
+fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
+    let r = rig(&[5]);
+    let events = r.net.subscribe();
+    r.net.run_for(Duration::from_secs(2)).unwrap();
+    assert!(
+        !drain(&events).iter().any(|e| matches!(e, NetworkEvent::Pdo { .. })),
+        "no PDOs in Pre-operational"
+    );
+    r.net.node(n(5)).nmt().start().unwrap();
+    r.net.run_for(Duration::from_millis(2100)).unwrap();
+    let pdos: Vec<_> = drain(&events)
+        .into_iter()
+        .filter_map(|e| match e {
+            NetworkEvent::PdoValues { node, number, values, .. } => Some((node, number, values)),
+            _ => None,
+        })
+        .collect();
+    // TPDO1 (sensor values 1 and 2) and TPDO2 (3 and 4) at start and then every 1000 ms.
+    let tpdo1: Vec<_> = pdos.iter().filter(|p| p.1 == 1).collect();
+    assert!(tpdo1.len() >= 2, "{pdos:?}");
+    let entries: Vec<_> = tpdo1[0].2.iter().map(|(e, _)| *e).collect();
+    assert_eq!(entries, [canopen::Entry::new(0x2500, 1), canopen::Entry::new(0x2501, 1)]);
+
+    // A new sensor reading goes out on change (after the inhibit time at the latest).
+    let now = r.bus.now();
+    r.bus
+        .with_station(r.devices[0], |d| d.set_value(now, 0x2500, 1, 12.5f32.to_le_bytes()))
+        .unwrap();
+    r.net.run_for(Duration::from_millis(600)).unwrap();
+    let seen = drain(&events).into_iter().any(|e| {
+        matches!(&e, NetworkEvent::PdoValues { number: 1, values, .. }
+            if values.first().map(|v| v.1.clone()) == Some(canopen_pdo::Value::Real32(12.5)))
+    });
+    assert!(seen);
+
+    // The master writes control values by RPDO1 (0x205).
+    let frame = CanFrame::new(
+        can_frame::CanId::standard(0x205).unwrap(),
+        &[1.5f32.to_le_bytes(), 2.5f32.to_le_bytes()].concat(),
+    )
+    .unwrap();
+    r.net.send(frame).unwrap();
+    r.net.run_for(Duration::from_millis(5)).unwrap();
+    let got = r
+        .bus
+        .with_station(r.devices[0], |d| d.values().get(0x2540, 1).map(<[u8]>::to_vec))
+        .unwrap();
+    assert_eq!(got, Some(1.5f32.to_le_bytes().to_vec()));
+}
+
+#[test]
+fn sync_producer_runs_on_the_network_clock() {
+    let r = rig(&[]);
+    let mut tap = r.bus.endpoint();
+    r.net.start_sync(Duration::from_millis(10));
+    r.net.run_for(Duration::from_millis(95)).unwrap();
+    let mut times = Vec::new();
+    while let Ok(Some(Received::Frame { frame, at })) = tap.try_recv() {
+        if frame.cob_id() == Some(0x80) {
+            times.push(at.as_micros() / 1000);
+        }
+    }
+    assert_eq!(times, [0, 10, 20, 30, 40, 50, 60, 70, 80, 90]);
+    r.net.stop_sync();
+}

@@ -1,0 +1,117 @@
+//! PDO glue (CiA 301 §7.2.2): the `canopen-pdo` engine configured from a dictionary's PDO
+//! parameter objects (0x1400.., 0x1600.., 0x1800.., 0x1A00..), for the simulator (a device's own
+//! TPDOs and RPDOs over its current values) and for the master (a node's TPDOs mirrored as
+//! receive PDOs, so received frames decode into values).
+
+use can_frame::{CanId, Instant};
+use canopen_od::ObjectDictionary;
+use canopen_pdo::{
+    Catalog, CommParams, Direction, Dictionary, Engine, Mapping, ObjectAddr, ObjectInfo,
+    ObjectStore, PdoConfig, ReadError, StoreError,
+};
+
+use crate::sim::Values;
+
+/// Four PDOs each way, as the predefined connection set has.
+pub(crate) type PdoEngine = Engine<4, 4>;
+
+/// A dictionary's metadata with a device's current values, as the PDO crate reads them.
+pub(crate) struct View<'a> {
+    pub(crate) od: &'a ObjectDictionary,
+    pub(crate) values: &'a Values,
+}
+
+impl Catalog for View<'_> {
+    fn object_info(&self, addr: ObjectAddr) -> Option<ObjectInfo> {
+        let s = self.od.sub(addr.index, addr.subindex)?;
+        let bits = match s.data_type.size() {
+            Some(n) if !s.data_type.is_variable_size() => (n * 8) as u16,
+            _ => (self.values.get(addr.index, addr.subindex).map_or(0, <[u8]>::len) * 8) as u16,
+        };
+        use canopen_od::AccessType as A;
+        Some(ObjectInfo {
+            data_type: s.data_type.code(),
+            bits,
+            pdo_mappable: s.pdo_mapping,
+            readable: !matches!(s.access, A::Wo),
+            writable: !matches!(s.access, A::Ro | A::Const),
+        })
+    }
+}
+
+impl Dictionary for View<'_> {
+    fn read_u32(&self, index: u16, subindex: u8) -> Result<u32, ReadError> {
+        let v = self
+            .values
+            .get(index, subindex)
+            .ok_or(ReadError::NoSuchObject { index, subindex })?;
+        if v.len() > 4 {
+            return Err(ReadError::NotAnInteger { index, subindex });
+        }
+        let mut b = [0u8; 4];
+        b[..v.len()].copy_from_slice(v);
+        Ok(u32::from_le_bytes(b))
+    }
+}
+
+/// A device's values as the PDO engine's process image.
+pub(crate) struct Store<'a>(pub(crate) &'a mut Values);
+
+impl ObjectStore for Store<'_> {
+    fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), StoreError> {
+        let v = self
+            .0
+            .get(addr.index, addr.subindex)
+            .ok_or(StoreError::NoSuchObject)?;
+        let n = out.len().min(v.len());
+        out[..n].copy_from_slice(&v[..n]);
+        out[n..].fill(0);
+        Ok(())
+    }
+    fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), StoreError> {
+        self.0.set(addr.index, addr.subindex, data.to_vec());
+        Ok(())
+    }
+}
+
+/// Reads PDO `n` (0-based) of `direction` from the view; `None` when absent or unusable.
+fn read_pdo(view: &View<'_>, direction: Direction, n: u16) -> Option<PdoConfig> {
+    let comm = CommParams::read_from(view, direction.comm_index(n)).ok()?;
+    let mapping = Mapping::read_from(view, direction, direction.mapping_index(n)).ok()?;
+    Some(PdoConfig::new(comm, mapping))
+}
+
+/// A device's engine: its RPDOs and TPDOs from its current values.
+pub(crate) fn device_engine(view: &View<'_>, now: Instant) -> Box<PdoEngine> {
+    let mut e = Box::new(PdoEngine::new());
+    if let Ok(id) = CanId::standard(0x80) {
+        e.set_sync_cob_id(Some(id));
+    }
+    for n in 0..4 {
+        if let Some(c) = read_pdo(view, Direction::Receive, n) {
+            let _ = e.add_rpdo(c);
+        }
+        if let Some(c) = read_pdo(view, Direction::Transmit, n) {
+            let _ = e.add_tpdo(now, c);
+        }
+    }
+    e
+}
+
+/// The master's engine for one node: the node's TPDOs (from its dictionary, `$NODEID`
+/// resolved) as receive PDOs. Returns the engine and the TPDO number (1-based) of each RPDO.
+pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> (Box<PdoEngine>, Vec<u8>) {
+    let values = Values::defaults_for(od, node);
+    let view = View { od, values: &values };
+    let mut e = Box::new(PdoEngine::new());
+    let mut numbers = Vec::new();
+    for n in 0..4u16 {
+        if let Some(c) = read_pdo(&view, Direction::Transmit, n)
+            && e.add_rpdo(c).is_ok()
+        {
+            numbers.push(n as u8 + 1);
+        }
+    }
+    e.set_enabled(Instant::ZERO, true);
+    (e, numbers)
+}
