@@ -6,7 +6,7 @@
 use can_frame::{CanId, Instant};
 use canopen_od::ObjectDictionary;
 use canopen_pdo::{
-    Catalog, CommParams, Direction, Dictionary, Engine, Mapping, ObjectAddr, ObjectInfo,
+    Catalog, CommParams, Dictionary, Direction, Engine, Mapping, ObjectAddr, ObjectInfo,
     ObjectStore, PdoConfig, ReadError, StoreError,
 };
 
@@ -26,7 +26,13 @@ impl Catalog for View<'_> {
         let s = self.od.sub(addr.index, addr.subindex)?;
         let bits = match s.data_type.size() {
             Some(n) if !s.data_type.is_variable_size() => (n * 8) as u16,
-            _ => (self.values.get(addr.index, addr.subindex).map_or(0, <[u8]>::len) * 8) as u16,
+            _ => {
+                (self
+                    .values
+                    .get(addr.index, addr.subindex)
+                    .map_or(0, <[u8]>::len)
+                    * 8) as u16
+            }
         };
         use canopen_od::AccessType as A;
         Some(ObjectInfo {
@@ -100,9 +106,15 @@ pub(crate) fn device_engine(view: &View<'_>, now: Instant) -> Box<PdoEngine> {
 
 /// The master's engine for one node: the node's TPDOs (from its dictionary, `$NODEID`
 /// resolved) as receive PDOs. Returns the engine and the TPDO number (1-based) of each RPDO.
-pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> (Box<PdoEngine>, Vec<u8>) {
+pub(crate) fn mirror_engine(
+    od: &ObjectDictionary,
+    node: can_frame::NodeId,
+) -> (Box<PdoEngine>, Vec<u8>) {
     let values = Values::defaults_for(od, node);
-    let view = View { od, values: &values };
+    let view = View {
+        od,
+        values: &values,
+    };
     let mut e = Box::new(PdoEngine::new());
     let mut numbers = Vec::new();
     for n in 0..4u16 {

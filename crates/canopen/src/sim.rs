@@ -411,7 +411,8 @@ impl SimDevice {
     pub fn set_value(&mut self, now: Instant, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
         self.values.set(index, sub, value);
         if self.nmt.state() == DeviceState::Operational {
-            self.pdo.update(now, &mut crate::pdo::Store(&mut self.values));
+            self.pdo
+                .update(now, &mut crate::pdo::Store(&mut self.values));
             self.collect();
         }
     }
@@ -427,7 +428,8 @@ impl SimDevice {
         self.pdo.set_enabled(now, operational);
         if operational {
             // Event-driven TPDOs send their first value when the device starts.
-            self.pdo.update(now, &mut crate::pdo::Store(&mut self.values));
+            self.pdo
+                .update(now, &mut crate::pdo::Store(&mut self.values));
         }
     }
 

@@ -517,7 +517,9 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     let events = r.net.subscribe();
     r.net.run_for(Duration::from_secs(2)).unwrap();
     assert!(
-        !drain(&events).iter().any(|e| matches!(e, NetworkEvent::Pdo { .. })),
+        !drain(&events)
+            .iter()
+            .any(|e| matches!(e, NetworkEvent::Pdo { .. })),
         "no PDOs in Pre-operational"
     );
     r.net.node(n(5)).nmt().start().unwrap();
@@ -525,7 +527,12 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     let pdos: Vec<_> = drain(&events)
         .into_iter()
         .filter_map(|e| match e {
-            NetworkEvent::PdoValues { node, number, values, .. } => Some((node, number, values)),
+            NetworkEvent::PdoValues {
+                node,
+                number,
+                values,
+                ..
+            } => Some((node, number, values)),
             _ => None,
         })
         .collect();
@@ -533,17 +540,25 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     let tpdo1: Vec<_> = pdos.iter().filter(|p| p.1 == 1).collect();
     assert!(tpdo1.len() >= 2, "{pdos:?}");
     let entries: Vec<_> = tpdo1[0].2.iter().map(|(e, _)| *e).collect();
-    assert_eq!(entries, [canopen::Entry::new(0x2500, 1), canopen::Entry::new(0x2501, 1)]);
+    assert_eq!(
+        entries,
+        [
+            canopen::Entry::new(0x2500, 1),
+            canopen::Entry::new(0x2501, 1)
+        ]
+    );
 
     // A new sensor reading goes out on change (after the inhibit time at the latest).
     let now = r.bus.now();
     r.bus
-        .with_station(r.devices[0], |d| d.set_value(now, 0x2500, 1, 12.5f32.to_le_bytes()))
+        .with_station(r.devices[0], |d| {
+            d.set_value(now, 0x2500, 1, 12.5f32.to_le_bytes())
+        })
         .unwrap();
     r.net.run_for(Duration::from_millis(600)).unwrap();
     let seen = drain(&events).into_iter().any(|e| {
         matches!(&e, NetworkEvent::PdoValues { number: 1, values, .. }
-            if values.first().map(|v| v.1.clone()) == Some(canopen_pdo::Value::Real32(12.5)))
+            if values.first().map(|v| v.1) == Some(canopen_pdo::Value::Real32(12.5)))
     });
     assert!(seen);
 
@@ -557,7 +572,9 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     r.net.run_for(Duration::from_millis(5)).unwrap();
     let got = r
         .bus
-        .with_station(r.devices[0], |d| d.values().get(0x2540, 1).map(<[u8]>::to_vec))
+        .with_station(r.devices[0], |d| {
+            d.values().get(0x2540, 1).map(<[u8]>::to_vec)
+        })
         .unwrap();
     assert_eq!(got, Some(1.5f32.to_le_bytes().to_vec()));
 }
