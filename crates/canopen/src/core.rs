@@ -211,7 +211,7 @@ enum ReqState {
 struct NodeSlot {
     od: Option<Arc<ObjectDictionary>>,
     /// The node's TPDOs mirrored as receive PDOs, with their TPDO numbers.
-    pdo: Option<(Box<crate::pdo::PdoEngine>, Vec<u8>)>,
+    pdo: Option<(Box<crate::pdo::PdoEngine>, Vec<(u8, canopen_pdo::RpdoId)>)>,
     client: Client<UpSink, DownSource>,
     queue: VecDeque<RequestId>,
     active: Option<RequestId>,
@@ -354,6 +354,27 @@ impl Core {
 
     pub(crate) fn stop_sync(&mut self) {
         self.sync = None;
+    }
+
+    /// The master's view of a node's TPDO `number` (1-based) after a remap: received frames
+    /// decode with `config` from now on.
+    pub(crate) fn mirror_tpdo(&mut self, node: NodeId, number: u8, config: canopen_pdo::PdoConfig) {
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return;
+        };
+        let (engine, numbers) = slot
+            .pdo
+            .get_or_insert_with(|| (Box::new(crate::pdo::PdoEngine::new()), Vec::new()));
+        match numbers.iter().find(|(n, _)| *n == number) {
+            Some((_, id)) => {
+                let _ = engine.set_rpdo(*id, config);
+            }
+            None => {
+                if let Ok(id) = engine.add_rpdo(config) {
+                    numbers.push((number, id));
+                }
+            }
+        }
     }
 
     /// Starts an LSS job (replacing a running one).
@@ -625,7 +646,10 @@ impl Core {
                         if let canopen_pdo::Event::Received { pdo, .. } = ev
                             && let Some(values) = engine.received(pdo)
                         {
-                            let number = numbers.get(pdo.index()).copied().unwrap_or(n.get());
+                            let number = numbers
+                                .iter()
+                                .find(|(_, id)| *id == pdo)
+                                .map_or(n.get(), |(num, _)| *num);
                             let values = values
                                 .iter()
                                 .map(|(obj, v)| {

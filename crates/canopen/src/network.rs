@@ -331,6 +331,54 @@ impl Node {
         }
     }
 
+    /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
+    /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
+    /// from `canopen_pdo::remap`). After a TPDO remap the master decodes that TPDO with the new
+    /// mapping.
+    pub fn remap_pdo(
+        &self,
+        direction: canopen_pdo::Direction,
+        number: u16,
+        comm: canopen_pdo::CommParams,
+        mapping: canopen_pdo::Mapping,
+    ) -> Result<(), Error> {
+        let n = number.saturating_sub(1);
+        let mut remote = canopen_pdo::RemoteObjects::dynamic(direction);
+        // With a dictionary, write only the sub-indices the node has.
+        if let Some(od) = self.dictionary() {
+            let ci = direction.comm_index(n);
+            let has = |sub| od.sub(ci, sub).is_some();
+            remote.has_inhibit_time = has(3);
+            remote.has_event_timer = has(5);
+            remote.has_sync_start = has(6);
+            remote.mapping_writable = od.sub(direction.mapping_index(n), 1).is_none_or(|s| {
+                !matches!(
+                    s.access,
+                    canopen_od::AccessType::Ro | canopen_od::AccessType::Const
+                )
+            });
+        }
+        let steps = canopen_pdo::remap(direction, n, &comm, &mapping, &remote).map_err(|e| {
+            Error::Value {
+                node: self.id,
+                entry: Entry::new(direction.comm_index(n), 0),
+                message: e.to_string(),
+            }
+        })?;
+        for step in &steps {
+            self.sdo()
+                .write((step.index, step.subindex), step.value())?;
+        }
+        if matches!(direction, canopen_pdo::Direction::Transmit) {
+            self.net.core().mirror_tpdo(
+                self.id,
+                (n + 1) as u8,
+                canopen_pdo::PdoConfig::new(comm, mapping),
+            );
+        }
+        Ok(())
+    }
+
     /// The node's dictionary, if it was added with one.
     pub fn dictionary(&self) -> Option<Arc<ObjectDictionary>> {
         self.net.core().dictionary(self.id)

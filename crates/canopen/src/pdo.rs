@@ -7,7 +7,7 @@ use can_frame::{CanId, Instant};
 use canopen_od::ObjectDictionary;
 use canopen_pdo::{
     Catalog, CommParams, Dictionary, Direction, Engine, Mapping, ObjectAddr, ObjectInfo,
-    ObjectStore, PdoConfig, ReadError, StoreError,
+    ObjectStore, PdoConfig, ReadError, RpdoId, StoreError,
 };
 
 use crate::sim::Values;
@@ -109,7 +109,7 @@ pub(crate) fn device_engine(view: &View<'_>, now: Instant) -> Box<PdoEngine> {
 pub(crate) fn mirror_engine(
     od: &ObjectDictionary,
     node: can_frame::NodeId,
-) -> (Box<PdoEngine>, Vec<u8>) {
+) -> (Box<PdoEngine>, Vec<(u8, RpdoId)>) {
     let values = Values::defaults_for(od, node);
     let view = View {
         od,
@@ -119,9 +119,9 @@ pub(crate) fn mirror_engine(
     let mut numbers = Vec::new();
     for n in 0..4u16 {
         if let Some(c) = read_pdo(&view, Direction::Transmit, n)
-            && e.add_rpdo(c).is_ok()
+            && let Ok(id) = e.add_rpdo(c)
         {
-            numbers.push(n as u8 + 1);
+            numbers.push((n as u8 + 1, id));
         }
     }
     e.set_enabled(Instant::ZERO, true);

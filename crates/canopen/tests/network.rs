@@ -594,3 +594,42 @@ fn sync_producer_runs_on_the_network_clock() {
     assert_eq!(times, [0, 10, 20, 30, 40, 50, 60, 70, 80, 90]);
     r.net.stop_sync();
 }
+
+#[test]
+fn remap_a_tpdo_by_sdo_and_decode_it() {
+    use canopen_pdo::{CommParams, Direction, Mapping};
+    let r = rig(&[5]);
+    let events = r.net.subscribe();
+    let node = r.net.node(n(5));
+    // TPDO3: NE 107 status (0x2004:01, 8 bit) and sensor value 1 (0x2500:01, REAL32),
+    // every 100 ms.
+    let mapping = Mapping::from_raw(&[0x2004_0108, 0x2500_0120]).unwrap();
+    let comm = CommParams::event_driven(0x385).with_event_timer(100);
+    node.remap_pdo(Direction::Transmit, 3, comm, mapping)
+        .unwrap();
+    assert_eq!(node.sdo().read((0x1A02, 0)).unwrap(), [2]);
+    assert_eq!(
+        node.sdo().read((0x1A02, 2)).unwrap(),
+        0x2500_0120u32.to_le_bytes()
+    );
+    node.nmt().start().unwrap();
+    r.net.run_for(Duration::from_millis(350)).unwrap();
+    let tpdo3: Vec<_> = drain(&events)
+        .into_iter()
+        .filter_map(|e| match e {
+            NetworkEvent::PdoValues {
+                number: 3, values, ..
+            } => Some(values),
+            _ => None,
+        })
+        .collect();
+    assert!(tpdo3.len() >= 3, "{tpdo3:?}");
+    let entries: Vec<_> = tpdo3[0].iter().map(|(e, _)| *e).collect();
+    assert_eq!(
+        entries,
+        [
+            canopen::Entry::new(0x2004, 1),
+            canopen::Entry::new(0x2500, 1)
+        ]
+    );
+}
