@@ -211,7 +211,7 @@ enum ReqState {
 struct NodeSlot {
     od: Option<Arc<ObjectDictionary>>,
     /// The node's TPDOs mirrored as receive PDOs, with their TPDO numbers.
-    pdo: Option<(Box<crate::pdo::PdoEngine>, Vec<(u8, canopen_pdo::RpdoId)>)>,
+    pdo: Option<crate::pdo::Mirror>,
     client: Client<UpSink, DownSource>,
     queue: VecDeque<RequestId>,
     active: Option<RequestId>,

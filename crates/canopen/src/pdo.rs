@@ -15,6 +15,9 @@ use crate::sim::Values;
 /// Four PDOs each way, as the predefined connection set has.
 pub(crate) type PdoEngine = Engine<4, 4>;
 
+/// The master's mirror of a node's TPDOs: the engine and (TPDO number, receive PDO id) pairs.
+pub(crate) type Mirror = (Box<PdoEngine>, Vec<(u8, RpdoId)>);
+
 /// A dictionary's metadata with a device's current values, as the PDO crate reads them.
 pub(crate) struct View<'a> {
     pub(crate) od: &'a ObjectDictionary,
@@ -109,7 +112,7 @@ pub(crate) fn device_engine(view: &View<'_>, now: Instant) -> Box<PdoEngine> {
 pub(crate) fn mirror_engine(
     od: &ObjectDictionary,
     node: can_frame::NodeId,
-) -> (Box<PdoEngine>, Vec<(u8, RpdoId)>) {
+) -> Mirror {
     let values = Values::defaults_for(od, node);
     let view = View {
         od,
