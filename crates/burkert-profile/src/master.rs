@@ -38,7 +38,7 @@ use crate::ne107::Ne107Status;
 use crate::objects::{
     self, buerkert_device_description_object as desc, device_communication_object as comm,
     device_status_object as st, locating_function, trigger_maintenance_function,
-    valve_mode_configuration as valve,
+    user_configuration_object as user, valve_mode_configuration as valve,
 };
 use crate::pdo_od::OdCatalog;
 use crate::status::{DeviceStatus, Kelvin, TransMemStatus};
@@ -107,6 +107,22 @@ pub struct DeviceCommunication {
     pub termination: Option<Termination>,
     /// Sub 0x0D.
     pub eds_version: Option<EdsVersion>,
+}
+
+/// Object 0x2002, user configuration. The manual gives sub 0 = 4 although the highest
+/// sub-index is 5; both are accepted.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct UserConfiguration {
+    /// Sub 0 as the device reports it (4 or 5).
+    pub number_of_entries: u8,
+    /// Sub 2, location.
+    pub location: Option<String>,
+    /// Sub 3, user description.
+    pub user_description: Option<String>,
+    /// Sub 4, displayed device name.
+    pub displayed_name: Option<String>,
+    /// Sub 5, static node-ID (0 = none).
+    pub static_node_id: Option<u8>,
 }
 
 /// Objects 0x2120..=0x2122: how the status LED is configured.
@@ -497,6 +513,51 @@ impl BurkertNode {
         communication_from(&self.batch(&COMMUNICATION))
     }
 
+    /// Reads 0x2002 in one batch. Sub 0 must be 4 (the manual's value) or 5 (the highest
+    /// sub-index); anything else is an [`Error::Value`].
+    pub fn read_user_configuration(&self) -> Result<UserConfiguration, Error> {
+        let b = self.batch(&USER);
+        let count = b.get(user::NUMBER_OF_ENTRIES)?.unwrap_or(5);
+        if !matches!(count, 4 | 5) {
+            return Err(undefined(
+                self.id(),
+                addr(&user::NUMBER_OF_ENTRIES),
+                format_args!("{count} entries; the Bürkert profile has 4 (manual) or 5"),
+            ));
+        }
+        Ok(UserConfiguration {
+            number_of_entries: count,
+            location: b.get(user::LOCATION_INFORMATION)?,
+            user_description: b.get(user::USER_DESCRIPTION)?,
+            displayed_name: b.get(user::DISPLAYED_DEVICE_NAME)?,
+            static_node_id: b.get(user::STATIC_NODE_ID)?,
+        })
+    }
+
+    /// Writes the location (0x2002 sub 2).
+    pub fn set_location(&self, text: &str) -> Result<(), Error> {
+        self.node
+            .sdo()
+            .write(addr(&user::LOCATION_INFORMATION), text)
+    }
+
+    /// Writes the user description (0x2002 sub 3).
+    pub fn set_user_description(&self, text: &str) -> Result<(), Error> {
+        self.node.sdo().write(addr(&user::USER_DESCRIPTION), text)
+    }
+
+    /// Writes the displayed device name (0x2002 sub 4).
+    pub fn set_displayed_name(&self, text: &str) -> Result<(), Error> {
+        self.node
+            .sdo()
+            .write(addr(&user::DISPLAYED_DEVICE_NAME), text)
+    }
+
+    /// Writes the static node-ID (0x2002 sub 5; 0 = none).
+    pub fn set_static_node_id(&self, id: Option<NodeId>) -> Result<(), Error> {
+        self.write(user::STATIC_NODE_ID, &id.map_or(0, NodeId::get))
+    }
+
     /// Reads the NAMUR NE 107 status (0x2004 sub 1).
     pub fn ne107(&self) -> Result<Ne107Status, Error> {
         self.read(st::DEVICE_STATUS_NAMUR_NE107)
@@ -821,6 +882,29 @@ impl BurkertNode {
         self.read_value(CONTROL_VALUE_BASE, control)
     }
 
+    /// Reads the precision (sub 6, REAL32) of sensor value `sensor`.
+    pub fn read_sensor_precision(&self, sensor: u8) -> Result<f32, Error> {
+        self.read_precision(SENSOR_VALUE_BASE, sensor)
+    }
+
+    /// Reads the precision (sub 6, REAL32) of control value `control`.
+    pub fn read_control_precision(&self, control: u8) -> Result<f32, Error> {
+        self.read_precision(CONTROL_VALUE_BASE, control)
+    }
+
+    fn read_precision(&self, base: u16, number: u8) -> Result<f32, Error> {
+        let a = Addr::new(base + u16::from(number), SUB_PRECISION);
+        if number >= VALUES_PER_KIND {
+            return Err(undefined(
+                self.id(),
+                a,
+                format_args!("value number {number} is outside 0..=63"),
+            ));
+        }
+        let e: Entry<f32> = Entry::new(a.index, a.sub, DataType::Real32);
+        self.read(e)
+    }
+
     fn read_value(&self, base: u16, number: u8) -> Result<canopen_od::Value, Error> {
         let od = self.dictionary();
         let (e, dt) = self.value_entry(&od, base, number)?;
@@ -886,6 +970,14 @@ const COMMUNICATION: [Addr; 11] = [
     addr(&comm::CAN_OPERATION_STATUS),
     addr(&comm::TERMINATION_RESISTOR),
     addr(&comm::EDS_VERSION),
+];
+
+const USER: [Addr; 5] = [
+    addr(&user::NUMBER_OF_ENTRIES),
+    addr(&user::LOCATION_INFORMATION),
+    addr(&user::USER_DESCRIPTION),
+    addr(&user::DISPLAYED_DEVICE_NAME),
+    addr(&user::STATIC_NODE_ID),
 ];
 
 const LED: [Addr; 5] = [

@@ -1,6 +1,6 @@
 //! Adapters between the `canopen-od` dictionary model and the `canopen-pdo` traits
-//! ([`Catalog`], [`Dictionary`], [`ObjectStore`]), so PDO mappings of Bürkert objects can be
-//! checked against an EDS (master side) and produced/consumed from a simulated device's values.
+//! ([`Catalog`], [`Dictionary`]), so PDO mappings of Bürkert objects can be checked against an
+//! EDS (master side) and against a simulated device's current mapping entries.
 //!
 //! The `canopen-pdo` crate plans its own `od` adapter; until it exists this small one lives here.
 
@@ -8,9 +8,7 @@ use std::prelude::rust_2024::*;
 
 use canopen::Values;
 use canopen_od::ObjectDictionary;
-use canopen_pdo::{
-    Catalog, Dictionary, ObjectAddr, ObjectInfo, ObjectStore, ReadError, StoreError,
-};
+use canopen_pdo::{Catalog, Dictionary, ObjectAddr, ObjectInfo, ReadError};
 
 /// What a dictionary says about `addr`, in the PDO crate's terms.
 fn info(od: &ObjectDictionary, addr: ObjectAddr) -> Option<ObjectInfo> {
@@ -60,36 +58,5 @@ impl Dictionary for ValuesDict<'_> {
         let n = bytes.len().min(4);
         word[..n].copy_from_slice(&bytes[..n]);
         Ok(u32::from_le_bytes(word))
-    }
-}
-
-/// A simulated device's values as the PDO engine's object store.
-pub(crate) struct ValuesStore<'a> {
-    pub(crate) od: &'a ObjectDictionary,
-    pub(crate) values: &'a mut Values,
-}
-
-impl ObjectStore for ValuesStore<'_> {
-    fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), StoreError> {
-        let v = self
-            .values
-            .get(addr.index, addr.subindex)
-            .ok_or(StoreError::NoSuchObject)?;
-        out.fill(0);
-        let n = out.len().min(v.len());
-        out[..n].copy_from_slice(&v[..n]);
-        Ok(())
-    }
-
-    fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), StoreError> {
-        let s = self
-            .od
-            .sub(addr.index, addr.subindex)
-            .ok_or(StoreError::NoSuchObject)?;
-        if !s.access.is_writable() {
-            return Err(StoreError::AccessDenied);
-        }
-        self.values.set(addr.index, addr.subindex, data.to_vec());
-        Ok(())
     }
 }

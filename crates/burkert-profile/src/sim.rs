@@ -20,9 +20,9 @@
 //! - writes to 0x2001, 0x2120..=0x2122, 0x2101, 0x210A are checked with this crate's typed
 //!   decoders (an undefined value is refused with abort 0x06090030);
 //! - sensor values 0x2500.. (REAL32) change over virtual time and go out in TPDOs while
-//!   Operational; RPDOs write control values 0x2540..; PDOs run on the `canopen-pdo` engine,
-//!   reconfigured whenever 0x1400..=0x1BFF are written (a mapping is checked when its sub 0 is
-//!   written: abort 0x06040041 / 0x06040042);
+//!   Operational; RPDOs write control values 0x2540.. (the PDO machinery is the generic
+//!   simulator's); a mapping is checked when its sub 0 is written (abort 0x06040041 /
+//!   0x06040042);
 //! - 0x2003 sub 4 serves a logbook XML document of a few KiB as a DOMAIN, with an entry for
 //!   each event of the simulation;
 //! - the status LED computed with [`LedState::indication`] ([`BurkertDevice::led`]).
@@ -39,14 +39,14 @@ use canopen::transport::Station;
 use canopen::{DeviceHook, HookActions, SimDevice, Values};
 use canopen_nmt::DeviceState;
 use canopen_od::{DataType, ObjectDictionary};
-use canopen_pdo::{CommParams, Direction, Engine, Mapping, MappingError, PdoConfig};
+use canopen_pdo::{Direction, Mapping, MappingError};
 use canopen_sdo::AbortCode;
 
 use crate::colour::{LedColour, PredefinedColour};
 use crate::comm::{BitRate, BusMode, CanOperationStatus, ResetCommand, Termination};
 use crate::led::{LedIndication, LedMode, LedState, ValveModeColours, ValvePosition};
 use crate::ne107::Ne107Status;
-use crate::pdo_od::{ValuesDict, ValuesStore};
+use crate::pdo_od::ValuesDict;
 
 /// How long the LED flashes after a locate.
 pub const LOCATE_DURATION: Duration = Duration::from_secs(10);
@@ -88,7 +88,6 @@ struct Shared {
     locate_latched: bool,
     locate_until: Option<Instant>,
     pending_reset: Option<ResetCommand>,
-    pdo_dirty: bool,
     state: DeviceState,
     valve: Option<ValvePosition>,
     log: Vec<LogEntry>,
@@ -335,7 +334,6 @@ impl DeviceHook for BurkertHook {
                         Self::check_mapping(&od, values, index, count)?;
                     }
                 }
-                s.pdo_dirty = true;
             }
             _ => {}
         }
@@ -393,12 +391,9 @@ pub struct BurkertDevice {
     sim: SimDevice,
     od: Arc<ObjectDictionary>,
     shared: Arc<Mutex<Shared>>,
-    pdo: Engine<4, 4>,
-    pdo_enabled: bool,
     next_sensor: Instant,
     pinned: BTreeMap<u8, f32>,
     out: VecDeque<CanFrame>,
-    rpdos_received: u64,
 }
 
 impl core::fmt::Debug for BurkertDevice {
@@ -442,7 +437,6 @@ impl BurkertDevice {
             locate_latched: false,
             locate_until: None,
             pending_reset: None,
-            pdo_dirty: false,
             state: DeviceState::Initialising,
             valve: None,
             log,
@@ -452,19 +446,14 @@ impl BurkertDevice {
         });
         sim.values_mut()
             .set(0x2004, 0x0D, 1u32.to_le_bytes().to_vec());
-        let mut dev = Self {
+        Self {
             sim,
             od,
             shared,
-            pdo: Engine::new(),
-            pdo_enabled: false,
             next_sensor: Instant::ZERO,
             pinned: BTreeMap::new(),
             out: VecDeque::new(),
-            rpdos_received: 0,
-        };
-        dev.configure_pdos(Instant::ZERO);
-        dev
+        }
     }
 
     fn shared(&self) -> MutexGuard<'_, Shared> {
@@ -486,9 +475,14 @@ impl BurkertDevice {
         self.sim.values()
     }
 
-    /// The object values, to change them directly.
+    /// The object values, to change them directly (no PDO is triggered).
     pub fn values_mut(&mut self) -> &mut Values {
         self.sim.values_mut()
+    }
+
+    /// The generic simulator underneath (PDOs, SDO server, NMT slave, heartbeat).
+    pub fn sim(&self) -> &SimDevice {
+        &self.sim
     }
 
     /// Raises a NAMUR NE 107 event (a fault, a function check, ...). The status (0x2004 sub 1)
@@ -573,12 +567,10 @@ impl BurkertDevice {
         self.shared().logbook_xml(self.sim.values())
     }
 
-    /// Holds sensor `sensor` (0x2500 + sensor) at `value` instead of letting it drift.
+    /// Holds sensor `sensor` (0x2500 + sensor) at `value` instead of letting it drift (from
+    /// the next sensor reading on, every [`SENSOR_PERIOD`]).
     pub fn pin_sensor(&mut self, sensor: u8, value: f32) {
         self.pinned.insert(sensor, value);
-        self.sim
-            .values_mut()
-            .set(0x2500 + u16::from(sensor), 1, value.to_le_bytes().to_vec());
     }
 
     /// Lets a pinned sensor drift again.
@@ -594,11 +586,6 @@ impl BurkertDevice {
         }
         let b: [u8; 4] = self.sim.values().get(index, 1)?.try_into().ok()?;
         Some(f32::from_le_bytes(b))
-    }
-
-    /// Receive PDOs that took effect so far.
-    pub fn rpdos_received(&self) -> u64 {
-        self.rpdos_received
     }
 
     /// A simulated sensor reading: a slow sine around a per-sensor level.
@@ -622,81 +609,40 @@ impl BurkertDevice {
                 .get(&sensor)
                 .copied()
                 .unwrap_or_else(|| Self::sensor_reading(sensor, now));
-            self.sim
-                .values_mut()
-                .set(index, 1, v.to_le_bytes().to_vec());
+            let bytes = v.to_le_bytes();
+            if self.sim.values().get(index, 1) != Some(&bytes[..]) {
+                // Through the simulator, so TPDOs mapping the sensor send the change.
+                self.sim.set_value(now, index, 1, bytes.to_vec());
+            }
         }
     }
 
-    /// Values that follow the device's state.
+    /// Values that follow the device's state; the NE 107 status goes through the simulator so
+    /// a TPDO mapping it sends the change.
     fn sync_values(&mut self) {
         let s = lock(&self.shared);
         let status = s.ne107().to_raw();
         let op = operation_status(s.state).to_u8();
+        let now = s.now;
         drop(s);
-        let v = self.sim.values_mut();
-        v.set(0x2004, 1, vec![status]);
-        v.set(0x2001, 0x0A, vec![op]);
-    }
-
-    /// Rebuilds the PDO engine from 0x1400..=0x1BFF (PDOs whose parameters are unusable, or
-    /// whose COB-ID is invalid, stay off).
-    fn configure_pdos(&mut self, now: Instant) {
-        let mut engine = Engine::new();
-        let dict = ValuesDict {
-            od: &self.od,
-            values: self.sim.values(),
-        };
-        for n in 0..4u16 {
-            for dir in [Direction::Receive, Direction::Transmit] {
-                let Ok(comm) = CommParams::read_from(&dict, dir.comm_index(n)) else {
-                    continue;
-                };
-                let Ok(mapping) = Mapping::read_from(&dict, dir, dir.mapping_index(n)) else {
-                    continue;
-                };
-                let config = PdoConfig::new(comm, mapping);
-                let _ = match dir {
-                    Direction::Receive => engine.add_rpdo(config).map(|_| ()),
-                    Direction::Transmit => engine.add_tpdo(now, config).map(|_| ()),
-                };
-            }
+        if self.sim.values().get(0x2004, 1) != Some(&[status][..]) {
+            self.sim.set_value(now, 0x2004, 1, vec![status]);
         }
-        engine.set_enabled(now, self.pdo_enabled);
-        self.pdo = engine;
+        self.sim.values_mut().set(0x2001, 0x0A, vec![op]);
     }
 
-    /// After any input: apply resets and PDO reconfiguration the hook asked for, follow the
-    /// NMT state, drain PDO events.
+    /// After any input: apply a reset the hook asked for, follow the device's state.
     fn after_input(&mut self, now: Instant) {
-        let (reset, dirty) = {
+        let reset = {
             let mut s = self.shared();
             s.now = now;
-            (s.pending_reset.take(), std::mem::take(&mut s.pdo_dirty))
+            s.pending_reset.take()
         };
         if let Some(r) = reset {
             self.reset(now, r == ResetCommand::Device);
             return;
         }
         self.sync_values();
-        let operational = self.sim.state() == DeviceState::Operational;
-        if dirty {
-            self.configure_pdos(now);
-        }
-        if operational != self.pdo_enabled {
-            self.pdo_enabled = operational;
-            self.pdo.set_enabled(now, operational);
-        }
-        let mut store = ValuesStore {
-            od: &self.od,
-            values: self.sim.values_mut(),
-        };
-        self.pdo.update(now, &mut store);
-        while let Some(ev) = self.pdo.poll_event() {
-            if let canopen_pdo::Event::Received { .. } = ev {
-                self.rpdos_received += 1;
-            }
-        }
     }
 
     /// Communication reset (`device == false`) or device reset: restart under the node-ID of
@@ -715,6 +661,8 @@ impl BurkertDevice {
         let mut sim = SimDevice::new(node, (*self.od).clone()).with_hook(BurkertHook {
             shared: self.shared.clone(),
         });
+        // The profile objects are stored settings; the communication objects take their
+        // defaults for the (new) node-ID.
         for (index, sub) in self.od.entries() {
             if index >= 0x2000
                 && let Some(v) = old.get(index, sub.sub_index)
@@ -723,39 +671,35 @@ impl BurkertDevice {
             }
         }
         sim.values_mut().set(0x2001, 4, vec![0]);
-        {
-            let mut s = self.shared();
-            s.node = node;
-            s.state = DeviceState::Initialising;
-            if device {
-                s.boots += 1;
-                s.booted_at = now;
-                s.maintenance = false;
-                s.locate_latched = false;
-                s.locate_until = None;
-                s.log("device", format!("device reset, node-ID {}", node.get()));
-            } else {
-                s.log(
-                    "device",
-                    format!("communication reset, node-ID {}", node.get()),
-                );
-            }
-            if device {
-                let boots = s.boots;
-                drop(s);
-                let v = sim.values_mut();
-                v.set(0x2101, 1, vec![0]);
-                v.set(0x210A, 1, vec![0]);
-                v.set(0x2004, 0x0D, boots.to_le_bytes().to_vec());
-            }
+        let mut s = self.shared();
+        s.node = node;
+        s.state = DeviceState::Initialising;
+        if device {
+            s.boots += 1;
+            s.booted_at = now;
+            s.maintenance = false;
+            s.locate_latched = false;
+            s.locate_until = None;
+            s.log("device", format!("device reset, node-ID {}", node.get()));
+            let boots = s.boots;
+            drop(s);
+            let v = sim.values_mut();
+            v.set(0x2101, 1, vec![0]);
+            v.set(0x210A, 1, vec![0]);
+            v.set(0x2004, 0x0D, boots.to_le_bytes().to_vec());
+        } else {
+            s.log(
+                "device",
+                format!("communication reset, node-ID {}", node.get()),
+            );
+            drop(s);
         }
         self.sim = sim;
-        self.pdo_enabled = false;
-        self.configure_pdos(now);
         self.sync_values();
     }
 
-    /// NMT reset node / reset communication addressed to this device, if `frame` is one.
+    /// NMT reset node (`Some(true)`) / reset communication (`Some(false)`) addressed to this
+    /// device, if `frame` is one.
     fn nmt_reset(&self, frame: &CanFrame) -> Option<bool> {
         match frame.id() {
             CanId::Standard(id) if id.as_raw() == 0 && !frame.is_remote() => {}
@@ -777,52 +721,36 @@ impl BurkertDevice {
 
 impl Station for BurkertDevice {
     fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
+        // NMT resets are the device's own, so a node-ID stored in 0x2001 sub 2 takes effect.
         if self.sim.state() != DeviceState::Initialising
             && let Some(device) = self.nmt_reset(frame)
         {
+            self.shared().now = now;
             self.reset(now, device);
             return;
         }
         self.sim.handle_frame(now, frame);
-        let mut store = ValuesStore {
-            od: &self.od,
-            values: self.sim.values_mut(),
-        };
-        self.pdo.handle_frame(now, frame, &mut store);
         self.after_input(now);
     }
 
     fn handle_timeout(&mut self, now: Instant) {
         self.sim.handle_timeout(now);
+        self.shared().now = now;
         if now >= self.next_sensor {
             self.update_sensors(now);
             self.next_sensor = now + SENSOR_PERIOD;
-        }
-        if self.pdo.poll_timeout().is_some_and(|t| t <= now) {
-            let mut store = ValuesStore {
-                od: &self.od,
-                values: self.sim.values_mut(),
-            };
-            self.pdo.handle_timeout(now, &mut store);
         }
         self.after_input(now);
     }
 
     fn poll_transmit(&mut self) -> Option<CanFrame> {
-        self.out
-            .pop_front()
-            .or_else(|| self.sim.poll_transmit())
-            .or_else(|| self.pdo.poll_transmit())
+        self.out.pop_front().or_else(|| self.sim.poll_transmit())
     }
 
     fn poll_timeout(&self) -> Option<Instant> {
-        [
-            self.sim.poll_timeout(),
-            self.pdo.poll_timeout(),
-            Some(self.next_sensor),
-        ]
-        .into_iter()
-        .flatten()
-        .min()
+        [self.sim.poll_timeout(), Some(self.next_sensor)]
+            .into_iter()
+            .flatten()
+            .min()
     }
 }

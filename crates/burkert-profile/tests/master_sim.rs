@@ -472,14 +472,13 @@ fn control_values_sent_by_rpdo_reach_the_device() {
     // Pre-operational: ignored.
     r.node.send_control_values(&rpdo, &values).unwrap();
     r.run(10);
-    assert_eq!(r.with(|d| d.rpdos_received()), 0);
+    assert_eq!(r.with(|d| d.control_value(1)), Some(0.0));
     assert_eq!(r.with(|d| d.control_value(0)), Some(0.0));
 
     r.node.node().nmt().start().unwrap();
     r.run(10);
     r.node.send_control_values(&rpdo, &values).unwrap();
     r.run(10);
-    assert_eq!(r.with(|d| d.rpdos_received()), 1);
     assert_eq!(r.with(|d| d.control_value(1)), Some(-3.25));
     assert_eq!(r.with(|d| d.control_value(0)), Some(1.5));
     assert_eq!(
@@ -534,4 +533,38 @@ fn demo_walkthrough() {
     demo::run(&r.net, n(5), &mut out).unwrap();
     let text = String::from_utf8(out).unwrap();
     assert!(text.contains("\x1b[48;2;255;255;255m"), "{text}");
+}
+
+#[test]
+fn user_configuration_and_precisions() {
+    let r = Rig::new(5);
+    let u = r.node.read_user_configuration().unwrap();
+    assert_eq!(u.number_of_entries, 5);
+    assert_eq!(u.static_node_id, Some(0));
+    r.node
+        .set_location("Hall 3, line 7, valve island A")
+        .unwrap();
+    r.node.set_user_description("dosing valve").unwrap();
+    r.node.set_displayed_name("V-307").unwrap();
+    r.node.set_static_node_id(Some(n(21))).unwrap();
+    // The manual's sub 0 = 4 is accepted as well.
+    r.with(|d| d.values_mut().set(0x2002, 0, vec![4]));
+    let u = r.node.read_user_configuration().unwrap();
+    assert_eq!(u.number_of_entries, 4);
+    assert_eq!(
+        u.location.as_deref(),
+        Some("Hall 3, line 7, valve island A")
+    );
+    assert_eq!(u.user_description.as_deref(), Some("dosing valve"));
+    assert_eq!(u.displayed_name.as_deref(), Some("V-307"));
+    assert_eq!(u.static_node_id, Some(21));
+    r.with(|d| d.values_mut().set(0x2002, 0, vec![3]));
+    let e = r.node.read_user_configuration().unwrap_err();
+    assert!(e.to_string().contains("0x2002"), "{e}");
+
+    assert_eq!(r.node.read_sensor_precision(0).unwrap(), 0.01);
+    assert_eq!(r.node.read_control_precision(3).unwrap(), 0.01);
+    let e = r.node.read_sensor_precision(9).unwrap_err();
+    assert_eq!(abort(&e), Some(AbortCode::OBJECT_DOES_NOT_EXIST.get()));
+    assert!(r.node.read_sensor_precision(64).is_err());
 }
