@@ -370,6 +370,10 @@ impl Node {
                 .write((step.index, step.subindex), step.value())?;
         }
         if matches!(direction, canopen_pdo::Direction::Transmit) {
+            let mapping = match self.dictionary() {
+                Some(od) => crate::pdo::typed_mapping(&od, self.id, direction, mapping),
+                None => mapping,
+            };
             self.net.core().mirror_tpdo(
                 self.id,
                 (n + 1) as u8,

@@ -109,10 +109,7 @@ pub(crate) fn device_engine(view: &View<'_>, now: Instant) -> Box<PdoEngine> {
 
 /// The master's engine for one node: the node's TPDOs (from its dictionary, `$NODEID`
 /// resolved) as receive PDOs. Returns the engine and the TPDO number (1-based) of each RPDO.
-pub(crate) fn mirror_engine(
-    od: &ObjectDictionary,
-    node: can_frame::NodeId,
-) -> Mirror {
+pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> Mirror {
     let values = Values::defaults_for(od, node);
     let view = View {
         od,
@@ -129,4 +126,21 @@ pub(crate) fn mirror_engine(
     }
     e.set_enabled(Instant::ZERO, true);
     (e, numbers)
+}
+
+/// `mapping` with value kinds from the node's dictionary (a mapping built from raw entries
+/// decodes everything as unsigned); unchanged when the dictionary refuses it.
+pub(crate) fn typed_mapping(
+    od: &ObjectDictionary,
+    node: can_frame::NodeId,
+    direction: Direction,
+    mapping: Mapping,
+) -> Mapping {
+    let values = Values::defaults_for(od, node);
+    let view = View {
+        od,
+        values: &values,
+    };
+    let raw: Vec<u32> = mapping.raw_entries().collect();
+    Mapping::from_raw_checked(direction, &raw, &view).unwrap_or(mapping)
 }
