@@ -81,7 +81,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     logbook_dev
         .values_mut()
         .set(0x2003, 4, log.as_bytes().to_vec());
-    bus.attach(logbook_dev);
+    let dev5 = bus.attach(logbook_dev);
     bus.attach(SimDevice::new(n6, od.clone()));
     net.run_for(Duration::from_millis(10))?;
     show_traffic(&mut tap, 10);
@@ -153,6 +153,18 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     ));
     show_traffic(&mut tap, 4);
 
+    step(
+        "3b. PDO mapping: TPDO3 of node 6 := NE 107 status (0x2004:01) + sensor value 1 (0x2500:01), every 500 ms",
+    );
+    let mapping = canopen_pdo::Mapping::from_raw(&[0x2004_0108, 0x2500_0120])?;
+    let comm = canopen_pdo::CommParams::event_driven(0x386).with_event_timer(500);
+    net.node(n6)
+        .remap_pdo(canopen_pdo::Direction::Transmit, 3, comm, mapping)?;
+    outln(
+        "   (disable TPDO3, clear mapping, write entries, set count, set parameters, enable: by SDO)",
+    );
+    show_traffic(&mut tap, 8);
+
     step("4. Start: NMT Start to all nodes, heartbeats now say Operational");
     net.nmt_all(canopen_nmt::CommandSpecifier::Start)?;
     net.run_for(Duration::from_millis(250))?;
@@ -160,6 +172,39 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     for n in [n5, n6] {
         outln(&format!("   node {n} reports {:?}", net.last_state(n)));
     }
+
+    step(
+        "4b. Live PDO values, decoded through each node's EDS mapping; a new reading of node 5 sensor 1 goes out on change",
+    );
+    for _ in events.try_iter() {}
+    net.run_for(Duration::from_millis(700))?;
+    let now = bus.now();
+    bus.with_station(dev5, |d| {
+        d.set_value(now, 0x2500, 1, 21.75f32.to_le_bytes())
+    });
+    net.run_for(Duration::from_millis(800))?;
+    let mut shown = 0;
+    for ev in events.try_iter() {
+        if let NetworkEvent::PdoValues {
+            node,
+            number,
+            values,
+            at,
+        } = ev
+            && shown < 10
+        {
+            let text: Vec<String> = values
+                .iter()
+                .map(|(e, v)| format!("{:#06x}:{:02x} = {v:?}", e.index, e.sub))
+                .collect();
+            outln(&format!(
+                "   {at}  node {node} TPDO{number}: {}",
+                text.join(", ")
+            ));
+            shown += 1;
+        }
+    }
+    while let Ok(Some(_)) = tap.try_recv() {}
 
     step("5. A segmented download: location text into 0x2002 sub 2");
     net.node(n6)
@@ -217,8 +262,6 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     }
 
     outln("");
-    outln("Not shown yet: PDO mapping with live values (the PDO engine is not wired into the");
-    outln("master and simulator yet).");
     let _ = tap.now();
     Ok(())
 }
