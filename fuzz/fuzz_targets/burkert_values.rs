@@ -2,9 +2,13 @@
 //! accepted value encodes back to what was decoded.
 #![no_main]
 
+use burkert_profile::objects::{
+    self, buerkert_device_description_object as desc, device_status_object as st,
+    error_management_object,
+};
 use burkert_profile::{
-    BitRate, BusMode, CanOperationStatus, EdsVersion, LedColour, LedMode, Ne107Status,
-    ResetCommand, Termination, TransMemStatus,
+    BitRate, BusMode, CanOperationStatus, EdsVersion, Kelvin, LedColour, LedMode, LedState,
+    Ne107Status, ResetCommand, Termination, TransMemStatus, ValveModeColours, ValvePosition,
 };
 use libfuzzer_sys::fuzz_target;
 
@@ -37,5 +41,41 @@ fuzz_target!(|data: &[u8]| {
     if let Ok(text) = core::str::from_utf8(data) {
         let _ = LedColour::from_name(text);
         let _ = LedMode::from_name(text);
+    }
+
+    // The generated entries the master decodes SDO upload bytes with (BurkertNode): total on
+    // any length; a decoded string (trailing NULs dropped) survives an encode-decode round trip.
+    if let Ok(name) = desc::DEVICE_NAME.decode(data) {
+        let mut out = vec![0u8; data.len()];
+        let n = desc::DEVICE_NAME.encode(&name, &mut out).unwrap();
+        assert_eq!(desc::DEVICE_NAME.decode(&out[..n]).unwrap(), name);
+    }
+    let _ = error_management_object::LOGBOOK_DOWNLOAD.decode(data);
+    if let Ok(t) = st::DEVICE_TEMPERATURE.decode(data) {
+        let _ = Kelvin(t).celsius();
+    }
+    let _ = st::OPERATION_TIME_S.decode(data);
+    let _ = st::MAXIMUM_DEVICE_TEMPERATURE.decode(data);
+    if let Ok(v) = st::DEVICE_STATUS_NAMUR_NE107.decode(data) {
+        let _ = Ne107Status::from_raw(v).colour();
+    }
+    if let Ok(mode) = objects::LED_MODE.decode(data) {
+        // The device's LED for whatever the bytes configure.
+        let status = Ne107Status::from_raw(byte);
+        let colour = LedColour::from_u32(raw).unwrap_or(LedColour::OFF);
+        let state = LedState {
+            mode: LedMode::from_u32(mode).unwrap_or_default(),
+            status,
+            valve: [
+                None,
+                Some(ValvePosition::Closed),
+                Some(ValvePosition::Between),
+                Some(ValvePosition::Open),
+            ][usize::from(byte >> 6)],
+            valve_colours: ValveModeColours::default(),
+            external: colour,
+            locating: byte & 0x10 != 0,
+        };
+        let _ = state.indication();
     }
 });
