@@ -13,9 +13,10 @@ use std::sync::{Arc, Mutex};
 
 use burkert_profile::demo::{led_swatch, progress_bar};
 use burkert_profile::master::generic_od;
-use burkert_profile::{BurkertDevice, BurkertNode, DeviceReport, LedColour, LedMode};
+use burkert_profile::{BurkertDevice, BurkertNode, DeviceReport, LedColour, LedMode, Ne107Status};
 use can_frame::NodeId;
 use canopen::mem::MemoryBus;
+use canopen::transport::{Received, Transport as _};
 use canopen::{Error, Network};
 use canopen_od::ObjectDictionary;
 use clap::{Args, Subcommand, ValueEnum};
@@ -37,6 +38,28 @@ fn parse_node(s: &str) -> Result<NodeId, String> {
     }
     .map_err(|e| format!("`{s}`: {e}"))?;
     NodeId::new(v).map_err(|e| e.to_string())
+}
+
+/// NE 107 events a simulated device can start with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum Event {
+    Failure,
+    FunctionCheck,
+    OutOfSpecification,
+    MaintenanceRequired,
+    DiagnosisActive,
+}
+
+impl Event {
+    fn status(self) -> Ne107Status {
+        match self {
+            Self::Failure => Ne107Status::Failure,
+            Self::FunctionCheck => Ne107Status::FunctionCheck,
+            Self::OutOfSpecification => Ne107Status::OutOfSpecification,
+            Self::MaintenanceRequired => Ne107Status::MaintenanceRequired,
+            Self::DiagnosisActive => Ne107Status::DiagnosisActive,
+        }
+    }
 }
 
 /// On or off.
@@ -84,6 +107,19 @@ enum BurkertCommand {
         #[arg(long, value_parser = |s: &str| LedColour::from_name(s).map_err(|e| e.to_string()))]
         colour: Option<LedColour>,
     },
+    /// Run a simulated Bürkert device on the bus (`--iface` for SocketCAN; on the in-memory
+    /// bus give --duration and the traffic is printed).
+    Simulate {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        /// NE 107 events active from the start (repeatable).
+        #[arg(long = "event", value_enum)]
+        events: Vec<Event>,
+        /// Stop after this many seconds (required on the in-memory bus).
+        #[arg(long)]
+        duration: Option<f64>,
+    },
     /// Download the logbook (0x2003 sub 4, XML) into a file.
     Logbook {
         /// Node-ID.
@@ -105,7 +141,8 @@ impl BurkertCommand {
             | Self::Locate { node, .. }
             | Self::Maintenance { node, .. }
             | Self::Led { node, .. }
-            | Self::Logbook { node, .. } => *node,
+            | Self::Logbook { node, .. }
+            | Self::Simulate { node, .. } => *node,
         }
     }
 }
@@ -174,9 +211,77 @@ fn open(node: NodeId) -> Result<(Network, Option<MemoryBus>), String> {
     Ok((net, mem))
 }
 
+/// `canopen burkert simulate NODE`: a `BurkertDevice` on SocketCAN (until --duration) or on
+/// the in-memory bus (for --duration of virtual time, printing the traffic).
+fn simulate(id: NodeId, events: &[Event], duration: Option<f64>, g: Global) -> ExitCode {
+    let (iface, eds) = bus_flags();
+    let od = match eds.iter().map(|s| load_eds(s)).find(|r| match r {
+        Ok((n, _)) => *n == id,
+        Err(_) => true,
+    }) {
+        Some(Ok((_, od))) => od,
+        Some(Err(e)) => return fail(e),
+        None => (**generic_od()).clone(),
+    };
+    let mut dev = BurkertDevice::with_dictionary(id, od);
+    for e in events {
+        dev.raise(e.status());
+    }
+    eprintln!(
+        "simulating a Bürkert device, node {} (NE 107 status: {})",
+        id.get(),
+        dev.ne107()
+    );
+    match iface {
+        Some(iface) => {
+            let mut t = match canopen::socketcan::SocketCan::open(&iface) {
+                Ok(t) => t,
+                Err(e) => return fail(format!("{iface}: {e}")),
+            };
+            let started = std::time::Instant::now();
+            let limit = duration.map(std::time::Duration::from_secs_f64);
+            let r = canopen::run_station(&mut t, &mut dev, || {
+                limit.is_some_and(|l| started.elapsed() >= l)
+            });
+            match r {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => fail(e),
+            }
+        }
+        None => {
+            let Some(secs) = duration else {
+                return fail("on the in-memory bus give --duration SECONDS");
+            };
+            let mem = MemoryBus::new();
+            let mut tap = mem.endpoint();
+            mem.attach(dev);
+            mem.run_for(can_frame::Duration::from_micros(
+                (secs.max(0.0) * 1e6) as u64,
+            ));
+            while let Ok(Some(Received::Frame { frame, at })) = tap.try_recv() {
+                if g.json {
+                    outln(
+                        &json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string()})
+                            .to_string(),
+                    );
+                } else {
+                    outln(&format!("{at}  {}", crate::bus::decode(&frame)));
+                }
+            }
+            ExitCode::SUCCESS
+        }
+    }
+}
+
 /// `canopen burkert ...`
 pub(crate) fn run(args: BurkertArgs, g: Global) -> ExitCode {
     let id = args.command.node();
+    if let BurkertCommand::Simulate {
+        events, duration, ..
+    } = &args.command
+    {
+        return simulate(id, events, *duration, g);
+    }
     let (net, _mem) = match open(id) {
         Ok(x) => x,
         Err(e) => return fail(e),
@@ -212,10 +317,7 @@ pub(crate) fn run(args: BurkertArgs, g: Global) -> ExitCode {
             .set_maintenance(state == OnOff::On)
             .and_then(|()| dev.read_report())
             .map(|r| {
-                let ne = r
-                    .status
-                    .ne107
-                    .unwrap_or(burkert_profile::Ne107Status::DiagnosisInactive);
+                let ne = r.status.ne107.unwrap_or(Ne107Status::DiagnosisInactive);
                 if g.json {
                     outln(
                         &json!({"node": id.get(), "maintenance": r.maintenance,
@@ -253,6 +355,7 @@ pub(crate) fn run(args: BurkertArgs, g: Global) -> ExitCode {
         BurkertCommand::Logbook {
             output, segmented, ..
         } => logbook(&dev, &output, !segmented, g),
+        BurkertCommand::Simulate { .. } => Ok(()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -297,7 +400,7 @@ fn logbook(dev: &BurkertNode, output: &PathBuf, block: bool, g: Global) -> Resul
     Ok(())
 }
 
-fn ne107_json(ne: burkert_profile::Ne107Status) -> serde_json::Value {
+fn ne107_json(ne: Ne107Status) -> serde_json::Value {
     json!({"value": ne.to_raw(), "en": ne.meaning_en(), "de": ne.meaning_de(),
            "colour": ne.colour().map(|c| c.name())})
 }

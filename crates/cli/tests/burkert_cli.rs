@@ -150,3 +150,26 @@ fn a_device_without_the_object_fails_naming_node_object_and_abort() {
     assert!(e.contains("0x06020000"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn simulate_on_the_in_memory_bus_prints_boot_up_and_heartbeats() {
+    let o = canopen(&[
+        "burkert",
+        "simulate",
+        "5",
+        "--event",
+        "failure",
+        "--duration",
+        "1.2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("failure"), "{}", stderr(&o));
+    let t = stdout(&o);
+    let lines: Vec<&str> = t.lines().collect();
+    // Boot-up, then heartbeats at 0.5 s and 1.0 s.
+    assert_eq!(lines.len(), 3, "{t}");
+    assert!(lines.iter().all(|l| l.contains("705")), "{t}");
+    let o = canopen(&["burkert", "simulate", "5"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("--duration"), "{}", stderr(&o));
+}
