@@ -633,6 +633,38 @@ impl Sdo {
         })
     }
 
+    /// Reads a typed entry (from generated code: `canopen_od::Entry<T>`) and decodes it.
+    pub fn read_entry<T: canopen_od::EntryValue>(
+        self,
+        entry: &canopen_od::Entry<T>,
+    ) -> Result<T, Error> {
+        let (node, at) = (self.node, Entry::new(entry.index(), entry.sub_index()));
+        let bytes = self.read(at)?;
+        entry.decode(&bytes).map_err(|e| Error::Value {
+            node,
+            entry: at,
+            message: e.to_string(),
+        })
+    }
+
+    /// Writes a typed entry (from generated code: `canopen_od::Entry<T>`).
+    pub fn write_entry<T: canopen_od::EntryValue>(
+        self,
+        entry: &canopen_od::Entry<T>,
+        value: &T,
+    ) -> Result<(), Error> {
+        let at = Entry::new(entry.index(), entry.sub_index());
+        // Large enough for every fixed-size type; strings and domains are written as bytes.
+        let mut buf = vec![0u8; 4096];
+        let n = entry.encode(value, &mut buf).map_err(|e| Error::Value {
+            node: self.node,
+            entry: at,
+            message: e.to_string(),
+        })?;
+        buf.truncate(n);
+        self.write(at, buf)
+    }
+
     /// Writes an object (SDO download).
     pub fn write(self, entry: impl Into<Entry>, value: impl SdoValue) -> Result<(), Error> {
         self.submit_write(entry, value).wait()?;

@@ -633,3 +633,20 @@ fn remap_a_tpdo_by_sdo_and_decode_it() {
         ]
     );
 }
+
+#[test]
+fn typed_entries_from_generated_code() {
+    use canopen_od::{DataType, Entry};
+    const PRODUCER_HEARTBEAT_TIME: Entry<u16> = Entry::new(0x1017, 0, DataType::Unsigned16);
+    const VENDOR_ID: Entry<u32> = Entry::new(0x1018, 1, DataType::Unsigned32);
+    let r = rig(&[5]);
+    let node = r.net.node(n(5));
+    assert_eq!(node.sdo().read_entry(&VENDOR_ID).unwrap(), 0x39);
+    node.sdo()
+        .write_entry(&PRODUCER_HEARTBEAT_TIME, &250)
+        .unwrap();
+    assert_eq!(
+        node.sdo().read_entry(&PRODUCER_HEARTBEAT_TIME).unwrap(),
+        250
+    );
+}
