@@ -678,6 +678,16 @@ impl BurkertNode {
         self.write(comm::BAUDRATE, &rate.code())
     }
 
+    /// Switches the device's termination resistor (0x2001 sub 0x0B).
+    pub fn set_termination(&self, t: Termination) -> Result<(), Error> {
+        self.write(comm::TERMINATION_RESISTOR, &t.to_u8())
+    }
+
+    /// Selects CANopen or büS (0x2001 sub 3; effective after a reset).
+    pub fn set_bus_mode(&self, mode: BusMode) -> Result<(), Error> {
+        self.write(comm::B_US_MODE, &mode.to_u8())
+    }
+
     /// Requests a reset through 0x2001 sub 4 (1 communication, 2 device). A device may restart
     /// before it confirms the write, so an SDO timeout on this write counts as success.
     pub fn reset(&self, kind: ResetCommand) -> Result<(), Error> {

@@ -568,3 +568,51 @@ fn user_configuration_and_precisions() {
     assert_eq!(abort(&e), Some(AbortCode::OBJECT_DOES_NOT_EXIST.get()));
     assert!(r.node.read_sensor_precision(64).is_err());
 }
+
+#[test]
+fn termination_and_bus_mode_are_typed_both_ways() {
+    use burkert_profile::{BusMode, Termination};
+    let r = Rig::new(5);
+    r.node.set_termination(Termination::Active).unwrap();
+    r.node.set_bus_mode(BusMode::CanOpen).unwrap();
+    let c = r.node.read_communication().unwrap();
+    assert_eq!(c.termination, Some(Termination::Active));
+    assert_eq!(c.bus_mode, Some(BusMode::CanOpen));
+    let e = r.node.node().sdo().write((0x2001, 0x0B), 2u8).unwrap_err();
+    assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE.get()));
+    let e = r.node.node().sdo().write((0x2001, 3), 7u8).unwrap_err();
+    assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE.get()));
+    // A value the manual does not define, stored behind the master's back, is a typed error.
+    r.with(|d| d.values_mut().set(0x2001, 0x0B, vec![9]));
+    let e = r.node.read_communication().unwrap_err();
+    assert!(matches!(e, Error::Value { .. }), "{e}");
+    assert!(e.to_string().contains("termination value 9"), "{e}");
+}
+
+#[test]
+fn ne107_status_is_pdo_mappable_and_sent_on_change() {
+    let r = Rig::new(5);
+    let sdo = || r.node.node().sdo();
+    // TPDO2 carries 0x2004 sub 1 (UNSIGNED8), the CiA 301 remap sequence by hand.
+    sdo().write((0x1801, 1), 0x8000_0285u32).unwrap();
+    sdo().write((0x1A01, 0), 0u8).unwrap();
+    sdo().write((0x1A01, 1), 0x2004_0108u32).unwrap();
+    sdo().write((0x1A01, 0), 1u8).unwrap();
+    sdo().write((0x1801, 1), 0x0000_0285u32).unwrap();
+    let events = r.net.subscribe();
+    r.node.node().nmt().start().unwrap();
+    r.run(100);
+    r.with(|d| d.raise(Ne107Status::FunctionCheck));
+    r.run(600);
+    let tpdo2: Vec<Vec<u8>> = events
+        .try_iter()
+        .filter_map(|ev| match ev {
+            NetworkEvent::Pdo {
+                number: 2, data, ..
+            } => Some(data),
+            _ => None,
+        })
+        .collect();
+    assert!(tpdo2.contains(&vec![4]), "{tpdo2:?}");
+    assert_eq!(tpdo2.last(), Some(&vec![4]));
+}
