@@ -150,6 +150,17 @@ pub struct Measured {
     pub busy: f64,
     /// Host time the measurement took, in seconds.
     pub host_seconds: f64,
+    /// CPU time (user and system) of the calling thread during the measurement, in seconds.
+    /// The blocking API of [`canopen::Network`] does all of the master's work in the thread
+    /// that waits, so on a real bus this is the master's cost, apart from the waiting.
+    pub cpu_seconds: f64,
+}
+
+/// CPU time (user and system) the calling thread has used, in seconds; 0 where the clock is
+/// unavailable.
+pub fn thread_cpu_seconds() -> f64 {
+    nix::time::clock_gettime(nix::time::ClockId::CLOCK_THREAD_CPUTIME_ID)
+        .map_or(0.0, |t| t.tv_sec() as f64 + t.tv_nsec() as f64 / 1e9)
 }
 
 /// Failure of a benchmark run: a transfer failed or returned wrong data.
@@ -190,7 +201,9 @@ pub fn run_workload(
         let (frames0, busy0) = stats();
         let t0 = net.now();
         let host0 = std::time::Instant::now();
+        let cpu0 = thread_cpu_seconds();
         let (transfers, bytes) = f()?;
+        let cpu_seconds = thread_cpu_seconds() - cpu0;
         let host_seconds = host0.elapsed().as_secs_f64();
         let seconds = (net.now() - t0).as_micros() as f64 / 1e6;
         let (frames1, busy1) = stats();
@@ -202,6 +215,7 @@ pub fn run_workload(
             frames: frames1 - frames0,
             busy: busy1 - busy0,
             host_seconds,
+            cpu_seconds,
         })
     };
     let want = payload(large_len);
