@@ -49,6 +49,12 @@ impl Ne107Status {
         }
     }
 
+    /// Same as [`from_raw`](Self::from_raw), named like the other one-byte decoders of this
+    /// crate (`CanOperationStatus::from_u8`, `TransMemStatus::from_u8`).
+    pub const fn from_u8(raw: u8) -> Self {
+        Self::from_raw(raw)
+    }
+
     /// The value in bits 0..3.
     pub const fn to_raw(self) -> u8 {
         match self {
