@@ -82,7 +82,12 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         .values_mut()
         .set(0x2003, 4, log.as_bytes().to_vec());
     let dev5 = bus.attach(logbook_dev);
-    bus.attach(SimDevice::new(n6, od.clone()));
+    // Node 6 is the Bürkert-profile device (burkert-profile's simulator: NE 107 status,
+    // locating function, logbook) on top of the generic simulator.
+    let dev6 = bus.attach(burkert_profile::BurkertDevice::with_dictionary(
+        n6,
+        od.clone(),
+    ));
     net.run_for(Duration::from_millis(10))?;
     show_traffic(&mut tap, 10);
     for ev in events.try_iter() {
@@ -250,6 +255,25 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         Ok(_) => outln("   (unexpectedly written)"),
         Err(e) => outln(&format!("   {}", explain(&e))),
     }
+    show_traffic(&mut tap, 4);
+
+    step(
+        "7b. Bürkert profile on node 6: NE 107 status (0x2004:01) and the locating function (0x2101:01)",
+    );
+    bus.with_station(dev6, |d| {
+        d.raise(burkert_profile::Ne107Status::MaintenanceRequired)
+    });
+    let status = net.node(n6).sdo().read((0x2004, 1))?;
+    outln(&format!(
+        "   the device raised an event; 0x2004:01 reads {:?} = {:?}",
+        status,
+        burkert_profile::Ne107Status::from_u8(status.first().copied().unwrap_or(0) & 0x0F)
+    ));
+    net.node(n6).sdo().write((0x2101, 1), 1u8)?;
+    outln(&format!(
+        "   wrote 0x2101:01 = 1: the device is locating (LED flashing): {}",
+        bus.with_station(dev6, |d| d.locating()).unwrap_or(false)
+    ));
     show_traffic(&mut tap, 4);
 
     step("8. NMT Stop to node 6: its heartbeat reports Stopped");

@@ -177,7 +177,9 @@ fn demo_walks_through_commissioning() {
         "SDO abort 0x06020000 (Object does not exist in the object dictionary)",
         "to: Stopped",
         "assigned 00000039:01000001:00000001:00123456: node-ID 7",
-        "node 6 TPDO3: 0x2004:01 = Unsigned(0), 0x2500:01 = Real32(0.0)",
+        "node 6 TPDO3: 0x2004:01 = Unsigned(",
+        "0x2004:01 reads [2] = MaintenanceRequired",
+        "the device is locating (LED flashing): true",
         "node 5 TPDO1: 0x2500:01 = Real32(21.75)",
     ] {
         assert!(text.contains(want), "missing {want:?} in\n{text}");
