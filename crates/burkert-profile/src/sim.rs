@@ -19,7 +19,8 @@
 //!   counts a boot in 0x2004 sub 0x0D);
 //! - writes to 0x2001, 0x2120..=0x2122, 0x2101, 0x210A are checked with this crate's typed
 //!   decoders (an undefined value is refused with abort 0x06090030);
-//! - sensor values 0x2500.. (REAL32) change over virtual time and go out in TPDOs while
+//! - sensor values 0x2500.. (of the EDS's type: REAL32 in the generic EDS, integers rounded)
+//!   change over virtual time and go out in TPDOs while
 //!   Operational; RPDOs write control values 0x2540.. (the PDO machinery is the generic
 //!   simulator's); a mapping is checked when its sub 0 is written (abort 0x06040041 /
 //!   0x06040042);
@@ -567,15 +568,25 @@ impl BurkertDevice {
         self.shared().logbook_xml(self.sim.values())
     }
 
-    /// Holds sensor `sensor` (0x2500 + sensor) at `value` instead of letting it drift (from
-    /// the next sensor reading on, every [`SENSOR_PERIOD`]).
+    /// Holds sensor `sensor` (0x2500 + sensor) at `value` instead of letting it drift. The
+    /// value is stored at once (a TPDO mapping it sends it at the next sensor reading, every
+    /// [`SENSOR_PERIOD`]).
     pub fn pin_sensor(&mut self, sensor: u8, value: f32) {
         self.pinned.insert(sensor, value);
+        let now = self.shared().now;
+        self.update_sensors(now);
     }
 
     /// Lets a pinned sensor drift again.
     pub fn unpin_sensor(&mut self, sensor: u8) {
         self.pinned.remove(&sensor);
+    }
+
+    /// Control value `control` (0x2540 + control, sub 1), typed by the dictionary.
+    pub fn control_value_typed(&self, control: u8) -> Option<canopen_od::Value> {
+        let index = 0x2540 + u16::from(control);
+        let dt = self.od.sub(index, 1)?.data_type;
+        canopen_od::Value::from_le_bytes(dt, self.sim.values().get(index, 1)?).ok()
     }
 
     /// Control value `control` (0x2540 + control, sub 1) as REAL32, if it is one.
@@ -601,18 +612,26 @@ impl BurkertDevice {
             let Some(sub) = self.od.sub(index, 1) else {
                 continue;
             };
-            if sub.data_type != DataType::Real32 {
-                continue;
-            }
             let v = self
                 .pinned
                 .get(&sensor)
                 .copied()
                 .unwrap_or_else(|| Self::sensor_reading(sensor, now));
-            let bytes = v.to_le_bytes();
+            // The value type is the device's (its EDS): REAL32/64 as is, integers rounded;
+            // other types are left alone.
+            let value = match sub.data_type {
+                DataType::Real32 => Some(canopen_od::Value::Real32(v)),
+                DataType::Real64 => Some(canopen_od::Value::Real64(f64::from(v))),
+                dt if dt.integer_bits().is_some() => {
+                    canopen_od::Value::from_i128_wrapping(dt, v.round() as i128)
+                }
+                _ => None,
+            };
+            let Some(value) = value else { continue };
+            let bytes = value.to_le_bytes();
             if self.sim.values().get(index, 1) != Some(&bytes[..]) {
                 // Through the simulator, so TPDOs mapping the sensor send the change.
-                self.sim.set_value(now, index, 1, bytes.to_vec());
+                self.sim.set_value(now, index, 1, bytes);
             }
         }
     }

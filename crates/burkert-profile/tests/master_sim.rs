@@ -616,3 +616,65 @@ fn ne107_status_is_pdo_mappable_and_sent_on_change() {
     assert!(tpdo2.contains(&vec![4]), "{tpdo2:?}");
     assert_eq!(tpdo2.last(), Some(&vec![4]));
 }
+
+/// The generic EDS with some sections removed (and their object-list lines).
+fn eds_without(sections: &[&str]) -> Vec<u8> {
+    let mut out = String::new();
+    let mut skip = false;
+    for line in burkert_profile::GENERIC_EDS.lines() {
+        if line.starts_with('[') {
+            skip = sections.iter().any(|s| line == format!("[{s}]"));
+        }
+        if !skip {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out.into_bytes()
+}
+
+#[test]
+fn sub_objects_a_device_lacks_are_none_and_integer_sensors_follow_the_eds() {
+    // No battery voltage, no actuator supply voltage; sensor 1 is an INTEGER16.
+    let mut text = String::from_utf8(eds_without(&["2004sub10", "2004sub13"])).unwrap();
+    text = text.replace(
+        "[2501sub1]\nParameterName=Value\nObjectType=0x7\nDataType=0x0008",
+        "[2501sub1]\nParameterName=Value\nObjectType=0x7\nDataType=0x0003",
+    );
+    let od = canopen_od::parse(text.as_bytes()).unwrap().od;
+    assert_eq!(
+        od.sub(0x2501, 1).unwrap().data_type,
+        canopen_od::DataType::Integer16
+    );
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let dev = bus.attach(BurkertDevice::with_dictionary(n(5), od.clone()));
+    let node = BurkertNode::new(net.add_node_with_dictionary(n(5), od));
+    let status = node.read_status().unwrap();
+    assert_eq!(status.battery_voltage, None);
+    assert_eq!(status.actuator_voltage, None);
+    assert_eq!(status.supply_voltage, Some(24.0));
+
+    bus.with_station(dev, |d| d.pin_sensor(1, 31.6)).unwrap();
+    let tpdo = node.map_sensor_values_to_tpdo(1, &[1, 0], None).unwrap();
+    assert_eq!(tpdo.mapping().bit_len(), 16 + 32);
+    let events = net.subscribe();
+    node.node().nmt().start().unwrap();
+    net.run_for(Duration::from_millis(700)).unwrap();
+    let got: Vec<_> = events
+        .try_iter()
+        .filter_map(|e| tpdo.from_event(&e))
+        .map(Result::unwrap)
+        .collect();
+    assert!(!got.is_empty());
+    for values in &got {
+        assert_eq!(values[0].sensor, 1);
+        assert_eq!(values[0].value, PdoValue::Signed(32), "31.6 rounded");
+        assert_eq!(values[1].sensor, 0);
+        assert!(matches!(values[1].value, PdoValue::Real32(_)));
+    }
+    assert_eq!(
+        node.read_sensor_value(1).unwrap(),
+        canopen_od::Value::Integer16(32)
+    );
+}
