@@ -13,7 +13,8 @@
 //! - NE 107 events raised and cleared by the test or the operator ([`BurkertDevice::raise`]);
 //! - 0x2001 sub 0x0A follows the NMT state (4 stopped, 5 operational, 127 pre-operational);
 //! - 0x2001 sub 4 = 1 resets communication, 2 resets the device; the node-ID stored in 0x2001
-//!   sub 2 takes effect there (and at NMT reset node / reset communication): the communication
+//!   sub 2 takes effect there (and at NMT reset node / reset communication; a node-ID set by
+//!   LSS, CiA 305, shows in sub 2 once active): the communication
 //!   objects 0x1000..=0x1FFF return to their defaults for the new node-ID, the profile objects
 //!   0x2000.. keep their stored values (a device reset also ends locating and maintenance and
 //!   counts a boot in 0x2004 sub 0x0D);
@@ -661,6 +662,12 @@ impl BurkertDevice {
             self.reset(now, r == ResetCommand::Device);
             return;
         }
+        // LSS may have given the simulator another node-ID: 0x2001 sub 2 shows it.
+        let node = self.sim.node();
+        if self.shared().node != node {
+            self.shared().node = node;
+            self.sim.values_mut().set(0x2001, 2, vec![node.get()]);
+        }
         self.sync_values();
     }
 
@@ -717,6 +724,58 @@ impl BurkertDevice {
         self.sync_values();
     }
 
+    /// An NMT reset addressed to this device. A node-ID stored in 0x2001 sub 2 takes effect
+    /// (the device restarts under it); otherwise the simulator resets (and activates a node-ID
+    /// configured by LSS, CiA 305), and the profile settings and 0x2001 sub 2 follow.
+    fn nmt_reset_received(&mut self, now: Instant, frame: &CanFrame, device: bool) {
+        let stored = self
+            .sim
+            .values()
+            .get_u64(0x2001, 2)
+            .and_then(|v| u8::try_from(v).ok())
+            .and_then(|v| NodeId::new(v).ok());
+        if stored.is_some_and(|n| n != self.sim.node()) {
+            self.reset(now, device);
+            return;
+        }
+        let old = self.sim.values().clone();
+        self.sim.handle_frame(now, frame);
+        let node = self.sim.node();
+        let v = self.sim.values_mut();
+        for (index, sub) in self.od.entries() {
+            if index >= 0x2000
+                && let Some(x) = old.get(index, sub.sub_index)
+            {
+                v.set(index, sub.sub_index, x.to_vec());
+            }
+        }
+        v.set(0x2001, 2, vec![node.get()]);
+        v.set(0x2001, 4, vec![0]);
+        let mut s = self.shared();
+        s.node = node;
+        if device {
+            s.boots += 1;
+            s.booted_at = now;
+            s.maintenance = false;
+            s.locate_latched = false;
+            s.locate_until = None;
+            s.log("device", format!("NMT reset node, node-ID {}", node.get()));
+            let boots = s.boots;
+            drop(s);
+            let v = self.sim.values_mut();
+            v.set(0x2101, 1, vec![0]);
+            v.set(0x210A, 1, vec![0]);
+            v.set(0x2004, 0x0D, boots.to_le_bytes().to_vec());
+        } else {
+            s.log(
+                "device",
+                format!("NMT reset communication, node-ID {}", node.get()),
+            );
+            drop(s);
+        }
+        self.sync_values();
+    }
+
     /// NMT reset node (`Some(true)`) / reset communication (`Some(false)`) addressed to this
     /// device, if `frame` is one.
     fn nmt_reset(&self, frame: &CanFrame) -> Option<bool> {
@@ -740,12 +799,11 @@ impl BurkertDevice {
 
 impl Station for BurkertDevice {
     fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
-        // NMT resets are the device's own, so a node-ID stored in 0x2001 sub 2 takes effect.
         if self.sim.state() != DeviceState::Initialising
             && let Some(device) = self.nmt_reset(frame)
         {
             self.shared().now = now;
-            self.reset(now, device);
+            self.nmt_reset_received(now, frame, device);
             return;
         }
         self.sim.handle_frame(now, frame);

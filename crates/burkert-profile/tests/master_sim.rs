@@ -678,3 +678,32 @@ fn sub_objects_a_device_lacks_are_none_and_integer_sensors_follow_the_eds() {
         canopen_od::Value::Integer16(32)
     );
 }
+
+#[test]
+fn node_id_set_by_lss_becomes_active_at_nmt_reset_and_shows_in_0x2001() {
+    let r = Rig::new(5);
+    r.node.set_led_mode(LedMode::Off).unwrap();
+    r.net
+        .lss()
+        .procedure(canopen_lss::Procedure::assign_node_id(n(20), false))
+        .unwrap();
+    r.node.node().nmt().reset_communication().unwrap();
+    r.run(50);
+    assert_eq!(r.with(|d| d.node()), n(20));
+    let new = BurkertNode::new(
+        r.net
+            .add_node_with_dictionary(n(20), (**generic_od()).clone()),
+    );
+    assert_eq!(new.read_communication().unwrap().address, Some(20));
+    assert_eq!(new.read_led_config().unwrap().mode, LedMode::Off);
+
+    // NMT reset node keeps the node-ID and the stored settings, ends maintenance.
+    new.set_maintenance(true).unwrap();
+    new.node().nmt().reset_node().unwrap();
+    r.run(50);
+    let report = new.read_report().unwrap();
+    assert_eq!(report.communication.address, Some(20));
+    assert!(!report.maintenance);
+    assert_eq!(report.status.boot_counter, Some(2));
+    assert_eq!(report.led.mode, LedMode::Off);
+}
