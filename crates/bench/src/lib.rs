@@ -4,7 +4,7 @@
 //! * the bench `bus_bound` (`cargo bench -p canopen-bench --bench bus_bound`): expedited,
 //!   segmented and block uploads from a simulated device ([`canopen::SimDevice`]) to the master
 //!   ([`canopen::Network`]) on the in-memory bus with the 1 Mbit/s timing model, in bus time, as
-//!   a share of the CAN bus bound computed here ([`bounds`]);
+//!   a share of the CAN bus bound computed here ([`Bounds`]);
 //! * the binary `vcan_sdo` (run by `tests/vcan/run-all` in the QEMU guest): the same workload on
 //!   vcan0 by this master and by python-canopen's `RemoteNode` (`py/remote_sdo_bench.py`), both
 //!   against one simulated device, side by side.

@@ -17,11 +17,11 @@
 use std::io::BufRead;
 use std::process::{Command, ExitCode, Stdio};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use can_frame::{Duration, NodeId};
 use canopen::socketcan::SocketCan;
-use canopen::{Network, SimDevice, TransportError, run_station};
+use canopen::{Network, Received, SimDevice, Transport, TransportError, run_station};
 use canopen_bench::{BenchError, Measured, device, kib_per_s, run_workload};
 
 struct Args {
@@ -64,6 +64,55 @@ fn parse_args() -> Result<Args, String> {
     Ok(a)
 }
 
+/// Transport calls, to show how a side drives its socket (blocking waits or polling).
+#[derive(Debug, Default)]
+struct Calls {
+    sends: AtomicU64,
+    recvs: AtomicU64,
+    /// `recv_until` calls whose deadline had already passed (non-blocking polls).
+    polls: AtomicU64,
+    /// `recv_until` calls that returned nothing.
+    empty: AtomicU64,
+}
+
+impl Calls {
+    fn snapshot(&self) -> [u64; 4] {
+        [&self.sends, &self.recvs, &self.polls, &self.empty].map(|c| c.load(Ordering::Relaxed))
+    }
+}
+
+/// A transport that counts its calls.
+struct Counting<T> {
+    inner: T,
+    calls: Arc<Calls>,
+}
+
+impl<T: Transport> Transport for Counting<T> {
+    fn send(&mut self, frame: &can_frame::CanFrame) -> Result<(), TransportError> {
+        self.calls.sends.fetch_add(1, Ordering::Relaxed);
+        self.inner.send(frame)
+    }
+
+    fn recv_until(
+        &mut self,
+        deadline: can_frame::Instant,
+    ) -> Result<Option<Received>, TransportError> {
+        self.calls.recvs.fetch_add(1, Ordering::Relaxed);
+        if deadline <= self.inner.now() {
+            self.calls.polls.fetch_add(1, Ordering::Relaxed);
+        }
+        let r = self.inner.recv_until(deadline);
+        if matches!(r, Ok(None)) {
+            self.calls.empty.fetch_add(1, Ordering::Relaxed);
+        }
+        r
+    }
+
+    fn now(&self) -> can_frame::Instant {
+        self.inner.now()
+    }
+}
+
 /// The simulated device served on its own socket by a thread until dropped.
 struct RunningSim {
     stop: Arc<AtomicBool>,
@@ -71,9 +120,12 @@ struct RunningSim {
 }
 
 impl RunningSim {
-    fn start(iface: &str, mut dev: SimDevice) -> Result<Self, TransportError> {
+    fn start(iface: &str, mut dev: SimDevice, calls: Arc<Calls>) -> Result<Self, TransportError> {
         // Opened here, so the device's socket receives from the moment this returns.
-        let mut transport = SocketCan::open(iface)?;
+        let mut transport = Counting {
+            inner: SocketCan::open(iface)?,
+            calls,
+        };
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let thread = std::thread::spawn(move || {
@@ -106,11 +158,12 @@ impl Drop for RunningSim {
 
 /// This master's run. The network (and its socket) is gone when this returns, so it does not
 /// cost the guest anything during python-canopen's run.
-fn master(args: &Args, node: NodeId) -> Result<[Measured; 3], BenchError> {
-    let net = Network::new(
-        SocketCan::open(&args.iface)
+fn master(args: &Args, node: NodeId, calls: Arc<Calls>) -> Result<[Measured; 3], BenchError> {
+    let net = Network::new(Counting {
+        inner: SocketCan::open(&args.iface)
             .map_err(|e| BenchError(format!("open {}: {e}", args.iface)))?,
-    );
+        calls,
+    });
     let n = net.node(node);
     // Heartbeat off: only SDO frames on the bus during both runs. Also proves the device serves.
     n.sdo().write((0x1017, 0), 0u16)?;
@@ -183,17 +236,36 @@ fn run(args: &Args) -> Result<(), BenchError> {
         BenchError("no python: pass --python or set CANOPEN_PYTHON (run-all sets it)".into())
     })?;
     let node = NodeId::new(args.node).map_err(|_| BenchError("node-ID 1..=127".into()))?;
-    let sim = RunningSim::start(&args.iface, device(node, args.size))
+    let sim_calls = Arc::new(Calls::default());
+    let master_calls = Arc::new(Calls::default());
+    let sim = RunningSim::start(&args.iface, device(node, args.size), sim_calls.clone())
         .map_err(|e| BenchError(format!("open {} for the simulator: {e}", args.iface)))?;
     println!(
         "vcan SDO benchmark on {}: {} expedited reads of 0x1000, {}-byte segmented and block \
          uploads of 0x2001 from the simulated device {:#04x}",
         args.iface, args.count, args.size, args.node
     );
-    let rust = master(args, node)?;
+    let sim0 = sim_calls.snapshot();
+    let rust = master(args, node, master_calls.clone())?;
+    let sim1 = sim_calls.snapshot();
     println!("canopen-rs master: done");
     let py = python(args, &python_path)?;
     sim.stop()?;
+    let sim2 = sim_calls.snapshot();
+    let diff = |a: [u64; 4], b: [u64; 4]| {
+        let d: Vec<u64> = a.iter().zip(b).map(|(a, b)| b - a).collect();
+        format!(
+            "{} sends, {} receives ({} non-blocking, {} empty)",
+            d[0], d[1], d[2], d[3]
+        )
+    };
+    println!(
+        "transport calls: master {}; simulator during the master's run {}, during \
+         python-canopen's run {}",
+        diff([0; 4], master_calls.snapshot()),
+        diff(sim0, sim1),
+        diff(sim1, sim2)
+    );
 
     println!(
         "\n{:<17} | {:>9} {:>12} {:>8} | {:>9} {:>12} {:>8} | {:>8} {:>8}",
