@@ -24,7 +24,7 @@ use std::io::Write;
 use std::sync::{Arc, Mutex};
 
 use can_frame::{CanFrame, CanId, NodeId};
-use canopen::{Entry as Addr, Error, NetworkEvent, Node, SdoErrorKind, TransferProgress};
+use canopen::{Entry as Addr, Error, NetworkEvent, Node, SdoError, SdoErrorKind, TransferProgress};
 use canopen_od::{DataType, Entry, EntryValue, ObjectDictionary};
 use canopen_pdo::{
     CommParams, Direction, Mapping, MappingEntry, RemoteObjects, Value as PdoValue, ValueKind,
@@ -338,7 +338,7 @@ pub struct BurkertNode {
 }
 
 /// Whether an SDO failure means "the device does not implement this sub-object".
-fn is_absent(e: &Error) -> bool {
+fn is_absent(e: &SdoError) -> bool {
     matches!(
         e.server_abort(),
         Some(
@@ -352,7 +352,7 @@ fn is_absent(e: &Error) -> bool {
 /// Bytes read in a batch, by object.
 struct Batch {
     node: NodeId,
-    results: Vec<(Addr, Result<Vec<u8>, Error>)>,
+    results: Vec<(Addr, Result<Vec<u8>, SdoError>)>,
 }
 
 impl Batch {
@@ -360,7 +360,7 @@ impl Batch {
         match self.results.iter().find(|(x, _)| *x == a) {
             Some((_, Ok(v))) => Ok(Some(v.as_slice())),
             Some((_, Err(e))) if is_absent(e) => Ok(None),
-            Some((_, Err(e))) => Err(clone_error(e)),
+            Some((_, Err(e))) => Err(Error::Sdo(e.clone())),
             None => Ok(None),
         }
     }
@@ -370,23 +370,6 @@ impl Batch {
             None => Ok(None),
             Some(bytes) => decode(self.node, &e, bytes).map(Some),
         }
-    }
-}
-
-/// The master's error is not `Clone`; the batch hands out each failure once per access.
-fn clone_error(e: &Error) -> Error {
-    match e {
-        Error::Sdo(s) => Error::Sdo(s.clone()),
-        Error::Value {
-            node,
-            entry,
-            message,
-        } => Error::Value {
-            node: *node,
-            entry: *entry,
-            message: message.clone(),
-        },
-        other => Error::Timeout(other.to_string()),
     }
 }
 
@@ -453,7 +436,7 @@ impl BurkertNode {
                 let r = match p.wait() {
                     Ok(canopen::Completion::Data(v)) => Ok(v),
                     Ok(_) => Ok(Vec::new()),
-                    Err(e) => Err(Error::Sdo(e)),
+                    Err(e) => Err(e),
                 };
                 (a, r)
             })

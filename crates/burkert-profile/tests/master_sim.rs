@@ -707,3 +707,19 @@ fn node_id_set_by_lss_becomes_active_at_nmt_reset_and_shows_in_0x2001() {
     assert_eq!(report.status.boot_counter, Some(2));
     assert_eq!(report.led.mode, LedMode::Off);
 }
+
+#[test]
+fn a_silent_node_fails_with_node_and_object_named() {
+    let r = Rig::new(5);
+    let ghost = BurkertNode::new(
+        r.net
+            .add_node_with_dictionary(n(9), (**generic_od()).clone()),
+    );
+    let e = ghost.read_description_and_status().unwrap_err();
+    let text = e.to_string();
+    assert!(text.contains("node 9"), "{text}");
+    assert!(text.contains("0x2000"), "{text}");
+    assert!(text.contains("no response"), "{text}");
+    // The device on node 5 was not disturbed.
+    assert_eq!(r.node.read_communication().unwrap().address, Some(5));
+}
