@@ -27,8 +27,8 @@ use std::sync::mpsc;
 use can_frame::cob::{FunctionCode, LSS_SLAVE_TO_MASTER};
 use can_frame::{CanFrame, CanId, CobId, Duration, Instant, NodeId};
 use canopen_nmt::{
-    CommandSpecifier, EmcyConsumer, EmcyEvent, HeartbeatConsumer, HeartbeatEvent, NmtCommand,
-    NmtState, NmtTarget, SyncConfig, SyncProducer,
+    CommandSpecifier, EmcyConsumer, EmcyEvent, GuardingEvent, GuardingMaster, HeartbeatConsumer,
+    HeartbeatEvent, NmtCommand, NmtState, NmtTarget, SyncConfig, SyncProducer,
 };
 use canopen_od::ObjectDictionary;
 use canopen_sdo::{AbortCode, Client, ClientConfig, Event as SdoEvent, Method, Multiplexer};
@@ -101,6 +101,9 @@ pub enum Completion {
 pub enum NetworkEvent {
     /// A heartbeat consumer event: boot-up, state change, loss, recovery.
     Heartbeat(HeartbeatEvent),
+    /// A node guarding event (CiA 301 §7.2.8.3.2.1): boot-up, state change, loss, recovery,
+    /// toggle error.
+    Guarding(GuardingEvent),
     /// An emergency message.
     Emcy(EmcyEvent),
     /// A transmit PDO from a node.
@@ -244,6 +247,7 @@ pub(crate) struct Core {
     next_request: u64,
     tx: VecDeque<CanFrame>,
     heartbeat: HeartbeatConsumer,
+    guarding: Box<GuardingMaster>,
     emcy: EmcyConsumer,
     sync: Option<SyncProducer>,
     states: BTreeMap<NodeId, NmtState>,
@@ -278,6 +282,7 @@ impl Core {
             next_request: 1,
             tx: VecDeque::new(),
             heartbeat: HeartbeatConsumer::new(),
+            guarding: Box::new(GuardingMaster::new()),
             emcy: EmcyConsumer::new(),
             sync: None,
             states: BTreeMap::new(),
@@ -344,6 +349,22 @@ impl Core {
 
     pub(crate) fn monitor_heartbeat(&mut self, node: NodeId, timeout: Duration) -> bool {
         self.heartbeat.monitor(node, timeout).is_ok()
+    }
+
+    pub(crate) fn guard_node(&mut self, node: NodeId, guard_time: Duration, factor: u8) -> bool {
+        let now = self.now;
+        let ok = self.guarding.guard(now, node, guard_time, factor).is_ok();
+        self.drain_guarding();
+        ok
+    }
+
+    fn drain_guarding(&mut self) {
+        while let Some(f) = self.guarding.poll_transmit() {
+            self.tx.push_back(f);
+        }
+        while let Some(ev) = self.guarding.poll_event() {
+            self.publish(NetworkEvent::Guarding(ev));
+        }
     }
 
     pub(crate) fn start_sync(&mut self, config: SyncConfig) {
@@ -600,7 +621,9 @@ impl Core {
                 if let Some(s) = state {
                     self.states.insert(node, s);
                 }
-                let monitored = self.heartbeat.handle_frame(now, frame).unwrap_or(false);
+                let guarded = self.guarding.handle_frame(now, frame).unwrap_or(false);
+                self.drain_guarding();
+                let monitored = self.heartbeat.handle_frame(now, frame).unwrap_or(false) || guarded;
                 self.drain_heartbeat();
                 // Nodes nobody monitors still report boot-up and state changes.
                 match state {
@@ -691,6 +714,10 @@ impl Core {
             self.heartbeat.handle_timeout(now);
             self.drain_heartbeat();
         }
+        if self.guarding.poll_timeout().is_some_and(|t| t <= now) {
+            self.guarding.handle_timeout(now);
+            self.drain_guarding();
+        }
         if let Some(job) = &mut self.lss
             && job.poll_timeout().is_some_and(|t| t <= now)
         {
@@ -733,6 +760,7 @@ impl Core {
             }
         };
         consider(self.sync.as_ref().and_then(|s| s.poll_timeout()));
+        consider(self.guarding.poll_timeout());
         consider(self.lss.as_ref().and_then(|j| j.poll_timeout()));
         for slot in self.nodes.values() {
             consider(slot.client.poll_timeout());

@@ -111,6 +111,15 @@ impl Network {
         self.core().monitor_heartbeat(id, timeout)
     }
 
+    /// Guards a node (CiA 301 node guarding): a remote request every `guard_time`, a `Lost`
+    /// event when no answer comes within `guard_time × life_time_factor`. A zero guard time
+    /// stops guarding.
+    pub fn guard_node(&self, id: NodeId, guard_time: Duration, life_time_factor: u8) -> bool {
+        let ok = self.core().guard_node(id, guard_time, life_time_factor);
+        self.wake();
+        ok
+    }
+
     /// The last NMT state a node reported by heartbeat or boot-up.
     pub fn last_state(&self, id: NodeId) -> Option<NmtState> {
         self.core().last_state(id)

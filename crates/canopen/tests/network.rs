@@ -650,3 +650,33 @@ fn typed_entries_from_generated_code() {
         250
     );
 }
+
+#[test]
+fn node_guarding_loss_and_recovery() {
+    use canopen_nmt::GuardingEvent;
+    let r = rig(&[5]);
+    let events = r.net.subscribe();
+    // Heartbeats off, so only guarding tells whether the node is there.
+    r.net.node(n(5)).sdo().write((0x1017, 0), 0u16).unwrap();
+    r.net.guard_node(n(5), Duration::from_millis(100), 3);
+    r.net.run_for(Duration::from_secs(1)).unwrap();
+    let ev = drain(&events);
+    assert!(
+        !ev.iter()
+            .any(|e| matches!(e, NetworkEvent::Guarding(GuardingEvent::Lost { .. }))),
+        "{ev:?}"
+    );
+    let dev = r.bus.detach(r.devices[0]).unwrap();
+    r.net.run_for(Duration::from_secs(1)).unwrap();
+    assert!(drain(&events).iter().any(
+        |e| matches!(e, NetworkEvent::Guarding(GuardingEvent::Lost { node, .. }) if *node == n(5))
+    ));
+    r.bus.attach(dev);
+    r.net.run_for(Duration::from_millis(500)).unwrap();
+    let ev = drain(&events);
+    assert!(
+        ev.iter()
+            .any(|e| matches!(e, NetworkEvent::Guarding(GuardingEvent::Recovered { node, .. }) if *node == n(5))),
+        "{ev:?}"
+    );
+}
