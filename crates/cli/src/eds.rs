@@ -29,14 +29,14 @@ pub(crate) enum EdsCommand {
         /// EDS or DCF file.
         file: PathBuf,
     },
-    /// Write a DCF for a node: $NODEID resolved into ParameterValue, [DeviceComissioning] set.
+    /// Write a DCF for a node: `$NODEID` resolved into ParameterValue, `[DeviceComissioning]` set.
     ToDcf {
         /// EDS file.
         file: PathBuf,
         /// Node-ID, 1..=127.
         #[arg(long, value_parser = clap::value_parser!(u8).range(1..=127))]
         node_id: u8,
-        /// Bit rate in kbit/s for [DeviceComissioning].
+        /// Bit rate in kbit/s for `[DeviceComissioning]`.
         #[arg(long)]
         baudrate: Option<u16>,
         /// Output file (default: stdout).
