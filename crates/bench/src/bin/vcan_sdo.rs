@@ -10,7 +10,13 @@
 //!
 //! ```text
 //! vcan_sdo [--python PATH] [--iface vcan0] [--count 1000] [--size 65536] [--node-id 0x5c]
+//!          [--pin-cpu N]
 //! ```
+//! `--pin-cpu N` runs everything (this process's threads and the python-canopen child) on CPU
+//! N. In the two-vCPU TCG guest, waking a thread on the other vCPU takes milliseconds (QEMU
+//! has to kick the halted vCPU's host thread, on a shared host), which then dominates every
+//! request/response round trip of both clients alike; on one vCPU a wake-up is a context
+//! switch, so the figures show the clients' own costs.
 //! `--python` defaults to `$CANOPEN_PYTHON` (set by `tests/vcan/run-all`), the interface to
 //! `$CANOPEN_VCAN_IFACE` or `vcan0`.
 
@@ -30,6 +36,7 @@ struct Args {
     count: u64,
     size: usize,
     node: u8,
+    pin_cpu: Option<usize>,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -39,6 +46,7 @@ fn parse_args() -> Result<Args, String> {
         count: 1000,
         size: canopen_bench::LARGE_LEN,
         node: 0x5C,
+        pin_cpu: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -58,6 +66,7 @@ fn parse_args() -> Result<Args, String> {
             "--node-id" => {
                 a.node = u8::try_from(number(value()?)?).map_err(|e| format!("--node-id: {e}"))?
             }
+            "--pin-cpu" => a.pin_cpu = Some(number(value()?)? as usize),
             _ => return Err(format!("unknown argument {flag}")),
         }
     }
@@ -236,14 +245,29 @@ fn run(args: &Args) -> Result<(), BenchError> {
         BenchError("no python: pass --python or set CANOPEN_PYTHON (run-all sets it)".into())
     })?;
     let node = NodeId::new(args.node).map_err(|_| BenchError("node-ID 1..=127".into()))?;
+    if let Some(cpu) = args.pin_cpu {
+        // Before any thread or child exists: they inherit the affinity.
+        let mut set = nix::sched::CpuSet::new();
+        set.set(cpu)
+            .map_err(|e| BenchError(format!("--pin-cpu {cpu}: {e}")))?;
+        nix::sched::sched_setaffinity(nix::unistd::Pid::from_raw(0), &set)
+            .map_err(|e| BenchError(format!("--pin-cpu {cpu}: {e}")))?;
+    }
     let sim_calls = Arc::new(Calls::default());
     let master_calls = Arc::new(Calls::default());
     let sim = RunningSim::start(&args.iface, device(node, args.size), sim_calls.clone())
         .map_err(|e| BenchError(format!("open {} for the simulator: {e}", args.iface)))?;
     println!(
         "vcan SDO benchmark on {}: {} expedited reads of 0x1000, {}-byte segmented and block \
-         uploads of 0x2001 from the simulated device {:#04x}",
-        args.iface, args.count, args.size, args.node
+         uploads of 0x2001 from the simulated device {:#04x}{}",
+        args.iface,
+        args.count,
+        args.size,
+        args.node,
+        match args.pin_cpu {
+            Some(cpu) => format!(", everything on CPU {cpu}"),
+            None => String::new(),
+        }
     );
     let sim0 = sim_calls.snapshot();
     let rust = master(args, node, master_calls.clone())?;
