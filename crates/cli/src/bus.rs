@@ -215,7 +215,7 @@ fn open(opts: &BusOpts) -> Result<Bus, String> {
             // The master's endpoint first, so it sees the devices' boot-up messages.
             let endpoint = bus.endpoint();
             for (node, od) in &dictionaries {
-                bus.attach(SimDevice::new(*node, od.clone()));
+                bus.attach(SimStation::for_dictionary(*node, od.clone()));
             }
             Ok(Bus {
                 transport: Box::new(endpoint),
@@ -836,6 +836,59 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &PathBuf, g: Global) -> ExitCode 
     ExitCode::SUCCESS
 }
 
+/// A simulated device for a dictionary: the Bürkert device (locating, NE 107, logbook, resets
+/// through 0x2001) when the dictionary carries the Bürkert profile, the generic simulator otherwise.
+pub(crate) enum SimStation {
+    /// Any EDS.
+    Generic(Box<SimDevice>),
+    /// An EDS with the Bürkert profile objects.
+    Burkert(Box<burkert_profile::BurkertDevice>),
+}
+
+impl SimStation {
+    pub(crate) fn for_dictionary(node: NodeId, od: canopen_od::ObjectDictionary) -> Self {
+        // The profile's device description, communication, status and locating objects.
+        let burkert = [(0x2000, 1), (0x2001, 4), (0x2004, 1), (0x2101, 1)]
+            .iter()
+            .all(|&(i, s)| od.sub(i, s).is_some());
+        if burkert {
+            Self::Burkert(Box::new(burkert_profile::BurkertDevice::with_dictionary(
+                node, od,
+            )))
+        } else {
+            Self::Generic(Box::new(SimDevice::new(node, od)))
+        }
+    }
+
+    fn station(&mut self) -> &mut dyn canopen::Station {
+        match self {
+            Self::Generic(d) => d.as_mut(),
+            Self::Burkert(d) => d.as_mut(),
+        }
+    }
+}
+
+impl canopen::Station for SimStation {
+    fn handle_frame(&mut self, now: can_frame::Instant, frame: &can_frame::CanFrame) {
+        self.station().handle_frame(now, frame);
+    }
+    fn handle_timeout(&mut self, now: can_frame::Instant) {
+        self.station().handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<can_frame::CanFrame> {
+        self.station().poll_transmit()
+    }
+    fn poll_timeout(&self) -> Option<can_frame::Instant> {
+        match self {
+            Self::Generic(d) => d.poll_timeout(),
+            Self::Burkert(d) => d.poll_timeout(),
+        }
+    }
+    fn handle_bus_event(&mut self, now: can_frame::Instant, event: &canopen::BusEvent) {
+        self.station().handle_bus_event(now, event);
+    }
+}
+
 /// `canopen simulate EDS --node-id N`
 pub(crate) fn run_simulate(
     opts: &BusOpts,
@@ -848,8 +901,8 @@ pub(crate) fn run_simulate(
         Ok(t) => t,
         Err(e) => return fail(format!("{}: {e}", eds.display())),
     };
-    let mut dev = match SimDevice::from_eds(node, &text) {
-        Ok(d) => d,
+    let mut dev = match canopen_od::parse(&text) {
+        Ok(parsed) => SimStation::for_dictionary(node, parsed.od),
         Err(e) => return fail(format!("{}: {e}", eds.display())),
     };
     let mut bus = match open(opts) {

@@ -274,7 +274,23 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         "   wrote 0x2101:01 = 1: the device is locating (LED flashing): {}",
         bus.with_station(dev6, |d| d.locating()).unwrap_or(false)
     ));
+    net.node(n6).sdo().write((0x2101, 1), 0u8)?;
     show_traffic(&mut tap, 4);
+    // The Bürkert view of the same device (burkert_profile::BurkertNode): the whole status in
+    // one batch of SDO reads with the LED drawn, a locate (honouring "0 before 1"), and the
+    // logbook by block transfer with a progress bar.
+    outln("   BurkertNode walkthrough:");
+    let options = burkert_profile::demo::Options {
+        ansi: std::io::IsTerminal::is_terminal(&std::io::stdout()),
+        block: true,
+    };
+    let mut text = Vec::new();
+    let walk = burkert_profile::demo::run_with(&net, n6, &mut text, options);
+    for line in String::from_utf8_lossy(&text).lines() {
+        outln(&format!("   {line}"));
+    }
+    walk?;
+    show_traffic(&mut tap, 2);
 
     step("8. NMT Stop to node 6: its heartbeat reports Stopped");
     net.node(n6).nmt().stop()?;

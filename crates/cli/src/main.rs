@@ -9,10 +9,10 @@ use clap::{Parser, Subcommand};
 
 mod burkert;
 mod bus;
-mod lss_cmd;
 mod cpos;
 mod demo;
 mod eds;
+mod lss_cmd;
 
 /// CANopen master tools: EDS files, and (with the bus commands) devices on SocketCAN or a
 /// simulated bus.
@@ -101,7 +101,9 @@ struct Global {
 pub(crate) fn out(text: &str) {
     use std::io::Write as _;
     let mut stdout = std::io::stdout().lock();
-    if let Err(e) = stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush())
+    if let Err(e) = stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
         && e.kind() != std::io::ErrorKind::BrokenPipe
     {
         eprintln!("canopen: cannot write to stdout: {e}");
