@@ -34,9 +34,6 @@ pub mod ne107;
 
 /// Typed entries generated from `eds/burkert-generic.eds`: VAR objects as constants, ARRAY and
 /// RECORD objects as modules (e.g. `objects::device_status_object::DEVICE_STATUS_NAMUR_NE107`).
-// EDS parameter names such as "Operation Time_[s]" reach the generated docs unescaped; the
-// code generator should escape brackets (reported to its owner).
-#[allow(rustdoc::broken_intra_doc_links)]
 pub mod objects {
     include!(concat!(env!("OUT_DIR"), "/burkert-generic.rs"));
 }

@@ -237,13 +237,21 @@ fn variant(dt: DataType) -> String {
     }
 }
 
-/// A doc comment line: one line of text, no control characters.
+/// A doc comment line: one line of text, no control characters, and square brackets escaped so
+/// rustdoc does not take EDS names such as `Operation Time_[s]` for intra-doc links.
 fn doc_line(text: &str) -> String {
-    text.chars()
-        .map(|c| if c.is_control() { ' ' } else { c })
-        .collect::<String>()
-        .trim()
-        .to_owned()
+    let mut out = String::with_capacity(text.len());
+    for c in text.trim().chars() {
+        match c {
+            '[' | ']' => {
+                out.push('\\');
+                out.push(c);
+            }
+            c if c.is_control() => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 impl Generator<'_> {

@@ -1429,7 +1429,7 @@ pub mod device_status_object {
     ///
     /// `0x2004` sub 3: REAL32, ro; default `24.0`.
     pub const DEVICE_SUPPLY_VOLTAGE: ::canopen_od::Entry<f32> = ::canopen_od::Entry::new(0x2004, 3, ::canopen_od::DataType::Real32);
-    /// Operation Time_[s]
+    /// Operation Time_\[s\]
     ///
     /// `0x2004` sub 4: UNSIGNED32, ro; default `0`.
     pub const OPERATION_TIME_S: ::canopen_od::Entry<u32> = ::canopen_od::Entry::new(0x2004, 4, ::canopen_od::DataType::Unsigned32);
