@@ -2,12 +2,16 @@
 //! text that decodes to the same value, and its bytes decode back to it.
 #![no_main]
 
-use canopen_od::{DataType, EdsValue, Value, BASIC_DATA_TYPES};
+use canopen_od::{BASIC_DATA_TYPES, DataType, EdsValue, Value};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let Some((&selector, rest)) = data.split_first() else { return };
-    let Ok(text) = core::str::from_utf8(rest) else { return };
+    let Some((&selector, rest)) = data.split_first() else {
+        return;
+    };
+    let Ok(text) = core::str::from_utf8(rest) else {
+        return;
+    };
     let dt = BASIC_DATA_TYPES[usize::from(selector) % BASIC_DATA_TYPES.len()];
     let _ = EdsValue::parse(DataType::Other(u16::from(selector)), text);
     if let Ok((v, _)) = EdsValue::parse(dt, text) {
@@ -19,7 +23,10 @@ fuzz_target!(|data: &[u8]| {
             assert_eq!(back, v);
         }
         let bytes = v.value.to_le_bytes();
-        assert_eq!(Value::from_le_bytes(dt, &bytes).expect("own bytes decode"), v.value);
+        assert_eq!(
+            Value::from_le_bytes(dt, &bytes).expect("own bytes decode"),
+            v.value
+        );
     }
     let _ = Value::from_le_bytes(dt, rest);
 });
