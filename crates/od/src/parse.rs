@@ -324,10 +324,15 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
     let mut seen: BTreeMap<(SectionKind, String), usize> = BTreeMap::new();
     let mut current: Option<usize> = None;
     let mut hash_comment_reported = false;
-    for (i, raw) in text.split('\n').enumerate() {
+    let mut line_count = 0usize;
+    // One byte loop per line finds both its end and its first `=` (lines are short, so this
+    // beats a separate search for each).
+    let mut lines = Lines { text, offset: 0 };
+    while let Some((raw, eq)) = lines.next_line() {
+        line_count += 1;
         let line_start = offset;
         offset += raw.len() + 1;
-        let line_no = u32::try_from(i + 1).unwrap_or(u32::MAX);
+        let line_no = u32::try_from(line_count).unwrap_or(u32::MAX);
         let line = raw.strip_suffix('\r').unwrap_or(raw);
         let trimmed = line.trim_ascii();
         if trimmed.is_empty() || trimmed.starts_with(';') {
@@ -433,7 +438,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
             }
             continue;
         }
-        let Some(eq) = line.find('=') else {
+        let Some(eq) = eq.filter(|&e| e < line.len()) else {
             sink.error(
                 K::Syntax,
                 line_no,
@@ -508,6 +513,35 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         sections,
         subs,
         built,
+    }
+}
+
+/// Splits text into lines like `str::split('\n')` (a final piece after the last newline, even
+/// if empty), with the position of each line's first `=`.
+struct Lines<'a> {
+    text: &'a str,
+    /// Start of the next line; past the end when done.
+    offset: usize,
+}
+
+impl<'a> Lines<'a> {
+    fn next_line(&mut self) -> Option<(&'a str, Option<usize>)> {
+        let rest = self.text.as_bytes().get(self.offset..)?;
+        let mut eq = None;
+        let mut end = rest.len();
+        for (i, &b) in rest.iter().enumerate() {
+            if b == b'\n' {
+                end = i;
+                break;
+            }
+            if b == b'=' && eq.is_none() {
+                eq = Some(i);
+            }
+        }
+        // `\n` and `=` are ASCII, so both positions are character boundaries.
+        let line = self.text.get(self.offset..self.offset + end).unwrap_or("");
+        self.offset += end + 1;
+        Some((line, eq))
     }
 }
 
@@ -644,7 +678,7 @@ fn build_sub(
         index,
         sub: Some(s),
     };
-    let sk = resolve_keys(&sec, &OBJ_KEYS, sink);
+    let sk = resolve_keys(&sec, (&OBJ_KEYS, &OBJ_SIGS), sink);
     let scode = object_code(sink, &sk, swhat)?;
     let sub = sub_object(sink, &sk, s, scode, line, swhat)?;
     if let Some((_, l)) = sk.slots[P_SUBNUMBER].or(sk.slots[P_COMPACT]) {
@@ -700,7 +734,7 @@ struct Keys<'a, const N: usize> {
 
 fn resolve_keys<'a, const N: usize>(
     sec: &Section<'_, 'a>,
-    table: &[&str; N],
+    (table, sigs): (&[&str; N], &[u32; N]),
     sink: &mut Sink,
 ) -> Keys<'a, N> {
     let mut k = Keys {
@@ -708,7 +742,7 @@ fn resolve_keys<'a, const N: usize>(
         extra: Vec::new(),
     };
     for e in sec.entries.iter() {
-        let slot = table.iter().position(|c| c.eq_ignore_ascii_case(e.key));
+        let slot = key_slot(table, sigs, e.key);
         match slot {
             Some(i) => {
                 let canon = table.get(i).copied().unwrap_or("");
@@ -738,6 +772,56 @@ fn resolve_keys<'a, const N: usize>(
     }
     dedup_extra(&mut k.extra, sec.name, sink);
     k
+}
+
+/// A cheap fingerprint of a key, the same for all ASCII case spellings of it: length and
+/// lower-cased first, second and last bytes. Keys with different fingerprints differ.
+const fn key_sig(key: &[u8]) -> u32 {
+    let n = key.len();
+    if n == 0 {
+        return 0;
+    }
+    let len = if n > 255 { 255 } else { n as u32 };
+    let second = if n > 1 { key[1] } else { 0 };
+    len | (key[0].to_ascii_lowercase() as u32) << 8
+        | (second.to_ascii_lowercase() as u32) << 16
+        | (key[n - 1].to_ascii_lowercase() as u32) << 24
+}
+
+/// ASCII case-insensitive equality as a plain byte loop (keys are short).
+fn eq_ci(a: &[u8], b: &[u8]) -> bool {
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| x.eq_ignore_ascii_case(y))
+}
+
+/// The fingerprints of a key table, computed at compile time.
+const fn key_sigs<const N: usize>(table: &[&str; N]) -> [u32; N] {
+    let mut out = [0u32; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = key_sig(table[i].as_bytes());
+        i += 1;
+    }
+    out
+}
+
+/// The position of `key` in `table`, ignoring ASCII case: fingerprints first, so a key is
+/// compared letter by letter only with the entry it most likely is.
+fn key_slot(table: &[&str], sigs: &[u32], key: &str) -> Option<usize> {
+    let sig = key_sig(key.as_bytes());
+    let mut from = 0;
+    while let Some(found) = sigs.get(from..)?.iter().position(|&s| s == sig) {
+        let i = from + found;
+        let canon = table.get(i)?;
+        // Exact spelling first: it is the usual case and a plain comparison.
+        if *canon == key || eq_ci(canon.as_bytes(), key.as_bytes()) {
+            return Some(i);
+        }
+        from = i + 1;
+    }
+    None
 }
 
 /// Merges repeated unknown keys (ignoring ASCII case): the first position keeps the last value.
@@ -1048,6 +1132,7 @@ const OBJ_KEYS: [&str; 15] = [
     "UploadFile",
     "DownloadFile",
 ];
+const OBJ_SIGS: [u32; 15] = key_sigs(&OBJ_KEYS);
 const P_NAME: usize = 0;
 const P_OBJTYPE: usize = 1;
 const P_DATATYPE: usize = 2;
@@ -1224,7 +1309,7 @@ fn object(
     sink: &mut Sink,
 ) -> Option<Object> {
     let what = Where { index, sub: None };
-    let k = resolve_keys(sec, &OBJ_KEYS, sink);
+    let k = resolve_keys(sec, (&OBJ_KEYS, &OBJ_SIGS), sink);
     let code = object_code(sink, &k, what)?;
     if code.is_simple() || matches!(code, ObjectCode::Other(_)) {
         let sub = sub_object(sink, &k, 0, ObjectCode::Var, sec.line, what)?;
@@ -1595,9 +1680,10 @@ const FILE_KEYS: [&str; 11] = [
     "ModificationDate",
     "ModifiedBy",
 ];
+const FILE_SIGS: [u32; 11] = key_sigs(&FILE_KEYS);
 
 fn file_info(sec: &Section<'_, '_>, sink: &mut Sink) -> FileInfo {
-    let k = resolve_keys(sec, &FILE_KEYS, sink);
+    let k = resolve_keys(sec, (&FILE_KEYS, &FILE_SIGS), sink);
     let s = |i: usize| k.slots[i].map(|(t, _)| t.to_string());
     if let Some((v, line)) = k.slots[3]
         && v != "4.0"
@@ -1649,9 +1735,10 @@ const DEVICE_KEYS: [&str; 23] = [
     "LSS_Supported",
     "CompactPDO",
 ];
+const DEVICE_SIGS: [u32; 23] = key_sigs(&DEVICE_KEYS);
 
 fn device_info(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceInfo {
-    let k = resolve_keys(sec, &DEVICE_KEYS, sink);
+    let k = resolve_keys(sec, (&DEVICE_KEYS, &DEVICE_SIGS), sink);
     let mut extra = extra_owned(&k.extra);
     // A known key whose value cannot be read is kept verbatim so the file round-trips.
     let mut num = |i: usize, max: u64| -> Option<u64> {
@@ -1712,9 +1799,10 @@ const COMM_KEYS: [&str; 7] = [
     "CANopenManager",
     "LSS_SerialNumber",
 ];
+const COMM_SIGS: [u32; 7] = key_sigs(&COMM_KEYS);
 
 fn commissioning(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceCommissioning {
-    let k = resolve_keys(sec, &COMM_KEYS, sink);
+    let k = resolve_keys(sec, (&COMM_KEYS, &COMM_SIGS), sink);
     let mut extra = extra_owned(&k.extra);
     let mut num = |i: usize, max: u64| -> Option<u64> {
         let v = k.slots[i]?;
@@ -1745,6 +1833,45 @@ fn commissioning(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceCommissioning 
 mod tests {
     use super::*;
     use crate::value::Value;
+
+    #[test]
+    fn lines_split_like_str_split() {
+        for text in [
+            "",
+            "\n",
+            "a",
+            "a\n",
+            "a=b\r\nc\n\n=d=e\nf",
+            "k=v\n[x]\n\u{e9}=\u{fc}\n",
+        ] {
+            let mut lines = Lines { text, offset: 0 };
+            let mut got = Vec::new();
+            while let Some(l) = lines.next_line() {
+                got.push(l);
+            }
+            let want: Vec<(&str, Option<usize>)> =
+                text.split('\n').map(|l| (l, l.find('='))).collect();
+            assert_eq!(got, want, "{text:?}");
+        }
+    }
+
+    #[test]
+    fn key_slots_ignore_case_only() {
+        for (i, key) in OBJ_KEYS.iter().enumerate() {
+            assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, key), Some(i));
+            let upper = key.to_ascii_uppercase();
+            assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, &upper), Some(i));
+            let lower = key.to_ascii_lowercase();
+            assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, &lower), Some(i));
+        }
+        for (i, key) in DEVICE_KEYS.iter().enumerate() {
+            assert_eq!(key_slot(&DEVICE_KEYS, &DEVICE_SIGS, key), Some(i));
+        }
+        // Same length, first, second and last letters as `DataType`, different middle.
+        assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, "DaXaTyXe"), None);
+        assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, ""), None);
+        assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, "ParameterName "), None);
+    }
 
     const MINI: &str = "[FileInfo]\r\nEDSVersion=4.0\r\n[DeviceInfo]\r\nVendorNumber=0x123\r\nBaudRate_250=1\r\n\
 [1017]\r\nParameterName=Producer heartbeat time\r\nObjectType=0x7\r\nDataType=0x0006\r\nAccessType=rw\r\nDefaultValue=1000\r\nPDOMapping=0\r\n\
