@@ -745,16 +745,119 @@ pub(crate) fn run_monitor(opts: &BusOpts, duration: Option<f64>, g: Global) -> E
         Ok(b) => b,
         Err(e) => return fail(e),
     };
+    let pdos = PdoDecoder::from_dictionaries(&bus.dictionaries);
     let r = pump(&mut bus, duration, |frame, at| {
+        let text = pdos.decode(frame).unwrap_or_else(|| decode(frame));
         if g.json {
-            outln(&json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string(), "decoded": decode(frame)}).to_string());
+            outln(&json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string(), "decoded": text}).to_string());
         } else {
-            outln(&format!("{at}  {}", decode(frame)));
+            outln(&format!("{at}  {text}"));
         }
     });
     match r {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => fail(e),
+    }
+}
+
+/// Decodes PDO frames through the mappings of the `--eds` dictionaries: for every node with a
+/// dictionary, each TPDO (0x1800/0x1A00..) and RPDO (0x1400/0x1600..) whose COB-ID is valid,
+/// with the mapped objects named from the dictionary.
+struct PdoDecoder {
+    by_cob_id: std::collections::HashMap<u16, PdoLayout>,
+}
+
+struct PdoLayout {
+    label: String,
+    mapping: canopen_pdo::Mapping,
+    names: Vec<String>,
+}
+
+impl PdoDecoder {
+    fn from_dictionaries(dictionaries: &[(NodeId, canopen_od::ObjectDictionary)]) -> Self {
+        use canopen_pdo::{CommParams, Direction, Mapping};
+        let mut by_cob_id = std::collections::HashMap::new();
+        for (node, od) in dictionaries {
+            let view = canopen_pdo::od::OdView::new(od, node.get());
+            for (kind, comm_base, map_base, direction) in [
+                ("TPDO", 0x1800u16, 0x1A00u16, Direction::Transmit),
+                ("RPDO", 0x1400, 0x1600, Direction::Receive),
+            ] {
+                for n in 0..512u16 {
+                    let (Ok(comm), Ok(mapping)) = (
+                        CommParams::read_from(&view, comm_base + n),
+                        Mapping::read_from(&view, direction, map_base + n),
+                    ) else {
+                        continue;
+                    };
+                    let Ok(can_frame::CanId::Standard(id)) = comm.cob_id.can_id() else {
+                        continue;
+                    };
+                    if !comm.cob_id.is_valid() || mapping.len() == 0 {
+                        continue;
+                    }
+                    let names = mapping
+                        .objects()
+                        .iter()
+                        .map(|o| {
+                            let (i, s) = (o.entry.index(), o.entry.subindex());
+                            match (od.get(i), od.sub(i, s)) {
+                                (Some(obj), Some(sub)) if !obj.is_simple() => {
+                                    format!("{} / {}", obj.name, sub.name)
+                                }
+                                (Some(obj), _) => obj.name.clone(),
+                                _ => format!("{i:#06x}:{s:02x}"),
+                            }
+                        })
+                        .collect();
+                    let label = format!("{kind}{} node {node}", n + 1);
+                    by_cob_id.insert(
+                        id.as_raw(),
+                        PdoLayout {
+                            label,
+                            mapping,
+                            names,
+                        },
+                    );
+                }
+            }
+        }
+        Self { by_cob_id }
+    }
+
+    fn decode(&self, frame: &CanFrame) -> Option<String> {
+        let layout = self.by_cob_id.get(&frame.cob_id()?)?;
+        if frame.is_remote() {
+            return None;
+        }
+        let values = match canopen_pdo::unpack(&layout.mapping, frame.data()) {
+            Ok(v) => v,
+            Err(e) => {
+                return Some(format!(
+                    "{}: {} (does not fit its mapping: {e})",
+                    layout.label,
+                    hex(frame.data())
+                ));
+            }
+        };
+        let fields: Vec<String> = values
+            .iter()
+            .zip(&layout.names)
+            .map(|((_, v), name)| format!("{name} = {}", pdo_value(&v)))
+            .collect();
+        Some(format!("{}: {}", layout.label, fields.join(", ")))
+    }
+}
+
+fn pdo_value(v: &canopen_pdo::Value) -> String {
+    use canopen_pdo::Value as V;
+    match v {
+        V::Bool(b) => b.to_string(),
+        V::Unsigned(u) => u.to_string(),
+        V::Signed(i) => i.to_string(),
+        V::Real32(f) => f.to_string(),
+        V::Real64(f) => f.to_string(),
+        V::Bytes(b) => format!("{b:?}"),
     }
 }
 
@@ -944,4 +1047,54 @@ pub(crate) fn run_simulate(
 /// Convenience for the demo: an SDO error printed the way the CLI prints it.
 pub(crate) fn explain(e: &Error) -> String {
     e.to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn burkert(node: u8) -> (NodeId, canopen_od::ObjectDictionary) {
+        let eds = include_bytes!("../../../eds/burkert-generic.eds");
+        (
+            NodeId::new(node).unwrap(),
+            canopen_od::parse(eds).unwrap().od,
+        )
+    }
+
+    #[test]
+    fn monitor_decodes_pdos_through_the_eds_mapping() {
+        let pdos = PdoDecoder::from_dictionaries(&[burkert(5)]);
+        // TPDO1 of node 5 (0x185) maps sensor values 1 and 2, both REAL32.
+        let mut data = [0u8; 8];
+        data[..4].copy_from_slice(&1.5f32.to_le_bytes());
+        data[4..].copy_from_slice(&(-2.25f32).to_le_bytes());
+        let frame = CanFrame::new(can_frame::CanId::standard(0x185).unwrap(), &data).unwrap();
+        assert_eq!(
+            pdos.decode(&frame).as_deref(),
+            Some("TPDO1 node 5: Sensor Value 1 / Value = 1.5, Sensor Value 2 / Value = -2.25")
+        );
+        // TPDO3 (0x385) carries the NE 107 status byte.
+        let frame = CanFrame::new(can_frame::CanId::standard(0x385).unwrap(), &[2]).unwrap();
+        assert_eq!(
+            pdos.decode(&frame).as_deref(),
+            Some("TPDO3 node 5: Device Status Object / Device Status NamurNe107 = 2")
+        );
+        // RPDO1 of node 5 (0x205) maps control values 1 and 2.
+        let frame = CanFrame::new(can_frame::CanId::standard(0x205).unwrap(), &data).unwrap();
+        assert!(
+            pdos.decode(&frame)
+                .unwrap()
+                .starts_with("RPDO1 node 5: Control Value 1 / Value = 1.5")
+        );
+        // A frame too short for its mapping is reported, not decoded.
+        let short = CanFrame::new(can_frame::CanId::standard(0x185).unwrap(), &[1, 2]).unwrap();
+        assert!(
+            pdos.decode(&short)
+                .unwrap()
+                .contains("does not fit its mapping")
+        );
+        // Nodes without a dictionary fall back to the generic decoder.
+        let other = CanFrame::new(can_frame::CanId::standard(0x186).unwrap(), &[1]).unwrap();
+        assert_eq!(pdos.decode(&other), None);
+    }
 }
