@@ -793,7 +793,7 @@ impl PdoDecoder {
                     let Ok(can_frame::CanId::Standard(id)) = comm.cob_id.can_id() else {
                         continue;
                     };
-                    if !comm.cob_id.is_valid() || mapping.len() == 0 {
+                    if !comm.cob_id.is_valid() || mapping.is_empty() {
                         continue;
                     }
                     let names = mapping
