@@ -184,6 +184,8 @@ impl SubRec<'_> {
 /// The sub section being read.
 struct OpenSub<'a> {
     key: (u16, u8),
+    /// Higher than every sub section before it (so certainly not a repetition).
+    new_highest: bool,
     name: &'a str,
     line: u32,
     entries_start: usize,
@@ -314,7 +316,7 @@ fn classify(name: &str) -> (SectionKind, Option<String>) {
 fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
     let mut sections: Vec<Scanned<'a>> = Vec::new();
     let mut subs: BTreeMap<(u16, u8), SubRec<'a>> = BTreeMap::new();
-    let mut built: BTreeMap<u16, Vec<SubObject>> = BTreeMap::new();
+    let mut built = Built::default();
     let mut open_sub: Option<OpenSub<'a>> = None;
     let mut offset = 0usize;
     // Holds the entries of every section but the sub sections, which are built and dropped
@@ -324,6 +326,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
     let mut seen: BTreeMap<(SectionKind, String), usize> = BTreeMap::new();
     let mut current: Option<usize> = None;
     let mut hash_comment_reported = false;
+    let mut highest_sub: Option<(u16, u8)> = None;
     let mut line_count = 0usize;
     // One byte loop per line finds both its end and its first `=` (lines are short, so this
     // beats a separate search for each).
@@ -384,7 +387,12 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                 sink.warn(K::Spelling, line_no, n);
             }
             if let SectionKind::Sub(i, s) = kind {
-                if let Some(rec) = subs.get(&(i, s)) {
+                // Sub sections usually come in increasing order: one beyond the highest seen
+                // so far cannot be a repetition, and needs no look-up.
+                let new_highest = highest_sub < Some((i, s));
+                if new_highest {
+                    highest_sub = Some((i, s));
+                } else if let Some(rec) = subs.get(&(i, s)) {
                     sink.warn(
                         K::Duplicate,
                         line_no,
@@ -396,6 +404,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                 }
                 open_sub = Some(OpenSub {
                     key: (i, s),
+                    new_highest,
                     name,
                     line: line_no,
                     entries_start: entries.len(),
@@ -507,6 +516,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
     if let Some(open) = open_sub.take() {
         finish_sub(open, text.len(), &mut entries, &mut subs, &mut built);
     }
+    let mut built = built.into_map();
     rebuild_repeated(text, &mut subs, &mut built);
     Scan {
         entries,
@@ -555,6 +565,37 @@ struct Scan<'a> {
     built: BTreeMap<u16, Vec<SubObject>>,
 }
 
+/// The sub-objects built so far, per index, in file order. The list being filled (sub
+/// sections of one object usually follow each other) is kept out of the map, so that a map
+/// look-up is needed only when the index changes.
+#[derive(Default)]
+struct Built {
+    map: BTreeMap<u16, Vec<SubObject>>,
+    current: Option<(u16, Vec<SubObject>)>,
+}
+
+impl Built {
+    fn list(&mut self, index: u16) -> &mut Vec<SubObject> {
+        match &mut self.current {
+            Some((i, _)) if *i == index => {}
+            current => {
+                let list = self.map.remove(&index).unwrap_or_default();
+                if let Some((i, done)) = current.replace((index, list)) {
+                    self.map.insert(i, done);
+                }
+            }
+        }
+        &mut self.current.get_or_insert_with(|| (index, Vec::new())).1
+    }
+
+    fn into_map(mut self) -> BTreeMap<u16, Vec<SubObject>> {
+        if let Some((i, list)) = self.current.take() {
+            self.map.insert(i, list);
+        }
+        self.map
+    }
+}
+
 /// Builds the sub-object of a sub section that just ended and drops its entries. A repeated
 /// section is rebuilt from all its occurrences, re-read from the text.
 fn finish_sub<'a>(
@@ -562,13 +603,18 @@ fn finish_sub<'a>(
     byte_end: usize,
     entries: &mut Vec<Entry<'a>>,
     subs: &mut BTreeMap<(u16, u8), SubRec<'a>>,
-    built: &mut BTreeMap<u16, Vec<SubObject>>,
+    built: &mut Built,
 ) {
     let byte_end = byte_end.max(open.byte_start);
     let mut local = Sink::default();
     let index = open.key.0;
-    let list = built.entry(index).or_default();
-    match subs.get_mut(&open.key) {
+    let list = built.list(index);
+    let existing = if open.new_highest {
+        None
+    } else {
+        subs.get_mut(&open.key)
+    };
+    match existing {
         None => {
             let own = entries.get(open.entries_start..).unwrap_or(&[]);
             let sub = build_sub(open.key, open.name, open.line, own, &mut local);
@@ -790,10 +836,7 @@ const fn key_sig(key: &[u8]) -> u32 {
 
 /// ASCII case-insensitive equality as a plain byte loop (keys are short).
 fn eq_ci(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len()
-        && a.iter()
-            .zip(b)
-            .all(|(x, y)| x.eq_ignore_ascii_case(y))
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.eq_ignore_ascii_case(y))
 }
 
 /// The fingerprints of a key table, computed at compile time.
