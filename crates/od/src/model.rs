@@ -52,7 +52,7 @@ impl FieldValue {
     /// A field from text, decoded for `data_type`. Returns the decoding error (if any) and the
     /// non-standard spellings that were accepted alongside the field.
     pub fn from_text(data_type: DataType, text: &str) -> (Self, Result<TextNotes, TextError>) {
-        let text = text.trim();
+        let text = crate::value::trim(text);
         match EdsValue::parse(data_type, text) {
             Ok((v, notes)) => (
                 Self {

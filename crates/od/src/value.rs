@@ -218,7 +218,7 @@ impl EdsValue {
     /// byte strings, and `$NODEID`, `$NODEID+N`, `N+$NODEID` in any case and spacing.
     pub fn parse(data_type: DataType, text: &str) -> Result<(Self, TextNotes), TextError> {
         let mut notes = TextNotes::default();
-        let text = text.trim();
+        let text = trim(text);
         if let Some(pos) = find_node_id(text) {
             if data_type.integer_bits().is_none() || data_type == DataType::Boolean {
                 return Err(TextError::NodeIdNotAllowed(data_type));
@@ -280,6 +280,15 @@ impl EdsValue {
     }
 }
 
+/// `str::trim`, skipped when the text visibly has nothing to trim (the parser hands over
+/// trimmed text, so this is the common case).
+pub(crate) fn trim(text: &str) -> &str {
+    match (text.as_bytes().first(), text.as_bytes().last()) {
+        (Some(a), Some(b)) if a.is_ascii_graphic() && b.is_ascii_graphic() => text,
+        _ => text.trim(),
+    }
+}
+
 const NODEID: &str = "$NODEID";
 
 fn find_node_id(text: &str) -> Option<usize> {
@@ -298,7 +307,7 @@ fn find_node_id(text: &str) -> Option<usize> {
 
 /// Splits sign, radix and digits of an integer literal and returns the signed magnitude.
 pub(crate) fn parse_int_literal(text: &str, notes: &mut TextNotes) -> Option<(i128, bool)> {
-    let mut s = text.trim();
+    let mut s = trim(text);
     let negative = if let Some(r) = s.strip_prefix('-') {
         s = r.trim_start();
         true
@@ -309,7 +318,10 @@ pub(crate) fn parse_int_literal(text: &str, notes: &mut TextNotes) -> Option<(i1
         false
     };
     // C suffixes: U, L, UL, LL, ULL in any case (never hex digits, so safe to strip first).
-    let unsuffixed = s.trim_end_matches(['u', 'U', 'l', 'L']);
+    let unsuffixed = match s.as_bytes().last() {
+        Some(b'u' | b'U' | b'l' | b'L') => s.trim_end_matches(['u', 'U', 'l', 'L']),
+        _ => s,
+    };
     if unsuffixed.len() != s.len() {
         notes.c_suffix = true;
         s = unsuffixed;
@@ -331,17 +343,23 @@ pub(crate) fn parse_int_literal(text: &str, notes: &mut TextNotes) -> Option<(i1
         radix = 10;
         digits = s;
     }
-    let mut acc: u128 = 0;
+    // Values beyond u64::MAX are refused: checked u64 arithmetic fails exactly then.
+    let mut acc: u64 = 0;
     for c in digits.bytes() {
-        let d = (c as char).to_digit(radix)?;
-        acc = acc
-            .checked_mul(u128::from(radix))?
-            .checked_add(u128::from(d))?;
-        if acc > u128::from(u64::MAX) {
+        let d = match c {
+            b'0'..=b'9' => c - b'0',
+            b'a'..=b'f' => c - b'a' + 10,
+            b'A'..=b'F' => c - b'A' + 10,
+            _ => return None,
+        };
+        if u32::from(d) >= radix {
             return None;
         }
+        acc = acc
+            .checked_mul(u64::from(radix))?
+            .checked_add(u64::from(d))?;
     }
-    let mag = acc as i128;
+    let mag = i128::from(acc);
     Some((if negative { -mag } else { mag }, radix != 10))
 }
 
@@ -746,6 +764,30 @@ fn push_quoted(s: &mut String, text: &str) {
 mod tests {
     use super::*;
     use alloc::vec;
+
+    #[test]
+    fn int_literal_limits() {
+        let mut n = TextNotes::default();
+        let max = i128::from(u64::MAX);
+        assert_eq!(
+            parse_int_literal("0xFFFFFFFFFFFFFFFF", &mut n),
+            Some((max, true))
+        );
+        assert_eq!(
+            parse_int_literal("18446744073709551615", &mut n),
+            Some((max, false))
+        );
+        assert_eq!(parse_int_literal("0x10000000000000000", &mut n), None);
+        assert_eq!(parse_int_literal("18446744073709551616", &mut n), None);
+        assert_eq!(parse_int_literal("-0x1f", &mut n), Some((-31, true)));
+        assert_eq!(parse_int_literal("017", &mut n), Some((15, true)));
+        assert_eq!(parse_int_literal("0x1G", &mut n), None);
+        assert_eq!(parse_int_literal("12a", &mut n), None);
+        assert_eq!(parse_int_literal("0x", &mut n), None);
+        assert!(n.is_clean());
+        assert_eq!(parse_int_literal(" 5LL ", &mut n), Some((5, false)));
+        assert!(n.c_suffix);
+    }
 
     fn p(dt: DataType, t: &str) -> EdsValue {
         EdsValue::parse(dt, t).unwrap().0
