@@ -461,6 +461,15 @@ impl Core {
 
     /// Cancels a request: a queued one is dropped, a running one is aborted on the bus (the
     /// node is free for the next request at once). Its result is discarded.
+    /// The node and object a request in flight is for.
+    pub(crate) fn request_target(&self, id: RequestId) -> Option<(NodeId, Entry)> {
+        match self.requests.get(&id)? {
+            ReqState::Queued(req) => Some((req.node, req.entry)),
+            ReqState::Active { node, entry, .. } => Some((*node, *entry)),
+            ReqState::Done(_) => None,
+        }
+    }
+
     pub(crate) fn cancel(&mut self, id: RequestId) {
         let Some(state) = self.requests.remove(&id) else {
             return;

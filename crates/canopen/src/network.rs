@@ -267,13 +267,18 @@ impl Network {
         match r {
             Ok(r) => r,
             Err(e) => {
-                self.core().cancel(id);
-                Err(SdoError {
-                    node: NodeId::MIN,
-                    entry: Entry::new(0, 0),
+                // A transport failure ends the request: say which node and object it was for.
+                let mut core = self.core();
+                let (node, entry) = core
+                    .request_target(id)
+                    .unwrap_or((NodeId::MIN, Entry::new(0, 0)));
+                core.cancel(id);
+                Err(core.name_error(SdoError {
+                    node,
+                    entry,
                     name: None,
                     kind: SdoErrorKind::Transport(e.to_string()),
-                })
+                }))
             }
         }
     }

@@ -680,3 +680,17 @@ fn node_guarding_loss_and_recovery() {
         "{ev:?}"
     );
 }
+
+#[test]
+fn transport_failure_names_the_node_and_object() {
+    let r = rig(&[5]);
+    let pending = r.net.node(n(5)).sdo().submit_read((0x1008, 0));
+    r.bus
+        .inject_event(canopen::transport::BusEvent::InterfaceDown);
+    let e = pending.wait().unwrap_err();
+    assert!(matches!(e.kind, SdoErrorKind::Transport(_)), "{e:?}");
+    let text = e.to_string();
+    assert!(text.contains("node 5"), "{text}");
+    assert!(text.contains("0x1008"), "{text}");
+    assert!(text.contains("Manufacturer Device Name"), "{text}");
+}
