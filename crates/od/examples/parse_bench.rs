@@ -320,7 +320,7 @@ n = sum(len(o) if hasattr(o, 'subindices') else 1 for o in od.values())\nprint(n
         );
     }
     println!(
-        "ratio python-canopen / canopen-od (best of {runs} each): wall time {:.0}x, peak RSS {:.1}x, CPU time {:.0}x (medians: wall {:.0}x, CPU {:.0}x)",
+        "ratio python-canopen / canopen-od (best of {runs} each): wall time {:.0}x, peak RSS {:.1}x, CPU time {:.0}x (medians: wall {:.0}x, CPU {:.0}x; CPU times are in 10 ms steps, coarse for canopen-od: use `perf stat -e task-clock` for a precise figure)",
         p.wall.0 / r.wall.0,
         p.rss as f64 / r.rss.max(1) as f64,
         p.cpu.0 / r.cpu.0.max(0.005),
