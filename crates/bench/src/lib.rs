@@ -260,6 +260,8 @@ pub fn in_memory(
 ) -> Result<[Measured; 3], BenchError> {
     let bus = canopen::MemoryBus::with_config(config);
     let net = canopen::Network::new(bus.endpoint());
+    // A clean bus: no pause between transfers to one node (see Network::set_transfer_gap).
+    net.set_transfer_gap(can_frame::Duration::ZERO);
     bus.attach(device(node, large_len));
     let n = net.node(node);
     n.sdo().write((0x1017, 0), 0u16)?;

@@ -694,3 +694,35 @@ fn transport_failure_names_the_node_and_object() {
     assert!(text.contains("0x1008"), "{text}");
     assert!(text.contains("Manufacturer Device Name"), "{text}");
 }
+
+#[test]
+fn transfer_gap_is_settable() {
+    // 100 expedited reads of one node on the 1 Mbit/s timing model: the default 1 ms gap between
+    // transfers dominates; without it the reads go back to back.
+    let bus_time = |gap: Option<Duration>| {
+        let r = rig_with(
+            BusConfig {
+                bitrate: Some(1_000_000),
+                ..BusConfig::default()
+            },
+            &[5],
+        );
+        // No heartbeats from the device: only SDO frames on the bus.
+        r.net.node(n(5)).sdo().write((0x1017, 0), 0u16).unwrap();
+        if let Some(g) = gap {
+            r.net.set_transfer_gap(g);
+        }
+        let start = r.net.now();
+        for _ in 0..100 {
+            r.net.node(n(5)).sdo().read((0x1000, 0)).unwrap();
+        }
+        r.net.now() - start
+    };
+    let with_gap = bus_time(None);
+    let without = bus_time(Some(Duration::ZERO));
+    assert!(with_gap >= Duration::from_millis(100), "{with_gap}");
+    assert!(
+        without < Duration::from_millis(50),
+        "two frames of 111 bits per read: {without}"
+    );
+}
