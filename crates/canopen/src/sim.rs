@@ -224,15 +224,13 @@ impl ObjectAccess for Objects<'_> {
             let v = canopen_od::Value::from_le_bytes(s.data_type, &value)
                 .map_err(|_| AbortCode::LENGTH_MISMATCH)?;
             if let Some(x) = v.as_i128() {
-                let limit = |f: &Option<canopen_od::FieldValue>| {
-                    f.as_ref()
-                        .and_then(|f| f.resolve(0))
-                        .and_then(|v| v.as_i128())
+                let limit = |f: Option<&canopen_od::FieldValue>| {
+                    f.and_then(|f| f.resolve(0)).and_then(|v| v.as_i128())
                 };
-                if limit(&s.low_limit).is_some_and(|lo| x < lo) {
+                if limit(s.low_limit()).is_some_and(|lo| x < lo) {
                     return Err(AbortCode::VALUE_TOO_LOW);
                 }
-                if limit(&s.high_limit).is_some_and(|hi| x > hi) {
+                if limit(s.high_limit()).is_some_and(|hi| x > hi) {
                     return Err(AbortCode::VALUE_TOO_HIGH);
                 }
             }

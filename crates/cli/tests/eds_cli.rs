@@ -167,7 +167,7 @@ fn to_dcf_resolves_node_id() {
     let parsed = canopen_od::parse(text.as_bytes()).expect("the DCF parses");
     let emcy = parsed.od.sub(0x1014, 0).unwrap();
     assert_eq!(
-        emcy.parameter_value.as_ref().and_then(|p| p.resolve(5)),
+        emcy.parameter_value().and_then(|p| p.resolve(5)),
         Some(canopen_od::Value::Unsigned32(0x85))
     );
     let bad = canopen(&[

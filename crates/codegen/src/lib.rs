@@ -351,7 +351,7 @@ impl Generator<'_> {
         {
             let _ = write!(facts, "; default `{}`", doc_line(&d.text).replace('`', "'"));
         }
-        if let (Some(lo), Some(hi)) = (&sub.low_limit, &sub.high_limit) {
+        if let (Some(lo), Some(hi)) = (sub.low_limit(), sub.high_limit()) {
             let _ = write!(
                 facts,
                 "; limits `{}`..=`{}`",
@@ -360,7 +360,7 @@ impl Generator<'_> {
             );
         }
         let description = sub
-            .extra
+            .extra()
             .iter()
             .find(|(k, _)| k.eq_ignore_ascii_case("Description"))
             .map(|(_, v)| doc_line(v));

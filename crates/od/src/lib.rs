@@ -55,7 +55,7 @@ pub use lint::{lint, lint_source};
 #[cfg(feature = "alloc")]
 pub use model::{
     DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object, ObjectDictionary,
-    RawSection, SubObject, SubObjects,
+    RawSection, SubObject, SubObjectExtras, SubObjects,
 };
 #[cfg(feature = "alloc")]
 pub use parse::{ParseError, Parsed, parse};

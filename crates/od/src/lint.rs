@@ -123,13 +123,12 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
 }
 
 fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
-    let num = |f: &Option<crate::model::FieldValue>| {
-        f.as_ref()
-            .and_then(|f| f.value.as_ref())
+    let num = |f: Option<&crate::model::FieldValue>| {
+        f.and_then(|f| f.value.as_ref())
             .filter(|v| !v.node_id_relative)
             .and_then(|v| v.value.as_f64())
     };
-    let (low, high) = (num(&sub.low_limit), num(&sub.high_limit));
+    let (low, high) = (num(sub.low_limit()), num(sub.high_limit()));
     let what = || {
         if obj.is_simple() {
             format!("{:04X}", obj.index)
@@ -147,11 +146,11 @@ fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
         );
     }
     for (field, label) in [
-        (&sub.default_value, "DefaultValue"),
-        (&sub.parameter_value, "ParameterValue"),
+        (sub.default_value.as_ref(), "DefaultValue"),
+        (sub.parameter_value(), "ParameterValue"),
     ] {
         let Some(v) = num(field) else { continue };
-        let text = field.as_ref().map(|f| f.text.as_str()).unwrap_or("");
+        let text = field.map(|f| f.text.as_str()).unwrap_or("");
         if low.is_some_and(|l| v < l) || high.is_some_and(|h| v > h) {
             sink.warn(
                 K::Limits,
@@ -159,8 +158,8 @@ fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
                 format!(
                     "{}: {label}={text} is outside LowLimit..HighLimit ({}..{})",
                     what(),
-                    sub.low_limit.as_ref().map_or("-", |f| f.text.as_str()),
-                    sub.high_limit.as_ref().map_or("-", |f| f.text.as_str()),
+                    sub.low_limit().map_or("-", |f| f.text.as_str()),
+                    sub.high_limit().map_or("-", |f| f.text.as_str()),
                 ),
             );
         }
@@ -168,7 +167,7 @@ fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
 }
 
 fn codes(sink: &mut Sink, od: &ObjectDictionary, obj: &Object, sub: &SubObject) {
-    if let Some(raw) = &sub.access_raw {
+    if let Some(raw) = sub.access_raw() {
         sink.warn(
             K::InvalidCode,
             sub.line.0,

@@ -6,6 +6,7 @@
 //! ARRAY or RECORD has one sub-object per `[xxxxsubN]` section (or per `CompactSubObj` entry).
 //! Values are kept both as the source text and as typed [`EdsValue`]s ([`FieldValue`]).
 
+use alloc::boxed::Box;
 use alloc::collections::BTreeMap;
 use alloc::string::String;
 use alloc::vec::Vec;
@@ -78,25 +79,41 @@ impl FieldValue {
 }
 
 /// One sub-object (a VAR's only entry, or one sub-index of an ARRAY/RECORD).
-#[derive(Debug, Clone, PartialEq)]
+///
+/// The keys that most files give for every entry are fields; the rarely present ones
+/// (`LowLimit`, `HighLimit`, `ParameterValue`, `Denotation`, an invalid `AccessType` text and
+/// unknown keys) live out of line in [`SubObjectExtras`], allocated only when one is present.
+/// A dictionary holds tens of thousands of sub-objects, so this keeps a parsed model (and the
+/// page faults of building it) about three times smaller.
+#[derive(Debug, Clone)]
 pub struct SubObject {
     /// Sub-index.
     pub sub_index: u8,
-    /// `ParameterName`.
-    pub name: String,
     /// `ObjectType` of the sub-object section (VAR unless the file says otherwise).
     pub object_code: ObjectCode,
     /// `DataType`.
     pub data_type: DataType,
-    /// `AccessType`.
+    /// `AccessType` ([`AccessType::Ro`] when the file's text was none of the six CiA 306
+    /// spellings; the text is then in [`SubObjectExtras::access_raw`]).
     pub access: AccessType,
-    /// The `AccessType` text when it was none of the six CiA 306 spellings; `access` is then
-    /// [`AccessType::Ro`].
-    pub access_raw: Option<String>,
     /// `PDOMapping`: whether the entry may be mapped into a PDO.
     pub pdo_mapping: bool,
+    /// `ParameterName`.
+    pub name: String,
     /// `DefaultValue`.
     pub default_value: Option<FieldValue>,
+    /// `ObjFlags`.
+    pub obj_flags: Option<u32>,
+    /// Line of the section header (for a VAR: of the object's section).
+    pub line: Line,
+    extras: Option<Box<SubObjectExtras>>,
+}
+
+/// The keys of a sub-object section that most files leave out (see [`SubObject`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SubObjectExtras {
+    /// The `AccessType` text when it was none of the six CiA 306 spellings.
+    pub access_raw: Option<String>,
     /// `LowLimit`.
     pub low_limit: Option<FieldValue>,
     /// `HighLimit`.
@@ -105,12 +122,34 @@ pub struct SubObject {
     pub parameter_value: Option<FieldValue>,
     /// `Denotation` (DCF).
     pub denotation: Option<String>,
-    /// `ObjFlags`.
-    pub obj_flags: Option<u32>,
-    /// Other keys of the section.
+    /// Other keys of the section, in file order.
     pub extra: Extra,
-    /// Line of the section header (for a VAR: of the object's section).
-    pub line: Line,
+}
+
+/// What [`SubObject::extras`] returns when none are present.
+static NO_EXTRAS: SubObjectExtras = SubObjectExtras {
+    access_raw: None,
+    low_limit: None,
+    high_limit: None,
+    parameter_value: None,
+    denotation: None,
+    extra: Vec::new(),
+};
+
+impl PartialEq for SubObject {
+    /// Absent extras equal empty ones.
+    fn eq(&self, other: &Self) -> bool {
+        self.sub_index == other.sub_index
+            && self.object_code == other.object_code
+            && self.data_type == other.data_type
+            && self.access == other.access
+            && self.pdo_mapping == other.pdo_mapping
+            && self.name == other.name
+            && self.default_value == other.default_value
+            && self.obj_flags == other.obj_flags
+            && self.line == other.line
+            && self.extras() == other.extras()
+    }
 }
 
 impl SubObject {
@@ -123,20 +162,15 @@ impl SubObject {
     ) -> Self {
         Self {
             sub_index,
-            name: name.into(),
             object_code: ObjectCode::Var,
             data_type,
             access,
-            access_raw: None,
             pdo_mapping: false,
+            name: name.into(),
             default_value: None,
-            low_limit: None,
-            high_limit: None,
-            parameter_value: None,
-            denotation: None,
             obj_flags: None,
-            extra: Vec::new(),
             line: Line(0),
+            extras: None,
         }
     }
 
@@ -152,11 +186,50 @@ impl SubObject {
         self
     }
 
+    /// The rarely present keys (all empty when the file gave none).
+    pub fn extras(&self) -> &SubObjectExtras {
+        self.extras.as_deref().unwrap_or(&NO_EXTRAS)
+    }
+
+    /// Mutable access to the rarely present keys (allocated on first use).
+    pub fn extras_mut(&mut self) -> &mut SubObjectExtras {
+        self.extras.get_or_insert_with(Default::default)
+    }
+
+    /// `LowLimit`.
+    pub fn low_limit(&self) -> Option<&FieldValue> {
+        self.extras().low_limit.as_ref()
+    }
+
+    /// `HighLimit`.
+    pub fn high_limit(&self) -> Option<&FieldValue> {
+        self.extras().high_limit.as_ref()
+    }
+
+    /// `ParameterValue` (DCF).
+    pub fn parameter_value(&self) -> Option<&FieldValue> {
+        self.extras().parameter_value.as_ref()
+    }
+
+    /// `Denotation` (DCF).
+    pub fn denotation(&self) -> Option<&str> {
+        self.extras().denotation.as_deref()
+    }
+
+    /// The `AccessType` text when it was none of the six CiA 306 spellings.
+    pub fn access_raw(&self) -> Option<&str> {
+        self.extras().access_raw.as_deref()
+    }
+
+    /// Other keys of the section, in file order.
+    pub fn extra(&self) -> &[(String, String)] {
+        &self.extras().extra
+    }
+
     /// The value a device holds after configuration: `ParameterValue` if present, else
     /// `DefaultValue`, with `$NODEID` resolved.
     pub fn effective_value(&self, node_id: u8) -> Option<Value> {
-        self.parameter_value
-            .as_ref()
+        self.parameter_value()
             .and_then(|f| f.resolve(node_id))
             .or_else(|| self.default_value.as_ref().and_then(|f| f.resolve(node_id)))
     }

@@ -527,7 +527,8 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
 }
 
 /// Splits text into lines like `str::split('\n')` (a final piece after the last newline, even
-/// if empty), with the position of each line's first `=`.
+/// if empty), with the position of each line's first `=`. Both searches use `memchr`, which
+/// scans a word or vector at a time: the per-byte loop was the parser's largest single cost.
 struct Lines<'a> {
     text: &'a str,
     /// Start of the next line; past the end when done.
@@ -537,17 +538,8 @@ struct Lines<'a> {
 impl<'a> Lines<'a> {
     fn next_line(&mut self) -> Option<(&'a str, Option<usize>)> {
         let rest = self.text.as_bytes().get(self.offset..)?;
-        let mut eq = None;
-        let mut end = rest.len();
-        for (i, &b) in rest.iter().enumerate() {
-            if b == b'\n' {
-                end = i;
-                break;
-            }
-            if b == b'=' && eq.is_none() {
-                eq = Some(i);
-            }
-        }
+        let end = memchr::memchr(b'\n', rest).unwrap_or(rest.len());
+        let eq = rest.get(..end).and_then(|l| memchr::memchr(b'=', l));
         // `\n` and `=` are ASCII, so both positions are character boundaries.
         let line = self.text.get(self.offset..self.offset + end).unwrap_or("");
         self.offset += end + 1;
@@ -724,7 +716,7 @@ fn build_sub(
         index,
         sub: Some(s),
     };
-    let sk = resolve_keys(&sec, (&OBJ_KEYS, &OBJ_SIGS), sink);
+    let sk = resolve_keys(&sec, &OBJ_KEYS, sink);
     let scode = object_code(sink, &sk, swhat)?;
     let sub = sub_object(sink, &sk, s, scode, line, swhat)?;
     if let Some((_, l)) = sk.slots[P_SUBNUMBER].or(sk.slots[P_COMPACT]) {
@@ -780,7 +772,7 @@ struct Keys<'a, const N: usize> {
 
 fn resolve_keys<'a, const N: usize>(
     sec: &Section<'_, 'a>,
-    (table, sigs): (&[&str; N], &[u32; N]),
+    table: &KeyTable<N>,
     sink: &mut Sink,
 ) -> Keys<'a, N> {
     let mut k = Keys {
@@ -788,11 +780,10 @@ fn resolve_keys<'a, const N: usize>(
         extra: Vec::new(),
     };
     for e in sec.entries.iter() {
-        let slot = key_slot(table, sigs, e.key);
-        match slot {
-            Some(i) => {
-                let canon = table.get(i).copied().unwrap_or("");
-                if canon != e.key {
+        match table.slot(e.key) {
+            Some((i, exact)) => {
+                let canon = table.keys.get(i).copied().unwrap_or("");
+                if !exact {
                     sink.warn(
                         K::Spelling,
                         e.line,
@@ -820,51 +811,68 @@ fn resolve_keys<'a, const N: usize>(
     k
 }
 
-/// A cheap fingerprint of a key, the same for all ASCII case spellings of it: length and
-/// lower-cased first, second and last bytes. Keys with different fingerprints differ.
-const fn key_sig(key: &[u8]) -> u32 {
-    let n = key.len();
-    if n == 0 {
-        return 0;
-    }
-    let len = if n > 255 { 255 } else { n as u32 };
-    let second = if n > 1 { key[1] } else { 0 };
-    len | (key[0].to_ascii_lowercase() as u32) << 8
-        | (second.to_ascii_lowercase() as u32) << 16
-        | (key[n - 1].to_ascii_lowercase() as u32) << 24
+/// The canonical keys of one kind of section with a small hash index built at compile time,
+/// so that a key is found with one hash and (almost always) one comparison. Keys match
+/// ignoring ASCII case, as real files spell them in every case.
+struct KeyTable<const N: usize> {
+    keys: [&'static str; N],
+    /// Hash slot -> position in `keys`, or `EMPTY`; linear probing.
+    index: [u8; KeyTable::<0>::SLOTS],
 }
 
-/// ASCII case-insensitive equality as a plain byte loop (keys are short).
-fn eq_ci(a: &[u8], b: &[u8]) -> bool {
-    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.eq_ignore_ascii_case(y))
-}
+impl<const N: usize> KeyTable<N> {
+    const SLOTS: usize = 64;
+    const EMPTY: u8 = u8::MAX;
 
-/// The fingerprints of a key table, computed at compile time.
-const fn key_sigs<const N: usize>(table: &[&str; N]) -> [u32; N] {
-    let mut out = [0u32; N];
-    let mut i = 0;
-    while i < N {
-        out[i] = key_sig(table[i].as_bytes());
-        i += 1;
-    }
-    out
-}
-
-/// The position of `key` in `table`, ignoring ASCII case: fingerprints first, so a key is
-/// compared letter by letter only with the entry it most likely is.
-fn key_slot(table: &[&str], sigs: &[u32], key: &str) -> Option<usize> {
-    let sig = key_sig(key.as_bytes());
-    let mut from = 0;
-    while let Some(found) = sigs.get(from..)?.iter().position(|&s| s == sig) {
-        let i = from + found;
-        let canon = table.get(i)?;
-        // Exact spelling first: it is the usual case and a plain comparison.
-        if *canon == key || eq_ci(canon.as_bytes(), key.as_bytes()) {
-            return Some(i);
+    /// The hash slot of a key: a fingerprint that is the same for all ASCII case spellings
+    /// (length, lower-cased first, second and last bytes), mixed and cut to six bits.
+    const fn hash(key: &[u8]) -> usize {
+        let n = key.len();
+        if n == 0 {
+            return 0;
         }
-        from = i + 1;
+        let len = if n > 255 { 255 } else { n as u32 };
+        let second = if n > 1 { key[1] } else { 0 };
+        let sig = len
+            | (key[0].to_ascii_lowercase() as u32) << 8
+            | (second.to_ascii_lowercase() as u32) << 16
+            | (key[n - 1].to_ascii_lowercase() as u32) << 24;
+        (sig.wrapping_mul(0x9E37_79B1) >> 26) as usize
     }
-    None
+
+    const fn new(keys: [&'static str; N]) -> Self {
+        assert!(N < Self::SLOTS / 2, "key table too large for its index");
+        let mut index = [Self::EMPTY; KeyTable::<0>::SLOTS];
+        let mut i = 0;
+        while i < N {
+            let mut h = Self::hash(keys[i].as_bytes());
+            while index[h] != Self::EMPTY {
+                h = (h + 1) % Self::SLOTS;
+            }
+            index[h] = i as u8;
+            i += 1;
+        }
+        Self { keys, index }
+    }
+
+    /// The position of `key` in the table and whether it is spelled exactly so.
+    fn slot(&self, key: &str) -> Option<(usize, bool)> {
+        let key = key.as_bytes();
+        let mut h = Self::hash(key);
+        // The index is at most half full, so an empty slot ends every probe sequence.
+        loop {
+            let i = usize::from(*self.index.get(h)?);
+            let canon = self.keys.get(i)?.as_bytes();
+            // Exact spelling first: the usual case, and a plain (vectorised) comparison.
+            if canon == key {
+                return Some((i, true));
+            }
+            if canon.eq_ignore_ascii_case(key) {
+                return Some((i, false));
+            }
+            h = (h + 1) % Self::SLOTS;
+        }
+    }
 }
 
 /// Merges repeated unknown keys (ignoring ASCII case): the first position keeps the last value.
@@ -1158,7 +1166,7 @@ fn is_module_section(name: &str) -> bool {
     b.len() > 2 && b[0].eq_ignore_ascii_case(&b'M') && b[1].is_ascii_digit()
 }
 
-const OBJ_KEYS: [&str; 15] = [
+const OBJ_KEYS: KeyTable<15> = KeyTable::new([
     "ParameterName",
     "ObjectType",
     "DataType",
@@ -1174,8 +1182,7 @@ const OBJ_KEYS: [&str; 15] = [
     "CompactSubObj",
     "UploadFile",
     "DownloadFile",
-];
-const OBJ_SIGS: [u32; 15] = key_sigs(&OBJ_KEYS);
+]);
 const P_NAME: usize = 0;
 const P_OBJTYPE: usize = 1;
 const P_DATATYPE: usize = 2;
@@ -1296,7 +1303,7 @@ fn sub_object(
                         truncate(text)
                     ),
                 );
-                sub.access_raw = Some(text.to_string());
+                sub.extras_mut().access_raw = Some(text.to_string());
             }
         },
         None => {
@@ -1328,19 +1335,30 @@ fn sub_object(
         Some(f)
     };
     sub.default_value = field(P_DEFAULT, "DefaultValue");
-    sub.low_limit = field(P_LOW, "LowLimit");
-    sub.high_limit = field(P_HIGH, "HighLimit");
-    sub.parameter_value = field(P_PARAM, "ParameterValue");
-    sub.denotation = k.slots[P_DENOTATION].map(|(t, _)| t.to_string());
+    let (low, high) = (field(P_LOW, "LowLimit"), field(P_HIGH, "HighLimit"));
+    let param = field(P_PARAM, "ParameterValue");
+    let denotation = k.slots[P_DENOTATION].map(|(t, _)| t.to_string());
     if let Some(v) = k.slots[P_FLAGS] {
         sub.obj_flags = uint(sink, v, "ObjFlags", u64::from(u32::MAX)).map(|v| v as u32);
     }
-    for slot in [13, 14] {
-        if let (Some((text, _)), Some(key)) = (k.slots[slot], OBJ_KEYS.get(slot)) {
-            sub.extra.push(((*key).to_string(), text.to_string()));
+    let files = [13, 14].map(|slot| k.slots[slot].zip(OBJ_KEYS.keys.get(slot)));
+    let any_rare = low.is_some()
+        || high.is_some()
+        || param.is_some()
+        || denotation.is_some()
+        || files.iter().any(Option::is_some)
+        || !k.extra.is_empty();
+    if any_rare {
+        let x = sub.extras_mut();
+        x.low_limit = low;
+        x.high_limit = high;
+        x.parameter_value = param;
+        x.denotation = denotation;
+        for ((text, _), key) in files.into_iter().flatten() {
+            x.extra.push(((*key).to_string(), text.to_string()));
         }
+        x.extra.extend(extra_owned(&k.extra));
     }
-    sub.extra.extend(extra_owned(&k.extra));
     Some(sub)
 }
 
@@ -1352,7 +1370,7 @@ fn object(
     sink: &mut Sink,
 ) -> Option<Object> {
     let what = Where { index, sub: None };
-    let k = resolve_keys(sec, (&OBJ_KEYS, &OBJ_SIGS), sink);
+    let k = resolve_keys(sec, &OBJ_KEYS, sink);
     let code = object_code(sink, &k, what)?;
     if code.is_simple() || matches!(code, ObjectCode::Other(_)) {
         let sub = sub_object(sink, &k, 0, ObjectCode::Var, sec.line, what)?;
@@ -1456,7 +1474,7 @@ fn object(
             13,
             14,
         ] {
-            if let (Some((text, _)), Some(key)) = (k.slots[slot], OBJ_KEYS.get(slot)) {
+            if let (Some((text, _)), Some(key)) = (k.slots[slot], OBJ_KEYS.keys.get(slot)) {
                 obj.extra.push(((*key).to_string(), text.to_string()));
             }
         }
@@ -1530,7 +1548,7 @@ fn apply_values(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Sink) {
                         ),
                     ),
                 }
-                s.parameter_value = Some(f);
+                s.extras_mut().parameter_value = Some(f);
             }
             None => sink.warn(
                 K::Structure,
@@ -1551,7 +1569,7 @@ fn apply_denotations(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Sink) {
         sink,
         "NrOfEntries",
         |sub, value, line, sink| match obj.subs.get_mut(sub) {
-            Some(s) => s.denotation = Some(value.to_string()),
+            Some(s) => s.extras_mut().denotation = Some(value.to_string()),
             None => sink.warn(
                 K::Structure,
                 line,
@@ -1710,7 +1728,7 @@ fn dummy_usage(sec: &Section<'_, '_>, sink: &mut Sink) -> BTreeMap<u16, bool> {
     out
 }
 
-const FILE_KEYS: [&str; 11] = [
+const FILE_KEYS: KeyTable<11> = KeyTable::new([
     "FileName",
     "FileVersion",
     "FileRevision",
@@ -1722,11 +1740,10 @@ const FILE_KEYS: [&str; 11] = [
     "ModificationTime",
     "ModificationDate",
     "ModifiedBy",
-];
-const FILE_SIGS: [u32; 11] = key_sigs(&FILE_KEYS);
+]);
 
 fn file_info(sec: &Section<'_, '_>, sink: &mut Sink) -> FileInfo {
-    let k = resolve_keys(sec, (&FILE_KEYS, &FILE_SIGS), sink);
+    let k = resolve_keys(sec, &FILE_KEYS, sink);
     let s = |i: usize| k.slots[i].map(|(t, _)| t.to_string());
     if let Some((v, line)) = k.slots[3]
         && v != "4.0"
@@ -1753,7 +1770,7 @@ fn file_info(sec: &Section<'_, '_>, sink: &mut Sink) -> FileInfo {
     }
 }
 
-const DEVICE_KEYS: [&str; 23] = [
+const DEVICE_KEYS: KeyTable<23> = KeyTable::new([
     "VendorName",
     "VendorNumber",
     "ProductName",
@@ -1777,18 +1794,17 @@ const DEVICE_KEYS: [&str; 23] = [
     "NrOfTXPDO",
     "LSS_Supported",
     "CompactPDO",
-];
-const DEVICE_SIGS: [u32; 23] = key_sigs(&DEVICE_KEYS);
+]);
 
 fn device_info(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceInfo {
-    let k = resolve_keys(sec, (&DEVICE_KEYS, &DEVICE_SIGS), sink);
+    let k = resolve_keys(sec, &DEVICE_KEYS, sink);
     let mut extra = extra_owned(&k.extra);
     // A known key whose value cannot be read is kept verbatim so the file round-trips.
     let mut num = |i: usize, max: u64| -> Option<u64> {
         let v = k.slots[i]?;
-        let r = uint(sink, v, DEVICE_KEYS[i], max);
+        let r = uint(sink, v, DEVICE_KEYS.keys[i], max);
         if r.is_none() {
-            extra.push((DEVICE_KEYS[i].to_string(), v.0.to_string()));
+            extra.push((DEVICE_KEYS.keys[i].to_string(), v.0.to_string()));
         }
         r
     };
@@ -1833,7 +1849,7 @@ fn device_info(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceInfo {
     }
 }
 
-const COMM_KEYS: [&str; 7] = [
+const COMM_KEYS: KeyTable<7> = KeyTable::new([
     "NodeID",
     "NodeName",
     "Baudrate",
@@ -1841,17 +1857,16 @@ const COMM_KEYS: [&str; 7] = [
     "NetworkName",
     "CANopenManager",
     "LSS_SerialNumber",
-];
-const COMM_SIGS: [u32; 7] = key_sigs(&COMM_KEYS);
+]);
 
 fn commissioning(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceCommissioning {
-    let k = resolve_keys(sec, (&COMM_KEYS, &COMM_SIGS), sink);
+    let k = resolve_keys(sec, &COMM_KEYS, sink);
     let mut extra = extra_owned(&k.extra);
     let mut num = |i: usize, max: u64| -> Option<u64> {
         let v = k.slots[i]?;
-        let r = uint(sink, v, COMM_KEYS[i], max);
+        let r = uint(sink, v, COMM_KEYS.keys[i], max);
         if r.is_none() {
-            extra.push((COMM_KEYS[i].to_string(), v.0.to_string()));
+            extra.push((COMM_KEYS.keys[i].to_string(), v.0.to_string()));
         }
         r
     };
@@ -1900,20 +1915,24 @@ mod tests {
 
     #[test]
     fn key_slots_ignore_case_only() {
-        for (i, key) in OBJ_KEYS.iter().enumerate() {
-            assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, key), Some(i));
+        for (i, key) in OBJ_KEYS.keys.iter().enumerate() {
+            assert_eq!(OBJ_KEYS.slot(key), Some((i, true)));
             let upper = key.to_ascii_uppercase();
-            assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, &upper), Some(i));
+            assert_eq!(OBJ_KEYS.slot(&upper), Some((i, false)));
             let lower = key.to_ascii_lowercase();
-            assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, &lower), Some(i));
+            assert_eq!(OBJ_KEYS.slot(&lower), Some((i, false)));
         }
-        for (i, key) in DEVICE_KEYS.iter().enumerate() {
-            assert_eq!(key_slot(&DEVICE_KEYS, &DEVICE_SIGS, key), Some(i));
+        for (i, key) in FILE_KEYS.keys.iter().enumerate() {
+            assert_eq!(FILE_KEYS.slot(key), Some((i, true)));
+        }
+        for (i, key) in COMM_KEYS.keys.iter().enumerate() {
+            assert_eq!(COMM_KEYS.slot(key), Some((i, true)));
         }
         // Same length, first, second and last letters as `DataType`, different middle.
-        assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, "DaXaTyXe"), None);
-        assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, ""), None);
-        assert_eq!(key_slot(&OBJ_KEYS, &OBJ_SIGS, "ParameterName "), None);
+        assert_eq!(OBJ_KEYS.slot("DaXaTyXe"), None);
+        assert_eq!(OBJ_KEYS.slot(""), None);
+        assert_eq!(OBJ_KEYS.slot("ParameterName "), None);
+        assert_eq!(OBJ_KEYS.slot("Parameter_Name"), None);
     }
 
     const MINI: &str = "[FileInfo]\r\nEDSVersion=4.0\r\n[DeviceInfo]\r\nVendorNumber=0x123\r\nBaudRate_250=1\r\n\
@@ -1988,12 +2007,7 @@ mod tests {
         );
         assert_eq!(o.sub(1).unwrap().name, "first");
         assert_eq!(
-            o.sub(2)
-                .unwrap()
-                .parameter_value
-                .as_ref()
-                .unwrap()
-                .resolve(0),
+            o.sub(2).unwrap().parameter_value().unwrap().resolve(0),
             Some(Value::Unsigned32(0x0005_0064))
         );
     }
@@ -2042,7 +2056,7 @@ mod tests {
         let sub0 = p.od.sub(0x1018, 0).unwrap();
         assert_eq!(sub0.default_value.as_ref().unwrap().text, "199");
         // 20 000 distinct unknown keys merged, plus the last `Y`.
-        assert_eq!(sub0.extra.len(), 20_001);
+        assert_eq!(sub0.extra().len(), 20_001);
     }
 
     #[test]

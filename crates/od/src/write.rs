@@ -15,7 +15,7 @@ use alloc::string::String;
 use alloc::vec::Vec;
 use core::fmt::Write as _;
 
-use crate::model::{BAUD_RATES_KBIT, Extra, FieldValue, Object, ObjectDictionary, SubObject};
+use crate::model::{BAUD_RATES_KBIT, FieldValue, Object, ObjectDictionary, SubObject};
 use crate::value::EdsValue;
 
 const NL: &str = "\r\n";
@@ -42,7 +42,7 @@ impl Out {
             self.kv(key, format_args!("{}", u8::from(v)));
         }
     }
-    fn extra(&mut self, extra: &Extra) {
+    fn extra(&mut self, extra: &[(String, String)]) {
         for (k, v) in extra {
             self.kv(k, format_args!("{v}"));
         }
@@ -207,27 +207,27 @@ fn write_object(o: &mut Out, obj: &Object) {
 
 fn write_sub_fields(o: &mut Out, sub: &SubObject) {
     o.kv("DataType", format_args!("0x{:04X}", sub.data_type.code()));
-    match &sub.access_raw {
+    match sub.access_raw() {
         Some(raw) => o.kv("AccessType", format_args!("{raw}")),
         None => o.kv("AccessType", format_args!("{}", sub.access.as_str())),
     }
-    let field = |o: &mut Out, key: &str, f: &Option<FieldValue>| {
+    let field = |o: &mut Out, key: &str, f: Option<&FieldValue>| {
         if let Some(f) = f {
             o.kv(key, format_args!("{}", f.text));
         }
     };
-    field(o, "DefaultValue", &sub.default_value);
+    field(o, "DefaultValue", sub.default_value.as_ref());
     o.kv("PDOMapping", format_args!("{}", u8::from(sub.pdo_mapping)));
-    field(o, "LowLimit", &sub.low_limit);
-    field(o, "HighLimit", &sub.high_limit);
-    field(o, "ParameterValue", &sub.parameter_value);
-    if let Some(d) = &sub.denotation {
+    field(o, "LowLimit", sub.low_limit());
+    field(o, "HighLimit", sub.high_limit());
+    field(o, "ParameterValue", sub.parameter_value());
+    if let Some(d) = sub.denotation() {
         o.kv("Denotation", format_args!("{d}"));
     }
     if let Some(f) = sub.obj_flags {
         o.kv("ObjFlags", format_args!("0x{f:X}"));
     }
-    o.extra(&sub.extra);
+    o.extra(sub.extra());
 }
 
 /// The dictionary configured for one node: every sub-object with a `ParameterValue` (its own
@@ -241,7 +241,7 @@ pub fn configure_for_node(
     let mut od = od.clone();
     for obj in od.objects.values_mut() {
         for sub in obj.subs.values_mut() {
-            let source = sub.parameter_value.as_ref().or(sub.default_value.as_ref());
+            let source = sub.parameter_value().or(sub.default_value.as_ref());
             let resolved = match source {
                 Some(f) => match &f.value {
                     Some(v) if v.node_id_relative => {
@@ -252,7 +252,7 @@ pub fn configure_for_node(
                 None => None,
             };
             if resolved.is_some() {
-                sub.parameter_value = resolved;
+                sub.extras_mut().parameter_value = resolved;
             }
         }
     }
@@ -296,13 +296,13 @@ pub fn concise_dcf(od: &ObjectDictionary, node_id: u8, selection: ConciseSelecti
     let mut entries = Vec::new();
     for obj in od.objects.values() {
         for sub in obj.subs.values() {
-            if !sub.access.is_writable() || sub.access_raw.is_some() {
+            if !sub.access.is_writable() || sub.access_raw().is_some() {
                 continue;
             }
             let field = match selection {
-                ConciseSelection::ParameterValues => sub.parameter_value.as_ref(),
+                ConciseSelection::ParameterValues => sub.parameter_value(),
                 ConciseSelection::ParameterOrDefaultValues => {
-                    sub.parameter_value.as_ref().or(sub.default_value.as_ref())
+                    sub.parameter_value().or(sub.default_value.as_ref())
                 }
             };
             if let Some(v) = field.and_then(|f| f.resolve(node_id)) {
@@ -399,7 +399,12 @@ mod tests {
     fn dcf_resolves_node_id() {
         let a = parse(SRC.as_bytes()).unwrap().od;
         let dcf = parse(write_dcf(&a, 5, Some(250)).as_bytes()).unwrap().od;
-        let cob = dcf.sub(0x1400, 1).unwrap().parameter_value.clone().unwrap();
+        let cob = dcf
+            .sub(0x1400, 1)
+            .unwrap()
+            .parameter_value()
+            .cloned()
+            .unwrap();
         assert_eq!(cob.text, "0x205");
         assert_eq!(dcf.device_commissioning.as_ref().unwrap().node_id, Some(5));
         assert_eq!(

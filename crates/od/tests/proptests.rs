@@ -173,11 +173,14 @@ fn sub(sub_index: u8) -> impl Strategy<Value = SubObject> {
                 let mut s = SubObject::new(sub_index, n.clone(), dt, a);
                 s.pdo_mapping = pdo;
                 s.default_value = d;
-                s.low_limit = lo;
-                s.high_limit = hi;
-                s.parameter_value = pv;
                 s.obj_flags = flags;
-                s.denotation = denotation.clone();
+                // Always allocated here, even when every field is empty: a parsed model has
+                // none then, and the two must compare equal.
+                let x = s.extras_mut();
+                x.low_limit = lo;
+                x.high_limit = hi;
+                x.parameter_value = pv;
+                x.denotation = denotation.clone();
                 s
             })
         })

@@ -130,7 +130,7 @@ fn ours(bytes: &[u8]) -> (BTreeSet<Row>, BTreeSet<u16>) {
             continue;
         }
         for sub in obj.subs.values() {
-            let access = match &sub.access_raw {
+            let access = match sub.access_raw() {
                 Some(raw) => raw.to_lowercase(),
                 None => sub.access.as_str().to_string(),
             };
