@@ -181,6 +181,59 @@ impl SubRec<'_> {
     }
 }
 
+/// The sub sections read so far, by (index, sub-index). They almost always come in increasing
+/// order, so they are appended to a vector (a tenth of a map's memory and no look-ups); the
+/// first one out of order turns the vector into a map.
+enum SubRecs<'a> {
+    Sorted(Vec<((u16, u8), SubRec<'a>)>),
+    Map(BTreeMap<(u16, u8), SubRec<'a>>),
+}
+
+impl<'a> SubRecs<'a> {
+    fn get(&self, key: (u16, u8)) -> Option<&SubRec<'a>> {
+        match self {
+            Self::Sorted(v) => v
+                .binary_search_by_key(&key, |e| e.0)
+                .ok()
+                .and_then(|i| v.get(i))
+                .map(|e| &e.1),
+            Self::Map(m) => m.get(&key),
+        }
+    }
+
+    fn get_mut(&mut self, key: (u16, u8)) -> Option<&mut SubRec<'a>> {
+        match self {
+            Self::Sorted(v) => match v.binary_search_by_key(&key, |e| e.0) {
+                Ok(i) => v.get_mut(i).map(|e| &mut e.1),
+                Err(_) => None,
+            },
+            Self::Map(m) => m.get_mut(&key),
+        }
+    }
+
+    /// Adds a record for a key not present yet.
+    fn insert(&mut self, key: (u16, u8), rec: SubRec<'a>) {
+        match self {
+            Self::Sorted(v) if v.last().is_none_or(|e| e.0 < key) => v.push((key, rec)),
+            Self::Sorted(v) => {
+                let mut m: BTreeMap<_, _> = core::mem::take(v).into_iter().collect();
+                m.insert(key, rec);
+                *self = Self::Map(m);
+            }
+            Self::Map(m) => {
+                m.insert(key, rec);
+            }
+        }
+    }
+
+    fn into_sorted(self) -> Vec<((u16, u8), SubRec<'a>)> {
+        match self {
+            Self::Sorted(v) => v,
+            Self::Map(m) => m.into_iter().collect(),
+        }
+    }
+}
+
 /// The sub section being read.
 struct OpenSub<'a> {
     key: (u16, u8),
@@ -315,7 +368,7 @@ fn classify(name: &str) -> (SectionKind, Option<String>) {
 /// Splits the text into sections, merging duplicates. Linear in the input.
 fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
     let mut sections: Vec<Scanned<'a>> = Vec::new();
-    let mut subs: BTreeMap<(u16, u8), SubRec<'a>> = BTreeMap::new();
+    let mut subs = SubRecs::Sorted(Vec::new());
     let mut built = Built::default();
     let mut open_sub: Option<OpenSub<'a>> = None;
     let mut offset = 0usize;
@@ -337,153 +390,172 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         offset += raw.len() + 1;
         let line_no = u32::try_from(line_count).unwrap_or(u32::MAX);
         let line = raw.strip_suffix('\r').unwrap_or(raw);
-        let trimmed = line.trim_ascii();
-        if trimmed.is_empty() || trimmed.starts_with(';') {
-            continue;
-        }
-        if trimmed.starts_with('#') {
-            if !hash_comment_reported {
-                sink.warn(
-                    K::Spelling,
-                    line_no,
-                    "`#` comment line; CiA 306 comments start with `;`".into(),
-                );
-                hash_comment_reported = true;
-            }
-            continue;
-        }
-        if let Some(body) = trimmed.strip_prefix('[') {
-            if let Some(open) = open_sub.take() {
-                finish_sub(open, line_start, &mut entries, &mut subs, &mut built);
-            }
-            let Some(end) = body.find(']') else {
-                sink.error(
-                    K::Syntax,
-                    line_no,
-                    format!("section header `{trimmed}` has no closing `]`"),
-                );
-                current = None;
+        // Fast path: the usual `Key=Value` line, with nothing to trim and nothing to report,
+        // split with four byte tests instead of the trimming and checks below.
+        let plain = line.as_bytes();
+        let fast = eq.filter(|&e| {
+            let ok = |i: usize| plain.get(i).is_some_and(|&c| c > b' ');
+            e > 0
+                && e < plain.len()
+                && plain
+                    .first()
+                    .is_some_and(|&c| c > b' ' && !matches!(c, b';' | b'#' | b'['))
+                && ok(e - 1)
+                && (e + 1 == plain.len() || (ok(e + 1) && ok(plain.len() - 1)))
+        });
+        let (key, value) = if let Some(e) = fast {
+            // `=` is ASCII, so both cuts are character boundaries.
+            (line.get(..e).unwrap_or(""), line.get(e + 1..).unwrap_or(""))
+        } else {
+            let trimmed = line.trim_ascii();
+            if trimmed.is_empty() || trimmed.starts_with(';') {
                 continue;
-            };
-            let name_raw = &body[..end];
-            let after = body[end + 1..].trim_ascii();
-            if !after.is_empty() && !after.starts_with(';') {
-                sink.warn(
-                    K::Syntax,
-                    line_no,
-                    format!("text `{after}` after section header [{name_raw}] ignored"),
+            }
+            if trimmed.starts_with('#') {
+                if !hash_comment_reported {
+                    sink.warn(
+                        K::Spelling,
+                        line_no,
+                        "`#` comment line; CiA 306 comments start with `;`".into(),
+                    );
+                    hash_comment_reported = true;
+                }
+                continue;
+            }
+            if let Some(body) = trimmed.strip_prefix('[') {
+                if let Some(open) = open_sub.take() {
+                    finish_sub(open, line_start, &mut entries, &mut subs, &mut built);
+                }
+                let Some(end) = body.find(']') else {
+                    sink.error(
+                        K::Syntax,
+                        line_no,
+                        format!("section header `{trimmed}` has no closing `]`"),
+                    );
+                    current = None;
+                    continue;
+                };
+                let name_raw = &body[..end];
+                let after = body[end + 1..].trim_ascii();
+                if !after.is_empty() && !after.starts_with(';') {
+                    sink.warn(
+                        K::Syntax,
+                        line_no,
+                        format!("text `{after}` after section header [{name_raw}] ignored"),
+                    );
+                }
+                let name = name_raw.trim_ascii();
+                if name != name_raw {
+                    sink.warn(
+                        K::Spelling,
+                        line_no,
+                        format!("spaces inside section header [{name_raw}]"),
+                    );
+                }
+                let (kind, note) = classify(name);
+                if let Some(n) = note {
+                    sink.warn(K::Spelling, line_no, n);
+                }
+                if let SectionKind::Sub(i, s) = kind {
+                    // Sub sections usually come in increasing order: one beyond the highest seen
+                    // so far cannot be a repetition, and needs no look-up.
+                    let new_highest = highest_sub < Some((i, s));
+                    if new_highest {
+                        highest_sub = Some((i, s));
+                    } else if let Some(rec) = subs.get((i, s)) {
+                        sink.warn(
+                            K::Duplicate,
+                            line_no,
+                            format!(
+                                "section [{name}] appears again (first at line {}); keys are merged and later values win",
+                                rec.line
+                            ),
+                        );
+                    }
+                    open_sub = Some(OpenSub {
+                        key: (i, s),
+                        new_highest,
+                        name,
+                        line: line_no,
+                        entries_start: entries.len(),
+                        byte_start: offset.min(text.len()),
+                    });
+                    current = None;
+                    continue;
+                }
+                let id = (
+                    kind,
+                    if kind == SectionKind::Other {
+                        name.to_ascii_uppercase()
+                    } else {
+                        String::new()
+                    },
                 );
-            }
-            let name = name_raw.trim_ascii();
-            if name != name_raw {
-                sink.warn(
-                    K::Spelling,
-                    line_no,
-                    format!("spaces inside section header [{name_raw}]"),
-                );
-            }
-            let (kind, note) = classify(name);
-            if let Some(n) = note {
-                sink.warn(K::Spelling, line_no, n);
-            }
-            if let SectionKind::Sub(i, s) = kind {
-                // Sub sections usually come in increasing order: one beyond the highest seen
-                // so far cannot be a repetition, and needs no look-up.
-                let new_highest = highest_sub < Some((i, s));
-                if new_highest {
-                    highest_sub = Some((i, s));
-                } else if let Some(rec) = subs.get(&(i, s)) {
+                if let Some(&pos) = seen.get(&id) {
+                    let first = sections.get(pos).map_or(0, |s| s.line);
                     sink.warn(
                         K::Duplicate,
                         line_no,
                         format!(
-                            "section [{name}] appears again (first at line {}); keys are merged and later values win",
-                            rec.line
+                            "section [{name}] appears again (first at line {first}); keys are merged and later values win"
                         ),
                     );
+                    if let Some(sec) = sections.get_mut(pos) {
+                        sec.more.push((entries.len(), entries.len()));
+                    }
+                    current = Some(pos);
+                } else {
+                    seen.insert(id, sections.len());
+                    current = Some(sections.len());
+                    sections.push(Scanned {
+                        name,
+                        kind,
+                        line: line_no,
+                        first: (entries.len(), entries.len()),
+                        more: Vec::new(),
+                    });
                 }
-                open_sub = Some(OpenSub {
-                    key: (i, s),
-                    new_highest,
-                    name,
-                    line: line_no,
-                    entries_start: entries.len(),
-                    byte_start: offset.min(text.len()),
-                });
-                current = None;
                 continue;
             }
-            let id = (
-                kind,
-                if kind == SectionKind::Other {
-                    name.to_ascii_uppercase()
-                } else {
-                    String::new()
-                },
-            );
-            if let Some(&pos) = seen.get(&id) {
-                let first = sections.get(pos).map_or(0, |s| s.line);
-                sink.warn(
-                    K::Duplicate,
+            let Some(eq) = eq.filter(|&e| e < line.len()) else {
+                sink.error(
+                    K::Syntax,
                     line_no,
                     format!(
-                        "section [{name}] appears again (first at line {first}); keys are merged and later values win"
+                        "`{}` is neither a [section] header, a key=value pair nor a `;` comment",
+                        truncate(trimmed)
                     ),
                 );
-                if let Some(sec) = sections.get_mut(pos) {
-                    sec.more.push((entries.len(), entries.len()));
-                }
-                current = Some(pos);
-            } else {
-                seen.insert(id, sections.len());
-                current = Some(sections.len());
-                sections.push(Scanned {
-                    name,
-                    kind,
-                    line: line_no,
-                    first: (entries.len(), entries.len()),
-                    more: Vec::new(),
-                });
-            }
-            continue;
-        }
-        let Some(eq) = eq.filter(|&e| e < line.len()) else {
-            sink.error(
-                K::Syntax,
-                line_no,
-                format!(
-                    "`{}` is neither a [section] header, a key=value pair nor a `;` comment",
-                    truncate(trimmed)
-                ),
-            );
-            continue;
-        };
-        let key_raw = &line[..eq];
-        let value_raw = &line[eq + 1..];
-        let key = key_raw.trim_ascii();
-        if key.is_empty() {
-            sink.error(
-                K::Syntax,
-                line_no,
-                format!("`{}` has an empty key", truncate(trimmed)),
-            );
-            continue;
-        }
-        if key.len() != key_raw.len() {
-            sink.warn(K::Spelling, line_no, format!("spaces around key `{key}`"));
-        }
-        let value = value_raw.trim_ascii();
-        if value.len() != value_raw.len() {
-            if value_raw.trim_ascii_end().len() != value_raw.len() {
-                sink.warn(
-                    K::Spelling,
+                continue;
+            };
+            let key_raw = &line[..eq];
+            let value_raw = &line[eq + 1..];
+            let key = key_raw.trim_ascii();
+            if key.is_empty() {
+                sink.error(
+                    K::Syntax,
                     line_no,
-                    format!("trailing whitespace after `{key}=` value"),
+                    format!("`{}` has an empty key", truncate(trimmed)),
                 );
-            } else {
-                sink.warn(K::Spelling, line_no, format!("spaces after `{key}=`"));
+                continue;
             }
-        }
+            if key.len() != key_raw.len() {
+                sink.warn(K::Spelling, line_no, format!("spaces around key `{key}`"));
+            }
+            let value = value_raw.trim_ascii();
+            if value.len() != value_raw.len() {
+                if value_raw.trim_ascii_end().len() != value_raw.len() {
+                    sink.warn(
+                        K::Spelling,
+                        line_no,
+                        format!("trailing whitespace after `{key}=` value"),
+                    );
+                } else {
+                    sink.warn(K::Spelling, line_no, format!("spaces after `{key}=`"));
+                }
+            }
+            (key, value)
+        };
         if open_sub.is_some() {
             entries.push(Entry {
                 key,
@@ -517,6 +589,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
         finish_sub(open, text.len(), &mut entries, &mut subs, &mut built);
     }
     let mut built = built.into_map();
+    let mut subs = subs.into_sorted();
     rebuild_repeated(text, &mut subs, &mut built);
     Scan {
         entries,
@@ -552,7 +625,8 @@ impl<'a> Lines<'a> {
 struct Scan<'a> {
     entries: Vec<Entry<'a>>,
     sections: Vec<Scanned<'a>>,
-    subs: BTreeMap<(u16, u8), SubRec<'a>>,
+    /// In (index, sub-index) order.
+    subs: Vec<((u16, u8), SubRec<'a>)>,
     /// The sub-objects read, per index, in file order: the vectors become the objects' storage.
     built: BTreeMap<u16, Vec<SubObject>>,
 }
@@ -594,7 +668,7 @@ fn finish_sub<'a>(
     open: OpenSub<'a>,
     byte_end: usize,
     entries: &mut Vec<Entry<'a>>,
-    subs: &mut BTreeMap<(u16, u8), SubRec<'a>>,
+    subs: &mut SubRecs<'a>,
     built: &mut Built,
 ) {
     let byte_end = byte_end.max(open.byte_start);
@@ -604,7 +678,7 @@ fn finish_sub<'a>(
     let existing = if open.new_highest {
         None
     } else {
-        subs.get_mut(&open.key)
+        subs.get_mut(open.key)
     };
     match existing {
         None => {
@@ -655,10 +729,11 @@ fn finish_sub<'a>(
 /// merged, later values win). Each occurrence is re-read once, so this stays linear.
 fn rebuild_repeated<'a>(
     text: &'a str,
-    subs: &mut BTreeMap<(u16, u8), SubRec<'a>>,
+    subs: &mut [((u16, u8), SubRec<'a>)],
     built: &mut BTreeMap<u16, Vec<SubObject>>,
 ) {
-    for (&(index, s), rec) in subs.iter_mut() {
+    for ((index, s), rec) in subs.iter_mut() {
+        let (index, s) = (*index, *s);
         let Some(rare) = rec.rare.as_mut().filter(|r| !r.more.is_empty()) else {
             continue;
         };
@@ -1012,7 +1087,7 @@ fn string(sink: &mut Sink, (text, line): (&str, u32), what: &str) -> String {
 
 fn build(
     sections: &[Section<'_, '_>],
-    subs: BTreeMap<(u16, u8), SubRec<'_>>,
+    subs: Vec<((u16, u8), SubRec<'_>)>,
     mut built: BTreeMap<u16, Vec<SubObject>>,
     sink: &mut Sink,
 ) -> ObjectDictionary {
@@ -1093,7 +1168,7 @@ fn build(
 
     // Sub sections whose object is missing.
     let mut last_orphan = None;
-    for (&(index, _), sec) in &subs {
+    for &((index, _), ref sec) in &subs {
         if !objects.contains_key(&index) && last_orphan != Some(index) {
             sink.warn(
                 K::Structure,
@@ -1911,6 +1986,35 @@ mod tests {
                 text.split('\n').map(|l| (l, l.find('='))).collect();
             assert_eq!(got, want, "{text:?}");
         }
+    }
+
+    #[test]
+    fn sub_sections_out_of_order_and_repeated() {
+        // 0x2001 before 0x2000, sub 2 before sub 1, and [2000sub1] given twice: every
+        // sub-object lands in its object, the later keys win and the repetition is reported.
+        let src = "[2001]\nParameterName=B\nObjectType=0x8\nSubNumber=2\n\
+            [2001sub1]\nParameterName=b1\nDataType=0x0005\nAccessType=rw\n\
+            [2000]\nParameterName=A\nObjectType=0x9\nSubNumber=3\n\
+            [2000sub2]\nParameterName=a2\nDataType=0x0006\nAccessType=ro\n\
+            [2000sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=2\n\
+            [2000sub1]\nParameterName=a1\nDataType=0x0007\nAccessType=ro\n\
+            [2001sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\n\
+            [2000sub1]\nAccessType=rw\nDefaultValue=7\n";
+        let p = parse(src.as_bytes()).unwrap();
+        let a = p.od.get(0x2000).unwrap();
+        assert_eq!(a.subs.keys().collect::<Vec<_>>(), [0, 1, 2]);
+        let a1 = a.sub(1).unwrap();
+        assert_eq!((a1.name.as_str(), a1.access), ("a1", AccessType::Rw));
+        assert_eq!(a1.default_value.as_ref().unwrap().text, "7");
+        let b = p.od.get(0x2001).unwrap();
+        assert_eq!(b.subs.keys().collect::<Vec<_>>(), [0, 1]);
+        let dup: Vec<_> = p
+            .diagnostics
+            .iter()
+            .filter(|d| d.message.contains("appears again"))
+            .map(|d| d.line)
+            .collect();
+        assert_eq!(dup, [30]);
     }
 
     #[test]
