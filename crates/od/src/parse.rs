@@ -1060,7 +1060,16 @@ impl fmt::Display for Where {
     }
 }
 
+/// Reports the non-standard spellings a value was read with (usually none: checked inline).
+#[inline]
 fn note_warnings(sink: &mut Sink, line: u32, what: &str, notes: TextNotes) {
+    if notes.c_suffix || notes.leading_zero_decimal || notes.quoted {
+        report_notes(sink, line, what, notes);
+    }
+}
+
+#[cold]
+fn report_notes(sink: &mut Sink, line: u32, what: &str, notes: TextNotes) {
     if notes.c_suffix {
         sink.warn(
             K::Spelling,

@@ -292,7 +292,8 @@ pub(crate) fn trim(text: &str) -> &str {
 const NODEID: &str = "$NODEID";
 
 fn find_node_id(text: &str) -> Option<usize> {
-    if !text.contains('$') {
+    // A plain byte test: values are short, and `str::contains(char)` sets up a searcher.
+    if !text.as_bytes().contains(&b'$') {
         return None;
     }
     let b = text.as_bytes();
