@@ -305,22 +305,24 @@ fn classify(name: &str) -> (SectionKind, Option<String>) {
         ("ManufacturerObjects", S::Manufacturer),
         ("DeviceComissioning", S::Commissioning),
     ];
-    for (canon, kind) in NAMED {
-        if name.eq_ignore_ascii_case(canon) {
-            let note =
-                (name != canon).then(|| format!("section [{name}] should be spelled [{canon}]"));
-            return (kind, note);
-        }
-    }
-    if name.eq_ignore_ascii_case("DeviceCommissioning") {
-        return (
-            S::Commissioning,
-            Some(format!(
-                "section [{name}]: CiA 306 spells it [DeviceComissioning]"
-            )),
-        );
-    }
+    // Object sections are nearly all of a file, and no named section starts with four hex
+    // digits: test for an index first.
     let Some(index) = name.get(..4).and_then(hex4) else {
+        for (canon, kind) in NAMED {
+            if name.eq_ignore_ascii_case(canon) {
+                let note = (name != canon)
+                    .then(|| format!("section [{name}] should be spelled [{canon}]"));
+                return (kind, note);
+            }
+        }
+        if name.eq_ignore_ascii_case("DeviceCommissioning") {
+            return (
+                S::Commissioning,
+                Some(format!(
+                    "section [{name}]: CiA 306 spells it [DeviceComissioning]"
+                )),
+            );
+        }
         return (S::Other, None);
     };
     let lower_hex = name
@@ -2093,6 +2095,28 @@ mod tests {
             .map(|d| d.line)
             .collect();
         assert_eq!(dup, [30]);
+    }
+
+    #[test]
+    fn named_sections_are_classified_before_indices() {
+        for (name, kind) in [
+            ("FileInfo", SectionKind::FileInfo),
+            ("deviceinfo", SectionKind::DeviceInfo),
+            ("DummyUsage", SectionKind::DummyUsage),
+            ("Comments", SectionKind::Comments),
+            ("MandatoryObjects", SectionKind::Mandatory),
+            ("OptionalObjects", SectionKind::Optional),
+            ("ManufacturerObjects", SectionKind::Manufacturer),
+            ("DeviceComissioning", SectionKind::Commissioning),
+            ("DeviceCommissioning", SectionKind::Commissioning),
+            ("1018", SectionKind::Object(0x1018)),
+            ("1018sub3", SectionKind::Sub(0x1018, 3)),
+            ("DEADName", SectionKind::Names(0xDEAD)),
+            ("Dead", SectionKind::Object(0xDEAD)),
+            ("ToolInfo", SectionKind::Other),
+        ] {
+            assert_eq!(classify(name).0, kind, "{name}");
+        }
     }
 
     #[test]
