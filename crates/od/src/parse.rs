@@ -946,7 +946,8 @@ impl<const N: usize> KeyTable<N> {
     const EMPTY: u8 = u8::MAX;
 
     /// The hash slot of a key: a fingerprint that is the same for all ASCII case spellings
-    /// (length, lower-cased first, second and last bytes), mixed and cut to six bits.
+    /// (length, first, second and last bytes with bit 5 set, which lower-cases letters and
+    /// may merge some other bytes: that only costs a comparison), mixed and cut to six bits.
     const fn hash(key: &[u8]) -> usize {
         let n = key.len();
         if n == 0 {
@@ -955,9 +956,9 @@ impl<const N: usize> KeyTable<N> {
         let len = if n > 255 { 255 } else { n as u32 };
         let second = if n > 1 { key[1] } else { 0 };
         let sig = len
-            | (key[0].to_ascii_lowercase() as u32) << 8
-            | (second.to_ascii_lowercase() as u32) << 16
-            | (key[n - 1].to_ascii_lowercase() as u32) << 24;
+            | ((key[0] | 0x20) as u32) << 8
+            | ((second | 0x20) as u32) << 16
+            | ((key[n - 1] | 0x20) as u32) << 24;
         (sig.wrapping_mul(0x9E37_79B1) >> 26) as usize
     }
 
@@ -1222,9 +1223,14 @@ fn build(
     }
 
     // Sub sections whose object is missing.
-    let mut last_orphan = None;
+    // Sub sections are grouped by index: look each index up once.
+    let mut last_index = None;
     for &((index, _), ref sec) in &subs {
-        if !objects.contains_key(&index) && last_orphan != Some(index) {
+        if last_index == Some(index) {
+            continue;
+        }
+        last_index = Some(index);
+        if !objects.contains_key(&index) {
             sink.warn(
                 K::Structure,
                 sec.line,
@@ -1233,7 +1239,6 @@ fn build(
                     sec.name
                 ),
             );
-            last_orphan = Some(index);
         }
     }
 
