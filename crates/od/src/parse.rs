@@ -377,8 +377,10 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
     // Holds the entries of every section but the sub sections, which are built and dropped
     // as they end.
     let mut entries: Vec<Entry<'a>> = Vec::with_capacity(1024);
-    // Identity of a section (kind, or upper-cased name for `Other`) -> position in `sections`.
-    let mut seen: BTreeMap<(SectionKind, String), usize> = BTreeMap::new();
+    // Sections seen so far -> position in `sections`: by kind, and by upper-cased name for
+    // the ones this crate does not interpret (`Other`).
+    let mut seen: BTreeMap<SectionKind, usize> = BTreeMap::new();
+    let mut seen_other: BTreeMap<String, usize> = BTreeMap::new();
     let mut current: Option<usize> = None;
     let mut hash_comment_reported = false;
     let mut highest_sub: Option<(u16, u8)> = None;
@@ -428,7 +430,7 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                 if let Some(open) = open_sub.take() {
                     finish_sub(open, line_start, &mut entries, &mut subs, &mut built);
                 }
-                let Some(end) = body.find(']') else {
+                let Some(end) = body.bytes().position(|b| b == b']') else {
                     sink.error(
                         K::Syntax,
                         line_no,
@@ -485,15 +487,12 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                     current = None;
                     continue;
                 }
-                let id = (
-                    kind,
-                    if kind == SectionKind::Other {
-                        name.to_ascii_uppercase()
-                    } else {
-                        String::new()
-                    },
-                );
-                if let Some(&pos) = seen.get(&id) {
+                let other = (kind == SectionKind::Other).then(|| name.to_ascii_uppercase());
+                let known = match &other {
+                    Some(upper) => seen_other.get(upper),
+                    None => seen.get(&kind),
+                };
+                if let Some(&pos) = known {
                     let first = sections.get(pos).map_or(0, |s| s.line);
                     sink.warn(
                         K::Duplicate,
@@ -507,7 +506,10 @@ fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                     }
                     current = Some(pos);
                 } else {
-                    seen.insert(id, sections.len());
+                    match other {
+                        Some(upper) => seen_other.insert(upper, sections.len()),
+                        None => seen.insert(kind, sections.len()),
+                    };
                     current = Some(sections.len());
                     sections.push(Scanned {
                         name,

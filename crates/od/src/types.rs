@@ -362,6 +362,16 @@ pub enum AccessType {
 impl AccessType {
     /// Parses the EDS spelling, ignoring ASCII case; `None` for anything else.
     pub fn from_eds(text: &str) -> Option<Self> {
+        // The spellings CiA 306 uses, as nearly every file writes them.
+        match text {
+            "ro" => return Some(Self::Ro),
+            "rw" => return Some(Self::Rw),
+            "wo" => return Some(Self::Wo),
+            "const" => return Some(Self::Const),
+            "rwr" => return Some(Self::Rwr),
+            "rww" => return Some(Self::Rww),
+            _ => {}
+        }
         let t = text.trim();
         Some(if t.eq_ignore_ascii_case("ro") {
             Self::Ro
