@@ -393,8 +393,8 @@ impl Object {
     pub fn var(index: u16, mut sub: SubObject) -> Self {
         sub.sub_index = 0;
         let name = sub.name.clone();
-        let mut subs = SubObjects::new();
-        subs.insert(sub);
+        // Exactly one element: `insert` would reserve room for four.
+        let subs = SubObjects(alloc::vec![sub]);
         Self {
             index,
             name,
