@@ -293,22 +293,24 @@ fn strip_prefix_ci<'a>(s: &'a str, prefix: &str) -> Option<&'a str> {
 }
 
 /// Classifies a section name. Returns the kind and, for tolerated spellings, a note.
+/// The sections CiA 306 names, in their canonical spelling.
+const NAMED_SECTIONS: [(&str, SectionKind); 8] = [
+    ("FileInfo", SectionKind::FileInfo),
+    ("DeviceInfo", SectionKind::DeviceInfo),
+    ("DummyUsage", SectionKind::DummyUsage),
+    ("Comments", SectionKind::Comments),
+    ("MandatoryObjects", SectionKind::Mandatory),
+    ("OptionalObjects", SectionKind::Optional),
+    ("ManufacturerObjects", SectionKind::Manufacturer),
+    ("DeviceComissioning", SectionKind::Commissioning),
+];
+
 fn classify(name: &str) -> (SectionKind, Option<String>) {
     use SectionKind as S;
-    const NAMED: [(&str, SectionKind); 8] = [
-        ("FileInfo", S::FileInfo),
-        ("DeviceInfo", S::DeviceInfo),
-        ("DummyUsage", S::DummyUsage),
-        ("Comments", S::Comments),
-        ("MandatoryObjects", S::Mandatory),
-        ("OptionalObjects", S::Optional),
-        ("ManufacturerObjects", S::Manufacturer),
-        ("DeviceComissioning", S::Commissioning),
-    ];
     // Object sections are nearly all of a file, and no named section starts with four hex
     // digits: test for an index first.
     let Some(index) = name.get(..4).and_then(hex4) else {
-        for (canon, kind) in NAMED {
+        for (canon, kind) in NAMED_SECTIONS {
             if name.eq_ignore_ascii_case(canon) {
                 let note = (name != canon)
                     .then(|| format!("section [{name}] should be spelled [{canon}]"));
@@ -2100,15 +2102,11 @@ mod tests {
 
     #[test]
     fn named_sections_are_classified_before_indices() {
+        for (name, kind) in NAMED_SECTIONS {
+            assert_eq!(classify(name), (kind, None), "{name}");
+            assert_eq!(classify(&name.to_ascii_lowercase()).0, kind, "{name}");
+        }
         for (name, kind) in [
-            ("FileInfo", SectionKind::FileInfo),
-            ("deviceinfo", SectionKind::DeviceInfo),
-            ("DummyUsage", SectionKind::DummyUsage),
-            ("Comments", SectionKind::Comments),
-            ("MandatoryObjects", SectionKind::Mandatory),
-            ("OptionalObjects", SectionKind::Optional),
-            ("ManufacturerObjects", SectionKind::Manufacturer),
-            ("DeviceComissioning", SectionKind::Commissioning),
             ("DeviceCommissioning", SectionKind::Commissioning),
             ("1018", SectionKind::Object(0x1018)),
             ("1018sub3", SectionKind::Sub(0x1018, 3)),
