@@ -6,6 +6,16 @@
 //! before the frame. Error frames become [`BusEvent`]s: bus-off, error-passive, restarted, and
 //! every error frame itself. `ENETDOWN` becomes [`BusEvent::InterfaceDown`], the next successful
 //! operation [`BusEvent::InterfaceUp`].
+//!
+//! Waiting: [`Transport::recv_until`] blocks in `recvmsg` with the socket's receive timeout
+//! (`SO_RCVTIMEO`). That is the cheapest wait the kernel offers (measured in the QEMU guest of
+//! `tests/vcan`: a request/response round trip took about 30 µs longer with `ppoll`, whose
+//! high-resolution timer is costlier than the timer-wheel timeout of a blocking read). The kernel
+//! rounds that timeout up to its timer tick (1 to 10 ms depending on `CONFIG_HZ`), so a wait
+//! may end up to a tick after its deadline, never before it. A timeout already set is reused
+//! while it lies between half and 17/16 of the wait needed, which saves a `setsockopt` per call
+//! when the deadlines keep the same distance (the master's drive slice, the simulator's loop).
+//! A deadline that has passed is a non-blocking read (`MSG_DONTWAIT`).
 
 use std::collections::VecDeque;
 use std::io::IoSliceMut;
@@ -34,6 +44,8 @@ pub struct SocketCan {
     last_drops: u32,
     down: bool,
     events: VecDeque<Received>,
+    /// The receive timeout set on the socket (`None`: the kernel's default, none).
+    read_timeout: Option<std::time::Duration>,
 }
 
 impl core::fmt::Debug for SocketCan {
@@ -95,6 +107,13 @@ pub(crate) fn error_events(class: u32, data: [u8; 8]) -> Vec<BusEvent> {
     out
 }
 
+/// Whether a receive timeout `set` on the socket serves a wait of `wanted`: it ends the wait
+/// at most `wanted / 16` late (less than the kernel's own rounding to its tick), and early
+/// at most by half (the caller then waits again for the rest).
+pub(crate) fn reuse_timeout(set: std::time::Duration, wanted: std::time::Duration) -> bool {
+    set <= wanted + wanted / 16 && set >= wanted / 2
+}
+
 fn is_down(e: &std::io::Error) -> bool {
     matches!(e.raw_os_error(), Some(libc_enetdown) if libc_enetdown == nix::errno::Errno::ENETDOWN as i32)
 }
@@ -113,6 +132,7 @@ impl SocketCan {
             last_drops: 0,
             down: false,
             events: VecDeque::new(),
+            read_timeout: None,
         })
     }
 
@@ -132,18 +152,30 @@ impl SocketCan {
         }
     }
 
-    /// One `recvmsg` with the socket's read timeout.
-    fn read_one(&mut self) -> Result<bool, TransportError> {
+    /// Sets the receive timeout for a blocking read that should return after `wait`, unless
+    /// the one already set serves (see the module docs).
+    fn set_wait(&mut self, wait: std::time::Duration) -> Result<(), TransportError> {
+        // A zero timeout would mean "block forever" to the kernel.
+        let wait = wait.max(std::time::Duration::from_micros(100));
+        if let Some(set) = self.read_timeout
+            && reuse_timeout(set, wait)
+        {
+            return Ok(());
+        }
+        self.socket.set_read_timeout(wait)?;
+        self.read_timeout = Some(wait);
+        Ok(())
+    }
+
+    /// One `recvmsg`: blocking with the socket's read timeout, or not blocking with
+    /// `MSG_DONTWAIT`. `Ok(false)`: nothing arrived.
+    fn read_one(&mut self, flags: MsgFlags) -> Result<bool, TransportError> {
         let mut buf = [0u8; 16];
         let mut cmsg = nix::cmsg_space!(u32);
         let (n, drops) = {
             let mut iov = [IoSliceMut::new(&mut buf)];
-            let msg = match recvmsg::<()>(
-                self.socket.as_raw_fd(),
-                &mut iov,
-                Some(&mut cmsg),
-                MsgFlags::empty(),
-            ) {
+            let msg = match recvmsg::<()>(self.socket.as_raw_fd(), &mut iov, Some(&mut cmsg), flags)
+            {
                 Ok(m) => m,
                 Err(nix::errno::Errno::EAGAIN | nix::errno::Errno::EINTR) => return Ok(false),
                 Err(nix::errno::Errno::ENETDOWN) => {
@@ -221,17 +253,12 @@ impl Transport for SocketCan {
             }
             let now = self.clock.now();
             if now >= deadline {
-                // Non-blocking check for something already queued.
-                self.socket.set_nonblocking(true)?;
-                let r = self.read_one();
-                self.socket.set_nonblocking(false)?;
-                r?;
+                // Something already queued?
+                self.read_one(MsgFlags::MSG_DONTWAIT)?;
                 return Ok(self.events.pop_front());
             }
-            let wait: std::time::Duration = (deadline - now).into();
-            self.socket
-                .set_read_timeout(wait.max(std::time::Duration::from_micros(100)))?;
-            self.read_one()?;
+            self.set_wait((deadline - now).into())?;
+            self.read_one(MsgFlags::empty())?;
         }
     }
 
@@ -278,6 +305,23 @@ mod tests {
                 data: [0; 8]
             }
         );
+    }
+
+    #[test]
+    fn receive_timeouts_are_reused_only_close_to_the_wait() {
+        let ms = std::time::Duration::from_millis;
+        let us = std::time::Duration::from_micros;
+        // The master's drive slice: the next wait is a few microseconds shorter or longer.
+        assert!(reuse_timeout(ms(2), ms(2) - us(7)));
+        assert!(reuse_timeout(ms(2) - us(7), ms(2)));
+        // Never more than 1/16 of the wait late.
+        assert!(reuse_timeout(ms(2) + us(125), ms(2)));
+        assert!(!reuse_timeout(ms(2) + us(126), ms(2)));
+        assert!(!reuse_timeout(ms(50), ms(1)));
+        // Early by at most half of the wait.
+        assert!(reuse_timeout(ms(1), ms(2)));
+        assert!(!reuse_timeout(ms(1), ms(2) + us(1)));
+        assert!(!reuse_timeout(us(100), ms(50)));
     }
 
     #[test]
