@@ -13,6 +13,7 @@
 //! blocking pool and cancels the request when the future is dropped.
 
 use std::io::{Read, Write};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
 
 use can_frame::{CanFrame, Duration, Instant, NodeId};
@@ -37,6 +38,9 @@ const DRIVE_SLICE: Duration = Duration::from_millis(2);
 pub(crate) struct Inner {
     core: Mutex<Core>,
     cond: Condvar,
+    /// Threads waiting on `cond`: a notification costs a system call, so it is only sent when
+    /// one waits.
+    waiting: AtomicUsize,
     io: Mutex<Box<dyn Transport>>,
 }
 
@@ -65,6 +69,7 @@ impl Network {
             inner: Arc::new(Inner {
                 core: Mutex::new(core),
                 cond: Condvar::new(),
+                waiting: AtomicUsize::new(0),
                 io: Mutex::new(Box::new(transport)),
             }),
         }
@@ -199,12 +204,19 @@ impl Network {
             io.send(&f)?;
         }
         drop(io);
-        self.inner.cond.notify_all();
+        self.notify();
         Ok(())
     }
 
     fn wake(&self) {
-        self.inner.cond.notify_all();
+        self.notify();
+    }
+
+    /// Wakes the threads waiting for progress, if there are any.
+    fn notify(&self) {
+        if self.inner.waiting.load(Ordering::SeqCst) > 0 {
+            self.inner.cond.notify_all();
+        }
     }
 
     /// One driving step: flush, receive until the next deadline (bounded by `limit` and the
@@ -228,7 +240,12 @@ impl Network {
             deadline = deadline.min(l);
         }
         let got = io.recv_until(deadline.max(now));
-        let now = io.now();
+        // A frame's reception time is the time now, give or take the decoding; only otherwise
+        // ask the clock.
+        let now = match &got {
+            Ok(Some(Received::Frame { at, .. })) => *at,
+            _ => io.now(),
+        };
         let more = {
             let mut c = self.core();
             match got {
@@ -237,7 +254,7 @@ impl Network {
                 Ok(None) => {}
                 Err(e) => {
                     drop(c);
-                    self.inner.cond.notify_all();
+                    self.notify();
                     return Err(e.into());
                 }
             }
@@ -247,7 +264,7 @@ impl Network {
         for f in &more {
             io.send(f)?;
         }
-        self.inner.cond.notify_all();
+        self.notify();
         Ok(())
     }
 
@@ -307,12 +324,21 @@ impl Network {
             match self.inner.io.try_lock() {
                 Ok(mut io) => self.step(&mut io, None)?,
                 Err(_) => {
-                    let c = self.core();
+                    let mut c = self.core();
+                    if let Some(r) = done(&mut c) {
+                        return Ok(r);
+                    }
+                    // Counted while the core is locked, and the wait releases that lock: a
+                    // thread that changes the core after the check above sees the count and
+                    // notifies. (The driving thread's release of the transport is not a core
+                    // change; the timeout bounds that wait.)
+                    self.inner.waiting.fetch_add(1, Ordering::SeqCst);
                     let _ = relock(
                         self.inner
                             .cond
                             .wait_timeout(c, std::time::Duration::from_millis(5)),
                     );
+                    self.inner.waiting.fetch_sub(1, Ordering::SeqCst);
                 }
             }
         }
