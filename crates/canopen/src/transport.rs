@@ -159,7 +159,13 @@ pub trait Station: Send {
 /// Runs a [`Station`] on a transport until `stop` returns true or the transport fails.
 ///
 /// This is the loop behind `canopen simulate` on a real interface: receive until the station's
-/// next deadline, feed, fire timers, send what it produced.
+/// next deadline, feed, fire timers that are due, send what it produced. `stop` is checked at
+/// least every 50 ms.
+///
+/// The loop keeps the clock reads down to what the transport needs: a received frame's
+/// reception time serves as the current time for the timers checked right after it, and
+/// [`Station::handle_timeout`] is only called when [`Station::poll_timeout`] has passed (as
+/// the call order above asks; the in-memory bus does the same).
 pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
     transport: &mut T,
     station: &mut S,
@@ -167,24 +173,104 @@ pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
 ) -> Result<(), TransportError> {
     // Upper bound on one wait so `stop` is polled regularly.
     let slice = Duration::from_millis(50);
+    let mut now = transport.now();
     loop {
-        let now = transport.now();
-        station.handle_timeout(now);
+        if station.poll_timeout().is_some_and(|t| t <= now) {
+            station.handle_timeout(now);
+        }
         while let Some(frame) = station.poll_transmit() {
             transport.send(&frame)?;
         }
         if stop() {
             return Ok(());
         }
-        let now = transport.now();
         let deadline = match station.poll_timeout() {
             Some(t) if t < now + slice => t,
             _ => now + slice,
         };
         match transport.recv_until(deadline)? {
-            Some(Received::Frame { frame, at }) => station.handle_frame(at, &frame),
-            Some(Received::Event(ev)) => station.handle_bus_event(transport.now(), &ev),
-            None => {}
+            Some(Received::Frame { frame, at }) => {
+                station.handle_frame(at, &frame);
+                now = at;
+            }
+            Some(Received::Event(ev)) => {
+                now = transport.now();
+                station.handle_bus_event(now, &ev);
+            }
+            None => now = transport.now(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::VecDeque;
+
+    use can_frame::CanId;
+
+    use super::*;
+    use crate::mem::MemoryBus;
+
+    fn frame(raw: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(CanId::standard(raw).unwrap(), data).unwrap()
+    }
+
+    /// A timer every 100 ms from 100 ms on; answers 0x600 with 0x580. Records its calls.
+    struct Recorder {
+        next: Instant,
+        timeouts: Vec<u64>,
+        frames: Vec<u64>,
+        out: VecDeque<CanFrame>,
+    }
+
+    impl Station for Recorder {
+        fn handle_frame(&mut self, now: Instant, f: &CanFrame) {
+            self.frames.push(now.as_micros() / 1000);
+            if f.cob_id() == Some(0x600) {
+                self.out.push_back(frame(0x580, f.data()));
+            }
+        }
+        fn handle_timeout(&mut self, now: Instant) {
+            self.timeouts.push(now.as_micros() / 1000);
+            if now >= self.next {
+                self.next += Duration::from_millis(100);
+            }
+        }
+        fn poll_transmit(&mut self) -> Option<CanFrame> {
+            self.out.pop_front()
+        }
+        fn poll_timeout(&self) -> Option<Instant> {
+            Some(self.next)
+        }
+    }
+
+    #[test]
+    fn run_station_fires_timers_when_due_and_answers_frames() {
+        let bus = MemoryBus::new();
+        let mut master = bus.endpoint();
+        let mut dev = bus.endpoint();
+        for n in 0..3 {
+            master.send(&frame(0x600, &[n])).unwrap();
+        }
+        let mut station = Recorder {
+            next: Instant::from_millis(100),
+            timeouts: Vec::new(),
+            frames: Vec::new(),
+            out: VecDeque::new(),
+        };
+        let clock = bus.clone();
+        run_station(&mut dev, &mut station, || {
+            clock.now() >= Instant::from_millis(450)
+        })
+        .unwrap();
+        // Timers only when due (not once per received frame or per 50 ms wait), on time.
+        assert_eq!(station.timeouts, [100, 200, 300, 400]);
+        assert_eq!(station.frames, [0, 0, 0]);
+        let mut answers = Vec::new();
+        while let Some(Received::Frame { frame, .. }) = master.try_recv().unwrap() {
+            assert_eq!(frame.cob_id(), Some(0x580));
+            answers.push(frame.data()[0]);
+        }
+        assert_eq!(answers, [0, 1, 2]);
     }
 }
