@@ -154,6 +154,24 @@ pub struct Measured {
     /// The blocking API of [`canopen::Network`] does all of the master's work in the thread
     /// that waits, so on a real bus this is the master's cost, apart from the waiting.
     pub cpu_seconds: f64,
+    /// Context switches of the calling thread during the measurement (Linux; 0 elsewhere).
+    pub switches: u64,
+    /// CPU time of the peer (the simulated device's thread) during the measurement, in seconds,
+    /// where the caller can tell (0 otherwise).
+    pub peer_cpu_seconds: f64,
+    /// Context switches of the peer during the measurement, where the caller can tell.
+    pub peer_switches: u64,
+}
+
+/// Context switches (voluntary and involuntary) of the task whose `/proc/.../status` file is
+/// `path`; 0 when unavailable.
+pub fn context_switches(path: &str) -> u64 {
+    std::fs::read_to_string(path).map_or(0, |s| {
+        s.lines()
+            .filter(|l| l.contains("ctxt_switches:"))
+            .filter_map(|l| l.split_whitespace().last()?.parse::<u64>().ok())
+            .sum()
+    })
 }
 
 /// CPU time (user and system) the calling thread has used, in seconds; 0 where the clock is
@@ -183,7 +201,9 @@ impl From<canopen::Error> for BenchError {
 
 /// Runs the workload with the master `node`: `expedited` reads of [`EXPEDITED_ENTRY`], then a
 /// segmented and a block upload of [`LARGE_ENTRY`] (`large_len` bytes), checking every value.
-/// `stats` gives the bus's frame count and busy time where the transport knows them; `settle`
+/// `stats` gives the bus's frame count and busy time where the transport knows them; `peer`
+/// the CPU seconds and context switches of the device's thread so far (zeros where unknown);
+/// `settle`
 /// lets the bus go idle between the parts (the block transfer's last frame, the client's end
 /// response, leaves after the data is complete).
 pub fn run_workload(
@@ -191,6 +211,7 @@ pub fn run_workload(
     expedited: u64,
     large_len: usize,
     stats: &dyn Fn() -> (u64, f64),
+    peer: &dyn Fn() -> (f64, u64),
     settle: &dyn Fn() -> Result<(), BenchError>,
 ) -> Result<[Measured; 3], BenchError> {
     let net = node.network();
@@ -201,9 +222,14 @@ pub fn run_workload(
         let (frames0, busy0) = stats();
         let t0 = net.now();
         let host0 = std::time::Instant::now();
+        let own = "/proc/thread-self/status";
+        let (peer_cpu0, peer_switches0) = peer();
+        let switches0 = context_switches(own);
         let cpu0 = thread_cpu_seconds();
         let (transfers, bytes) = f()?;
         let cpu_seconds = thread_cpu_seconds() - cpu0;
+        let switches = context_switches(own) - switches0;
+        let (peer_cpu1, peer_switches1) = peer();
         let host_seconds = host0.elapsed().as_secs_f64();
         let seconds = (net.now() - t0).as_micros() as f64 / 1e6;
         let (frames1, busy1) = stats();
@@ -216,6 +242,9 @@ pub fn run_workload(
             busy: busy1 - busy0,
             host_seconds,
             cpu_seconds,
+            switches,
+            peer_cpu_seconds: peer_cpu1 - peer_cpu0,
+            peer_switches: peer_switches1 - peer_switches0,
         })
     };
     let want = payload(large_len);
@@ -270,7 +299,7 @@ pub fn in_memory(
         (s.frames, s.busy.as_micros() as f64 / 1e6)
     };
     let settle = || Ok(net.run_for(can_frame::Duration::from_millis(5))?);
-    run_workload(&n, expedited, large_len, &stats, &settle)
+    run_workload(&n, expedited, large_len, &stats, &|| (0.0, 0), &settle)
 }
 
 #[cfg(test)]

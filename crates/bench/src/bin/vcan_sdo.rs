@@ -2,33 +2,51 @@
 //! this master (`canopen::Network` over `canopen::socketcan::SocketCan`) and python-canopen's
 //! `RemoteNode` (`crates/bench/py/remote_sdo_bench.py`, another process) run the same workload
 //! one after the other against one simulated device (`canopen::SimDevice` from the rig's test
-//! EDS, served on its own socket by a thread of this process): COUNT expedited reads of 0x1000,
-//! a segmented and a block upload of SIZE bytes from 0x2001. Prints the times and the ratios.
+//! EDS, served by `canopen::run_station` on its own socket in a child process, this binary run
+//! with `--serve`): COUNT expedited reads of 0x1000, a segmented and a block upload of SIZE
+//! bytes from 0x2001. Prints the times and the ratios, then where a request/response round trip
+//! goes (client CPU, simulator CPU, rest) for this master, python-canopen and a raw-socket
+//! client (the least any client can do, as the floor this simulator and kernel allow).
 //!
 //! Exits non-zero only when a transfer fails or returns wrong data; the times are reported, never
 //! judged (the guest is emulated and the machine is shared).
 //!
 //! ```text
 //! vcan_sdo [--python PATH] [--iface vcan0] [--count 1000] [--size 65536] [--node-id 0x5c]
-//!          [--pin-cpu N]
+//!          [--pin-cpu N] [--sim-thread] [--sim-normal] [--no-python]
 //! ```
-//! `--pin-cpu N` runs everything (this process's threads and the python-canopen child) on CPU
-//! N. In the two-vCPU TCG guest, waking a thread on the other vCPU takes milliseconds (QEMU
-//! has to kick the halted vCPU's host thread, on a shared host), which then dominates every
-//! request/response round trip of both clients alike; on one vCPU a wake-up is a context
-//! switch, so the figures show the clients' own costs.
+//! `--no-python` skips python-canopen's run (this master and the raw client only).
+//! `--pin-cpu N` runs everything (this process's threads, the simulator and the python-canopen
+//! child) on CPU N. In the two-vCPU TCG guest, waking a thread on the other vCPU takes
+//! milliseconds (QEMU has to kick the halted vCPU's host thread, on a shared host), which then
+//! dominates every request/response round trip of both clients alike; on one vCPU a wake-up is
+//! a context switch, so the figures show the clients' own costs.
+//!
+//! The simulator runs in a process of its own so that every client pays the same switch between
+//! address spaces per frame (under TCG that flushes QEMU's software TLB, which costs the next
+//! instructions much more than on hardware). `--sim-thread` serves it from a thread of this
+//! process instead, to show that difference: this master and the raw client then switch
+//! between threads of one address space, python-canopen still between processes.
+//!
+//! The simulator process runs at real-time priority (`chrt -f 1`, SCHED_FIFO; root in the rig's
+//! guest) unless `--sim-normal` is given or that fails. On one CPU a device and its client
+//! otherwise share the CPU fairly: a client that uses less CPU than the device is woken ahead
+//! of it and preempts it in the middle of a block-upload sub-block (127 frames sent in one go),
+//! and every such switch costs a TLB flush. A real device does not share its CPU with the
+//! master; at real-time priority the simulator is never preempted by a client's wake-up, for
+//! every client alike.
 //! `--python` defaults to `$CANOPEN_PYTHON` (set by `tests/vcan/run-all`), the interface to
 //! `$CANOPEN_VCAN_IFACE` or `vcan0`.
 
-use std::io::BufRead;
+use std::io::{BufRead, Write};
 use std::process::{Command, ExitCode, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use can_frame::{Duration, NodeId};
 use canopen::socketcan::SocketCan;
-use canopen::{Network, Received, SimDevice, Transport, TransportError, run_station};
-use canopen_bench::{BenchError, Measured, device, kib_per_s, run_workload};
+use canopen::{Network, Received, Transport, TransportError, run_station};
+use canopen_bench::{BenchError, Measured, context_switches, device, kib_per_s, run_workload};
 
 struct Args {
     python: Option<String>,
@@ -37,6 +55,11 @@ struct Args {
     size: usize,
     node: u8,
     pin_cpu: Option<usize>,
+    /// Serve the simulated device on stdin/stdout commands (the child process).
+    serve: bool,
+    sim_thread: bool,
+    sim_normal: bool,
+    no_python: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -47,6 +70,10 @@ fn parse_args() -> Result<Args, String> {
         size: canopen_bench::LARGE_LEN,
         node: 0x5C,
         pin_cpu: None,
+        serve: false,
+        sim_thread: false,
+        sim_normal: false,
+        no_python: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -67,26 +94,30 @@ fn parse_args() -> Result<Args, String> {
                 a.node = u8::try_from(number(value()?)?).map_err(|e| format!("--node-id: {e}"))?
             }
             "--pin-cpu" => a.pin_cpu = Some(number(value()?)? as usize),
+            "--serve" => a.serve = true,
+            "--sim-thread" => a.sim_thread = true,
+            "--no-python" => a.no_python = true,
+            "--sim-normal" => a.sim_normal = true,
             _ => return Err(format!("unknown argument {flag}")),
         }
     }
     Ok(a)
 }
 
-/// Transport calls, to show how a side drives its socket (blocking waits or polling).
+/// Transport calls, to show how a side drives its socket (blocking waits or polling). Counting
+/// costs no system call (an earlier version read the clock per receive, which in the guest
+/// costs a system call of its own and slowed both sides).
 #[derive(Debug, Default)]
 struct Calls {
     sends: AtomicU64,
     recvs: AtomicU64,
-    /// `recv_until` calls whose deadline had already passed (non-blocking polls).
-    polls: AtomicU64,
-    /// `recv_until` calls that returned nothing.
+    /// `recv_until` calls that returned nothing (deadline passed).
     empty: AtomicU64,
 }
 
 impl Calls {
-    fn snapshot(&self) -> [u64; 4] {
-        [&self.sends, &self.recvs, &self.polls, &self.empty].map(|c| c.load(Ordering::Relaxed))
+    fn snapshot(&self) -> [u64; 3] {
+        [&self.sends, &self.recvs, &self.empty].map(|c| c.load(Ordering::Relaxed))
     }
 }
 
@@ -107,9 +138,6 @@ impl<T: Transport> Transport for Counting<T> {
         deadline: can_frame::Instant,
     ) -> Result<Option<Received>, TransportError> {
         self.calls.recvs.fetch_add(1, Ordering::Relaxed);
-        if deadline <= self.inner.now() {
-            self.calls.polls.fetch_add(1, Ordering::Relaxed);
-        }
         let r = self.inner.recv_until(deadline);
         if matches!(r, Ok(None)) {
             self.calls.empty.fetch_add(1, Ordering::Relaxed);
@@ -122,52 +150,246 @@ impl<T: Transport> Transport for Counting<T> {
     }
 }
 
-/// The simulated device served on its own socket by a thread until dropped.
-struct RunningSim {
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<Result<(), TransportError>>>,
+/// CPU seconds a thread has used, from the scheduler's own account (`schedstat`: nanoseconds
+/// on the CPU); 0 when unavailable.
+fn schedstat_seconds(path: &str) -> f64 {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .map_or(0.0, |ns| ns as f64 / 1e9)
 }
 
-impl RunningSim {
-    fn start(iface: &str, mut dev: SimDevice, calls: Arc<Calls>) -> Result<Self, TransportError> {
-        // Opened here, so the device's socket receives from the moment this returns.
-        let mut transport = Counting {
-            inner: SocketCan::open(iface)?,
-            calls,
+/// `vcan_sdo --serve`: the simulated device on its own socket, served by `run_station` in the
+/// main thread (so `/proc/PID/schedstat` is its CPU time). Prints `READY` once the socket is
+/// open; answers a `calls` line on stdin with `CALLS SENDS RECEIVES EMPTY`; stops when stdin
+/// closes.
+fn serve(args: &Args) -> Result<(), BenchError> {
+    let node = NodeId::new(args.node).map_err(|_| BenchError("node-ID 1..=127".into()))?;
+    let calls = Arc::new(Calls::default());
+    let mut transport = Counting {
+        inner: SocketCan::open(&args.iface)
+            .map_err(|e| BenchError(format!("open {} for the simulator: {e}", args.iface)))?,
+        calls: calls.clone(),
+    };
+    let mut dev = device(node, args.size);
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    println!("READY");
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if line.trim() == "calls" {
+                let [s, r, e] = calls.snapshot();
+                println!("CALLS {s} {r} {e}");
+            }
+        }
+        flag.store(true, Ordering::Relaxed);
+    });
+    run_station(&mut transport, &mut dev, || stop.load(Ordering::Relaxed))
+        .map_err(|e| BenchError(format!("the simulator's transport failed: {e}")))
+}
+
+/// The simulated device, served by a child process (`--serve`) or a thread of this process.
+enum Sim {
+    Process {
+        child: std::process::Child,
+        stdin: Option<std::process::ChildStdin>,
+        lines: std::io::Lines<std::io::BufReader<std::process::ChildStdout>>,
+    },
+    Thread {
+        stop: Arc<AtomicBool>,
+        thread: Option<std::thread::JoinHandle<Result<(), TransportError>>>,
+        tid: i32,
+        calls: Arc<Calls>,
+    },
+}
+
+impl Sim {
+    fn start(args: &Args) -> Result<Self, BenchError> {
+        let node = NodeId::new(args.node).map_err(|_| BenchError("node-ID 1..=127".into()))?;
+        if args.sim_thread {
+            let calls = Arc::new(Calls::default());
+            // Opened here, so the device's socket receives from the moment this returns.
+            let mut transport = Counting {
+                inner: SocketCan::open(&args.iface).map_err(|e| {
+                    BenchError(format!("open {} for the simulator: {e}", args.iface))
+                })?,
+                calls: calls.clone(),
+            };
+            let mut dev = device(node, args.size);
+            let stop = Arc::new(AtomicBool::new(false));
+            let flag = stop.clone();
+            let (tid_tx, tid_rx) = std::sync::mpsc::channel();
+            let thread = std::thread::spawn(move || {
+                let _ = tid_tx.send(nix::unistd::gettid().as_raw());
+                run_station(&mut transport, &mut dev, || flag.load(Ordering::Relaxed))
+            });
+            let tid = tid_rx.recv().unwrap_or(0);
+            return Ok(Self::Thread {
+                stop,
+                thread: Some(thread),
+                tid,
+                calls,
+            });
+        }
+        if !args.sim_normal {
+            match Self::spawn(args, true) {
+                Ok(sim) => return Ok(sim),
+                Err(e) => println!("no real-time priority for the simulator ({e}); SCHED_OTHER"),
+            }
+        }
+        Self::spawn(args, false)
+    }
+
+    /// Starts `vcan_sdo --serve` (under `chrt -f 1` when `fifo`) and waits for its `READY`.
+    fn spawn(args: &Args, fifo: bool) -> Result<Self, BenchError> {
+        let exe = std::env::current_exe()
+            .map_err(|e| BenchError(format!("where is this program: {e}")))?;
+        let mut cmd = if fifo {
+            let mut c = Command::new("chrt");
+            c.args(["-f", "1"]).arg(exe);
+            c
+        } else {
+            Command::new(exe)
         };
-        let stop = Arc::new(AtomicBool::new(false));
-        let flag = stop.clone();
-        let thread = std::thread::spawn(move || {
-            run_station(&mut transport, &mut dev, || flag.load(Ordering::Relaxed))
-        });
-        Ok(Self {
-            stop,
-            thread: Some(thread),
+        let mut child = cmd
+            .arg("--serve")
+            .args(["--iface", &args.iface])
+            .args(["--node-id", &args.node.to_string()])
+            .args(["--size", &args.size.to_string()])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(if fifo {
+                Stdio::null()
+            } else {
+                Stdio::inherit()
+            })
+            .spawn()
+            .map_err(|e| BenchError(format!("start the simulator: {e}")))?;
+        let stdin = child.stdin.take();
+        let Some(out) = child.stdout.take() else {
+            return Err(BenchError("the simulator has no stdout".into()));
+        };
+        let mut lines = std::io::BufReader::new(out).lines();
+        match lines.next() {
+            Some(Ok(l)) if l == "READY" => {}
+            other => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(BenchError(format!(
+                    "the simulator did not start: {other:?}"
+                )));
+            }
+        }
+        Ok(Self::Process {
+            child,
+            stdin,
+            lines,
         })
     }
 
+    /// Whether the serving process runs with `SCHED_FIFO` (`/proc/PID/stat` field 41).
+    fn is_fifo(&self) -> bool {
+        let Self::Process { child, .. } = self else {
+            return false;
+        };
+        std::fs::read_to_string(format!("/proc/{}/stat", child.id()))
+            .ok()
+            .and_then(|s| {
+                // Fields after the command name in parentheses: state is field 3.
+                let rest = s.rsplit_once(')')?.1;
+                rest.split_whitespace().nth(41 - 3).map(|p| p == "1")
+            })
+            .unwrap_or(false)
+    }
+
+    /// CPU seconds and context switches of the serving thread so far.
+    fn usage(&self) -> (f64, u64) {
+        let dir = match self {
+            Self::Process { child, .. } => format!("/proc/{}", child.id()),
+            Self::Thread { tid, .. } => format!("/proc/self/task/{tid}"),
+        };
+        (
+            schedstat_seconds(&format!("{dir}/schedstat")),
+            context_switches(&format!("{dir}/status")),
+        )
+    }
+
+    /// The simulator's transport calls so far: sends, receives, empty receives.
+    fn calls(&mut self) -> Result<[u64; 3], BenchError> {
+        match self {
+            Self::Thread { calls, .. } => Ok(calls.snapshot()),
+            Self::Process { stdin, lines, .. } => {
+                let lost = || BenchError("the simulator stopped answering".into());
+                let stdin = stdin.as_mut().ok_or_else(lost)?;
+                writeln!(stdin, "calls").map_err(|_| lost())?;
+                stdin.flush().map_err(|_| lost())?;
+                let line = lines.next().ok_or_else(lost)?.map_err(|_| lost())?;
+                let mut out = [0u64; 3];
+                let mut fields = line.strip_prefix("CALLS ").ok_or_else(lost)?.split(' ');
+                for v in &mut out {
+                    *v = fields
+                        .next()
+                        .and_then(|f| f.parse().ok())
+                        .ok_or_else(lost)?;
+                }
+                Ok(out)
+            }
+        }
+    }
+
     fn stop(mut self) -> Result<(), BenchError> {
-        self.stop.store(true, Ordering::Relaxed);
-        match self.thread.take().map(|t| t.join()) {
-            Some(Ok(Err(e))) => Err(BenchError(format!("the simulator's transport failed: {e}"))),
-            Some(Err(_)) => Err(BenchError("the simulator thread panicked".into())),
-            _ => Ok(()),
+        match &mut self {
+            Self::Thread { stop, thread, .. } => {
+                stop.store(true, Ordering::Relaxed);
+                match thread.take().map(|t| t.join()) {
+                    Some(Ok(Err(e))) => {
+                        Err(BenchError(format!("the simulator's transport failed: {e}")))
+                    }
+                    Some(Err(_)) => Err(BenchError("the simulator thread panicked".into())),
+                    _ => Ok(()),
+                }
+            }
+            Self::Process { child, stdin, .. } => {
+                drop(stdin.take());
+                match child.wait() {
+                    Ok(s) if s.success() => Ok(()),
+                    Ok(s) => Err(BenchError(format!("the simulator failed: {s}"))),
+                    Err(e) => Err(BenchError(format!("wait for the simulator: {e}"))),
+                }
+            }
         }
     }
 }
 
-impl Drop for RunningSim {
+impl Drop for Sim {
     fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
+        match self {
+            Self::Thread { stop, thread, .. } => {
+                stop.store(true, Ordering::Relaxed);
+                if let Some(t) = thread.take() {
+                    let _ = t.join();
+                }
+            }
+            Self::Process { child, stdin, .. } => {
+                if stdin.take().is_some() {
+                    // Not stopped in order: an error ended the run.
+                    let _ = child.kill();
+                }
+                let _ = child.wait();
+            }
         }
     }
 }
 
 /// This master's run. The network (and its socket) is gone when this returns, so it does not
 /// cost the guest anything during python-canopen's run.
-fn master(args: &Args, node: NodeId, calls: Arc<Calls>) -> Result<[Measured; 3], BenchError> {
+fn master(
+    args: &Args,
+    node: NodeId,
+    calls: Arc<Calls>,
+    sim: &Sim,
+) -> Result<[Measured; 3], BenchError> {
     let net = Network::new(Counting {
         inner: SocketCan::open(&args.iface)
             .map_err(|e| BenchError(format!("open {}: {e}", args.iface)))?,
@@ -181,11 +403,135 @@ fn master(args: &Args, node: NodeId, calls: Arc<Calls>) -> Result<[Measured; 3],
     n.sdo().write((0x1017, 0), 0u16)?;
     let stats = || (0, 0.0);
     let settle = || Ok(net.run_for(Duration::from_millis(20))?);
-    run_workload(&n, args.count, args.size, &stats, &settle)
+    run_workload(&n, args.count, args.size, &stats, &|| sim.usage(), &settle)
+}
+
+/// One part of a run: elapsed and CPU seconds and context switches of the client, the same of
+/// the simulator.
+#[derive(Debug, Clone, Copy, Default)]
+struct Part {
+    seconds: f64,
+    cpu: f64,
+    switches: u64,
+    sim_cpu: f64,
+    sim_switches: u64,
+}
+
+impl Part {
+    fn of(m: &Measured) -> Self {
+        Self {
+            seconds: m.seconds,
+            cpu: m.cpu_seconds,
+            switches: m.switches,
+            sim_cpu: m.peer_cpu_seconds,
+            sim_switches: m.peer_switches,
+        }
+    }
+}
+
+/// Context switches of all threads of process `pid`.
+fn process_switches(pid: u32) -> u64 {
+    std::fs::read_dir(format!("/proc/{pid}/task")).map_or(0, |tasks| {
+        tasks
+            .flatten()
+            .map(|t| context_switches(&format!("{}/status", t.path().display())))
+            .sum()
+    })
+}
+
+/// The smallest SDO client there is, as the floor any client meets against this simulator on
+/// this kernel: one blocking `write` and one blocking `read` per request on a plain SocketCAN
+/// socket (the `socketcan` crate), no timers, no clock reads, no other work. It runs the
+/// expedited and the segmented part of the workload (CiA 301 §7.2.4.3.2/.3/.4 frames written out
+/// by hand), checking the data.
+fn raw_client(args: &Args, node: u8, sim: &Sim) -> Result<[Part; 2], BenchError> {
+    use socketcan::{EmbeddedFrame, Socket, StandardId};
+    let io = |e: std::io::Error| BenchError(format!("raw client: {e}"));
+    let socket = socketcan::CanSocket::open(&args.iface).map_err(io)?;
+    // Set once: a missing answer ends the run instead of hanging it.
+    socket
+        .set_read_timeout(std::time::Duration::from_secs(5))
+        .map_err(io)?;
+    let request = |data: [u8; 8]| -> Result<[u8; 8], BenchError> {
+        let id = StandardId::new(0x600 + u16::from(node)).expect("0x600 + node-ID fits 11 bits");
+        let frame = socketcan::CanFrame::new(id, &data).expect("8 bytes fit");
+        socket.write_frame(&frame).map_err(io)?;
+        loop {
+            let got = socket.read_frame().map_err(io)?;
+            if socketcan::Frame::raw_id(&got) == 0x580 + u32::from(node) {
+                let mut out = [0u8; 8];
+                let d = got.data();
+                out[..d.len()].copy_from_slice(d);
+                return Ok(out);
+            }
+        }
+    };
+    let upload_initiate = |(index, sub): (u16, u8)| {
+        let i = index.to_le_bytes();
+        request([0x40, i[0], i[1], sub, 0, 0, 0, 0])
+    };
+    let own = "/proc/thread-self/status";
+    let measure = |f: &mut dyn FnMut() -> Result<(), BenchError>| -> Result<Part, BenchError> {
+        let (sim_cpu0, sim_switches0) = sim.usage();
+        let switches0 = context_switches(own);
+        let (t0, cpu0) = (
+            std::time::Instant::now(),
+            canopen_bench::thread_cpu_seconds(),
+        );
+        f()?;
+        let (seconds, cpu) = (
+            t0.elapsed().as_secs_f64(),
+            canopen_bench::thread_cpu_seconds() - cpu0,
+        );
+        let switches = context_switches(own) - switches0;
+        let (sim_cpu1, sim_switches1) = sim.usage();
+        Ok(Part {
+            seconds,
+            cpu,
+            switches,
+            sim_cpu: sim_cpu1 - sim_cpu0,
+            sim_switches: sim_switches1 - sim_switches0,
+        })
+    };
+    let expedited = measure(&mut || {
+        for _ in 0..args.count {
+            let r = upload_initiate(canopen_bench::EXPEDITED_ENTRY)?;
+            if r[0] & 0xE3 != 0x43 || r[4..] != canopen_bench::EXPEDITED_VALUE.to_le_bytes() {
+                return Err(BenchError(format!("raw client: expedited answer {r:02x?}")));
+            }
+        }
+        Ok(())
+    })?;
+    let want = canopen_bench::payload(args.size);
+    let segmented = measure(&mut || {
+        let r = upload_initiate(canopen_bench::LARGE_ENTRY)?;
+        if r[0] != 0x41 || u32::from_le_bytes([r[4], r[5], r[6], r[7]]) as usize != want.len() {
+            return Err(BenchError(format!("raw client: initiate answer {r:02x?}")));
+        }
+        let mut got = Vec::with_capacity(want.len());
+        let mut toggle = 0u8;
+        loop {
+            let r = request([0x60 | toggle, 0, 0, 0, 0, 0, 0, 0])?;
+            if r[0] & 0xF0 != toggle {
+                return Err(BenchError(format!("raw client: segment answer {r:02x?}")));
+            }
+            let unused = usize::from((r[0] >> 1) & 7);
+            got.extend_from_slice(&r[1..8 - unused]);
+            if r[0] & 1 != 0 {
+                break;
+            }
+            toggle ^= 0x10;
+        }
+        if got != want {
+            return Err(BenchError("raw client: segmented data differ".into()));
+        }
+        Ok(())
+    })?;
+    Ok([expedited, segmented])
 }
 
 /// python-canopen's run: elapsed and CPU seconds of its three parts.
-fn python(args: &Args, python: &str) -> Result<[(f64, f64); 3], BenchError> {
+fn python(args: &Args, python: &str, sim: &Sim) -> Result<[Part; 3], BenchError> {
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/py/remote_sdo_bench.py");
     let mut child = Command::new(python)
         .arg("-u")
@@ -194,20 +540,53 @@ fn python(args: &Args, python: &str) -> Result<[(f64, f64); 3], BenchError> {
         .args(["--node-id", &args.node.to_string()])
         .args(["--count", &args.count.to_string()])
         .args(["--size", &args.size.to_string()])
+        .arg("--marks")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .spawn()
         .map_err(|e| BenchError(format!("start {python} {script}: {e}")))?;
     let mut result = None;
+    // Per part: simulator CPU, simulator switches, python's switches (all its threads), from
+    // readings at each part's start and end (the lines come just outside the timed code).
+    let mut begin = [(0.0f64, 0u64, 0u64); 3];
+    let mut usage = [(0.0f64, 0u64, 0u64); 3];
+    let pid = child.id();
+    let read = || {
+        let (cpu, sw) = sim.usage();
+        (cpu, sw, process_switches(pid))
+    };
+    let slot = |name: &str| {
+        ["expedited", "segmented", "block"]
+            .iter()
+            .position(|n| *n == name)
+    };
     if let Some(out) = child.stdout.take() {
         for line in std::io::BufReader::new(out).lines() {
             let Ok(line) = line else { break };
+            if let Some(i) = line.strip_prefix("BEGIN ").and_then(slot) {
+                begin[i] = read();
+                continue;
+            }
+            if let Some(i) = line.strip_prefix("END ").and_then(slot) {
+                let (a, b) = (begin[i], read());
+                usage[i] = (b.0 - a.0, b.1 - a.1, b.2 - a.2);
+                continue;
+            }
             println!("python-canopen: {line}");
             if let Some(rest) = line.strip_prefix("RESULT ") {
                 result = Some(parse_result(rest)?);
             }
         }
     }
+    let result = result.map(|r: [(f64, f64); 3]| {
+        [0, 1, 2].map(|i| Part {
+            seconds: r[i].0,
+            cpu: r[i].1,
+            switches: usage[i].2,
+            sim_cpu: usage[i].0,
+            sim_switches: usage[i].1,
+        })
+    });
     let status = child
         .wait()
         .map_err(|e| BenchError(format!("wait for python: {e}")))?;
@@ -244,9 +623,17 @@ fn parse_result(rest: &str) -> Result<[(f64, f64); 3], BenchError> {
 }
 
 fn run(args: &Args) -> Result<(), BenchError> {
-    let python_path = args.python.clone().ok_or_else(|| {
-        BenchError("no python: pass --python or set CANOPEN_PYTHON (run-all sets it)".into())
-    })?;
+    let python_path = match (&args.python, args.no_python) {
+        (_, true) => None,
+        (Some(p), false) => Some(p.clone()),
+        (None, false) => {
+            return Err(BenchError(
+                "no python: pass --python or set CANOPEN_PYTHON (run-all sets it), or \
+                 --no-python"
+                    .into(),
+            ));
+        }
+    };
     let node = NodeId::new(args.node).map_err(|_| BenchError("node-ID 1..=127".into()))?;
     if let Some(cpu) = args.pin_cpu {
         // Before any thread or child exists: they inherit the affinity.
@@ -256,10 +643,8 @@ fn run(args: &Args) -> Result<(), BenchError> {
         nix::sched::sched_setaffinity(nix::unistd::Pid::from_raw(0), &set)
             .map_err(|e| BenchError(format!("--pin-cpu {cpu}: {e}")))?;
     }
-    let sim_calls = Arc::new(Calls::default());
     let master_calls = Arc::new(Calls::default());
-    let sim = RunningSim::start(&args.iface, device(node, args.size), sim_calls.clone())
-        .map_err(|e| BenchError(format!("open {} for the simulator: {e}", args.iface)))?;
+    let mut sim = Sim::start(args)?;
     println!(
         "vcan SDO benchmark on {}: {} expedited reads of 0x1000, {}-byte segmented and block \
          uploads of 0x2001 from the simulated device {:#04x}{}",
@@ -272,67 +657,147 @@ fn run(args: &Args) -> Result<(), BenchError> {
             None => String::new(),
         }
     );
-    let sim0 = sim_calls.snapshot();
-    let rust = master(args, node, master_calls.clone())?;
-    let sim1 = sim_calls.snapshot();
+    println!(
+        "the simulator runs in {}",
+        match &sim {
+            Sim::Thread { .. } => "a thread of this process (--sim-thread)",
+            Sim::Process { .. } if sim.is_fifo() => {
+                "a process of its own at real-time priority (SCHED_FIFO 1)"
+            }
+            Sim::Process { .. } => "a process of its own (SCHED_OTHER)",
+        }
+    );
+    let sim0 = sim.calls()?;
+    let rust = master(args, node, master_calls.clone(), &sim)?;
+    let sim1 = sim.calls()?;
     println!("canopen-rs master: done");
-    let py = python(args, &python_path)?;
+    let raw = raw_client(args, args.node, &sim)?;
+    println!("raw-socket client: done");
+    let sim2 = sim.calls()?;
+    let py = match &python_path {
+        Some(path) => Some(python(args, path, &sim)?),
+        None => None,
+    };
+    let sim3 = sim.calls()?;
     sim.stop()?;
-    let sim2 = sim_calls.snapshot();
-    let diff = |a: [u64; 4], b: [u64; 4]| {
-        let d: Vec<u64> = a.iter().zip(b).map(|(a, b)| b - a).collect();
+    let diff = |a: [u64; 3], b: [u64; 3]| {
         format!(
-            "{} sends, {} receives ({} non-blocking, {} empty)",
-            d[0], d[1], d[2], d[3]
+            "{} sends, {} receives ({} empty)",
+            b[0] - a[0],
+            b[1] - a[1],
+            b[2] - a[2]
         )
     };
     println!(
         "transport calls: master {}; simulator during the master's run {}, during \
          python-canopen's run {}",
-        diff([0; 4], master_calls.snapshot()),
+        diff([0; 3], master_calls.snapshot()),
         diff(sim0, sim1),
-        diff(sim1, sim2)
+        diff(sim2, sim3)
     );
 
-    println!(
-        "\n{:<17} | {:>9} {:>12} {:>8} | {:>9} {:>12} {:>8} | {:>8} {:>8}",
-        "workload",
-        "rs time",
-        "rs rate",
-        "rs cpu",
-        "py time",
-        "py rate",
-        "py cpu",
-        "time x",
-        "cpu x"
-    );
-    for (m, (py_s, py_cpu)) in rust.iter().zip(py) {
-        let rate = |s: f64| {
-            if m.transfers > 1 {
-                format!("{:.0}/s", m.transfers as f64 / s)
-            } else {
-                format!("{:.1} KiB/s", kib_per_s(m.bytes, s))
-            }
-        };
+    if let Some(py) = py {
         println!(
-            "{:<17} | {:>8.3}s {:>12} {:>7.3}s | {:>8.3}s {:>12} {:>7.3}s | {:>7.1}x {:>7.1}x",
-            m.label,
-            m.seconds,
-            rate(m.seconds),
-            m.cpu_seconds,
-            py_s,
-            rate(py_s),
-            py_cpu,
-            py_s / m.seconds,
-            py_cpu / m.cpu_seconds
+            "\n{:<17} | {:>9} {:>12} {:>8} | {:>9} {:>12} {:>8} | {:>8} {:>8}",
+            "workload",
+            "rs time",
+            "rs rate",
+            "rs cpu",
+            "py time",
+            "py rate",
+            "py cpu",
+            "time x",
+            "cpu x"
+        );
+        for (m, p) in rust.iter().zip(py) {
+            let rate = |s: f64| {
+                if m.transfers > 1 {
+                    format!("{:.0}/s", m.transfers as f64 / s)
+                } else {
+                    format!("{:.1} KiB/s", kib_per_s(m.bytes, s))
+                }
+            };
+            println!(
+                "{:<17} | {:>8.3}s {:>12} {:>7.3}s | {:>8.3}s {:>12} {:>7.3}s | {:>7.1}x {:>7.1}x",
+                m.label,
+                m.seconds,
+                rate(m.seconds),
+                m.cpu_seconds,
+                p.seconds,
+                rate(p.seconds),
+                p.cpu,
+                p.seconds / m.seconds,
+                p.cpu / m.cpu_seconds
+            );
+        }
+        println!(
+            "rs = canopen-rs master (blocking API; cpu = CPU time of the thread that drives it), \
+             py = python-canopen 2.4.1 RemoteNode (cpu = CPU time of its process, receive thread \
+             included); time = wall-clock, both against the same SimDevice on {}; x = python / rs",
+            args.iface
         );
     }
+
+    // Where the time goes, per request/response round trip (expedited: per read; segmented:
+    // per segment, the initiate counted as one more) and per segment of the block upload.
+    let units = [
+        args.count as f64,
+        args.size.div_ceil(7) as f64 + 1.0,
+        args.size.div_ceil(7) as f64,
+    ];
     println!(
-        "rs = canopen-rs master (blocking API; cpu = CPU time of the thread that drives it), py = \
-         python-canopen 2.4.1 RemoteNode (cpu = CPU time of its process, receive thread \
-         included); time = wall-clock, both against the same SimDevice on {}; x = python / rs",
-        args.iface
+        "\nper unit          | {:<34} | {:<34} | {:<34}",
+        "expedited read", "segmented: segment round trip", "block upload: segment"
     );
+    let head = format!(
+        "{:>7} {:>7} {:>7} {:>5} {:>5}",
+        "wall", "client", "sim", "c sw", "s sw"
+    );
+    println!("{:<17} | {head} | {head} | {head}", "client (us, n)");
+    let mut rows: Vec<(&str, Vec<Part>)> = vec![
+        ("canopen-rs", rust.iter().map(Part::of).collect()),
+        ("raw socket", raw.to_vec()),
+    ];
+    if let Some(py) = py {
+        rows.push(("python-canopen", py.to_vec()));
+    }
+    for (name, parts) in &rows {
+        let mut line = format!("{name:<17}");
+        for (p, n) in parts.iter().zip(units) {
+            let us = |s: f64| s * 1e6 / n;
+            line += &format!(
+                " | {:>7.1} {:>7.1} {:>7.1} {:>5.2} {:>5.2}",
+                us(p.seconds),
+                us(p.cpu),
+                us(p.sim_cpu),
+                p.switches as f64 / n,
+                p.sim_switches as f64 / n
+            );
+        }
+        println!("{line}");
+    }
+    println!(
+        "wall = elapsed, client / sim = CPU time of the client's thread(s) / of the simulator \
+         (schedstat), c sw / s sw = their context switches (voluntary and involuntary), all per \
+         unit. raw socket = the least any client can do (one blocking write and read per \
+         request, nothing else; no block upload)."
+    );
+    let floor = [raw[0].seconds, raw[1].seconds];
+    let mut line = format!(
+        "against the raw-socket floor: canopen-rs takes {:.2}x its time expedited, {:.2}x \
+         segmented",
+        rust[0].seconds / floor[0],
+        rust[1].seconds / floor[1]
+    );
+    if let Some(py) = py {
+        line += &format!(
+            "; python-canopen {:.1}x and {:.1}x (so no client can be more than that much faster \
+             than python-canopen here)",
+            py[0].seconds / floor[0],
+            py[1].seconds / floor[1]
+        );
+    }
+    println!("{line}");
     Ok(())
 }
 
@@ -344,7 +809,8 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match run(&args) {
+    let result = if args.serve { serve(&args) } else { run(&args) };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("vcan_sdo: FAILED: {e}");
