@@ -1,7 +1,12 @@
 """Interop: python-canopen's RemoteNode (this process) as the client of this project's device
 simulator (`canopen --iface vcan0 simulate tests/vcan/test-device.eds`, another process) over the
 guest's real SocketCAN bus: boot-up, expedited, segmented and block upload and download, abort
-codes, NMT start seen in the heartbeat.
+codes, NMT start seen in the heartbeat; PDOs: the TPDO1 and RPDO1 configuration read from the
+simulator by SDO (`node.tpdo.read()`, `node.rpdo.read()`), TPDO1 remapped by python-canopen
+(`PdoMap.save()`: disable, clear, map, count, enable) and read back, TPDO1 received in Operational
+with values equal to the SDO reads of the mapped objects (also after an SDO write changes one),
+and an RPDO from python-canopen applied by the simulator (SDO read back, and seen in the next
+TPDO).
 
 usage (inside the rig): remote_vs_simulator.py CANOPEN_BINARY
 run-all passes the `canopen` binary built on the host."""
@@ -33,6 +38,89 @@ def expect_abort(label, code, action):
         check(label, hex(e.code), hex(code))
     else:
         raise AssertionError(f"{label}: no abort")
+
+
+def mapped(pdo_map):
+    """(index, sub-index, bits) of each mapped object."""
+    return [(v.index, v.subindex, v.length) for v in pdo_map.map]
+
+
+def configure_pdos(node):
+    """In Pre-operational: reads TPDO1 and RPDO1 from the simulator by SDO, remaps TPDO1 to carry
+    0x2000 and 0x2002:02, and reads it back. Returns (TPDO1, RPDO1)."""
+    sdo = node.sdo
+    node.tpdo.read()
+    tpdo = node.tpdo[1]
+    check("TPDO1 COB-ID read by SDO", hex(tpdo.cob_id), hex(0x180 + NODE_ID))
+    check("TPDO1 enabled", tpdo.enabled, True)
+    check("TPDO1 transmission type", tpdo.trans_type, 254)
+    check("TPDO1 event timer (ms)", tpdo.event_timer, 100)
+    check("TPDO1 mapping read by SDO", mapped(tpdo), [(0x2000, 0, 32)])
+    node.rpdo.read()
+    rpdo = node.rpdo[1]
+    check("RPDO1 COB-ID read by SDO", hex(rpdo.cob_id), hex(0x200 + NODE_ID))
+    check("RPDO1 mapping read by SDO", mapped(rpdo), [(0x2003, 0, 32), (0x2002, 2, 16)])
+
+    # Remap TPDO1 the CiA 301 way (python-canopen's save(): COB-ID invalid, count 0, entries,
+    # count, COB-ID valid), all by SDO to the simulator.
+    tpdo.clear()
+    tpdo.add_variable(0x2000)
+    tpdo.add_variable(0x2002, 2)
+    tpdo.save()
+    check("TPDO1 remapped: 0x1A00:00 read back", sdo[0x1A00][0].raw, 2)
+    check("TPDO1 remapped: 0x1A00:02 read back", hex(sdo[0x1A00][2].raw), hex(0x20020210))
+    check("TPDO1 enabled again: 0x1800:01", hex(sdo[0x1800][1].raw), hex(0x180 + NODE_ID))
+    node.tpdo.read()
+    tpdo = node.tpdo[1]
+    check("TPDO1 mapping read again by SDO", mapped(tpdo), [(0x2000, 0, 32), (0x2002, 2, 16)])
+    return tpdo, rpdo
+
+
+def next_tpdo(tpdo, label):
+    """Waits for the next reception of `tpdo`; returns its mapped values."""
+    if tpdo.wait_for_reception(5) is None:
+        raise AssertionError(f"{label}: no TPDO 0x{tpdo.cob_id:X} within 5 s")
+    return [v.raw for v in tpdo.map], bytes(tpdo.data)
+
+
+def receive_pdos(node, tpdo, rpdo):
+    """In Operational: TPDO1 values against SDO reads; an SDO write shows in later TPDOs; an
+    RPDO from python-canopen is applied by the simulator."""
+    sdo = node.sdo
+    want = [sdo[0x2000].raw, sdo[0x2002][2].raw]
+    check("values of the mapped objects by SDO", want, [0xCAFEBABE, -1234])
+    values, data = next_tpdo(tpdo, "first TPDO1")
+    check("TPDO1 data length", len(data), 6)
+    check("TPDO1 decoded with the mapping read by SDO", values, want)
+    check("TPDO1 bytes", data.hex(), (0xCAFEBABE).to_bytes(4, "little").hex()
+          + (-1234).to_bytes(2, "little", signed=True).hex())
+
+    # A new value by SDO: the event timer (100 ms) carries it in a later TPDO.
+    sdo[0x2000].raw = 0x0BADF00D
+    check("0x2000 read back by SDO", sdo[0x2000].raw, 0x0BADF00D)
+    seen = []
+    for _ in range(20):
+        values, _ = next_tpdo(tpdo, "TPDO1 after the SDO write")
+        seen.append(values[0])
+        if values[0] == 0x0BADF00D:
+            break
+    check("TPDO1 carries the value written by SDO", seen[-1], 0x0BADF00D)
+    check("TPDO1 values equal the SDO reads", values, [sdo[0x2000].raw, sdo[0x2002][2].raw])
+
+    # RPDO1 from python-canopen: 0x2003 and 0x2002:02 set in the simulator.
+    rpdo[0].raw = 0x13572468
+    rpdo[1].raw = -321
+    check("RPDO1 bytes sent", bytes(rpdo.data).hex(), "68245713" + "bffe")
+    rpdo.transmit()
+    check("RPDO1 applied: 0x2003 by SDO", hex(sdo[0x2003].raw), hex(0x13572468))
+    check("RPDO1 applied: 0x2002:02 by SDO", sdo[0x2002][2].raw, -321)
+    seen = []
+    for _ in range(20):
+        values, _ = next_tpdo(tpdo, "TPDO1 after the RPDO")
+        seen.append(values[1])
+        if values[1] == -321:
+            break
+    check("TPDO1 carries 0x2002:02 as set by the RPDO", seen[-1], -321)
 
 
 def main():
@@ -84,6 +172,8 @@ def main():
         expect_abort("abort for writing a read-only object", 0x06010002,
                      lambda: sdo.download(0x1000, 0, b"\x00\x00\x00\x00"))
 
+        tpdo, rpdo = configure_pdos(node)
+
         node.nmt.state = "OPERATIONAL"
         deadline = time.monotonic() + 10
         state = None
@@ -91,6 +181,8 @@ def main():
             state = node.nmt.wait_for_heartbeat(10)
         check("NMT start seen in the heartbeat", state, "OPERATIONAL")
         check("boot-up message seen", bootups[:1], [0])
+
+        receive_pdos(node, tpdo, rpdo)
     finally:
         sim.terminate()
         try:
