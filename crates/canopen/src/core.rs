@@ -320,7 +320,7 @@ impl Core {
         let obj = od.get(entry.index)?;
         match obj.sub(entry.sub) {
             Some(sub) if !obj.is_simple() => Some(format!("{} / {}", obj.name, sub.name)),
-            _ => Some(obj.name.clone()),
+            _ => Some(obj.name.to_string()),
         }
     }
 

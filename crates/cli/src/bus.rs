@@ -805,7 +805,7 @@ impl PdoDecoder {
                                 (Some(obj), Some(sub)) if !obj.is_simple() => {
                                     format!("{} / {}", obj.name, sub.name)
                                 }
-                                (Some(obj), _) => obj.name.clone(),
+                                (Some(obj), _) => obj.name.to_string(),
                                 _ => format!("{i:#06x}:{s:02x}"),
                             }
                         })

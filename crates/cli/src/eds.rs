@@ -236,7 +236,7 @@ fn show(od: &ObjectDictionary, global: Global) -> ExitCode {
                     .map(|s| {
                         json!({
                             "subindex": s.sub_index,
-                            "name": s.name,
+                            "name": s.name.as_str(),
                             "data_type": s.data_type.code(),
                             "access": s.access.as_str(),
                             "pdo_mapping": s.pdo_mapping,
@@ -246,7 +246,7 @@ fn show(od: &ObjectDictionary, global: Global) -> ExitCode {
                     .collect();
                 json!({
                     "index": obj.index,
-                    "name": obj.name,
+                    "name": obj.name.as_str(),
                     "object_type": obj.object_code.code(),
                     "subs": subs,
                 })

@@ -45,6 +45,10 @@ pub mod value;
 #[cfg(feature = "alloc")]
 pub mod write;
 
+/// The string type of names and value texts in the model (inline up to 24 bytes: most EDS
+/// names and values need no allocation of their own).
+#[cfg(feature = "alloc")]
+pub use compact_str::CompactString;
 #[cfg(feature = "alloc")]
 pub use diag::{Diagnostic, DiagnosticKind, Severity};
 pub use entry::{Entry, EntryError, EntryValue};

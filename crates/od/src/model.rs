@@ -11,6 +11,8 @@ use alloc::collections::BTreeMap;
 use alloc::string::String;
 use alloc::vec::Vec;
 
+use compact_str::CompactString;
+
 use crate::types::{AccessType, DataType, ObjectCode};
 use crate::value::{EdsValue, TextError, TextNotes, Value};
 
@@ -35,7 +37,7 @@ pub type Extra = Vec<(String, String)>;
 #[derive(Debug, Clone, PartialEq)]
 pub struct FieldValue {
     /// The text as written in the file, trimmed of surrounding whitespace.
-    pub text: String,
+    pub text: CompactString,
     /// The typed value; `None` when the text is empty or could not be read as the data type
     /// (the parser then reported a warning).
     pub value: Option<EdsValue>,
@@ -45,7 +47,7 @@ impl FieldValue {
     /// A field from a typed value, with its canonical text.
     pub fn from_value(value: EdsValue) -> Self {
         Self {
-            text: value.to_eds_text(),
+            text: value.to_eds_text().into(),
             value: Some(value),
         }
     }
@@ -99,7 +101,7 @@ pub struct SubObject {
     /// `PDOMapping`: whether the entry may be mapped into a PDO.
     pub pdo_mapping: bool,
     /// `ParameterName`.
-    pub name: String,
+    pub name: CompactString,
     /// `DefaultValue`.
     pub default_value: Option<FieldValue>,
     /// `ObjFlags`.
@@ -156,7 +158,7 @@ impl SubObject {
     /// A sub-object with the given name, type and access; no values.
     pub fn new(
         sub_index: u8,
-        name: impl Into<String>,
+        name: impl Into<CompactString>,
         data_type: DataType,
         access: AccessType,
     ) -> Self {
@@ -369,7 +371,7 @@ pub struct Object {
     /// Index, 0x0001..=0xFFFF.
     pub index: u16,
     /// `ParameterName`.
-    pub name: String,
+    pub name: CompactString,
     /// `ObjectType` (VAR when the file omits it, as CiA 306 prescribes).
     pub object_code: ObjectCode,
     /// `SubNumber` as declared (ARRAY/RECORD); `None` when absent. The writer writes it only
@@ -411,7 +413,7 @@ impl Object {
     /// An ARRAY or RECORD (`code`) with the given sub-objects; `SubNumber` is set to their count.
     pub fn complex(
         index: u16,
-        name: impl Into<String>,
+        name: impl Into<CompactString>,
         code: ObjectCode,
         subs: impl IntoIterator<Item = SubObject>,
     ) -> Self {

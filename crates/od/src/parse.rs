@@ -1132,16 +1132,17 @@ fn boolean(sink: &mut Sink, (text, line): (&str, u32), what: &str) -> Option<boo
     })
 }
 
-fn string(sink: &mut Sink, (text, line): (&str, u32), what: &str) -> String {
+/// The text without surrounding double quotes (reported when present).
+fn unquote<'t>(sink: &mut Sink, (text, line): (&'t str, u32), what: &str) -> &'t str {
     if text.len() >= 2 && text.starts_with('"') && text.ends_with('"') {
         sink.warn(
             K::Spelling,
             line,
             format!("{what}: surrounding double quotes removed"),
         );
-        text[1..text.len() - 1].to_string()
+        &text[1..text.len() - 1]
     } else {
-        text.to_string()
+        text
     }
 }
 
@@ -1378,10 +1379,10 @@ fn sub_object(
     what: Where,
 ) -> Option<SubObject> {
     let name = match k.slots[P_NAME] {
-        Some(v) => string(sink, v, "ParameterName"),
+        Some(v) => unquote(sink, v, "ParameterName").into(),
         None => {
             sink.warn(K::Structure, line, format!("{what} has no ParameterName"));
-            String::new()
+            compact_str::CompactString::default()
         }
     };
     let data_type = match k.slots[P_DATATYPE] {
@@ -1545,14 +1546,14 @@ fn object(
     }
 
     let name = match k.slots[P_NAME] {
-        Some(v) => string(sink, v, "ParameterName"),
+        Some(v) => unquote(sink, v, "ParameterName").into(),
         None => {
             sink.warn(
                 K::Structure,
                 sec.line,
                 format!("{what} has no ParameterName"),
             );
-            String::new()
+            compact_str::CompactString::default()
         }
     };
     let mut obj = Object::complex(index, name, code, []);
@@ -1592,7 +1593,7 @@ fn object(
                 for i in 1..=n {
                     let mut s = proto.clone();
                     s.sub_index = i;
-                    s.name = format!("{}{}", obj.name, i);
+                    s.name = compact_str::format_compact!("{}{}", obj.name, i);
                     obj.subs.insert(s);
                 }
             }
@@ -1652,7 +1653,7 @@ fn apply_names(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Sink) {
         sink,
         "NrOfEntries",
         |sub, value, line, sink| match obj.subs.get_mut(sub) {
-            Some(s) => s.name = value.to_string(),
+            Some(s) => s.name = value.into(),
             None => sink.warn(
                 K::Structure,
                 line,
@@ -1963,9 +1964,9 @@ fn device_info(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceInfo {
     let nr_of_tx_pdo = num(20, 512).map(|v| v as u16);
     let lss_supported = num(21, u64::MAX).map(|v| v != 0);
     let compact_pdo = num(22, 255).map(|v| v as u8);
-    let vendor_name = k.slots[0].map(|v| string(sink, v, "VendorName"));
-    let product_name = k.slots[2].map(|v| string(sink, v, "ProductName"));
-    let order_code = k.slots[5].map(|v| string(sink, v, "OrderCode"));
+    let vendor_name = k.slots[0].map(|v| unquote(sink, v, "VendorName").to_string());
+    let product_name = k.slots[2].map(|v| unquote(sink, v, "ProductName").to_string());
+    let order_code = k.slots[5].map(|v| unquote(sink, v, "OrderCode").to_string());
     let _ = BAUD_RATES_KBIT;
     DeviceInfo {
         vendor_name,
