@@ -344,7 +344,19 @@ pub(crate) fn parse_int_literal(text: &str, notes: &mut TextNotes) -> Option<(i1
         radix = 10;
         digits = s;
     }
-    // Values beyond u64::MAX are refused: checked u64 arithmetic fails exactly then.
+    let acc = match radix {
+        16 => digits_value::<16>(digits)?,
+        10 => digits_value::<10>(digits)?,
+        _ => digits_value::<8>(digits)?,
+    };
+    let mag = i128::from(acc);
+    Some((if negative { -mag } else { mag }, radix != 10))
+}
+
+/// The value of a digit string in base `RADIX` (a constant, so the multiplication is a shift or
+/// a cheap constant product). Values beyond `u64::MAX` are refused: checked arithmetic fails
+/// exactly then.
+fn digits_value<const RADIX: u32>(digits: &str) -> Option<u64> {
     let mut acc: u64 = 0;
     for c in digits.bytes() {
         let d = match c {
@@ -353,15 +365,14 @@ pub(crate) fn parse_int_literal(text: &str, notes: &mut TextNotes) -> Option<(i1
             b'A'..=b'F' => c - b'A' + 10,
             _ => return None,
         };
-        if u32::from(d) >= radix {
+        if u32::from(d) >= RADIX {
             return None;
         }
         acc = acc
-            .checked_mul(u64::from(radix))?
+            .checked_mul(u64::from(RADIX))?
             .checked_add(u64::from(d))?;
     }
-    let mag = i128::from(acc);
-    Some((if negative { -mag } else { mag }, radix != 10))
+    Some(acc)
 }
 
 fn parse_integer(dt: DataType, text: &str, notes: &mut TextNotes) -> Result<Value, TextError> {
