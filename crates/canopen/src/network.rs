@@ -301,11 +301,17 @@ impl Network {
                     .request_target(id)
                     .unwrap_or((NodeId::MIN, Entry::new(0, 0)));
                 core.cancel(id);
+                // The transport's own words ("the CAN interface is down"), without the
+                // "transport: " that `Error` puts in front: SdoErrorKind::Transport says it.
+                let text = match e {
+                    Error::Transport(t) => t.to_string(),
+                    other => other.to_string(),
+                };
                 Err(core.name_error(SdoError {
                     node,
                     entry,
                     name: None,
-                    kind: SdoErrorKind::Transport(e.to_string()),
+                    kind: SdoErrorKind::Transport(text),
                 }))
             }
         }

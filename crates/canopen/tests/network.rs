@@ -693,6 +693,10 @@ fn transport_failure_names_the_node_and_object() {
     assert!(text.contains("node 5"), "{text}");
     assert!(text.contains("0x1008"), "{text}");
     assert!(text.contains("Manufacturer Device Name"), "{text}");
+    assert!(
+        text.ends_with(": transport failed: the CAN interface is down"),
+        "{text}"
+    );
 }
 
 #[test]
