@@ -1,6 +1,9 @@
 //! The master (`canopen::Network` on the SocketCAN transport) against this project's device
 //! simulator (`canopen::SimDevice`, on a second socket) over the real kernel CAN stack: every SDO
-//! method, NMT, heartbeat boot-up, loss when the simulator stops and recovery when it returns.
+//! method (expedited, segmented and block, both ways; forced segmented download; queued,
+//! streamed and reader-fed requests), every NMT command with its effect, heartbeat boot-up, loss
+//! when the simulator stops and recovery when it returns, PDO events (TPDO decoded through the
+//! dictionary, changed by SDO, remapped by SDO; RPDO applied; none outside Operational).
 //!
 //! Ignored on the host; `tests/vcan/run-all` runs them in the QEMU guest with `--ignored`. Each
 //! test uses its own node-ID, so they may run in parallel on the shared bus.
@@ -8,26 +11,28 @@
 mod common;
 
 use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex};
 
-use can_frame::Duration;
+use can_frame::{CanFrame, CanId, Duration};
 use canopen::socketcan::SocketCan;
-use canopen::{Network, NetworkEvent};
+use canopen::{Entry, Network, NetworkEvent};
 use canopen_nmt::{HeartbeatEvent, NmtState};
-use canopen_sdo::AbortCode;
-use common::{RunningSim, device, node};
+use canopen_pdo::Value as PdoValue;
+use canopen_sdo::{AbortCode, Method};
+use common::{EDS, RunningSim, device, node};
 
 fn network() -> Network {
     Network::new(SocketCan::open(&vcan_tests::interface()).expect("open the master's socket"))
 }
 
-/// Drives the network for up to `limit` until an event satisfies `want`.
+/// Drives the network for up to `limit` until an event satisfies `want`; returns that event.
 fn wait_event(
     net: &Network,
     events: &Receiver<NetworkEvent>,
     limit: Duration,
     what: &str,
     want: impl Fn(&NetworkEvent) -> bool,
-) {
+) -> NetworkEvent {
     let deadline = net.now() + limit;
     let mut seen = Vec::new();
     while net.now() < deadline {
@@ -35,12 +40,40 @@ fn wait_event(
             .expect("drive the network");
         for e in events.try_iter() {
             if want(&e) {
-                return;
+                return e;
             }
-            seen.push(e);
+            if seen.len() < 40 {
+                seen.push(e);
+            }
         }
     }
-    panic!("no {what} within {limit:?}; events seen: {seen:?}");
+    panic!("no {what} within {limit:?}; first events seen: {seen:?}");
+}
+
+/// Drives the network for `span` and returns the events that satisfy `want`.
+fn events_during(
+    net: &Network,
+    events: &Receiver<NetworkEvent>,
+    span: Duration,
+    want: impl Fn(&NetworkEvent) -> bool,
+) -> Vec<NetworkEvent> {
+    net.run_for(span).expect("drive the network");
+    events.try_iter().filter(|e| want(e)).collect()
+}
+
+/// A writer that keeps what it gets where the test can see it.
+#[derive(Clone, Default)]
+struct Shared(Arc<Mutex<Vec<u8>>>);
+
+impl std::io::Write for Shared {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.lock().expect("not poisoned").extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 #[test]
@@ -84,6 +117,54 @@ fn every_sdo_method_against_the_simulator() {
     assert_eq!(n.sdo().block(true).read((0x2001, 0)).unwrap(), data);
     // And the same value by segmented upload, to cross-check the block path.
     assert_eq!(n.sdo().read((0x2001, 0)).unwrap(), data);
+    // Block upload of an object shorter than one block (the server may switch protocols).
+    assert_eq!(
+        n.sdo().block(true).read((0x1008, 0)).unwrap(),
+        b"canopen-rs vcan test device"
+    );
+
+    // A 4-byte value downloaded segmented on request (Method::Segmented), read back expedited.
+    n.sdo()
+        .method(Method::Segmented)
+        .write((0x2003, 0), 0x0102_0304u32)
+        .unwrap();
+    assert_eq!(
+        n.sdo().read((0x2003, 0)).unwrap(),
+        0x0102_0304u32.to_le_bytes()
+    );
+
+    // Queued requests (submit, then wait): they run one after the other on the node's channel.
+    let a = n.sdo().submit_read((0x1018, 2));
+    let b = n.sdo().submit_write((0x2002, 1), 77i16);
+    let c = n.sdo().submit_read((0x2002, 1));
+    assert_eq!(
+        a.wait().unwrap(),
+        canopen::Completion::Data(0x42u32.to_le_bytes().to_vec())
+    );
+    assert_eq!(b.wait().unwrap(), canopen::Completion::Written);
+    assert_eq!(
+        c.wait().unwrap(),
+        canopen::Completion::Data(77i16.to_le_bytes().to_vec())
+    );
+
+    // Streamed upload into a writer and download from a reader (block and segmented).
+    let streamed: Vec<u8> = (0..3000u32).map(|i| (i * 31 % 253) as u8).collect();
+    let sent = n
+        .sdo()
+        .block(true)
+        .download_from((0x2001, 0), streamed.as_slice())
+        .unwrap();
+    assert_eq!(sent, 3000);
+    let sink = Shared::default();
+    let got = n.sdo().upload_to((0x2001, 0), sink.clone()).unwrap();
+    assert_eq!(got, 3000);
+    assert_eq!(*sink.0.lock().unwrap(), streamed);
+    let sink = Shared::default();
+    n.sdo()
+        .block(true)
+        .upload_to((0x2001, 0), sink.clone())
+        .unwrap();
+    assert_eq!(*sink.0.lock().unwrap(), streamed);
 
     // Aborts carry the server's code.
     let e = n.sdo().read((0x5FFF, 0)).unwrap_err();
@@ -142,4 +223,212 @@ fn boot_up_nmt_start_heartbeat_loss_and_recovery() {
         net.node(node(0x42)).sdo().read((0x1018, 4)).unwrap(),
         0x00C0_FFEEu32.to_le_bytes()
     );
+}
+
+fn tpdo1_values(e: &NetworkEvent, id: u8) -> Option<Vec<(Entry, PdoValue)>> {
+    match e {
+        NetworkEvent::PdoValues {
+            node: n,
+            number: 1,
+            values,
+            ..
+        } if *n == node(id) => Some(values.clone()),
+        _ => None,
+    }
+}
+
+fn is_pdo_of(e: &NetworkEvent, id: u8) -> bool {
+    matches!(e, NetworkEvent::Pdo { node: n, .. } | NetworkEvent::PdoValues { node: n, .. } if *n == node(id))
+}
+
+fn state_changed(e: &NetworkEvent, id: u8, state: NmtState) -> bool {
+    matches!(e, NetworkEvent::Heartbeat(HeartbeatEvent::StateChanged { node: n, to, .. }) if *n == node(id) && *to == state)
+}
+
+#[test]
+#[ignore = "needs vcan0: run by tests/vcan/run-all"]
+fn nmt_commands_and_pdo_events_against_the_simulator() {
+    use canopen_pdo::{CommParams, Direction, Mapping};
+    const ID: u8 = 0x47;
+    let net = network();
+    let events = net.subscribe();
+    let od = canopen_od::parse(EDS).expect("the test EDS parses").od;
+    let n = net.add_node_with_dictionary(node(ID), od);
+    net.monitor_heartbeat(node(ID), Duration::from_secs(2));
+    let _sim = RunningSim::start(device(ID));
+    wait_event(&net, &events, Duration::from_secs(10), "boot-up", |e| {
+        *e == NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: node(ID) })
+    });
+
+    // Pre-operational: heartbeats, no PDOs (the event timer of TPDO1 is 100 ms).
+    let early = events_during(&net, &events, Duration::from_millis(600), |e| {
+        is_pdo_of(e, ID)
+    });
+    assert!(early.is_empty(), "PDOs in Pre-operational: {early:?}");
+
+    // Start: the heartbeat says Operational and TPDO1 arrives, decoded through the dictionary.
+    n.nmt().start().unwrap();
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "heartbeat OPERATIONAL",
+        |e| state_changed(e, ID, NmtState::Operational),
+    );
+    let first = wait_event(&net, &events, Duration::from_secs(10), "TPDO1", |e| {
+        tpdo1_values(e, ID).is_some()
+    });
+    assert_eq!(
+        tpdo1_values(&first, ID).unwrap(),
+        [(Entry::new(0x2000, 0), PdoValue::Unsigned(0x1234_5678))]
+    );
+    // Raw PDO events come with the decoded ones: 0x2000 as four bytes, little-endian.
+    let raw = wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "raw TPDO1",
+        |e| matches!(e, NetworkEvent::Pdo { node: x, number: 1, .. } if *x == node(ID)),
+    );
+    let NetworkEvent::Pdo { data, .. } = raw else {
+        unreachable!("matched above")
+    };
+    assert_eq!(data, 0x1234_5678u32.to_le_bytes());
+
+    // A value written by SDO goes out in the following TPDOs.
+    n.sdo().write((0x2000, 0), 0xCAFE_BABEu32).unwrap();
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "TPDO1 with the value written by SDO",
+        |e| {
+            tpdo1_values(e, ID)
+                == Some(vec![(
+                    Entry::new(0x2000, 0),
+                    PdoValue::Unsigned(0xCAFE_BABE),
+                )])
+        },
+    );
+
+    // Remapped by SDO (0x2000 and the INTEGER16 0x2002:02): the device sends, and the master
+    // decodes, the new layout.
+    n.remap_pdo(
+        Direction::Transmit,
+        1,
+        CommParams::event_driven(0x180 + u16::from(ID)).with_event_timer(100),
+        Mapping::from_raw(&[0x2000_0020, 0x2002_0210]).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(n.sdo().read((0x1A00, 0)).unwrap(), [2]);
+    let two = |v: i64| {
+        vec![
+            (Entry::new(0x2000, 0), PdoValue::Unsigned(0xCAFE_BABE)),
+            (Entry::new(0x2002, 2), PdoValue::Signed(v)),
+        ]
+    };
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "remapped TPDO1",
+        |e| tpdo1_values(e, ID) == Some(two(300)),
+    );
+
+    // RPDO1 from the master (0x2003 and 0x2002:02): applied by the device, seen by SDO and in
+    // the next TPDO1.
+    let rpdo = [
+        0x1357_2468u32.to_le_bytes().as_slice(),
+        &(-321i16).to_le_bytes(),
+    ]
+    .concat();
+    net.send(CanFrame::new(CanId::standard(0x200 + u16::from(ID)).unwrap(), &rpdo).unwrap())
+        .unwrap();
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "TPDO1 with 0x2002:02 set by the RPDO",
+        |e| tpdo1_values(e, ID) == Some(two(-321)),
+    );
+    assert_eq!(
+        n.sdo().read((0x2003, 0)).unwrap(),
+        0x1357_2468u32.to_le_bytes()
+    );
+
+    // Stop: the heartbeat says Stopped, the PDOs cease, SDO is not served.
+    n.nmt().stop().unwrap();
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "heartbeat STOPPED",
+        |e| state_changed(e, ID, NmtState::Stopped),
+    );
+    let late = events_during(&net, &events, Duration::from_millis(800), |e| {
+        is_pdo_of(e, ID)
+    });
+    assert!(late.is_empty(), "PDOs in Stopped: {late:?}");
+    let e = n
+        .sdo()
+        .timeout(Duration::from_millis(500))
+        .read((0x1000, 0))
+        .expect_err("no SDO in Stopped");
+    assert!(e.to_string().contains("no response"), "{e}");
+
+    // Pre-operational again: SDO works, still no PDOs.
+    n.nmt().enter_preoperational().unwrap();
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "heartbeat PRE-OPERATIONAL",
+        |e| state_changed(e, ID, NmtState::PreOperational),
+    );
+    assert_eq!(
+        n.sdo().read((0x2000, 0)).unwrap(),
+        0xCAFE_BABEu32.to_le_bytes()
+    );
+    let late = events_during(&net, &events, Duration::from_millis(600), |e| {
+        is_pdo_of(e, ID)
+    });
+    assert!(late.is_empty(), "PDOs in Pre-operational: {late:?}");
+
+    // Reset communication: boot-up, the application's values kept.
+    n.nmt().reset_communication().unwrap();
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "boot-up after reset communication",
+        |e| *e == NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: node(ID) }),
+    );
+    assert_eq!(
+        n.sdo().read((0x2000, 0)).unwrap(),
+        0xCAFE_BABEu32.to_le_bytes()
+    );
+
+    // Reset node: boot-up, every value back to the EDS default (the mapping too).
+    n.nmt().reset_node().unwrap();
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "boot-up after reset node",
+        |e| *e == NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: node(ID) }),
+    );
+    assert_eq!(
+        n.sdo().read((0x2000, 0)).unwrap(),
+        0x1234_5678u32.to_le_bytes()
+    );
+    assert_eq!(n.sdo().read((0x1A00, 0)).unwrap(), [1]);
+    // After the boot-up, the heartbeats say Pre-operational.
+    wait_event(
+        &net,
+        &events,
+        Duration::from_secs(10),
+        "heartbeat PRE-OPERATIONAL after the reset",
+        |e| state_changed(e, ID, NmtState::PreOperational),
+    );
+    assert_eq!(net.last_state(node(ID)), Some(NmtState::PreOperational));
 }
