@@ -81,12 +81,23 @@ def main():
         print(scan, end="", flush=True)
         check("scan lists the LocalNode", any(line.split()[:2] == [n, "0x00000abc"] for line in scan.splitlines()), True)
 
-        # TPDO1 (0x2000 mapped) every 50 ms: the CLI's monitor shows the frames.
+        # TPDO1 (0x2000 mapped) every 50 ms: the CLI's monitor shows the frames, decoded with
+        # the EDS; a value changed on the LocalNode shows in the following ones.
         start_tpdo1(local, 50)
-        mon = cli("monitor", "--duration", "1.5").stdout
-        pdo_lines = [line for line in mon.splitlines() if "1C6" in line.upper() or "TPDO" in line.upper()]
-        print("\n".join(pdo_lines[:3]), flush=True)
-        check("monitor shows TPDO1 of the LocalNode", len(pdo_lines) >= 3, True)
+
+        def monitored_values():
+            mon = cli("monitor", "--duration", "1.5").stdout
+            lines = [line for line in mon.splitlines() if f"TPDO1 node {NODE_ID}:" in line]
+            print("\n".join(lines[:3]), flush=True)
+            return [line.split("Test value = ", 1)[-1].strip() for line in lines]
+
+        values = monitored_values()
+        check("monitor shows at least 3 TPDO1 of the LocalNode", len(values) >= 3, True)
+        check("monitor decodes 0x2000 in each TPDO1", set(values), {str(0xCAFEBABE)})
+        local.sdo[0x2000].raw = 0x0BADF00D
+        values = monitored_values()
+        check("monitor shows at least 3 TPDO1 after the change", len(values) >= 3, True)
+        check("monitor decodes the changed 0x2000", set(values), {str(0x0BADF00D)})
     finally:
         network.disconnect()
     print("the canopen-rs CLI and python-canopen's LocalNode interoperate over vcan0", flush=True)
