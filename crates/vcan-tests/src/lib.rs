@@ -44,6 +44,28 @@ pub fn open_interface(name: &str) -> io::Result<CanSocket> {
     })
 }
 
+/// Opens a raw CAN socket on [`interface()`] that receives only frames passing `filters`.
+///
+/// A socket receives every frame from the moment it is opened, and setting filters afterwards
+/// does not remove what is already queued: frames of tests running in parallel may have
+/// arrived in between. They are read and dropped here, so that after this returns the socket
+/// holds only frames its filters pass.
+pub fn open_filtered(filters: &[socketcan::CanFilter]) -> io::Result<CanSocket> {
+    use socketcan::SocketOptions;
+    let socket = open()?;
+    socket.set_filters(filters)?;
+    socket.set_nonblocking(true)?;
+    loop {
+        match socket.read_frame() {
+            Ok(_) => {}
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+            Err(e) => return Err(e),
+        }
+    }
+    socket.set_nonblocking(false)?;
+    Ok(socket)
+}
+
 /// Reads frames from `socket` until one satisfies `wanted`, skipping the others.
 ///
 /// Fails with [`io::ErrorKind::TimedOut`] when no such frame arrives within `timeout`.

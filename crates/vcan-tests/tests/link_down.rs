@@ -17,8 +17,8 @@ use can_frame::{CanFrame, CanId, Duration};
 use canopen::socketcan::SocketCan;
 use canopen::{BusEvent, Network, NetworkEvent, Received, Transport, TransportError};
 use common::{RunningSim, device, node};
-use socketcan::{CanFilter, EmbeddedFrame, Socket, SocketOptions};
-use vcan_tests::{interface, open};
+use socketcan::{CanFilter, EmbeddedFrame, Socket};
+use vcan_tests::{interface, open_filtered};
 
 fn set_link(up: bool) {
     let iface = interface();
@@ -60,9 +60,7 @@ fn expect_event(t: &mut SocketCan, event: &BusEvent) {
 fn interface_down_is_reported_and_traffic_recovers() {
     let _guard = LinkGuard;
     let mut t = SocketCan::open(&interface()).expect("open the transport");
-    let peer = open().expect("open the peer socket");
-    peer.set_filters(&[CanFilter::new(0x630, 0x7F0)])
-        .expect("filter");
+    let peer = open_filtered(&[CanFilter::new(0x630, 0x7F0)]).expect("open the peer socket");
 
     t.send(&frame(0x631, &[1])).expect("send while up");
     let got = peer

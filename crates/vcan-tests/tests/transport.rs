@@ -10,8 +10,8 @@ use std::time::Duration as StdDuration;
 use can_frame::{CanFrame, CanId, Duration};
 use canopen::socketcan::SocketCan;
 use canopen::{Received, Transport};
-use socketcan::{CanFilter, EmbeddedFrame, Id, Socket, SocketOptions, StandardId};
-use vcan_tests::{interface, open};
+use socketcan::{CanFilter, EmbeddedFrame, Id, Socket, StandardId};
+use vcan_tests::{interface, open, open_filtered};
 
 const WAIT: StdDuration = StdDuration::from_secs(10);
 
@@ -37,9 +37,7 @@ fn next_frame_with_id(t: &mut SocketCan, id: u16) -> (CanFrame, can_frame::Insta
 #[ignore = "needs vcan0: run by tests/vcan/run-all"]
 fn transport_frames_reach_an_independent_socket() {
     let mut t = SocketCan::open(&interface()).expect("open the transport");
-    let peer = open().expect("open the peer socket");
-    peer.set_filters(&[CanFilter::new(0x620, 0x7F0)])
-        .expect("filter");
+    let peer = open_filtered(&[CanFilter::new(0x620, 0x7F0)]).expect("open the peer socket");
 
     let sent = [
         frame(0x621, &[0x2F, 0x00, 0x62, 0x01, 0x05, 0, 0, 0]),
