@@ -2070,6 +2070,33 @@ mod tests {
                 check(&text);
             }
         }
+        // Longer texts, so that lines and their `=` cross word boundaries at every offset and
+        // some lines run over many words: pseudo-random (xorshift) over the same bytes, with
+        // newlines and `=` signs dense or rare.
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        for round in 0..4000 {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            let len = (seed % 300) as usize;
+            let (p_nl, p_eq) = [(3, 3), (40, 5), (3, 90), (150, 150)][round % 4];
+            text.clear();
+            let mut r = seed;
+            for _ in 0..len {
+                r ^= r << 13;
+                r ^= r >> 7;
+                r ^= r << 17;
+                let c = if r % p_nl == 0 {
+                    '\n'
+                } else if (r >> 20) % p_eq == 0 {
+                    '='
+                } else {
+                    'a'
+                };
+                text.push(c);
+            }
+            check(&text);
+        }
     }
 
     #[test]
