@@ -2086,9 +2086,9 @@ mod tests {
                 r ^= r << 13;
                 r ^= r >> 7;
                 r ^= r << 17;
-                let c = if r % p_nl == 0 {
+                let c = if r.is_multiple_of(p_nl) {
                     '\n'
-                } else if (r >> 20) % p_eq == 0 {
+                } else if (r >> 20).is_multiple_of(p_eq) {
                     '='
                 } else {
                     'a'
