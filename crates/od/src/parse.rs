@@ -24,6 +24,8 @@ use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 use core::fmt;
 
+use compact_str::{CompactString, format_compact};
+
 use crate::diag::{Diagnostic, DiagnosticKind as K, Severity, Sink};
 use crate::model::{
     BAUD_RATES_KBIT, DeviceCommissioning, DeviceInfo, FieldValue, FileInfo, Line, Object,
@@ -1382,7 +1384,7 @@ fn sub_object(
         Some(v) => unquote(sink, v, "ParameterName").into(),
         None => {
             sink.warn(K::Structure, line, format!("{what} has no ParameterName"));
-            compact_str::CompactString::default()
+            CompactString::default()
         }
     };
     let data_type = match k.slots[P_DATATYPE] {
@@ -1553,7 +1555,7 @@ fn object(
                 sec.line,
                 format!("{what} has no ParameterName"),
             );
-            compact_str::CompactString::default()
+            CompactString::default()
         }
     };
     let mut obj = Object::complex(index, name, code, []);
@@ -1593,7 +1595,7 @@ fn object(
                 for i in 1..=n {
                     let mut s = proto.clone();
                     s.sub_index = i;
-                    s.name = compact_str::format_compact!("{}{}", obj.name, i);
+                    s.name = format_compact!("{}{}", obj.name, i);
                     obj.subs.insert(s);
                 }
             }
