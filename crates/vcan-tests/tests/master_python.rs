@@ -10,39 +10,12 @@
 
 mod common;
 
-use std::sync::mpsc::Receiver;
-
 use can_frame::Duration;
 use canopen::socketcan::SocketCan;
 use canopen::{Network, NetworkEvent};
 use canopen_nmt::{HeartbeatEvent, NmtState};
 use canopen_sdo::AbortCode;
-use common::{PythonDevice, node};
-
-/// Drives the network for up to `limit` until an event satisfies `want`; returns that event.
-fn wait_event(
-    net: &Network,
-    events: &Receiver<NetworkEvent>,
-    limit: Duration,
-    what: &str,
-    want: impl Fn(&NetworkEvent) -> bool,
-) -> NetworkEvent {
-    let deadline = net.now() + limit;
-    let mut seen = Vec::new();
-    while net.now() < deadline {
-        net.run_for(Duration::from_millis(50))
-            .expect("drive the network");
-        for e in events.try_iter() {
-            if want(&e) {
-                return e;
-            }
-            if seen.len() < 20 {
-                seen.push(e);
-            }
-        }
-    }
-    panic!("no {what} within {limit:?}; first events seen: {seen:?}");
-}
+use common::{PythonDevice, node, wait_event};
 
 fn pdo_from(e: &NetworkEvent, id: u8) -> Option<Vec<u8>> {
     match e {

@@ -10,7 +10,6 @@
 
 mod common;
 
-use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 
 use can_frame::{CanFrame, CanId, Duration};
@@ -19,46 +18,10 @@ use canopen::{Entry, Network, NetworkEvent};
 use canopen_nmt::{HeartbeatEvent, NmtState};
 use canopen_pdo::Value as PdoValue;
 use canopen_sdo::{AbortCode, Method};
-use common::{EDS, RunningSim, device, node};
+use common::{EDS, RunningSim, device, events_during, node, wait_event};
 
 fn network() -> Network {
     Network::new(SocketCan::open(&vcan_tests::interface()).expect("open the master's socket"))
-}
-
-/// Drives the network for up to `limit` until an event satisfies `want`; returns that event.
-fn wait_event(
-    net: &Network,
-    events: &Receiver<NetworkEvent>,
-    limit: Duration,
-    what: &str,
-    want: impl Fn(&NetworkEvent) -> bool,
-) -> NetworkEvent {
-    let deadline = net.now() + limit;
-    let mut seen = Vec::new();
-    while net.now() < deadline {
-        net.run_for(Duration::from_millis(50))
-            .expect("drive the network");
-        for e in events.try_iter() {
-            if want(&e) {
-                return e;
-            }
-            if seen.len() < 40 {
-                seen.push(e);
-            }
-        }
-    }
-    panic!("no {what} within {limit:?}; first events seen: {seen:?}");
-}
-
-/// Drives the network for `span` and returns the events that satisfy `want`.
-fn events_during(
-    net: &Network,
-    events: &Receiver<NetworkEvent>,
-    span: Duration,
-    want: impl Fn(&NetworkEvent) -> bool,
-) -> Vec<NetworkEvent> {
-    net.run_for(span).expect("drive the network");
-    events.try_iter().filter(|e| want(e)).collect()
 }
 
 /// A writer that keeps what it gets where the test can see it.

@@ -1,15 +1,16 @@
 //! Shared by the master's real-bus tests: the simulator on its own SocketCAN socket in a thread,
-//! and the test EDS.
+//! python-canopen's LocalNode in a child process, the test EDS, and waiting for network events.
 
 #![allow(dead_code, unreachable_pub)]
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Receiver;
 use std::thread::JoinHandle;
 
-use can_frame::NodeId;
+use can_frame::{Duration, NodeId};
 use canopen::socketcan::SocketCan;
-use canopen::{SimDevice, TransportError, run_station};
+use canopen::{Network, NetworkEvent, SimDevice, TransportError, run_station};
 
 /// The rig's test EDS (`tests/vcan/test-device.eds`).
 pub const EDS: &[u8] = include_bytes!("../../../../tests/vcan/test-device.eds");
@@ -26,6 +27,42 @@ pub fn node(id: u8) -> NodeId {
 /// A simulated device from [`EDS`].
 pub fn device(id: u8) -> SimDevice {
     SimDevice::from_eds(node(id), EDS).expect("the test EDS parses")
+}
+
+/// Drives the network for up to `limit` until an event satisfies `want`; returns that event.
+pub fn wait_event(
+    net: &Network,
+    events: &Receiver<NetworkEvent>,
+    limit: Duration,
+    what: &str,
+    want: impl Fn(&NetworkEvent) -> bool,
+) -> NetworkEvent {
+    let deadline = net.now() + limit;
+    let mut seen = Vec::new();
+    while net.now() < deadline {
+        net.run_for(Duration::from_millis(50))
+            .expect("drive the network");
+        for e in events.try_iter() {
+            if want(&e) {
+                return e;
+            }
+            if seen.len() < 40 {
+                seen.push(e);
+            }
+        }
+    }
+    panic!("no {what} within {limit:?}; first events seen: {seen:?}");
+}
+
+/// Drives the network for `span` and returns the events that satisfy `want`.
+pub fn events_during(
+    net: &Network,
+    events: &Receiver<NetworkEvent>,
+    span: Duration,
+    want: impl Fn(&NetworkEvent) -> bool,
+) -> Vec<NetworkEvent> {
+    net.run_for(span).expect("drive the network");
+    events.try_iter().filter(|e| want(e)).collect()
 }
 
 /// A [`SimDevice`] served on its own socket by a thread until stopped.
