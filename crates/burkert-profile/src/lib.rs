@@ -44,8 +44,6 @@ pub mod demo;
 #[cfg(feature = "master")]
 pub mod master;
 #[cfg(feature = "master")]
-mod pdo_od;
-#[cfg(feature = "master")]
 pub mod sim;
 
 /// The generic Bürkert EDS (`eds/burkert-generic.eds`) the entries are generated from.

@@ -26,9 +26,7 @@ use std::sync::{Arc, Mutex};
 use can_frame::{CanFrame, CanId, NodeId};
 use canopen::{Entry as Addr, Error, NetworkEvent, Node, SdoError, SdoErrorKind, TransferProgress};
 use canopen_od::{DataType, Entry, EntryValue, ObjectDictionary};
-use canopen_pdo::{
-    CommParams, Direction, Mapping, MappingEntry, RemoteObjects, Value as PdoValue, ValueKind,
-};
+use canopen_pdo::{CommParams, Direction, Mapping, MappingEntry, Value as PdoValue, ValueKind};
 use canopen_sdo::{AbortCode, ErrorKind};
 
 use crate::colour::LedColour;
@@ -40,8 +38,8 @@ use crate::objects::{
     device_status_object as st, locating_function, trigger_maintenance_function,
     user_configuration_object as user, valve_mode_configuration as valve,
 };
-use crate::pdo_od::OdCatalog;
 use crate::status::{DeviceStatus, Kelvin, TransMemStatus};
+use canopen_pdo::OdView;
 
 /// First sensor value object (sensor 0); sensors run to 0x253F.
 pub const SENSOR_VALUE_BASE: u16 = 0x2500;
@@ -768,9 +766,8 @@ impl BurkertNode {
         for &v in values {
             raw.push(self.value_entry(&od, base, v)?.0.0);
         }
-        let mapping = Mapping::from_raw_checked(direction, &raw, &OdCatalog(&od))
+        let mapping = Mapping::from_raw_checked(direction, &raw, &OdView::new(&od, id.get()))
             .map_err(|e| undefined(id, Addr::new(direction.mapping_index(n), 0), e))?;
-        let comm_index = direction.comm_index(n);
         let comm = comm.unwrap_or_else(|| {
             let cob = fc + 0x100 * n + u16::from(id.get());
             match direction {
@@ -783,21 +780,8 @@ impl BurkertNode {
                     .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer),
             }
         });
-        let map_index = direction.mapping_index(n);
-        let remote = RemoteObjects {
-            mapping_writable: od.sub(map_index, 0).is_some_and(|s| s.access.is_writable()),
-            current_mapping: None,
-            has_inhibit_time: od.sub(comm_index, 3).is_some(),
-            has_event_timer: od.sub(comm_index, 5).is_some(),
-            has_sync_start: od.sub(comm_index, 6).is_some(),
-        };
-        let steps = canopen_pdo::remap(direction, n, &comm, &mapping, &remote)
-            .map_err(|e| undefined(id, Addr::new(map_index, 0), e))?;
-        for w in &steps {
-            self.node
-                .sdo()
-                .write(Addr::new(w.index, w.subindex), w.value())?;
-        }
+        self.node
+            .remap_pdo(direction, u16::from(number), comm, mapping.clone())?;
         Ok((mapping, comm.cob_id.0))
     }
 

@@ -48,7 +48,7 @@ use crate::colour::{LedColour, PredefinedColour};
 use crate::comm::{BitRate, BusMode, CanOperationStatus, ResetCommand, Termination};
 use crate::led::{LedIndication, LedMode, LedState, ValveModeColours, ValvePosition};
 use crate::ne107::Ne107Status;
-use crate::pdo_od::ValuesDict;
+use canopen_pdo::OdView;
 
 /// How long the LED flashes after a locate.
 pub const LOCATE_DURATION: Duration = Duration::from_secs(10);
@@ -234,7 +234,7 @@ impl BurkertHook {
         let raw: Vec<u32> = (1..=count)
             .map(|sub| values.get_u64(index, sub).unwrap_or(0) as u32)
             .collect();
-        let dict = ValuesDict { od, values };
+        let dict = OdView::with_values(od, values);
         match Mapping::from_raw_checked(direction, &raw, &dict) {
             Ok(_) => Ok(()),
             Err(MappingError::TooLong(_) | MappingError::TooManyEntries(_)) => {

@@ -408,12 +408,10 @@ impl Node {
             remote.has_inhibit_time = has(3);
             remote.has_event_timer = has(5);
             remote.has_sync_start = has(6);
-            remote.mapping_writable = od.sub(direction.mapping_index(n), 1).is_none_or(|s| {
-                !matches!(
-                    s.access,
-                    canopen_od::AccessType::Ro | canopen_od::AccessType::Const
-                )
-            });
+            // Dynamic mapping (CiA 301 §7.4.8.3): sub 0 of the mapping object is writable.
+            remote.mapping_writable = od
+                .sub(direction.mapping_index(n), 0)
+                .is_none_or(|s| s.access.is_writable());
         }
         let steps = canopen_pdo::remap(direction, n, &comm, &mapping, &remote).map_err(|e| {
             Error::Value {

@@ -6,8 +6,8 @@
 use can_frame::{CanId, Instant};
 use canopen_od::ObjectDictionary;
 use canopen_pdo::{
-    Catalog, CommParams, Dictionary, Direction, Engine, Mapping, ObjectAddr, ObjectInfo,
-    ObjectStore, PdoConfig, ReadError, RpdoId, StoreError,
+    CommParams, Dictionary, Direction, Engine, Mapping, ObjectAddr, ObjectStore, OdView, PdoConfig,
+    RpdoId, StoreError,
 };
 
 use crate::sim::Values;
@@ -17,51 +17,6 @@ pub(crate) type PdoEngine = Engine<4, 4>;
 
 /// The master's mirror of a node's TPDOs: the engine and (TPDO number, receive PDO id) pairs.
 pub(crate) type Mirror = (Box<PdoEngine>, Vec<(u8, RpdoId)>);
-
-/// A dictionary's metadata with a device's current values, as the PDO crate reads them.
-pub(crate) struct View<'a> {
-    pub(crate) od: &'a ObjectDictionary,
-    pub(crate) values: &'a Values,
-}
-
-impl Catalog for View<'_> {
-    fn object_info(&self, addr: ObjectAddr) -> Option<ObjectInfo> {
-        let s = self.od.sub(addr.index, addr.subindex)?;
-        let bits = match s.data_type.size() {
-            Some(n) if !s.data_type.is_variable_size() => (n * 8) as u16,
-            _ => {
-                (self
-                    .values
-                    .get(addr.index, addr.subindex)
-                    .map_or(0, <[u8]>::len)
-                    * 8) as u16
-            }
-        };
-        use canopen_od::AccessType as A;
-        Some(ObjectInfo {
-            data_type: s.data_type.code(),
-            bits,
-            pdo_mappable: s.pdo_mapping,
-            readable: !matches!(s.access, A::Wo),
-            writable: !matches!(s.access, A::Ro | A::Const),
-        })
-    }
-}
-
-impl Dictionary for View<'_> {
-    fn read_u32(&self, index: u16, subindex: u8) -> Result<u32, ReadError> {
-        let v = self
-            .values
-            .get(index, subindex)
-            .ok_or(ReadError::NoSuchObject { index, subindex })?;
-        if v.len() > 4 {
-            return Err(ReadError::NotAnInteger { index, subindex });
-        }
-        let mut b = [0u8; 4];
-        b[..v.len()].copy_from_slice(v);
-        Ok(u32::from_le_bytes(b))
-    }
-}
 
 /// A device's values as the PDO engine's process image.
 pub(crate) struct Store<'a>(pub(crate) &'a mut Values);
@@ -84,14 +39,14 @@ impl ObjectStore for Store<'_> {
 }
 
 /// Reads PDO `n` (0-based) of `direction` from the view; `None` when absent or unusable.
-fn read_pdo(view: &View<'_>, direction: Direction, n: u16) -> Option<PdoConfig> {
+fn read_pdo(view: &impl Dictionary, direction: Direction, n: u16) -> Option<PdoConfig> {
     let comm = CommParams::read_from(view, direction.comm_index(n)).ok()?;
     let mapping = Mapping::read_from(view, direction, direction.mapping_index(n)).ok()?;
     Some(PdoConfig::new(comm, mapping))
 }
 
 /// A device's engine: its RPDOs and TPDOs from its current values.
-pub(crate) fn device_engine(view: &View<'_>, now: Instant) -> Box<PdoEngine> {
+pub(crate) fn device_engine(view: &OdView<'_>, now: Instant) -> Box<PdoEngine> {
     let mut e = Box::new(PdoEngine::new());
     if let Ok(id) = CanId::standard(0x80) {
         e.set_sync_cob_id(Some(id));
@@ -110,11 +65,7 @@ pub(crate) fn device_engine(view: &View<'_>, now: Instant) -> Box<PdoEngine> {
 /// The master's engine for one node: the node's TPDOs (from its dictionary, `$NODEID`
 /// resolved) as receive PDOs. Returns the engine and the TPDO number (1-based) of each RPDO.
 pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> Mirror {
-    let values = Values::defaults_for(od, node);
-    let view = View {
-        od,
-        values: &values,
-    };
+    let view = OdView::new(od, node.get());
     let mut e = Box::new(PdoEngine::new());
     let mut numbers = Vec::new();
     for n in 0..4u16 {
@@ -136,11 +87,7 @@ pub(crate) fn typed_mapping(
     direction: Direction,
     mapping: Mapping,
 ) -> Mapping {
-    let values = Values::defaults_for(od, node);
-    let view = View {
-        od,
-        values: &values,
-    };
+    let view = OdView::new(od, node.get());
     let raw: Vec<u32> = mapping.raw_entries().collect();
     Mapping::from_raw_checked(direction, &raw, &view).unwrap_or(mapping)
 }

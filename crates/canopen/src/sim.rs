@@ -122,10 +122,6 @@ impl Values {
         Some(u64::from_le_bytes(buf))
     }
 
-    pub(crate) fn defaults_for(od: &ObjectDictionary, node: NodeId) -> Self {
-        Self::defaults(od, node)
-    }
-
     fn defaults(od: &ObjectDictionary, node: NodeId) -> Self {
         let mut map = BTreeMap::new();
         for (index, sub) in od.entries() {
@@ -136,6 +132,12 @@ impl Values {
             map.insert((index, sub.sub_index), bytes);
         }
         Self { map }
+    }
+}
+
+impl canopen_pdo::ValueSource for Values {
+    fn value(&self, index: u16, subindex: u8) -> Option<&[u8]> {
+        self.get(index, subindex)
     }
 }
 
@@ -417,10 +419,7 @@ impl SimDevice {
 
     /// (Re)builds the PDO engine from the current PDO objects; enabled in Operational.
     fn rebuild_pdos(&mut self, now: Instant) {
-        let view = crate::pdo::View {
-            od: &self.od,
-            values: &self.values,
-        };
+        let view = canopen_pdo::OdView::with_values(&self.od, &self.values);
         self.pdo = crate::pdo::device_engine(&view, now);
         let operational = self.nmt.state() == DeviceState::Operational;
         self.pdo.set_enabled(now, operational);

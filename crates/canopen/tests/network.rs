@@ -730,3 +730,61 @@ fn transfer_gap_is_settable() {
         "two frames of 111 bits per read: {without}"
     );
 }
+
+/// A BOOLEAN mapped with CiA 301's usual 1 bit and with 8 bits, as many devices map it: remapped
+/// by SDO, transmitted by the simulated device, decoded by the master. The device's BOOLEAN
+/// object 0x2100 is added to the Bürkert dictionary for the test.
+#[test]
+fn boolean_tpdo_with_one_bit_and_with_eight_bits() {
+    use canopen_od::{AccessType, DataType, EdsValue, Object, SubObject, Value as OdValue};
+    use canopen_pdo::{CommParams, Direction, Mapping, Value};
+    let mut dictionary = od();
+    dictionary.insert(Object::var(
+        0x2100,
+        SubObject::new(0, "Valve open", DataType::Boolean, AccessType::Rw)
+            .with_pdo_mapping(true)
+            .with_default(EdsValue::plain(OdValue::Boolean(false))),
+    ));
+    for bits in [1u32, 8] {
+        let bus = MemoryBus::new();
+        let net = Network::new(bus.endpoint());
+        let device = bus.attach(SimDevice::new(n(5), dictionary.clone()));
+        let node = net.add_node_with_dictionary(n(5), dictionary.clone());
+        let events = net.subscribe();
+        // TPDO3: the BOOLEAN, then the NE 107 status byte behind it.
+        let mapping = Mapping::from_raw(&[0x2100_0000 | bits, 0x2004_0108]).unwrap();
+        node.remap_pdo(
+            Direction::Transmit,
+            3,
+            CommParams::event_driven(0x385),
+            mapping,
+        )
+        .unwrap();
+        assert_eq!(
+            node.sdo().read((0x1A02, 1)).unwrap(),
+            (0x2100_0000 | bits).to_le_bytes()
+        );
+        node.nmt().start().unwrap();
+        net.run_for(Duration::from_millis(20)).unwrap();
+        let now = bus.now();
+        bus.with_station(device, |d| d.set_value(now, 0x2100, 0, [1u8]))
+            .unwrap();
+        net.run_for(Duration::from_millis(20)).unwrap();
+        let decoded: Vec<_> = drain(&events)
+            .into_iter()
+            .filter_map(|e| match e {
+                NetworkEvent::PdoValues {
+                    number: 3, values, ..
+                } => Some(values),
+                _ => None,
+            })
+            .collect();
+        let last = decoded.last().expect("TPDO3 arrived");
+        assert_eq!(
+            last[0].1,
+            Value::Bool(true),
+            "{bits}-bit BOOLEAN: {decoded:?}"
+        );
+        assert_eq!(decoded.first().unwrap()[0].1, Value::Bool(false));
+    }
+}

@@ -77,5 +77,7 @@ pub use mapping::{MappedObject, Mapping, MappingEntry, MappingError, ValueKind};
 pub use mpdo::{
     DispatcherEntry, Mpdo, MpdoAddress, MpdoConsumer, MpdoError, SamProducer, ScannerEntry,
 };
+#[cfg(feature = "od")]
+pub use od::{OdView, ValueSource};
 pub use pack::{PackError, Unpacked, Value, pack, unpack};
 pub use remote::{RemapError, RemapSteps, RemoteObjects, SdoWrite, remap};

@@ -241,8 +241,10 @@ impl Mapping {
             return Err(MappingError::ZeroLength(entry.addr()));
         }
         // A kind with a fixed width must be mapped with exactly that width, so decoding and
-        // encoding stay lossless.
+        // encoding stay lossless. A BOOLEAN is one bit (CiA 301) or, as many devices map it,
+        // one byte: the entry's length decides.
         let fixed = match kind {
+            ValueKind::Boolean if entry.bits() == 8 => None,
             ValueKind::Boolean => Some(1),
             ValueKind::Real32 => Some(32),
             ValueKind::Real64 => Some(64),
@@ -381,6 +383,11 @@ impl Mapping {
     }
 }
 
+/// A BOOLEAN mapped with 8 bits: accepted beside CiA 301's 1 bit, since many devices map it so.
+const fn boolean_as_byte(kind: ValueKind, bits: u8) -> bool {
+    matches!(kind, ValueKind::Boolean) && bits == 8
+}
+
 fn check_entry<C: Catalog + ?Sized>(
     direction: Direction,
     e: MappingEntry,
@@ -432,7 +439,7 @@ fn check_entry<C: Catalog + ?Sized>(
                 mapped_bits: e.bits(),
             });
         }
-    } else if e.bits() as u16 != info.bits {
+    } else if e.bits() as u16 != info.bits && !boolean_as_byte(kind, e.bits()) {
         return Err(MappingError::LengthMismatch {
             addr,
             object_bits: info.bits,
@@ -496,9 +503,15 @@ mod tests {
     fn kinds_keep_their_width() {
         let mut m = Mapping::new();
         assert!(matches!(
-            m.push(MappingEntry(0x2000_0108), ValueKind::Boolean),
+            m.push(MappingEntry(0x2000_0110), ValueKind::Boolean),
             Err(MappingError::LengthMismatch { object_bits: 1, .. })
         ));
+        // A BOOLEAN is one bit or, as many devices map it, one byte.
+        m.push(MappingEntry(0x2000_0101), ValueKind::Boolean)
+            .unwrap();
+        m.push(MappingEntry(0x2000_0208), ValueKind::Boolean)
+            .unwrap();
+        let mut m = Mapping::new();
         assert!(matches!(
             m.push(MappingEntry(0x2000_0110), ValueKind::Real32),
             Err(MappingError::LengthMismatch {

@@ -1,25 +1,84 @@
-//! Adapter from the `canopen-od` object dictionary model (an EDS or DCF file) to this crate's
-//! [`Catalog`] and [`Dictionary`] (feature `od`).
+//! The one adapter from the `canopen-od` object dictionary model (an EDS or DCF file) to this
+//! crate's [`Catalog`] and [`Dictionary`] (feature `od`).
 //!
-//! With it a master validates mappings against a node's EDS and a simulator reads its PDO
-//! parameters from its DCF: `Mapping::read_from(&OdView::new(&od, node_id), direction, 0x1A00)`.
+//! Every user of PDOs in the workspace goes through [`OdView`]: the master validates and types a
+//! node's mappings against its EDS (`OdView::new`, default values with `$NODEID` resolved), and a
+//! device simulator reads its PDO parameters from its current values
+//! (`OdView::with_values` over a [`ValueSource`]):
+//! `Mapping::read_from(&OdView::new(&od, node_id), direction, 0x1A00)`.
+//!
+//! Sizes as a PDO sees them: BOOLEAN is one bit (CiA 301's usual mapping length); mapping
+//! validation also accepts a BOOLEAN mapped with 8 bits, as many devices do, and the mapping
+//! entry's length decides how the value is packed. Fixed-size types have their size; strings and
+//! domains the length of their (current, else default) value, at most 64 bits.
 
 use canopen_od::{DataType, ObjectDictionary};
 
 use crate::dictionary::{Catalog, Dictionary, ObjectAddr, ObjectInfo, ReadError};
 
-/// A read-only view of an object dictionary model for one node (`$NODEID` in default values
-/// resolves to `node_id`). Values are the DCF `ParameterValue` if present, else `DefaultValue`.
-#[derive(Debug, Clone, Copy)]
+/// Current object values as little-endian bytes (CiA 301 §7.1), for a view over a running
+/// device rather than a file's defaults.
+pub trait ValueSource {
+    /// The current value of `index:subindex`, if the object has one.
+    fn value(&self, index: u16, subindex: u8) -> Option<&[u8]>;
+}
+
+/// A read-only view of an object dictionary model for one node: metadata from the model, values
+/// from a [`ValueSource`] when one is given, else the DCF `ParameterValue` or `DefaultValue`
+/// (`$NODEID` resolved to the node-ID).
+#[derive(Clone, Copy)]
 pub struct OdView<'a> {
     od: &'a ObjectDictionary,
-    node_id: u8,
+    values: Values<'a>,
+}
+
+/// Where an [`OdView`] takes values from.
+#[derive(Clone, Copy)]
+enum Values<'a> {
+    /// The file's values, as node `node_id`.
+    Defaults { node_id: u8 },
+    /// A running device's values.
+    Current(&'a dyn ValueSource),
+}
+
+impl core::fmt::Debug for OdView<'_> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let mut d = f.debug_struct("OdView");
+        match self.values {
+            Values::Defaults { node_id } => d.field("defaults_for_node", &node_id),
+            Values::Current(_) => d.field("values", &"current"),
+        };
+        d.finish_non_exhaustive()
+    }
 }
 
 impl<'a> OdView<'a> {
-    /// A view of `od` as node `node_id`.
+    /// A view of `od`'s default values as node `node_id`.
     pub fn new(od: &'a ObjectDictionary, node_id: u8) -> Self {
-        Self { od, node_id }
+        Self {
+            od,
+            values: Values::Defaults { node_id },
+        }
+    }
+
+    /// A view of `od`'s metadata with a device's current `values`.
+    pub fn with_values(od: &'a ObjectDictionary, values: &'a dyn ValueSource) -> Self {
+        Self {
+            od,
+            values: Values::Current(values),
+        }
+    }
+
+    /// The length in bytes of the object's value: the current one, else the default.
+    fn value_len(&self, index: u16, subindex: u8) -> Option<usize> {
+        match self.values {
+            Values::Current(v) => v.value(index, subindex).map(<[u8]>::len),
+            Values::Defaults { node_id } => self
+                .od
+                .sub(index, subindex)?
+                .effective_value(node_id)
+                .map(|v| v.to_le_bytes().len()),
+        }
     }
 }
 
@@ -29,8 +88,8 @@ fn bits_of(data_type: DataType, value_len: Option<usize>) -> u16 {
     match data_type {
         DataType::Boolean => 1,
         t => match t.size() {
-            Some(bytes) => (bytes * 8) as u16,
-            None => value_len.map_or(64, |n| (n.min(8) * 8) as u16),
+            Some(bytes) if !t.is_variable_size() => (bytes * 8) as u16,
+            _ => value_len.map_or(64, |n| (n.min(8) * 8) as u16),
         },
     }
 }
@@ -38,9 +97,10 @@ fn bits_of(data_type: DataType, value_len: Option<usize>) -> u16 {
 impl Catalog for OdView<'_> {
     fn object_info(&self, addr: ObjectAddr) -> Option<ObjectInfo> {
         let sub = self.od.sub(addr.index, addr.subindex)?;
-        let value_len = sub
-            .effective_value(self.node_id)
-            .map(|v| v.to_le_bytes().len());
+        let value_len = match sub.data_type.size() {
+            Some(_) if !sub.data_type.is_variable_size() => None,
+            _ => self.value_len(addr.index, addr.subindex),
+        };
         Some(ObjectInfo {
             data_type: sub.data_type.code(),
             bits: bits_of(sub.data_type, value_len),
@@ -66,20 +126,40 @@ impl Catalog for OdView<'_> {
 
 impl Dictionary for OdView<'_> {
     fn read_u32(&self, index: u16, subindex: u8) -> Result<u32, ReadError> {
+        let not_an_integer = ReadError::NotAnInteger { index, subindex };
         let sub = self
             .od
             .sub(index, subindex)
             .ok_or(ReadError::NoSuchObject { index, subindex })?;
-        sub.effective_value(self.node_id)
-            .and_then(|v| v.as_i128())
-            .and_then(|v| u32::try_from(v).ok())
-            .ok_or(ReadError::NotAnInteger { index, subindex })
+        match self.values {
+            Values::Current(values) => {
+                // PDO parameters are UNSIGNED8..UNSIGNED32: up to four little-endian bytes.
+                if sub.data_type.is_signed() || sub.data_type.is_variable_size() {
+                    return Err(not_an_integer);
+                }
+                let bytes = values
+                    .value(index, subindex)
+                    .ok_or(ReadError::NoSuchObject { index, subindex })?;
+                if bytes.len() > 4 {
+                    return Err(not_an_integer);
+                }
+                let mut word = [0u8; 4];
+                word[..bytes.len()].copy_from_slice(bytes);
+                Ok(u32::from_le_bytes(word))
+            }
+            Values::Defaults { node_id } => sub
+                .effective_value(node_id)
+                .and_then(|v| v.as_i128())
+                .and_then(|v| u32::try_from(v).ok())
+                .ok_or(not_an_integer),
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use canopen_od::{AccessType, EdsValue, Object, ObjectCode, SubObject, Value as OdValue};
+    use std::prelude::rust_2024::*;
 
     use super::*;
     use crate::comm::{CommParams, Direction, TransmissionType};
@@ -171,6 +251,69 @@ mod tests {
         assert_eq!(
             Mapping::from_raw_checked(Direction::Receive, &[0x0005_0008], &view),
             Err(MappingError::DummyNotSupported(5))
+        );
+    }
+
+    struct Current(Vec<((u16, u8), Vec<u8>)>);
+    impl ValueSource for Current {
+        fn value(&self, index: u16, subindex: u8) -> Option<&[u8]> {
+            self.0
+                .iter()
+                .find(|(a, _)| *a == (index, subindex))
+                .map(|(_, v)| v.as_slice())
+        }
+    }
+
+    #[test]
+    fn boolean_maps_with_one_bit_or_one_byte() {
+        let mut od = ObjectDictionary::default();
+        od.insert(var(0x6000, DataType::Boolean, AccessType::Ro, true, None));
+        let view = OdView::new(&od, 5);
+        for (raw, bits) in [(0x6000_0001, 1), (0x6000_0008, 8)] {
+            let m = Mapping::from_raw_checked(Direction::Transmit, &[raw], &view).unwrap();
+            assert_eq!(m.objects()[0].kind, crate::ValueKind::Boolean);
+            assert_eq!(m.bit_len(), bits);
+        }
+        assert!(matches!(
+            Mapping::from_raw_checked(Direction::Transmit, &[0x6000_0002], &view),
+            Err(MappingError::LengthMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn current_values_override_defaults() {
+        let mut od = ObjectDictionary::default();
+        od.insert(var(
+            0x1800,
+            DataType::Unsigned32,
+            AccessType::Rw,
+            false,
+            Some(OdValue::Unsigned32(0x185)),
+        ));
+        od.insert(var(
+            0x2001,
+            DataType::VisibleString,
+            AccessType::Ro,
+            true,
+            None,
+        ));
+        assert_eq!(OdView::new(&od, 5).read_u32(0x1800, 0), Ok(0x185));
+        let current = Current(vec![
+            ((0x1800, 0), vec![0x86, 0x01]),
+            ((0x2001, 0), vec![b'a'; 3]),
+        ]);
+        let view = OdView::with_values(&od, &current);
+        assert_eq!(view.read_u32(0x1800, 0), Ok(0x186));
+        assert_eq!(
+            view.object_info(ObjectAddr::new(0x2001, 0)).map(|i| i.bits),
+            Some(24)
+        );
+        assert_eq!(
+            view.read_u32(0x2001, 0),
+            Err(ReadError::NotAnInteger {
+                index: 0x2001,
+                subindex: 0
+            })
         );
     }
 }
