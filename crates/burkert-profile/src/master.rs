@@ -406,19 +406,12 @@ impl BurkertNode {
 
     /// Reads one entry and decodes it with its generated type.
     pub fn read<T: EntryValue>(&self, e: Entry<T>) -> Result<T, Error> {
-        let bytes = self.node.sdo().read(addr(&e))?;
-        decode(self.id(), &e, &bytes)
+        self.node.sdo().read_entry(&e)
     }
 
-    /// Encodes a fixed-size value with its generated type and writes it.
+    /// Encodes a value with its generated type and writes it.
     pub fn write<T: EntryValue>(&self, e: Entry<T>, value: &T) -> Result<(), Error> {
-        let mut buf = [0u8; 8];
-        let n = e.encode(value, &mut buf).map_err(|err| Error::Value {
-            node: self.id(),
-            entry: addr(&e),
-            message: err.to_string(),
-        })?;
-        self.node.sdo().write(addr(&e), &buf[..n])
+        self.node.sdo().write_entry(&e, value)
     }
 
     /// Submits every read together (the master queues them on the node and runs them back to
@@ -428,17 +421,7 @@ impl BurkertNode {
             .iter()
             .map(|&a| (a, self.node.sdo().submit_read(a)))
             .collect();
-        let results = pending
-            .into_iter()
-            .map(|(a, p)| {
-                let r = match p.wait() {
-                    Ok(canopen::Completion::Data(v)) => Ok(v),
-                    Ok(_) => Ok(Vec::new()),
-                    Err(e) => Err(e),
-                };
-                (a, r)
-            })
-            .collect();
+        let results = pending.into_iter().map(|(a, p)| (a, p.wait())).collect();
         Batch {
             node: self.id(),
             results,

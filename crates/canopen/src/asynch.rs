@@ -7,10 +7,8 @@
 //! is removed, a running transfer is aborted on the bus (0x08000000) and the node is free for the
 //! next request at once; the abandoned transfer's late responses are ignored.
 
-use can_frame::NodeId;
-
-use crate::core::{Completion, Entry, RequestId};
-use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::core::{Entry, RequestId};
+use crate::error::{Error, SdoError};
 use crate::network::{Network, Pending, Sdo, SdoValue};
 
 /// Cancels the request when dropped unless disarmed.
@@ -27,37 +25,32 @@ impl Drop for CancelGuard {
     }
 }
 
-async fn wait_async(pending: Pending) -> Result<Completion, SdoError> {
-    let (net, id) = pending.into_parts();
-    let Some(id) = id else {
-        return Err(cancelled());
+async fn wait_async<T>(mut pending: Pending<T>) -> Result<T, SdoError> {
+    let Some(id) = pending.id.take() else {
+        return Err(pending.cancelled());
     };
+    let (net, node, entry, output) = (
+        pending.net.clone(),
+        pending.node,
+        pending.entry,
+        pending.output,
+    );
     let mut guard = CancelGuard {
         net: net.clone(),
         id: Some(id),
     };
-    let waiter = net.clone();
-    let r = tokio::task::spawn_blocking(move || waiter.wait(id)).await;
+    let r = tokio::task::spawn_blocking(move || net.wait(id, node, entry)).await;
     guard.id = None;
-    r.unwrap_or_else(|_| Err(cancelled()))
-}
-
-fn cancelled() -> SdoError {
-    SdoError {
-        node: NodeId::MIN,
-        entry: Entry::new(0, 0),
-        name: None,
-        kind: SdoErrorKind::Cancelled,
+    match r {
+        Ok(r) => r.map(output),
+        Err(_) => Err(pending.cancelled()),
     }
 }
 
 impl Sdo {
     /// Reads an object's bytes (async). Dropping the future cancels the transfer.
     pub async fn read_async(self, entry: impl Into<Entry>) -> Result<Vec<u8>, Error> {
-        match wait_async(self.submit_read(entry)).await? {
-            Completion::Data(v) => Ok(v),
-            _ => Ok(Vec::new()),
-        }
+        Ok(wait_async(self.submit_read(entry)).await?)
     }
 
     /// Writes an object (async). Dropping the future cancels the transfer.
@@ -66,14 +59,13 @@ impl Sdo {
         entry: impl Into<Entry>,
         value: impl SdoValue,
     ) -> Result<(), Error> {
-        wait_async(self.submit_write(entry, value)).await?;
-        Ok(())
+        Ok(wait_async(self.submit_write(entry, value)).await?)
     }
 }
 
-impl Pending {
+impl<T> Pending<T> {
     /// Waits for the request without blocking the async runtime. Dropping the future cancels it.
-    pub async fn wait_async(self) -> Result<Completion, SdoError> {
+    pub async fn wait_async(self) -> Result<T, SdoError> {
         wait_async(self).await
     }
 }

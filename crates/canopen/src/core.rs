@@ -31,7 +31,9 @@ use canopen_nmt::{
     HeartbeatEvent, NmtCommand, NmtState, NmtTarget, SyncConfig, SyncProducer,
 };
 use canopen_od::ObjectDictionary;
-use canopen_sdo::{AbortCode, Client, ClientConfig, Event as SdoEvent, Method, Multiplexer};
+use canopen_sdo::{
+    AbortCode, Client, ClientConfig, Event as SdoEvent, Method, Multiplexer, SdoCobIds,
+};
 
 use crate::error::{SdoError, SdoErrorKind};
 use crate::transport::BusEvent;
@@ -84,15 +86,13 @@ pub struct TransferProgress {
 /// A progress callback.
 pub type ProgressFn = Box<dyn FnMut(TransferProgress) + Send>;
 
-/// What a successful request produced.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Completion {
-    /// An upload into memory finished.
-    Data(Vec<u8>),
-    /// An upload into a writer finished; so many bytes were written.
-    Streamed(u64),
-    /// A download finished.
-    Written,
+/// What a finished transfer produced: the uploaded bytes (empty for a download and for an
+/// upload streamed into a writer) and the number of bytes transferred. Every kind of request
+/// ends in the same shape, so each typed [`Pending`](crate::Pending) takes what it needs.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub(crate) struct Completion {
+    pub(crate) data: Vec<u8>,
+    pub(crate) transferred: u64,
 }
 
 /// Something that happened on the network, for subscribers.
@@ -194,6 +194,8 @@ pub(crate) enum Op {
 /// One SDO request.
 pub(crate) struct SdoRequest {
     pub(crate) node: NodeId,
+    /// The server channel: the node's default one (0x600/0x580 + node-ID) or another.
+    pub(crate) channel: SdoCobIds,
     pub(crate) entry: Entry,
     pub(crate) op: Op,
     pub(crate) method: Method,
@@ -207,14 +209,15 @@ enum ReqState {
         progress: Option<ProgressFn>,
         entry: Entry,
         node: NodeId,
+        channel: usize,
     },
     Done(Result<Completion, SdoError>),
 }
 
-struct NodeSlot {
-    od: Option<Arc<ObjectDictionary>>,
-    /// The node's TPDOs mirrored as receive PDOs, with their TPDO numbers.
-    pdo: Option<crate::pdo::Mirror>,
+/// One SDO client channel to a node's server (CiA 301 §7.2.4.2): its COB-IDs, its client
+/// machine and its request queue. Requests on one channel run one at a time.
+struct SdoChannel {
+    ids: SdoCobIds,
     client: Client<UpSink, DownSource>,
     queue: VecDeque<RequestId>,
     active: Option<RequestId>,
@@ -222,17 +225,49 @@ struct NodeSlot {
     ready_at: Instant,
 }
 
-impl NodeSlot {
-    fn new(node: NodeId, od: Option<Arc<ObjectDictionary>>) -> Self {
+impl SdoChannel {
+    fn new(ids: SdoCobIds) -> Self {
         Self {
-            pdo: od.as_deref().map(|od| crate::pdo::mirror_engine(od, node)),
-            od,
+            ids,
             client: Client::new(ClientConfig::default()),
             queue: VecDeque::new(),
             active: None,
             ready_at: Instant::ZERO,
         }
     }
+
+    /// Whether a queued request waits for the channel to become free.
+    fn has_waiting(&self) -> bool {
+        self.active.is_none() && !self.queue.is_empty()
+    }
+}
+
+struct NodeSlot {
+    od: Option<Arc<ObjectDictionary>>,
+    /// The node's TPDOs mirrored as receive PDOs, with their TPDO numbers.
+    pdo: Option<crate::pdo::Mirror>,
+    /// The node's SDO channels: the default one first, then those opened on other COB-IDs.
+    channels: Vec<SdoChannel>,
+}
+
+impl NodeSlot {
+    fn new(node: NodeId, od: Option<Arc<ObjectDictionary>>) -> Self {
+        Self {
+            pdo: od.as_deref().map(|od| crate::pdo::mirror_engine(od, node)),
+            od,
+            channels: vec![SdoChannel::new(SdoCobIds::default_for(node))],
+        }
+    }
+}
+
+/// What [`Core::take_result`] found for a request.
+pub(crate) enum Taken {
+    /// Still queued or running.
+    Running,
+    /// Finished; the result is handed over (and forgotten by the core).
+    Done(Result<Completion, SdoError>),
+    /// Not in the table: cancelled, or its result was taken already.
+    Unknown,
 }
 
 /// The abort code sent when a caller cancels a running transfer: "general error" (CiA 301
@@ -258,20 +293,10 @@ pub(crate) struct Core {
     pub(crate) settle: Duration,
     lss: Option<Box<dyn crate::lss::LssJob>>,
     lss_result: Option<Result<crate::lss::LssOutcome, canopen_lss::LssError>>,
+    /// Response COB-IDs of the SDO channels opened on other than the default identifiers,
+    /// with their node and channel index (default channels route by function code).
+    sdo_routes: HashMap<CanId, (NodeId, usize)>,
 }
-
-fn sdo_tx_frame(node: NodeId, data: [u8; 8]) -> CanFrame {
-    // 0x600 + node is at most 0x67F, always a valid 11-bit identifier.
-    let id = CanId::standard(FunctionCode::SdoRx.cob_id(node)).unwrap_or(CanId::Standard(
-        can_frame::StandardId::new(0x600).unwrap_or(ZERO_ID),
-    ));
-    CanFrame::from_array(id, data)
-}
-
-const ZERO_ID: can_frame::StandardId = match can_frame::StandardId::new(0) {
-    Ok(id) => id,
-    Err(_) => panic!("0 is a valid identifier"),
-};
 
 impl Core {
     pub(crate) fn new() -> Self {
@@ -290,7 +315,23 @@ impl Core {
             settle: Duration::from_millis(1),
             lss: None,
             lss_result: None,
+            sdo_routes: HashMap::new(),
         }
+    }
+
+    /// The index of `node`'s channel on `ids`, opened (and routed) on first use.
+    fn channel_index(&mut self, node: NodeId, ids: SdoCobIds) -> usize {
+        self.add_node(node, None);
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return 0;
+        };
+        if let Some(i) = slot.channels.iter().position(|c| c.ids == ids) {
+            return i;
+        }
+        slot.channels.push(SdoChannel::new(ids));
+        let i = slot.channels.len() - 1;
+        self.sdo_routes.insert(ids.response, (node, i));
+        i
     }
 
     pub(crate) fn set_now(&mut self, now: Instant) {
@@ -428,12 +469,16 @@ impl Core {
         let id = RequestId(self.next_request);
         self.next_request += 1;
         let node = req.node;
-        self.add_node(node, None);
+        let ch = self.channel_index(node, req.channel);
         self.requests.insert(id, ReqState::Queued(req));
-        if let Some(slot) = self.nodes.get_mut(&node) {
-            slot.queue.push_back(id);
+        if let Some(c) = self
+            .nodes
+            .get_mut(&node)
+            .and_then(|s| s.channels.get_mut(ch))
+        {
+            c.queue.push_back(id);
         }
-        self.pump_node(node);
+        self.pump_channel(node, ch);
         id
     }
 
@@ -443,33 +488,19 @@ impl Core {
     }
 
     /// Takes a finished request's result. `None` while it runs.
-    pub(crate) fn take_result(&mut self, id: RequestId) -> Option<Result<Completion, SdoError>> {
+    pub(crate) fn take_result(&mut self, id: RequestId) -> Taken {
         match self.requests.get(&id) {
             Some(ReqState::Done(_)) => match self.requests.remove(&id) {
-                Some(ReqState::Done(r)) => Some(r),
-                _ => None,
+                Some(ReqState::Done(r)) => Taken::Done(r),
+                _ => Taken::Unknown,
             },
-            Some(_) => None,
-            None => Some(Err(SdoError {
-                node: NodeId::MIN,
-                entry: Entry::new(0, 0),
-                name: None,
-                kind: SdoErrorKind::Cancelled,
-            })),
+            Some(_) => Taken::Running,
+            None => Taken::Unknown,
         }
     }
 
     /// Cancels a request: a queued one is dropped, a running one is aborted on the bus (the
-    /// node is free for the next request at once). Its result is discarded.
-    /// The node and object a request in flight is for.
-    pub(crate) fn request_target(&self, id: RequestId) -> Option<(NodeId, Entry)> {
-        match self.requests.get(&id)? {
-            ReqState::Queued(req) => Some((req.node, req.entry)),
-            ReqState::Active { node, entry, .. } => Some((*node, *entry)),
-            ReqState::Done(_) => None,
-        }
-    }
-
+    /// channel is free for the next request at once). Its result is discarded.
     pub(crate) fn cancel(&mut self, id: RequestId) {
         let Some(state) = self.requests.remove(&id) else {
             return;
@@ -477,32 +508,42 @@ impl Core {
         match state {
             ReqState::Queued(req) => {
                 if let Some(slot) = self.nodes.get_mut(&req.node) {
-                    slot.queue.retain(|q| *q != id);
+                    for c in &mut slot.channels {
+                        c.queue.retain(|q| *q != id);
+                    }
                 }
             }
-            ReqState::Active { node, .. } => {
+            ReqState::Active { node, channel, .. } => {
                 let now = self.now;
-                if let Some(slot) = self.nodes.get_mut(&node) {
-                    slot.client.abort(now, CANCEL_ABORT);
+                if let Some(c) = self
+                    .nodes
+                    .get_mut(&node)
+                    .and_then(|s| s.channels.get_mut(channel))
+                {
+                    c.client.abort(now, CANCEL_ABORT);
                 }
-                self.pump_node(node);
+                self.pump_channel(node, channel);
             }
             ReqState::Done(_) => {}
         }
     }
 
-    /// Sends what the node's client has, completes its finished transfer, starts the next.
-    fn pump_node(&mut self, node: NodeId) {
+    /// Sends what the channel's client has, completes its finished transfer, starts the next.
+    fn pump_channel(&mut self, node: NodeId, ch: usize) {
         // Each turn either finishes a transfer or starts one, so the loop ends when the queue
         // is empty or a transfer runs.
         loop {
-            let Some(slot) = self.nodes.get_mut(&node) else {
+            let Some(c) = self
+                .nodes
+                .get_mut(&node)
+                .and_then(|s| s.channels.get_mut(ch))
+            else {
                 return;
             };
-            while let Some(data) = slot.client.poll_transmit() {
-                self.tx.push_back(sdo_tx_frame(node, data));
+            while let Some(data) = c.client.poll_transmit() {
+                self.tx.push_back(c.ids.request_frame(data));
             }
-            if let (Some(active), Some(p)) = (slot.active, slot.client.progress())
+            if let (Some(active), Some(p)) = (c.active, c.client.progress())
                 && let Some(ReqState::Active {
                     progress: Some(cb),
                     entry,
@@ -516,14 +557,23 @@ impl Core {
                     total: p.total.map(u64::from),
                 });
             }
-            if let Some(ev) = slot.client.poll_event() {
-                let finished = slot.active.take();
+            if let Some(ev) = c.client.poll_event() {
+                let finished = c.active.take();
                 let result = match ev {
-                    SdoEvent::Uploaded { sink, .. } => match sink {
-                        UpSink::Mem(v) => Ok(Completion::Data(v)),
-                        UpSink::Stream { written, .. } => Ok(Completion::Streamed(written)),
-                    },
-                    SdoEvent::Downloaded { .. } => Ok(Completion::Written),
+                    SdoEvent::Uploaded { sink, .. } => Ok(match sink {
+                        UpSink::Mem(data) => Completion {
+                            transferred: data.len() as u64,
+                            data,
+                        },
+                        UpSink::Stream { written, .. } => Completion {
+                            data: Vec::new(),
+                            transferred: written,
+                        },
+                    }),
+                    SdoEvent::Downloaded { source, .. } => Ok(Completion {
+                        data: Vec::new(),
+                        transferred: source.0.len() as u64,
+                    }),
                     SdoEvent::Failed { error, buffer } => Err(match buffer {
                         canopen_sdo::Buffer::Sink(UpSink::Stream { error: Some(e), .. }) => {
                             SdoErrorKind::Io(e.to_string())
@@ -531,6 +581,7 @@ impl Core {
                         _ => SdoErrorKind::Transfer(error.kind),
                     }),
                 };
+                c.ready_at = self.now + self.settle;
                 // A cancelled request is no longer in the table: its result is dropped here.
                 if let Some(id) = finished
                     && let Some(ReqState::Active { entry, .. }) = self.requests.get(&id)
@@ -544,13 +595,12 @@ impl Core {
                     });
                     self.requests.insert(id, ReqState::Done(result));
                 }
-                slot.ready_at = self.now + self.settle;
                 continue;
             }
-            if slot.active.is_some() || !slot.client.is_idle() || slot.ready_at > self.now {
+            if c.active.is_some() || !c.client.is_idle() || c.ready_at > self.now {
                 return;
             }
-            let Some(next) = slot.queue.pop_front() else {
+            let Some(next) = c.queue.pop_front() else {
                 return;
             };
             let Some(ReqState::Queued(req)) = self.requests.remove(&next) else {
@@ -564,20 +614,21 @@ impl Core {
                 progress,
                 ..
             } = req;
-            let cfg = slot.client.config().with_timeout(timeout);
-            slot.client.set_config(cfg);
+            let cfg = c.client.config().with_timeout(timeout);
+            c.client.set_config(cfg);
             let mux = Multiplexer::new(entry.index, entry.sub);
             let now = self.now;
             let started = match op {
-                Op::Upload(sink) => slot.client.start_upload(now, mux, sink, method).is_ok(),
-                Op::Download(src) => slot.client.start_download(now, mux, src, method).is_ok(),
+                Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
+                Op::Download(src) => c.client.start_download(now, mux, src, method).is_ok(),
             };
             let state = if started {
-                slot.active = Some(next);
+                c.active = Some(next);
                 ReqState::Active {
                     progress,
                     entry,
                     node,
+                    channel: ch,
                 }
             } else {
                 ReqState::Done(Err(SdoError {
@@ -607,6 +658,12 @@ impl Core {
             self.publish(NetworkEvent::Lss { data, at: now });
             return;
         }
+        if !self.sdo_routes.is_empty()
+            && let Some(&(node, ch)) = self.sdo_routes.get(&frame.id())
+        {
+            self.handle_sdo_response(now, node, ch, frame);
+            return;
+        }
         let Some(cob) = CobId::classify(raw) else {
             return;
         };
@@ -614,11 +671,8 @@ impl Core {
             return;
         };
         match cob.function {
-            FunctionCode::SdoTx => {
-                if let Some(slot) = self.nodes.get_mut(&node) {
-                    slot.client.handle_response(now, frame.data());
-                    self.pump_node(node);
-                }
+            FunctionCode::SdoTx if !frame.is_remote() => {
+                self.handle_sdo_response(now, node, 0, frame);
             }
             FunctionCode::NmtErrorControl => {
                 let previous = self.states.get(&node).copied();
@@ -706,6 +760,18 @@ impl Core {
         }
     }
 
+    /// A response on an SDO channel's server → client identifier.
+    fn handle_sdo_response(&mut self, now: Instant, node: NodeId, ch: usize, frame: &CanFrame) {
+        if let Some(c) = self
+            .nodes
+            .get_mut(&node)
+            .and_then(|s| s.channels.get_mut(ch))
+        {
+            c.client.handle_response(now, frame.data());
+            self.pump_channel(node, ch);
+        }
+    }
+
     fn drain_heartbeat(&mut self) {
         while let Some(ev) = self.heartbeat.poll_event() {
             self.publish(NetworkEvent::Heartbeat(ev));
@@ -741,22 +807,26 @@ impl Core {
                 self.tx.push_back(f);
             }
         }
-        let due: Vec<NodeId> = self
+        let due: Vec<(NodeId, usize)> = self
             .nodes
             .iter()
-            .filter(|(_, s)| {
-                s.client.poll_timeout().is_some_and(|t| t <= now)
-                    || (s.active.is_none() && !s.queue.is_empty() && s.ready_at <= now)
+            .flat_map(|(n, s)| s.channels.iter().enumerate().map(move |(i, c)| (*n, i, c)))
+            .filter(|(_, _, c)| {
+                c.client.poll_timeout().is_some_and(|t| t <= now)
+                    || (c.has_waiting() && c.ready_at <= now)
             })
-            .map(|(n, _)| *n)
+            .map(|(n, i, _)| (n, i))
             .collect();
-        for node in due {
-            if let Some(slot) = self.nodes.get_mut(&node)
-                && slot.client.poll_timeout().is_some_and(|t| t <= now)
+        for (node, ch) in due {
+            if let Some(c) = self
+                .nodes
+                .get_mut(&node)
+                .and_then(|s| s.channels.get_mut(ch))
+                && c.client.poll_timeout().is_some_and(|t| t <= now)
             {
-                slot.client.handle_timeout(now);
+                c.client.handle_timeout(now);
             }
-            self.pump_node(node);
+            self.pump_channel(node, ch);
         }
     }
 
@@ -771,10 +841,10 @@ impl Core {
         consider(self.sync.as_ref().and_then(|s| s.poll_timeout()));
         consider(self.guarding.poll_timeout());
         consider(self.lss.as_ref().and_then(|j| j.poll_timeout()));
-        for slot in self.nodes.values() {
-            consider(slot.client.poll_timeout());
-            if slot.active.is_none() && !slot.queue.is_empty() {
-                consider(Some(slot.ready_at));
+        for c in self.nodes.values().flat_map(|s| &s.channels) {
+            consider(c.client.poll_timeout());
+            if c.has_waiting() {
+                consider(Some(c.ready_at));
             }
         }
         t

@@ -39,7 +39,8 @@ mod pdo;
 pub mod socketcan;
 pub mod transport;
 
-pub use crate::core::{CANCEL_ABORT, Completion, Entry, NetworkEvent, RequestId, TransferProgress};
+pub use crate::core::{CANCEL_ABORT, Entry, NetworkEvent, RequestId, TransferProgress};
+pub use canopen_sdo::SdoCobIds;
 pub use error::{Error, SdoError, SdoErrorKind, describe_abort};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};

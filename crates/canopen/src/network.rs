@@ -19,11 +19,11 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
 use can_frame::{CanFrame, Duration, Instant, NodeId};
 use canopen_nmt::{CommandSpecifier, NmtState, NmtTarget, SyncConfig};
 use canopen_od::{ObjectDictionary, Value};
-use canopen_sdo::Method;
+use canopen_sdo::{Method, SdoCobIds};
 
 use crate::core::{
     Completion, Core, DownSource, Entry, NetworkEvent, Op, ProgressFn, RequestId, SdoRequest,
-    TransferProgress, UpSink,
+    Taken, TransferProgress, UpSink,
 };
 use crate::error::{Error, SdoError, SdoErrorKind};
 use crate::transport::{Received, Transport};
@@ -289,17 +289,29 @@ impl Network {
         }
     }
 
-    /// Blocks until request `id` finishes, driving the network meanwhile.
-    pub(crate) fn wait(&self, id: RequestId) -> Result<Completion, SdoError> {
-        let r = self.wait_for(|c| c.take_result(id).map(|r| r.map_err(|e| c.name_error(e))));
+    /// Blocks until request `id` (for `entry` of `node`) finishes, driving the network
+    /// meanwhile.
+    pub(crate) fn wait(
+        &self,
+        id: RequestId,
+        node: NodeId,
+        entry: Entry,
+    ) -> Result<Completion, SdoError> {
+        let r = self.wait_for(|c| match c.take_result(id) {
+            Taken::Running => None,
+            Taken::Done(r) => Some(r.map_err(|e| c.name_error(e))),
+            Taken::Unknown => Some(Err(c.name_error(SdoError {
+                node,
+                entry,
+                name: None,
+                kind: SdoErrorKind::Cancelled,
+            }))),
+        });
         match r {
             Ok(r) => r,
             Err(e) => {
                 // A transport failure ends the request: say which node and object it was for.
                 let mut core = self.core();
-                let (node, entry) = core
-                    .request_target(id)
-                    .unwrap_or((NodeId::MIN, Entry::new(0, 0)));
                 core.cancel(id);
                 // The transport's own words ("the CAN interface is down"), without the
                 // "transport: " that `Error` puts in front: SdoErrorKind::Transport says it.
@@ -374,6 +386,7 @@ impl Node {
         Sdo {
             net: self.net.clone(),
             node: self.id,
+            channel: SdoCobIds::default_for(self.id),
             method: Method::Normal,
             timeout: DEFAULT_SDO_TIMEOUT,
             progress: None,
@@ -487,27 +500,48 @@ impl Nmt {
     }
 }
 
-/// A request in flight. Waiting drives the network; dropping it cancels the request (a running
-/// transfer is aborted on the bus with 0x08000000).
+/// A request in flight, typed by what it produces: `Pending<Vec<u8>>` for an upload into
+/// memory, `Pending<()>` for a download, `Pending<u64>` (bytes) for a streamed upload. Waiting
+/// drives the network; dropping it cancels the request (a running transfer is aborted on the bus
+/// with 0x08000000).
 #[must_use = "dropping a pending request cancels it"]
-#[derive(Debug)]
-pub struct Pending {
-    net: Network,
-    id: Option<RequestId>,
+pub struct Pending<T = Vec<u8>> {
+    pub(crate) net: Network,
+    pub(crate) id: Option<RequestId>,
+    pub(crate) node: NodeId,
+    pub(crate) entry: Entry,
+    /// What this kind of request takes from its completion.
+    pub(crate) output: fn(Completion) -> T,
 }
 
-impl Pending {
+impl<T> core::fmt::Debug for Pending<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Pending")
+            .field("node", &self.node)
+            .field("entry", &self.entry)
+            .field("running", &self.id.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<T> Pending<T> {
     /// Blocks until the request finishes.
-    pub fn wait(mut self) -> Result<Completion, SdoError> {
+    pub fn wait(mut self) -> Result<T, SdoError> {
+        let output = self.output;
         match self.id.take() {
-            Some(id) => self.net.wait(id),
-            None => Err(SdoError {
-                node: NodeId::MIN,
-                entry: Entry::new(0, 0),
-                name: None,
-                kind: SdoErrorKind::Cancelled,
-            }),
+            Some(id) => self.net.wait(id, self.node, self.entry).map(output),
+            None => Err(self.cancelled()),
         }
+    }
+
+    /// The node the request is for.
+    pub fn node(&self) -> NodeId {
+        self.node
+    }
+
+    /// The object the request is for.
+    pub fn entry(&self) -> Entry {
+        self.entry
     }
 
     /// Whether the request has finished (its result is ready for [`wait`](Self::wait)).
@@ -522,14 +556,18 @@ impl Pending {
         }
     }
 
-    #[cfg(feature = "tokio")]
-    pub(crate) fn into_parts(mut self) -> (Network, Option<RequestId>) {
-        let id = self.id.take();
-        (self.net.clone(), id)
+    /// The error of a request that no longer runs.
+    pub(crate) fn cancelled(&self) -> SdoError {
+        SdoError {
+            node: self.node,
+            entry: self.entry,
+            name: None,
+            kind: SdoErrorKind::Cancelled,
+        }
     }
 }
 
-impl Drop for Pending {
+impl<T> Drop for Pending<T> {
     fn drop(&mut self) {
         if let Some(id) = self.id.take() {
             self.net.cancel(id);
@@ -589,6 +627,7 @@ impl<T: SdoValue + ?Sized> SdoValue for &T {
 pub struct Sdo {
     net: Network,
     node: NodeId,
+    channel: SdoCobIds,
     method: Method,
     timeout: Duration,
     progress: Option<ProgressFn>,
@@ -598,6 +637,7 @@ impl core::fmt::Debug for Sdo {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Sdo")
             .field("node", &self.node)
+            .field("channel", &self.channel)
             .field("method", &self.method)
             .field("timeout", &self.timeout)
             .finish_non_exhaustive()
@@ -605,6 +645,14 @@ impl core::fmt::Debug for Sdo {
 }
 
 impl Sdo {
+    /// Talks to the node's SDO server on another channel than its default one (0x600/0x580 +
+    /// node-ID): a further server channel (0x1201..=0x127F) or a changed 0x1200. Requests on
+    /// one channel run one at a time; different channels run in parallel.
+    pub fn channel(mut self, ids: SdoCobIds) -> Self {
+        self.channel = ids;
+        self
+    }
+
     /// Uses block transfer (CiA 301 §7.2.4.3.9) when `on`.
     pub fn block(mut self, on: bool) -> Self {
         self.method = if on { Method::Block } else { Method::Normal };
@@ -629,9 +677,11 @@ impl Sdo {
         self
     }
 
-    fn request(self, entry: Entry, op: Op) -> Pending {
+    fn request<T>(self, entry: Entry, op: Op, output: fn(Completion) -> T) -> Pending<T> {
+        let node = self.node;
         let req = SdoRequest {
-            node: self.node,
+            node,
+            channel: self.channel,
             entry,
             op,
             method: self.method,
@@ -642,26 +692,28 @@ impl Sdo {
         Pending {
             net: self.net,
             id: Some(id),
+            node,
+            entry,
+            output,
         }
     }
 
     /// Starts an upload into memory without waiting.
-    pub fn submit_read(self, entry: impl Into<Entry>) -> Pending {
-        self.request(entry.into(), Op::Upload(UpSink::Mem(Vec::new())))
+    pub fn submit_read(self, entry: impl Into<Entry>) -> Pending<Vec<u8>> {
+        self.request(entry.into(), Op::Upload(UpSink::Mem(Vec::new())), |c| {
+            c.data
+        })
     }
 
     /// Starts a download without waiting.
-    pub fn submit_write(self, entry: impl Into<Entry>, value: impl SdoValue) -> Pending {
+    pub fn submit_write(self, entry: impl Into<Entry>, value: impl SdoValue) -> Pending<()> {
         let data = value.to_sdo_bytes();
-        self.request(entry.into(), Op::Download(DownSource(data)))
+        self.request(entry.into(), Op::Download(DownSource(data)), |_| ())
     }
 
     /// Reads an object's bytes (SDO upload).
     pub fn read(self, entry: impl Into<Entry>) -> Result<Vec<u8>, Error> {
-        match self.submit_read(entry).wait()? {
-            Completion::Data(v) => Ok(v),
-            _ => Ok(Vec::new()),
-        }
+        Ok(self.submit_read(entry).wait()?)
     }
 
     /// Reads an object and decodes it with the type from the node's dictionary.
@@ -737,11 +789,9 @@ impl Sdo {
             written: 0,
             error: None,
         };
-        match self.request(entry.into(), Op::Upload(sink)).wait()? {
-            Completion::Streamed(n) => Ok(n),
-            Completion::Data(v) => Ok(v.len() as u64),
-            Completion::Written => Ok(0),
-        }
+        Ok(self
+            .request(entry.into(), Op::Upload(sink), |c| c.transferred)
+            .wait()?)
     }
 
     /// Downloads the whole content of `reader` into an object. Returns the byte count.
@@ -752,9 +802,10 @@ impl Sdo {
     ) -> Result<u64, Error> {
         let mut data = Vec::new();
         reader.read_to_end(&mut data)?;
-        let n = data.len() as u64;
-        self.request(entry.into(), Op::Download(DownSource(data)))
-            .wait()?;
-        Ok(n)
+        Ok(self
+            .request(entry.into(), Op::Download(DownSource(data)), |c| {
+                c.transferred
+            })
+            .wait()?)
     }
 }

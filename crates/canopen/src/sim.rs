@@ -26,12 +26,13 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use can_frame::cob::FunctionCode;
-use can_frame::{CanFrame, CanId, Instant, NodeId};
+use can_frame::{CanFrame, Instant, NodeId};
 use canopen_lss::{LssAddress, LssSlave, SlaveConfig as LssConfig, SlaveEvent as LssEvent};
 use canopen_nmt::{DeviceState, Emcy, EmcyProducer, NmtSlave, Service, SlaveConfig, SlaveEvent};
 use canopen_od::{AccessType, ObjectDictionary};
 use canopen_sdo::{
-    AbortCode, Access, LengthRule, Multiplexer, ObjectAccess, ObjectInfo, Server, ServerConfig,
+    AbortCode, Access, LengthRule, Multiplexer, ObjectAccess, ObjectInfo, SdoCobIds, Server,
+    ServerConfig,
 };
 
 use crate::transport::Station;
@@ -250,6 +251,30 @@ impl ObjectAccess for Objects<'_> {
     }
 }
 
+/// One SDO server channel (CiA 301 §7.2.4.2): its COB-IDs and its server machine.
+struct SdoChannel {
+    ids: SdoCobIds,
+    server: Server,
+}
+
+/// The device's SDO server channels: the default channel (0x1200: 0x600/0x580 + node-ID, which
+/// CiA 301 fixes to the node-ID, so it follows a node-ID change) and every further server
+/// parameter record 0x1201..=0x127F whose two COB-IDs are valid in the current values.
+fn sdo_channels(od: &ObjectDictionary, values: &Values, node: NodeId) -> Vec<SdoChannel> {
+    let ids_of = |index: u16| {
+        od.get(index)?;
+        let cob = |sub| values.get_u64(index, sub).map(|v| v as u32);
+        SdoCobIds::from_parameters(cob(1)?, cob(2)?)
+    };
+    core::iter::once(SdoCobIds::default_for(node))
+        .chain((0x1201..=0x127F).filter_map(ids_of))
+        .map(|ids| SdoChannel {
+            ids,
+            server: Server::new(ServerConfig::default()),
+        })
+        .collect()
+}
+
 /// A simulated CANopen device. See the module docs.
 pub struct SimDevice {
     node: NodeId,
@@ -257,7 +282,8 @@ pub struct SimDevice {
     values: Values,
     staging: Vec<u8>,
     nmt: NmtSlave,
-    sdo: Server,
+    /// SDO server channels: 0x1200 first, then the valid ones of 0x1201..=0x127F.
+    sdo: Vec<SdoChannel>,
     emcy: EmcyProducer,
     hooks: Vec<Box<dyn DeviceHook>>,
     out: VecDeque<CanFrame>,
@@ -279,15 +305,6 @@ impl core::fmt::Debug for SimDevice {
     }
 }
 
-fn std_id(raw: u16) -> CanId {
-    CanId::standard(raw & 0x7FF).unwrap_or(CanId::Standard(ZERO))
-}
-
-const ZERO: can_frame::StandardId = match can_frame::StandardId::new(0) {
-    Ok(id) => id,
-    Err(_) => panic!("0 is a valid identifier"),
-};
-
 impl SimDevice {
     /// A device with node-ID `node` and the dictionary `od` (values from ParameterValue or
     /// DefaultValue, `$NODEID` resolved). It boots (sends its boot-up message) at the first
@@ -307,13 +324,14 @@ impl SimDevice {
         let id = |sub| values.get_u64(0x1018, sub).unwrap_or(0) as u32;
         let mut lss_config = LssConfig::unconfigured(LssAddress::new(id(1), id(2), id(3), id(4)));
         lss_config.node_id = node.get();
+        let sdo = sdo_channels(&od, &values, node);
         Self {
             node,
             od,
             values,
             staging: Vec::new(),
             nmt,
-            sdo: Server::new(ServerConfig::default()),
+            sdo,
             emcy: EmcyProducer::new(emcy_cob, 0),
             hooks: Vec::new(),
             out: VecDeque::new(),
@@ -442,9 +460,10 @@ impl SimDevice {
         while let Some(f) = self.nmt.poll_transmit() {
             self.out.push_back(f);
         }
-        while let Some(data) = self.sdo.poll_transmit() {
-            let id = std_id(FunctionCode::SdoTx.cob_id(self.node));
-            self.out.push_back(CanFrame::from_array(id, data));
+        for ch in &mut self.sdo {
+            while let Some(data) = ch.server.poll_transmit() {
+                self.out.push_back(ch.ids.response_frame(data));
+            }
         }
         while let Some(f) = self.emcy.poll_transmit() {
             self.out.push_back(f);
@@ -494,7 +513,7 @@ impl SimDevice {
                 life_time_factor: self.values.get_u64(0x100D, 0).unwrap_or(0) as u8,
             },
         );
-        self.sdo = Server::new(ServerConfig::default());
+        self.sdo = sdo_channels(&self.od, &self.values, self.node);
         self.nmt.boot(now);
         self.after_nmt(now);
     }
@@ -522,10 +541,48 @@ impl SimDevice {
         }
     }
 
+    /// Runs one step of SDO channel `ch`'s server over the device's objects, then applies what
+    /// the hooks asked for and what the writes changed.
+    fn serve_sdo(
+        &mut self,
+        now: Instant,
+        ch: usize,
+        step: impl FnOnce(&mut Server, Instant, &mut Objects<'_>),
+    ) {
+        let mut actions = HookActions::default();
+        let mut written = Vec::new();
+        let mut objs = Objects {
+            od: &self.od,
+            values: &mut self.values,
+            staging: &mut self.staging,
+            hooks: &mut self.hooks,
+            actions: &mut actions,
+            written: &mut written,
+            now,
+        };
+        step(&mut self.sdo[ch].server, now, &mut objs);
+        self.apply(now, actions, &written);
+    }
+
+    /// Takes new SDO server parameters (0x1200..=0x127F written): channels whose COB-IDs are
+    /// unchanged keep their server (and a transfer in progress).
+    fn reconfigure_sdo(&mut self) {
+        let mut old = core::mem::take(&mut self.sdo);
+        self.sdo = sdo_channels(&self.od, &self.values, self.node)
+            .into_iter()
+            .map(|fresh| match old.iter().position(|c| c.ids == fresh.ids) {
+                Some(i) => old.swap_remove(i),
+                None => fresh,
+            })
+            .collect();
+    }
+
     fn apply(&mut self, now: Instant, actions: HookActions, written: &[(u16, u8)]) {
         let mut remapped = false;
+        let mut sdo_parameters = false;
         for &(index, sub) in written {
             remapped |= (0x1400..=0x1BFF).contains(&index);
+            sdo_parameters |= (0x1200..=0x127F).contains(&index);
             if (index, sub) == (0x1017, 0) {
                 let ms = self.values.get_u64(0x1017, 0).unwrap_or(0) as u16;
                 self.nmt.set_heartbeat_time(now, ms);
@@ -533,6 +590,9 @@ impl SimDevice {
         }
         if remapped {
             self.rebuild_pdos(now);
+        }
+        if sdo_parameters {
+            self.reconfigure_sdo();
         }
         for e in actions.emcy {
             let _ = self.emcy.signal(now, e);
@@ -558,24 +618,14 @@ impl Station for SimDevice {
         if !self.configured {
             return;
         }
-        if cob == FunctionCode::SdoRx.cob_id(self.node) {
+        if let Some(ch) = self.sdo.iter().position(|c| c.ids.is_request(frame)) {
             if !self.nmt.allows(Service::Sdo) {
                 return;
             }
             self.sdo_requests += 1;
-            let mut actions = HookActions::default();
-            let mut written = Vec::new();
-            let mut objs = Objects {
-                od: &self.od,
-                values: &mut self.values,
-                staging: &mut self.staging,
-                hooks: &mut self.hooks,
-                actions: &mut actions,
-                written: &mut written,
-                now,
-            };
-            self.sdo.handle_request(now, frame.data(), &mut objs);
-            self.apply(now, actions, &written);
+            self.serve_sdo(now, ch, |server, now, objs| {
+                server.handle_request(now, frame.data(), objs)
+            });
             return;
         }
         if self.nmt.handle_frame(now, frame).unwrap_or(false) {
@@ -606,20 +656,12 @@ impl Station for SimDevice {
             self.nmt.handle_timeout(now);
             self.after_nmt(now);
         }
-        if self.sdo.poll_timeout().is_some_and(|t| t <= now) {
-            let mut actions = HookActions::default();
-            let mut written = Vec::new();
-            let mut objs = Objects {
-                od: &self.od,
-                values: &mut self.values,
-                staging: &mut self.staging,
-                hooks: &mut self.hooks,
-                actions: &mut actions,
-                written: &mut written,
-                now,
-            };
-            self.sdo.handle_timeout(now, &mut objs);
-            self.apply(now, actions, &written);
+        for ch in 0..self.sdo.len() {
+            if self.sdo[ch].server.poll_timeout().is_some_and(|t| t <= now) {
+                self.serve_sdo(now, ch, |server, now, objs| {
+                    server.handle_timeout(now, objs)
+                });
+            }
         }
         if self.emcy.poll_timeout().is_some_and(|t| t <= now) {
             self.emcy.handle_timeout(now);
@@ -648,12 +690,12 @@ impl Station for SimDevice {
         }
         [
             self.nmt.poll_timeout(),
-            self.sdo.poll_timeout(),
             self.emcy.poll_timeout(),
             self.lss.poll_timeout(),
             self.pdo.poll_timeout(),
         ]
         .into_iter()
+        .chain(self.sdo.iter().map(|c| c.server.poll_timeout()))
         .chain(self.hooks.iter().map(|h| h.poll_timeout()))
         .flatten()
         .min()

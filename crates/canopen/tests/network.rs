@@ -176,21 +176,12 @@ fn parallel_nodes_and_same_node_order() {
     let b = r.net.node(n(6)).sdo().submit_read((0x1018, 1));
     let c = r.net.node(n(7)).sdo().submit_read((0x1017, 0));
     // Waiting for the last one drives all of them.
-    assert!(matches!(a3.wait(), Ok(canopen::Completion::Written)));
+    assert!(matches!(a3.wait(), Ok(())));
     assert!(a1.is_done() && a2.is_done());
     a1.wait().unwrap();
-    assert_eq!(
-        a2.wait().unwrap(),
-        canopen::Completion::Data(b"first".to_vec())
-    );
-    assert_eq!(
-        b.wait().unwrap(),
-        canopen::Completion::Data(0x39u32.to_le_bytes().to_vec())
-    );
-    assert_eq!(
-        c.wait().unwrap(),
-        canopen::Completion::Data(500u16.to_le_bytes().to_vec())
-    );
+    assert_eq!(a2.wait().unwrap(), b"first".to_vec());
+    assert_eq!(b.wait().unwrap(), 0x39u32.to_le_bytes().to_vec());
+    assert_eq!(c.wait().unwrap(), 500u16.to_le_bytes().to_vec());
 
     // On the wire, the requests to 6 and 7 went out before node 5's first transfer ended.
     let mut order = Vec::new();
@@ -261,10 +252,7 @@ fn cancel_sends_abort_and_late_response_is_ignored() {
     )
     .unwrap();
     tap.send(&late).unwrap();
-    assert_eq!(
-        next.wait().unwrap(),
-        canopen::Completion::Data(500u16.to_le_bytes().to_vec())
-    );
+    assert_eq!(next.wait().unwrap(), 500u16.to_le_bytes().to_vec());
 }
 
 fn drain(rx: &Receiver<NetworkEvent>) -> Vec<NetworkEvent> {
@@ -787,4 +775,80 @@ fn boolean_tpdo_with_one_bit_and_with_eight_bits() {
         );
         assert_eq!(decoded.first().unwrap()[0].1, Value::Bool(false));
     }
+}
+
+/// A second SDO server channel (0x1201, CiA 301 §7.2.4.2) on its own COB-IDs: the master reaches
+/// it through `Sdo::channel`, in parallel with the default channel; a channel configured at run
+/// time (0x1202 written by SDO) is served from then on.
+#[test]
+fn sdo_on_a_second_server_channel() {
+    use canopen::SdoCobIds;
+    use canopen_od::{AccessType, DataType, EdsValue, Object, ObjectCode, SubObject, Value};
+    let record = |index: u16, request: u32, response: u32| {
+        Object::complex(
+            index,
+            "SDO server parameter",
+            ObjectCode::Record,
+            [
+                (0, DataType::Unsigned8, Value::Unsigned8(2)),
+                (1, DataType::Unsigned32, Value::Unsigned32(request)),
+                (2, DataType::Unsigned32, Value::Unsigned32(response)),
+            ]
+            .into_iter()
+            .map(|(sub, t, v)| {
+                SubObject::new(sub, "COB-ID", t, AccessType::Rw).with_default(EdsValue::plain(v))
+            }),
+        )
+    };
+    let mut dictionary = od();
+    dictionary.insert(record(0x1201, 0x6A5, 0x6B5));
+    dictionary.insert(record(0x1202, 0x8000_06A6, 0x8000_06B6));
+    let bus = MemoryBus::new();
+    let mut tap = bus.endpoint();
+    let net = Network::new(bus.endpoint());
+    bus.attach(SimDevice::new(n(5), dictionary.clone()));
+    let node = net.add_node_with_dictionary(n(5), dictionary);
+    let second = SdoCobIds::from_parameters(0x6A5, 0x6B5).unwrap();
+
+    let a = node.sdo().channel(second).submit_read((0x1018, 1));
+    let b = node.sdo().submit_read((0x1017, 0));
+    assert_eq!(a.wait().unwrap(), 0x39u32.to_le_bytes());
+    assert_eq!(b.wait().unwrap(), 500u16.to_le_bytes());
+    node.sdo()
+        .channel(second)
+        .write((0x1017, 0), 250u16)
+        .unwrap();
+    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 250u16.to_le_bytes());
+    let mut ids = Vec::new();
+    while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
+        ids.push(frame.cob_id().unwrap());
+    }
+    for id in [0x6A5, 0x6B5, 0x605, 0x585] {
+        assert!(ids.contains(&id), "{id:#x} missing in {ids:x?}");
+    }
+
+    // 0x1202 is not valid (bit 31): nothing answers on it until the master configures it.
+    let third = SdoCobIds::from_parameters(0x6A6, 0x6B6).unwrap();
+    let err = node
+        .sdo()
+        .channel(third)
+        .timeout(Duration::from_millis(50))
+        .read((0x1018, 1))
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            Error::Sdo(canopen::SdoError {
+                kind: SdoErrorKind::Transfer(canopen_sdo::ErrorKind::Timeout),
+                ..
+            })
+        ),
+        "{err}"
+    );
+    node.sdo().write((0x1202, 1), 0x6A6u32).unwrap();
+    node.sdo().write((0x1202, 2), 0x6B6u32).unwrap();
+    assert_eq!(
+        node.sdo().channel(third).read((0x1018, 1)).unwrap(),
+        0x39u32.to_le_bytes()
+    );
 }

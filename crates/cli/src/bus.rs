@@ -561,7 +561,7 @@ fn scan_nodes(net: &Network, timeout: Duration) -> Vec<(NodeId, [Option<u32>; 4]
         .collect();
     let mut found = Vec::new();
     for (n, p) in pending {
-        if let Ok(canopen::Completion::Data(v)) = p.wait() {
+        if let Ok(v) = p.wait() {
             let mut ident = [None; 4];
             ident[0] = v
                 .get(..4)
