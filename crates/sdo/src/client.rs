@@ -136,6 +136,17 @@ pub enum Method {
     Block,
 }
 
+impl core::fmt::Display for Method {
+    /// `normal`, `segmented`, `block`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Normal => "normal",
+            Self::Segmented => "segmented",
+            Self::Block => "block",
+        })
+    }
+}
+
 /// Upload or download.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Direction {
@@ -143,6 +154,16 @@ pub enum Direction {
     Upload,
     /// Client to server (write).
     Download,
+}
+
+impl core::fmt::Display for Direction {
+    /// `upload`, `download`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Upload => "upload",
+            Self::Download => "download",
+        })
+    }
 }
 
 /// How far the running transfer is.

@@ -226,6 +226,22 @@ pub enum ServerEvent {
     },
 }
 
+impl core::fmt::Display for ServerEvent {
+    /// `SDO download of 0x2000:01 done, 4 bytes`, `SDO aborted 0x2000:01: 0x06010002 (...)`,
+    /// `SDO client aborted ...`, `SDO transfer of 0x2000:01 superseded by a new request`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::Downloaded { mux, len } => write!(f, "SDO download of {mux} done, {len} bytes"),
+            Self::Uploaded { mux, len } => write!(f, "SDO upload of {mux} done, {len} bytes"),
+            Self::Aborted { mux, code } => write!(f, "SDO server aborted {mux}: {code}"),
+            Self::AbortedByClient { mux, code } => write!(f, "SDO client aborted {mux}: {code}"),
+            Self::Superseded { mux } => {
+                write!(f, "SDO transfer of {mux} superseded by a new request")
+            }
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 enum State {
     Idle,

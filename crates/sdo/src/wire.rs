@@ -25,6 +25,10 @@
 //! panic. Reserved bits are ignored on parse and written as zero by `emit`, so
 //! `parse(emit(m)) == m` for every message `m` built from in-range fields.
 
+use core::fmt;
+
+use can_frame::HexBytes;
+
 use crate::abort::AbortCode;
 
 /// Byte offsets and bit masks of the SDO messages.
@@ -660,6 +664,183 @@ impl BlockSegment {
     }
 }
 
+// The `Display` texts name each message as CiA 301 §7.2.4.3 does ("initiate upload request",
+// "end block download response", ...), then its object and fields: one line a monitor or a
+// log can show as it is.
+
+impl fmt::Display for Initiate {
+    /// `expedited, 2 bytes e8 03`, `expedited, size not indicated, 01 02 03 04`,
+    /// `segmented, 26 bytes`, `segmented, size not indicated`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Expedited { data, size: None } => {
+                write!(f, "expedited, size not indicated, {}", HexBytes(data))
+            }
+            Self::Expedited { size: Some(n), .. } => write!(
+                f,
+                "expedited, {n} byte{} {}",
+                plural(u32::from(*n)),
+                HexBytes(self.expedited_data())
+            ),
+            Self::Segmented { size: Some(n) } => write!(f, "segmented, {n} byte{}", plural(*n)),
+            Self::Segmented { size: None } => f.write_str("segmented, size not indicated"),
+        }
+    }
+}
+
+impl fmt::Display for Segment {
+    /// `toggle 1, 3 bytes 78 79 7a, last`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let data = self.bytes();
+        write!(
+            f,
+            "toggle {}, {} byte{}",
+            u8::from(self.toggle),
+            data.len(),
+            plural(data.len() as u32)
+        )?;
+        if !data.is_empty() {
+            write!(f, " {}", HexBytes(data))?;
+        }
+        if self.last {
+            f.write_str(", last")?;
+        }
+        Ok(())
+    }
+}
+
+fn plural(n: u32) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
+
+/// `, CRC` or `, no CRC`: whether the side supports CRC.
+fn crc_text(crc: bool) -> &'static str {
+    if crc { ", CRC" } else { ", no CRC" }
+}
+
+fn size_text(f: &mut fmt::Formatter<'_>, size: Option<u32>) -> fmt::Result {
+    match size {
+        Some(n) => write!(f, ", {n} byte{}", plural(n)),
+        None => f.write_str(", size not indicated"),
+    }
+}
+
+fn abort_text(f: &mut fmt::Formatter<'_>, mux: Multiplexer, code: AbortCode) -> fmt::Result {
+    write!(f, "SDO abort transfer {mux}: {code}")
+}
+
+fn block_end_text(f: &mut fmt::Formatter<'_>, what: &str, unused: u8, crc: u16) -> fmt::Result {
+    write!(
+        f,
+        "SDO end block {what}, {unused} byte{} of the last segment unused, CRC {crc:#06x}",
+        plural(u32::from(unused))
+    )
+}
+
+impl fmt::Display for ClientRequest {
+    /// `SDO initiate upload request 0x1018:01`, `SDO download segment request toggle 0, 7 bytes
+    /// ...`, `SDO abort transfer 0x6000:01: 0x06020000 (Object does not exist ...)`, ...
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::InitiateDownload { mux, data } => {
+                write!(f, "SDO initiate download request {mux}, {data}")
+            }
+            Self::DownloadSegment(seg) => write!(f, "SDO download segment request {seg}"),
+            Self::InitiateUpload { mux } => write!(f, "SDO initiate upload request {mux}"),
+            Self::UploadSegment { toggle } => {
+                write!(f, "SDO upload segment request toggle {}", u8::from(toggle))
+            }
+            Self::Abort { mux, code } => abort_text(f, mux, code),
+            Self::BlockDownloadInitiate { mux, crc, size } => {
+                write!(
+                    f,
+                    "SDO initiate block download request {mux}{}",
+                    crc_text(crc)
+                )?;
+                size_text(f, size)
+            }
+            Self::BlockDownloadEnd { unused, crc } => {
+                block_end_text(f, "download request", unused, crc)
+            }
+            Self::BlockUploadInitiate {
+                mux,
+                crc,
+                blksize,
+                pst,
+            } => write!(
+                f,
+                "SDO initiate block upload request {mux}{}, blksize {blksize}, pst {pst}",
+                crc_text(crc)
+            ),
+            Self::BlockUploadStart => f.write_str("SDO start block upload request"),
+            Self::BlockUploadAck { ackseq, blksize } => write!(
+                f,
+                "SDO block upload response ackseq {ackseq}, blksize {blksize}"
+            ),
+            Self::BlockUploadEnd => f.write_str("SDO end block upload response"),
+        }
+    }
+}
+
+impl fmt::Display for ServerResponse {
+    /// `SDO initiate upload response 0x1000:00, expedited, 4 bytes 91 01 02 00`,
+    /// `SDO block download response ackseq 127, blksize 64`, ...
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::InitiateUpload { mux, data } => {
+                write!(f, "SDO initiate upload response {mux}, {data}")
+            }
+            Self::UploadSegment(seg) => write!(f, "SDO upload segment response {seg}"),
+            Self::InitiateDownload { mux } => write!(f, "SDO initiate download response {mux}"),
+            Self::DownloadSegment { toggle } => {
+                write!(
+                    f,
+                    "SDO download segment response toggle {}",
+                    u8::from(toggle)
+                )
+            }
+            Self::Abort { mux, code } => abort_text(f, mux, code),
+            Self::BlockDownloadInitiate { mux, crc, blksize } => write!(
+                f,
+                "SDO initiate block download response {mux}{}, blksize {blksize}",
+                crc_text(crc)
+            ),
+            Self::BlockDownloadAck { ackseq, blksize } => write!(
+                f,
+                "SDO block download response ackseq {ackseq}, blksize {blksize}"
+            ),
+            Self::BlockDownloadEnd => f.write_str("SDO end block download response"),
+            Self::BlockUploadInitiate { mux, crc, size } => {
+                write!(
+                    f,
+                    "SDO initiate block upload response {mux}{}",
+                    crc_text(crc)
+                )?;
+                size_text(f, size)
+            }
+            Self::BlockUploadEnd { unused, crc } => {
+                block_end_text(f, "upload request", unused, crc)
+            }
+        }
+    }
+}
+
+impl fmt::Display for BlockSegment {
+    /// `SDO block segment 5, 01 02 03 04 05 06 07` (`, last` on the last one).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "SDO block segment {}, {}",
+            self.seqno,
+            HexBytes(&self.data)
+        )?;
+        if self.last {
+            f.write_str(", last")?;
+        }
+        Ok(())
+    }
+}
+
 /// Whether bytes received while a sub-block is expected are an abort transfer message rather
 /// than a segment: byte 0 `0x80` would be a segment with the invalid sequence number 0.
 pub(crate) fn is_abort(data: &[u8]) -> bool {
@@ -983,6 +1164,140 @@ mod tests {
             ServerResponse::parse(&[0xA3, 0, 0, 0, 0, 0, 0, 0]),
             Err(DecodeError::UnknownCommand(0xA3))
         );
+    }
+
+    #[test]
+    fn texts() {
+        extern crate std;
+        use std::string::ToString;
+        let c = |b: [u8; 8]| ClientRequest::parse(&b).unwrap().to_string();
+        let s = |b: [u8; 8]| ServerResponse::parse(&b).unwrap().to_string();
+        assert_eq!(
+            c([0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]),
+            "SDO initiate upload request 0x1018:01"
+        );
+        assert_eq!(
+            s([0x43, 0x00, 0x10, 0x00, 0x91, 0x01, 0x02, 0x00]),
+            "SDO initiate upload response 0x1000:00, expedited, 4 bytes 91 01 02 00"
+        );
+        assert_eq!(
+            c([0x2F, 0x17, 0x10, 0x00, 0x01, 0, 0, 0]),
+            "SDO initiate download request 0x1017:00, expedited, 1 byte 01"
+        );
+        assert_eq!(
+            c([0x22, 0x17, 0x10, 0x00, 1, 2, 3, 4]),
+            "SDO initiate download request 0x1017:00, expedited, size not indicated, 01 02 03 04"
+        );
+        assert_eq!(
+            s([0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0]),
+            "SDO initiate download response 0x1017:00"
+        );
+        assert_eq!(
+            s([0x41, 0x08, 0x10, 0x00, 0x1A, 0, 0, 0]),
+            "SDO initiate upload response 0x1008:00, segmented, 26 bytes"
+        );
+        assert_eq!(
+            c([0x21, 0x08, 0x10, 0x00, 0, 0, 0, 0]),
+            "SDO initiate download request 0x1008:00, segmented, 0 bytes"
+        );
+        assert_eq!(
+            s([0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0]),
+            "SDO initiate upload response 0x1008:00, segmented, size not indicated"
+        );
+        assert_eq!(
+            c([0x70, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO upload segment request toggle 1"
+        );
+        assert_eq!(
+            s([0x19, b'x', b'y', b'z', 0, 0, 0, 0]),
+            "SDO upload segment response toggle 1, 3 bytes 78 79 7a, last"
+        );
+        assert_eq!(
+            s([0x0F, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO upload segment response toggle 0, 0 bytes, last"
+        );
+        assert_eq!(
+            c([0x00, 1, 2, 3, 4, 5, 6, 7]),
+            "SDO download segment request toggle 0, 7 bytes 01 02 03 04 05 06 07"
+        );
+        assert_eq!(
+            s([0x30, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO download segment response toggle 1"
+        );
+        let abort = [0x80, 0x00, 0x60, 0x01, 0x00, 0x00, 0x02, 0x06];
+        let text = "SDO abort transfer 0x6000:01: 0x06020000 (Object does not exist in the object dictionary)";
+        assert_eq!(c(abort), text);
+        assert_eq!(s(abort), text);
+        assert_eq!(
+            c([0xC6, 0x50, 0x1F, 0x01, 0xE8, 0x03, 0, 0]),
+            "SDO initiate block download request 0x1f50:01, CRC, 1000 bytes"
+        );
+        assert_eq!(
+            c([0xC0, 0x50, 0x1F, 0x01, 0, 0, 0, 0]),
+            "SDO initiate block download request 0x1f50:01, no CRC, size not indicated"
+        );
+        assert_eq!(
+            s([0xA4, 0x50, 0x1F, 0x01, 0x7F, 0, 0, 0]),
+            "SDO initiate block download response 0x1f50:01, CRC, blksize 127"
+        );
+        assert_eq!(
+            s([0xA2, 0x7F, 0x40, 0, 0, 0, 0, 0]),
+            "SDO block download response ackseq 127, blksize 64"
+        );
+        assert_eq!(
+            c([0xD5, 0x34, 0x12, 0, 0, 0, 0, 0]),
+            "SDO end block download request, 5 bytes of the last segment unused, CRC 0x1234"
+        );
+        assert_eq!(
+            s([0xA1, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO end block download response"
+        );
+        assert_eq!(
+            c([0xA4, 0x10, 0x20, 0x00, 0x7F, 0x15, 0, 0]),
+            "SDO initiate block upload request 0x2010:00, CRC, blksize 127, pst 21"
+        );
+        assert_eq!(
+            s([0xC6, 0x10, 0x20, 0x00, 0x00, 0x10, 0x00, 0x00]),
+            "SDO initiate block upload response 0x2010:00, CRC, 4096 bytes"
+        );
+        assert_eq!(
+            c([0xA3, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO start block upload request"
+        );
+        assert_eq!(
+            c([0xA2, 0x10, 0x7F, 0, 0, 0, 0, 0]),
+            "SDO block upload response ackseq 16, blksize 127"
+        );
+        assert_eq!(
+            s([0xC9, 0xC3, 0x31, 0, 0, 0, 0, 0]),
+            "SDO end block upload request, 2 bytes of the last segment unused, CRC 0x31c3"
+        );
+        assert_eq!(
+            c([0xA1, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO end block upload response"
+        );
+        assert_eq!(
+            BlockSegment::parse(&[0x85, 1, 2, 3, 4, 5, 6, 7])
+                .unwrap()
+                .to_string(),
+            "SDO block segment 5, 01 02 03 04 05 06 07, last"
+        );
+        use crate::server::ServerEvent;
+        let mux = Multiplexer::new(0x2000, 1);
+        assert_eq!(
+            ServerEvent::Downloaded { mux, len: 4 }.to_string(),
+            "SDO download of 0x2000:01 done, 4 bytes"
+        );
+        assert_eq!(
+            ServerEvent::Aborted {
+                mux,
+                code: AbortCode::READ_ONLY
+            }
+            .to_string(),
+            "SDO server aborted 0x2000:01: 0x06010002 (Attempt to write a read only object)"
+        );
+        assert_eq!(crate::Method::Block.to_string(), "block");
+        assert_eq!(crate::Direction::Upload.to_string(), "upload");
     }
 
     #[test]
