@@ -20,6 +20,8 @@
 //! Devices may be configured to use other COB-IDs (PDO and SDO parameters, 0x1005, 0x1014);
 //! routing by configured COB-ID happens in the master, not here.
 
+use core::fmt;
+
 use crate::node::NodeId;
 
 /// COB-ID of NMT module control.
@@ -202,6 +204,37 @@ impl FunctionCode {
     }
 }
 
+impl fmt::Display for FunctionCode {
+    /// The CiA 301 / CiA 305 name: `NMT`, `SYNC`, `EMCY`, `TIME`, `TPDO1`, `RPDO4`,
+    /// `SDO server-to-client`, `SDO client-to-server`, `NMT error control`,
+    /// `LSS slave-to-master`, `LSS master-to-slave`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Nmt => f.write_str("NMT"),
+            Self::Sync => f.write_str("SYNC"),
+            Self::Emcy => f.write_str("EMCY"),
+            Self::Time => f.write_str("TIME"),
+            Self::Tpdo(n) => write!(f, "TPDO{}", n.get()),
+            Self::Rpdo(n) => write!(f, "RPDO{}", n.get()),
+            Self::SdoTx => f.write_str("SDO server-to-client"),
+            Self::SdoRx => f.write_str("SDO client-to-server"),
+            Self::NmtErrorControl => f.write_str("NMT error control"),
+            Self::LssSlaveToMaster => f.write_str("LSS slave-to-master"),
+            Self::LssMasterToSlave => f.write_str("LSS master-to-slave"),
+        }
+    }
+}
+
+impl fmt::Display for CobId {
+    /// The function, and the node for per-node objects: `TPDO1 node 5`, `SYNC`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.node {
+            Some(n) if self.function.is_per_node() => write!(f, "{} node {n}", self.function),
+            _ => fmt::Display::fmt(&self.function, f),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -253,5 +286,23 @@ mod tests {
             None,
             "0x680..0x6FF is not predefined"
         );
+    }
+
+    #[test]
+    fn names() {
+        extern crate std;
+        use std::string::ToString;
+        let name = |raw: u16| CobId::classify(raw).unwrap().to_string();
+        assert_eq!(name(0x000), "NMT");
+        assert_eq!(name(0x080), "SYNC");
+        assert_eq!(name(0x085), "EMCY node 5");
+        assert_eq!(name(0x100), "TIME");
+        assert_eq!(name(0x185), "TPDO1 node 5");
+        assert_eq!(name(0x50A), "RPDO4 node 10");
+        assert_eq!(name(0x585), "SDO server-to-client node 5");
+        assert_eq!(name(0x605), "SDO client-to-server node 5");
+        assert_eq!(name(0x77F), "NMT error control node 127");
+        assert_eq!(name(0x7E4), "LSS slave-to-master");
+        assert_eq!(name(0x7E5), "LSS master-to-slave");
     }
 }

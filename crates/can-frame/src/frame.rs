@@ -124,6 +124,23 @@ impl fmt::Display for CanFrame {
     }
 }
 
+/// Bytes as lower-case hex pairs separated by spaces (`01 02 ff`; nothing for no bytes), for
+/// the `Display` texts of the protocol messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HexBytes<'a>(pub &'a [u8]);
+
+impl fmt::Display for HexBytes<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, b) in self.0.iter().enumerate() {
+            if i > 0 {
+                f.write_str(" ")?;
+            }
+            write!(f, "{b:02x}")?;
+        }
+        Ok(())
+    }
+}
+
 impl embedded_can::Frame for CanFrame {
     fn new(id: impl Into<embedded_can::Id>, data: &[u8]) -> Option<Self> {
         Self::new(CanId::from(id.into()), data).ok()
@@ -164,6 +181,12 @@ mod tests {
 
     fn sid(raw: u16) -> CanId {
         CanId::standard(raw).unwrap()
+    }
+
+    #[test]
+    fn hex_bytes() {
+        assert_eq!(format!("{}", HexBytes(&[0x01, 0xAB, 0x00])), "01 ab 00");
+        assert_eq!(format!("{}", HexBytes(&[])), "");
     }
 
     #[test]

@@ -25,7 +25,7 @@ mod node;
 pub mod time;
 
 pub use cob::{CobId, FunctionCode, PdoNumber};
-pub use frame::{CanFrame, FrameError};
+pub use frame::{CanFrame, FrameError, HexBytes};
 pub use id::{CanId, ExtendedId, IdError, StandardId};
 pub use node::{NodeId, NodeIdError};
 pub use time::{Duration, Instant};

@@ -137,7 +137,7 @@ fn monitor_simulate_record_replay() {
     let o = with_node5(&["monitor", "--duration", "1.2"]);
     let text = stdout(&o);
     assert!(text.contains("boot-up of node 5"), "{text}");
-    assert!(text.contains("heartbeat node 5: pre-operational"), "{text}");
+    assert!(text.contains("heartbeat node 5: Pre-operational"), "{text}");
 
     let o = canopen(&["simulate", EDS, "--node-id", "7", "--duration", "1.1"]);
     let text = stdout(&o);
@@ -171,7 +171,7 @@ fn demo_walks_through_commissioning() {
         "boot-up of node 5",
         "vendor-ID 0x00000039",
         "0x1017 now reads 100 ms",
-        "heartbeat node 6: operational",
+        "heartbeat node 6: Operational",
         "read back: \"Hall 3 / line 7 / valve island A\"",
         "initiate block upload 0x2003:04",
         "SDO abort 0x06020000 (Object does not exist in the object dictionary)",

@@ -56,13 +56,15 @@ impl CommandSpecifier {
 }
 
 impl core::fmt::Display for CommandSpecifier {
+    /// The CiA 301 service names: `Start remote node`, `Stop remote node`, `Enter
+    /// pre-operational`, `Reset node`, `Reset communication`; `unknown command 0x03` else.
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            Self::Start => f.write_str("start"),
-            Self::Stop => f.write_str("stop"),
-            Self::EnterPreOperational => f.write_str("enter pre-operational"),
-            Self::ResetNode => f.write_str("reset node"),
-            Self::ResetCommunication => f.write_str("reset communication"),
+            Self::Start => f.write_str("Start remote node"),
+            Self::Stop => f.write_str("Stop remote node"),
+            Self::EnterPreOperational => f.write_str("Enter pre-operational"),
+            Self::ResetNode => f.write_str("Reset node"),
+            Self::ResetCommunication => f.write_str("Reset communication"),
             Self::Unknown(v) => write!(f, "unknown command {v:#04x}"),
         }
     }
@@ -116,6 +118,17 @@ impl NmtTarget {
             Self::All => true,
             Self::Node(n) => n == node,
             Self::Invalid(_) => false,
+        }
+    }
+}
+
+impl core::fmt::Display for NmtTarget {
+    /// `all nodes`, `node 5`, `invalid node-ID 128`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::All => f.write_str("all nodes"),
+            Self::Node(n) => write!(f, "node {n}"),
+            Self::Invalid(v) => write!(f, "invalid node-ID {v}"),
         }
     }
 }
@@ -181,6 +194,13 @@ impl NmtCommand {
     /// The frame to send (COB-ID 0x000).
     pub fn to_frame(&self) -> CanFrame {
         data_frame(NMT_COB_ID, &self.emit())
+    }
+}
+
+impl core::fmt::Display for NmtCommand {
+    /// `NMT Start remote node, all nodes`, `NMT Reset communication, node 5`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "NMT {}, {}", self.command, self.target)
     }
 }
 
@@ -256,6 +276,22 @@ mod tests {
             NmtCommand::from_frame(&rtr),
             Err(DecodeError::UnexpectedRemote { .. })
         ));
+    }
+
+    #[test]
+    fn texts() {
+        extern crate std;
+        use std::string::ToString;
+        let text = |b: [u8; 2]| NmtCommand::parse(&b).unwrap().to_string();
+        assert_eq!(text([0x01, 0x00]), "NMT Start remote node, all nodes");
+        assert_eq!(text([0x02, 0x05]), "NMT Stop remote node, node 5");
+        assert_eq!(text([0x80, 0x7F]), "NMT Enter pre-operational, node 127");
+        assert_eq!(text([0x81, 0x01]), "NMT Reset node, node 1");
+        assert_eq!(text([0x82, 0x00]), "NMT Reset communication, all nodes");
+        assert_eq!(
+            text([0x03, 0x80]),
+            "NMT unknown command 0x03, invalid node-ID 128"
+        );
     }
 
     #[test]

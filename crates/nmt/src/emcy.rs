@@ -269,6 +269,26 @@ impl Emcy {
     }
 }
 
+impl fmt::Display for Emcy {
+    /// `EMCY 0x5000 (device hardware), error register 0x01 (generic)`, followed by
+    /// `, manufacturer-specific 01 02 03 04 05` when those bytes are not all zero.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "EMCY {}, error register {:#04x} ({})",
+            self.code, self.register.0, self.register
+        )?;
+        if self.manufacturer != [0; 5] {
+            write!(
+                f,
+                ", manufacturer-specific {}",
+                can_frame::HexBytes(&self.manufacturer)
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// The default EMCY COB-ID of `node` (0x080 + node-ID).
 pub const fn emcy_cob_id(node: NodeId) -> u16 {
     FunctionCode::Emcy.cob_id(node)
@@ -283,6 +303,13 @@ pub struct EmcyEvent {
     pub at: Instant,
     /// The message.
     pub emcy: Emcy,
+}
+
+impl fmt::Display for EmcyEvent {
+    /// `node 5: EMCY 0x5000 (device hardware), error register 0x01 (generic)`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "node {}: {}", self.node, self.emcy)
+    }
 }
 
 /// Capacity of the consumer's event queue.
@@ -466,6 +493,23 @@ mod tests {
             "085#3081110102030405"
         );
         assert_eq!(Emcy::parse(&e.emit()), Ok(e));
+        assert_eq!(
+            e.to_string(),
+            "EMCY 0x8130 (life guard error or heartbeat error), error register 0x11 \
+             (generic|communication), manufacturer-specific 01 02 03 04 05"
+        );
+        assert_eq!(
+            Emcy::new(EmcyCode::DEVICE_HARDWARE, ErrorRegister::GENERIC).to_string(),
+            "EMCY 0x5000 (device hardware), error register 0x01 (generic)"
+        );
+        assert_eq!(
+            Emcy::new(EmcyCode::NO_ERROR, ErrorRegister::EMPTY).to_string(),
+            "EMCY 0x0000 (error reset or no error), error register 0x00 (none)"
+        );
+        assert_eq!(
+            Emcy::new(EmcyCode(0xA001), ErrorRegister::EMPTY).to_string(),
+            "EMCY 0xa001, error register 0x00 (none)"
+        );
         assert!(Emcy::parse(&[0; 7]).is_err());
         assert!(Emcy::parse(&[]).is_err());
     }

@@ -10,6 +10,8 @@
 //! protocol the master runs for that node, so [`ErrorControlFrame`] hands the raw byte over and
 //! [`Heartbeat::parse`] / [`GuardResponse::parse`] interpret it. Parsing never panics.
 
+use core::fmt;
+
 use can_frame::cob::FunctionCode;
 use can_frame::{CanFrame, NodeId};
 
@@ -68,6 +70,17 @@ impl Heartbeat {
     }
 }
 
+impl fmt::Display for Heartbeat {
+    /// `heartbeat Operational`; `boot-up` for the boot-up message.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.is_boot_up() {
+            f.write_str("boot-up")
+        } else {
+            write!(f, "heartbeat {}", self.state)
+        }
+    }
+}
+
 /// A node's answer to a node-guarding request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct GuardResponse {
@@ -102,6 +115,18 @@ impl GuardResponse {
     }
 }
 
+impl fmt::Display for GuardResponse {
+    /// `node guarding response Operational, toggle 1`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "node guarding response {}, toggle {}",
+            self.state,
+            u8::from(self.toggle)
+        )
+    }
+}
+
 /// The node-guarding request the master sends: a remote frame on 0x700 + node-ID with DLC 1.
 pub fn guard_request(node: NodeId) -> CanFrame {
     remote_frame(error_control_cob_id(node), 1)
@@ -131,6 +156,50 @@ impl ErrorControlFrame {
             return Ok((node, Self::GuardRequest));
         }
         one_byte(frame.data(), "error control").map(|b| (node, Self::Payload(b)))
+    }
+}
+
+/// A frame on an error-control COB-ID with the node it belongs to: what a bus monitor shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ErrorControlMessage {
+    /// The node (0x700 + node-ID).
+    pub node: NodeId,
+    /// What the frame is.
+    pub kind: ErrorControlFrame,
+}
+
+impl ErrorControlMessage {
+    /// Classifies a frame on 0x701..=0x77F (see [`ErrorControlFrame::from_frame`]).
+    pub fn from_frame(frame: &CanFrame) -> Result<Self, DecodeError> {
+        ErrorControlFrame::from_frame(frame).map(|(node, kind)| Self { node, kind })
+    }
+}
+
+impl fmt::Display for ErrorControlMessage {
+    /// `node guarding request node 5`, `boot-up node 5`, `heartbeat node 5 Operational`, or
+    /// `node guarding response node 5 Operational, toggle 1`.
+    ///
+    /// A data byte with bit 7 set can only be a node-guarding answer (toggle 1); one with bit 7
+    /// clear reads as a heartbeat, though a node that is guarded sends the same byte as its
+    /// answer with toggle 0: which one it is depends on the protocol the master runs.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let node = self.node;
+        match self.kind {
+            ErrorControlFrame::GuardRequest => write!(f, "node guarding request node {node}"),
+            ErrorControlFrame::Payload(0) => write!(f, "boot-up node {node}"),
+            ErrorControlFrame::Payload(b) if b & 0x80 != 0 => {
+                let r = GuardResponse::from_byte(b);
+                write!(
+                    f,
+                    "node guarding response node {node} {}, toggle {}",
+                    r.state,
+                    u8::from(r.toggle)
+                )
+            }
+            ErrorControlFrame::Payload(b) => {
+                write!(f, "heartbeat node {node} {}", NmtState::from_u8(b))
+            }
+        }
     }
 }
 
@@ -206,6 +275,41 @@ mod tests {
             Err(DecodeError::WrongCobId(0x585))
         );
         assert!(ErrorControlFrame::from_frame(&data_frame(0x705, &[5, 5])).is_err());
+    }
+
+    #[test]
+    fn texts() {
+        let text = |f: CanFrame| ErrorControlMessage::from_frame(&f).unwrap().to_string();
+        assert_eq!(text(guard_request(node(5))), "node guarding request node 5");
+        assert_eq!(text(Heartbeat::BOOT_UP.to_frame(node(5))), "boot-up node 5");
+        assert_eq!(
+            text(data_frame(0x705, &[0x05])),
+            "heartbeat node 5 Operational"
+        );
+        assert_eq!(
+            text(data_frame(0x70A, &[0x7F])),
+            "heartbeat node 10 Pre-operational"
+        );
+        assert_eq!(
+            text(data_frame(0x705, &[0x84])),
+            "node guarding response node 5 Stopped, toggle 1"
+        );
+        assert_eq!(
+            text(data_frame(0x705, &[0x33])),
+            "heartbeat node 5 unknown state 0x33"
+        );
+        assert_eq!(
+            Heartbeat {
+                state: NmtState::Stopped
+            }
+            .to_string(),
+            "heartbeat Stopped"
+        );
+        assert_eq!(Heartbeat::BOOT_UP.to_string(), "boot-up");
+        assert_eq!(
+            GuardResponse::from_byte(0x85).to_string(),
+            "node guarding response Operational, toggle 1"
+        );
     }
 
     proptest! {

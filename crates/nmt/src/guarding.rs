@@ -13,6 +13,7 @@ use heapless::{Deque, Vec};
 
 use crate::error::{CapacityError, DecodeError};
 use crate::error_control::{ErrorControlFrame, GuardResponse, guard_request};
+use crate::heartbeat::{last_state_text, state_change};
 use crate::state::NmtState;
 use crate::util::{earliest, reschedule};
 
@@ -56,6 +57,28 @@ pub enum GuardingEvent {
         /// The toggle bit that was expected.
         expected: bool,
     },
+}
+
+impl core::fmt::Display for GuardingEvent {
+    /// `node 5 booted`, `node 5 Pre-operational -> Operational`, `node 5 node guarding lost
+    /// (last state Operational)`, `node 5 answers again, Operational`, `node 5 toggle bit
+    /// error (expected 1)`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::BootUp { node } => write!(f, "node {node} booted"),
+            Self::StateChanged { node, from, to } => state_change(f, node, from, to),
+            Self::Lost { node, last_state } => {
+                write!(f, "node {node} node guarding lost")?;
+                last_state_text(f, last_state)
+            }
+            Self::Recovered { node, state } => write!(f, "node {node} answers again, {state}"),
+            Self::ToggleError { node, expected } => write!(
+                f,
+                "node {node} toggle bit error (expected {})",
+                u8::from(expected)
+            ),
+        }
+    }
 }
 
 /// Capacity of the guarding master's event queue.
@@ -289,6 +312,16 @@ pub enum LifeGuardingEvent {
     Lost,
     /// A request arrived again after [`Lost`](Self::Lost).
     Resumed,
+}
+
+impl core::fmt::Display for LifeGuardingEvent {
+    /// `life guarding lost`, `life guarding resumed`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Lost => "life guarding lost",
+            Self::Resumed => "life guarding resumed",
+        })
+    }
 }
 
 /// A device's side of node guarding: answers requests with the toggle bit and watches the

@@ -81,6 +81,46 @@ pub enum HeartbeatEvent {
     },
 }
 
+impl core::fmt::Display for HeartbeatEvent {
+    /// `node 5 booted`, `node 5 Pre-operational -> Operational`, `node 5 heartbeat lost (last
+    /// state Operational)`, `node 5 heartbeat back, Operational`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::BootUp { node } => write!(f, "node {node} booted"),
+            Self::StateChanged { node, from, to } => state_change(f, node, from, to),
+            Self::Lost { node, last_state } => {
+                write!(f, "node {node} heartbeat lost")?;
+                last_state_text(f, last_state)
+            }
+            Self::Recovered { node, state } => write!(f, "node {node} heartbeat back, {state}"),
+        }
+    }
+}
+
+/// `node 5 Operational` or `node 5 Pre-operational -> Operational`.
+pub(crate) fn state_change(
+    f: &mut core::fmt::Formatter<'_>,
+    node: NodeId,
+    from: Option<NmtState>,
+    to: NmtState,
+) -> core::fmt::Result {
+    match from {
+        Some(from) => write!(f, "node {node} {from} -> {to}"),
+        None => write!(f, "node {node} {to}"),
+    }
+}
+
+/// ` (last state Operational)`, or nothing when no state was seen.
+pub(crate) fn last_state_text(
+    f: &mut core::fmt::Formatter<'_>,
+    last: Option<NmtState>,
+) -> core::fmt::Result {
+    match last {
+        Some(s) => write!(f, " (last state {s})"),
+        None => Ok(()),
+    }
+}
+
 /// Capacity of the consumer's event queue.
 pub const HEARTBEAT_EVENT_CAPACITY: usize = 64;
 
@@ -386,6 +426,90 @@ impl HeartbeatProducer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn event_texts() {
+        extern crate std;
+        use crate::{DeviceState, LifeGuardingEvent};
+        use crate::{Emcy, EmcyCode, EmcyEvent, ErrorRegister, GuardingEvent, SlaveEvent};
+        use std::string::ToString;
+        let node = NodeId::new(5).unwrap();
+        let op = NmtState::Operational;
+        let t = |e: HeartbeatEvent| e.to_string();
+        assert_eq!(t(HeartbeatEvent::BootUp { node }), "node 5 booted");
+        assert_eq!(
+            t(HeartbeatEvent::StateChanged {
+                node,
+                from: Some(NmtState::PreOperational),
+                to: op
+            }),
+            "node 5 Pre-operational -> Operational"
+        );
+        assert_eq!(
+            t(HeartbeatEvent::StateChanged {
+                node,
+                from: None,
+                to: op
+            }),
+            "node 5 Operational"
+        );
+        assert_eq!(
+            t(HeartbeatEvent::Lost {
+                node,
+                last_state: Some(op)
+            }),
+            "node 5 heartbeat lost (last state Operational)"
+        );
+        assert_eq!(
+            t(HeartbeatEvent::Lost {
+                node,
+                last_state: None
+            }),
+            "node 5 heartbeat lost"
+        );
+        assert_eq!(
+            t(HeartbeatEvent::Recovered { node, state: op }),
+            "node 5 heartbeat back, Operational"
+        );
+        assert_eq!(
+            GuardingEvent::ToggleError {
+                node,
+                expected: true
+            }
+            .to_string(),
+            "node 5 toggle bit error (expected 1)"
+        );
+        assert_eq!(
+            GuardingEvent::Lost {
+                node,
+                last_state: Some(NmtState::Stopped)
+            }
+            .to_string(),
+            "node 5 node guarding lost (last state Stopped)"
+        );
+        assert_eq!(
+            SlaveEvent::StateChanged {
+                from: DeviceState::Initialising,
+                to: DeviceState::PreOperational
+            }
+            .to_string(),
+            "Initialisation -> Pre-operational"
+        );
+        assert_eq!(
+            SlaveEvent::UnknownCommand(3).to_string(),
+            "unknown NMT command 0x03 ignored"
+        );
+        assert_eq!(LifeGuardingEvent::Lost.to_string(), "life guarding lost");
+        assert_eq!(
+            EmcyEvent {
+                node,
+                at: Instant::ZERO,
+                emcy: Emcy::new(EmcyCode::DEVICE_HARDWARE, ErrorRegister::GENERIC)
+            }
+            .to_string(),
+            "node 5: EMCY 0x5000 (device hardware), error register 0x01 (generic)"
+        );
+    }
 
     #[test]
     fn object_1016_entries() {

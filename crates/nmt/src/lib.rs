@@ -70,7 +70,8 @@ pub use emcy::{
 };
 pub use error::{CapacityError, ConfigError, DecodeError};
 pub use error_control::{
-    ErrorControlFrame, GuardResponse, Heartbeat, error_control_cob_id, guard_request,
+    ErrorControlFrame, ErrorControlMessage, GuardResponse, Heartbeat, error_control_cob_id,
+    guard_request,
 };
 pub use guarding::{
     GUARDING_EVENT_CAPACITY, GuardingEvent, GuardingMaster, GuardingResponder, LifeGuardingEvent,

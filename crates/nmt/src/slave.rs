@@ -54,6 +54,21 @@ pub enum SlaveEvent {
     UnknownCommand(u8),
 }
 
+impl core::fmt::Display for SlaveEvent {
+    /// `Pre-operational -> Operational`, `Reset node`, `Reset communication`, `life guarding
+    /// lost`, `life guarding resumed`, `unknown NMT command 0x03 ignored`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::StateChanged { from, to } => write!(f, "{from} -> {to}"),
+            Self::ResetNode => f.write_str("Reset node"),
+            Self::ResetCommunication => f.write_str("Reset communication"),
+            Self::LifeGuardingLost => f.write_str("life guarding lost"),
+            Self::LifeGuardingResumed => f.write_str("life guarding resumed"),
+            Self::UnknownCommand(cs) => write!(f, "unknown NMT command {cs:#04x} ignored"),
+        }
+    }
+}
+
 const TX_CAPACITY: usize = 4;
 const EVENT_CAPACITY: usize = 8;
 

@@ -57,12 +57,14 @@ impl From<NmtState> for u8 {
 }
 
 impl core::fmt::Display for NmtState {
+    /// The CiA 301 state names: `Operational`, `Pre-operational`, `Stopped`; `boot-up` for the
+    /// boot-up byte and `unknown state 0x42` for any other.
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::BootUp => f.write_str("boot-up"),
-            Self::Stopped => f.write_str("stopped"),
-            Self::Operational => f.write_str("operational"),
-            Self::PreOperational => f.write_str("pre-operational"),
+            Self::Stopped => f.write_str("Stopped"),
+            Self::Operational => f.write_str("Operational"),
+            Self::PreOperational => f.write_str("Pre-operational"),
             Self::Unknown(v) => write!(f, "unknown state {v:#04x}"),
         }
     }
@@ -83,12 +85,29 @@ pub enum DeviceState {
 }
 
 impl core::fmt::Display for DeviceState {
+    /// The CiA 301 state names: `Initialisation`, `Pre-operational`, `Operational`, `Stopped`.
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
-            Self::Initialising => "initialisation",
-            Self::PreOperational => "pre-operational",
-            Self::Operational => "operational",
-            Self::Stopped => "stopped",
+            Self::Initialising => "Initialisation",
+            Self::PreOperational => "Pre-operational",
+            Self::Operational => "Operational",
+            Self::Stopped => "Stopped",
+        })
+    }
+}
+
+impl core::fmt::Display for Service {
+    /// `PDO`, `SDO`, `SYNC`, `TIME`, `EMCY`, `boot-up`, `NMT`, `error control`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Pdo => "PDO",
+            Self::Sdo => "SDO",
+            Self::Sync => "SYNC",
+            Self::Time => "TIME",
+            Self::Emcy => "EMCY",
+            Self::BootUp => "boot-up",
+            Self::Nmt => "NMT",
+            Self::ErrorControl => "error control",
         })
     }
 }
@@ -158,9 +177,14 @@ mod tests {
         }
         extern crate std;
         use std::string::ToString;
-        assert_eq!(NmtState::PreOperational.to_string(), "pre-operational");
+        assert_eq!(NmtState::PreOperational.to_string(), "Pre-operational");
+        assert_eq!(NmtState::Operational.to_string(), "Operational");
+        assert_eq!(NmtState::Stopped.to_string(), "Stopped");
+        assert_eq!(NmtState::BootUp.to_string(), "boot-up");
         assert_eq!(NmtState::Unknown(0x42).to_string(), "unknown state 0x42");
-        assert_eq!(DeviceState::Initialising.to_string(), "initialisation");
+        assert_eq!(DeviceState::Initialising.to_string(), "Initialisation");
+        assert_eq!(DeviceState::PreOperational.to_string(), "Pre-operational");
+        assert_eq!(Service::ErrorControl.to_string(), "error control");
     }
 
     #[test]

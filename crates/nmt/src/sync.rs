@@ -54,6 +54,16 @@ impl SyncMessage {
     }
 }
 
+impl core::fmt::Display for SyncMessage {
+    /// `SYNC`, or `SYNC counter 7`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.counter {
+            Some(c) => write!(f, "SYNC counter {c}"),
+            None => f.write_str("SYNC"),
+        }
+    }
+}
+
 /// SYNC producer configuration, as held in the object dictionary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SyncConfig {
@@ -219,6 +229,11 @@ mod tests {
                 .to_frame(SYNC_COB_ID)
                 .to_string(),
             "080#F0"
+        );
+        assert_eq!(SyncMessage::default().to_string(), "SYNC");
+        assert_eq!(
+            SyncMessage { counter: Some(7) }.to_string(),
+            "SYNC counter 7"
         );
         assert_eq!(
             SyncMessage::from_frame(&data_frame(0x81, &[]), SYNC_COB_ID),

@@ -117,6 +117,50 @@ impl TimeOfDay {
     }
 }
 
+/// The calendar date `days` after 1984-01-01 (proleptic Gregorian): year, month, day.
+fn civil_date(days: u16) -> (u32, u8, u8) {
+    const fn leap(y: u32) -> bool {
+        y.is_multiple_of(4) && (!y.is_multiple_of(100) || y.is_multiple_of(400))
+    }
+    let mut year = 1984;
+    let mut rest = u32::from(days);
+    loop {
+        let len = if leap(year) { 366 } else { 365 };
+        if rest < len {
+            break;
+        }
+        rest -= len;
+        year += 1;
+    }
+    let feb = if leap(year) { 29 } else { 28 };
+    let mut month = 1;
+    for len in [31, feb, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31] {
+        if rest < len {
+            break;
+        }
+        rest -= len;
+        month += 1;
+    }
+    (year, month, rest as u8 + 1)
+}
+
+impl core::fmt::Display for TimeOfDay {
+    /// `TIME 2000-01-01 12:00:00.000 UTC`. Milliseconds of a day or more (the 28-bit field
+    /// allows them) show as hours past 23.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let (y, m, d) = civil_date(self.days);
+        let ms = self.millis;
+        write!(
+            f,
+            "TIME {y:04}-{m:02}-{d:02} {:02}:{:02}:{:02}.{:03} UTC",
+            ms / 3_600_000,
+            ms / 60_000 % 60,
+            ms / 1000 % 60,
+            ms % 1000
+        )
+    }
+}
+
 /// Produces TIME messages from a wall-clock reference the caller sets.
 ///
 /// The producer never reads a clock: [`set_clock`](Self::set_clock) tells it the Unix time at a
@@ -251,6 +295,41 @@ mod tests {
             TimeOfDay::new(0, 0x1000_0000),
             Err(ConfigError::MillisOutOfRange(0x1000_0000))
         );
+    }
+
+    #[test]
+    fn texts() {
+        let text = |ms: u64| TimeOfDay::from_unix_millis(ms).unwrap().to_string();
+        assert_eq!(text(441_763_200_000), "TIME 1984-01-01 00:00:00.000 UTC");
+        assert_eq!(text(946_728_000_000), "TIME 2000-01-01 12:00:00.000 UTC");
+        assert_eq!(text(1_709_251_199_999), "TIME 2024-02-29 23:59:59.999 UTC");
+        assert_eq!(text(1_709_251_200_000), "TIME 2024-03-01 00:00:00.000 UTC");
+        assert_eq!(text(4_107_542_400_000), "TIME 2100-03-01 00:00:00.000 UTC");
+        assert_eq!(
+            TimeOfDay::new(u16::MAX, 0).unwrap().to_string(),
+            "TIME 2163-06-06 00:00:00.000 UTC"
+        );
+        assert_eq!(
+            TimeOfDay::new(0, 0x0FFF_FFFF).unwrap().to_string(),
+            "TIME 1984-01-01 74:33:55.455 UTC"
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+        #[test]
+        fn date_text_agrees_with_day_count(days in any::<u16>()) {
+            // Day 0 of a month follows the last day of the one before: the dates of
+            // consecutive days differ by one day.
+            let (y0, m0, d0) = civil_date(days.saturating_sub(1));
+            let (y1, m1, d1) = civil_date(days);
+            if days > 0 {
+                prop_assert!(
+                    (y1, m1, d1) > (y0, m0, d0)
+                        && (d1 == d0 + 1 || (d1 == 1 && (m1 == m0 + 1 || (m1 == 1 && y1 == y0 + 1))))
+                );
+            }
+        }
     }
 
     #[test]

@@ -41,14 +41,15 @@ use can_frame::{Duration, Instant};
 use crate::abort::AbortCode;
 use crate::buffer::{Sink, Source};
 use crate::crc::Crc16;
+pub use crate::error::{Busy, ErrorKind, TransferError, Violation};
 use crate::queue::Ring;
+pub use crate::wire::MAX_BLOCK_SIZE;
 use crate::wire::{
-    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, Segment, ServerResponse,
-    is_abort,
+    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, ServerResponse, is_abort,
 };
 
-/// Largest block size CiA 301 allows (segments per sub-block).
-pub const MAX_BLOCK_SIZE: u8 = 127;
+mod download;
+mod upload;
 
 /// Client settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -136,6 +137,17 @@ pub enum Method {
     Block,
 }
 
+impl core::fmt::Display for Method {
+    /// `normal`, `segmented`, `block`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Normal => "normal",
+            Self::Segmented => "segmented",
+            Self::Block => "block",
+        })
+    }
+}
+
 /// Upload or download.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Direction {
@@ -143,6 +155,16 @@ pub enum Direction {
     Upload,
     /// Client to server (write).
     Download,
+}
+
+impl core::fmt::Display for Direction {
+    /// `upload`, `download`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Upload => "upload",
+            Self::Download => "download",
+        })
+    }
 }
 
 /// How far the running transfer is.
@@ -193,149 +215,6 @@ pub enum Event<S, D> {
         /// The caller's buffer.
         buffer: Buffer<S, D>,
     },
-}
-
-/// A transfer was refused because another one runs or its completion was not yet polled. Holds
-/// the buffer that was passed in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("an SDO transfer is already in progress")]
-pub struct Busy<T>(pub T);
-
-/// Why a transfer failed, and for which object.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("SDO {index:#06x}:{subindex:02x}: {kind}")]
-pub struct TransferError {
-    /// Object index.
-    pub index: u16,
-    /// Sub-index.
-    pub subindex: u8,
-    /// What went wrong.
-    pub kind: ErrorKind,
-}
-
-impl TransferError {
-    /// The object.
-    pub const fn mux(&self) -> Multiplexer {
-        Multiplexer::new(self.index, self.subindex)
-    }
-
-    /// The abort code that went over the bus, in either direction: the server's for
-    /// [`ErrorKind::ServerAbort`], ours otherwise.
-    pub const fn abort_code(&self) -> AbortCode {
-        self.kind.abort_code()
-    }
-
-    /// Whether the server refused (aborted), rather than a local failure.
-    pub const fn is_server_abort(&self) -> bool {
-        matches!(self.kind, ErrorKind::ServerAbort(_))
-    }
-}
-
-/// What ended a transfer. The server's refusal is kept apart from local failures.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ErrorKind {
-    /// The server aborted the transfer with this code.
-    #[error("server aborted: {0}")]
-    ServerAbort(AbortCode),
-    /// The server did not answer within the timeout; abort 0x05040000 was sent.
-    #[error("no response from the server (timeout); sent abort 0x05040000")]
-    Timeout,
-    /// The caller cancelled the transfer; this code was sent to the server.
-    #[error("cancelled; sent abort {0}")]
-    Cancelled(AbortCode),
-    /// The server broke the protocol; the transfer was aborted with
-    /// [`Violation::abort_code`].
-    #[error("protocol violation by the server: {0}")]
-    Protocol(Violation),
-    /// The sink could not take the data; abort 0x05040005 (out of memory) was sent.
-    #[error("the upload does not fit the buffer; sent abort 0x05040005")]
-    BufferFull,
-}
-
-impl ErrorKind {
-    /// The abort code that went over the bus for this failure.
-    pub const fn abort_code(&self) -> AbortCode {
-        match *self {
-            Self::ServerAbort(code) | Self::Cancelled(code) => code,
-            Self::Timeout => AbortCode::TIMEOUT,
-            Self::Protocol(v) => v.abort_code(),
-            Self::BufferFull => AbortCode::OUT_OF_MEMORY,
-        }
-    }
-}
-
-/// A protocol error detected by a machine, with the abort code it sends for it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum Violation {
-    /// A message the protocol state does not allow (0x05040001).
-    #[error("unexpected or unknown command (abort 0x05040001)")]
-    UnexpectedCommand,
-    /// The toggle bit did not alternate (0x05030000).
-    #[error("toggle bit not alternated (abort 0x05030000)")]
-    Toggle,
-    /// A block size outside 1..=127 (0x05040002).
-    #[error("invalid block size {0} (abort 0x05040002)")]
-    BlockSize(u8),
-    /// A sequence number that cannot occur (0x05040003).
-    #[error("invalid sequence number {0} (abort 0x05040003)")]
-    SequenceNumber(u8),
-    /// The CRC of the data differs from the one sent (0x05040004).
-    #[error("CRC mismatch: computed {computed:#06x}, received {received:#06x} (abort 0x05040004)")]
-    Crc {
-        /// CRC over the bytes received.
-        computed: u16,
-        /// CRC in the end message.
-        received: u16,
-    },
-    /// More data than the announced size (0x06070012).
-    #[error("more data than the announced {size} bytes (abort 0x06070012)")]
-    TooLong {
-        /// The announced size.
-        size: u32,
-    },
-    /// Less data than the announced size (0x06070013).
-    #[error("{received} bytes instead of the announced {size} (abort 0x06070013)")]
-    TooShort {
-        /// The announced size.
-        size: u32,
-        /// Bytes received.
-        received: u32,
-    },
-}
-
-impl Violation {
-    /// The abort code sent for this violation.
-    pub const fn abort_code(&self) -> AbortCode {
-        match self {
-            Self::UnexpectedCommand => AbortCode::INVALID_COMMAND,
-            Self::Toggle => AbortCode::TOGGLE_BIT_NOT_ALTERNATED,
-            Self::BlockSize(_) => AbortCode::INVALID_BLOCK_SIZE,
-            Self::SequenceNumber(_) => AbortCode::INVALID_SEQUENCE_NUMBER,
-            Self::Crc { .. } => AbortCode::CRC_ERROR,
-            Self::TooLong { .. } => AbortCode::LENGTH_TOO_HIGH,
-            Self::TooShort { .. } => AbortCode::LENGTH_TOO_LOW,
-        }
-    }
-}
-
-/// Number of segments of `len` bytes in a block transfer (an empty object still takes one).
-pub(crate) const fn segments_for(len: u32) -> u32 {
-    let n = len / 7 + if len.is_multiple_of(7) { 0 } else { 1 };
-    if n == 0 { 1 } else { n }
-}
-
-/// n of the block end message: bytes of the last segment without data.
-pub(crate) const fn unused_in_last(len: u32) -> u8 {
-    let rest = len % 7;
-    if len == 0 {
-        7
-    } else if rest == 0 {
-        0
-    } else {
-        (7 - rest) as u8
-    }
 }
 
 #[derive(Debug)]
@@ -760,313 +639,6 @@ impl<S: Sink, D: Source> Client<S, D> {
             Ok(Flow::Done) => Step::Finish(active, Ok(())),
             Err(kind) => Step::Finish(active, Err(kind)),
         }
-    }
-
-    fn on_upload(
-        &mut self,
-        active: &mut Active<S, D>,
-        msg: ServerResponse,
-    ) -> Result<Flow, ErrorKind> {
-        let mux = active.mux;
-        let Kind::Up { sink, phase, total } = &mut active.kind else {
-            return Err(protocol(Violation::UnexpectedCommand));
-        };
-        match (&*phase, msg) {
-            (
-                UpPhase::Initiate | UpPhase::BlockInitiate,
-                ServerResponse::InitiateUpload { mux: m, data },
-            ) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
-                }
-                match data {
-                    Initiate::Expedited { .. } => {
-                        let bytes = data.expedited_data();
-                        let n = bytes.len() as u32;
-                        *total = Some(n);
-                        sink.expect_size(n).map_err(|_| ErrorKind::BufferFull)?;
-                        sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
-                        active.done = n;
-                        Ok(Flow::Done)
-                    }
-                    Initiate::Segmented { size } => {
-                        if let Some(size) = size {
-                            sink.expect_size(size).map_err(|_| ErrorKind::BufferFull)?;
-                        }
-                        *total = size;
-                        *phase = UpPhase::Segment { toggle: false };
-                        self.tx
-                            .push(ClientRequest::UploadSegment { toggle: false }.emit());
-                        Ok(Flow::Continue)
-                    }
-                }
-            }
-            (UpPhase::BlockInitiate, ServerResponse::BlockUploadInitiate { mux: m, crc, size }) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
-                }
-                if let Some(size) = size {
-                    sink.expect_size(size).map_err(|_| ErrorKind::BufferFull)?;
-                }
-                *total = size;
-                *phase = UpPhase::SubBlock {
-                    crc: crc && self.config.crc,
-                    expected: 1,
-                    held: None,
-                };
-                self.tx.push(ClientRequest::BlockUploadStart.emit());
-                Ok(Flow::Continue)
-            }
-            (&UpPhase::Segment { toggle }, ServerResponse::UploadSegment(seg)) => {
-                if seg.toggle != toggle {
-                    return Err(protocol(Violation::Toggle));
-                }
-                let bytes = seg.bytes();
-                let done = active.done.saturating_add(bytes.len() as u32);
-                if let Some(size) = *total
-                    && done > size
-                {
-                    return Err(protocol(Violation::TooLong { size }));
-                }
-                sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
-                active.done = done;
-                if seg.last {
-                    if let Some(size) = *total
-                        && done != size
-                    {
-                        return Err(protocol(Violation::TooShort {
-                            size,
-                            received: done,
-                        }));
-                    }
-                    return Ok(Flow::Done);
-                }
-                *phase = UpPhase::Segment { toggle: !toggle };
-                self.tx
-                    .push(ClientRequest::UploadSegment { toggle: !toggle }.emit());
-                Ok(Flow::Continue)
-            }
-            (
-                &UpPhase::BlockEnd { crc, held },
-                ServerResponse::BlockUploadEnd {
-                    unused,
-                    crc: received,
-                },
-            ) => {
-                let bytes = &held[..usize::from(7 - unused.min(7))];
-                let done = active.done.saturating_add(bytes.len() as u32);
-                if let Some(size) = *total {
-                    if done > size {
-                        return Err(protocol(Violation::TooLong { size }));
-                    }
-                    if done < size {
-                        return Err(protocol(Violation::TooShort {
-                            size,
-                            received: done,
-                        }));
-                    }
-                }
-                sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
-                active.crc.update(bytes);
-                active.done = done;
-                if crc && active.crc.get() != received {
-                    return Err(protocol(Violation::Crc {
-                        computed: active.crc.get(),
-                        received,
-                    }));
-                }
-                self.tx.push(ClientRequest::BlockUploadEnd.emit());
-                Ok(Flow::Done)
-            }
-            _ => Err(protocol(Violation::UnexpectedCommand)),
-        }
-    }
-
-    fn on_block_segment(
-        &mut self,
-        now: Instant,
-        mut active: Active<S, D>,
-        seg: BlockSegment,
-    ) -> Step<S, D> {
-        let blksize = self.config.block_size;
-        let Kind::Up {
-            sink,
-            phase:
-                UpPhase::SubBlock {
-                    crc,
-                    expected,
-                    held,
-                },
-            total,
-        } = &mut active.kind
-        else {
-            return Step::Continue(active);
-        };
-        if seg.seqno == 0 || seg.seqno > blksize {
-            return Step::Finish(active, Err(protocol(Violation::SequenceNumber(seg.seqno))));
-        }
-        if seg.seqno == *expected {
-            if seg.last {
-                *held = Some(seg.data);
-            } else {
-                let done = active.done.saturating_add(7);
-                if let Some(size) = *total
-                    && done > size
-                {
-                    return Step::Finish(active, Err(protocol(Violation::TooLong { size })));
-                }
-                if sink.write(&seg.data).is_err() {
-                    return Step::Finish(active, Err(ErrorKind::BufferFull));
-                }
-                active.crc.update(&seg.data);
-                active.done = done;
-            }
-            *expected += 1;
-        }
-        if seg.last || seg.seqno == blksize {
-            self.tx.push(
-                ClientRequest::BlockUploadAck {
-                    ackseq: *expected - 1,
-                    blksize,
-                }
-                .emit(),
-            );
-            let crc = *crc;
-            match held.take() {
-                Some(held) => {
-                    if let Kind::Up { phase, .. } = &mut active.kind {
-                        *phase = UpPhase::BlockEnd { crc, held };
-                    }
-                }
-                None => *expected = 1,
-            }
-            active.rearm(now, self.config.timeout);
-        }
-        Step::Continue(active)
-    }
-
-    fn on_download(
-        &mut self,
-        active: &mut Active<S, D>,
-        msg: ServerResponse,
-    ) -> Result<Flow, ErrorKind> {
-        let mux = active.mux;
-        let Kind::Down {
-            source, phase, len, ..
-        } = &mut active.kind
-        else {
-            return Err(protocol(Violation::UnexpectedCommand));
-        };
-        let len = *len;
-        match (&*phase, msg) {
-            (&DownPhase::Initiate { expedited }, ServerResponse::InitiateDownload { mux: m }) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
-                }
-                if expedited {
-                    active.done = len;
-                    return Ok(Flow::Done);
-                }
-                *phase = self.send_segment(source, 0, len, false);
-                Ok(Flow::Continue)
-            }
-            (
-                &DownPhase::Segment { toggle, end, last },
-                ServerResponse::DownloadSegment { toggle: t },
-            ) => {
-                if t != toggle {
-                    return Err(protocol(Violation::Toggle));
-                }
-                active.done = end;
-                if last {
-                    return Ok(Flow::Done);
-                }
-                *phase = self.send_segment(source, end, len, !toggle);
-                Ok(Flow::Continue)
-            }
-            (
-                DownPhase::BlockInitiate,
-                ServerResponse::BlockDownloadInitiate {
-                    mux: m,
-                    crc,
-                    blksize,
-                },
-            ) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
-                }
-                if blksize == 0 || blksize > MAX_BLOCK_SIZE {
-                    return Err(protocol(Violation::BlockSize(blksize)));
-                }
-                let total = segments_for(len);
-                *phase = DownPhase::SubBlock {
-                    crc: crc && self.config.crc,
-                    count: total.min(u32::from(blksize)) as u8,
-                    sent: 0,
-                    acked: 0,
-                    total,
-                };
-                Ok(Flow::Continue)
-            }
-            (
-                &DownPhase::SubBlock {
-                    crc,
-                    sent,
-                    acked,
-                    total,
-                    ..
-                },
-                ServerResponse::BlockDownloadAck { ackseq, blksize },
-            ) => {
-                if ackseq > sent {
-                    return Err(protocol(Violation::SequenceNumber(ackseq)));
-                }
-                if blksize == 0 || blksize > MAX_BLOCK_SIZE {
-                    return Err(protocol(Violation::BlockSize(blksize)));
-                }
-                let acked = acked + u32::from(ackseq);
-                active.done = acked.saturating_mul(7).min(len);
-                if acked >= total {
-                    let crc = if crc { active.crc.get() } else { 0 };
-                    self.tx.push(
-                        ClientRequest::BlockDownloadEnd {
-                            unused: unused_in_last(len),
-                            crc,
-                        }
-                        .emit(),
-                    );
-                    *phase = DownPhase::BlockEnd;
-                } else {
-                    *phase = DownPhase::SubBlock {
-                        crc,
-                        count: (total - acked).min(u32::from(blksize)) as u8,
-                        sent: 0,
-                        acked,
-                        total,
-                    };
-                }
-                Ok(Flow::Continue)
-            }
-            (DownPhase::BlockEnd, ServerResponse::BlockDownloadEnd) => {
-                active.done = len;
-                Ok(Flow::Done)
-            }
-            _ => Err(protocol(Violation::UnexpectedCommand)),
-        }
-    }
-
-    /// Queues the download segment starting at `offset` and returns the phase waiting for it.
-    fn send_segment(&mut self, source: &mut D, offset: u32, len: u32, toggle: bool) -> DownPhase {
-        let mut data = [0u8; 7];
-        let want = len.saturating_sub(offset).min(7) as usize;
-        let n = source.read(offset, &mut data[..want]);
-        let end = offset.saturating_add(n as u32);
-        // A source that returns less than it promised ends the transfer here; the server
-        // then sees the size mismatch.
-        let last = end >= len || n < want;
-        self.tx
-            .push(ClientRequest::DownloadSegment(Segment::new(toggle, &data[..n], last)).emit());
-        DownPhase::Segment { toggle, end, last }
     }
 }
 

@@ -91,6 +91,7 @@ pub mod buffer;
 pub mod client;
 mod cob;
 mod crc;
+mod error;
 mod queue;
 pub mod server;
 pub mod wire;

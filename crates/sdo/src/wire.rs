@@ -27,6 +27,8 @@
 
 use crate::abort::AbortCode;
 
+mod text;
+
 /// Byte offsets and bit masks of the SDO messages.
 mod field {
     use core::ops::Range;
@@ -71,6 +73,27 @@ mod field {
     /// Block segment: c and seqno.
     pub(super) const SEQ_LAST: u8 = 0x80;
     pub(super) const SEQNO: u8 = 0x7F;
+}
+
+/// Largest block size CiA 301 allows (segments per sub-block).
+pub const MAX_BLOCK_SIZE: u8 = 127;
+
+/// Number of segments of `len` bytes in a block transfer (an empty object still takes one).
+pub(crate) const fn segments_for(len: u32) -> u32 {
+    let n = len / 7 + if len.is_multiple_of(7) { 0 } else { 1 };
+    if n == 0 { 1 } else { n }
+}
+
+/// n of the block end message: bytes of the last segment without data.
+pub(crate) const fn unused_in_last(len: u32) -> u8 {
+    let rest = len % 7;
+    if len == 0 {
+        7
+    } else if rest == 0 {
+        0
+    } else {
+        (7 - rest) as u8
+    }
 }
 
 /// The object a transfer addresses: index and sub-index (the "multiplexer" of CiA 301).
@@ -983,6 +1006,140 @@ mod tests {
             ServerResponse::parse(&[0xA3, 0, 0, 0, 0, 0, 0, 0]),
             Err(DecodeError::UnknownCommand(0xA3))
         );
+    }
+
+    #[test]
+    fn texts() {
+        extern crate std;
+        use std::string::ToString;
+        let c = |b: [u8; 8]| ClientRequest::parse(&b).unwrap().to_string();
+        let s = |b: [u8; 8]| ServerResponse::parse(&b).unwrap().to_string();
+        assert_eq!(
+            c([0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]),
+            "SDO initiate upload request 0x1018:01"
+        );
+        assert_eq!(
+            s([0x43, 0x00, 0x10, 0x00, 0x91, 0x01, 0x02, 0x00]),
+            "SDO initiate upload response 0x1000:00, expedited, 4 bytes 91 01 02 00"
+        );
+        assert_eq!(
+            c([0x2F, 0x17, 0x10, 0x00, 0x01, 0, 0, 0]),
+            "SDO initiate download request 0x1017:00, expedited, 1 byte 01"
+        );
+        assert_eq!(
+            c([0x22, 0x17, 0x10, 0x00, 1, 2, 3, 4]),
+            "SDO initiate download request 0x1017:00, expedited, size not indicated, 01 02 03 04"
+        );
+        assert_eq!(
+            s([0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0]),
+            "SDO initiate download response 0x1017:00"
+        );
+        assert_eq!(
+            s([0x41, 0x08, 0x10, 0x00, 0x1A, 0, 0, 0]),
+            "SDO initiate upload response 0x1008:00, segmented, 26 bytes"
+        );
+        assert_eq!(
+            c([0x21, 0x08, 0x10, 0x00, 0, 0, 0, 0]),
+            "SDO initiate download request 0x1008:00, segmented, 0 bytes"
+        );
+        assert_eq!(
+            s([0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0]),
+            "SDO initiate upload response 0x1008:00, segmented, size not indicated"
+        );
+        assert_eq!(
+            c([0x70, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO upload segment request toggle 1"
+        );
+        assert_eq!(
+            s([0x19, b'x', b'y', b'z', 0, 0, 0, 0]),
+            "SDO upload segment response toggle 1, 3 bytes 78 79 7a, last"
+        );
+        assert_eq!(
+            s([0x0F, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO upload segment response toggle 0, 0 bytes, last"
+        );
+        assert_eq!(
+            c([0x00, 1, 2, 3, 4, 5, 6, 7]),
+            "SDO download segment request toggle 0, 7 bytes 01 02 03 04 05 06 07"
+        );
+        assert_eq!(
+            s([0x30, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO download segment response toggle 1"
+        );
+        let abort = [0x80, 0x00, 0x60, 0x01, 0x00, 0x00, 0x02, 0x06];
+        let text = "SDO abort transfer 0x6000:01: 0x06020000 (Object does not exist in the object dictionary)";
+        assert_eq!(c(abort), text);
+        assert_eq!(s(abort), text);
+        assert_eq!(
+            c([0xC6, 0x50, 0x1F, 0x01, 0xE8, 0x03, 0, 0]),
+            "SDO initiate block download request 0x1f50:01, CRC, 1000 bytes"
+        );
+        assert_eq!(
+            c([0xC0, 0x50, 0x1F, 0x01, 0, 0, 0, 0]),
+            "SDO initiate block download request 0x1f50:01, no CRC, size not indicated"
+        );
+        assert_eq!(
+            s([0xA4, 0x50, 0x1F, 0x01, 0x7F, 0, 0, 0]),
+            "SDO initiate block download response 0x1f50:01, CRC, blksize 127"
+        );
+        assert_eq!(
+            s([0xA2, 0x7F, 0x40, 0, 0, 0, 0, 0]),
+            "SDO block download response ackseq 127, blksize 64"
+        );
+        assert_eq!(
+            c([0xD5, 0x34, 0x12, 0, 0, 0, 0, 0]),
+            "SDO end block download request, 5 bytes of the last segment unused, CRC 0x1234"
+        );
+        assert_eq!(
+            s([0xA1, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO end block download response"
+        );
+        assert_eq!(
+            c([0xA4, 0x10, 0x20, 0x00, 0x7F, 0x15, 0, 0]),
+            "SDO initiate block upload request 0x2010:00, CRC, blksize 127, pst 21"
+        );
+        assert_eq!(
+            s([0xC6, 0x10, 0x20, 0x00, 0x00, 0x10, 0x00, 0x00]),
+            "SDO initiate block upload response 0x2010:00, CRC, 4096 bytes"
+        );
+        assert_eq!(
+            c([0xA3, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO start block upload request"
+        );
+        assert_eq!(
+            c([0xA2, 0x10, 0x7F, 0, 0, 0, 0, 0]),
+            "SDO block upload response ackseq 16, blksize 127"
+        );
+        assert_eq!(
+            s([0xC9, 0xC3, 0x31, 0, 0, 0, 0, 0]),
+            "SDO end block upload request, 2 bytes of the last segment unused, CRC 0x31c3"
+        );
+        assert_eq!(
+            c([0xA1, 0, 0, 0, 0, 0, 0, 0]),
+            "SDO end block upload response"
+        );
+        assert_eq!(
+            BlockSegment::parse(&[0x85, 1, 2, 3, 4, 5, 6, 7])
+                .unwrap()
+                .to_string(),
+            "SDO block segment 5, 01 02 03 04 05 06 07, last"
+        );
+        use crate::server::ServerEvent;
+        let mux = Multiplexer::new(0x2000, 1);
+        assert_eq!(
+            ServerEvent::Downloaded { mux, len: 4 }.to_string(),
+            "SDO download of 0x2000:01 done, 4 bytes"
+        );
+        assert_eq!(
+            ServerEvent::Aborted {
+                mux,
+                code: AbortCode::READ_ONLY
+            }
+            .to_string(),
+            "SDO server aborted 0x2000:01: 0x06010002 (Attempt to write a read only object)"
+        );
+        assert_eq!(crate::Method::Block.to_string(), "block");
+        assert_eq!(crate::Direction::Upload.to_string(), "upload");
     }
 
     #[test]
