@@ -14,7 +14,9 @@
 //! Identify remote slave and identify non-configured remote slave report whether anybody
 //! answered (silence is a result, not an error); every other service fails with
 //! [`LssError::Timeout`] when its answer does not come, and with [`LssError::Rejected`] when the
-//! slave answers with an error code.
+//! slave answers with an error code — except store configuration answered with error 1 (store
+//! not supported, common in real slaves): the procedure goes on and the report says
+//! [`ServiceReport::stored`] `Some(false)`.
 
 use can_frame::{Duration, Instant, NodeId};
 use heapless::Vec;
@@ -22,7 +24,9 @@ use heapless::Vec;
 use crate::address::{AddressPart, BitTiming, LssAddress};
 use crate::error::{LssError, Service};
 use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, ResponsePolicy};
-use crate::wire::{IdentifyField, Mode, Request, Response, UNCONFIGURED_NODE_ID, cs};
+use crate::wire::{
+    ConfigStatus, IdentifyField, Mode, Request, Response, ResponseError, UNCONFIGURED_NODE_ID, cs,
+};
 
 /// Response timeouts of [`LssMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -260,6 +264,11 @@ pub struct ServiceReport {
     pub node_id: Option<u8>,
     /// Whether the last identify step got an answer.
     pub present: Option<bool>,
+    /// Whether store configuration stored: `Some(false)` when the slave answered that it does
+    /// not support store (error 1), which does not fail the procedure: the configured values
+    /// still take effect (a node-ID when the slave returns to waiting state), they are only not
+    /// persistent.
+    pub stored: Option<bool>,
 }
 
 impl ServiceReport {
@@ -302,6 +311,7 @@ impl LssMaster {
                 identity: [None; 4],
                 node_id: None,
                 present: None,
+                stored: None,
             },
             events: Events::new(),
             running: false,
@@ -491,6 +501,16 @@ impl LssMaster {
                 }
             },
             Reply::Answer(r) => match r {
+                Response::StoreConfiguration(s)
+                    if s.result() == Err(ResponseError::NotSupported) =>
+                {
+                    self.report.stored = Some(false);
+                    Ok(())
+                }
+                Response::StoreConfiguration(ConfigStatus::OK) => {
+                    self.report.stored = Some(true);
+                    Ok(())
+                }
                 Response::ConfigureNodeId(s)
                 | Response::ConfigureBitTiming(s)
                 | Response::StoreConfiguration(s) => s
