@@ -34,7 +34,7 @@ use heapless::Vec;
 use crate::address::LssAddress;
 use crate::error::{LssError, Service};
 use crate::fastscan::{FastscanConfig, MAX_SLAVES, ScanCore, ScanStep};
-use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, timeout};
+use crate::machine::{Driven, Io, MasterEvent, Reply, driven_machine, timeout};
 use crate::service::MasterConfig;
 use crate::wire::{Mode, Request, Response, cs};
 
@@ -205,14 +205,12 @@ enum Phase {
 pub struct AssignAll {
     config: AssignConfig,
     pool: NodeIdPool,
-    ex: Exchange,
+    io: Io<AssignReport>,
     phase: Phase,
     found: Vec<LssAddress, MAX_SLAVES>,
     /// Whether a found slave is still unconfigured (and so still answers Fastscan).
     left_unconfigured: bool,
     report: AssignReport,
-    events: Events<AssignReport>,
-    finished: bool,
 }
 
 impl AssignAll {
@@ -221,13 +219,11 @@ impl AssignAll {
         Self {
             pool: config.pool,
             config,
-            ex: Exchange::new(),
+            io: Io::new(),
             phase: Phase::Idle,
             found: Vec::new(),
             left_unconfigured: false,
             report: AssignReport::default(),
-            events: Events::new(),
-            finished: false,
         }
     }
 
@@ -255,14 +251,14 @@ impl AssignAll {
         for (_, id) in table {
             self.pool.remove(*id);
         }
-        self.ex.clear();
-        self.events.clear();
+        self.io.ex.clear();
+        self.io.events.clear();
         self.found.clear();
         self.left_unconfigured = false;
         self.report = AssignReport::default();
-        self.finished = false;
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-        self.phase = Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
+        self.io.finished = false;
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.phase = Phase::Scan(ScanCore::start(&mut self.io.ex, now, self.config.fastscan));
         Ok(())
     }
 
@@ -283,20 +279,20 @@ impl AssignAll {
         };
         // One entry per found slave, and `found` has the same capacity.
         let _ = self.report.entries.push(entry);
-        self.events.push(MasterEvent::Assigned(entry));
+        self.io.events.push(MasterEvent::Assigned(entry));
     }
 
     fn finish(&mut self, stopped: Option<LssError>) {
         self.report.stopped = stopped;
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
         self.phase = Phase::Idle;
-        self.finished = true;
-        self.events.finish(Ok(self.report.clone()));
+        self.io.finished = true;
+        self.io.events.finish(Ok(self.report.clone()));
     }
 
     /// A slave was found and is in configuration state: configure it, or record why not.
     fn found(&mut self, now: Instant, address: LssAddress) {
-        self.events.push(MasterEvent::Found(address));
+        self.io.events.push(MasterEvent::Found(address));
         if self.found.push(address).is_err() {
             self.finish(Some(LssError::TooMany(MAX_SLAVES)));
             return;
@@ -310,7 +306,7 @@ impl AssignAll {
             .map(|(_, id)| *id);
         match listed.or_else(|| self.pool.take_lowest()) {
             Some(node_id) => {
-                self.ex.ask(
+                self.io.ex.ask(
                     now,
                     Request::ConfigureNodeId(node_id.get()),
                     cs::CONFIGURE_NODE_ID,
@@ -329,22 +325,22 @@ impl AssignAll {
     /// Done with `found[index]`: back to waiting state (which activates a new node-ID), then
     /// the next scan.
     fn next_slave(&mut self, now: Instant, index: usize) {
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
         let fastscan = self.config.fastscan;
         let scan = match self.found.get(index) {
             Some(&last) if self.left_unconfigured => {
-                ScanCore::start_above(&mut self.ex, now, fastscan, last)
+                ScanCore::start_above(&mut self.io.ex, now, fastscan, last)
             }
-            _ => ScanCore::start(&mut self.ex, now, fastscan),
+            _ => ScanCore::start(&mut self.io.ex, now, fastscan),
         };
         self.phase = Phase::Scan(scan);
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let services = self.config.services;
         match core::mem::replace(&mut self.phase, Phase::Idle) {
             Phase::Idle => {}
-            Phase::Scan(mut scan) => match scan.step(&mut self.ex, now, reply) {
+            Phase::Scan(mut scan) => match scan.step(&mut self.io.ex, now, reply) {
                 ScanStep::Continue => self.phase = Phase::Scan(scan),
                 ScanStep::Found(a) => self.found(now, a),
                 ScanStep::NoneLeft => self.finish(None),
@@ -360,7 +356,7 @@ impl AssignAll {
                 };
                 match result {
                     Ok(()) if self.config.store => {
-                        self.ex.ask(
+                        self.io.ex.ask(
                             now,
                             Request::StoreConfiguration,
                             cs::STORE_CONFIGURATION,
@@ -397,35 +393,21 @@ impl AssignAll {
     }
 }
 
-impl LssMachine for AssignAll {
+driven_machine!(AssignAll, AssignReport);
+
+impl Driven for AssignAll {
     type Output = AssignReport;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.ex.poll_timeout()
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 }
 

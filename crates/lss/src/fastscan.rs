@@ -37,8 +37,8 @@ use heapless::Vec;
 
 use crate::address::{AddressPart, LssAddress};
 use crate::error::LssError;
-use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, ResponsePolicy};
-use crate::wire::{BIT_CHECK_CONFIRM, Mode, Request, Response, cs};
+use crate::machine::{Driven, Exchange, Io, MasterEvent, Reply, ResponsePolicy, driven_machine};
+use crate::wire::{BIT_CHECK_CONFIRM, Mode, Request, cs};
 
 /// The most slaves a scan result list holds: one per node-ID.
 pub const MAX_SLAVES: usize = 127;
@@ -363,22 +363,18 @@ impl ScanCore {
 /// Output: `Some(address)`, or `None` when no unconfigured slave answered the bit check.
 #[derive(Debug, Clone)]
 pub struct Fastscan {
-    ex: Exchange,
+    io: Io<Option<LssAddress>>,
     core: Option<ScanCore>,
     config: FastscanConfig,
-    events: Events<Option<LssAddress>>,
-    finished: bool,
 }
 
 impl Fastscan {
     /// An idle machine.
     pub const fn new(config: FastscanConfig) -> Self {
         Self {
-            ex: Exchange::new(),
+            io: Io::new(),
             core: None,
             config,
-            events: Events::new(),
-            finished: false,
         }
     }
 
@@ -387,61 +383,47 @@ impl Fastscan {
         if self.core.is_some() {
             return Err(LssError::Busy);
         }
-        self.ex.clear();
-        self.events.clear();
-        self.finished = false;
-        self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+        self.io.ex.clear();
+        self.io.events.clear();
+        self.io.finished = false;
+        self.core = Some(ScanCore::start(&mut self.io.ex, now, self.config));
         Ok(())
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let Some(core) = self.core.as_mut() else {
             return;
         };
-        let result = match core.step(&mut self.ex, now, reply) {
+        let result = match core.step(&mut self.io.ex, now, reply) {
             ScanStep::Continue => return,
             ScanStep::Found(a) => {
-                self.events.push(MasterEvent::Found(a));
+                self.io.events.push(MasterEvent::Found(a));
                 Ok(Some(a))
             }
             ScanStep::NoneLeft => Ok(None),
             ScanStep::Lost(part) => Err(LssError::FastscanLost { part }),
         };
         self.core = None;
-        self.finished = true;
-        self.events.finish(result);
+        self.io.finished = true;
+        self.io.events.finish(result);
     }
 }
 
-impl LssMachine for Fastscan {
+driven_machine!(Fastscan, Option<LssAddress>);
+
+impl Driven for Fastscan {
     type Output = Option<LssAddress>;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.ex.poll_timeout()
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 }
 
@@ -457,24 +439,20 @@ pub type AddressList = Vec<LssAddress, MAX_SLAVES>;
 /// (switch mode global waiting is sent in both cases).
 #[derive(Debug, Clone)]
 pub struct DiscoverAll {
-    ex: Exchange,
+    io: Io<AddressList>,
     core: Option<ScanCore>,
     config: FastscanConfig,
     found: AddressList,
-    events: Events<AddressList>,
-    finished: bool,
 }
 
 impl DiscoverAll {
     /// An idle machine.
     pub const fn new(config: FastscanConfig) -> Self {
         Self {
-            ex: Exchange::new(),
+            io: Io::new(),
             core: None,
             config,
             found: Vec::new(),
-            events: Events::new(),
-            finished: false,
         }
     }
 
@@ -483,39 +461,39 @@ impl DiscoverAll {
         if self.core.is_some() {
             return Err(LssError::Busy);
         }
-        self.ex.clear();
+        self.io.ex.clear();
         self.found.clear();
-        self.events.clear();
-        self.finished = false;
+        self.io.events.clear();
+        self.io.finished = false;
         // No slave left in configuration state by an earlier session may skew the scan.
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-        self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.core = Some(ScanCore::start(&mut self.io.ex, now, self.config));
         Ok(())
     }
 
     fn finish(&mut self, result: Result<(), LssError>) {
         self.core = None;
-        self.finished = true;
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-        self.events.finish(result.map(|()| self.found.clone()));
+        self.io.finished = true;
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.io.events.finish(result.map(|()| self.found.clone()));
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let Some(core) = self.core.as_mut() else {
             return;
         };
-        match core.step(&mut self.ex, now, reply) {
+        match core.step(&mut self.io.ex, now, reply) {
             ScanStep::Continue => {}
             ScanStep::Found(a) => {
                 if self.found.push(a).is_err() {
                     self.finish(Err(LssError::TooMany(MAX_SLAVES)));
                     return;
                 }
-                self.events.push(MasterEvent::Found(a));
+                self.io.events.push(MasterEvent::Found(a));
                 // Release the found slave (it may answer Fastscan in configuration state as
                 // well) and look for the next address above it.
-                self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-                self.core = Some(ScanCore::start_above(&mut self.ex, now, self.config, a));
+                self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+                self.core = Some(ScanCore::start_above(&mut self.io.ex, now, self.config, a));
             }
             ScanStep::NoneLeft => self.finish(Ok(())),
             ScanStep::Lost(part) => self.finish(Err(LssError::FastscanLost { part })),
@@ -523,34 +501,20 @@ impl DiscoverAll {
     }
 }
 
-impl LssMachine for DiscoverAll {
+driven_machine!(DiscoverAll, AddressList);
+
+impl Driven for DiscoverAll {
     type Output = AddressList;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.ex.poll_timeout()
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 }
