@@ -348,10 +348,19 @@ impl SimDevice {
     /// (also put into 0x1018). It stays silent except for LSS until a master configures a
     /// node-ID; then it boots with that node-ID.
     pub fn unconfigured(od: ObjectDictionary, address: LssAddress) -> Self {
+        Self::unconfigured_with(od, LssConfig::unconfigured(address))
+    }
+
+    /// [`unconfigured`](Self::unconfigured) with an LSS slave of this behaviour, e.g.
+    /// [`LssConfig::unconfigured_real`] (answers Fastscan in configuration state too, as real
+    /// slaves do) or one that does not support store configuration. Its node-ID is taken as
+    /// unconfigured whatever `lss.node_id` says.
+    pub fn unconfigured_with(od: ObjectDictionary, mut lss: LssConfig) -> Self {
         let mut dev = Self::new(NodeId::MAX, od);
         dev.configured = false;
-        dev.lss = LssSlave::new(LssConfig::unconfigured(address));
-        dev.set_identity(address);
+        lss.node_id = canopen_lss::wire::UNCONFIGURED_NODE_ID;
+        dev.lss = LssSlave::new(lss);
+        dev.set_identity(lss.address);
         dev
     }
 

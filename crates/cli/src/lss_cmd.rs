@@ -1,14 +1,20 @@
 //! `canopen lss ...`: the LSS master services of CiA 305.
 //!
 //! On the in-memory bus, `--unconfigured N` adds N simulated devices without a node-ID (the
-//! Bürkert generic EDS, serial numbers 1001, 1002, ...) so the services have slaves to find.
+//! Bürkert generic EDS, serial numbers 1001, 1002, ...) so the services have slaves to find;
+//! `--real-slaves` makes them answer Fastscan in LSS configuration state as real slaves do,
+//! `--store-unsupported` makes them refuse store configuration (error 1), and `--record-bus FILE` writes
+//! every frame the bus carried to a candump log.
 
 use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
 
-use can_frame::NodeId;
-use canopen::SimDevice;
+use can_frame::{CanFrame, Duration, Instant, NodeId};
+use canopen::candump::{LogEntry, LogFrame, Writer};
+use canopen::{MemoryBus, SimDevice, Station};
 use canopen_lss::{
-    AssignConfig, BitRate, BitTiming, FastscanConfig, LssAddress, Mode, NodeIdPool, Procedure, Step,
+    AssignConfig, AssignOutcome, BitRate, BitTiming, FastscanConfig, LssAddress, Mode, NodeIdPool,
+    Procedure, SlaveConfig, Step, StoreSupport,
 };
 use clap::{Args, Subcommand};
 use serde_json::json;
@@ -18,13 +24,70 @@ use crate::{Global, outln};
 
 const BURKERT_EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
 
+/// The exit code of a usage error (as clap's).
+const USAGE: u8 = 2;
+
 #[derive(Debug, Args)]
 pub(crate) struct LssArgs {
     /// In-memory bus only: simulate this many unconfigured devices.
     #[arg(long, default_value_t = 0)]
     unconfigured: u32,
+    /// In-memory bus only: the simulated devices answer Fastscan in LSS configuration state
+    /// too, as real slaves do.
+    #[arg(long)]
+    real_slaves: bool,
+    /// In-memory bus only: the simulated devices do not support store configuration (they
+    /// answer error 1, as some real slaves do).
+    #[arg(long)]
+    store_unsupported: bool,
+    /// In-memory bus only: write every frame the bus carried to FILE (candump log format).
+    #[arg(long, value_name = "FILE")]
+    record_bus: Option<std::path::PathBuf>,
+    /// Fastscan (fastscan, discover-all, assign-all): how long to wait for an answer at each
+    /// step, in ms. A scan takes about 133 steps per slave, each silent one costs this timeout
+    /// (one slave: about 2 s at 25 ms); raise it for slow slaves, emulated or loaded buses.
+    #[arg(long, value_name = "MS", default_value_t = 25, value_parser = clap::value_parser!(u64).range(1..=60_000))]
+    step_timeout: u64,
     #[command(subcommand)]
     command: LssCommand,
+}
+
+/// A station on the in-memory bus that keeps every frame it sees, as candump log lines.
+struct Recorder(Arc<Mutex<Vec<LogEntry>>>);
+
+impl Station for Recorder {
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
+        let entry = LogEntry {
+            timestamp_us: now.as_micros(),
+            interface: "mem".into(),
+            frame: LogFrame::Can(*frame),
+        };
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).push(entry);
+    }
+    fn handle_timeout(&mut self, _now: Instant) {}
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        None
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+}
+
+/// Lets the in-memory bus deliver what was handed to it (and nothing the master still holds
+/// back), then writes the recorded frames to `path`.
+fn write_record(
+    mem: &MemoryBus,
+    log: &Mutex<Vec<LogEntry>>,
+    path: &std::path::Path,
+) -> Result<(), String> {
+    mem.run_for(Duration::from_millis(1));
+    let entries = std::mem::take(&mut *log.lock().unwrap_or_else(|p| p.into_inner()));
+    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut w = Writer::new(std::io::BufWriter::new(file));
+    for e in &entries {
+        w.write(e).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    w.flush().map_err(|e| format!("{}: {e}", path.display()))
 }
 
 #[derive(Debug, Subcommand)]
@@ -45,8 +108,8 @@ pub(crate) enum LssCommand {
         /// Serial number.
         serial: String,
     },
-    /// Configure node-ID of the slave(s) in configuration state (switch global, configure,
-    /// store, switch back).
+    /// Configure node-ID of the one slave on the bus (switch global, configure, store, switch
+    /// back); a slave without store support is reported "assigned, not stored".
     ConfigureNodeId {
         /// The new node-ID.
         node_id: u8,
@@ -73,7 +136,9 @@ pub(crate) enum LssCommand {
     Fastscan,
     /// Find every unconfigured slave.
     DiscoverAll,
-    /// Assign-all: find every unconfigured slave and give each a node-ID from FIRST..=LAST.
+    /// Assign-all: find every unconfigured slave and give each a node-ID from FIRST..=LAST
+    /// (configure, store, back to waiting, one slave at a time; a slave that does not support
+    /// store is reported "assigned, not stored").
     AssignAll {
         /// First node-ID of the pool.
         #[arg(long, default_value_t = 2)]
@@ -104,26 +169,60 @@ fn addr_json(a: &LssAddress) -> serde_json::Value {
 
 /// `canopen lss ...`
 pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
+    if let LssCommand::AssignAll { first, last } = args.command
+        && first > last
+    {
+        eprintln!("error: empty node-ID pool: --first {first} is above --last {last}");
+        return ExitCode::from(USAGE);
+    }
     let (net, mem) = match open_network(opts) {
         Ok(x) => x,
         Err(e) => return fail(e),
     };
-    if args.unconfigured > 0 {
-        let Some(mem) = mem.as_ref() else {
-            return fail("--unconfigured only works on the in-memory bus");
-        };
+    let simulated = args.unconfigured > 0 || args.real_slaves || args.store_unsupported;
+    if mem.is_none() && (simulated || args.record_bus.is_some()) {
+        return fail(
+            "--unconfigured, --real-slaves, --store-unsupported and --record-bus only work on the in-memory bus",
+        );
+    }
+    let log = Arc::new(Mutex::new(Vec::new()));
+    if let (Some(mem), Some(_)) = (mem.as_ref(), args.record_bus.as_ref()) {
+        mem.attach(Recorder(log.clone()));
+    }
+    if let Some(mem) = mem.as_ref()
+        && args.unconfigured > 0
+    {
         let od = match canopen_od::parse(BURKERT_EDS) {
             Ok(p) => p.od,
             Err(e) => return fail(e),
         };
         for i in 0..args.unconfigured {
             let a = LssAddress::new(0x39, 0x0100_0001, 1, 1001 + i);
-            mem.attach(SimDevice::unconfigured(od.clone(), a));
+            let mut slave = SlaveConfig::unconfigured(a);
+            slave.fastscan_in_configuration = args.real_slaves;
+            if args.store_unsupported {
+                slave.store = StoreSupport::NotSupported;
+            }
+            mem.attach(SimDevice::unconfigured_with(od.clone(), slave));
         }
     }
+    let code = command(&net, args.command, args.step_timeout, g);
+    if let (Some(mem), Some(path)) = (mem.as_ref(), args.record_bus.as_ref())
+        && let Err(e) = write_record(mem, &log, path)
+    {
+        return fail(e);
+    }
+    code
+}
+
+fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Global) -> ExitCode {
     let lss = net.lss();
+    let fastscan = FastscanConfig {
+        response_timeout: Duration::from_millis(step_timeout),
+        ..FastscanConfig::default()
+    };
     let proc1 = |step| Procedure::single(step);
-    let result: Result<serde_json::Value, String> = match args.command {
+    let result: Result<serde_json::Value, String> = match command {
         LssCommand::SwitchGlobal { mode } => {
             let m = match mode.as_str() {
                 "config" | "configuration" => Mode::Configuration,
@@ -154,7 +253,21 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
         LssCommand::ConfigureNodeId { node_id, no_store } => match NodeId::new(node_id) {
             Ok(n) => lss
                 .procedure(Procedure::assign_node_id(n, !no_store))
-                .map(|_| json!({"node_id": node_id}))
+                .map(|r| {
+                    let stored = r.stored == Some(true);
+                    if !g.json {
+                        outln(&match r.stored {
+                            Some(true) => format!("node-ID {node_id} assigned and stored"),
+                            Some(false) => format!(
+                                "node-ID {node_id} assigned, not stored: the slave does not \
+                                 support store configuration (it takes effect now, and is lost \
+                                 at power-off)"
+                            ),
+                            None => format!("node-ID {node_id} assigned, not stored (--no-store)"),
+                        });
+                    }
+                    json!({"node_id": node_id, "stored": stored})
+                })
                 .map_err(|e| e.to_string()),
             Err(e) => Err(e.to_string()),
         },
@@ -183,29 +296,52 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
             .map(|r| json!({"present": r.present}))
             .map_err(|e| e.to_string()),
         LssCommand::Fastscan => lss
-            .fastscan(FastscanConfig::default())
+            .fastscan(fastscan)
             .map(|a| json!({"found": a.as_ref().map(addr_json)}))
             .map_err(|e| e.to_string()),
         LssCommand::DiscoverAll => lss
-            .discover_all(FastscanConfig::default())
+            .discover_all(fastscan)
             .map(|l| json!({"found": l.iter().map(addr_json).collect::<Vec<_>>()}))
             .map_err(|e| e.to_string()),
         LssCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
-            (Ok(f), Ok(l)) => lss
-                .assign_all(AssignConfig::with_pool(NodeIdPool::range(f, l)))
-                .map(|rep| {
-                    if !g.json {
-                        for e in &rep.entries {
-                            outln(&e.to_string());
+            (Ok(f), Ok(l)) => {
+                let mut config = AssignConfig::with_pool(NodeIdPool::range(f, l));
+                config.fastscan = fastscan;
+                lss.assign_all(config)
+                    .map(|rep| {
+                        if !g.json {
+                            for e in &rep.entries {
+                                outln(&e.to_string());
+                            }
+                            if let Some(why) = &rep.stopped {
+                                outln(&format!("stopped early: {why}"));
+                            }
                         }
-                    }
-                    json!({"assigned": rep.assigned().map(|(a, n)| {
-                        let mut v = addr_json(&a);
-                        v["node_id"] = json!(n.get());
-                        v
-                    }).collect::<Vec<_>>()})
-                })
-                .map_err(|e| e.to_string()),
+                        let entries = rep.entries.iter().map(|e| {
+                            let mut v = addr_json(&e.address);
+                            v["node_id"] = json!(e.node_id.map(|n| n.get()));
+                            let (assigned, stored, error) = match e.outcome {
+                                AssignOutcome::Assigned => (true, true, None),
+                                AssignOutcome::StoreFailed(err) => (true, false, Some(err)),
+                                AssignOutcome::Failed(err) => (false, false, Some(err)),
+                            };
+                            v["assigned"] = json!(assigned);
+                            v["stored"] = json!(stored);
+                            v["error"] = json!(error.map(|e| e.to_string()));
+                            v
+                        });
+                        json!({
+                            "assigned": rep.assigned().map(|(a, n)| {
+                                let mut v = addr_json(&a);
+                                v["node_id"] = json!(n.get());
+                                v
+                            }).collect::<Vec<_>>(),
+                            "slaves": entries.collect::<Vec<_>>(),
+                            "stopped": rep.stopped.map(|e| e.to_string()),
+                        })
+                    })
+                    .map_err(|e| e.to_string())
+            }
             _ => Err("node-IDs are 1..=127".into()),
         },
     };
@@ -213,7 +349,8 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
         Ok(v) => {
             // Text mode prints the JSON too, except for plain acknowledgements and the
             // assign-all report already printed line by line.
-            if g.json || (v.get("assigned").is_none() && v != json!({"ok": true})) {
+            let printed = v.get("assigned").is_some() || v.get("stored").is_some();
+            if g.json || (!printed && v != json!({"ok": true})) {
                 outln(&v.to_string());
             }
             ExitCode::SUCCESS

@@ -1,32 +1,40 @@
 //! The commissioning workflow: find every unconfigured slave, give each a node-ID, store it, and
 //! report (CiA 305 Fastscan, configure node-ID and store configuration).
 //!
-//! Two phases:
-//! 1. **Discovery**, as [`DiscoverAll`](crate::DiscoverAll): Fastscan until the bit check 0x80
-//!    stays unanswered. Each found slave waits in configuration state meanwhile, which keeps it
-//!    out of the following scans; then switch mode global (waiting) releases them all.
-//! 2. **Configuration**, slave by slave in the order found (ascending LSS address): the node-ID
-//!    comes from the table keyed by LSS address if the address is listed, otherwise the lowest
-//!    free node-ID of the pool; switch mode selective to that slave's address; configure
-//!    node-ID; store configuration (if asked); switch mode global (waiting), on which a slave
-//!    that had no node-ID makes the new one active and resets its communication.
+//! Slave by slave, as CiA 305 masters do (CANopenNode's "LSS all nodes", Lely's Fastscan
+//! service followed by configure and store):
+//! 1. Switch mode global (waiting), so that no slave an earlier session left in configuration
+//!    state takes the node-ID meant for another one.
+//! 2. Fastscan: the slave it finds enters configuration state, the only one in that state.
+//! 3. Configure node-ID: from the table keyed by LSS address if the address is listed,
+//!    otherwise the lowest free node-ID of the pool.
+//! 4. Store configuration (if asked).
+//! 5. Switch mode global (waiting): the slave makes its new node-ID active (it had none) and
+//!    resets its communication. Having a node-ID, it no longer answers Fastscan, so the next
+//!    scan (back to 2) finds the next slave.
 //!
-//! Addressing each slave selectively in phase 2 keeps failures per slave: a slave without a
-//! node-ID to give (not in the table, pool empty), one that rejects or ignores switch mode
-//! selective or configure node-ID, is recorded with its error ([`AssignOutcome::Failed`]) and
-//! stays unconfigured, and the workflow goes on with the next. Store configuration failing is
-//! recorded as [`AssignOutcome::StoreFailed`] (the node-ID is configured but not persistent).
-//! Only a Fastscan that loses its slave, or more than [`MAX_SLAVES`] slaves, ends discovery
-//! early; the slaves found until then are still configured and the reason is in
-//! [`AssignReport::stopped`].
+//! Real slaves answer Fastscan in configuration state too, as long as they have no node-ID, so
+//! configuring each slave before the next scan is what keeps it out of that scan. A slave left
+//! without a node-ID (none to give, configure node-ID rejected or unanswered) would still
+//! answer: from then on every scan is the successor search of [`DiscoverAll`](crate::DiscoverAll),
+//! which finds the smallest address above the last one found, so the workflow never finds the
+//! same slave twice and always ends.
+//!
+//! Failures stay per slave: a slave without a node-ID to give, or one that rejects or ignores
+//! configure node-ID, is recorded with its error ([`AssignOutcome::Failed`]) and stays
+//! unconfigured, and the workflow goes on with the next. Store configuration failing is
+//! recorded as [`AssignOutcome::StoreFailed`]: the node-ID is configured and takes effect when
+//! the slave returns to waiting state, but it is not persistent (many slaves do not support
+//! store and answer error 1). Only a Fastscan that loses its slave, or more than [`MAX_SLAVES`]
+//! slaves, ends the workflow early; the reason is in [`AssignReport::stopped`].
 
 use can_frame::{Instant, NodeId};
 use heapless::Vec;
 
-use crate::address::{AddressPart, LssAddress};
+use crate::address::LssAddress;
 use crate::error::{LssError, Service};
 use crate::fastscan::{FastscanConfig, MAX_SLAVES, ScanCore, ScanStep};
-use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, timeout};
+use crate::machine::{Driven, Io, MasterEvent, Reply, driven_machine, timeout};
 use crate::service::MasterConfig;
 use crate::wire::{Mode, Request, Response, cs};
 
@@ -123,8 +131,9 @@ impl AssignConfig {
 pub enum AssignOutcome {
     /// Node-ID configured (and stored, when the workflow stores).
     Assigned,
-    /// Node-ID configured, but store configuration failed: the node-ID is lost at the slave's
-    /// next power-on.
+    /// Node-ID configured (active once the slave is back in waiting state), but store
+    /// configuration failed or is not supported: the node-ID is lost at the slave's next
+    /// power-on.
     StoreFailed(LssError),
     /// The slave has no node-ID.
     Failed(LssError),
@@ -147,7 +156,9 @@ impl core::fmt::Display for AssignEntry {
         write!(f, "{}: ", self.address)?;
         match (self.node_id, self.outcome) {
             (Some(id), AssignOutcome::Assigned) => write!(f, "node-ID {id}"),
-            (Some(id), AssignOutcome::StoreFailed(e)) => write!(f, "node-ID {id}, not stored: {e}"),
+            (Some(id), AssignOutcome::StoreFailed(e)) => {
+                write!(f, "node-ID {id} assigned, not stored: {e}")
+            }
             (Some(id), AssignOutcome::Failed(e)) => write!(f, "node-ID {id} failed: {e}"),
             (None, AssignOutcome::Failed(e)) => write!(f, "failed: {e}"),
             (None, _) => f.write_str("no node-ID"),
@@ -181,10 +192,9 @@ impl AssignReport {
 #[derive(Debug, Clone)]
 enum Phase {
     Idle,
-    /// Discovering: slaves found so far wait in configuration state.
+    /// Looking for the next slave.
     Scan(ScanCore),
-    /// Switch mode selective to `found[index]`.
-    Select(usize, NodeId),
+    /// Configure node-ID to `found[index]`, the one slave in configuration state.
     Configure(usize, NodeId),
     Store(usize, NodeId),
 }
@@ -195,12 +205,12 @@ enum Phase {
 pub struct AssignAll {
     config: AssignConfig,
     pool: NodeIdPool,
-    ex: Exchange,
+    io: Io<AssignReport>,
     phase: Phase,
     found: Vec<LssAddress, MAX_SLAVES>,
+    /// Whether a found slave is still unconfigured (and so still answers Fastscan).
+    left_unconfigured: bool,
     report: AssignReport,
-    events: Events<AssignReport>,
-    finished: bool,
 }
 
 impl AssignAll {
@@ -209,17 +219,17 @@ impl AssignAll {
         Self {
             pool: config.pool,
             config,
-            ex: Exchange::new(),
+            io: Io::new(),
             phase: Phase::Idle,
             found: Vec::new(),
+            left_unconfigured: false,
             report: AssignReport::default(),
-            events: Events::new(),
-            finished: false,
         }
     }
 
-    /// Starts the workflow. Fails with [`LssError::Busy`] while it runs and with
-    /// [`LssError::InvalidConfig`] when the table gives one node-ID or one address twice.
+    /// Starts the workflow. Fails with [`LssError::Busy`] while it runs, and with
+    /// [`LssError::InvalidConfig`] when the table gives one node-ID or one address twice or
+    /// when there is no node-ID to give at all (empty pool and empty table).
     pub fn start(&mut self, now: Instant) -> Result<(), LssError> {
         if !matches!(self.phase, Phase::Idle) {
             return Err(LssError::Busy);
@@ -232,16 +242,23 @@ impl AssignAll {
                 ));
             }
         }
+        if table.is_empty() && self.config.pool.is_empty() {
+            return Err(LssError::InvalidConfig(
+                "no node-ID to give: the pool and the table are empty",
+            ));
+        }
         self.pool = self.config.pool;
         for (_, id) in table {
             self.pool.remove(*id);
         }
-        self.ex.clear();
-        self.events.clear();
+        self.io.ex.clear();
+        self.io.events.clear();
         self.found.clear();
+        self.left_unconfigured = false;
         self.report = AssignReport::default();
-        self.finished = false;
-        self.phase = Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
+        self.io.finished = false;
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.phase = Phase::Scan(ScanCore::start(&mut self.io.ex, now, self.config.fastscan));
         Ok(())
     }
 
@@ -249,6 +266,12 @@ impl AssignAll {
         let Some(&address) = self.found.get(index) else {
             return;
         };
+        if !matches!(
+            outcome,
+            AssignOutcome::Assigned | AssignOutcome::StoreFailed(_)
+        ) {
+            self.left_unconfigured = true;
+        }
         let entry = AssignEntry {
             address,
             node_id,
@@ -256,97 +279,72 @@ impl AssignAll {
         };
         // One entry per found slave, and `found` has the same capacity.
         let _ = self.report.entries.push(entry);
-        self.events.push(MasterEvent::Assigned(entry));
+        self.io.events.push(MasterEvent::Assigned(entry));
     }
 
-    /// Discovery is over (`stopped` says why, if early): release the found slaves to waiting
-    /// state and configure them one by one.
-    fn end_discovery(&mut self, now: Instant, stopped: Option<LssError>) {
+    fn finish(&mut self, stopped: Option<LssError>) {
         self.report.stopped = stopped;
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-        self.configure_from(now, 0);
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.phase = Phase::Idle;
+        self.io.finished = true;
+        self.io.events.finish(Ok(self.report.clone()));
     }
 
-    /// Starts on `found[index]`, skipping slaves without a node-ID to give.
-    fn configure_from(&mut self, now: Instant, mut index: usize) {
-        while let Some(&address) = self.found.get(index) {
-            let listed = self
-                .config
-                .table
-                .iter()
-                .find(|(a, _)| *a == address)
-                .map(|(_, id)| *id);
-            if let Some(node_id) = listed.or_else(|| self.pool.take_lowest()) {
-                for part in [
-                    AddressPart::Vendor,
-                    AddressPart::Product,
-                    AddressPart::Revision,
-                ] {
-                    self.ex
-                        .send(Request::SwitchModeSelective(part, address.get(part)));
-                }
-                self.ex.ask(
+    /// A slave was found and is in configuration state: configure it, or record why not.
+    fn found(&mut self, now: Instant, address: LssAddress) {
+        self.io.events.push(MasterEvent::Found(address));
+        if self.found.push(address).is_err() {
+            self.finish(Some(LssError::TooMany(MAX_SLAVES)));
+            return;
+        }
+        let index = self.found.len() - 1;
+        let listed = self
+            .config
+            .table
+            .iter()
+            .find(|(a, _)| *a == address)
+            .map(|(_, id)| *id);
+        match listed.or_else(|| self.pool.take_lowest()) {
+            Some(node_id) => {
+                self.io.ex.ask(
                     now,
-                    Request::SwitchModeSelective(AddressPart::Serial, address.serial_number),
-                    cs::SWITCH_SELECTIVE_RESPONSE,
+                    Request::ConfigureNodeId(node_id.get()),
+                    cs::CONFIGURE_NODE_ID,
                     self.config.services.response_timeout,
                     false,
                 );
-                self.phase = Phase::Select(index, node_id);
-                return;
+                self.phase = Phase::Configure(index, node_id);
             }
-            self.record(index, None, AssignOutcome::Failed(LssError::NoFreeNodeId));
-            index += 1;
+            None => {
+                self.record(index, None, AssignOutcome::Failed(LssError::NoFreeNodeId));
+                self.next_slave(now, index);
+            }
         }
-        self.phase = Phase::Idle;
-        self.finished = true;
-        self.events.finish(Ok(self.report.clone()));
     }
 
     /// Done with `found[index]`: back to waiting state (which activates a new node-ID), then
-    /// the next slave.
+    /// the next scan.
     fn next_slave(&mut self, now: Instant, index: usize) {
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-        self.configure_from(now, index + 1);
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        let fastscan = self.config.fastscan;
+        let scan = match self.found.get(index) {
+            Some(&last) if self.left_unconfigured => {
+                ScanCore::start_above(&mut self.io.ex, now, fastscan, last)
+            }
+            _ => ScanCore::start(&mut self.io.ex, now, fastscan),
+        };
+        self.phase = Phase::Scan(scan);
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let services = self.config.services;
         match core::mem::replace(&mut self.phase, Phase::Idle) {
             Phase::Idle => {}
-            Phase::Scan(mut scan) => match scan.step(&mut self.ex, now, reply) {
+            Phase::Scan(mut scan) => match scan.step(&mut self.io.ex, now, reply) {
                 ScanStep::Continue => self.phase = Phase::Scan(scan),
-                ScanStep::Found(a) => {
-                    self.events.push(MasterEvent::Found(a));
-                    if self.found.push(a).is_err() {
-                        self.end_discovery(now, Some(LssError::TooMany(MAX_SLAVES)));
-                    } else {
-                        // The found slave waits in configuration state, out of the next scan.
-                        self.phase =
-                            Phase::Scan(ScanCore::start(&mut self.ex, now, self.config.fastscan));
-                    }
-                }
-                ScanStep::NoneLeft => self.end_discovery(now, None),
-                ScanStep::Lost(part) => {
-                    self.end_discovery(now, Some(LssError::FastscanLost { part }))
-                }
-            },
-            Phase::Select(index, node_id) => match reply {
-                Reply::Answer(_) => {
-                    self.ex.ask(
-                        now,
-                        Request::ConfigureNodeId(node_id.get()),
-                        cs::CONFIGURE_NODE_ID,
-                        services.response_timeout,
-                        false,
-                    );
-                    self.phase = Phase::Configure(index, node_id);
-                }
-                Reply::Silence => {
-                    let e = timeout(Service::SwitchModeSelective, services.response_timeout);
-                    self.record(index, Some(node_id), AssignOutcome::Failed(e));
-                    self.next_slave(now, index);
-                }
+                ScanStep::Found(a) => self.found(now, a),
+                ScanStep::NoneLeft => self.finish(None),
+                ScanStep::Lost(part) => self.finish(Some(LssError::FastscanLost { part })),
             },
             Phase::Configure(index, node_id) => {
                 let service = Service::ConfigureNodeId;
@@ -358,7 +356,7 @@ impl AssignAll {
                 };
                 match result {
                     Ok(()) if self.config.store => {
-                        self.ex.ask(
+                        self.io.ex.ask(
                             now,
                             Request::StoreConfiguration,
                             cs::STORE_CONFIGURATION,
@@ -395,35 +393,21 @@ impl AssignAll {
     }
 }
 
-impl LssMachine for AssignAll {
+driven_machine!(AssignAll, AssignReport);
+
+impl Driven for AssignAll {
     type Output = AssignReport;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.ex.poll_timeout()
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 }
 

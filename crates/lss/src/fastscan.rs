@@ -18,17 +18,27 @@
 //! A scan costs 1 + 4 × 33 = 133 exchanges (34 fewer per known part). Every silent exchange costs one response timeout;
 //! under [`ResponsePolicy::WholeWindow`] answered ones do too.
 //!
-//! Slaves in configuration state ignore Fastscan, so [`DiscoverAll`] finds every unconfigured
-//! slave by scanning until nobody answers the bit check, leaving each found slave in
-//! configuration state meanwhile, and finally sends switch mode global (waiting).
+//! A found slave is still unconfigured, and real slaves answer Fastscan in configuration state
+//! too (CiA 305 ties Fastscan to the slave having no node-ID, and stacks such as CANopenNode
+//! check only that), so a found slave cannot be kept out of the next scan by leaving it in
+//! configuration state. [`DiscoverAll`] therefore releases each found slave with switch mode
+//! global (waiting) and runs the next scan as a *successor search*: the smallest unconfigured
+//! address above the last one found. That search confirms the last address's parts up to the
+//! serial number, then asks, from bit 0 upwards, whether a slave shares the last address's
+//! higher bits and has a 1 where it has a 0; the first bit with an answer is where the next
+//! address first exceeds the last, and the ordinary search for the smallest finishes the
+//! address from there. When no bit of a part has an answer, the search moves one part up (a
+//! new bit check, confirming one part less). Slaves that share the serial number's neighbourhood
+//! cost a few exchanges; the worst case is about twice an ordinary scan. Discovery ends when a
+//! successor search finds nobody, and finally sends switch mode global (waiting).
 
 use can_frame::{Duration, Instant};
 use heapless::Vec;
 
 use crate::address::{AddressPart, LssAddress};
 use crate::error::LssError;
-use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, ResponsePolicy};
-use crate::wire::{BIT_CHECK_CONFIRM, Mode, Request, Response, cs};
+use crate::machine::{Driven, Exchange, Io, MasterEvent, Reply, ResponsePolicy, driven_machine};
+use crate::wire::{BIT_CHECK_CONFIRM, Mode, Request, cs};
 
 /// The most slaves a scan result list holds: one per node-ID.
 pub const MAX_SLAVES: usize = 127;
@@ -76,6 +86,16 @@ enum ScanState {
         part: AddressPart,
         known: bool,
     },
+    /// Successor search: confirming the lower bound's `part` to reach the searched part.
+    Position {
+        part: AddressPart,
+    },
+    /// Successor search: does a slave have the lower bound's bits of `part` above `bit`, and
+    /// 1 where the bound has 0 at `bit`?
+    Above {
+        part: AddressPart,
+        bit: u8,
+    },
 }
 
 /// What one step of a scan produced.
@@ -93,17 +113,49 @@ pub(crate) struct ScanCore {
     state: ScanState,
     address: LssAddress,
     config: FastscanConfig,
+    /// Successor search: find the smallest address above this one.
+    above: Option<LssAddress>,
+    /// Successor search: the part in which the found address first exceeds `above`.
+    seek: AddressPart,
 }
 
 impl ScanCore {
-    /// Queues the bit check 0x80.
+    /// Queues the bit check 0x80 of a scan for the smallest unconfigured address.
     pub(crate) fn start(ex: &mut Exchange, now: Instant, config: FastscanConfig) -> Self {
-        let core = Self {
+        Self::scan(ex, now, config, None)
+    }
+
+    /// Queues the bit check 0x80 of a scan for the smallest unconfigured address above `last`
+    /// (the successor search; see [`DiscoverAll`]).
+    pub(crate) fn start_above(
+        ex: &mut Exchange,
+        now: Instant,
+        config: FastscanConfig,
+        last: LssAddress,
+    ) -> Self {
+        Self::scan(ex, now, config, Some(last))
+    }
+
+    fn scan(
+        ex: &mut Exchange,
+        now: Instant,
+        config: FastscanConfig,
+        above: Option<LssAddress>,
+    ) -> Self {
+        let mut core = Self {
             state: ScanState::Check,
             address: LssAddress::default(),
             config,
+            above,
+            seek: AddressPart::Serial,
         };
-        core.ask(
+        core.check(ex, now);
+        core
+    }
+
+    fn check(&mut self, ex: &mut Exchange, now: Instant) {
+        self.state = ScanState::Check;
+        self.ask(
             ex,
             now,
             0,
@@ -111,7 +163,73 @@ impl ScanCore {
             AddressPart::Vendor,
             AddressPart::Vendor,
         );
-        core
+    }
+
+    /// Whether `part` belongs to the leading run of known parts.
+    fn leading_known(&self, part: AddressPart) -> bool {
+        AddressPart::ALL
+            .iter()
+            .take_while(|p| p.index() <= part.index())
+            .all(|p| self.config.known[usize::from(p.index())].is_some())
+    }
+
+    /// Successor search: moves the slaves that share the bound's parts before `seek` on to
+    /// `seek`, confirming from `part` on.
+    fn position(
+        &mut self,
+        ex: &mut Exchange,
+        now: Instant,
+        bound: LssAddress,
+        part: AddressPart,
+    ) -> ScanStep {
+        if part == self.seek {
+            return self.above_from(ex, now, bound, part, 0);
+        }
+        self.state = ScanState::Position { part };
+        self.ask(ex, now, bound.get(part), 0, part, part.next());
+        ScanStep::Continue
+    }
+
+    /// Successor search: asks about the lowest bit `>= from` of `part` where the bound has 0.
+    fn above_from(
+        &mut self,
+        ex: &mut Exchange,
+        now: Instant,
+        bound: LssAddress,
+        part: AddressPart,
+        from: u8,
+    ) -> ScanStep {
+        let value = bound.get(part);
+        if self.leading_known(part) {
+            // A known part is never exceeded: nobody above the bound.
+            return ScanStep::NoneLeft;
+        }
+        match (from..32).find(|b| value & (1u32 << b) == 0) {
+            Some(bit) => {
+                self.state = ScanState::Above { part, bit };
+                let id_number = (value & (u32::MAX << bit)) | (1u32 << bit);
+                self.ask(ex, now, id_number, bit, part, part);
+                ScanStep::Continue
+            }
+            None => self.seek_up(ex, now, part),
+        }
+    }
+
+    /// Successor search: nobody exceeds the bound in `part`; try the part before it, from a
+    /// new bit check (the slaves' scan positions have moved past it).
+    fn seek_up(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart) -> ScanStep {
+        match part
+            .index()
+            .checked_sub(1)
+            .and_then(AddressPart::from_index)
+        {
+            Some(before) => {
+                self.seek = before;
+                self.check(ex, now);
+                ScanStep::Continue
+            }
+            None => ScanStep::NoneLeft,
+        }
     }
 
     fn ask(
@@ -141,12 +259,8 @@ impl ScanCore {
 
     /// Starts on `part`: confirms a known value at once, or searches from bit 31.
     fn begin_part(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart) {
-        let leading_known = AddressPart::ALL
-            .iter()
-            .take_while(|p| p.index() <= part.index())
-            .all(|p| self.config.known[usize::from(p.index())].is_some());
         match self.config.known[usize::from(part.index())] {
-            Some(value) if leading_known => {
+            Some(value) if self.leading_known(part) => {
                 self.address.set(part, value);
                 self.state = ScanState::Confirm { part, known: true };
                 self.ask(ex, now, value, 0, part, part.next());
@@ -169,7 +283,46 @@ impl ScanCore {
                 if !answered {
                     return ScanStep::NoneLeft;
                 }
-                self.begin_part(ex, now, AddressPart::Vendor);
+                match self.above {
+                    Some(bound) => return self.position(ex, now, bound, AddressPart::Vendor),
+                    None => self.begin_part(ex, now, AddressPart::Vendor),
+                }
+            }
+            ScanState::Position { part } => {
+                let Some(bound) = self.above else {
+                    return ScanStep::NoneLeft;
+                };
+                if !answered {
+                    // Nobody shares the bound's `part`: the slaves that share the parts
+                    // before it still sit at `part`, so the search continues there.
+                    self.seek = part;
+                    return self.above_from(ex, now, bound, part, 0);
+                }
+                return self.position(ex, now, bound, part.next());
+            }
+            ScanState::Above { part, bit } => {
+                let Some(bound) = self.above else {
+                    return ScanStep::NoneLeft;
+                };
+                if !answered {
+                    return self.above_from(ex, now, bound, part, bit + 1);
+                }
+                // The smallest address above the bound starts here: the bound's earlier
+                // parts, this part's higher bits and a 1 at `bit`; the rest is the ordinary
+                // search for the smallest.
+                self.above = None;
+                self.address = LssAddress::default();
+                for p in AddressPart::ALL.iter().take_while(|p| **p != part) {
+                    self.address.set(*p, bound.get(*p));
+                }
+                let value = (bound.get(part) & (u32::MAX << bit)) | (1u32 << bit);
+                self.address.set(part, value);
+                if bit == 0 {
+                    self.state = ScanState::Confirm { part, known: false };
+                    self.ask(ex, now, value, 0, part, part.next());
+                } else {
+                    self.ask_bit(ex, now, part, bit - 1);
+                }
             }
             ScanState::Bit { part, bit } => {
                 if !answered {
@@ -210,22 +363,18 @@ impl ScanCore {
 /// Output: `Some(address)`, or `None` when no unconfigured slave answered the bit check.
 #[derive(Debug, Clone)]
 pub struct Fastscan {
-    ex: Exchange,
+    io: Io<Option<LssAddress>>,
     core: Option<ScanCore>,
     config: FastscanConfig,
-    events: Events<Option<LssAddress>>,
-    finished: bool,
 }
 
 impl Fastscan {
     /// An idle machine.
     pub const fn new(config: FastscanConfig) -> Self {
         Self {
-            ex: Exchange::new(),
+            io: Io::new(),
             core: None,
             config,
-            events: Events::new(),
-            finished: false,
         }
     }
 
@@ -234,61 +383,47 @@ impl Fastscan {
         if self.core.is_some() {
             return Err(LssError::Busy);
         }
-        self.ex.clear();
-        self.events.clear();
-        self.finished = false;
-        self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+        self.io.ex.clear();
+        self.io.events.clear();
+        self.io.finished = false;
+        self.core = Some(ScanCore::start(&mut self.io.ex, now, self.config));
         Ok(())
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let Some(core) = self.core.as_mut() else {
             return;
         };
-        let result = match core.step(&mut self.ex, now, reply) {
+        let result = match core.step(&mut self.io.ex, now, reply) {
             ScanStep::Continue => return,
             ScanStep::Found(a) => {
-                self.events.push(MasterEvent::Found(a));
+                self.io.events.push(MasterEvent::Found(a));
                 Ok(Some(a))
             }
             ScanStep::NoneLeft => Ok(None),
             ScanStep::Lost(part) => Err(LssError::FastscanLost { part }),
         };
         self.core = None;
-        self.finished = true;
-        self.events.finish(result);
+        self.io.finished = true;
+        self.io.events.finish(result);
     }
 }
 
-impl LssMachine for Fastscan {
+driven_machine!(Fastscan, Option<LssAddress>);
+
+impl Driven for Fastscan {
     type Output = Option<LssAddress>;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.ex.poll_timeout()
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 }
 
@@ -296,31 +431,28 @@ impl LssMachine for Fastscan {
 pub type AddressList = Vec<LssAddress, MAX_SLAVES>;
 
 /// Finds every unconfigured slave by repeated Fastscan, without configuring any; see the module
-/// docs. Ends with switch mode global (waiting), so the slaves are back where they started.
+/// docs. Starts and ends with switch mode global (waiting), so the slaves are back where they
+/// started. Works whether or not the slaves answer Fastscan in configuration state.
 ///
 /// Output: the addresses found. A scan that loses its slave ends the machine with
 /// [`LssError::FastscanLost`]; more than [`MAX_SLAVES`] slaves with [`LssError::TooMany`]
 /// (switch mode global waiting is sent in both cases).
 #[derive(Debug, Clone)]
 pub struct DiscoverAll {
-    ex: Exchange,
+    io: Io<AddressList>,
     core: Option<ScanCore>,
     config: FastscanConfig,
     found: AddressList,
-    events: Events<AddressList>,
-    finished: bool,
 }
 
 impl DiscoverAll {
     /// An idle machine.
     pub const fn new(config: FastscanConfig) -> Self {
         Self {
-            ex: Exchange::new(),
+            io: Io::new(),
             core: None,
             config,
             found: Vec::new(),
-            events: Events::new(),
-            finished: false,
         }
     }
 
@@ -329,35 +461,39 @@ impl DiscoverAll {
         if self.core.is_some() {
             return Err(LssError::Busy);
         }
-        self.ex.clear();
+        self.io.ex.clear();
         self.found.clear();
-        self.events.clear();
-        self.finished = false;
-        self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+        self.io.events.clear();
+        self.io.finished = false;
+        // No slave left in configuration state by an earlier session may skew the scan.
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.core = Some(ScanCore::start(&mut self.io.ex, now, self.config));
         Ok(())
     }
 
     fn finish(&mut self, result: Result<(), LssError>) {
         self.core = None;
-        self.finished = true;
-        self.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
-        self.events.finish(result.map(|()| self.found.clone()));
+        self.io.finished = true;
+        self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+        self.io.events.finish(result.map(|()| self.found.clone()));
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let Some(core) = self.core.as_mut() else {
             return;
         };
-        match core.step(&mut self.ex, now, reply) {
+        match core.step(&mut self.io.ex, now, reply) {
             ScanStep::Continue => {}
             ScanStep::Found(a) => {
                 if self.found.push(a).is_err() {
                     self.finish(Err(LssError::TooMany(MAX_SLAVES)));
                     return;
                 }
-                self.events.push(MasterEvent::Found(a));
-                // The found slave stays in configuration state and ignores the next scan.
-                self.core = Some(ScanCore::start(&mut self.ex, now, self.config));
+                self.io.events.push(MasterEvent::Found(a));
+                // Release the found slave (it may answer Fastscan in configuration state as
+                // well) and look for the next address above it.
+                self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+                self.core = Some(ScanCore::start_above(&mut self.io.ex, now, self.config, a));
             }
             ScanStep::NoneLeft => self.finish(Ok(())),
             ScanStep::Lost(part) => self.finish(Err(LssError::FastscanLost { part })),
@@ -365,34 +501,20 @@ impl DiscoverAll {
     }
 }
 
-impl LssMachine for DiscoverAll {
+driven_machine!(DiscoverAll, AddressList);
+
+impl Driven for DiscoverAll {
     type Output = AddressList;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.ex.poll_timeout()
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 }

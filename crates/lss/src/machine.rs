@@ -109,6 +109,103 @@ pub trait LssMachine {
     }
 }
 
+/// What every master machine has: its exchange, its events and whether it finished.
+#[derive(Debug, Clone)]
+pub(crate) struct Io<T> {
+    pub(crate) ex: Exchange,
+    pub(crate) events: Events<T>,
+    pub(crate) finished: bool,
+}
+
+impl<T> Io<T> {
+    pub(crate) const fn new() -> Self {
+        Self {
+            ex: Exchange::new(),
+            events: Events::new(),
+            finished: false,
+        }
+    }
+}
+
+/// A master machine's own logic: how it reacts to the end of each exchange (and to a timer of
+/// its own). The one driver, the [`LssMachine`] implementation for every `Driven`, does the
+/// rest: routing responses and timeouts through the [`Exchange`], transmitting, events.
+pub(crate) trait Driven {
+    /// What the machine produces.
+    type Output;
+
+    fn io(&self) -> &Io<Self::Output>;
+
+    fn io_mut(&mut self) -> &mut Io<Self::Output>;
+
+    /// The awaited exchange ended.
+    fn on_reply(&mut self, now: Instant, reply: Reply);
+
+    /// A deadline of the machine's own besides the exchange's (a wait step).
+    fn timer(&self) -> Option<Instant> {
+        None
+    }
+
+    /// [`timer`](Self::timer) is due.
+    fn on_timer(&mut self, _now: Instant) {}
+}
+
+/// The one driver: the [`LssMachine`] methods of every [`Driven`] machine.
+pub(crate) fn handle_response<D: Driven>(d: &mut D, now: Instant, response: &Response) {
+    if let Some(reply) = d.io_mut().ex.on_response(response) {
+        d.on_reply(now, reply);
+    }
+}
+
+pub(crate) fn handle_timeout<D: Driven>(d: &mut D, now: Instant) {
+    if d.timer().is_some_and(|t| now >= t) {
+        d.on_timer(now);
+        return;
+    }
+    if let Some(reply) = d.io_mut().ex.on_timeout(now) {
+        d.on_reply(now, reply);
+    }
+}
+
+pub(crate) fn poll_timeout<D: Driven>(d: &D) -> Option<Instant> {
+    d.timer().or(d.io().ex.poll_timeout())
+}
+
+/// Implements [`LssMachine`] for a [`Driven`] machine with output type `$out` through the one
+/// driver above (a blanket implementation would expose the crate-private trait).
+macro_rules! driven_machine {
+    ($machine:ty, $out:ty) => {
+        impl $crate::machine::LssMachine for $machine {
+            type Output = $out;
+
+            fn handle_response(&mut self, now: Instant, response: &$crate::wire::Response) {
+                $crate::machine::handle_response(self, now, response);
+            }
+
+            fn handle_timeout(&mut self, now: Instant) {
+                $crate::machine::handle_timeout(self, now);
+            }
+
+            fn poll_transmit(&mut self) -> Option<$crate::wire::Request> {
+                self.io.ex.poll_transmit()
+            }
+
+            fn poll_timeout(&self) -> Option<Instant> {
+                $crate::machine::poll_timeout(self)
+            }
+
+            fn poll_event(&mut self) -> Option<$crate::machine::MasterEvent<$out>> {
+                self.io.events.poll()
+            }
+
+            fn is_finished(&self) -> bool {
+                self.io.finished
+            }
+        }
+    };
+}
+pub(crate) use driven_machine;
+
 /// Progress events (oldest dropped when nobody polls) and the final result.
 #[derive(Debug, Clone)]
 pub(crate) struct Events<T> {

@@ -14,15 +14,19 @@
 //! Identify remote slave and identify non-configured remote slave report whether anybody
 //! answered (silence is a result, not an error); every other service fails with
 //! [`LssError::Timeout`] when its answer does not come, and with [`LssError::Rejected`] when the
-//! slave answers with an error code.
+//! slave answers with an error code — except store configuration answered with error 1 (store
+//! not supported, common in real slaves): the procedure goes on and the report says
+//! [`ServiceReport::stored`] `Some(false)`.
 
 use can_frame::{Duration, Instant, NodeId};
 use heapless::Vec;
 
 use crate::address::{AddressPart, BitTiming, LssAddress};
 use crate::error::{LssError, Service};
-use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, ResponsePolicy};
-use crate::wire::{IdentifyField, Mode, Request, Response, UNCONFIGURED_NODE_ID, cs};
+use crate::machine::{Driven, Io, MasterEvent, Reply, ResponsePolicy, driven_machine};
+use crate::wire::{
+    ConfigStatus, IdentifyField, Mode, Request, Response, ResponseError, UNCONFIGURED_NODE_ID, cs,
+};
 
 /// Response timeouts of [`LssMaster`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -260,6 +264,11 @@ pub struct ServiceReport {
     pub node_id: Option<u8>,
     /// Whether the last identify step got an answer.
     pub present: Option<bool>,
+    /// Whether store configuration stored: `Some(false)` when the slave answered that it does
+    /// not support store (error 1), which does not fail the procedure: the configured values
+    /// still take effect (a node-ID when the slave returns to waiting state), they are only not
+    /// persistent.
+    pub stored: Option<bool>,
 }
 
 impl ServiceReport {
@@ -276,16 +285,14 @@ impl ServiceReport {
 #[derive(Debug, Clone)]
 pub struct LssMaster {
     config: MasterConfig,
-    ex: Exchange,
+    io: Io<ServiceReport>,
     steps: Vec<Step, MAX_STEPS>,
     next: usize,
     /// The step awaiting an answer or a timer.
     current: Option<Step>,
     wait_until: Option<Instant>,
     report: ServiceReport,
-    events: Events<ServiceReport>,
     running: bool,
-    finished: bool,
 }
 
 impl LssMaster {
@@ -293,7 +300,7 @@ impl LssMaster {
     pub const fn new(config: MasterConfig) -> Self {
         Self {
             config,
-            ex: Exchange::new(),
+            io: Io::new(),
             steps: Vec::new(),
             next: 0,
             current: None,
@@ -302,10 +309,9 @@ impl LssMaster {
                 identity: [None; 4],
                 node_id: None,
                 present: None,
+                stored: None,
             },
-            events: Events::new(),
             running: false,
-            finished: false,
         }
     }
 
@@ -319,15 +325,15 @@ impl LssMaster {
         if self.running {
             return Err(LssError::Busy);
         }
-        self.ex.clear();
-        self.events.clear();
+        self.io.ex.clear();
+        self.io.events.clear();
         self.steps = procedure.steps;
         self.next = 0;
         self.current = None;
         self.wait_until = None;
         self.report = ServiceReport::default();
         self.running = true;
-        self.finished = false;
+        self.io.finished = false;
         self.advance(now);
         Ok(())
     }
@@ -339,10 +345,10 @@ impl LssMaster {
 
     fn finish(&mut self, result: Result<(), LssError>) {
         self.running = false;
-        self.finished = true;
+        self.io.finished = true;
         self.current = None;
         self.wait_until = None;
-        self.events.finish(result.map(|()| self.report));
+        self.io.events.finish(result.map(|()| self.report));
     }
 
     /// Starts steps until one has to wait or the procedure is over.
@@ -366,20 +372,21 @@ impl LssMaster {
             step,
             Step::IdentifyRemoteSlave(_) | Step::IdentifyNonConfigured
         ) && self.config.identify_policy == ResponsePolicy::WholeWindow;
-        self.ex.ask(now, req, cs, timeout, collect);
+        self.io.ex.ask(now, req, cs, timeout, collect);
         self.current = Some(step);
     }
 
     fn begin(&mut self, now: Instant, step: Step) {
         match step {
-            Step::SwitchModeGlobal(mode) => self.ex.send(Request::SwitchModeGlobal(mode)),
+            Step::SwitchModeGlobal(mode) => self.io.ex.send(Request::SwitchModeGlobal(mode)),
             Step::SwitchModeSelective(a) => {
                 for part in [
                     AddressPart::Vendor,
                     AddressPart::Product,
                     AddressPart::Revision,
                 ] {
-                    self.ex
+                    self.io
+                        .ex
                         .send(Request::SwitchModeSelective(part, a.get(part)));
                 }
                 let last = Request::SwitchModeSelective(AddressPart::Serial, a.serial_number);
@@ -398,7 +405,7 @@ impl LssMaster {
                 cs::CONFIGURE_BIT_TIMING,
             ),
             Step::ActivateBitTiming { delay_ms } => {
-                self.ex.send(Request::ActivateBitTiming { delay_ms });
+                self.io.ex.send(Request::ActivateBitTiming { delay_ms });
                 let delay = Duration::from_millis(u64::from(delay_ms));
                 // The bit timing the slaves switch to is the one configured earlier in this
                 // procedure, if any.
@@ -412,7 +419,7 @@ impl LssMaster {
                         _ => None,
                     });
                 if let Some(bit_timing) = timing {
-                    self.events.push(MasterEvent::SwitchBitRate {
+                    self.io.events.push(MasterEvent::SwitchBitRate {
                         bit_timing,
                         at: now + delay,
                     });
@@ -436,7 +443,7 @@ impl LssMaster {
             Step::IdentifyRemoteSlave(q) => {
                 let [a, b, c, d, e, f] = q.requests();
                 for r in [a, b, c, d, e] {
-                    self.ex.send(r);
+                    self.io.ex.send(r);
                 }
                 self.ask(now, step, f, cs::IDENTIFY_SLAVE);
             }
@@ -471,7 +478,7 @@ impl LssMaster {
         }
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let Some(step) = self.current.take() else {
             return;
         };
@@ -491,6 +498,16 @@ impl LssMaster {
                 }
             },
             Reply::Answer(r) => match r {
+                Response::StoreConfiguration(s)
+                    if s.result() == Err(ResponseError::NotSupported) =>
+                {
+                    self.report.stored = Some(false);
+                    Ok(())
+                }
+                Response::StoreConfiguration(ConfigStatus::OK) => {
+                    self.report.stored = Some(true);
+                    Ok(())
+                }
                 Response::ConfigureNodeId(s)
                 | Response::ConfigureBitTiming(s)
                 | Response::StoreConfiguration(s) => s
@@ -514,49 +531,37 @@ impl LssMaster {
         match result {
             Ok(()) => self.advance(now),
             Err(e) => {
-                self.ex.clear();
+                self.io.ex.clear();
                 self.finish(Err(e));
             }
         }
     }
 }
 
-impl LssMachine for LssMaster {
+driven_machine!(LssMaster, ServiceReport);
+
+impl Driven for LssMaster {
     type Output = ServiceReport;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(until) = self.wait_until
-            && now >= until
-        {
-            self.wait_until = None;
-            self.current = None;
-            self.advance(now);
-            return;
-        }
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.wait_until.or(self.ex.poll_timeout())
+    fn timer(&self) -> Option<Instant> {
+        self.wait_until
     }
 
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_timer(&mut self, now: Instant) {
+        self.wait_until = None;
+        self.current = None;
+        self.advance(now);
     }
 }

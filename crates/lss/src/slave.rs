@@ -14,8 +14,9 @@
 //! and after a second delay it resumes answering. Store configuration reports
 //! [`SlaveEvent::StoreConfiguration`] with the pending values for the application to persist.
 //!
-//! Fastscan responder: a slave that is in waiting state and has neither an active nor a
-//! pending node-ID answers bit check 0x80 (and resets its scan position to the vendor-ID);
+//! Fastscan responder: a slave that is in waiting state (or in either state, with
+//! [`SlaveConfig::fastscan_in_configuration`], as real slaves behave) and has neither an active
+//! nor a pending node-ID answers bit check 0x80 (and resets its scan position to the vendor-ID);
 //! otherwise it answers when `LSSSub` is its scan position and bits `BitChecked..=31` of its
 //! address part equal the IDNumber's, then moves its scan position to `LSSNext`. A full match
 //! (`BitChecked` 0) whose `LSSNext` is lower than `LSSSub` completes the address: the slave
@@ -69,6 +70,11 @@ pub struct SlaveConfig {
     /// If set, configure node-ID is refused with error 255 and this extension (to exercise
     /// the master's vendor-specific error path).
     pub node_id_vendor_error: Option<u8>,
+    /// Whether the slave takes part in Fastscan in configuration state too, as long as it has
+    /// no node-ID (active or pending). Real slaves do (CiA 305 ties Fastscan to the missing
+    /// node-ID; CANopenNode's slave, for one, checks only that); when unset the slave answers
+    /// Fastscan in waiting state only.
+    pub fastscan_in_configuration: bool,
 }
 
 impl SlaveConfig {
@@ -81,7 +87,16 @@ impl SlaveConfig {
             bit_rates: 0x01FF,
             store: StoreSupport::Supported,
             node_id_vendor_error: None,
+            fastscan_in_configuration: false,
         }
+    }
+
+    /// [`unconfigured`](Self::unconfigured), answering Fastscan in configuration state too,
+    /// as real slaves do.
+    pub const fn unconfigured_real(address: LssAddress) -> Self {
+        let mut c = Self::unconfigured(address);
+        c.fastscan_in_configuration = true;
+        c
     }
 }
 
@@ -419,7 +434,8 @@ impl LssSlave {
     }
 
     fn fastscan(&mut self, id_number: u32, bit_check: u8, lss_sub: u8, lss_next: u8) {
-        if self.state != SlaveState::Waiting || !self.is_unconfigured() {
+        let in_state = self.state == SlaveState::Waiting || self.config.fastscan_in_configuration;
+        if !in_state || !self.is_unconfigured() {
             return;
         }
         let (Some(sub), Some(_)) = (
@@ -688,6 +704,26 @@ mod tests {
         let _ = send(&mut s, Request::ConfigureNodeId(4));
         let _ = send(&mut s, Request::SwitchModeGlobal(Mode::Waiting));
         assert_eq!(send(&mut s, fs(0, 0x80, 0, 0)), None);
+    }
+
+    #[test]
+    fn real_slave_answers_fastscan_in_configuration_until_configured() {
+        let mut s = LssSlave::new(SlaveConfig::unconfigured_real(ADDR));
+        let confirm = Request::Fastscan {
+            id_number: 0,
+            bit_check: 0x80,
+            lss_sub: 0,
+            lss_next: 0,
+        };
+        let _ = send(&mut s, Request::SwitchModeGlobal(Mode::Configuration));
+        assert_eq!(send(&mut s, confirm), Some(Response::IdentifySlave));
+        // Configured but still in configuration state: the pending node-ID silences it.
+        let _ = send(&mut s, Request::ConfigureNodeId(4));
+        assert_eq!(s.state(), SlaveState::Configuration);
+        assert_eq!(send(&mut s, confirm), None);
+        // Unconfigured again (node-ID 0xFF): it answers again, still in configuration state.
+        let _ = send(&mut s, Request::ConfigureNodeId(0xFF));
+        assert_eq!(send(&mut s, confirm), Some(Response::IdentifySlave));
     }
 
     #[test]

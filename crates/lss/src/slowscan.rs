@@ -19,9 +19,9 @@ use heapless::Vec;
 use crate::address::LssAddress;
 use crate::error::LssError;
 use crate::fastscan::{AddressList, MAX_SLAVES};
-use crate::machine::{Events, Exchange, LssMachine, MasterEvent, Reply, ResponsePolicy};
+use crate::machine::{Driven, Io, MasterEvent, Reply, ResponsePolicy, driven_machine};
 use crate::service::{IdentifyQuery, Range};
-use crate::wire::{Request, Response, cs};
+use crate::wire::cs;
 
 /// What to search and how fast.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,12 +81,10 @@ fn halves(r: Range) -> (Range, Range) {
 #[derive(Debug, Clone)]
 pub struct Slowscan {
     config: SlowscanConfig,
-    ex: Exchange,
+    io: Io<AddressList>,
     stack: Vec<Probe, STACK>,
     current: Option<Probe>,
     found: AddressList,
-    events: Events<AddressList>,
-    finished: bool,
 }
 
 impl Slowscan {
@@ -94,12 +92,10 @@ impl Slowscan {
     pub const fn new(config: SlowscanConfig) -> Self {
         Self {
             config,
-            ex: Exchange::new(),
+            io: Io::new(),
             stack: Vec::new(),
             current: None,
             found: Vec::new(),
-            events: Events::new(),
-            finished: false,
         }
     }
 
@@ -113,11 +109,11 @@ impl Slowscan {
         if c.revision.low > c.revision.high || c.serial.low > c.serial.high {
             return Err(LssError::InvalidConfig("empty revision or serial range"));
         }
-        self.ex.clear();
+        self.io.ex.clear();
         self.stack.clear();
         self.found.clear();
-        self.events.clear();
-        self.finished = false;
+        self.io.events.clear();
+        self.io.finished = false;
         let _ = self.stack.push(Probe {
             revision: c.revision,
             serial: c.serial,
@@ -129,8 +125,8 @@ impl Slowscan {
     fn next(&mut self, now: Instant) {
         let Some(probe) = self.stack.pop() else {
             self.current = None;
-            self.finished = true;
-            self.events.finish(Ok(self.found.clone()));
+            self.io.finished = true;
+            self.io.events.finish(Ok(self.found.clone()));
             return;
         };
         let q = IdentifyQuery {
@@ -141,10 +137,10 @@ impl Slowscan {
         };
         let [a, b, c, d, e, f] = q.requests();
         for r in [a, b, c, d, e] {
-            self.ex.send(r);
+            self.io.ex.send(r);
         }
         let collect = self.config.policy == ResponsePolicy::WholeWindow;
-        self.ex.ask(
+        self.io.ex.ask(
             now,
             f,
             cs::IDENTIFY_SLAVE,
@@ -155,13 +151,13 @@ impl Slowscan {
     }
 
     fn fail(&mut self, e: LssError) {
-        self.ex.clear();
+        self.io.ex.clear();
         self.current = None;
-        self.finished = true;
-        self.events.finish(Err(e));
+        self.io.finished = true;
+        self.io.events.finish(Err(e));
     }
 
-    fn on_reply(&mut self, now: Instant, reply: Reply) {
+    fn react(&mut self, now: Instant, reply: Reply) {
         let Some(p) = self.current.take() else {
             return;
         };
@@ -194,7 +190,7 @@ impl Slowscan {
                         self.fail(LssError::TooMany(MAX_SLAVES));
                         return;
                     }
-                    self.events.push(MasterEvent::Found(a));
+                    self.io.events.push(MasterEvent::Found(a));
                 }
             }
         }
@@ -202,34 +198,20 @@ impl Slowscan {
     }
 }
 
-impl LssMachine for Slowscan {
+driven_machine!(Slowscan, AddressList);
+
+impl Driven for Slowscan {
     type Output = AddressList;
 
-    fn handle_response(&mut self, now: Instant, response: &Response) {
-        if let Some(reply) = self.ex.on_response(response) {
-            self.on_reply(now, reply);
-        }
+    fn io(&self) -> &Io<Self::Output> {
+        &self.io
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if let Some(reply) = self.ex.on_timeout(now) {
-            self.on_reply(now, reply);
-        }
+    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+        &mut self.io
     }
 
-    fn poll_transmit(&mut self) -> Option<Request> {
-        self.ex.poll_transmit()
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        self.ex.poll_timeout()
-    }
-
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>> {
-        self.events.poll()
-    }
-
-    fn is_finished(&self) -> bool {
-        self.finished
+    fn on_reply(&mut self, now: Instant, reply: Reply) {
+        self.react(now, reply);
     }
 }

@@ -24,6 +24,8 @@
 //! with their seven data bytes, so decode-then-encode loses nothing. Reserved bytes of known
 //! messages are ignored on decode and sent as zero.
 
+use core::fmt;
+
 use can_frame::cob::{LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
 use can_frame::{CanFrame, CanId};
 
@@ -329,6 +331,127 @@ pub enum Response {
         /// Bytes 1..=7.
         data: [u8; 7],
     },
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Waiting => f.write_str("waiting"),
+            Self::Configuration => f.write_str("configuration"),
+            Self::Unknown(v) => write!(f, "reserved mode {v}"),
+        }
+    }
+}
+
+impl fmt::Display for IdentifyField {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Vendor => "vendor-ID",
+            Self::Product => "product code",
+            Self::RevisionLow => "revision number low",
+            Self::RevisionHigh => "revision number high",
+            Self::SerialLow => "serial number low",
+            Self::SerialHigh => "serial number high",
+        })
+    }
+}
+
+impl fmt::Display for ConfigStatus {
+    /// `success`, or the error the slave reported.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.result() {
+            Ok(()) => f.write_str("success"),
+            Err(e) => write!(f, "error: {e}"),
+        }
+    }
+}
+
+/// A node-ID byte of configure node-ID or inquire node-ID.
+struct NodeIdByte(u8);
+
+impl fmt::Display for NodeIdByte {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            UNCONFIGURED_NODE_ID => f.write_str("unconfigured (0xFF)"),
+            1..=127 => write!(f, "{}", self.0),
+            v => write!(f, "{v} (invalid)"),
+        }
+    }
+}
+
+/// The seven data bytes of an unknown command specifier, as hex.
+struct Rest([u8; 7]);
+
+impl fmt::Display for Rest {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, b) in self.0.iter().enumerate() {
+            let sep = if i == 0 { "" } else { " " };
+            write!(f, "{sep}{b:02X}")?;
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Request {
+    /// The CiA 305 service name and its parameters, e.g. `LSS switch state global
+    /// configuration` or `LSS Fastscan id 0x00000000 bit 31 sub 0 next 0`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("LSS ")?;
+        match *self {
+            Self::SwitchModeGlobal(mode) => write!(f, "switch state global {mode}"),
+            Self::SwitchModeSelective(part, v) => {
+                write!(f, "switch state selective {part} {v:#010x}")
+            }
+            Self::ConfigureNodeId(id) => write!(f, "configure node-ID {}", NodeIdByte(id)),
+            Self::ConfigureBitTiming(t) => write!(f, "configure bit timing {t}"),
+            Self::ActivateBitTiming { delay_ms } => {
+                write!(f, "activate bit timing, switch delay {delay_ms} ms")
+            }
+            Self::StoreConfiguration => f.write_str("store configuration"),
+            Self::InquireIdentity(part) => write!(f, "inquire identity {part}"),
+            Self::InquireNodeId => f.write_str("inquire node-ID"),
+            Self::IdentifyRemoteSlave(field, v) => {
+                write!(f, "identify remote slave {field} {v:#010x}")
+            }
+            Self::IdentifyNonConfigured => f.write_str("identify non-configured remote slave"),
+            Self::Fastscan {
+                id_number,
+                bit_check,
+                lss_sub,
+                lss_next,
+            } => {
+                write!(f, "Fastscan id {id_number:#010x} bit ")?;
+                if bit_check == BIT_CHECK_CONFIRM {
+                    f.write_str("0x80 (confirm)")?;
+                } else {
+                    write!(f, "{bit_check}")?;
+                }
+                write!(f, " sub {lss_sub} next {lss_next}")
+            }
+            Self::Unknown { cs, data } => write!(f, "unknown cs {cs:#04X}: {}", Rest(data)),
+        }
+    }
+}
+
+impl fmt::Display for Response {
+    /// The CiA 305 response name and its parameters, e.g. `LSS configure node-ID response:
+    /// success` or `LSS identify slave`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("LSS ")?;
+        match *self {
+            Self::SwitchModeSelective => f.write_str("switch state selective response"),
+            Self::ConfigureNodeId(s) => write!(f, "configure node-ID response: {s}"),
+            Self::ConfigureBitTiming(s) => write!(f, "configure bit timing response: {s}"),
+            Self::StoreConfiguration(s) => write!(f, "store configuration response: {s}"),
+            Self::InquireIdentity(part, v) => {
+                write!(f, "inquire identity {part} response {v:#010x}")
+            }
+            Self::InquireNodeId(id) => write!(f, "inquire node-ID response {}", NodeIdByte(id)),
+            Self::IdentifySlave => f.write_str("identify slave"),
+            Self::IdentifyNonConfiguredSlave => f.write_str("identify non-configured slave"),
+            Self::Unknown { cs, data } => write!(f, "unknown cs {cs:#04X}: {}", Rest(data)),
+        }
+    }
 }
 
 /// The 8 bytes of `data`, or the length error. The only place that looks at the length.
@@ -815,6 +938,99 @@ mod tests {
             Request::parse(&[0x17, 1, 2, 3, 4, 5, 6, 7]),
             Ok(Request::StoreConfiguration)
         );
+    }
+
+    #[test]
+    fn messages_print_in_cia_vocabulary() {
+        use std::string::ToString;
+        let cases: [(Request, &str); 8] = [
+            (
+                Request::SwitchModeGlobal(Mode::Configuration),
+                "LSS switch state global configuration",
+            ),
+            (
+                Request::SwitchModeGlobal(Mode::Unknown(7)),
+                "LSS switch state global reserved mode 7",
+            ),
+            (
+                Request::Fastscan {
+                    id_number: 0,
+                    bit_check: 31,
+                    lss_sub: 0,
+                    lss_next: 0,
+                },
+                "LSS Fastscan id 0x00000000 bit 31 sub 0 next 0",
+            ),
+            (
+                Request::Fastscan {
+                    id_number: 0,
+                    bit_check: 0x80,
+                    lss_sub: 0,
+                    lss_next: 0,
+                },
+                "LSS Fastscan id 0x00000000 bit 0x80 (confirm) sub 0 next 0",
+            ),
+            (
+                Request::SwitchModeSelective(AddressPart::Serial, 0xCAFE),
+                "LSS switch state selective serial number 0x0000cafe",
+            ),
+            (
+                Request::ConfigureNodeId(0xFF),
+                "LSS configure node-ID unconfigured (0xFF)",
+            ),
+            (
+                Request::ConfigureBitTiming(BitRate::Kbit125.into()),
+                "LSS configure bit timing 125 kbit/s",
+            ),
+            (
+                Request::Unknown {
+                    cs: 0x99,
+                    data: [1, 2, 3, 4, 5, 6, 0xAB],
+                },
+                "LSS unknown cs 0x99: 01 02 03 04 05 06 AB",
+            ),
+        ];
+        for (r, text) in cases {
+            assert_eq!(r.to_string(), text);
+        }
+        let cases: [(Response, &str); 4] = [
+            (
+                Response::StoreConfiguration(ConfigStatus {
+                    code: 1,
+                    extension: 0,
+                }),
+                "LSS store configuration response: error: not supported or invalid (error code 1)",
+            ),
+            (
+                Response::ConfigureNodeId(ConfigStatus::OK),
+                "LSS configure node-ID response: success",
+            ),
+            (
+                Response::InquireIdentity(AddressPart::Vendor, 0x78),
+                "LSS inquire identity vendor-ID response 0x00000078",
+            ),
+            (Response::IdentifySlave, "LSS identify slave"),
+        ];
+        for (r, text) in cases {
+            assert_eq!(r.to_string(), text);
+        }
+    }
+
+    proptest! {
+        /// Every request and response prints without Rust debug syntax.
+        #[test]
+        fn display_never_shows_debug(bytes in any::<[u8; 8]>()) {
+            use std::string::ToString;
+            for text in [
+                Request::parse(&bytes).unwrap().to_string(),
+                Response::parse(&bytes).unwrap().to_string(),
+            ] {
+                prop_assert!(text.starts_with("LSS "));
+                for debug in ["{", "}", "::", "Some(", "Unknown", "Fastscan {", "_id"] {
+                    prop_assert!(!text.contains(debug), "{text}");
+                }
+            }
+        }
     }
 
     fn any_part() -> impl Strategy<Value = AddressPart> {

@@ -106,6 +106,33 @@ impl Bus {
         bus
     }
 
+    /// Unconfigured slaves that, as real slaves do, answer Fastscan in configuration state too.
+    pub(crate) fn with_real(delivery: Delivery, addresses: &[LssAddress]) -> Self {
+        let mut bus = Self::new(delivery);
+        for a in addresses {
+            bus.add(SlaveConfig::unconfigured_real(*a));
+        }
+        bus
+    }
+
+    /// [`with_real`](Self::with_real) when `real`, else [`with_unconfigured`](Self::with_unconfigured).
+    pub(crate) fn with_slaves(delivery: Delivery, addresses: &[LssAddress], real: bool) -> Self {
+        if real {
+            Self::with_real(delivery, addresses)
+        } else {
+            Self::with_unconfigured(delivery, addresses)
+        }
+    }
+
+    /// How many Fastscan requests the master sent (each costs one response window under
+    /// `ResponsePolicy::WholeWindow`).
+    pub(crate) fn fastscans(&self) -> u64 {
+        self.sent
+            .iter()
+            .filter(|(_, r)| matches!(r, Request::Fastscan { .. }))
+            .count() as u64
+    }
+
     pub(crate) fn add(&mut self, config: SlaveConfig) {
         self.slaves.push(LssSlave::new(config));
     }

@@ -1,0 +1,242 @@
+//! `canopen lss` as a binary against simulated LSS slaves on the in-memory bus, with the bus
+//! recorded to a candump log (`--record-bus`) to check what reached the wire.
+
+use std::process::{Command, Output};
+
+fn canopen(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("canopen-lss-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Runs `canopen lss --record-bus LOG <args>` and returns the output and the `ID#DATA` frames
+/// of the log.
+fn recorded(name: &str, args: &[&str]) -> (Output, Vec<String>) {
+    let log = tmp(name);
+    let log_arg = log.to_str().unwrap();
+    let mut all = vec!["lss", "--record-bus", log_arg];
+    all.extend_from_slice(args);
+    let o = canopen(&all);
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let frames = text
+        .lines()
+        .map(|l| l.rsplit(' ').next().unwrap_or_default().to_string())
+        .collect();
+    (o, frames)
+}
+
+#[test]
+fn commands_that_only_transmit_put_their_frame_on_the_bus() {
+    for (args, frame) in [
+        (&["switch-global", "config"][..], "7E5#0401000000000000"),
+        (&["switch-global", "waiting"][..], "7E5#0400000000000000"),
+        (
+            &["--unconfigured", "1", "switch-global", "config"][..],
+            "7E5#0401000000000000",
+        ),
+    ] {
+        let (o, frames) = recorded("switch.log", args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        assert_eq!(frames, [frame], "{args:?}");
+    }
+    // Bit rate change: switch global, configure bit timing (answered), activate, switch back.
+    let (o, frames) = recorded(
+        "rate.log",
+        &["--unconfigured", "1", "set-bit-rate", "250", "--delay", "5"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        frames,
+        [
+            "7E5#0401000000000000",
+            "7E5#1300030000000000",
+            "7E4#1300000000000000",
+            "7E5#1505000000000000",
+            "7E5#0400000000000000",
+        ]
+    );
+    // Store configuration of the slave in configuration state.
+    let (o, frames) = recorded("store.log", &["--unconfigured", "1", "store"]);
+    assert!(!o.status.success(), "nobody is in configuration state");
+    assert_eq!(frames, ["7E5#1700000000000000"]);
+}
+
+#[test]
+fn assign_all_of_1_2_20_real_slaves_finishes() {
+    for n in [1u32, 2, 20] {
+        let count = n.to_string();
+        let o = canopen(&[
+            "--json",
+            "lss",
+            "--unconfigured",
+            &count,
+            "--real-slaves",
+            "assign-all",
+            "--first",
+            "10",
+            "--last",
+            "127",
+        ]);
+        assert!(o.status.success(), "{n}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+        let ids: Vec<u64> = v["assigned"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e["node_id"].as_u64().unwrap())
+            .collect();
+        assert_eq!(ids, (10..10 + u64::from(n)).collect::<Vec<_>>(), "{n}");
+        assert!(v["stopped"].is_null());
+        assert!(
+            v["slaves"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .all(|e| e["stored"] == true)
+        );
+    }
+}
+
+#[test]
+fn discover_all_of_real_slaves_finishes_and_releases_them() {
+    let (o, frames) = recorded(
+        "discover.log",
+        &[
+            "--json",
+            "--unconfigured",
+            "3",
+            "--real-slaves",
+            "discover-all",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let serials: Vec<u64> = v["found"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["serial"].as_u64().unwrap())
+        .collect();
+    assert_eq!(serials, [1001, 1002, 1003]);
+    assert_eq!(
+        frames.last().map(String::as_str),
+        Some("7E5#0400000000000000")
+    );
+}
+
+#[test]
+fn slaves_without_store_are_assigned_not_stored() {
+    let o = canopen(&[
+        "lss",
+        "--unconfigured",
+        "2",
+        "--real-slaves",
+        "--store-unsupported",
+        "assign-all",
+        "--first",
+        "5",
+        "--last",
+        "9",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert_eq!(text.matches("assigned, not stored").count(), 2, "{text}");
+    assert!(text.contains("node-ID 5 assigned") && text.contains("node-ID 6 assigned"));
+
+    let o = canopen(&[
+        "lss",
+        "--unconfigured",
+        "1",
+        "--store-unsupported",
+        "configure-node-id",
+        "42",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("node-ID 42 assigned, not stored"),
+        "{}",
+        stdout(&o)
+    );
+    let o = canopen(&[
+        "--json",
+        "lss",
+        "--unconfigured",
+        "1",
+        "--store-unsupported",
+        "configure-node-id",
+        "42",
+    ]);
+    assert_eq!(stdout(&o).trim(), r#"{"node_id":42,"stored":false}"#);
+    let o = canopen(&[
+        "--json",
+        "lss",
+        "--unconfigured",
+        "1",
+        "configure-node-id",
+        "42",
+    ]);
+    assert_eq!(stdout(&o).trim(), r#"{"node_id":42,"stored":true}"#);
+}
+
+#[test]
+fn an_empty_pool_is_a_usage_error() {
+    let (o, frames) = recorded(
+        "empty.log",
+        &[
+            "--unconfigured",
+            "1",
+            "assign-all",
+            "--first",
+            "10",
+            "--last",
+            "2",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(stderr(&o).contains("empty node-ID pool"), "{}", stderr(&o));
+    assert!(frames.is_empty(), "nothing is sent: {frames:?}");
+}
+
+#[test]
+fn step_timeout_is_documented_and_used() {
+    let o = canopen(&["lss", "--help"]);
+    let help = stdout(&o);
+    assert!(help.contains("--step-timeout <MS>"), "{help}");
+    let (o, frames) = recorded(
+        "timeout.log",
+        &["--step-timeout", "7", "--unconfigured", "1", "fastscan"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        frames.iter().filter(|f| f.starts_with("7E5#51")).count(),
+        133
+    );
+    // Each Fastscan request waits out its window (7 ms) before the next one goes out.
+    let log = std::fs::read_to_string(tmp("timeout.log")).unwrap();
+    let times: Vec<f64> = log
+        .lines()
+        .filter(|l| l.contains(" 7E5#51"))
+        .map(|l| l[1..l.find(')').unwrap()].parse().unwrap())
+        .collect();
+    for pair in times.windows(2) {
+        let gap_us = ((pair[1] - pair[0]) * 1e6).round();
+        assert_eq!(gap_us, 7000.0, "{times:?}");
+    }
+    let o = canopen(&["lss", "--step-timeout", "0", "fastscan"]);
+    assert_eq!(o.status.code(), Some(2));
+}
