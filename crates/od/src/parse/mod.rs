@@ -1,0 +1,278 @@
+//! CiA 306 EDS/DCF parser: bytes in, [`ObjectDictionary`] plus diagnostics out.
+//!
+//! A hand-written line scanner (one pass over the text, then one pass over the sections; no
+//! backtracking, so linear in the input). It reads CiA 306 v1.3 files: `[FileInfo]`,
+//! `[DeviceInfo]`, `[DummyUsage]`, `[Comments]`, the three object lists, object and
+//! `[xxxxsubN]` sections, `CompactSubObj` with `[xxxxName]`, `[xxxxValue]` and
+//! `[xxxxDenotation]`, `[xxxxObjectLinks]`, `[DeviceComissioning]`, and keeps module and tool
+//! sections verbatim.
+//!
+//! Real files deviate from the standard; each accepted deviation is reported as a
+//! [`Severity::Warning`] with its line: CRLF is silent, but non-UTF-8 bytes (read as
+//! Windows-1252), lower-case hex section names, `Sub` instead of `sub`, duplicate sections and
+//! keys (merged, later value wins), key case and spaces, `#` comments, trailing whitespace,
+//! quoted strings, C integer suffixes, unusual `EDSVersion` values all produce warnings. Input
+//! that cannot be understood (a line that is not a section, key or comment; a non-numeric
+//! `ObjectType` or `DataType`; a VAR without `DataType`) is a [`Severity::Error`], and the whole
+//! parse fails with every error listed.
+//!
+//! The parser runs in stages, one module each:
+//!
+//! - `decode` — bytes to text (UTF-8, or Windows-1252 line by line);
+//! - `lines` — the word-at-a-time line splitter the scanner reads with;
+//! - `names` — section names to section kinds (`[1018sub2]`, `[DeviceInfo]`, ...);
+//! - `scan` — one pass over the lines: sections, their `key=value` entries, duplicates merged;
+//!   sub sections are built into sub-objects as soon as they end;
+//! - `keys` — the canonical keys of each kind of section and readers for their values;
+//! - `build` — object sections and their sub-objects into the [`ObjectDictionary`];
+//! - `info` — the information sections: file and device information, commissioning,
+//!   comments, dummy usage and the object lists.
+
+mod build;
+mod decode;
+mod info;
+mod keys;
+mod lines;
+mod names;
+mod scan;
+
+use alloc::vec::Vec;
+use core::fmt;
+
+use crate::diag::{Diagnostic, Severity, Sink};
+use crate::model::ObjectDictionary;
+
+/// A successfully parsed file: the model and the warnings.
+#[derive(Debug, Clone)]
+pub struct Parsed {
+    /// The object dictionary.
+    pub od: ObjectDictionary,
+    /// Warnings, sorted by line.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// A file that could not be understood: every error (and the warnings) with its line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParseError {
+    /// All diagnostics, sorted by line; at least one is an error.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl ParseError {
+    /// The errors only.
+    pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
+        self.diagnostics
+            .iter()
+            .filter(|d| d.severity == Severity::Error)
+    }
+}
+
+impl fmt::Display for ParseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.errors().count();
+        match self.errors().next() {
+            Some(first) => write!(f, "{first} ({n} error(s) in total)"),
+            None => f.write_str("parse failed"),
+        }
+    }
+}
+
+impl core::error::Error for ParseError {}
+
+/// Parses an EDS or DCF file.
+///
+/// Never panics; memory is proportional to the input size.
+pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
+    let mut sink = Sink::default();
+    let text = decode::decode(input, &mut sink);
+    let scan = scan::scan(&text, &mut sink);
+    let sections = scan::sections(&scan.entries, &scan.sections);
+    let od = build::build(&sections, scan.subs, scan.built, &mut sink);
+    if sink.has_errors() {
+        Err(ParseError {
+            diagnostics: sink.finish(),
+        })
+    } else {
+        Ok(Parsed {
+            od,
+            diagnostics: sink.finish(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diag::DiagnosticKind as K;
+    use crate::types::{AccessType, DataType};
+    use crate::value::Value;
+    use alloc::format;
+    use alloc::string::String;
+
+    #[test]
+    fn sub_sections_out_of_order_and_repeated() {
+        // 0x2001 before 0x2000, sub 2 before sub 1, and [2000sub1] given twice: every
+        // sub-object lands in its object, the later keys win and the repetition is reported.
+        let src = "[2001]\nParameterName=B\nObjectType=0x8\nSubNumber=2\n\
+            [2001sub1]\nParameterName=b1\nDataType=0x0005\nAccessType=rw\n\
+            [2000]\nParameterName=A\nObjectType=0x9\nSubNumber=3\n\
+            [2000sub2]\nParameterName=a2\nDataType=0x0006\nAccessType=ro\n\
+            [2000sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=2\n\
+            [2000sub1]\nParameterName=a1\nDataType=0x0007\nAccessType=ro\n\
+            [2001sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\n\
+            [2000sub1]\nAccessType=rw\nDefaultValue=7\n";
+        let p = parse(src.as_bytes()).unwrap();
+        let a = p.od.get(0x2000).unwrap();
+        assert_eq!(a.subs.keys().collect::<Vec<_>>(), [0, 1, 2]);
+        let a1 = a.sub(1).unwrap();
+        assert_eq!((a1.name.as_str(), a1.access), ("a1", AccessType::Rw));
+        assert_eq!(a1.default_value.as_ref().unwrap().text, "7");
+        let b = p.od.get(0x2001).unwrap();
+        assert_eq!(b.subs.keys().collect::<Vec<_>>(), [0, 1]);
+        let dup: Vec<_> = p
+            .diagnostics
+            .iter()
+            .filter(|d| d.message.contains("appears again"))
+            .map(|d| d.line)
+            .collect();
+        assert_eq!(dup, [30]);
+    }
+
+    const MINI: &str = "[FileInfo]\r\nEDSVersion=4.0\r\n[DeviceInfo]\r\nVendorNumber=0x123\r\nBaudRate_250=1\r\n\
+[1017]\r\nParameterName=Producer heartbeat time\r\nObjectType=0x7\r\nDataType=0x0006\r\nAccessType=rw\r\nDefaultValue=1000\r\nPDOMapping=0\r\n\
+[1018]\r\nParameterName=Identity\r\nObjectType=0x9\r\nSubNumber=2\r\n\
+[1018sub0]\r\nParameterName=n\r\nDataType=0x0005\r\nAccessType=ro\r\nDefaultValue=1\r\n\
+[1018sub1]\r\nParameterName=Vendor-ID\r\nDataType=0x0007\r\nAccessType=ro\r\nDefaultValue=0x123";
+
+    #[test]
+    fn minimal_file() {
+        let p = parse(MINI.as_bytes()).unwrap();
+        assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics);
+        let hb = p.od.sub(0x1017, 0).unwrap();
+        assert_eq!(hb.data_type, DataType::Unsigned16);
+        assert_eq!(hb.access, AccessType::Rw);
+        assert_eq!(
+            hb.default_value.as_ref().unwrap().resolve(1),
+            Some(Value::Unsigned16(1000))
+        );
+        assert_eq!(p.od.get(0x1018).unwrap().subs.len(), 2);
+        assert_eq!(p.od.device_info.vendor_number, Some(0x123));
+        assert_eq!(p.od.device_info.baud_rates[4], Some(true));
+        assert_eq!(p.od.sub(0x1017, 0).unwrap().line.0, 6);
+    }
+
+    #[test]
+    fn tolerances_warn_with_lines() {
+        let src = "[FileInfo]\nEDSVersion=4\n[1000]\n ParameterName = Device type\t\nDataType=0x0007\nAccessType=RO\n# hash comment\n[1000]\nDefaultValue=0x1234LL\n[1800]\nObjectType=0x9\nParameterName=x\n[1800Sub1]\nParameterName=y\nDataType=7\nAccessType=rw";
+        let p = parse(src.as_bytes()).unwrap();
+        let lines: Vec<u32> = p.diagnostics.iter().map(|d| d.line).collect();
+        for l in [2, 4, 6, 7, 8, 9, 13] {
+            assert!(
+                lines.contains(&l),
+                "no warning on line {l}: {:#?}",
+                p.diagnostics
+            );
+        }
+        assert!(
+            p.diagnostics
+                .iter()
+                .all(|d| d.severity == Severity::Warning)
+        );
+        assert_eq!(
+            p.od.sub(0x1000, 0)
+                .unwrap()
+                .default_value
+                .as_ref()
+                .unwrap()
+                .resolve(0),
+            Some(Value::Unsigned32(0x1234))
+        );
+        assert!(p.od.sub(0x1800, 1).is_some());
+    }
+
+    #[test]
+    fn errors_have_lines() {
+        let src = "[1000]\nParameterName=a\nObjectType=0x007 # VAR\n[1001]\nParameterName=b\nAccessType=ro\ngarbage line\n";
+        let e = parse(src.as_bytes()).unwrap_err();
+        let errs: Vec<u32> = e.errors().map(|d| d.line).collect();
+        assert_eq!(errs, [3, 4, 7]);
+    }
+
+    #[test]
+    fn compact_sub_obj_expands() {
+        let src = "[1016]\nParameterName=Consumer heartbeat time\nObjectType=0x8\nDataType=0x0007\nAccessType=rw\nCompactSubObj=3\nDefaultValue=0\n[1016Value]\nNrOfEntries=1\n2=0x00050064\n[1016Name]\nNrOfEntries=1\n1=first\n";
+        let p = parse(src.as_bytes()).unwrap();
+        let o = p.od.get(0x1016).unwrap();
+        assert_eq!(o.subs.len(), 4);
+        assert_eq!(
+            o.sub(0).unwrap().default_value.as_ref().unwrap().resolve(0),
+            Some(Value::Unsigned8(3))
+        );
+        assert_eq!(o.sub(1).unwrap().name, "first");
+        assert_eq!(
+            o.sub(2).unwrap().parameter_value().unwrap().resolve(0),
+            Some(Value::Unsigned32(0x0005_0064))
+        );
+    }
+
+    #[test]
+    fn duplicate_sub_sections_merge_and_ignored_subs_do_not_fail() {
+        let src = "[1000]\nParameterName=Device type\nDataType=0x0007\nAccessType=ro\n\
+[1000sub1]\nParameterName=ignored, and broken\nDataType=oops\n\
+[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=1\n\
+[1018sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+[1018sub0]\nDefaultValue=4\n";
+        let p = parse(src.as_bytes()).unwrap();
+        let sub0 = p.od.sub(0x1018, 0).unwrap();
+        assert_eq!(sub0.name, "n");
+        assert_eq!(sub0.default_value.as_ref().unwrap().text, "4");
+        assert!(
+            p.diagnostics
+                .iter()
+                .any(|d| d.kind == K::Duplicate && d.line == 17)
+        );
+        assert!(
+            p.diagnostics
+                .iter()
+                .any(|d| d.kind == K::Duplicate && d.line == 18)
+        );
+        assert!(
+            p.diagnostics
+                .iter()
+                .any(|d| d.kind == K::Structure && d.line == 5)
+        );
+    }
+
+    /// Inputs that a naive merge of repeated sections or keys would handle in quadratic time.
+    /// (No time is asserted; a quadratic parser makes this test take minutes instead of
+    /// milliseconds.)
+    #[test]
+    fn repetition_stays_linear() {
+        let mut src = String::from("[1018]\nParameterName=Identity\nObjectType=0x9\n");
+        for i in 0..20_000 {
+            src.push_str(&format!(
+                "[1018sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue={}\nX{i}=1\nY=2\n",
+                i % 200
+            ));
+        }
+        let p = parse(src.as_bytes()).unwrap();
+        let sub0 = p.od.sub(0x1018, 0).unwrap();
+        assert_eq!(sub0.default_value.as_ref().unwrap().text, "199");
+        // 20 000 distinct unknown keys merged, plus the last `Y`.
+        assert_eq!(sub0.extra().len(), 20_001);
+    }
+
+    #[test]
+    fn latin1_bytes_never_fail() {
+        let src = b"[Comments]\nLines=1\nLine1=Sch\x94naich\n";
+        let p = parse(src).unwrap();
+        assert_eq!(p.od.comments, ["Sch\u{201D}naich"]);
+        let enc: Vec<u32> = p
+            .diagnostics
+            .iter()
+            .filter(|d| d.kind == K::Encoding)
+            .map(|d| d.line)
+            .collect();
+        assert_eq!(enc, [3]);
+    }
+}
