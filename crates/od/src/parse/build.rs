@@ -13,12 +13,11 @@ use compact_str::{CompactString, format_compact};
 
 use super::info::{comments, commissioning, device_info, dummy_usage, file_info, object_list};
 use super::keys::{
-    KeyTable, Keys, Where, boolean, extra_owned, note_warnings, resolve_keys, truncate, uint,
-    unquote,
+    KeyTable, Keys, Where, boolean, extra_owned, note_warnings, resolve_keys, uint, unquote,
 };
 use super::names::SectionKind;
 use super::scan::{Entry, Section, SubRec};
-use crate::diag::{DiagnosticKind as K, Sink};
+use crate::diag::{DiagnosticKind as K, Echo, Sink};
 use crate::model::{FieldValue, Line, Object, ObjectDictionary, RawSection, SubObject, SubObjects};
 use crate::types::{AccessType, DataType, ObjectCode};
 use crate::value::{TextError, TextNotes, parse_int_literal};
@@ -111,7 +110,7 @@ pub(super) fn build(
                         sec.line,
                         format!(
                             "section [{}] is not defined by CiA 306; kept verbatim",
-                            sec.name
+                            Echo(sec.name)
                         ),
                     );
                 }
@@ -149,7 +148,7 @@ pub(super) fn build(
                 sec.line,
                 format!(
                     "[{}] has no object section [{index:04X}]; ignored",
-                    sec.name
+                    Echo(sec.name)
                 ),
             );
         }
@@ -197,7 +196,7 @@ pub(super) fn build(
             sec.line,
             format!(
                 "[{}] refers to an object with no section; ignored",
-                sec.name
+                Echo(sec.name)
             ),
         );
     }
@@ -269,7 +268,7 @@ pub(super) fn object_code(sink: &mut Sink, k: &Keys<'_, 15>, what: Where) -> Opt
                 line,
                 format!(
                     "{what}: ObjectType=`{}` is not a number; write 0x7 (VAR), 0x8 (ARRAY), 0x9 (RECORD) or 0x2 (DOMAIN)",
-                    truncate(text)
+                    Echo(text)
                 ),
             );
             None
@@ -307,7 +306,7 @@ pub(super) fn sub_object(
                         dline,
                         format!(
                             "{what}: DataType=`{}` is not a data type index; write e.g. 0x0007 for UNSIGNED32",
-                            truncate(text)
+                            Echo(text)
                         ),
                     );
                     return None;
@@ -332,7 +331,7 @@ pub(super) fn sub_object(
             Some(a) => {
                 if a.as_str() != text {
                     sink.warn(
-                        K::Spelling,
+                        K::Style,
                         aline,
                         format!(
                             "AccessType={text}: CiA 306 writes `{}` in lower case",
@@ -348,7 +347,7 @@ pub(super) fn sub_object(
                     aline,
                     format!(
                         "{what}: AccessType=`{}` is none of ro, wo, rw, rwr, rww, const; treated as ro",
-                        truncate(text)
+                        Echo(text)
                     ),
                 );
                 sub.extras_mut().access_raw = Some(text.to_string());
@@ -374,10 +373,7 @@ pub(super) fn sub_object(
             Err(e) => sink.warn(
                 K::Value,
                 fline,
-                format!(
-                    "{what}: {label}=`{}`: {e}; kept as text only",
-                    truncate(text)
-                ),
+                format!("{what}: {label}=`{}`: {e}; kept as text only", Echo(text)),
             ),
         }
         Some(f)
@@ -443,7 +439,7 @@ pub(super) fn object(
                     s.line,
                     format!(
                         "[{}]: {what} is a {}, so its sub sections are ignored",
-                        s.name,
+                        Echo(s.name),
                         code.name()
                     ),
                 );
@@ -539,7 +535,7 @@ pub(super) fn object(
                 rec.line,
                 format!(
                     "sub-object {index:04X}sub{s:X} also defined by CompactSubObj; the [{}] section wins",
-                    rec.name
+                    Echo(rec.name)
                 ),
             );
         }
@@ -567,7 +563,7 @@ pub(super) fn apply_names(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Si
                 line,
                 format!(
                     "[{}]: sub-index {sub} does not exist; name ignored",
-                    sec.name
+                    Echo(sec.name)
                 ),
             ),
         },
@@ -591,8 +587,8 @@ pub(super) fn apply_values(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut S
                         line,
                         format!(
                             "[{}] {sub}=`{}`: {e}; kept as text only",
-                            sec.name,
-                            truncate(value)
+                            Echo(sec.name),
+                            Echo(value)
                         ),
                     ),
                 }
@@ -603,7 +599,7 @@ pub(super) fn apply_values(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut S
                 line,
                 format!(
                     "[{}]: sub-index {sub} does not exist; value ignored",
-                    sec.name
+                    Echo(sec.name)
                 ),
             ),
         },
@@ -623,7 +619,7 @@ pub(super) fn apply_denotations(obj: &mut Object, sec: &Section<'_, '_>, sink: &
                 line,
                 format!(
                     "[{}]: sub-index {sub} does not exist; denotation ignored",
-                    sec.name
+                    Echo(sec.name)
                 ),
             ),
         },
@@ -656,7 +652,8 @@ pub(super) fn for_numbered(
                 e.line,
                 format!(
                     "[{}]: key `{}` is not a sub-index; ignored",
-                    sec.name, e.key
+                    Echo(sec.name),
+                    Echo(e.key)
                 ),
             ),
         }
@@ -667,7 +664,10 @@ pub(super) fn for_numbered(
         sink.warn(
             K::Structure,
             line,
-            format!("[{}]: {count_key}={c} but {seen} entries follow", sec.name),
+            format!(
+                "[{}]: {count_key}={c} but {seen} entries follow",
+                Echo(sec.name)
+            ),
         );
     }
 }

@@ -11,7 +11,7 @@ use alloc::vec::Vec;
 use super::keys::{KeyTable, boolean, extra_owned, resolve_keys, uint, unquote};
 use super::names::{hex4, strip_prefix_ci};
 use super::scan::Section;
-use crate::diag::{DiagnosticKind as K, Sink};
+use crate::diag::{DiagnosticKind as K, Echo, Sink};
 use crate::model::{BAUD_RATES_KBIT, DeviceCommissioning, DeviceInfo, FileInfo};
 use crate::value::{TextNotes, parse_int_literal};
 
@@ -34,7 +34,8 @@ pub(super) fn object_list(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<u16> {
                 e.line,
                 format!(
                     "[{}]: key `{}` is not a list position; ignored",
-                    sec.name, e.key
+                    Echo(sec.name),
+                    Echo(e.key)
                 ),
             );
             continue;
@@ -48,7 +49,7 @@ pub(super) fn object_list(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<u16> {
                 e.line,
                 format!(
                     "[{}]: position {n} given again (first at line {first}); this value wins",
-                    sec.name
+                    Echo(sec.name)
                 ),
             );
         }
@@ -61,7 +62,7 @@ pub(super) fn object_list(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<u16> {
             line,
             format!(
                 "[{}]: count says {c} but {} entries follow",
-                sec.name,
+                Echo(sec.name),
                 items.len()
             ),
         );
@@ -81,7 +82,7 @@ pub(super) fn comments(sec: &Section<'_, '_>, sink: &mut Sink) -> Vec<String> {
             sink.warn(
                 K::Structure,
                 e.line,
-                format!("[Comments]: key `{}` ignored", e.key),
+                format!("[Comments]: key `{}` ignored", Echo(e.key)),
             );
         }
     }
@@ -112,7 +113,7 @@ pub(super) fn dummy_usage(sec: &Section<'_, '_>, sink: &mut Sink) -> BTreeMap<u1
             None => sink.warn(
                 K::Structure,
                 e.line,
-                format!("[DummyUsage]: key `{}` ignored", e.key),
+                format!("[DummyUsage]: key `{}` ignored", Echo(e.key)),
             ),
         }
     }
@@ -142,7 +143,10 @@ pub(super) fn file_info(sec: &Section<'_, '_>, sink: &mut Sink) -> FileInfo {
         sink.warn(
             K::Spelling,
             line,
-            format!("EDSVersion={v}: CiA 306 v1.3 files say 4.0; read as 4.0"),
+            format!(
+                "EDSVersion={}: CiA 306 v1.3 files say 4.0; read as 4.0",
+                Echo(v)
+            ),
         );
     }
     FileInfo {

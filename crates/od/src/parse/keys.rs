@@ -10,16 +10,8 @@ use alloc::vec::Vec;
 use core::fmt;
 
 use super::scan::Section;
-use crate::diag::{DiagnosticKind as K, Sink};
+use crate::diag::{DiagnosticKind as K, Echo, Sink};
 use crate::value::{TextNotes, parse_int_literal};
-
-/// The first 60 characters of `s`, for echoing input in messages.
-pub(super) fn truncate(s: &str) -> &str {
-    match s.char_indices().nth(60) {
-        Some((i, _)) => &s[..i],
-        None => s,
-    }
-}
 
 /// Resolved keys of one section: canonical key slot -> (value, line), duplicates reported.
 pub(super) struct Keys<'a, const N: usize> {
@@ -42,9 +34,9 @@ pub(super) fn resolve_keys<'a, const N: usize>(
                 let canon = table.keys.get(i).copied().unwrap_or("");
                 if !exact {
                     sink.warn(
-                        K::Spelling,
+                        K::Style,
                         e.line,
-                        format!("key `{}` should be spelled `{canon}`", e.key),
+                        format!("key `{}` should be spelled `{canon}`", Echo(e.key)),
                     );
                 }
                 if let Some(Some((_, first))) = k.slots.get(i) {
@@ -53,7 +45,7 @@ pub(super) fn resolve_keys<'a, const N: usize>(
                         e.line,
                         format!(
                             "key `{canon}` given again in [{}] (first at line {first}); this value wins",
-                            sec.name
+                            Echo(sec.name)
                         ),
                     );
                 }
@@ -159,8 +151,10 @@ pub(super) fn dedup_extra(extra: &mut Vec<(&str, &str, u32)>, section: &str, sin
                 K::Duplicate,
                 extra[here].2,
                 format!(
-                    "key `{}` given again in [{section}] (first at line {}); this value wins",
-                    extra[here].0, extra[first].2
+                    "key `{}` given again in [{}] (first at line {}); this value wins",
+                    Echo(extra[here].0),
+                    Echo(section),
+                    extra[first].2
                 ),
             );
             extra[first] = extra[here];
@@ -213,21 +207,24 @@ pub(super) fn report_notes(sink: &mut Sink, line: u32, what: &str, notes: TextNo
         sink.warn(
             K::Spelling,
             line,
-            format!("{what}: C integer suffix (LL/U) ignored"),
+            format!("{}: C integer suffix (LL/U) ignored", Echo(what)),
         );
     }
     if notes.leading_zero_decimal {
         sink.warn(
             K::Spelling,
             line,
-            format!("{what}: leading 0 means octal in CiA 306, but the digits are decimal; read as decimal"),
+            format!(
+                "{}: leading 0 means octal in CiA 306, but the digits are decimal; read as decimal",
+                Echo(what)
+            ),
         );
     }
     if notes.quoted {
         sink.warn(
             K::Spelling,
             line,
-            format!("{what}: surrounding double quotes removed"),
+            format!("{}: surrounding double quotes removed", Echo(what)),
         );
     }
 }
@@ -249,7 +246,11 @@ pub(super) fn uint(
             sink.warn(
                 K::Value,
                 line,
-                format!("{what}=`{text}` is not a number in 0..={max}; ignored"),
+                format!(
+                    "{}=`{}` is not a number in 0..={max}; ignored",
+                    Echo(what),
+                    Echo(text)
+                ),
             );
             None
         }
@@ -262,7 +263,7 @@ pub(super) fn boolean(sink: &mut Sink, (text, line): (&str, u32), what: &str) ->
             sink.warn(
                 K::Value,
                 line,
-                format!("{what}={text}: expected 0 or 1; read as 1"),
+                format!("{}={}: expected 0 or 1; read as 1", Echo(what), Echo(text)),
             );
         }
         v != 0
@@ -275,7 +276,7 @@ pub(super) fn unquote<'t>(sink: &mut Sink, (text, line): (&'t str, u32), what: &
         sink.warn(
             K::Spelling,
             line,
-            format!("{what}: surrounding double quotes removed"),
+            format!("{}: surrounding double quotes removed", Echo(what)),
         );
         &text[1..text.len() - 1]
     } else {

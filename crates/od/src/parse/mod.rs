@@ -39,7 +39,7 @@ mod scan;
 use alloc::vec::Vec;
 use core::fmt;
 
-use crate::diag::{Diagnostic, Severity, Sink};
+use crate::diag::{Diagnostic, DiagnosticKind, DiagnosticKind as K, Severity, Sink};
 use crate::model::ObjectDictionary;
 
 /// A successfully parsed file: the model and the warnings.
@@ -51,25 +51,36 @@ pub struct Parsed {
     pub diagnostics: Vec<Diagnostic>,
 }
 
-/// A file that could not be understood: every error (and the warnings) with its line.
+/// A file that could not be understood: its errors (and the warnings) with their lines.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ParseError {
-    /// All diagnostics, sorted by line; at least one is an error.
+    /// The diagnostics listed, sorted by line; at least one is an error. Beyond 25 of one
+    /// severity and kind, one `Suppressed` diagnostic of that severity counts the rest.
     pub diagnostics: Vec<Diagnostic>,
 }
 
 impl ParseError {
-    /// The errors only.
+    /// The errors listed (including the `Suppressed` summaries of errors not listed).
     pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
         self.diagnostics
             .iter()
             .filter(|d| d.severity == Severity::Error)
     }
+
+    /// How many errors the file has, listed or not.
+    pub fn error_count(&self) -> usize {
+        self.errors()
+            .map(|d| match d.kind {
+                DiagnosticKind::Suppressed => d.suppressed_count().unwrap_or(0),
+                _ => 1,
+            })
+            .sum()
+    }
 }
 
 impl fmt::Display for ParseError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let n = self.errors().count();
+        let n = self.error_count();
         match self.errors().next() {
             Some(first) => write!(f, "{first} ({n} error(s) in total)"),
             None => f.write_str("parse failed"),
@@ -81,12 +92,25 @@ impl core::error::Error for ParseError {}
 
 /// Parses an EDS or DCF file.
 ///
-/// Never panics; memory is proportional to the input size.
+/// Never panics; memory is proportional to the input size. An empty file, or one without a
+/// single `[section]`, is an error. At most 25 diagnostics of each severity and kind are
+/// listed, followed by one [`DiagnosticKind::Suppressed`](crate::DiagnosticKind::Suppressed)
+/// diagnostic counting the rest; text from the input is echoed shortened to 60 characters with
+/// control characters escaped.
 pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
     let mut sink = Sink::default();
     let text = decode::decode(input, &mut sink);
     let scan = scan::scan(&text, &mut sink);
     let sections = scan::sections(&scan.entries, &scan.sections);
+    if sections.is_empty() && scan.subs.is_empty() {
+        // Nothing an EDS reader would look at: not a pass with zero objects.
+        let message = if text.trim_ascii().is_empty() {
+            "the file is empty: an EDS or DCF file has [FileInfo], [DeviceInfo] and object sections"
+        } else {
+            "no [section] header in the file: not an EDS or DCF file"
+        };
+        sink.error(K::Structure, 1, message.into());
+    }
     let od = build::build(&sections, scan.subs, scan.built, &mut sink);
     if sink.has_errors() {
         Err(ParseError {
@@ -103,11 +127,10 @@ pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::diag::DiagnosticKind as K;
     use crate::types::{AccessType, DataType};
     use crate::value::Value;
     use alloc::format;
-    use alloc::string::String;
+    use alloc::string::{String, ToString};
 
     #[test]
     fn sub_sections_out_of_order_and_repeated() {
@@ -274,5 +297,51 @@ mod tests {
             .map(|d| d.line)
             .collect();
         assert_eq!(enc, [3]);
+    }
+
+    #[test]
+    fn empty_or_sectionless_input_is_an_error() {
+        for src in [
+            "",
+            "\n\n  \r\n",
+            "; only a comment\n",
+            "Key=Value\n",
+            "\u{feff}",
+        ] {
+            let e = parse(src.as_bytes()).expect_err(src);
+            assert!(
+                e.errors().any(|d| d.kind == K::Structure && d.line == 1),
+                "{src:?}: {e}"
+            );
+        }
+        // One section is enough to be read (with warnings).
+        assert!(parse(b"[FileInfo]\nEDSVersion=4.0\n").is_ok());
+    }
+
+    #[test]
+    fn junk_reports_are_bounded() {
+        // Thousands of bad lines, some with control bytes and a very long section name.
+        let mut src = alloc::vec::Vec::new();
+        src.extend_from_slice(b"[");
+        src.extend(core::iter::repeat_n(b'N', 10_000));
+        src.extend_from_slice(b"]\n[1000]\nDataType=zz\x1b[2J\n");
+        for i in 0..5000u32 {
+            src.extend_from_slice(format!("junk line {i} \x07\n").as_bytes());
+        }
+        let e = parse(&src).unwrap_err();
+        let errors = e.errors().count();
+        assert!(errors <= 30, "{errors} errors listed");
+        let summary = e
+            .diagnostics
+            .iter()
+            .find(|d| d.kind == K::Suppressed && d.severity == Severity::Error)
+            .expect("a count of the errors not listed");
+        assert!(summary.message.starts_with("4975 more errors"), "{summary}");
+        for d in &e.diagnostics {
+            assert!(d.message.chars().count() < 300, "{d}");
+            assert!(!d.message.chars().any(char::is_control), "{d}");
+        }
+        assert_eq!(e.error_count(), 5001);
+        assert!(e.to_string().contains("5001 error(s) in total"), "{e}");
     }
 }

@@ -6,6 +6,8 @@
 use alloc::format;
 use alloc::string::String;
 
+use crate::diag::DiagnosticKind;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub(super) enum SectionKind {
     FileInfo,
@@ -55,23 +57,28 @@ pub(super) const NAMED_SECTIONS: [(&str, SectionKind); 8] = [
     ("DeviceComissioning", SectionKind::Commissioning),
 ];
 
-pub(super) fn classify(name: &str) -> (SectionKind, Option<String>) {
+pub(super) fn classify(name: &str) -> (SectionKind, Option<(DiagnosticKind, String)>) {
     use SectionKind as S;
     // Object sections are nearly all of a file, and no named section starts with four hex
     // digits: test for an index first.
     let Some(index) = name.get(..4).and_then(hex4) else {
         for (canon, kind) in NAMED_SECTIONS {
             if name.eq_ignore_ascii_case(canon) {
-                let note = (name != canon)
-                    .then(|| format!("section [{name}] should be spelled [{canon}]"));
+                let note = (name != canon).then(|| {
+                    (
+                        DiagnosticKind::Style,
+                        format!("section [{name}] should be spelled [{canon}]"),
+                    )
+                });
                 return (kind, note);
             }
         }
         if name.eq_ignore_ascii_case("DeviceCommissioning") {
             return (
                 S::Commissioning,
-                Some(format!(
-                    "section [{name}]: CiA 306 spells it [DeviceComissioning]"
+                Some((
+                    DiagnosticKind::Spelling,
+                    format!("section [{name}]: CiA 306 spells it [DeviceComissioning]"),
                 )),
             );
         }
@@ -81,12 +88,17 @@ pub(super) fn classify(name: &str) -> (SectionKind, Option<String>) {
         .get(..4)
         .is_some_and(|h| h.bytes().any(|b| b.is_ascii_lowercase()));
     let rest = name.get(4..).unwrap_or("");
-    let mut note = lower_hex.then(|| format!("section [{name}]: hex digits should be upper case"));
+    let style = |text: String| Some((DiagnosticKind::Style, text));
+    let mut note = if lower_hex {
+        style(format!("section [{name}]: hex digits should be upper case"))
+    } else {
+        None
+    };
     let kind = if rest.is_empty() {
         S::Object(index)
     } else if let Some(sub) = strip_prefix_ci(rest, "sub") {
         if !rest.starts_with("sub") && note.is_none() {
-            note = Some(format!(
+            note = style(format!(
                 "section [{name}]: CiA 306 writes `sub` in lower case"
             ));
         }
@@ -99,7 +111,7 @@ pub(super) fn classify(name: &str) -> (SectionKind, Option<String>) {
         {
             Some(s) => {
                 if sub.bytes().any(|b| b.is_ascii_lowercase()) && note.is_none() {
-                    note = Some(format!("section [{name}]: hex digits should be upper case"));
+                    note = style(format!("section [{name}]: hex digits should be upper case"));
                 }
                 S::Sub(index, s)
             }

@@ -14,10 +14,9 @@ use alloc::string::String;
 use alloc::vec::Vec;
 
 use super::build::build_sub;
-use super::keys::truncate;
 use super::lines::Lines;
 use super::names::{SectionKind, classify};
-use crate::diag::{Diagnostic, DiagnosticKind as K, Sink};
+use crate::diag::{Diagnostic, DiagnosticKind as K, Echo, Sink};
 use crate::model::SubObject;
 
 #[derive(Debug, Clone, Copy)]
@@ -219,20 +218,24 @@ pub(super) fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                     sink.warn(
                         K::Syntax,
                         line_no,
-                        format!("text `{after}` after section header [{name_raw}] ignored"),
+                        format!(
+                            "text `{}` after section header [{}] ignored",
+                            Echo(after),
+                            Echo(name_raw)
+                        ),
                     );
                 }
                 let name = name_raw.trim_ascii();
                 if name != name_raw {
                     sink.warn(
-                        K::Spelling,
+                        K::Style,
                         line_no,
-                        format!("spaces inside section header [{name_raw}]"),
+                        format!("spaces inside section header [{}]", Echo(name_raw)),
                     );
                 }
                 let (kind, note) = classify(name);
-                if let Some(n) = note {
-                    sink.warn(K::Spelling, line_no, n);
+                if let Some((k, n)) = note {
+                    sink.warn(k, line_no, n);
                 }
                 if let SectionKind::Sub(i, s) = kind {
                     // Sub sections usually come in increasing order: one beyond the highest seen
@@ -245,7 +248,8 @@ pub(super) fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                             K::Duplicate,
                             line_no,
                             format!(
-                                "section [{name}] appears again (first at line {}); keys are merged and later values win",
+                                "section [{}] appears again (first at line {}); keys are merged and later values win",
+                                Echo(name),
                                 rec.line
                             ),
                         );
@@ -272,7 +276,8 @@ pub(super) fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                         K::Duplicate,
                         line_no,
                         format!(
-                            "section [{name}] appears again (first at line {first}); keys are merged and later values win"
+                            "section [{}] appears again (first at line {first}); keys are merged and later values win",
+                            Echo(name)
                         ),
                     );
                     if let Some(sec) = sections.get_mut(pos) {
@@ -301,7 +306,7 @@ pub(super) fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                     line_no,
                     format!(
                         "`{}` is neither a [section] header, a key=value pair nor a `;` comment",
-                        truncate(trimmed)
+                        Echo(trimmed)
                     ),
                 );
                 continue;
@@ -313,23 +318,27 @@ pub(super) fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
                 sink.error(
                     K::Syntax,
                     line_no,
-                    format!("`{}` has an empty key", truncate(trimmed)),
+                    format!("`{}` has an empty key", Echo(trimmed)),
                 );
                 continue;
             }
             if key.len() != key_raw.len() {
-                sink.warn(K::Spelling, line_no, format!("spaces around key `{key}`"));
+                sink.warn(
+                    K::Style,
+                    line_no,
+                    format!("spaces around key `{}`", Echo(key)),
+                );
             }
             let value = value_raw.trim_ascii();
             if value.len() != value_raw.len() {
                 if value_raw.trim_ascii_end().len() != value_raw.len() {
                     sink.warn(
-                        K::Spelling,
+                        K::Style,
                         line_no,
-                        format!("trailing whitespace after `{key}=` value"),
+                        format!("trailing whitespace after `{}=` value", Echo(key)),
                     );
                 } else {
-                    sink.warn(K::Spelling, line_no, format!("spaces after `{key}=`"));
+                    sink.warn(K::Style, line_no, format!("spaces after `{}=`", Echo(key)));
                 }
             }
             (key, value)
@@ -359,7 +368,7 @@ pub(super) fn scan<'a>(text: &'a str, sink: &mut Sink) -> Scan<'a> {
             None => sink.error(
                 K::Syntax,
                 line_no,
-                format!("key `{key}` before the first [section] header"),
+                format!("key `{}` before the first [section] header", Echo(key)),
             ),
         }
     }
