@@ -150,6 +150,8 @@ pub(crate) struct Sink {
     /// first one not listed.
     counts: [[u32; KINDS]; 2],
     first_suppressed_line: [[u32; KINDS]; 2],
+    /// Drop [`DiagnosticKind::Style`] warnings without counting them.
+    pub(crate) quiet_style: bool,
 }
 
 /// How many diagnostics of one severity and kind are listed one by one.
@@ -165,6 +167,9 @@ impl Sink {
     }
 
     fn add(&mut self, severity: Severity, kind: DiagnosticKind, line: u32, message: String) {
+        if self.quiet_style && kind == DiagnosticKind::Style {
+            return;
+        }
         let sev = usize::from(severity == Severity::Error);
         let slot = (kind as usize).min(KINDS - 1);
         let n = &mut self.counts[sev][slot];

@@ -62,7 +62,7 @@ pub use model::{
     RawSection, SubObject, SubObjectExtras, SubObjects,
 };
 #[cfg(feature = "alloc")]
-pub use parse::{ParseError, Parsed, parse};
+pub use parse::{ParseError, ParseOptions, Parsed, parse, parse_with};
 pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
 #[cfg(feature = "alloc")]
 pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};

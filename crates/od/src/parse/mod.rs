@@ -90,6 +90,39 @@ impl fmt::Display for ParseError {
 
 impl core::error::Error for ParseError {}
 
+/// How [`parse_with`] reports: which diagnostics it lists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ParseOptions {
+    style_warnings: bool,
+}
+
+impl Default for ParseOptions {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl ParseOptions {
+    /// Everything reported (what [`parse`] does).
+    pub const fn new() -> Self {
+        Self {
+            style_warnings: true,
+        }
+    }
+
+    /// Whether [`DiagnosticKind::Style`] warnings (form only: key and section-name case,
+    /// lower-case hex, `Sub`, spaces around keys, trailing blanks) are reported. On by default.
+    pub const fn style_warnings(mut self, on: bool) -> Self {
+        self.style_warnings = on;
+        self
+    }
+}
+
+/// Parses an EDS or DCF file, reporting everything ([`parse_with`] with the default options).
+pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
+    parse_with(input, ParseOptions::new())
+}
+
 /// Parses an EDS or DCF file.
 ///
 /// Never panics; memory is proportional to the input size. An empty file, or one without a
@@ -97,8 +130,9 @@ impl core::error::Error for ParseError {}
 /// listed, followed by one [`DiagnosticKind::Suppressed`](crate::DiagnosticKind::Suppressed)
 /// diagnostic counting the rest; text from the input is echoed shortened to 60 characters with
 /// control characters escaped.
-pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
+pub fn parse_with(input: &[u8], options: ParseOptions) -> Result<Parsed, ParseError> {
     let mut sink = Sink::default();
+    sink.quiet_style = !options.style_warnings;
     let text = decode::decode(input, &mut sink);
     let scan = scan::scan(&text, &mut sink);
     let sections = scan::sections(&scan.entries, &scan.sections);
@@ -343,5 +377,18 @@ mod tests {
         }
         assert_eq!(e.error_count(), 5001);
         assert!(e.to_string().contains("5001 error(s) in total"), "{e}");
+    }
+
+    #[test]
+    fn style_warnings_can_be_silenced() {
+        let src = b"[fileinfo]\nedsversion=4.0 \n[1000]\nParameterName=Device type\nDataType=0x0007\nAccessType=RO\n[1018]\nParameterName=x\nObjectType=0x9\n[1018Sub0]\nParameterName=n\nDataType=5\nAccessType=ro\nDefaultValue=1LL\n";
+        let all = parse(src).unwrap().diagnostics;
+        let style = all.iter().filter(|d| d.kind == K::Style).count();
+        assert_eq!(style, 5, "{all:#?}");
+        let quiet = parse_with(src, ParseOptions::new().style_warnings(false))
+            .unwrap()
+            .diagnostics;
+        assert_eq!(quiet.len(), all.len() - style);
+        assert!(quiet.iter().any(|d| d.kind == K::Spelling), "{quiet:#?}");
     }
 }
