@@ -127,7 +127,7 @@ pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
 ///
 /// Never panics; memory is proportional to the input size. An empty file, or one without a
 /// single `[section]`, is an error. At most 25 diagnostics of each severity and kind are
-/// listed, followed by one [`DiagnosticKind::Suppressed`](crate::DiagnosticKind::Suppressed)
+/// listed, followed by one [`DiagnosticKind::Suppressed`]
 /// diagnostic counting the rest; text from the input is echoed shortened to 60 characters with
 /// control characters escaped.
 pub fn parse_with(input: &[u8], options: ParseOptions) -> Result<Parsed, ParseError> {
