@@ -4,19 +4,39 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use canopen_od::{Diagnostic, ObjectDictionary, Severity};
-use clap::Subcommand;
+use canopen_od::{Diagnostic, ObjectDictionary, ParseOptions, Severity};
+use clap::{Args, Subcommand};
 use serde_json::{Value as Json, json};
 
 use crate::Global;
 
+/// What the parser reports (every subcommand that reads a file prints its diagnostics).
+#[derive(Debug, Clone, Copy, Args)]
+pub(crate) struct Report {
+    /// Hide style-only warnings (key and section-name case, lower-case hex digits, `Sub` for
+    /// `sub`, spaces around keys, trailing blanks): deviations that change nothing in how the
+    /// file is read.
+    #[arg(long)]
+    no_style: bool,
+}
+
+impl Report {
+    fn options(self) -> ParseOptions {
+        ParseOptions::new().style_warnings(!self.no_style)
+    }
+}
+
 #[derive(Debug, Subcommand)]
 pub(crate) enum EdsCommand {
-    /// Parse files; exit 0 when all parse. Warnings and errors go to stderr as FILE:LINE.
+    /// Parse files; exit 0 when all parse. Warnings and errors go to stderr as FILE:LINE (at
+    /// most 25 of each kind, then a count of the rest). An empty file, or one without a single
+    /// [section], fails.
     Check {
         /// EDS or DCF files.
         #[arg(required = true)]
         files: Vec<PathBuf>,
+        #[command(flatten)]
+        report: Report,
     },
     /// Consistency checks (SubNumber, object lists, limits, PDO mappings, codes, duplicates):
     /// findings on stderr as FILE:LINE: warning: ..., exit 1 when there are any.
@@ -28,6 +48,8 @@ pub(crate) enum EdsCommand {
     Show {
         /// EDS or DCF file.
         file: PathBuf,
+        #[command(flatten)]
+        report: Report,
     },
     /// Write a DCF for a node: `$NODEID` resolved into ParameterValue, `[DeviceComissioning]` set.
     ToDcf {
@@ -42,6 +64,8 @@ pub(crate) enum EdsCommand {
         /// Output file (default: stdout).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        #[command(flatten)]
+        report: Report,
     },
     /// Generate typed Rust entries (what `canopen_codegen::compile_eds` writes in build.rs).
     Codegen {
@@ -53,20 +77,23 @@ pub(crate) enum EdsCommand {
         /// Output file (default: stdout).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        #[command(flatten)]
+        report: Report,
     },
 }
 
 pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
     match cmd {
-        EdsCommand::Check { files } => check(&files, global),
+        EdsCommand::Check { files, report } => check(&files, report, global),
         EdsCommand::Lint { file } => lint(&file, global),
-        EdsCommand::Show { file } => with_od(&file, |od| show(od, global)),
+        EdsCommand::Show { file, report } => with_od(&file, report, |od| show(od, global)),
         EdsCommand::ToDcf {
             file,
             node_id,
             baudrate,
             output,
-        } => with_od(&file, |od| {
+            report,
+        } => with_od(&file, report, |od| {
             emit(
                 output.as_deref(),
                 &canopen_od::write_dcf(od, node_id, baudrate),
@@ -76,7 +103,8 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
             file,
             static_dictionary,
             output,
-        } => with_od(&file, |od| {
+            report,
+        } => with_od(&file, report, |od| {
             let name = file.file_name().map_or_else(
                 || file.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
@@ -89,22 +117,35 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
     }
 }
 
-/// Reads and parses a file, printing its diagnostics; `None` (after printing) when it fails.
-fn load(file: &Path) -> Result<(ObjectDictionary, Vec<Diagnostic>), Vec<String>> {
+/// A file that could not be read or parsed: its diagnostics rendered as `FILE:LINE: ...`
+/// lines, and how many errors it has (listed or not).
+struct Failed {
+    lines: Vec<String>,
+    errors: usize,
+}
+
+/// Reads and parses a file: the dictionary and its warnings, or why it failed.
+fn load(file: &Path, report: Report) -> Result<(ObjectDictionary, Vec<Diagnostic>), Failed> {
     let name = file.display().to_string();
-    let bytes = std::fs::read(file).map_err(|e| vec![format!("{name}: error: {e}")])?;
-    match canopen_od::parse(&bytes) {
+    let bytes = std::fs::read(file).map_err(|e| Failed {
+        lines: vec![format!("{name}: error: {e}")],
+        errors: 1,
+    })?;
+    match canopen_od::parse_with(&bytes, report.options()) {
         Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
-        Err(e) => Err(e
-            .diagnostics
-            .iter()
-            .map(|d| d.render(&name).to_string())
-            .collect()),
+        Err(e) => Err(Failed {
+            lines: e
+                .diagnostics
+                .iter()
+                .map(|d| d.render(&name).to_string())
+                .collect(),
+            errors: e.error_count(),
+        }),
     }
 }
 
-fn with_od(file: &Path, f: impl FnOnce(&ObjectDictionary) -> ExitCode) -> ExitCode {
-    match load(file) {
+fn with_od(file: &Path, report: Report, f: impl FnOnce(&ObjectDictionary) -> ExitCode) -> ExitCode {
+    match load(file, report) {
         Ok((od, diagnostics)) => {
             let name = file.display().to_string();
             for d in &diagnostics {
@@ -112,8 +153,8 @@ fn with_od(file: &Path, f: impl FnOnce(&ObjectDictionary) -> ExitCode) -> ExitCo
             }
             f(&od)
         }
-        Err(lines) => {
-            for l in lines {
+        Err(failed) => {
+            for l in failed.lines {
                 eprintln!("{l}");
             }
             ExitCode::FAILURE
@@ -137,20 +178,27 @@ fn emit(output: Option<&Path>, text: &str) -> ExitCode {
     }
 }
 
-fn check(files: &[PathBuf], global: Global) -> ExitCode {
+/// How many diagnostics of `severity` a list stands for, counting those a `Suppressed`
+/// summary stands for.
+fn total(diagnostics: &[Diagnostic], severity: Severity) -> usize {
+    diagnostics
+        .iter()
+        .filter(|d| d.severity == severity)
+        .map(|d| d.suppressed_count().unwrap_or(1))
+        .sum()
+}
+
+fn check(files: &[PathBuf], report_opts: Report, global: Global) -> ExitCode {
     let mut all_ok = true;
     let mut report = Vec::new();
     for file in files {
         let name = file.display().to_string();
-        match load(file) {
+        match load(file, report_opts) {
             Ok((od, diagnostics)) => {
                 for d in &diagnostics {
                     eprintln!("{}", d.render(&name));
                 }
-                let warnings = diagnostics
-                    .iter()
-                    .filter(|d| d.severity == Severity::Warning)
-                    .count();
+                let warnings = total(&diagnostics, Severity::Warning);
                 if global.json {
                     report.push(json!({"file": name, "ok": true, "objects": od.objects.len(), "warnings": warnings}));
                 } else {
@@ -160,15 +208,17 @@ fn check(files: &[PathBuf], global: Global) -> ExitCode {
                     ));
                 }
             }
-            Err(lines) => {
+            Err(Failed { lines, errors }) => {
                 all_ok = false;
                 for l in &lines {
                     eprintln!("{l}");
                 }
                 if global.json {
-                    report.push(json!({"file": name, "ok": false, "errors": lines}));
+                    report.push(
+                        json!({"file": name, "ok": false, "error_count": errors, "errors": lines}),
+                    );
                 } else {
-                    crate::outln(&format!("{name}: FAILED"));
+                    crate::outln(&format!("{name}: FAILED, {errors} errors"));
                 }
             }
         }

@@ -219,3 +219,101 @@ fn lint_is_clean_for_the_burkert_eds_and_finds_faults_elsewhere() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A scratch directory of its own for one test.
+fn scratch(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("canopen-eds-{test}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn check_fails_an_empty_file_and_one_without_sections() {
+    let dir = scratch("empty");
+    for (name, text) in [
+        ("empty.eds", ""),
+        ("blank.eds", "\n  \n"),
+        ("keys.eds", "ParameterName=x\n"),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let out = canopen(&["eds", "check", &path.display().to_string()]);
+        assert_eq!(out.status.code(), Some(1), "{name}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(":1: error: "), "{name}: {stderr}");
+        assert!(
+            String::from_utf8_lossy(&out.stdout).contains("FAILED"),
+            "{name}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn check_of_junk_prints_a_bounded_report_without_raw_control_bytes() {
+    let dir = scratch("junk");
+    // 2 MB of pseudo-random bytes (xorshift), with a newline now and then and one very long
+    // section header.
+    let mut junk = Vec::with_capacity(2_000_000);
+    junk.extend_from_slice(b"[");
+    junk.extend(std::iter::repeat_n(b'S', 10_000));
+    junk.extend_from_slice(b"]\n");
+    let mut x = 0x2545_F491_4F6C_DD1Du64;
+    while junk.len() < 2_000_000 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        junk.push(if x.is_multiple_of(23) { b'\n' } else { (x >> 24) as u8 });
+    }
+    let path = dir.join("junk.eds");
+    std::fs::write(&path, &junk).unwrap();
+    let out = canopen(&["eds", "check", &path.display().to_string()]);
+    assert_eq!(out.status.code(), Some(1));
+    let lines: Vec<&[u8]> = out.stderr.split(|&b| b == b'\n').collect();
+    assert!(lines.len() < 200, "{} lines of diagnostics", lines.len());
+    for l in &lines {
+        assert!(l.len() < 400, "{}", String::from_utf8_lossy(l));
+        assert!(
+            !l.iter().any(|&b| b < 0x20 || b == 0x7F),
+            "raw control byte in {}",
+            String::from_utf8_lossy(l)
+        );
+    }
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("more errors of kind syntax not listed"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains(&"S".repeat(100)),
+        "the long header is echoed whole"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("FAILED, "), "{stdout}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn no_style_hides_only_style_warnings() {
+    let dir = scratch("style");
+    let path = dir.join("style.eds");
+    std::fs::write(
+        &path,
+        "[fileinfo]\nEDSVersion=4.0 \n[1000]\nparametername=Device type\nDataType=0x0007\n\
+         AccessType=ro\nDefaultValue=0x1234LL\n",
+    )
+    .unwrap();
+    let file = path.display().to_string();
+    let all = canopen(&["eds", "check", &file]);
+    let quiet = canopen(&["eds", "check", "--no-style", &file]);
+    assert!(all.status.success() && quiet.status.success());
+    let all = String::from_utf8_lossy(&all.stderr).into_owned();
+    let quiet = String::from_utf8_lossy(&quiet.stderr).into_owned();
+    for style in ["[fileinfo]", "trailing whitespace", "`parametername`"] {
+        assert!(all.contains(style), "{style}: {all}");
+        assert!(!quiet.contains(style), "{style}: {quiet}");
+    }
+    // A spelling that changes how a value is read stays.
+    assert!(quiet.contains("C integer suffix"), "{quiet}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -10,12 +10,13 @@
 use core::fmt;
 use core::marker::PhantomData;
 
+use crate::address::ObjectAddress;
 use crate::types::DataType;
 
-/// One sub-object of a dictionary with the Rust type of its value.
+/// One sub-object of a dictionary with the Rust type of its value: an [`ObjectAddress`] plus
+/// the CiA 301 data type and the Rust type `T` that carries it.
 pub struct Entry<T> {
-    index: u16,
-    sub_index: u8,
+    address: ObjectAddress,
     data_type: DataType,
     _value: PhantomData<fn() -> T>,
 }
@@ -23,22 +24,31 @@ pub struct Entry<T> {
 impl<T> Entry<T> {
     /// An entry at `index`/`sub_index` holding a value of `data_type`.
     pub const fn new(index: u16, sub_index: u8, data_type: DataType) -> Self {
+        Self::at(ObjectAddress::new(index, sub_index), data_type)
+    }
+
+    /// An entry at `address` holding a value of `data_type`.
+    pub const fn at(address: ObjectAddress, data_type: DataType) -> Self {
         Self {
-            index,
-            sub_index,
+            address,
             data_type,
             _value: PhantomData,
         }
     }
 
+    /// Where the entry is: index and sub-index.
+    pub const fn address(&self) -> ObjectAddress {
+        self.address
+    }
+
     /// The object index.
     pub const fn index(&self) -> u16 {
-        self.index
+        self.address.index
     }
 
     /// The sub-index (0 for a VAR).
     pub const fn sub_index(&self) -> u8 {
-        self.sub_index
+        self.address.sub_index
     }
 
     /// The CiA 301 data type.
@@ -68,23 +78,24 @@ impl<T> Clone for Entry<T> {
 impl<T> Copy for Entry<T> {}
 impl<T> PartialEq for Entry<T> {
     fn eq(&self, other: &Self) -> bool {
-        (self.index, self.sub_index, self.data_type)
-            == (other.index, other.sub_index, other.data_type)
+        (self.address, self.data_type) == (other.address, other.data_type)
     }
 }
 impl<T> Eq for Entry<T> {}
 impl<T> fmt::Debug for Entry<T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "Entry({:#06x}sub{}, {})",
-            self.index, self.sub_index, self.data_type
-        )
+        write!(f, "Entry({}, {})", self.address, self.data_type)
     }
 }
+/// Displays the address: `0x1017:00`.
 impl<T> fmt::Display for Entry<T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{:#06x}/{}", self.index, self.sub_index)
+        self.address.fmt(f)
+    }
+}
+impl<T> From<Entry<T>> for ObjectAddress {
+    fn from(e: Entry<T>) -> Self {
+        e.address
     }
 }
 

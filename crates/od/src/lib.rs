@@ -1,16 +1,19 @@
 //! The CANopen object dictionary: the single source of truth for what a device holds.
 //!
+//! - [`address`] — [`ObjectAddress`], index and sub-index of one sub-object, `0x1018:01` (no
+//!   allocator).
 //! - [`entry`] — typed entries (index, sub-index and Rust value type) for generated code (no allocator).
 //! - [`types`] — CiA 301 data type indices, object codes and CiA 306 access types (no allocator).
 //! - [`value`] — typed values of every basic data type with two codecs: little-endian bytes
-//!   (SDO/PDO payloads) and CiA 306 EDS text including `$NODEID` expressions (`alloc`).
+//!   (SDO/PDO payloads) and CiA 306 EDS text including `$NODEID` expressions, and a `Display`
+//!   in CANopen terms (`57`, `24.58`, `01 02 0A`; `{:#}` for hex) (`alloc`).
 //! - [`model`] — the dictionary: objects, sub-objects, file and device information (`alloc`).
 //! - [`parse`](mod@parse) — the CiA 306 EDS/DCF parser with warnings and errors by line ([`diag`]).
 //! - [`write`](mod@write) — EDS, DCF and concise DCF (0x1F22) writers.
 //! - [`lint`](mod@lint) — consistency checks (SubNumber, object lists, limits, PDO mappings, codes).
 //! - `file` — load/save by path (`std`).
 //!
-//! The crate is `#![no_std]`. Without features only [`types`] and [`entry`] are available (no
+//! The crate is `#![no_std]`. Without features only [`types`], [`address`] and [`entry`] are available (no
 //! allocator); `alloc` adds the value codec, the model, parser, writer and linter; `std`
 //! (default) adds file I/O conveniences.
 //!
@@ -28,6 +31,7 @@ extern crate alloc;
 #[cfg(feature = "std")]
 extern crate std;
 
+pub mod address;
 #[cfg(feature = "alloc")]
 pub mod diag;
 pub mod entry;
@@ -45,6 +49,7 @@ pub mod value;
 #[cfg(feature = "alloc")]
 pub mod write;
 
+pub use address::{AddressError, ObjectAddress};
 /// The string type of names and value texts in the model (inline up to 24 bytes: most EDS
 /// names and values need no allocation of their own).
 #[cfg(feature = "alloc")]
@@ -62,7 +67,7 @@ pub use model::{
     RawSection, SubObject, SubObjectExtras, SubObjects,
 };
 #[cfg(feature = "alloc")]
-pub use parse::{ParseError, Parsed, parse};
+pub use parse::{ParseError, ParseOptions, Parsed, parse, parse_with};
 pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
 #[cfg(feature = "alloc")]
 pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};

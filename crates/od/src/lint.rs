@@ -17,7 +17,7 @@
 use alloc::format;
 use alloc::vec::Vec;
 
-use crate::diag::{Diagnostic, DiagnosticKind as K, Sink};
+use crate::diag::{Diagnostic, DiagnosticKind as K, Echo, Sink};
 use crate::model::{Object, ObjectDictionary, SubObject};
 use crate::parse::{ParseError, parse};
 use crate::types::{DataType, ObjectCode};
@@ -156,10 +156,11 @@ fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
                 K::Limits,
                 sub.line.0,
                 format!(
-                    "{}: {label}={text} is outside LowLimit..HighLimit ({}..{})",
+                    "{}: {label}={} is outside LowLimit..HighLimit ({}..{})",
                     what(),
-                    sub.low_limit().map_or("-", |f| f.text.as_str()),
-                    sub.high_limit().map_or("-", |f| f.text.as_str()),
+                    Echo(text),
+                    Echo(sub.low_limit().map_or("-", |f| f.text.as_str())),
+                    Echo(sub.high_limit().map_or("-", |f| f.text.as_str())),
                 ),
             );
         }

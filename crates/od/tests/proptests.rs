@@ -83,6 +83,23 @@ proptest! {
         prop_assert_eq!(Value::from_le_bytes(dt, &bytes), Ok(v));
     }
 
+    /// The display form has no control characters, shows integers as the decimal of their
+    /// value, and numbers parse back (floats to the same bits, save NaN payloads).
+    #[test]
+    fn display_is_plain_text(v in any_value()) {
+        let shown = v.to_string();
+        let alt = format!("{v:#}");
+        prop_assert!(!shown.chars().chain(alt.chars()).any(char::is_control), "{:?}", shown);
+        match &v {
+            Value::Real32(f) if !f.is_nan() => prop_assert_eq!(shown.parse::<f32>().map(f32::to_bits), Ok(f.to_bits())),
+            Value::Real64(f) if !f.is_nan() => prop_assert_eq!(shown.parse::<f64>().map(f64::to_bits), Ok(f.to_bits())),
+            Value::Boolean(_) => {}
+            _ => if let Some(n) = v.as_i128() {
+                prop_assert_eq!(shown.parse::<i128>(), Ok(n));
+            }
+        }
+    }
+
     #[test]
     fn bytes_decode_is_lossless(i in 0..BASIC_DATA_TYPES.len(), raw in proptest::collection::vec(any::<u8>(), 0..12)) {
         let dt = BASIC_DATA_TYPES[i];
