@@ -60,4 +60,4 @@ pub use status::{DeviceStatus, Kelvin, TransMemStatus};
 #[cfg(feature = "master")]
 pub use master::{BurkertNode, DeviceReport};
 #[cfg(feature = "master")]
-pub use sim::BurkertDevice;
+pub use sim::{BurkertDevice, SimulatedDevice};

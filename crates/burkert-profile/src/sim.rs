@@ -831,3 +831,69 @@ impl Station for BurkertDevice {
             .min()
     }
 }
+
+/// A simulated device for any dictionary: a [`BurkertDevice`] when the dictionary carries the
+/// Bürkert profile (device description, communication, status and locating objects), the
+/// generic [`SimDevice`] otherwise. What `canopen simulate` and the CLI's in-memory bus run.
+pub enum SimulatedDevice {
+    /// Any EDS.
+    Generic(Box<SimDevice>),
+    /// An EDS with the Bürkert profile objects.
+    Burkert(Box<BurkertDevice>),
+}
+
+impl core::fmt::Debug for SimulatedDevice {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Generic(d) => f.debug_tuple("Generic").field(d).finish(),
+            Self::Burkert(_) => f.write_str("Burkert"),
+        }
+    }
+}
+
+impl SimulatedDevice {
+    /// Whether `od` has the Bürkert profile's objects 0x2000:01, 0x2001:04, 0x2004:01 and
+    /// 0x2101:01.
+    pub fn has_burkert_profile(od: &ObjectDictionary) -> bool {
+        [(0x2000, 1), (0x2001, 4), (0x2004, 1), (0x2101, 1)]
+            .iter()
+            .all(|&(i, s)| od.sub(i, s).is_some())
+    }
+
+    /// The device for `od` as node `node`.
+    pub fn for_dictionary(node: NodeId, od: ObjectDictionary) -> Self {
+        if Self::has_burkert_profile(&od) {
+            Self::Burkert(Box::new(BurkertDevice::with_dictionary(node, od)))
+        } else {
+            Self::Generic(Box::new(SimDevice::new(node, od)))
+        }
+    }
+
+    fn station(&mut self) -> &mut dyn Station {
+        match self {
+            Self::Generic(d) => d.as_mut(),
+            Self::Burkert(d) => d.as_mut(),
+        }
+    }
+}
+
+impl Station for SimulatedDevice {
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
+        self.station().handle_frame(now, frame);
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        self.station().handle_timeout(now);
+    }
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        self.station().poll_transmit()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        match self {
+            Self::Generic(d) => d.poll_timeout(),
+            Self::Burkert(d) => d.poll_timeout(),
+        }
+    }
+    fn handle_bus_event(&mut self, now: Instant, event: &canopen::BusEvent) {
+        self.station().handle_bus_event(now, event);
+    }
+}

@@ -245,7 +245,7 @@ impl SdoChannel {
 struct NodeSlot {
     od: Option<Arc<ObjectDictionary>>,
     /// The node's TPDOs mirrored as receive PDOs, with their TPDO numbers.
-    pdo: Option<crate::pdo::Mirror>,
+    pdo: Option<crate::pdo_glue::Mirror>,
     /// The node's SDO channels: the default one first, then those opened on other COB-IDs.
     channels: Vec<SdoChannel>,
 }
@@ -253,7 +253,9 @@ struct NodeSlot {
 impl NodeSlot {
     fn new(node: NodeId, od: Option<Arc<ObjectDictionary>>) -> Self {
         Self {
-            pdo: od.as_deref().map(|od| crate::pdo::mirror_engine(od, node)),
+            pdo: od
+                .as_deref()
+                .map(|od| crate::pdo_glue::mirror_engine(od, node)),
             od,
             channels: vec![SdoChannel::new(SdoCobIds::default_for(node))],
         }
@@ -342,7 +344,7 @@ impl Core {
         match self.nodes.get_mut(&node) {
             Some(slot) => {
                 if let Some(od) = od {
-                    slot.pdo = Some(crate::pdo::mirror_engine(&od, node));
+                    slot.pdo = Some(crate::pdo_glue::mirror_engine(&od, node));
                     slot.od = Some(od);
                 }
             }
@@ -426,7 +428,7 @@ impl Core {
         };
         let (engine, numbers) = slot
             .pdo
-            .get_or_insert_with(|| (Box::new(crate::pdo::PdoEngine::new()), Vec::new()));
+            .get_or_insert_with(|| (Box::new(crate::pdo_glue::PdoEngine::new()), Vec::new()));
         match numbers.iter().find(|(n, _)| *n == number) {
             Some((_, id)) => {
                 let _ = engine.set_rpdo(*id, config);

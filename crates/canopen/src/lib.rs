@@ -28,26 +28,42 @@
 //! ```
 #![cfg_attr(docsrs, feature(doc_auto_cfg))]
 
+#[cfg(feature = "tokio")]
+pub mod asynch;
 pub mod candump;
 mod core;
+pub mod describe;
 pub mod error;
 pub mod lss;
 pub mod mem;
 pub mod network;
-mod pdo;
+mod pdo_glue;
+pub mod scan;
+pub mod sim;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
 pub mod transport;
 
-pub use crate::core::{CANCEL_ABORT, Entry, NetworkEvent, RequestId, TransferProgress};
-pub use canopen_sdo::SdoCobIds;
+// The protocol crates, for what the facade does not wrap: applications and the CLI need no
+// other dependency than this crate.
+pub use can_frame as frame;
+pub use canopen_nmt as nmt;
+pub use canopen_od as od;
+pub use canopen_pdo as pdo;
+pub use canopen_sdo as sdo;
+
+// The names common work needs.
+pub use can_frame::{CanFrame, CanId, Duration, Instant, NodeId};
+pub use canopen_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
+pub use canopen_od::{DataType, ObjectDictionary, Value};
+pub use canopen_sdo::{AbortCode, Method, SdoCobIds};
+
+pub use crate::core::{CANCEL_ABORT, Entry, NetworkEvent, ProgressFn, RequestId, TransferProgress};
+pub use describe::{BusDictionary, Description, Monitor, describe};
 pub use error::{Error, SdoError, SdoErrorKind, describe_abort};
+pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
-pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
-#[cfg(feature = "tokio")]
-pub mod asynch;
-pub mod sim;
-pub use crate::core::ProgressFn;
-pub use lss::{Lss, LssOutcome};
+pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
+pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};

@@ -6,15 +6,14 @@
 //! the machine queued last, so that a service that only transmits (switch mode global,
 //! activate bit timing) has its frame on the bus when the call returns.
 
-use canopen_lss::{
-    AssignAll, AssignConfig, AssignReport, DiscoverAll, Fastscan, FastscanConfig, LssAddress,
-    LssError, LssMachine, LssMaster, MasterConfig, MasterEvent, Procedure, ServiceReport,
-};
-
 use can_frame::{CanFrame, Instant};
 
 use crate::error::Error;
 use crate::network::Network;
+
+// The CiA 305 vocabulary (addresses, bit timings, node-ID pools, the wire messages and the slave
+// machine), so `canopen::lss` is the one LSS import of an application.
+pub use canopen_lss::*;
 
 /// What a finished LSS job produced.
 #[derive(Debug, Clone, PartialEq, Eq)]

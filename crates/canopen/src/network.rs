@@ -18,7 +18,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
 
 use can_frame::{CanFrame, Duration, Instant, NodeId};
 use canopen_nmt::{CommandSpecifier, NmtState, NmtTarget, SyncConfig};
-use canopen_od::{ObjectDictionary, Value};
+use canopen_od::{DataType, ObjectDictionary, Value};
 use canopen_sdo::{Method, SdoCobIds};
 
 use crate::core::{
@@ -439,7 +439,7 @@ impl Node {
         }
         if matches!(direction, canopen_pdo::Direction::Transmit) {
             let mapping = match self.dictionary() {
-                Some(od) => crate::pdo::typed_mapping(&od, self.id, direction, mapping),
+                Some(od) => crate::pdo_glue::typed_mapping(&od, self.id, direction, mapping),
                 None => mapping,
             };
             self.net.core().mirror_tpdo(
@@ -720,20 +720,27 @@ impl Sdo {
     pub fn read_value(self, entry: impl Into<Entry>) -> Result<Value, Error> {
         let entry = entry.into();
         let node = self.node;
-        let od = self.net.core().dictionary(node);
-        let dt = od
-            .as_ref()
-            .and_then(|od| od.sub(entry.index, entry.sub))
-            .map(|s| s.data_type);
-        let bytes = self.read(entry)?;
-        let Some(dt) = dt else {
-            return Err(Error::Value {
+        let data_type = self
+            .net
+            .core()
+            .dictionary(node)
+            .and_then(|od| od.sub(entry.index, entry.sub).map(|s| s.data_type));
+        match data_type {
+            Some(t) => self.read_as(entry, t),
+            None => Err(Error::Value {
                 node,
                 entry,
                 message: "the node's dictionary does not describe this object".into(),
-            });
-        };
-        Value::from_le_bytes(dt, &bytes).map_err(|e| Error::Value {
+            }),
+        }
+    }
+
+    /// Reads an object and decodes it as `data_type` (whatever the dictionary says).
+    pub fn read_as(self, entry: impl Into<Entry>, data_type: DataType) -> Result<Value, Error> {
+        let entry = entry.into();
+        let node = self.node;
+        let bytes = self.read(entry)?;
+        Value::from_le_bytes(data_type, &bytes).map_err(|e| Error::Value {
             node,
             entry,
             message: e.to_string(),

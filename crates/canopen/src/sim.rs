@@ -290,7 +290,7 @@ pub struct SimDevice {
     booted: bool,
     configured: bool,
     lss: LssSlave,
-    pdo: Box<crate::pdo::PdoEngine>,
+    pdo: Box<crate::pdo_glue::PdoEngine>,
     last_state: DeviceState,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
@@ -338,7 +338,7 @@ impl SimDevice {
             booted: false,
             configured: true,
             lss: LssSlave::new(lss_config),
-            pdo: Box::new(crate::pdo::PdoEngine::new()),
+            pdo: Box::new(crate::pdo_glue::PdoEngine::new()),
             last_state: DeviceState::Initialising,
             sdo_requests: 0,
         }
@@ -439,7 +439,7 @@ impl SimDevice {
         self.values.set(index, sub, value);
         if self.nmt.state() == DeviceState::Operational {
             self.pdo
-                .update(now, &mut crate::pdo::Store(&mut self.values));
+                .update(now, &mut crate::pdo_glue::Store(&mut self.values));
             self.collect();
         }
     }
@@ -447,13 +447,13 @@ impl SimDevice {
     /// (Re)builds the PDO engine from the current PDO objects; enabled in Operational.
     fn rebuild_pdos(&mut self, now: Instant) {
         let view = canopen_pdo::OdView::with_values(&self.od, &self.values);
-        self.pdo = crate::pdo::device_engine(&view, now);
+        self.pdo = crate::pdo_glue::device_engine(&view, now);
         let operational = self.nmt.state() == DeviceState::Operational;
         self.pdo.set_enabled(now, operational);
         if operational {
             // Event-driven TPDOs send their first value when the device starts.
             self.pdo
-                .update(now, &mut crate::pdo::Store(&mut self.values));
+                .update(now, &mut crate::pdo_glue::Store(&mut self.values));
         }
     }
 
@@ -643,7 +643,7 @@ impl Station for SimDevice {
         }
         if self
             .pdo
-            .handle_frame(now, frame, &mut crate::pdo::Store(&mut self.values))
+            .handle_frame(now, frame, &mut crate::pdo_glue::Store(&mut self.values))
         {
             self.collect();
         }
@@ -677,7 +677,7 @@ impl Station for SimDevice {
         }
         if self.pdo.poll_timeout().is_some_and(|t| t <= now) {
             self.pdo
-                .handle_timeout(now, &mut crate::pdo::Store(&mut self.values));
+                .handle_timeout(now, &mut crate::pdo_glue::Store(&mut self.values));
             self.collect();
         }
         let mut actions = HookActions::default();

@@ -14,14 +14,11 @@ use std::sync::{Arc, Mutex};
 use burkert_profile::demo::{led_swatch, progress_bar};
 use burkert_profile::master::generic_od;
 use burkert_profile::{BurkertDevice, BurkertNode, DeviceReport, LedColour, LedMode, Ne107Status};
-use can_frame::NodeId;
-use canopen::mem::MemoryBus;
-use canopen::transport::{Received, Transport as _};
-use canopen::{Error, Network};
-use canopen_od::ObjectDictionary;
+use canopen::{BusDictionary, Error, NodeId, ObjectDictionary};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
+use crate::bus::{BusOpts, fail, parse_node};
 use crate::{Global, outln};
 
 /// `canopen burkert NODE ...` arguments.
@@ -29,15 +26,6 @@ use crate::{Global, outln};
 pub(crate) struct BurkertArgs {
     #[command(subcommand)]
     command: BurkertCommand,
-}
-
-fn parse_node(s: &str) -> Result<NodeId, String> {
-    let v = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
-        Some(h) => u8::from_str_radix(h, 16),
-        None => s.parse(),
-    }
-    .map_err(|e| format!("`{s}`: {e}"))?;
-    NodeId::new(v).map_err(|e| e.to_string())
 }
 
 /// NE 107 events a simulated device can start with.
@@ -117,7 +105,7 @@ enum BurkertCommand {
         #[arg(long = "event", value_enum)]
         events: Vec<Event>,
         /// Stop after this many seconds (required on the in-memory bus).
-        #[arg(long)]
+        #[arg(long, value_parser = crate::bus::parse_seconds)]
         duration: Option<f64>,
     },
     /// Download the logbook (0x2003 sub 4, XML) into a file.
@@ -147,82 +135,35 @@ impl BurkertCommand {
     }
 }
 
-fn fail(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
-    ExitCode::FAILURE
-}
-
-/// The global bus flags. `bus::BusOpts` keeps its fields to itself and its bus builder
-/// simulates generic devices, so the two flags are read back from the parsed command line.
-fn bus_flags() -> (Option<String>, Vec<String>) {
-    let matches = <crate::Cli as clap::CommandFactory>::command().try_get_matches();
-    let Ok(m) = matches else {
-        return (None, Vec::new());
-    };
-    let iface = m.get_one::<String>("iface").cloned();
-    let eds = m
-        .get_many::<String>("node_eds")
-        .map(|v| v.cloned().collect())
-        .unwrap_or_default();
-    (iface, eds)
-}
-
-fn load_eds(spec: &str) -> Result<(NodeId, ObjectDictionary), String> {
-    let (node, file) = spec
-        .split_once('=')
-        .ok_or_else(|| format!("--eds {spec}: expected NODE=FILE"))?;
-    let node = parse_node(node)?;
-    let text = std::fs::read(file).map_err(|e| format!("{file}: {e}"))?;
-    let od = canopen_od::parse(&text)
-        .map_err(|e| format!("{file}: {e}"))?
-        .od;
-    Ok((node, od))
-}
-
-/// The network, with `node` as a Bürkert node (and simulated on the in-memory bus). The
-/// memory bus is returned to keep the simulation alive.
-fn open(node: NodeId) -> Result<(Network, Option<MemoryBus>), String> {
-    let (iface, eds) = bus_flags();
-    let mut dictionaries = eds
-        .iter()
-        .map(|s| load_eds(s))
-        .collect::<Result<Vec<_>, _>>()?;
+/// The `--eds` dictionaries, with the generic Bürkert EDS for `node` when none is given for it.
+fn dictionaries(opts: &BusOpts, node: NodeId) -> Result<Vec<(NodeId, ObjectDictionary)>, String> {
+    let mut dictionaries = opts.dictionaries()?;
     if !dictionaries.iter().any(|(n, _)| *n == node) {
         dictionaries.push((node, (**generic_od()).clone()));
     }
-    let (net, mem) = match iface {
-        Some(iface) => {
-            let t =
-                canopen::socketcan::SocketCan::open(&iface).map_err(|e| format!("{iface}: {e}"))?;
-            (Network::new(t), None)
-        }
-        None => {
-            let bus = MemoryBus::new();
-            let endpoint = bus.endpoint();
-            for (n, od) in &dictionaries {
-                bus.attach(BurkertDevice::with_dictionary(*n, od.clone()));
-            }
-            (Network::new(endpoint), Some(bus))
-        }
-    };
-    for (n, od) in dictionaries {
-        net.add_node_with_dictionary(n, od);
-    }
-    Ok((net, mem))
+    Ok(dictionaries)
 }
 
 /// `canopen burkert simulate NODE`: a `BurkertDevice` on SocketCAN (until --duration) or on
 /// the in-memory bus (for --duration of virtual time, printing the traffic).
-fn simulate(id: NodeId, events: &[Event], duration: Option<f64>, g: Global) -> ExitCode {
-    let (iface, eds) = bus_flags();
-    let od = match eds.iter().map(|s| load_eds(s)).find(|r| match r {
-        Ok((n, _)) => *n == id,
-        Err(_) => true,
-    }) {
-        Some(Ok((_, od))) => od,
-        Some(Err(e)) => return fail(e),
-        None => (**generic_od()).clone(),
+fn simulate(
+    opts: &BusOpts,
+    id: NodeId,
+    events: &[Event],
+    duration: Option<f64>,
+    g: Global,
+) -> ExitCode {
+    let od = match dictionaries(opts, id).map(|d| d.into_iter().find(|(n, _)| *n == id)) {
+        Ok(Some((_, od))) => od,
+        Ok(None) => (**generic_od()).clone(),
+        Err(e) => return fail(e),
     };
+    // The device is the only station this command runs.
+    let bus = match opts.open_with(Vec::new()) {
+        Ok(b) => b,
+        Err(e) => return fail(e),
+    };
+    let dictionary = BusDictionary::new().with_node(id, od.clone());
     let mut dev = BurkertDevice::with_dictionary(id, od);
     for e in events {
         dev.raise(e.status());
@@ -232,58 +173,20 @@ fn simulate(id: NodeId, events: &[Event], duration: Option<f64>, g: Global) -> E
         id.get(),
         dev.ne107()
     );
-    match iface {
-        Some(iface) => {
-            let mut t = match canopen::socketcan::SocketCan::open(&iface) {
-                Ok(t) => t,
-                Err(e) => return fail(format!("{iface}: {e}")),
-            };
-            let started = std::time::Instant::now();
-            let limit = duration.map(std::time::Duration::from_secs_f64);
-            let r = canopen::run_station(&mut t, &mut dev, || {
-                limit.is_some_and(|l| started.elapsed() >= l)
-            });
-            match r {
-                Ok(()) => ExitCode::SUCCESS,
-                Err(e) => fail(e),
-            }
-        }
-        None => {
-            let Some(secs) = duration else {
-                return fail("on the in-memory bus give --duration SECONDS");
-            };
-            let mem = MemoryBus::new();
-            let mut tap = mem.endpoint();
-            mem.attach(dev);
-            mem.run_for(can_frame::Duration::from_micros(
-                (secs.max(0.0) * 1e6) as u64,
-            ));
-            while let Ok(Some(Received::Frame { frame, at })) = tap.try_recv() {
-                if g.json {
-                    outln(
-                        &json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string()})
-                            .to_string(),
-                    );
-                } else {
-                    outln(&format!("{at}  {}", crate::bus::decode(&frame)));
-                }
-            }
-            ExitCode::SUCCESS
-        }
-    }
+    crate::simulate::run_station(bus, dev, &dictionary, duration, g)
 }
 
 /// `canopen burkert ...`
-pub(crate) fn run(args: BurkertArgs, g: Global) -> ExitCode {
+pub(crate) fn run(args: BurkertArgs, opts: &BusOpts, g: Global) -> ExitCode {
     let id = args.command.node();
     if let BurkertCommand::Simulate {
         events, duration, ..
     } = &args.command
     {
-        return simulate(id, events, *duration, g);
+        return simulate(opts, id, events, *duration, g);
     }
-    let (net, _mem) = match open(id) {
-        Ok(x) => x,
+    let (net, _mem) = match dictionaries(opts, id).and_then(|d| opts.open_with(d)) {
+        Ok(bus) => bus.into_network(),
         Err(e) => return fail(e),
     };
     let dev = BurkertNode::new(net.node(id));

@@ -7,7 +7,7 @@
 
 use std::process::ExitCode;
 
-use can_frame::{Duration, Instant};
+use canopen::{Duration, Instant};
 use clap::{Args, Subcommand, ValueEnum};
 use gemu_cpos::action::{
     ActionId, ActionRequest, ErrorCode, FindFunctionFunction, GoFunction, NoInitFunction, Pwm,

@@ -3,13 +3,15 @@
 
 use std::process::ExitCode;
 
-use can_frame::{Duration, NodeId};
+use canopen::lss::{AssignConfig, LssAddress, NodeIdPool};
 use canopen::mem::MemoryBus;
+use canopen::pdo::{CommParams, Direction, Mapping};
 use canopen::transport::{Received, Transport};
-use canopen::{Network, NetworkEvent, SimDevice};
-use canopen_nmt::HeartbeatEvent;
+use canopen::{
+    BusDictionary, CommandSpecifier, Duration, HeartbeatEvent, Monitor, Network, NetworkEvent,
+    NodeId, SimDevice,
+};
 
-use crate::bus::{decode, explain};
 use crate::outln;
 
 const BURKERT_EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
@@ -19,12 +21,12 @@ fn step(title: &str) {
     outln(&format!("== {title}"));
 }
 
-fn show_traffic(tap: &mut canopen::Endpoint, max: usize) {
+fn show_traffic(tap: &mut canopen::Endpoint, monitor: &mut Monitor, max: usize) {
     let mut shown = 0;
     let mut skipped = 0;
     while let Ok(Some(Received::Frame { frame, at })) = tap.try_recv() {
         if shown < max {
-            outln(&format!("   {at}  {}", decode(&frame)));
+            outln(&format!("   {at}  {}", monitor.describe(&frame)));
             shown += 1;
         } else {
             skipped += 1;
@@ -49,7 +51,14 @@ pub(crate) fn run() -> ExitCode {
 fn walk() -> Result<(), Box<dyn std::error::Error>> {
     let n5 = NodeId::new(5)?;
     let n6 = NodeId::new(6)?;
-    let od = canopen_od::parse(BURKERT_EDS)?.od;
+    let od = canopen::od::parse(BURKERT_EDS)?.od;
+    let n7 = NodeId::new(7)?;
+    let mut monitor = Monitor::new(
+        BusDictionary::new()
+            .with_node(n5, od.clone())
+            .with_node(n6, od.clone())
+            .with_node(n7, od.clone()),
+    );
 
     outln("canopen demo: a master and two simulated Bürkert devices (eds/burkert-generic.eds)");
     outln("on an in-memory CAN bus (virtual clock, 500 kbit/s timing model). Every frame below");
@@ -89,7 +98,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         od.clone(),
     ));
     net.run_for(Duration::from_millis(10))?;
-    show_traffic(&mut tap, 10);
+    show_traffic(&mut tap, &mut monitor, 10);
     for ev in events.try_iter() {
         if let NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node }) = ev {
             outln(&format!("   -> node {node} booted (Pre-operational)"));
@@ -97,21 +106,18 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     }
 
     step("1b. LSS (CiA 305): an unconfigured device joins; assign-all finds it by Fastscan");
-    let addr = canopen_lss::LssAddress::new(0x39, 0x0100_0001, 1, 0x0012_3456);
+    let addr = LssAddress::new(0x39, 0x0100_0001, 1, 0x0012_3456);
     bus.attach(SimDevice::unconfigured(od.clone(), addr));
     outln(&format!(
         "   an unconfigured device (LSS address {addr}) is powered on: it stays silent"
     ));
-    let pool = canopen_lss::NodeIdPool::range(NodeId::new(7)?, NodeId::new(7)?);
-    let report = net
-        .lss()
-        .assign_all(canopen_lss::AssignConfig::with_pool(pool))?;
+    let pool = NodeIdPool::range(n7, n7);
+    let report = net.lss().assign_all(AssignConfig::with_pool(pool))?;
     for e in &report.entries {
         outln(&format!("   assigned {e}"));
     }
     net.run_for(Duration::from_millis(5))?;
-    show_traffic(&mut tap, 6);
-    let n7 = NodeId::new(7)?;
+    show_traffic(&mut tap, &mut monitor, 6);
     net.add_node_with_dictionary(n7, od.clone());
     let serial = net.node(n7).sdo().read((0x1018, 4))?;
     outln(&format!(
@@ -141,7 +147,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         "   device name (0x1008, a segmented upload): \"{}\"",
         String::from_utf8_lossy(&name)
     ));
-    show_traffic(&mut tap, 6);
+    show_traffic(&mut tap, &mut monitor, 6);
 
     step("3. Heartbeat configuration: producer time 0x1017 = 100 ms, master consumes it");
     for n in [n5, n6] {
@@ -150,32 +156,31 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     }
     outln(&format!(
         "   node 5 0x1017 now reads {} ms",
-        net.node(n5)
-            .sdo()
-            .read_value((0x1017, 0))?
-            .as_i128()
-            .unwrap_or(0)
+        net.node(n5).sdo().read_value((0x1017, 0))?
     ));
-    show_traffic(&mut tap, 4);
+    show_traffic(&mut tap, &mut monitor, 4);
 
     step(
         "3b. PDO mapping: TPDO3 of node 6 := NE 107 status (0x2004:01) + sensor value 1 (0x2500:01), every 500 ms",
     );
-    let mapping = canopen_pdo::Mapping::from_raw(&[0x2004_0108, 0x2500_0120])?;
-    let comm = canopen_pdo::CommParams::event_driven(0x386).with_event_timer(500);
+    let mapping = Mapping::from_raw(&[0x2004_0108, 0x2500_0120])?;
+    let comm = CommParams::event_driven(0x386).with_event_timer(500);
     net.node(n6)
-        .remap_pdo(canopen_pdo::Direction::Transmit, 3, comm, mapping)?;
+        .remap_pdo(Direction::Transmit, 3, comm, mapping)?;
     outln(
         "   (disable TPDO3, clear mapping, write entries, set count, set parameters, enable: by SDO)",
     );
-    show_traffic(&mut tap, 8);
+    show_traffic(&mut tap, &mut monitor, 8);
 
     step("4. Start: NMT Start to all nodes, heartbeats now say Operational");
-    net.nmt_all(canopen_nmt::CommandSpecifier::Start)?;
+    net.nmt_all(CommandSpecifier::Start)?;
     net.run_for(Duration::from_millis(250))?;
-    show_traffic(&mut tap, 8);
+    show_traffic(&mut tap, &mut monitor, 8);
     for n in [n5, n6] {
-        outln(&format!("   node {n} reports {:?}", net.last_state(n)));
+        let state = net
+            .last_state(n)
+            .map_or("no state yet".to_string(), |s| s.to_string());
+        outln(&format!("   node {n} reports {state}"));
     }
 
     step(
@@ -198,10 +203,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         } = ev
             && shown < 10
         {
-            let text: Vec<String> = values
-                .iter()
-                .map(|(e, v)| format!("{:#06x}:{:02x} = {v:?}", e.index, e.sub))
-                .collect();
+            let text: Vec<String> = values.iter().map(|(e, v)| format!("{e} = {v}")).collect();
             outln(&format!(
                 "   {at}  node {node} TPDO{number}: {}",
                 text.join(", ")
@@ -220,7 +222,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         "   read back: \"{}\"",
         String::from_utf8_lossy(&back)
     ));
-    show_traffic(&mut tap, 12);
+    show_traffic(&mut tap, &mut monitor, 12);
 
     step("6. A block transfer: the logbook DOMAIN 0x2003 sub 4 (XML) with progress");
     let t0 = net.now();
@@ -244,18 +246,18 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         net.now() - t0,
         String::from_utf8_lossy(&data).lines().next().unwrap_or("")
     ));
-    show_traffic(&mut tap, 8);
+    show_traffic(&mut tap, &mut monitor, 8);
 
     step("7. An SDO abort, explained: reading an object the device does not have");
     match net.node(n5).sdo().read((0x6000, 1)) {
         Ok(_) => outln("   (unexpectedly answered)"),
-        Err(e) => outln(&format!("   {}", explain(&e))),
+        Err(e) => outln(&format!("   {e}")),
     }
     match net.node(n5).sdo().write((0x1018, 1), 0x1234u32) {
         Ok(_) => outln("   (unexpectedly written)"),
-        Err(e) => outln(&format!("   {}", explain(&e))),
+        Err(e) => outln(&format!("   {e}")),
     }
-    show_traffic(&mut tap, 4);
+    show_traffic(&mut tap, &mut monitor, 4);
 
     step(
         "7b. Bürkert profile on node 6: NE 107 status (0x2004:01) and the locating function (0x2101:01)",
@@ -264,10 +266,10 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         d.raise(burkert_profile::Ne107Status::MaintenanceRequired)
     });
     let status = net.node(n6).sdo().read((0x2004, 1))?;
+    let raw = status.first().copied().unwrap_or(0);
+    let meaning = burkert_profile::Ne107Status::from_u8(raw & 0x0F).meaning_en();
     outln(&format!(
-        "   the device raised an event; 0x2004:01 reads {:?} = {:?}",
-        status,
-        burkert_profile::Ne107Status::from_u8(status.first().copied().unwrap_or(0) & 0x0F)
+        "   the device raised an event; 0x2004:01 reads {raw} = {meaning}"
     ));
     net.node(n6).sdo().write((0x2101, 1), 1u8)?;
     outln(&format!(
@@ -275,7 +277,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         bus.with_station(dev6, |d| d.locating()).unwrap_or(false)
     ));
     net.node(n6).sdo().write((0x2101, 1), 0u8)?;
-    show_traffic(&mut tap, 4);
+    show_traffic(&mut tap, &mut monitor, 4);
     // The Bürkert view of the same device (burkert_profile::BurkertNode): the whole status in
     // one batch of SDO reads with the LED drawn, a locate (honouring "0 before 1"), and the
     // logbook by block transfer with a progress bar.
@@ -290,14 +292,14 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         outln(&format!("   {line}"));
     }
     walk?;
-    show_traffic(&mut tap, 2);
+    show_traffic(&mut tap, &mut monitor, 2);
 
     step("8. NMT Stop to node 6: its heartbeat reports Stopped");
     net.node(n6).nmt().stop()?;
     net.run_for(Duration::from_millis(300))?;
     for ev in events.try_iter() {
         if let NetworkEvent::Heartbeat(h) = ev {
-            outln(&format!("   event: {h:?}"));
+            outln(&format!("   event: {h}"));
         }
     }
 

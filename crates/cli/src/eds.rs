@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use canopen_od::{Diagnostic, ObjectDictionary, ParseOptions, Severity};
+use canopen::od::{Diagnostic, ObjectDictionary, ParseOptions, Severity};
 use clap::{Args, Subcommand};
 use serde_json::{Value as Json, json};
 
@@ -96,7 +96,7 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
         } => with_od(&file, report, |od| {
             emit(
                 output.as_deref(),
-                &canopen_od::write_dcf(od, node_id, baudrate),
+                &canopen::od::write_dcf(od, node_id, baudrate),
             )
         }),
         EdsCommand::Codegen {
@@ -131,7 +131,7 @@ fn load(file: &Path, report: Report) -> Result<(ObjectDictionary, Vec<Diagnostic
         lines: vec![format!("{name}: error: {e}")],
         errors: 1,
     })?;
-    match canopen_od::parse_with(&bytes, report.options()) {
+    match canopen::od::parse_with(&bytes, report.options()) {
         Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
         Err(e) => Err(Failed {
             lines: e
@@ -242,7 +242,7 @@ fn lint(file: &Path, global: Global) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let findings = match canopen_od::lint::lint_source(&bytes) {
+    let findings = match canopen::od::lint::lint_source(&bytes) {
         Ok(f) => f,
         Err(e) => {
             for d in &e.diagnostics {
@@ -270,7 +270,7 @@ fn lint(file: &Path, global: Global) -> ExitCode {
     }
 }
 
-fn default_text(sub: &canopen_od::SubObject) -> Option<String> {
+fn default_text(sub: &canopen::od::SubObject) -> Option<String> {
     sub.default_value.as_ref().map(|d| d.text.trim().to_owned())
 }
 

@@ -9,13 +9,13 @@
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
-use can_frame::{CanFrame, Duration, Instant, NodeId};
 use canopen::candump::{LogEntry, LogFrame, Writer};
-use canopen::{MemoryBus, SimDevice, Station};
-use canopen_lss::{
+use canopen::lss::{
     AssignConfig, AssignOutcome, BitRate, BitTiming, FastscanConfig, LssAddress, Mode, NodeIdPool,
     Procedure, SlaveConfig, Step, StoreSupport,
 };
+use canopen::{CanFrame, Duration, Instant, NodeId};
+use canopen::{MemoryBus, SimDevice, Station};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
@@ -192,7 +192,7 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
     if let Some(mem) = mem.as_ref()
         && args.unconfigured > 0
     {
-        let od = match canopen_od::parse(BURKERT_EDS) {
+        let od = match canopen::od::parse(BURKERT_EDS) {
             Ok(p) => p.od,
             Err(e) => return fail(e),
         };

@@ -13,6 +13,10 @@ mod cpos;
 mod demo;
 mod eds;
 mod lss_cmd;
+mod nmt_cmd;
+mod sdo_cmd;
+mod simulate;
+mod traffic;
 
 /// CANopen master tools: EDS files, and (with the bus commands) devices on SocketCAN or a
 /// simulated bus.
@@ -39,12 +43,12 @@ enum Command {
     Cpos(cpos::CposArgs),
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
-    Sdo(bus::SdoCommand),
+    Sdo(sdo_cmd::SdoCommand),
     /// NMT module control: start|stop|preop|reset|reset-comm NODE|all.
     Nmt {
         /// The command.
         #[arg(value_enum)]
-        command: bus::NmtCmd,
+        command: nmt_cmd::NmtCmd,
         /// Node-ID or `all`.
         target: String,
     },
@@ -53,7 +57,7 @@ enum Command {
     /// Decoded live traffic.
     Monitor {
         /// Stop after this many seconds (required on the in-memory bus).
-        #[arg(long)]
+        #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
     /// Run a simulated device from an EDS on the bus.
@@ -64,7 +68,7 @@ enum Command {
         #[arg(long, value_parser = clap::value_parser!(u8).range(1..=127))]
         node_id: u8,
         /// Stop after this many seconds (required on the in-memory bus).
-        #[arg(long)]
+        #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
     /// Record traffic in the candump log format.
@@ -73,7 +77,7 @@ enum Command {
         #[arg(short, long)]
         output: std::path::PathBuf,
         /// Stop after this many seconds (required on the in-memory bus).
-        #[arg(long)]
+        #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
     /// Replay a candump log with its recorded timing.
@@ -120,26 +124,23 @@ fn main() -> ExitCode {
     let global = Global { json: cli.json };
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
-        Command::Sdo(cmd) => bus::run_sdo(cmd, &cli.bus, global),
-        Command::Nmt { command, target } => bus::run_nmt(command, &target, &cli.bus, global),
-        Command::Scan => bus::run_scan(&cli.bus, global),
-        Command::Monitor { duration } => bus::run_monitor(&cli.bus, duration, global),
+        Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
+        Command::Nmt { command, target } => nmt_cmd::run(command, &target, &cli.bus, global),
+        Command::Scan => nmt_cmd::run_scan(&cli.bus, global),
+        Command::Monitor { duration } => traffic::run_monitor(&cli.bus, duration, global),
         Command::Simulate {
             eds,
             node_id,
             duration,
-        } => match can_frame::NodeId::new(node_id) {
-            Ok(n) => bus::run_simulate(&cli.bus, &eds, n, duration, global),
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::FAILURE
-            }
+        } => match canopen::NodeId::new(node_id) {
+            Ok(n) => simulate::run(&cli.bus, &eds, n, duration, global),
+            Err(e) => bus::fail(e),
         },
-        Command::Record { output, duration } => bus::run_record(&cli.bus, &output, duration),
-        Command::Replay { file } => bus::run_replay(&cli.bus, &file, global),
+        Command::Record { output, duration } => traffic::run_record(&cli.bus, &output, duration),
+        Command::Replay { file } => traffic::run_replay(&cli.bus, &file, global),
         Command::Demo => demo::run(),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
         Command::Cpos(args) => cpos::run(args, global),
-        Command::Burkert(args) => burkert::run(args, global),
+        Command::Burkert(args) => burkert::run(args, &cli.bus, global),
     }
 }

@@ -164,11 +164,11 @@ fn to_dcf_resolves_node_id() {
     let text = std::fs::read_to_string(&dcf).unwrap();
     assert!(text.contains("NodeID=5"));
     // The written DCF parses again, and 0x1014 = $NODEID+0x80 is 0x85 for node 5.
-    let parsed = canopen_od::parse(text.as_bytes()).expect("the DCF parses");
+    let parsed = canopen::od::parse(text.as_bytes()).expect("the DCF parses");
     let emcy = parsed.od.sub(0x1014, 0).unwrap();
     assert_eq!(
         emcy.parameter_value().and_then(|p| p.resolve(5)),
-        Some(canopen_od::Value::Unsigned32(0x85))
+        Some(canopen::od::Value::Unsigned32(0x85))
     );
     let bad = canopen(&[
         "eds",
@@ -263,7 +263,11 @@ fn check_of_junk_prints_a_bounded_report_without_raw_control_bytes() {
         x ^= x << 13;
         x ^= x >> 7;
         x ^= x << 17;
-        junk.push(if x.is_multiple_of(23) { b'\n' } else { (x >> 24) as u8 });
+        junk.push(if x.is_multiple_of(23) {
+            b'\n'
+        } else {
+            (x >> 24) as u8
+        });
     }
     let path = dir.join("junk.eds");
     std::fs::write(&path, &junk).unwrap();

@@ -122,6 +122,21 @@ pub const fn sign_extend(raw: u64, bits: u8) -> i64 {
     }
 }
 
+impl core::fmt::Display for Value {
+    /// The value as CANopen tools show it: `true`, `42`, `-7`, `24.58`, and byte-typed objects
+    /// (strings, octet strings, time types) as their bytes in hex (`01 02 0a`).
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Bool(b) => write!(f, "{b}"),
+            Self::Unsigned(v) => write!(f, "{v}"),
+            Self::Signed(v) => write!(f, "{v}"),
+            Self::Real32(v) => write!(f, "{v}"),
+            Self::Real64(v) => write!(f, "{v}"),
+            Self::Bytes(b) => write!(f, "{}", can_frame::HexBytes(b.as_slice())),
+        }
+    }
+}
+
 impl Value {
     /// Interprets the raw bits of a field of `bits` bits as `kind`.
     #[inline]
