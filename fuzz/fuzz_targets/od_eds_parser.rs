@@ -1,11 +1,37 @@
-//! Arbitrary bytes as an EDS/DCF file: the parser must never panic, and whatever parses must
-//! survive write -> parse with an equal model, and lint without panicking.
+//! Arbitrary bytes as an EDS/DCF file: the parser must never panic, its report stays bounded
+//! (at most 25 diagnostics per severity and kind, plus one count of the rest, with no control
+//! characters), and whatever parses must survive write -> parse with an equal model, and lint
+//! without panicking.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 
+/// Severities times diagnostic kinds times (25 listed + 1 summary).
+const MAX_DIAGNOSTICS: usize = 2 * 13 * 26;
+
 fuzz_target!(|data: &[u8]| {
-    if let Ok(p) = canopen_od::parse(data) {
+    let parsed = canopen_od::parse(data);
+    let diagnostics = match &parsed {
+        Ok(p) => &p.diagnostics,
+        Err(e) => &e.diagnostics,
+    };
+    assert!(
+        diagnostics.len() <= MAX_DIAGNOSTICS,
+        "{} diagnostics",
+        diagnostics.len()
+    );
+    for d in diagnostics {
+        assert!(!d.message.chars().any(char::is_control), "{d}");
+    }
+    let quiet = canopen_od::ParseOptions::new().style_warnings(false);
+    if let Ok(p) = canopen_od::parse_with(data, quiet) {
+        assert!(
+            p.diagnostics
+                .iter()
+                .all(|d| d.kind != canopen_od::DiagnosticKind::Style)
+        );
+    }
+    if let Ok(p) = parsed {
         let _ = canopen_od::lint(&p.od);
         let text = canopen_od::write_eds(&p.od);
         let again = canopen_od::parse(text.as_bytes()).expect("written EDS parses");

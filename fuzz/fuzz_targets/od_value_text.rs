@@ -1,5 +1,6 @@
 //! The EDS value text decoder for every data type: never panics; a decoded value re-encodes to
-//! text that decodes to the same value, and its bytes decode back to it.
+//! text that decodes to the same value, and its bytes decode back to it; its display form has
+//! no control characters.
 #![no_main]
 
 use canopen_od::{BASIC_DATA_TYPES, DataType, EdsValue, Value};
@@ -22,6 +23,8 @@ fuzz_target!(|data: &[u8]| {
             let (back, _) = EdsValue::parse(dt, &canonical).expect("canonical text parses");
             assert_eq!(back, v);
         }
+        let shown = format!("{} {:#}", v.value, v.value);
+        assert!(!shown.chars().any(char::is_control), "{shown:?}");
         let bytes = v.value.to_le_bytes();
         assert_eq!(
             Value::from_le_bytes(dt, &bytes).expect("own bytes decode"),

@@ -2,27 +2,46 @@
 //!
 //! Every sub-object becomes a typed [`canopen_od::Entry`] constant that carries its index,
 //! sub-index and the Rust type of its value, so the producer heartbeat time is an
-//! `Entry<u16>` at 0x1017/0 and a master reads it as a `u16`. VAR objects become constants at the
+//! `Entry<u16>` at 0x1017:00 and a master reads it as a `u16`. VAR objects become constants at the
 //! top level; ARRAY and RECORD objects become modules holding an `INDEX` and one constant per
 //! sub-object. Names come from ParameterName (sanitised, keywords avoided, collisions resolved by
-//! appending the index or sub-index); doc comments carry what the EDS says of each entry.
-//! Optionally a static, allocation-free dictionary of the whole device is emitted as well.
+//! appending the index or sub-index; a leading ordinal is spelled out, `1st mapped object` →
+//! `FIRST_MAPPED_OBJECT`, and no name starts with an underscore); doc comments carry what the EDS
+//! says of each entry. Optionally a static, allocation-free dictionary of the whole device is
+//! emitted as well. Every generated item is `#[allow(dead_code)]`, so a binary crate that uses
+//! a few entries of a large device builds without warnings.
 //!
 //! In `build.rs`:
 //!
 //! ```no_run
-//! // build.rs
-//! canopen_codegen::compile_eds("eds/my-device.eds").unwrap();
+//! // build.rs, in `fn main`: on error, FILE:LINE: error: ... for each error of the EDS
+//! if let Err(e) = canopen_codegen::compile_eds("eds/my-device.eds") {
+//!     panic!("{e}");
+//! }
 //! ```
 //!
 //! and in the crate: `include!(concat!(env!("OUT_DIR"), "/my-device.rs"));`. The output starts
 //! with an `@generated` header, is only rewritten when its content changes, and the EDS is
-//! reported with `cargo:rerun-if-changed`.
+//! reported with `cargo:rerun-if-changed`; its warnings are passed to cargo as
+//! `cargo:warning=FILE:LINE: warning: ...` (see [`Config::style_warnings`] for the form-only ones).
+//!
+//! A master then reads and writes the entries with their Rust types, through the `canopen`
+//! facade's SDO client:
+//!
+//! ```ignore
+//! include!(concat!(env!("OUT_DIR"), "/my-device.rs"));
+//!
+//! let node = network.node(node_id);
+//! let vendor: u32 = node.sdo().read_entry(&identity::VENDOR_ID)?;
+//! node.sdo().write_entry(&PRODUCER_HEARTBEAT_TIME, &1000)?;
+//! ```
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use canopen_od::{DataType, Object, ObjectCode, ObjectDictionary, SubObject};
+use canopen_od::{
+    DataType, Diagnostic, Object, ObjectCode, ObjectDictionary, ParseOptions, SubObject,
+};
 
 mod names;
 
@@ -46,10 +65,14 @@ pub struct Config {
     static_dictionary: bool,
     out_dir: Option<PathBuf>,
     file_name: Option<String>,
+    style_warnings: bool,
 }
 
 /// What can go wrong generating code from a file.
-#[derive(Debug, thiserror::Error)]
+///
+/// `Debug` prints the same text as `Display`, so that `compile_eds(..).unwrap()` in a build
+/// script shows the EDS errors line by line rather than an escaped string.
+#[derive(thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
     /// Reading the EDS or writing the output failed.
@@ -68,6 +91,12 @@ pub enum Error {
     NoOutDir,
 }
 
+impl std::fmt::Debug for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(self, f)
+    }
+}
+
 impl Default for Config {
     fn default() -> Self {
         Self::new()
@@ -84,7 +113,15 @@ impl Config {
             static_dictionary: false,
             out_dir: None,
             file_name: None,
+            style_warnings: true,
         }
+    }
+
+    /// Whether [`Config::compile`] passes the EDS's form-only warnings (key case, lower-case hex,
+    /// trailing blanks: [`canopen_od::DiagnosticKind::Style`]) to cargo. On by default.
+    pub fn style_warnings(&mut self, on: bool) -> &mut Self {
+        self.style_warnings = on;
+        self
     }
 
     /// The path generated code uses for the `canopen-od` crate (for crates that re-export it).
@@ -127,8 +164,9 @@ impl Config {
     }
 
     /// Reads and parses `eds`, generates code and writes it into the output directory, only
-    /// if the content changed. Prints `cargo:rerun-if-changed` for the EDS. Returns the path of
-    /// the generated file.
+    /// if the content changed. Prints `cargo:rerun-if-changed` for the EDS and one
+    /// `cargo:warning=FILE:LINE: warning: ...` per warning of the parser, which cargo shows (for
+    /// path and workspace dependencies). Returns the path of the generated file.
     pub fn compile(&self, eds: impl AsRef<Path>) -> Result<PathBuf, Error> {
         let eds = eds.as_ref();
         println!("cargo:rerun-if-changed={}", eds.display());
@@ -137,7 +175,11 @@ impl Config {
             source,
         })?;
         let display = eds.display().to_string();
-        let od = parse(&bytes, &display)?;
+        let options = ParseOptions::new().style_warnings(self.style_warnings);
+        let (od, warnings) = parse(&bytes, &display, options)?;
+        for w in &warnings {
+            println!("cargo:warning={}", w.render(&display));
+        }
         let dir = match &self.out_dir {
             Some(d) => d.clone(),
             None => std::env::var_os("OUT_DIR")
@@ -166,9 +208,13 @@ pub fn compile_eds(eds: impl AsRef<Path>) -> Result<PathBuf, Error> {
     Config::new().compile(eds)
 }
 
-fn parse(bytes: &[u8], file: &str) -> Result<ObjectDictionary, Error> {
-    match canopen_od::parse(bytes) {
-        Ok(parsed) => Ok(parsed.od),
+fn parse(
+    bytes: &[u8],
+    file: &str,
+    options: ParseOptions,
+) -> Result<(ObjectDictionary, Vec<Diagnostic>), Error> {
+    match canopen_od::parse_with(bytes, options) {
+        Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
         Err(e) => {
             let mut msg = String::new();
             for d in e.errors() {
@@ -314,6 +360,7 @@ impl Generator<'_> {
             obj.object_code,
             obj.subs.len()
         );
+        let _ = writeln!(self.out, "#[allow(dead_code)]");
         let _ = writeln!(self.out, "pub mod {module} {{");
         let _ = writeln!(self.out, "    /// The object index, `{:#06X}`.", obj.index);
         let _ = writeln!(self.out, "    pub const INDEX: u16 = {:#06X};", obj.index);
@@ -389,6 +436,10 @@ impl Generator<'_> {
             if let Some(attr) = cfg_attr {
                 let _ = writeln!(out, "{indent}{attr}");
             }
+            if indent.is_empty() {
+                // Inside a module the module's attribute covers it.
+                let _ = writeln!(out, "#[allow(dead_code)]");
+            }
             let _ = writeln!(
                 out,
                 "{indent}pub const {name}: {krate}::Entry<{ty}> = {ctor};"
@@ -426,6 +477,7 @@ impl Generator<'_> {
             self.out,
             "/// Every sub-object of the dictionary in index order, with its default value's bytes."
         );
+        let _ = writeln!(self.out, "#[allow(dead_code)]");
         let _ = writeln!(
             self.out,
             "pub static DICTIONARY: &[{krate}::entry::StaticSubObject] = &["

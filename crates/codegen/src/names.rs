@@ -51,12 +51,69 @@ pub(crate) fn screaming(name: &str, fallback: &str) -> String {
     )
 }
 
+/// English ordinals for names that start with one (`1st mapped object` → `FIRST_MAPPED_OBJECT`).
+const ORDINALS: [&str; 20] = [
+    "first",
+    "second",
+    "third",
+    "fourth",
+    "fifth",
+    "sixth",
+    "seventh",
+    "eighth",
+    "ninth",
+    "tenth",
+    "eleventh",
+    "twelfth",
+    "thirteenth",
+    "fourteenth",
+    "fifteenth",
+    "sixteenth",
+    "seventeenth",
+    "eighteenth",
+    "nineteenth",
+    "twentieth",
+];
+
+/// An identifier that starts with a digit: a leading ordinal up to 20th is spelled out, anything
+/// else gets the fallback's first word in front (`24V supply` → `OBJ_24V_SUPPLY`). Never a
+/// leading underscore, which Rust reads as "unused on purpose".
+fn leading_digit(ident: String, fallback: &str) -> String {
+    let (first, rest) = ident.split_once('_').unwrap_or((&ident, ""));
+    let digits = first.bytes().take_while(u8::is_ascii_digit).count();
+    let (number, suffix) = first.split_at(digits);
+    let ordinal = ["st", "nd", "rd", "th"]
+        .iter()
+        .any(|s| suffix.eq_ignore_ascii_case(s))
+        .then(|| number.parse::<usize>().ok())
+        .flatten()
+        .and_then(|n| ORDINALS.get(n.checked_sub(1)?));
+    let upper = first.bytes().any(|b| b.is_ascii_uppercase());
+    let head = match ordinal {
+        Some(word) if upper => word.to_ascii_uppercase(),
+        Some(word) => (*word).to_owned(),
+        None => {
+            let word = fallback
+                .split('_')
+                .next()
+                .filter(|w| !w.is_empty())
+                .unwrap_or("n");
+            return format!("{word}_{ident}");
+        }
+    };
+    if rest.is_empty() {
+        head
+    } else {
+        format!("{head}_{rest}")
+    }
+}
+
 fn fix(mut ident: String, fallback: &str) -> String {
     if ident.is_empty() {
         ident = fallback.to_owned();
     }
     if ident.starts_with(|c: char| c.is_ascii_digit()) {
-        ident.insert(0, '_');
+        ident = leading_digit(ident, fallback);
     }
     if KEYWORDS.contains(&ident.as_str()) {
         ident.push('_');
@@ -106,7 +163,15 @@ mod tests {
         assert_eq!(snake("COBIDSync", "x"), "cobid_sync");
         assert_eq!(snake("Operation Time_[s]", "x"), "operation_time_s");
         assert_eq!(snake("Temperatur in °C (µs)", "x"), "temperatur_in_c_s");
-        assert_eq!(snake("3rd value", "x"), "_3rd_value");
+        assert_eq!(snake("3rd value", "x"), "third_value");
+        assert_eq!(
+            screaming("1st mapped object in RxPDO 1", "sub_1"),
+            "FIRST_MAPPED_OBJECT_IN_RX_PDO_1"
+        );
+        assert_eq!(screaming("24V supply", "obj_2000"), "OBJ_24V_SUPPLY");
+        assert_eq!(screaming("21st entry", "sub_21"), "SUB_21ST_ENTRY");
+        assert_eq!(screaming("7", "sub_7"), "SUB_7");
+        assert_eq!(snake("0x10 words", "obj_2001"), "obj_0x10_words");
         assert_eq!(snake("type", "x"), "type_");
         assert_eq!(snake("€€", "obj_2000"), "obj_2000");
         assert_eq!(screaming("Call/Cancel", "x"), "CALL_CANCEL");

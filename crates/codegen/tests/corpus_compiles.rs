@@ -56,6 +56,12 @@ fn every_corpus_file_generates_code_that_compiles() {
         let code = Config::new()
             .static_dictionary(true)
             .generate(&parsed.od, &name);
+        for line in code.lines() {
+            assert!(
+                !line.contains("pub const _") && !line.contains("pub mod _"),
+                "{name}: a generated name starts with an underscore: {line}"
+            );
+        }
         std::fs::write(scratch.join(format!("src/m{i}.rs")), code).unwrap();
         lib.push_str(&format!(
             "/// {name}\npub mod m{i} {{ include!(\"m{i}.rs\"); }}\n"

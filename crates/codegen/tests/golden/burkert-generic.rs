@@ -4,64 +4,78 @@
 /// Device Type
 ///
 /// `0x1000` sub 0: UNSIGNED32, ro; default `0x00000000`.
+#[allow(dead_code)]
 pub const DEVICE_TYPE: ::canopen_od::Entry<u32> = ::canopen_od::Entry::new(0x1000, 0, ::canopen_od::DataType::Unsigned32);
 /// Error Register
 ///
 /// `0x1001` sub 0: UNSIGNED8, ro; default `0`.
+#[allow(dead_code)]
 pub const ERROR_REGISTER: ::canopen_od::Entry<u8> = ::canopen_od::Entry::new(0x1001, 0, ::canopen_od::DataType::Unsigned8);
 /// COB ID SYNC
 ///
 /// `0x1005` sub 0: UNSIGNED32, rw; default `0x00000080`.
+#[allow(dead_code)]
 pub const COB_ID_SYNC: ::canopen_od::Entry<u32> = ::canopen_od::Entry::new(0x1005, 0, ::canopen_od::DataType::Unsigned32);
 /// Communication Cycle Period
 ///
 /// `0x1006` sub 0: UNSIGNED32, rw; default `0`.
+#[allow(dead_code)]
 pub const COMMUNICATION_CYCLE_PERIOD: ::canopen_od::Entry<u32> = ::canopen_od::Entry::new(0x1006, 0, ::canopen_od::DataType::Unsigned32);
 /// Manufacturer Device Name
 ///
 /// `0x1008` sub 0: VISIBLE_STRING, ro; default `Buerkert generic device`.
 #[cfg(feature = "alloc")]
+#[allow(dead_code)]
 pub const MANUFACTURER_DEVICE_NAME: ::canopen_od::Entry<::canopen_od::entry::OwnedString> = ::canopen_od::Entry::new(0x1008, 0, ::canopen_od::DataType::VisibleString);
 /// Manufacturer Device Name
 ///
 /// `0x1008` sub 0: VISIBLE_STRING, ro; default `Buerkert generic device`.
 #[cfg(not(feature = "alloc"))]
+#[allow(dead_code)]
 pub const MANUFACTURER_DEVICE_NAME: ::canopen_od::Entry<::canopen_od::entry::Opaque> = ::canopen_od::Entry::new(0x1008, 0, ::canopen_od::DataType::VisibleString);
 /// Manufacturer Hardware Version
 ///
 /// `0x1009` sub 0: VISIBLE_STRING, ro; default `1.0`.
 #[cfg(feature = "alloc")]
+#[allow(dead_code)]
 pub const MANUFACTURER_HARDWARE_VERSION: ::canopen_od::Entry<::canopen_od::entry::OwnedString> = ::canopen_od::Entry::new(0x1009, 0, ::canopen_od::DataType::VisibleString);
 /// Manufacturer Hardware Version
 ///
 /// `0x1009` sub 0: VISIBLE_STRING, ro; default `1.0`.
 #[cfg(not(feature = "alloc"))]
+#[allow(dead_code)]
 pub const MANUFACTURER_HARDWARE_VERSION: ::canopen_od::Entry<::canopen_od::entry::Opaque> = ::canopen_od::Entry::new(0x1009, 0, ::canopen_od::DataType::VisibleString);
 /// Manufacturer Software Version
 ///
 /// `0x100A` sub 0: VISIBLE_STRING, ro; default `1.0`.
 #[cfg(feature = "alloc")]
+#[allow(dead_code)]
 pub const MANUFACTURER_SOFTWARE_VERSION: ::canopen_od::Entry<::canopen_od::entry::OwnedString> = ::canopen_od::Entry::new(0x100A, 0, ::canopen_od::DataType::VisibleString);
 /// Manufacturer Software Version
 ///
 /// `0x100A` sub 0: VISIBLE_STRING, ro; default `1.0`.
 #[cfg(not(feature = "alloc"))]
+#[allow(dead_code)]
 pub const MANUFACTURER_SOFTWARE_VERSION: ::canopen_od::Entry<::canopen_od::entry::Opaque> = ::canopen_od::Entry::new(0x100A, 0, ::canopen_od::DataType::VisibleString);
 /// Guard Time
 ///
 /// `0x100C` sub 0: UNSIGNED16, rw; default `0`.
+#[allow(dead_code)]
 pub const GUARD_TIME: ::canopen_od::Entry<u16> = ::canopen_od::Entry::new(0x100C, 0, ::canopen_od::DataType::Unsigned16);
 /// Life Time Factor
 ///
 /// `0x100D` sub 0: UNSIGNED8, rw; default `0`.
+#[allow(dead_code)]
 pub const LIFE_TIME_FACTOR: ::canopen_od::Entry<u8> = ::canopen_od::Entry::new(0x100D, 0, ::canopen_od::DataType::Unsigned8);
 /// COB ID EMCY
 ///
 /// `0x1014` sub 0: UNSIGNED32, ro; default `$NODEID+0x80`.
+#[allow(dead_code)]
 pub const COB_ID_EMCY: ::canopen_od::Entry<u32> = ::canopen_od::Entry::new(0x1014, 0, ::canopen_od::DataType::Unsigned32);
 /// Consumer Heartbeat Time
 ///
 /// Object `0x1016`, Array with 128 sub-objects.
+#[allow(dead_code)]
 pub mod consumer_heartbeat_time {
     /// The object index, `0x1016`.
     pub const INDEX: u16 = 0x1016;
@@ -582,10 +596,12 @@ pub mod consumer_heartbeat_time {
 /// Producer Heartbeat Time
 ///
 /// `0x1017` sub 0: UNSIGNED16, rw; default `500`.
+#[allow(dead_code)]
 pub const PRODUCER_HEARTBEAT_TIME: ::canopen_od::Entry<u16> = ::canopen_od::Entry::new(0x1017, 0, ::canopen_od::DataType::Unsigned16);
 /// Identity Object
 ///
 /// Object `0x1018`, Record with 5 sub-objects.
+#[allow(dead_code)]
 pub mod identity_object {
     /// The object index, `0x1018`.
     pub const INDEX: u16 = 0x1018;
@@ -614,6 +630,7 @@ pub mod identity_object {
 /// Server SDO Parameter
 ///
 /// Object `0x1200`, Record with 4 sub-objects.
+#[allow(dead_code)]
 pub mod server_sdo_parameter {
     /// The object index, `0x1200`.
     pub const INDEX: u16 = 0x1200;
@@ -638,6 +655,7 @@ pub mod server_sdo_parameter {
 /// Client SDO Parameter
 ///
 /// Object `0x1280`, Record with 4 sub-objects.
+#[allow(dead_code)]
 pub mod client_sdo_parameter {
     /// The object index, `0x1280`.
     pub const INDEX: u16 = 0x1280;
@@ -662,6 +680,7 @@ pub mod client_sdo_parameter {
 /// Receive PDO Communication Parameter 1
 ///
 /// Object `0x1400`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_communication_parameter_1 {
     /// The object index, `0x1400`.
     pub const INDEX: u16 = 0x1400;
@@ -682,6 +701,7 @@ pub mod receive_pdo_communication_parameter_1 {
 /// Receive PDO Communication Parameter 2
 ///
 /// Object `0x1401`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_communication_parameter_2 {
     /// The object index, `0x1401`.
     pub const INDEX: u16 = 0x1401;
@@ -702,6 +722,7 @@ pub mod receive_pdo_communication_parameter_2 {
 /// Receive PDO Communication Parameter 3
 ///
 /// Object `0x1402`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_communication_parameter_3 {
     /// The object index, `0x1402`.
     pub const INDEX: u16 = 0x1402;
@@ -722,6 +743,7 @@ pub mod receive_pdo_communication_parameter_3 {
 /// Receive PDO Communication Parameter 4
 ///
 /// Object `0x1403`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_communication_parameter_4 {
     /// The object index, `0x1403`.
     pub const INDEX: u16 = 0x1403;
@@ -742,6 +764,7 @@ pub mod receive_pdo_communication_parameter_4 {
 /// Receive PDO Mapping Parameter 1
 ///
 /// Object `0x1600`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_mapping_parameter_1 {
     /// The object index, `0x1600`.
     pub const INDEX: u16 = 0x1600;
@@ -786,6 +809,7 @@ pub mod receive_pdo_mapping_parameter_1 {
 /// Receive PDO Mapping Parameter 2
 ///
 /// Object `0x1601`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_mapping_parameter_2 {
     /// The object index, `0x1601`.
     pub const INDEX: u16 = 0x1601;
@@ -830,6 +854,7 @@ pub mod receive_pdo_mapping_parameter_2 {
 /// Receive PDO Mapping Parameter 3
 ///
 /// Object `0x1602`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_mapping_parameter_3 {
     /// The object index, `0x1602`.
     pub const INDEX: u16 = 0x1602;
@@ -874,6 +899,7 @@ pub mod receive_pdo_mapping_parameter_3 {
 /// Receive PDO Mapping Parameter 4
 ///
 /// Object `0x1603`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod receive_pdo_mapping_parameter_4 {
     /// The object index, `0x1603`.
     pub const INDEX: u16 = 0x1603;
@@ -918,6 +944,7 @@ pub mod receive_pdo_mapping_parameter_4 {
 /// Transmit PDO Communication Parameter 1
 ///
 /// Object `0x1800`, Record with 6 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_communication_parameter_1 {
     /// The object index, `0x1800`.
     pub const INDEX: u16 = 0x1800;
@@ -950,6 +977,7 @@ pub mod transmit_pdo_communication_parameter_1 {
 /// Transmit PDO Communication Parameter 2
 ///
 /// Object `0x1801`, Record with 6 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_communication_parameter_2 {
     /// The object index, `0x1801`.
     pub const INDEX: u16 = 0x1801;
@@ -982,6 +1010,7 @@ pub mod transmit_pdo_communication_parameter_2 {
 /// Transmit PDO Communication Parameter 3
 ///
 /// Object `0x1802`, Record with 6 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_communication_parameter_3 {
     /// The object index, `0x1802`.
     pub const INDEX: u16 = 0x1802;
@@ -1014,6 +1043,7 @@ pub mod transmit_pdo_communication_parameter_3 {
 /// Transmit PDO Communication Parameter 4
 ///
 /// Object `0x1803`, Record with 6 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_communication_parameter_4 {
     /// The object index, `0x1803`.
     pub const INDEX: u16 = 0x1803;
@@ -1046,6 +1076,7 @@ pub mod transmit_pdo_communication_parameter_4 {
 /// Transmit PDO Mapping Parameter 1
 ///
 /// Object `0x1A00`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_mapping_parameter_1 {
     /// The object index, `0x1A00`.
     pub const INDEX: u16 = 0x1A00;
@@ -1090,6 +1121,7 @@ pub mod transmit_pdo_mapping_parameter_1 {
 /// Transmit PDO Mapping Parameter 2
 ///
 /// Object `0x1A01`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_mapping_parameter_2 {
     /// The object index, `0x1A01`.
     pub const INDEX: u16 = 0x1A01;
@@ -1134,6 +1166,7 @@ pub mod transmit_pdo_mapping_parameter_2 {
 /// Transmit PDO Mapping Parameter 3
 ///
 /// Object `0x1A02`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_mapping_parameter_3 {
     /// The object index, `0x1A02`.
     pub const INDEX: u16 = 0x1A02;
@@ -1178,6 +1211,7 @@ pub mod transmit_pdo_mapping_parameter_3 {
 /// Transmit PDO Mapping Parameter 4
 ///
 /// Object `0x1A03`, Record with 9 sub-objects.
+#[allow(dead_code)]
 pub mod transmit_pdo_mapping_parameter_4 {
     /// The object index, `0x1A03`.
     pub const INDEX: u16 = 0x1A03;
@@ -1222,6 +1256,7 @@ pub mod transmit_pdo_mapping_parameter_4 {
 /// Buerkert Device Description Object
 ///
 /// Object `0x2000`, Record with 10 sub-objects.
+#[allow(dead_code)]
 pub mod buerkert_device_description_object {
     /// The object index, `0x2000`.
     pub const INDEX: u16 = 0x2000;
@@ -1282,6 +1317,7 @@ pub mod buerkert_device_description_object {
 /// Device Communication Object
 ///
 /// Object `0x2001`, Record with 13 sub-objects.
+#[allow(dead_code)]
 pub mod device_communication_object {
     /// The object index, `0x2001`.
     pub const INDEX: u16 = 0x2001;
@@ -1342,6 +1378,7 @@ pub mod device_communication_object {
 /// User Configuration Object
 ///
 /// Object `0x2002`, Record with 5 sub-objects.
+#[allow(dead_code)]
 pub mod user_configuration_object {
     /// The object index, `0x2002`.
     pub const INDEX: u16 = 0x2002;
@@ -1388,6 +1425,7 @@ pub mod user_configuration_object {
 /// Error Management Object
 ///
 /// Object `0x2003`, Record with 2 sub-objects.
+#[allow(dead_code)]
 pub mod error_management_object {
     /// The object index, `0x2003`.
     pub const INDEX: u16 = 0x2003;
@@ -1410,6 +1448,7 @@ pub mod error_management_object {
 /// Device Status Object
 ///
 /// Object `0x2004`, Record with 18 sub-objects.
+#[allow(dead_code)]
 pub mod device_status_object {
     /// The object index, `0x2004`.
     pub const INDEX: u16 = 0x2004;
@@ -1490,6 +1529,7 @@ pub mod device_status_object {
 /// Locating Function
 ///
 /// Object `0x2101`, Record with 2 sub-objects.
+#[allow(dead_code)]
 pub mod locating_function {
     /// The object index, `0x2101`.
     pub const INDEX: u16 = 0x2101;
@@ -1506,6 +1546,7 @@ pub mod locating_function {
 /// Trigger Maintenance Function
 ///
 /// Object `0x210A`, Record with 2 sub-objects.
+#[allow(dead_code)]
 pub mod trigger_maintenance_function {
     /// The object index, `0x210A`.
     pub const INDEX: u16 = 0x210A;
@@ -1522,10 +1563,12 @@ pub mod trigger_maintenance_function {
 /// LED Mode
 ///
 /// `0x2120` sub 0: UNSIGNED32, rw; default `0`.
+#[allow(dead_code)]
 pub const LED_MODE: ::canopen_od::Entry<u32> = ::canopen_od::Entry::new(0x2120, 0, ::canopen_od::DataType::Unsigned32);
 /// Valve Mode Configuration
 ///
 /// Object `0x2121`, Record with 4 sub-objects.
+#[allow(dead_code)]
 pub mod valve_mode_configuration {
     /// The object index, `0x2121`.
     pub const INDEX: u16 = 0x2121;
@@ -1550,10 +1593,12 @@ pub mod valve_mode_configuration {
 /// LED Extern Colour
 ///
 /// `0x2122` sub 0: UNSIGNED32, rw; default `0x10000001`.
+#[allow(dead_code)]
 pub const LED_EXTERN_COLOUR: ::canopen_od::Entry<u32> = ::canopen_od::Entry::new(0x2122, 0, ::canopen_od::DataType::Unsigned32);
 /// Sensor Value 1
 ///
 /// Object `0x2500`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod sensor_value_1 {
     /// The object index, `0x2500`.
     pub const INDEX: u16 = 0x2500;
@@ -1574,6 +1619,7 @@ pub mod sensor_value_1 {
 /// Sensor Value 2
 ///
 /// Object `0x2501`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod sensor_value_2 {
     /// The object index, `0x2501`.
     pub const INDEX: u16 = 0x2501;
@@ -1594,6 +1640,7 @@ pub mod sensor_value_2 {
 /// Sensor Value 3
 ///
 /// Object `0x2502`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod sensor_value_3 {
     /// The object index, `0x2502`.
     pub const INDEX: u16 = 0x2502;
@@ -1614,6 +1661,7 @@ pub mod sensor_value_3 {
 /// Sensor Value 4
 ///
 /// Object `0x2503`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod sensor_value_4 {
     /// The object index, `0x2503`.
     pub const INDEX: u16 = 0x2503;
@@ -1634,6 +1682,7 @@ pub mod sensor_value_4 {
 /// Control Value 1
 ///
 /// Object `0x2540`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod control_value_1 {
     /// The object index, `0x2540`.
     pub const INDEX: u16 = 0x2540;
@@ -1654,6 +1703,7 @@ pub mod control_value_1 {
 /// Control Value 2
 ///
 /// Object `0x2541`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod control_value_2 {
     /// The object index, `0x2541`.
     pub const INDEX: u16 = 0x2541;
@@ -1674,6 +1724,7 @@ pub mod control_value_2 {
 /// Control Value 3
 ///
 /// Object `0x2542`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod control_value_3 {
     /// The object index, `0x2542`.
     pub const INDEX: u16 = 0x2542;
@@ -1694,6 +1745,7 @@ pub mod control_value_3 {
 /// Control Value 4
 ///
 /// Object `0x2543`, Record with 3 sub-objects.
+#[allow(dead_code)]
 pub mod control_value_4 {
     /// The object index, `0x2543`.
     pub const INDEX: u16 = 0x2543;
@@ -1712,6 +1764,7 @@ pub mod control_value_4 {
 }
 
 /// Every sub-object of the dictionary in index order, with its default value's bytes.
+#[allow(dead_code)]
 pub static DICTIONARY: &[::canopen_od::entry::StaticSubObject] = &[
     ::canopen_od::entry::StaticSubObject { index: 0x1000, sub_index: 0, name: "Device Type", data_type: ::canopen_od::DataType::Unsigned32, access: ::canopen_od::AccessType::Ro, pdo_mapping: false, default: Some(&[0, 0, 0, 0]), default_adds_node_id: false },
     ::canopen_od::entry::StaticSubObject { index: 0x1001, sub_index: 0, name: "Error Register", data_type: ::canopen_od::DataType::Unsigned8, access: ::canopen_od::AccessType::Ro, pdo_mapping: false, default: Some(&[0]), default_adds_node_id: false },

@@ -21,6 +21,8 @@ pub(super) const fn find_byte(w: u64, b: u8) -> u64 {
 }
 
 impl<'a> Lines<'a> {
+    // Called once per line from the scanner's loop, in another module: inlined there.
+    #[inline]
     pub(super) fn next_line(&mut self) -> Option<(&'a str, Option<usize>)> {
         let rest = self.text.as_bytes().get(self.offset..)?;
         let mut eq = None;

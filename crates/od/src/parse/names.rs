@@ -27,6 +27,7 @@ pub(super) enum SectionKind {
     Other,
 }
 
+#[inline]
 pub(super) fn hex4(s: &str) -> Option<u16> {
     if s.len() == 4 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
         u16::from_str_radix(s, 16).ok()
@@ -35,6 +36,7 @@ pub(super) fn hex4(s: &str) -> Option<u16> {
     }
 }
 
+#[inline]
 pub(super) fn strip_prefix_ci<'a>(s: &'a str, prefix: &str) -> Option<&'a str> {
     let head = s.get(..prefix.len())?;
     if head.eq_ignore_ascii_case(prefix) {
@@ -57,6 +59,7 @@ pub(super) const NAMED_SECTIONS: [(&str, SectionKind); 8] = [
     ("DeviceComissioning", SectionKind::Commissioning),
 ];
 
+#[inline]
 pub(super) fn classify(name: &str) -> (SectionKind, Option<(DiagnosticKind, String)>) {
     use SectionKind as S;
     // Object sections are nearly all of a file, and no named section starts with four hex
