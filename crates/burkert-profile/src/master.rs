@@ -24,8 +24,8 @@ use std::io::Write;
 use std::sync::{Arc, Mutex};
 
 use can_frame::{CanFrame, CanId, NodeId};
-use canopen::{Entry as Addr, Error, NetworkEvent, Node, SdoError, SdoErrorKind, TransferProgress};
-use canopen_od::{DataType, Entry, EntryValue, ObjectDictionary};
+use canopen::{Error, NetworkEvent, Node, SdoError, SdoErrorKind, TransferProgress};
+use canopen_od::{DataType, Entry, EntryValue, ObjectAddress, ObjectDictionary};
 use canopen_pdo::{CommParams, Direction, Mapping, MappingEntry, Value as PdoValue, ValueKind};
 use canopen_sdo::{AbortCode, ErrorKind};
 
@@ -52,8 +52,8 @@ pub const SUB_VALUE: u8 = 1;
 /// Sub-index of the precision (REAL32) in a sensor / control value object.
 pub const SUB_PRECISION: u8 = 6;
 
-const fn addr<T>(e: &Entry<T>) -> Addr {
-    Addr::new(e.index(), e.sub_index())
+const fn addr<T>(e: &Entry<T>) -> ObjectAddress {
+    ObjectAddress::new(e.index(), e.sub_index())
 }
 
 /// Object 0x2000, the device description. Sub-objects a device does not implement are `None`.
@@ -212,7 +212,7 @@ impl SensorTpdo {
     pub fn decode(&self, data: &[u8]) -> Result<Vec<SensorReading>, Error> {
         let unpacked = canopen_pdo::unpack(&self.mapping, data).map_err(|e| Error::Value {
             node: self.node,
-            entry: Addr::new(0x1800 + u16::from(self.number) - 1, 1),
+            entry: ObjectAddress::new(0x1800 + u16::from(self.number) - 1, 1),
             message: format!("TPDO{} data: {e}", self.number),
         })?;
         Ok(self
@@ -274,7 +274,7 @@ impl ControlRpdo {
     pub fn encode(&self, values: &[PdoValue]) -> Result<CanFrame, Error> {
         let err = |message: String| Error::Value {
             node: self.node,
-            entry: Addr::new(0x1400 + u16::from(self.number) - 1, 1),
+            entry: ObjectAddress::new(0x1400 + u16::from(self.number) - 1, 1),
             message,
         };
         let mut buf = [0u8; 8];
@@ -314,7 +314,7 @@ impl FinalProgress {
         }
     }
 
-    fn finish(&self, node: NodeId, entry: Addr, len: u64) {
+    fn finish(&self, node: NodeId, entry: ObjectAddress, len: u64) {
         if let Ok(mut g) = self.inner.lock()
             && g.1 != len
         {
@@ -350,11 +350,11 @@ fn is_absent(e: &SdoError) -> bool {
 /// Bytes read in a batch, by object.
 struct Batch {
     node: NodeId,
-    results: Vec<(Addr, Result<Vec<u8>, SdoError>)>,
+    results: Vec<(ObjectAddress, Result<Vec<u8>, SdoError>)>,
 }
 
 impl Batch {
-    fn raw(&self, a: Addr) -> Result<Option<&[u8]>, Error> {
+    fn raw(&self, a: ObjectAddress) -> Result<Option<&[u8]>, Error> {
         match self.results.iter().find(|(x, _)| *x == a) {
             Some((_, Ok(v))) => Ok(Some(v.as_slice())),
             Some((_, Err(e))) if is_absent(e) => Ok(None),
@@ -379,7 +379,7 @@ fn decode<T: EntryValue>(node: NodeId, e: &Entry<T>, bytes: &[u8]) -> Result<T, 
     })
 }
 
-fn undefined(node: NodeId, e: Addr, err: impl core::fmt::Display) -> Error {
+fn undefined(node: NodeId, e: ObjectAddress, err: impl core::fmt::Display) -> Error {
     Error::Value {
         node,
         entry: e,
@@ -416,7 +416,7 @@ impl BurkertNode {
 
     /// Submits every read together (the master queues them on the node and runs them back to
     /// back; other nodes progress meanwhile), then waits for all of them.
-    fn batch(&self, entries: &[Addr]) -> Batch {
+    fn batch(&self, entries: &[ObjectAddress]) -> Batch {
         let pending: Vec<_> = entries
             .iter()
             .map(|&a| (a, self.node.sdo().submit_read(a)))
@@ -432,7 +432,7 @@ impl BurkertNode {
     /// parallel-submitted SDO reads (see [`DeviceReport`]). Sub-objects the device does not
     /// implement (abort 0x06020000 / 0x06090011 / 0x08000024) are `None`.
     pub fn read_report(&self) -> Result<DeviceReport, Error> {
-        let mut all: Vec<Addr> = Vec::new();
+        let mut all: Vec<ObjectAddress> = Vec::new();
         all.extend(DESCRIPTION.iter().copied());
         all.extend(STATUS.iter().copied());
         all.extend(COMMUNICATION.iter().copied());
@@ -456,7 +456,7 @@ impl BurkertNode {
     /// Reads the whole device description (0x2000) and device status (0x2004) in one call:
     /// all SDO reads are submitted together, then awaited.
     pub fn read_description_and_status(&self) -> Result<(DeviceDescription, DeviceStatus), Error> {
-        let mut all: Vec<Addr> = DESCRIPTION.to_vec();
+        let mut all: Vec<ObjectAddress> = DESCRIPTION.to_vec();
         all.extend(STATUS.iter().copied());
         let b = self.batch(&all);
         Ok((description_from(&b)?, status_from(&b)?))
@@ -694,7 +694,7 @@ impl BurkertNode {
         number: u8,
     ) -> Result<(MappingEntry, DataType), Error> {
         let index = base + u16::from(number);
-        let a = Addr::new(index, SUB_VALUE);
+        let a = ObjectAddress::new(index, SUB_VALUE);
         if number >= VALUES_PER_KIND {
             return Err(undefined(
                 self.id(),
@@ -739,7 +739,7 @@ impl BurkertNode {
         if !(1..=4).contains(&number) {
             return Err(undefined(
                 id,
-                Addr::new(comm_base, 1),
+                ObjectAddress::new(comm_base, 1),
                 format_args!("PDO number {number} is outside 1..=4 (predefined connection set)"),
             ));
         }
@@ -750,7 +750,7 @@ impl BurkertNode {
             raw.push(self.value_entry(&od, base, v)?.0.0);
         }
         let mapping = Mapping::from_raw_checked(direction, &raw, &OdView::new(&od, id.get()))
-            .map_err(|e| undefined(id, Addr::new(direction.mapping_index(n), 0), e))?;
+            .map_err(|e| undefined(id, ObjectAddress::new(direction.mapping_index(n), 0), e))?;
         let comm = comm.unwrap_or_else(|| {
             let cob = fc + 0x100 * n + u16::from(id.get());
             match direction {
@@ -853,7 +853,7 @@ impl BurkertNode {
     }
 
     fn read_precision(&self, base: u16, number: u8) -> Result<f32, Error> {
-        let a = Addr::new(base + u16::from(number), SUB_PRECISION);
+        let a = ObjectAddress::new(base + u16::from(number), SUB_PRECISION);
         if number >= VALUES_PER_KIND {
             return Err(undefined(
                 self.id(),
@@ -861,14 +861,14 @@ impl BurkertNode {
                 format_args!("value number {number} is outside 0..=63"),
             ));
         }
-        let e: Entry<f32> = Entry::new(a.index, a.sub, DataType::Real32);
+        let e: Entry<f32> = Entry::new(a.index, a.sub_index, DataType::Real32);
         self.read(e)
     }
 
     fn read_value(&self, base: u16, number: u8) -> Result<canopen_od::Value, Error> {
         let od = self.dictionary();
         let (e, dt) = self.value_entry(&od, base, number)?;
-        let a = Addr::new(e.index(), SUB_VALUE);
+        let a = ObjectAddress::new(e.index(), SUB_VALUE);
         let bytes = self.node.sdo().read(a)?;
         canopen_od::Value::from_le_bytes(dt, &bytes).map_err(|err| undefined(self.id(), a, err))
     }
@@ -886,7 +886,7 @@ pub fn generic_od() -> &'static Arc<ObjectDictionary> {
     })
 }
 
-const DESCRIPTION: [Addr; 9] = [
+const DESCRIPTION: [ObjectAddress; 9] = [
     addr(&desc::DEVICE_NAME),
     addr(&desc::IDENT_NUMBER),
     addr(&desc::MANUFACTURE_DATE),
@@ -898,7 +898,7 @@ const DESCRIPTION: [Addr; 9] = [
     addr(&desc::PRODUCT_GROUP),
 ];
 
-const STATUS: [Addr; 17] = [
+const STATUS: [ObjectAddress; 17] = [
     addr(&st::DEVICE_STATUS_NAMUR_NE107),
     addr(&st::DEVICE_TEMPERATURE),
     addr(&st::DEVICE_SUPPLY_VOLTAGE),
@@ -918,7 +918,7 @@ const STATUS: [Addr; 17] = [
     addr(&st::ACTUATOR_SUPPLY_VOLTAGE),
 ];
 
-const COMMUNICATION: [Addr; 11] = [
+const COMMUNICATION: [ObjectAddress; 11] = [
     addr(&comm::BAUDRATE),
     addr(&comm::ADDRESS),
     addr(&comm::B_US_MODE),
@@ -932,7 +932,7 @@ const COMMUNICATION: [Addr; 11] = [
     addr(&comm::EDS_VERSION),
 ];
 
-const USER: [Addr; 5] = [
+const USER: [ObjectAddress; 5] = [
     addr(&user::NUMBER_OF_ENTRIES),
     addr(&user::LOCATION_INFORMATION),
     addr(&user::USER_DESCRIPTION),
@@ -940,7 +940,7 @@ const USER: [Addr; 5] = [
     addr(&user::STATIC_NODE_ID),
 ];
 
-const LED: [Addr; 5] = [
+const LED: [ObjectAddress; 5] = [
     addr(&objects::LED_MODE),
     addr(&valve::COLOUR_POSITION_CLOSED),
     addr(&valve::COLOUR_POSITION_BETWEEN),
@@ -988,7 +988,7 @@ fn status_from(b: &Batch) -> Result<DeviceStatus, Error> {
 
 fn typed<T, E: core::fmt::Display>(
     node: NodeId,
-    e: Addr,
+    e: ObjectAddress,
     v: Option<u8>,
     f: impl FnOnce(u8) -> Result<T, E>,
 ) -> Result<Option<T>, Error> {

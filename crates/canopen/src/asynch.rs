@@ -7,9 +7,10 @@
 //! is removed, a running transfer is aborted on the bus (0x08000000) and the node is free for the
 //! next request at once; the abandoned transfer's late responses are ignored.
 
-use crate::core::{Entry, RequestId};
+use crate::core::RequestId;
 use crate::error::{Error, SdoError};
 use crate::network::{Network, Pending, Sdo, SdoValue};
+use canopen_od::ObjectAddress;
 
 /// Cancels the request when dropped unless disarmed.
 struct CancelGuard {
@@ -49,14 +50,14 @@ async fn wait_async<T>(mut pending: Pending<T>) -> Result<T, SdoError> {
 
 impl Sdo {
     /// Reads an object's bytes (async). Dropping the future cancels the transfer.
-    pub async fn read_async(self, entry: impl Into<Entry>) -> Result<Vec<u8>, Error> {
+    pub async fn read_async(self, entry: impl Into<ObjectAddress>) -> Result<Vec<u8>, Error> {
         Ok(wait_async(self.submit_read(entry)).await?)
     }
 
     /// Writes an object (async). Dropping the future cancels the transfer.
     pub async fn write_async(
         self,
-        entry: impl Into<Entry>,
+        entry: impl Into<ObjectAddress>,
         value: impl SdoValue,
     ) -> Result<(), Error> {
         Ok(wait_async(self.submit_write(entry, value)).await?)

@@ -30,41 +30,13 @@ use canopen_nmt::{
     CommandSpecifier, EmcyConsumer, EmcyEvent, GuardingEvent, GuardingMaster, HeartbeatConsumer,
     HeartbeatEvent, NmtCommand, NmtState, NmtTarget, SyncConfig, SyncProducer,
 };
-use canopen_od::ObjectDictionary;
+use canopen_od::{ObjectAddress, ObjectDictionary};
 use canopen_sdo::{
     AbortCode, Client, ClientConfig, Event as SdoEvent, Method, Multiplexer, SdoCobIds,
 };
 
 use crate::error::{SdoError, SdoErrorKind};
 use crate::transport::BusEvent;
-
-/// An object address: index and sub-index.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct Entry {
-    /// Object index.
-    pub index: u16,
-    /// Sub-index.
-    pub sub: u8,
-}
-
-impl Entry {
-    /// The entry `index:sub`.
-    pub const fn new(index: u16, sub: u8) -> Self {
-        Self { index, sub }
-    }
-}
-
-impl From<(u16, u8)> for Entry {
-    fn from((index, sub): (u16, u8)) -> Self {
-        Self { index, sub }
-    }
-}
-
-impl core::fmt::Display for Entry {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{:#06x}:{:02x}", self.index, self.sub)
-    }
-}
 
 /// Identifies one SDO request for its whole life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -76,7 +48,7 @@ pub struct TransferProgress {
     /// The node.
     pub node: NodeId,
     /// The object.
-    pub entry: Entry,
+    pub entry: ObjectAddress,
     /// Bytes done.
     pub done: u64,
     /// Total bytes, when known.
@@ -132,7 +104,7 @@ pub enum NetworkEvent {
         /// TPDO number 1..=4.
         number: u8,
         /// The mapped objects and their values, in mapping order.
-        values: Vec<(Entry, canopen_pdo::Value)>,
+        values: Vec<(ObjectAddress, canopen_pdo::Value)>,
         /// Reception time.
         at: Instant,
     },
@@ -196,7 +168,7 @@ pub(crate) struct SdoRequest {
     pub(crate) node: NodeId,
     /// The server channel: the node's default one (0x600/0x580 + node-ID) or another.
     pub(crate) channel: SdoCobIds,
-    pub(crate) entry: Entry,
+    pub(crate) entry: ObjectAddress,
     pub(crate) op: Op,
     pub(crate) method: Method,
     pub(crate) timeout: Duration,
@@ -207,7 +179,7 @@ enum ReqState {
     Queued(SdoRequest),
     Active {
         progress: Option<ProgressFn>,
-        entry: Entry,
+        entry: ObjectAddress,
         node: NodeId,
         channel: usize,
     },
@@ -358,10 +330,10 @@ impl Core {
         self.nodes.get(&node).and_then(|s| s.od.clone())
     }
 
-    pub(crate) fn object_name(&self, node: NodeId, entry: Entry) -> Option<String> {
+    pub(crate) fn object_name(&self, node: NodeId, entry: ObjectAddress) -> Option<String> {
         let od = self.nodes.get(&node)?.od.as_ref()?;
         let obj = od.get(entry.index)?;
-        match obj.sub(entry.sub) {
+        match obj.sub(entry.sub_index) {
             Some(sub) if !obj.is_simple() => Some(format!("{} / {}", obj.name, sub.name)),
             _ => Some(obj.name.to_string()),
         }
@@ -618,7 +590,7 @@ impl Core {
             } = req;
             let cfg = c.client.config().with_timeout(timeout);
             c.client.set_config(cfg);
-            let mux = Multiplexer::new(entry.index, entry.sub);
+            let mux = Multiplexer::new(entry.index, entry.sub_index);
             let now = self.now;
             let started = match op {
                 Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
@@ -742,7 +714,7 @@ impl Core {
                                 .iter()
                                 .map(|(obj, v)| {
                                     let a = obj.addr();
-                                    (Entry::new(a.index, a.subindex), v)
+                                    (a, v)
                                 })
                                 .collect();
                             decoded.push((number, values));

@@ -5,8 +5,8 @@
 use can_frame::NodeId;
 use canopen_sdo::{AbortCode, ErrorKind};
 
-use crate::core::Entry;
 use crate::transport::TransportError;
+use canopen_od::ObjectAddress;
 
 /// What ended an SDO request unsuccessfully.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -30,7 +30,7 @@ pub struct SdoError {
     /// The node.
     pub node: NodeId,
     /// The object.
-    pub entry: Entry,
+    pub entry: ObjectAddress,
     /// The object's name from the node's dictionary, if it has one.
     pub name: Option<String>,
     /// What went wrong.
@@ -68,7 +68,7 @@ impl core::fmt::Display for SdoError {
         write!(
             f,
             "node {}, object {:#06x} sub {}",
-            self.node, self.entry.index, self.entry.sub
+            self.node, self.entry.index, self.entry.sub_index
         )?;
         if let Some(name) = &self.name {
             write!(f, " \"{name}\"")?;
@@ -108,7 +108,7 @@ pub enum Error {
         /// The node.
         node: NodeId,
         /// The object.
-        entry: Entry,
+        entry: ObjectAddress,
         /// What is wrong.
         message: String,
     },

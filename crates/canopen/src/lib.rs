@@ -55,10 +55,10 @@ pub use canopen_sdo as sdo;
 // The names common work needs.
 pub use can_frame::{CanFrame, CanId, Duration, Instant, NodeId};
 pub use canopen_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
-pub use canopen_od::{DataType, ObjectDictionary, Value};
+pub use canopen_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canopen_sdo::{AbortCode, Method, SdoCobIds};
 
-pub use crate::core::{CANCEL_ABORT, Entry, NetworkEvent, ProgressFn, RequestId, TransferProgress};
+pub use crate::core::{CANCEL_ABORT, NetworkEvent, ProgressFn, RequestId, TransferProgress};
 pub use describe::{BusDictionary, Description, Monitor, describe};
 pub use error::{Error, SdoError, SdoErrorKind, describe_abort};
 pub use lss::{Lss, LssOutcome};

@@ -22,11 +22,12 @@ use canopen_od::{DataType, ObjectDictionary, Value};
 use canopen_sdo::{Method, SdoCobIds};
 
 use crate::core::{
-    Completion, Core, DownSource, Entry, NetworkEvent, Op, ProgressFn, RequestId, SdoRequest,
-    Taken, TransferProgress, UpSink,
+    Completion, Core, DownSource, NetworkEvent, Op, ProgressFn, RequestId, SdoRequest, Taken,
+    TransferProgress, UpSink,
 };
 use crate::error::{Error, SdoError, SdoErrorKind};
 use crate::transport::{Received, Transport};
+use canopen_od::ObjectAddress;
 
 /// Default SDO response timeout.
 pub const DEFAULT_SDO_TIMEOUT: Duration = Duration::from_millis(1000);
@@ -295,7 +296,7 @@ impl Network {
         &self,
         id: RequestId,
         node: NodeId,
-        entry: Entry,
+        entry: ObjectAddress,
     ) -> Result<Completion, SdoError> {
         let r = self.wait_for(|c| match c.take_result(id) {
             Taken::Running => None,
@@ -429,7 +430,7 @@ impl Node {
         let steps = canopen_pdo::remap(direction, n, &comm, &mapping, &remote).map_err(|e| {
             Error::Value {
                 node: self.id,
-                entry: Entry::new(direction.comm_index(n), 0),
+                entry: ObjectAddress::new(direction.comm_index(n), 0),
                 message: e.to_string(),
             }
         })?;
@@ -509,7 +510,7 @@ pub struct Pending<T = Vec<u8>> {
     pub(crate) net: Network,
     pub(crate) id: Option<RequestId>,
     pub(crate) node: NodeId,
-    pub(crate) entry: Entry,
+    pub(crate) entry: ObjectAddress,
     /// What this kind of request takes from its completion.
     pub(crate) output: fn(Completion) -> T,
 }
@@ -540,7 +541,7 @@ impl<T> Pending<T> {
     }
 
     /// The object the request is for.
-    pub fn entry(&self) -> Entry {
+    pub fn entry(&self) -> ObjectAddress {
         self.entry
     }
 
@@ -677,7 +678,7 @@ impl Sdo {
         self
     }
 
-    fn request<T>(self, entry: Entry, op: Op, output: fn(Completion) -> T) -> Pending<T> {
+    fn request<T>(self, entry: ObjectAddress, op: Op, output: fn(Completion) -> T) -> Pending<T> {
         let node = self.node;
         let req = SdoRequest {
             node,
@@ -699,32 +700,36 @@ impl Sdo {
     }
 
     /// Starts an upload into memory without waiting.
-    pub fn submit_read(self, entry: impl Into<Entry>) -> Pending<Vec<u8>> {
+    pub fn submit_read(self, entry: impl Into<ObjectAddress>) -> Pending<Vec<u8>> {
         self.request(entry.into(), Op::Upload(UpSink::Mem(Vec::new())), |c| {
             c.data
         })
     }
 
     /// Starts a download without waiting.
-    pub fn submit_write(self, entry: impl Into<Entry>, value: impl SdoValue) -> Pending<()> {
+    pub fn submit_write(
+        self,
+        entry: impl Into<ObjectAddress>,
+        value: impl SdoValue,
+    ) -> Pending<()> {
         let data = value.to_sdo_bytes();
         self.request(entry.into(), Op::Download(DownSource(data)), |_| ())
     }
 
     /// Reads an object's bytes (SDO upload).
-    pub fn read(self, entry: impl Into<Entry>) -> Result<Vec<u8>, Error> {
+    pub fn read(self, entry: impl Into<ObjectAddress>) -> Result<Vec<u8>, Error> {
         Ok(self.submit_read(entry).wait()?)
     }
 
     /// Reads an object and decodes it with the type from the node's dictionary.
-    pub fn read_value(self, entry: impl Into<Entry>) -> Result<Value, Error> {
+    pub fn read_value(self, entry: impl Into<ObjectAddress>) -> Result<Value, Error> {
         let entry = entry.into();
         let node = self.node;
         let data_type = self
             .net
             .core()
             .dictionary(node)
-            .and_then(|od| od.sub(entry.index, entry.sub).map(|s| s.data_type));
+            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type));
         match data_type {
             Some(t) => self.read_as(entry, t),
             None => Err(Error::Value {
@@ -736,7 +741,11 @@ impl Sdo {
     }
 
     /// Reads an object and decodes it as `data_type` (whatever the dictionary says).
-    pub fn read_as(self, entry: impl Into<Entry>, data_type: DataType) -> Result<Value, Error> {
+    pub fn read_as(
+        self,
+        entry: impl Into<ObjectAddress>,
+        data_type: DataType,
+    ) -> Result<Value, Error> {
         let entry = entry.into();
         let node = self.node;
         let bytes = self.read(entry)?;
@@ -752,7 +761,10 @@ impl Sdo {
         self,
         entry: &canopen_od::Entry<T>,
     ) -> Result<T, Error> {
-        let (node, at) = (self.node, Entry::new(entry.index(), entry.sub_index()));
+        let (node, at) = (
+            self.node,
+            ObjectAddress::new(entry.index(), entry.sub_index()),
+        );
         let bytes = self.read(at)?;
         entry.decode(&bytes).map_err(|e| Error::Value {
             node,
@@ -767,7 +779,7 @@ impl Sdo {
         entry: &canopen_od::Entry<T>,
         value: &T,
     ) -> Result<(), Error> {
-        let at = Entry::new(entry.index(), entry.sub_index());
+        let at = ObjectAddress::new(entry.index(), entry.sub_index());
         // Large enough for every fixed-size type; strings and domains are written as bytes.
         let mut buf = vec![0u8; 4096];
         let n = entry.encode(value, &mut buf).map_err(|e| Error::Value {
@@ -780,7 +792,7 @@ impl Sdo {
     }
 
     /// Writes an object (SDO download).
-    pub fn write(self, entry: impl Into<Entry>, value: impl SdoValue) -> Result<(), Error> {
+    pub fn write(self, entry: impl Into<ObjectAddress>, value: impl SdoValue) -> Result<(), Error> {
         self.submit_write(entry, value).wait()?;
         Ok(())
     }
@@ -788,7 +800,7 @@ impl Sdo {
     /// Uploads an object into `writer`, streaming as segments arrive. Returns the byte count.
     pub fn upload_to(
         self,
-        entry: impl Into<Entry>,
+        entry: impl Into<ObjectAddress>,
         writer: impl Write + Send + 'static,
     ) -> Result<u64, Error> {
         let sink = UpSink::Stream {
@@ -804,7 +816,7 @@ impl Sdo {
     /// Downloads the whole content of `reader` into an object. Returns the byte count.
     pub fn download_from(
         self,
-        entry: impl Into<Entry>,
+        entry: impl Into<ObjectAddress>,
         mut reader: impl Read,
     ) -> Result<u64, Error> {
         let mut data = Vec::new();

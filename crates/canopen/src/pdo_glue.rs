@@ -6,8 +6,8 @@
 use can_frame::{CanId, Instant};
 use canopen_od::ObjectDictionary;
 use canopen_pdo::{
-    CommParams, Dictionary, Direction, Engine, Mapping, ObjectAddr, ObjectStore, OdView, PdoConfig,
-    RpdoId, StoreError,
+    CommParams, Dictionary, Direction, Engine, Mapping, ObjectAddress, ObjectStore, OdView,
+    PdoConfig, RpdoId, StoreError,
 };
 
 use crate::sim::Values;
@@ -22,18 +22,18 @@ pub(crate) type Mirror = (Box<PdoEngine>, Vec<(u8, RpdoId)>);
 pub(crate) struct Store<'a>(pub(crate) &'a mut Values);
 
 impl ObjectStore for Store<'_> {
-    fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), StoreError> {
+    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), StoreError> {
         let v = self
             .0
-            .get(addr.index, addr.subindex)
+            .get(addr.index, addr.sub_index)
             .ok_or(StoreError::NoSuchObject)?;
         let n = out.len().min(v.len());
         out[..n].copy_from_slice(&v[..n]);
         out[n..].fill(0);
         Ok(())
     }
-    fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), StoreError> {
-        self.0.set(addr.index, addr.subindex, data.to_vec());
+    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), StoreError> {
+        self.0.set(addr.index, addr.sub_index, data.to_vec());
         Ok(())
     }
 }

@@ -531,8 +531,8 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     assert_eq!(
         entries,
         [
-            canopen::Entry::new(0x2500, 1),
-            canopen::Entry::new(0x2501, 1)
+            canopen::ObjectAddress::new(0x2500, 1),
+            canopen::ObjectAddress::new(0x2501, 1)
         ]
     );
 
@@ -616,8 +616,8 @@ fn remap_a_tpdo_by_sdo_and_decode_it() {
     assert_eq!(
         entries,
         [
-            canopen::Entry::new(0x2004, 1),
-            canopen::Entry::new(0x2500, 1)
+            canopen::ObjectAddress::new(0x2004, 1),
+            canopen::ObjectAddress::new(0x2500, 1)
         ]
     );
 }

@@ -8,7 +8,7 @@ use std::io::{IsTerminal, Write as _};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use canopen::{DataType, Entry, Network, NodeId, Value};
+use canopen::{DataType, Network, NodeId, ObjectAddress, Value};
 use clap::{Subcommand, ValueEnum};
 use serde_json::json;
 
@@ -200,11 +200,16 @@ fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
     }
 }
 
-fn data_type_of(net: &Network, node: NodeId, entry: Entry, ty: Option<Ty>) -> Option<DataType> {
+fn data_type_of(
+    net: &Network,
+    node: NodeId,
+    entry: ObjectAddress,
+    ty: Option<Ty>,
+) -> Option<DataType> {
     ty.map(Ty::data_type).or_else(|| {
         net.node(node)
             .dictionary()
-            .and_then(|od| od.sub(entry.index, entry.sub).map(|s| s.data_type))
+            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
     })
 }
 
@@ -261,7 +266,7 @@ pub(crate) fn run(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
             ty,
             block,
         } => {
-            let entry = Entry::new(index, sub);
+            let entry = ObjectAddress::new(index, sub);
             let dt = data_type_of(&net, node, entry, ty).unwrap_or(DataType::Domain);
             let value = match net.node(node).sdo().block(block).read_as(entry, dt) {
                 Ok(v) => v,
@@ -286,7 +291,7 @@ pub(crate) fn run(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
             ty,
             block,
         } => {
-            let entry = Entry::new(index, sub);
+            let entry = ObjectAddress::new(index, sub);
             let Some(dt) = data_type_of(&net, node, entry, ty) else {
                 return fail(format!(
                     "node {node}, object {entry}: give --type (or --eds {node}=FILE)"

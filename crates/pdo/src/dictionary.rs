@@ -13,27 +13,9 @@
 //! None of them needs an allocator. Under the `alloc` feature [`MapStore`] is a ready store
 //! backed by a `BTreeMap`.
 
-/// An object dictionary entry: index and sub-index.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ObjectAddr {
-    /// 16-bit index.
-    pub index: u16,
-    /// 8-bit sub-index.
-    pub subindex: u8,
-}
-
-impl ObjectAddr {
-    /// `index:subindex`.
-    pub const fn new(index: u16, subindex: u8) -> Self {
-        Self { index, subindex }
-    }
-}
-
-impl core::fmt::Display for ObjectAddr {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{:#06x}:{:#04x}", self.index, self.subindex)
-    }
-}
+/// An object dictionary entry: index and sub-index (the workspace's one address type, from
+/// `canopen-od`).
+pub use canopen_od::ObjectAddress;
 
 /// What the dictionary says about one object, as far as PDO mapping cares.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -53,7 +35,7 @@ pub struct ObjectInfo {
 /// Object metadata for mapping validation.
 pub trait Catalog {
     /// The entry at `addr`, or `None` if the object does not exist.
-    fn object_info(&self, addr: ObjectAddr) -> Option<ObjectInfo>;
+    fn object_info(&self, addr: ObjectAddress) -> Option<ObjectInfo>;
 
     /// Whether the device accepts data type `data_type` (0x0001..=0x0007) as a dummy mapping
     /// entry (EDS `[DummyUsage]` `Dummy000n=1`). The default accepts all seven.
@@ -116,10 +98,10 @@ pub enum StoreError {
 /// holds. Dummy entries (index 0x0001..=0x0007) never reach the store.
 pub trait ObjectStore {
     /// Fills `out` with the current value of `addr` (little-endian, `out.len()` bytes).
-    fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), StoreError>;
+    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), StoreError>;
 
     /// Stores `data` (little-endian) as the new value of `addr`.
-    fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), StoreError>;
+    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), StoreError>;
 }
 
 /// A store that keeps nothing: reads give zeros, writes are accepted and dropped. For a master
@@ -128,22 +110,22 @@ pub trait ObjectStore {
 pub struct NullStore;
 
 impl ObjectStore for NullStore {
-    fn read(&mut self, _addr: ObjectAddr, out: &mut [u8]) -> Result<(), StoreError> {
+    fn read(&mut self, _addr: ObjectAddress, out: &mut [u8]) -> Result<(), StoreError> {
         out.fill(0);
         Ok(())
     }
 
-    fn write(&mut self, _addr: ObjectAddr, _data: &[u8]) -> Result<(), StoreError> {
+    fn write(&mut self, _addr: ObjectAddress, _data: &[u8]) -> Result<(), StoreError> {
         Ok(())
     }
 }
 
 impl<S: ObjectStore + ?Sized> ObjectStore for &mut S {
-    fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), StoreError> {
+    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), StoreError> {
         (**self).read(addr, out)
     }
 
-    fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), StoreError> {
+    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), StoreError> {
         (**self).write(addr, data)
     }
 }
@@ -153,7 +135,7 @@ mod map_store {
     use alloc::collections::BTreeMap;
     use alloc::vec::Vec;
 
-    use super::{ObjectAddr, ObjectStore, StoreError};
+    use super::{ObjectAddress, ObjectStore, StoreError};
 
     /// A heap-backed [`ObjectStore`]: a map from entry to little-endian bytes. Reading an entry
     /// that was never written gives [`StoreError::NoSuchObject`]; reads shorter or longer than the
@@ -161,7 +143,7 @@ mod map_store {
     #[derive(Debug, Clone, Default, PartialEq, Eq)]
     pub struct MapStore {
         /// The values.
-        pub values: BTreeMap<ObjectAddr, Vec<u8>>,
+        pub values: BTreeMap<ObjectAddress, Vec<u8>>,
     }
 
     impl MapStore {
@@ -171,24 +153,24 @@ mod map_store {
         }
 
         /// Sets `addr` to `data` and returns `self` (for building test stores).
-        pub fn with(mut self, addr: ObjectAddr, data: &[u8]) -> Self {
+        pub fn with(mut self, addr: ObjectAddress, data: &[u8]) -> Self {
             self.values.insert(addr, data.to_vec());
             self
         }
 
         /// The bytes stored at `addr`.
-        pub fn get(&self, addr: ObjectAddr) -> Option<&[u8]> {
+        pub fn get(&self, addr: ObjectAddress) -> Option<&[u8]> {
             self.values.get(&addr).map(Vec::as_slice)
         }
 
         /// Replaces the value at `addr`.
-        pub fn set(&mut self, addr: ObjectAddr, data: &[u8]) {
+        pub fn set(&mut self, addr: ObjectAddress, data: &[u8]) {
             self.values.insert(addr, data.to_vec());
         }
     }
 
     impl ObjectStore for MapStore {
-        fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), StoreError> {
+        fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), StoreError> {
             let v = self.values.get(&addr).ok_or(StoreError::NoSuchObject)?;
             out.fill(0);
             let n = v.len().min(out.len());
@@ -196,7 +178,7 @@ mod map_store {
             Ok(())
         }
 
-        fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), StoreError> {
+        fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), StoreError> {
             let slot = self.values.entry(addr).or_default();
             if !slot.is_empty() && slot.len() < data.len() {
                 // An existing object keeps its size (an MPDO write carries four bytes).

@@ -48,7 +48,7 @@ use can_frame::{CanFrame, CanId, Duration, Instant};
 use heapless::{Deque, Vec};
 
 use crate::comm::{CommError, CommParams, TransmissionType};
-use crate::dictionary::{ObjectAddr, ObjectStore, StoreError};
+use crate::dictionary::{ObjectAddress, ObjectStore, StoreError};
 use crate::mapping::{Mapping, field_mask};
 use crate::pack::{Unpacked, field, load_word};
 
@@ -149,7 +149,7 @@ pub enum Event {
         /// Which PDO.
         pdo: PdoRef,
         /// The object.
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         /// The store's reason.
         error: StoreError,
     },

@@ -70,7 +70,7 @@ pub use comm::{CommError, CommParams, Direction, PdoCobId, TransmissionType};
 #[cfg(feature = "alloc")]
 pub use dictionary::MapStore;
 pub use dictionary::{
-    Catalog, Dictionary, NullStore, ObjectAddr, ObjectInfo, ObjectStore, ReadError, StoreError,
+    Catalog, Dictionary, NullStore, ObjectAddress, ObjectInfo, ObjectStore, ReadError, StoreError,
 };
 pub use engine::{Engine, EngineError, Event, PdoConfig, PdoRef, RpdoId, TpdoId};
 pub use mapping::{MappedObject, Mapping, MappingEntry, MappingError, ValueKind};

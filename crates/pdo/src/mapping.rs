@@ -13,7 +13,7 @@
 use heapless::Vec;
 
 use crate::comm::Direction;
-use crate::dictionary::{Catalog, Dictionary, ObjectAddr, ReadError};
+use crate::dictionary::{Catalog, Dictionary, ObjectAddress, ReadError};
 
 /// Most objects one PDO maps (sub-indices 1..=64).
 pub const MAX_ENTRIES: usize = 64;
@@ -46,8 +46,8 @@ impl MappingEntry {
     }
 
     /// The mapped object.
-    pub const fn addr(self) -> ObjectAddr {
-        ObjectAddr::new(self.index(), self.subindex())
+    pub const fn addr(self) -> ObjectAddress {
+        ObjectAddress::new(self.index(), self.subindex())
     }
 
     /// Whether this is a dummy entry (index 0x0001..=0x0007, a data type).
@@ -118,7 +118,7 @@ pub struct MappedObject {
 
 impl MappedObject {
     /// The mapped object.
-    pub const fn addr(&self) -> ObjectAddr {
+    pub const fn addr(&self) -> ObjectAddress {
         self.entry.addr()
     }
 
@@ -174,18 +174,18 @@ pub enum MappingError {
     TooLong(u32),
     /// An entry of length 0.
     #[error("mapping entry {0} has length 0")]
-    ZeroLength(ObjectAddr),
+    ZeroLength(ObjectAddress),
     /// The mapped object does not exist.
     #[error("mapped object {0} does not exist")]
-    NoSuchObject(ObjectAddr),
+    NoSuchObject(ObjectAddress),
     /// The object's PDO mapping flag is not set.
     #[error("object {0} is not PDO-mappable")]
-    NotMappable(ObjectAddr),
+    NotMappable(ObjectAddress),
     /// An RPDO maps an object that is not writable, or a TPDO one that is not readable.
     #[error("object {addr} cannot be mapped into a {direction:?} PDO: access type forbids it")]
     AccessDenied {
         /// The object.
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         /// The PDO's direction.
         direction: Direction,
     },
@@ -193,7 +193,7 @@ pub enum MappingError {
     #[error("object {addr} has {object_bits} bits but is mapped with {mapped_bits}")]
     LengthMismatch {
         /// The object.
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         /// Its size.
         object_bits: u16,
         /// The length in the mapping entry.
@@ -203,7 +203,7 @@ pub enum MappingError {
     #[error("object {addr} must be mapped in whole bytes, not {mapped_bits} bits")]
     NotWholeBytes {
         /// The object.
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         /// The length in the mapping entry.
         mapped_bits: u8,
     },
@@ -456,8 +456,8 @@ mod tests {
 
     struct Cat;
     impl Catalog for Cat {
-        fn object_info(&self, addr: ObjectAddr) -> Option<ObjectInfo> {
-            let (data_type, bits, mappable, r, w) = match (addr.index, addr.subindex) {
+        fn object_info(&self, addr: ObjectAddress) -> Option<ObjectInfo> {
+            let (data_type, bits, mappable, r, w) = match (addr.index, addr.sub_index) {
                 (0x6000, 1) => (0x0005, 8, true, true, false), // U8 ro
                 (0x6200, 1) => (0x0005, 8, true, true, true),  // U8 rw
                 (0x6401, 1) => (0x0003, 16, true, true, false), // I16 ro
@@ -538,7 +538,7 @@ mod tests {
         );
         assert_eq!(
             Mapping::from_raw(&[0x6000_0100]),
-            Err(MappingError::ZeroLength(ObjectAddr::new(0x6000, 1)))
+            Err(MappingError::ZeroLength(ObjectAddress::new(0x6000, 1)))
         );
         let bits = [0x6000_0101u32; 65];
         assert_eq!(
@@ -556,23 +556,23 @@ mod tests {
         assert_eq!(
             Mapping::from_raw_checked(rx, &[0x6000_0108], &Cat),
             Err(MappingError::AccessDenied {
-                addr: ObjectAddr::new(0x6000, 1),
+                addr: ObjectAddress::new(0x6000, 1),
                 direction: rx
             })
         );
         assert!(Mapping::from_raw_checked(rx, &[0x6200_0108], &Cat).is_ok());
         assert_eq!(
             Mapping::from_raw_checked(tx, &[0x2000_0020], &Cat),
-            Err(MappingError::NotMappable(ObjectAddr::new(0x2000, 0)))
+            Err(MappingError::NotMappable(ObjectAddress::new(0x2000, 0)))
         );
         assert_eq!(
             Mapping::from_raw_checked(tx, &[0x7000_0108], &Cat),
-            Err(MappingError::NoSuchObject(ObjectAddr::new(0x7000, 1)))
+            Err(MappingError::NoSuchObject(ObjectAddress::new(0x7000, 1)))
         );
         assert_eq!(
             Mapping::from_raw_checked(tx, &[0x6401_0108], &Cat),
             Err(MappingError::LengthMismatch {
-                addr: ObjectAddr::new(0x6401, 1),
+                addr: ObjectAddress::new(0x6401, 1),
                 object_bits: 16,
                 mapped_bits: 8
             })
@@ -580,7 +580,7 @@ mod tests {
         assert_eq!(
             Mapping::from_raw_checked(tx, &[0x2001_000C], &Cat),
             Err(MappingError::NotWholeBytes {
-                addr: ObjectAddr::new(0x2001, 0),
+                addr: ObjectAddress::new(0x2001, 0),
                 mapped_bits: 12
             })
         );

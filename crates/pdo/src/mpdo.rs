@@ -23,7 +23,7 @@
 use can_frame::{CanFrame, CanId, NodeId};
 use heapless::Vec;
 
-use crate::dictionary::{Dictionary, ObjectAddr, ObjectStore, ReadError, StoreError};
+use crate::dictionary::{Dictionary, ObjectAddress, ObjectStore, ReadError, StoreError};
 
 /// First object scanner list object.
 pub const SCANNER_LIST_FIRST: u16 = 0x1FA0;
@@ -75,7 +75,7 @@ pub enum MpdoError {
     DataTooLong(usize),
     /// The object is not in the producer's scanner list.
     #[error("object {0} is not in the object scanner list")]
-    NotScanned(ObjectAddr),
+    NotScanned(ObjectAddress),
     /// The scanner list is empty.
     #[error("the object scanner list is empty")]
     EmptyScannerList,
@@ -86,7 +86,7 @@ pub enum MpdoError {
     #[error("object {addr}: {error}")]
     Store {
         /// The object.
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         /// The store's reason.
         error: StoreError,
     },
@@ -143,15 +143,15 @@ impl Mpdo {
     }
 
     /// The object named in the frame.
-    pub const fn addr(&self) -> ObjectAddr {
-        ObjectAddr::new(self.index, self.subindex)
+    pub const fn addr(&self) -> ObjectAddress {
+        ObjectAddress::new(self.index, self.subindex)
     }
 
     /// A DAM-MPDO writing `value` (at most 4 bytes, little-endian) into `addr` of `destination`
     /// (`None`: every node).
     pub fn dam(
         destination: Option<NodeId>,
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         value: &[u8],
     ) -> Result<Self, MpdoError> {
         if value.len() > 4 {
@@ -162,7 +162,7 @@ impl Mpdo {
         Ok(Self {
             address: MpdoAddress::Destination(destination),
             index: addr.index,
-            subindex: addr.subindex,
+            subindex: addr.sub_index,
             data,
         })
     }
@@ -200,11 +200,11 @@ impl ScannerEntry {
     }
 
     /// Whether the entry covers `addr`.
-    pub fn covers(self, addr: ObjectAddr) -> bool {
+    pub fn covers(self, addr: ObjectAddress) -> bool {
         !self.is_unused()
             && addr.index == self.index()
-            && addr.subindex >= self.subindex()
-            && (addr.subindex - self.subindex()) < self.block_size()
+            && addr.sub_index >= self.subindex()
+            && (addr.sub_index - self.subindex()) < self.block_size()
     }
 }
 
@@ -240,13 +240,13 @@ impl DispatcherEntry {
     }
 
     /// The first local object.
-    pub const fn local(self) -> ObjectAddr {
-        ObjectAddr::new((self.0 >> 40) as u16, (self.0 >> 32) as u8)
+    pub const fn local(self) -> ObjectAddress {
+        ObjectAddress::new((self.0 >> 40) as u16, (self.0 >> 32) as u8)
     }
 
     /// The producer's first object.
-    pub const fn producer_object(self) -> ObjectAddr {
-        ObjectAddr::new((self.0 >> 16) as u16, (self.0 >> 8) as u8)
+    pub const fn producer_object(self) -> ObjectAddress {
+        ObjectAddress::new((self.0 >> 16) as u16, (self.0 >> 8) as u8)
     }
 
     /// The producer's node-ID byte.
@@ -256,20 +256,20 @@ impl DispatcherEntry {
 
     /// The local object a SAM-MPDO of `producer` about its `object` goes to, if this entry
     /// covers it.
-    pub fn dispatch(self, producer: NodeId, object: ObjectAddr) -> Option<ObjectAddr> {
+    pub fn dispatch(self, producer: NodeId, object: ObjectAddress) -> Option<ObjectAddress> {
         let first = self.producer_object();
         if first.index == 0 || self.producer_node() != producer.get() || object.index != first.index
         {
             return None;
         }
-        let offset = object.subindex.checked_sub(first.subindex)?;
+        let offset = object.sub_index.checked_sub(first.sub_index)?;
         if offset >= self.block_size() {
             return None;
         }
         let local = self.local();
-        Some(ObjectAddr::new(
+        Some(ObjectAddress::new(
             local.index,
-            local.subindex.checked_add(offset)?,
+            local.sub_index.checked_add(offset)?,
         ))
     }
 }
@@ -322,7 +322,7 @@ impl<const N: usize> SamProducer<N> {
     /// The MPDO for one object, which must be in the scanner list (an application event on it).
     pub fn produce<S: ObjectStore + ?Sized>(
         &self,
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         store: &mut S,
     ) -> Result<Mpdo, MpdoError> {
         if !self.list.iter().any(|e| e.covers(addr)) {
@@ -343,7 +343,7 @@ impl<const N: usize> SamProducer<N> {
                 *self.list.first().ok_or(MpdoError::EmptyScannerList)?
             }
         };
-        let addr = ObjectAddr::new(entry.index(), entry.subindex().wrapping_add(off));
+        let addr = ObjectAddress::new(entry.index(), entry.subindex().wrapping_add(off));
         off += 1;
         self.cursor = if off >= entry.block_size() || entry.subindex().checked_add(off).is_none() {
             (i + 1, 0)
@@ -355,7 +355,7 @@ impl<const N: usize> SamProducer<N> {
 
     fn frame<S: ObjectStore + ?Sized>(
         &self,
-        addr: ObjectAddr,
+        addr: ObjectAddress,
         store: &mut S,
     ) -> Result<Mpdo, MpdoError> {
         let mut data = [0u8; 4];
@@ -365,7 +365,7 @@ impl<const N: usize> SamProducer<N> {
         Ok(Mpdo {
             address: MpdoAddress::Source(self.node),
             index: addr.index,
-            subindex: addr.subindex,
+            subindex: addr.sub_index,
             data,
         })
     }
@@ -375,7 +375,7 @@ impl<const N: usize> SamProducer<N> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Delivery {
     /// The data was written to this local object.
-    Written(ObjectAddr),
+    Written(ObjectAddress),
     /// A DAM-MPDO for another node, or a SAM-MPDO no dispatcher entry covers: ignored.
     Ignored,
 }
@@ -407,7 +407,7 @@ impl<const N: usize> MpdoConsumer<N> {
     }
 
     /// The local object a SAM-MPDO about `object` from `producer` goes to.
-    pub fn dispatch(&self, producer: NodeId, object: ObjectAddr) -> Option<ObjectAddr> {
+    pub fn dispatch(&self, producer: NodeId, object: ObjectAddress) -> Option<ObjectAddress> {
         self.list.iter().find_map(|e| e.dispatch(producer, object))
     }
 
@@ -465,16 +465,16 @@ mod tests {
             data: [0x11, 0x22, 0x33, 0x44],
         };
         assert_eq!(sam.emit(), [0x05, 0x00, 0x60, 0x01, 0x11, 0x22, 0x33, 0x44]);
-        let dam = Mpdo::dam(Some(n(0x12)), ObjectAddr::new(0x6200, 2), &[0xAB]).unwrap();
+        let dam = Mpdo::dam(Some(n(0x12)), ObjectAddress::new(0x6200, 2), &[0xAB]).unwrap();
         assert_eq!(dam.emit(), [0x92, 0x00, 0x62, 0x02, 0xAB, 0, 0, 0]);
-        let all = Mpdo::dam(None, ObjectAddr::new(0x6200, 2), &[1, 2]).unwrap();
+        let all = Mpdo::dam(None, ObjectAddress::new(0x6200, 2), &[1, 2]).unwrap();
         assert_eq!(all.emit()[0], 0x80);
         assert_eq!(Mpdo::parse(&all.emit()), Ok(all));
         assert_eq!(Mpdo::parse(&sam.emit()), Ok(sam));
         assert_eq!(Mpdo::parse(&[0; 7]), Err(MpdoError::Length(7)));
         assert_eq!(Mpdo::parse(&[0; 8]), Err(MpdoError::NoProducer));
         assert_eq!(
-            Mpdo::dam(None, ObjectAddr::new(1, 1), &[0; 5]),
+            Mpdo::dam(None, ObjectAddress::new(1, 1), &[0; 5]),
             Err(MpdoError::DataTooLong(5))
         );
     }
@@ -484,29 +484,29 @@ mod tests {
         let s = ScannerEntry(0x0360_0001);
         assert_eq!((s.block_size(), s.index(), s.subindex()), (3, 0x6000, 1));
         assert_eq!(ScannerEntry::new(3, 0x6000, 1), s);
-        assert!(s.covers(ObjectAddr::new(0x6000, 3)));
-        assert!(!s.covers(ObjectAddr::new(0x6000, 4)));
-        assert!(!s.covers(ObjectAddr::new(0x6000, 0)));
+        assert!(s.covers(ObjectAddress::new(0x6000, 3)));
+        assert!(!s.covers(ObjectAddress::new(0x6000, 4)));
+        assert!(!s.covers(ObjectAddress::new(0x6000, 0)));
         let d = DispatcherEntry(0x0262_0001_6000_0105);
         assert_eq!(d.block_size(), 2);
-        assert_eq!(d.local(), ObjectAddr::new(0x6200, 1));
-        assert_eq!(d.producer_object(), ObjectAddr::new(0x6000, 1));
+        assert_eq!(d.local(), ObjectAddress::new(0x6200, 1));
+        assert_eq!(d.producer_object(), ObjectAddress::new(0x6000, 1));
         assert_eq!(d.producer_node(), 5);
         assert_eq!(DispatcherEntry::new(2, 0x6200, 1, 0x6000, 1, 5), d);
         assert_eq!(
-            d.dispatch(n(5), ObjectAddr::new(0x6000, 2)),
-            Some(ObjectAddr::new(0x6200, 2))
+            d.dispatch(n(5), ObjectAddress::new(0x6000, 2)),
+            Some(ObjectAddress::new(0x6200, 2))
         );
-        assert_eq!(d.dispatch(n(5), ObjectAddr::new(0x6000, 3)), None);
-        assert_eq!(d.dispatch(n(6), ObjectAddr::new(0x6000, 1)), None);
+        assert_eq!(d.dispatch(n(5), ObjectAddress::new(0x6000, 3)), None);
+        assert_eq!(d.dispatch(n(6), ObjectAddress::new(0x6000, 1)), None);
     }
 
     #[test]
     fn sam_producer_walks_scanner_list_one_object_per_frame() {
         let mut store = MapStore::new()
-            .with(ObjectAddr::new(0x6000, 1), &[1])
-            .with(ObjectAddr::new(0x6000, 2), &[2])
-            .with(ObjectAddr::new(0x6401, 1), &[0x34, 0x12]);
+            .with(ObjectAddress::new(0x6000, 1), &[1])
+            .with(ObjectAddress::new(0x6000, 2), &[2])
+            .with(ObjectAddress::new(0x6401, 1), &[0x34, 0x12]);
         let mut p: SamProducer<4> = SamProducer::new(n(7));
         p.push(ScannerEntry::new(2, 0x6000, 1)).unwrap();
         p.push(ScannerEntry(0)).unwrap();
@@ -523,14 +523,14 @@ mod tests {
             ]
         );
         assert_eq!(
-            p.produce(ObjectAddr::new(0x6401, 1), &mut store)
+            p.produce(ObjectAddress::new(0x6401, 1), &mut store)
                 .unwrap()
                 .data,
             [0x34, 0x12, 0, 0]
         );
         assert_eq!(
-            p.produce(ObjectAddr::new(0x6401, 2), &mut store),
-            Err(MpdoError::NotScanned(ObjectAddr::new(0x6401, 2)))
+            p.produce(ObjectAddress::new(0x6401, 2), &mut store),
+            Err(MpdoError::NotScanned(ObjectAddress::new(0x6401, 2)))
         );
         let mut empty: SamProducer<1> = SamProducer::new(n(7));
         assert_eq!(empty.next(&mut store), Err(MpdoError::EmptyScannerList));
@@ -541,13 +541,13 @@ mod tests {
         let mut c: MpdoConsumer<4> = MpdoConsumer::new(n(9));
         c.push(DispatcherEntry::new(2, 0x2100, 1, 0x6000, 1, 7))
             .unwrap();
-        let mut store = MapStore::new().with(ObjectAddr::new(0x2100, 2), &[0]);
+        let mut store = MapStore::new().with(ObjectAddress::new(0x2100, 2), &[0]);
         // SAM from node 7 about 0x6000:2 lands in 0x2100:2 (one byte object keeps one byte).
         let d = c
             .handle_data(&[7, 0x00, 0x60, 2, 0xAA, 0xBB, 0, 0], &mut store)
             .unwrap();
-        assert_eq!(d, Delivery::Written(ObjectAddr::new(0x2100, 2)));
-        assert_eq!(store.get(ObjectAddr::new(0x2100, 2)), Some(&[0xAA][..]));
+        assert_eq!(d, Delivery::Written(ObjectAddress::new(0x2100, 2)));
+        assert_eq!(store.get(ObjectAddress::new(0x2100, 2)), Some(&[0xAA][..]));
         // Not covered: other producer, other sub-index.
         assert_eq!(
             c.handle_data(&[8, 0x00, 0x60, 2, 1, 0, 0, 0], &mut store),
@@ -560,24 +560,24 @@ mod tests {
         // DAM to us, to all, to another node.
         assert_eq!(
             c.handle_data(&[0x89, 0x00, 0x62, 1, 5, 0, 0, 0], &mut store),
-            Ok(Delivery::Written(ObjectAddr::new(0x6200, 1)))
+            Ok(Delivery::Written(ObjectAddress::new(0x6200, 1)))
         );
         assert_eq!(
             c.handle_data(&[0x80, 0x00, 0x62, 2, 6, 0, 0, 0], &mut store),
-            Ok(Delivery::Written(ObjectAddr::new(0x6200, 2)))
+            Ok(Delivery::Written(ObjectAddress::new(0x6200, 2)))
         );
         assert_eq!(
             c.handle_data(&[0x8A, 0x00, 0x62, 3, 7, 0, 0, 0], &mut store),
             Ok(Delivery::Ignored)
         );
-        assert_eq!(store.get(ObjectAddr::new(0x6200, 3)), None);
+        assert_eq!(store.get(ObjectAddress::new(0x6200, 3)), None);
     }
 
     #[test]
     fn scanner_list_from_a_dictionary() {
         struct D;
         impl crate::dictionary::Catalog for D {
-            fn object_info(&self, _: ObjectAddr) -> Option<crate::dictionary::ObjectInfo> {
+            fn object_info(&self, _: ObjectAddress) -> Option<crate::dictionary::ObjectInfo> {
                 None
             }
         }

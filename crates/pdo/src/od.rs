@@ -14,7 +14,7 @@
 
 use canopen_od::{DataType, ObjectDictionary};
 
-use crate::dictionary::{Catalog, Dictionary, ObjectAddr, ObjectInfo, ReadError};
+use crate::dictionary::{Catalog, Dictionary, ObjectAddress, ObjectInfo, ReadError};
 
 /// Current object values as little-endian bytes (CiA 301 §7.1), for a view over a running
 /// device rather than a file's defaults.
@@ -95,11 +95,11 @@ fn bits_of(data_type: DataType, value_len: Option<usize>) -> u16 {
 }
 
 impl Catalog for OdView<'_> {
-    fn object_info(&self, addr: ObjectAddr) -> Option<ObjectInfo> {
-        let sub = self.od.sub(addr.index, addr.subindex)?;
+    fn object_info(&self, addr: ObjectAddress) -> Option<ObjectInfo> {
+        let sub = self.od.sub(addr.index, addr.sub_index)?;
         let value_len = match sub.data_type.size() {
             Some(_) if !sub.data_type.is_variable_size() => None,
-            _ => self.value_len(addr.index, addr.subindex),
+            _ => self.value_len(addr.index, addr.sub_index),
         };
         Some(ObjectInfo {
             data_type: sub.data_type.code(),
@@ -237,13 +237,13 @@ mod tests {
         assert_eq!(
             Mapping::read_from(&view, Direction::Receive, 0x1A00),
             Err(MappingError::AccessDenied {
-                addr: ObjectAddr::new(0x6000, 0),
+                addr: ObjectAddress::new(0x6000, 0),
                 direction: Direction::Receive
             })
         );
         assert_eq!(
             Mapping::from_raw_checked(Direction::Transmit, &[0x2000_0020], &view),
-            Err(MappingError::NotMappable(ObjectAddr::new(0x2000, 0)))
+            Err(MappingError::NotMappable(ObjectAddress::new(0x2000, 0)))
         );
         assert!(Mapping::from_raw_checked(Direction::Receive, &[0x6200_0008], &view).is_ok());
         od.dummy_usage.insert(0x0005, false);
@@ -305,7 +305,8 @@ mod tests {
         let view = OdView::with_values(&od, &current);
         assert_eq!(view.read_u32(0x1800, 0), Ok(0x186));
         assert_eq!(
-            view.object_info(ObjectAddr::new(0x2001, 0)).map(|i| i.bits),
+            view.object_info(ObjectAddress::new(0x2001, 0))
+                .map(|i| i.bits),
             Some(24)
         );
         assert_eq!(

@@ -6,7 +6,7 @@
 
 use can_frame::{CanFrame, CanId, Duration, Instant};
 use canopen_pdo::{
-    CommParams, Engine, Event, MapStore, Mapping, ObjectAddr, PdoCobId, PdoConfig,
+    CommParams, Engine, Event, MapStore, Mapping, ObjectAddress, PdoCobId, PdoConfig,
     TransmissionType, Value,
 };
 use proptest::prelude::*;
@@ -23,8 +23,8 @@ fn frame(id: u16, data: &[u8]) -> CanFrame {
     CanFrame::new(sid(id), data).unwrap()
 }
 
-fn a(index: u16, sub: u8) -> ObjectAddr {
-    ObjectAddr::new(index, sub)
+fn a(index: u16, sub: u8) -> ObjectAddress {
+    ObjectAddress::new(index, sub)
 }
 
 fn four_u16() -> Mapping {
@@ -570,11 +570,11 @@ proptest! {
 struct Picky(MapStore);
 
 impl canopen_pdo::ObjectStore for Picky {
-    fn read(&mut self, addr: ObjectAddr, out: &mut [u8]) -> Result<(), canopen_pdo::StoreError> {
+    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), canopen_pdo::StoreError> {
         self.0.read(addr, out)
     }
 
-    fn write(&mut self, addr: ObjectAddr, data: &[u8]) -> Result<(), canopen_pdo::StoreError> {
+    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), canopen_pdo::StoreError> {
         if addr == a(0x6200, 1) {
             return Err(canopen_pdo::StoreError::ValueRange);
         }

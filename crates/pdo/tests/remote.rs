@@ -10,7 +10,8 @@ use std::collections::BTreeMap;
 use can_frame::{CanFrame, CanId, Instant};
 use canopen_pdo::{
     Catalog, CommParams, Dictionary, Direction, Engine, MapStore, Mapping, MappingError,
-    ObjectAddr, ObjectInfo, PdoConfig, ReadError, RemoteObjects, SdoWrite, TransmissionType, remap,
+    ObjectAddress, ObjectInfo, PdoConfig, ReadError, RemoteObjects, SdoWrite, TransmissionType,
+    remap,
 };
 
 /// A device's PDO objects and application objects, as its SDO server sees them.
@@ -25,8 +26,8 @@ const ABORT_STATE: u32 = 0x0800_0022;
 const ABORT_READ_ONLY: u32 = 0x0601_0002;
 
 impl Catalog for Device {
-    fn object_info(&self, addr: ObjectAddr) -> Option<ObjectInfo> {
-        let (data_type, bits, readable, writable) = match (addr.index, addr.subindex) {
+    fn object_info(&self, addr: ObjectAddress) -> Option<ObjectInfo> {
+        let (data_type, bits, readable, writable) = match (addr.index, addr.sub_index) {
             (0x6000, 1..=8) => (0x0001, 1, true, false), // BOOLEAN inputs
             (0x6401, 1..=4) => (0x0003, 16, true, false), // INTEGER16 analogue inputs
             (0x2010, 0) => (0x0010, 24, true, false),    // INTEGER24 counter
@@ -152,7 +153,7 @@ fn plan_executes_on_a_strict_device_and_the_engine_follows() {
     engine
         .add_tpdo(Instant::ZERO, PdoConfig::new(comm_back, map_back))
         .unwrap();
-    let a = ObjectAddr::new;
+    let a = ObjectAddress::new;
     let mut store = MapStore::new()
         .with(a(0x6000, 1), &[1])
         .with(a(0x6000, 2), &[0])

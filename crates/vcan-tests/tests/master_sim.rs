@@ -14,7 +14,7 @@ use std::sync::{Arc, Mutex};
 
 use can_frame::{CanFrame, CanId, Duration};
 use canopen::socketcan::SocketCan;
-use canopen::{Entry, Network, NetworkEvent};
+use canopen::{Network, NetworkEvent, ObjectAddress};
 use canopen_nmt::{HeartbeatEvent, NmtState};
 use canopen_pdo::Value as PdoValue;
 use canopen_sdo::{AbortCode, Method};
@@ -182,7 +182,7 @@ fn boot_up_nmt_start_heartbeat_loss_and_recovery() {
     );
 }
 
-fn tpdo1_values(e: &NetworkEvent, id: u8) -> Option<Vec<(Entry, PdoValue)>> {
+fn tpdo1_values(e: &NetworkEvent, id: u8) -> Option<Vec<(ObjectAddress, PdoValue)>> {
     match e {
         NetworkEvent::PdoValues {
             node: n,
@@ -237,7 +237,10 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
     });
     assert_eq!(
         tpdo1_values(&first, ID).unwrap(),
-        [(Entry::new(0x2000, 0), PdoValue::Unsigned(0x1234_5678))]
+        [(
+            ObjectAddress::new(0x2000, 0),
+            PdoValue::Unsigned(0x1234_5678)
+        )]
     );
     // Raw PDO events come with the decoded ones: 0x2000 as four bytes, little-endian.
     let raw = wait_event(
@@ -262,7 +265,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         |e| {
             tpdo1_values(e, ID)
                 == Some(vec![(
-                    Entry::new(0x2000, 0),
+                    ObjectAddress::new(0x2000, 0),
                     PdoValue::Unsigned(0xCAFE_BABE),
                 )])
         },
@@ -280,8 +283,11 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
     assert_eq!(n.sdo().read((0x1A00, 0)).unwrap(), [2]);
     let two = |v: i64| {
         vec![
-            (Entry::new(0x2000, 0), PdoValue::Unsigned(0xCAFE_BABE)),
-            (Entry::new(0x2002, 2), PdoValue::Signed(v)),
+            (
+                ObjectAddress::new(0x2000, 0),
+                PdoValue::Unsigned(0xCAFE_BABE),
+            ),
+            (ObjectAddress::new(0x2002, 2), PdoValue::Signed(v)),
         ]
     };
     wait_event(
