@@ -261,7 +261,9 @@ fn lint(file: &Path, global: Global) -> ExitCode {
             .collect();
         crate::outln(&json!({"file": name, "findings": list}).to_string());
     } else {
-        crate::outln(&format!("{name}: {} findings", findings.len()));
+        // A summary of findings not listed counts as what it stands for.
+        let count = total(&findings, Severity::Warning) + total(&findings, Severity::Error);
+        crate::outln(&format!("{name}: {count} findings"));
     }
     if findings.is_empty() {
         ExitCode::SUCCESS

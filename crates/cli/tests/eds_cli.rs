@@ -321,3 +321,59 @@ fn no_style_hides_only_style_warnings() {
     assert!(quiet.contains("C integer suffix"), "{quiet}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Peak memory of `eds check` on 20 MB of text junk (short lines, some `=` and `[`, nearly every
+/// line an error): a small multiple of the file, not of its error count. Measured with
+/// `/usr/bin/time`; skipped where it is missing.
+#[test]
+fn check_of_junk_stays_within_a_small_multiple_of_the_file_in_memory() {
+    let time = Path::new("/usr/bin/time");
+    if !time.exists() {
+        eprintln!("SKIPPED: /usr/bin/time not found");
+        return;
+    }
+    let dir = scratch("memory");
+    let alphabet = b"abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 =[];#$.,";
+    let mut junk = Vec::with_capacity(20_000_100);
+    let mut x = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        x
+    };
+    while junk.len() < 20_000_000 {
+        let len = 1 + next() % 50;
+        for _ in 0..len {
+            junk.push(alphabet[(next() % alphabet.len() as u64) as usize]);
+        }
+        junk.push(b'\n');
+    }
+    let path = dir.join("junk.eds");
+    std::fs::write(&path, &junk).unwrap();
+    let out = Command::new(time)
+        .args(["-f", "%M"])
+        .arg(env!("CARGO_BIN_EXE_canopen"))
+        .args(["eds", "check"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let peak_kib: u64 = stderr
+        .lines()
+        .last()
+        .and_then(|l| l.trim().parse().ok())
+        .expect("/usr/bin/time prints the peak RSS in KiB last");
+    let file_kib = junk.len() as u64 / 1024;
+    assert!(
+        peak_kib < 4 * file_kib,
+        "peak RSS {peak_kib} KiB for a {file_kib} KiB file"
+    );
+    assert!(
+        stderr.lines().count() < 200,
+        "{} lines",
+        stderr.lines().count()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -30,7 +30,7 @@ impl PartialEq for Line {
 }
 
 /// An unrecognised `key=value` pair, kept in file order so the writer can reproduce it.
-pub type Extra = Vec<(String, String)>;
+pub type Extra = Vec<(CompactString, CompactString)>;
 
 /// A value field (`DefaultValue`, `LowLimit`, `HighLimit`, `ParameterValue`): the text as written
 /// (trimmed) and its typed reading for the sub-object's data type.
@@ -224,7 +224,7 @@ impl SubObject {
     }
 
     /// Other keys of the section, in file order.
-    pub fn extra(&self) -> &[(String, String)] {
+    pub fn extra(&self) -> &[(CompactString, CompactString)] {
         &self.extras().extra
     }
 

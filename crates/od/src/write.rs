@@ -15,6 +15,8 @@ use alloc::string::String;
 use alloc::vec::Vec;
 use core::fmt::Write as _;
 
+use compact_str::CompactString;
+
 use crate::model::{BAUD_RATES_KBIT, FieldValue, Object, ObjectDictionary, SubObject};
 use crate::value::EdsValue;
 
@@ -42,7 +44,7 @@ impl Out {
             self.kv(key, format_args!("{}", u8::from(v)));
         }
     }
-    fn extra(&mut self, extra: &[(String, String)]) {
+    fn extra(&mut self, extra: &[(CompactString, CompactString)]) {
         for (k, v) in extra {
             self.kv(k, format_args!("{v}"));
         }

@@ -119,7 +119,7 @@ pub(super) fn build(
                     entries: sec
                         .entries
                         .iter()
-                        .map(|e| (e.key.to_string(), e.value.to_string()))
+                        .map(|e| (e.key.into(), e.value.into()))
                         .collect(),
                     line: Line(sec.line),
                 });
@@ -399,7 +399,7 @@ pub(super) fn sub_object(
         x.parameter_value = param;
         x.denotation = denotation;
         for ((text, _), key) in files.into_iter().flatten() {
-            x.extra.push(((*key).to_string(), text.to_string()));
+            x.extra.push(((*key).into(), text.into()));
         }
         x.extra.extend(extra_owned(&k.extra));
     }
@@ -519,7 +519,7 @@ pub(super) fn object(
             14,
         ] {
             if let (Some((text, _)), Some(key)) = (k.slots[slot], OBJ_KEYS.keys.get(slot)) {
-                obj.extra.push(((*key).to_string(), text.to_string()));
+                obj.extra.push(((*key).into(), text.into()));
             }
         }
         obj.extra.extend(extra_owned(&k.extra));

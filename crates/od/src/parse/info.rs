@@ -199,7 +199,7 @@ pub(super) fn device_info(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceInfo 
         let v = k.slots[i]?;
         let r = uint(sink, v, DEVICE_KEYS.keys[i], max);
         if r.is_none() {
-            extra.push((DEVICE_KEYS.keys[i].to_string(), v.0.to_string()));
+            extra.push((DEVICE_KEYS.keys[i].into(), v.0.into()));
         }
         r
     };
@@ -261,7 +261,7 @@ pub(super) fn commissioning(sec: &Section<'_, '_>, sink: &mut Sink) -> DeviceCom
         let v = k.slots[i]?;
         let r = uint(sink, v, COMM_KEYS.keys[i], max);
         if r.is_none() {
-            extra.push((COMM_KEYS.keys[i].to_string(), v.0.to_string()));
+            extra.push((COMM_KEYS.keys[i].into(), v.0.into()));
         }
         r
     };

@@ -5,12 +5,12 @@
 //! reporting what they tolerated.
 
 use alloc::format;
-use alloc::string::{String, ToString};
 use alloc::vec::Vec;
 use core::fmt;
 
 use super::scan::Section;
 use crate::diag::{DiagnosticKind as K, Echo, Sink};
+use crate::model::Extra;
 use crate::value::{TextNotes, parse_int_literal};
 
 /// Resolved keys of one section: canonical key slot -> (value, line), duplicates reported.
@@ -170,10 +170,10 @@ pub(super) fn dedup_extra(extra: &mut Vec<(&str, &str, u32)>, section: &str, sin
     });
 }
 
-pub(super) fn extra_owned(extra: &[(&str, &str, u32)]) -> Vec<(String, String)> {
+pub(super) fn extra_owned(extra: &[(&str, &str, u32)]) -> Extra {
     extra
         .iter()
-        .map(|(k, v, _)| ((*k).to_string(), (*v).to_string()))
+        .map(|(k, v, _)| ((*k).into(), (*v).into()))
         .collect()
 }
 
