@@ -31,6 +31,13 @@ pub(crate) struct BusOpts {
     node_eds: Vec<String>,
 }
 
+impl BusOpts {
+    /// The SocketCAN interface, when one was given.
+    pub(crate) fn iface(&self) -> Option<&str> {
+        self.iface.as_deref()
+    }
+}
+
 fn parse_u16(s: &str) -> Result<u16, String> {
     let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
         Some(h) => u16::from_str_radix(h, 16),

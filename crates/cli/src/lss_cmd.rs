@@ -136,6 +136,14 @@ pub(crate) enum LssCommand {
     Fastscan,
     /// Find every unconfigured slave.
     DiscoverAll,
+    /// Run the --unconfigured devices (default 1) as LSS slaves on the interface (--iface),
+    /// until stopped or for --duration seconds: the peers for the other commands in another
+    /// process.
+    Simulate {
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
     /// Assign-all: find every unconfigured slave and give each a node-ID from FIRST..=LAST
     /// (configure, store, back to waiting, one slave at a time; a slave that does not support
     /// store is reported "assigned, not stored").
@@ -175,6 +183,9 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
         eprintln!("error: empty node-ID pool: --first {first} is above --last {last}");
         return ExitCode::from(USAGE);
     }
+    if let LssCommand::Simulate { duration } = args.command {
+        return simulate(opts, &args, duration);
+    }
     let (net, mem) = match open_network(opts) {
         Ok(x) => x,
         Err(e) => return fail(e),
@@ -189,21 +200,14 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
     if let (Some(mem), Some(_)) = (mem.as_ref(), args.record_bus.as_ref()) {
         mem.attach(Recorder(log.clone()));
     }
-    if let Some(mem) = mem.as_ref()
-        && args.unconfigured > 0
-    {
-        let od = match canopen_od::parse(BURKERT_EDS) {
-            Ok(p) => p.od,
-            Err(e) => return fail(e),
-        };
-        for i in 0..args.unconfigured {
-            let a = LssAddress::new(0x39, 0x0100_0001, 1, 1001 + i);
-            let mut slave = SlaveConfig::unconfigured(a);
-            slave.fastscan_in_configuration = args.real_slaves;
-            if args.store_unsupported {
-                slave.store = StoreSupport::NotSupported;
+    if let Some(mem) = mem.as_ref() {
+        match devices(&args, args.unconfigured) {
+            Ok(devices) => {
+                for d in devices {
+                    mem.attach(d);
+                }
             }
-            mem.attach(SimDevice::unconfigured_with(od.clone(), slave));
+            Err(e) => return fail(e),
         }
     }
     let code = command(&net, args.command, args.step_timeout, g);
@@ -213,6 +217,88 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
         return fail(e);
     }
     code
+}
+
+/// `count` simulated unconfigured devices as `args` asks for (the Bürkert generic EDS, serial
+/// numbers 1001, 1002, ...).
+fn devices(args: &LssArgs, count: u32) -> Result<Vec<SimDevice>, String> {
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let od = canopen_od::parse(BURKERT_EDS)
+        .map_err(|e| e.to_string())?
+        .od;
+    Ok((0..count)
+        .map(|i| {
+            let a = LssAddress::new(0x39, 0x0100_0001, 1, 1001 + i);
+            let mut slave = SlaveConfig::unconfigured(a);
+            slave.fastscan_in_configuration = args.real_slaves;
+            if args.store_unsupported {
+                slave.store = StoreSupport::NotSupported;
+            }
+            SimDevice::unconfigured_with(od.clone(), slave)
+        })
+        .collect())
+}
+
+/// Several simulated devices as one station on one socket.
+struct Devices(Vec<SimDevice>);
+
+impl Station for Devices {
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
+        for d in &mut self.0 {
+            d.handle_frame(now, frame);
+        }
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        for d in &mut self.0 {
+            if d.poll_timeout().is_some_and(|t| t <= now) {
+                d.handle_timeout(now);
+            }
+        }
+    }
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        self.0.iter_mut().find_map(|d| d.poll_transmit())
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.0.iter().filter_map(|d| d.poll_timeout()).min()
+    }
+}
+
+/// `canopen --iface IF lss --unconfigured N simulate`
+fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
+    let Some(iface) = opts.iface() else {
+        return fail("lss simulate runs the devices on an interface: give --iface");
+    };
+    let limit = match duration {
+        Some(d) if d.is_finite() && d >= 0.0 => Some(std::time::Duration::from_secs_f64(d)),
+        Some(d) => return fail(format!("--duration {d}: give a number of seconds")),
+        None => None,
+    };
+    let mut devices = match devices(args, args.unconfigured.max(1)) {
+        Ok(d) => Devices(d),
+        Err(e) => return fail(e),
+    };
+    let mut transport = match canopen::socketcan::SocketCan::open(iface) {
+        Ok(t) => t,
+        Err(e) => return fail(format!("{iface}: {e}")),
+    };
+    eprintln!(
+        "simulating {} unconfigured LSS slave(s) on {iface}{}",
+        devices.0.len(),
+        if args.real_slaves {
+            " (answering Fastscan in configuration state)"
+        } else {
+            ""
+        }
+    );
+    let started = std::time::Instant::now();
+    match canopen::run_station(&mut transport, &mut devices, || {
+        limit.is_some_and(|l| started.elapsed() >= l)
+    }) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(e),
+    }
 }
 
 fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Global) -> ExitCode {
@@ -303,6 +389,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
             .discover_all(fastscan)
             .map(|l| json!({"found": l.iter().map(addr_json).collect::<Vec<_>>()}))
             .map_err(|e| e.to_string()),
+        LssCommand::Simulate { .. } => Err("lss simulate runs on its own".into()),
         LssCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
             (Ok(f), Ok(l)) => {
                 let mut config = AssignConfig::with_pool(NodeIdPool::range(f, l));
