@@ -92,6 +92,21 @@ fn write_record(
 
 #[derive(Debug, Subcommand)]
 pub(crate) enum LssCommand {
+    #[command(flatten)]
+    Master(MasterCommand),
+    /// Run the --unconfigured devices (default 1) as LSS slaves on the interface (--iface),
+    /// until stopped or for --duration seconds: the peers for the other commands in another
+    /// process.
+    Simulate {
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+}
+
+/// The LSS master's commands.
+#[derive(Debug, Subcommand)]
+pub(crate) enum MasterCommand {
     /// Switch mode global: `config` or `waiting`.
     SwitchGlobal {
         /// `config` or `waiting`.
@@ -136,14 +151,6 @@ pub(crate) enum LssCommand {
     Fastscan,
     /// Find every unconfigured slave.
     DiscoverAll,
-    /// Run the --unconfigured devices (default 1) as LSS slaves on the interface (--iface),
-    /// until stopped or for --duration seconds: the peers for the other commands in another
-    /// process.
-    Simulate {
-        /// Stop after this many seconds.
-        #[arg(long)]
-        duration: Option<f64>,
-    },
     /// Assign-all: find every unconfigured slave and give each a node-ID from FIRST..=LAST
     /// (configure, store, back to waiting, one slave at a time; a slave that does not support
     /// store is reported "assigned, not stored").
@@ -177,14 +184,15 @@ fn addr_json(a: &LssAddress) -> serde_json::Value {
 
 /// `canopen lss ...`
 pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
-    if let LssCommand::AssignAll { first, last } = args.command
+    let master = match args.command {
+        LssCommand::Simulate { duration } => return simulate(opts, &args, duration),
+        LssCommand::Master(m) => m,
+    };
+    if let MasterCommand::AssignAll { first, last } = master
         && first > last
     {
         eprintln!("error: empty node-ID pool: --first {first} is above --last {last}");
         return ExitCode::from(USAGE);
-    }
-    if let LssCommand::Simulate { duration } = args.command {
-        return simulate(opts, &args, duration);
     }
     let (net, mem) = match open_network(opts) {
         Ok(x) => x,
@@ -201,7 +209,7 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
         mem.attach(Recorder(log.clone()));
     }
     if let Some(mem) = mem.as_ref() {
-        match devices(&args, args.unconfigured) {
+        match devices(args.unconfigured, args.real_slaves, args.store_unsupported) {
             Ok(devices) => {
                 for d in devices {
                     mem.attach(d);
@@ -210,7 +218,7 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
             Err(e) => return fail(e),
         }
     }
-    let code = command(&net, args.command, args.step_timeout, g);
+    let code = command(&net, master, args.step_timeout, g);
     if let (Some(mem), Some(path)) = (mem.as_ref(), args.record_bus.as_ref())
         && let Err(e) = write_record(mem, &log, path)
     {
@@ -219,9 +227,13 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
     code
 }
 
-/// `count` simulated unconfigured devices as `args` asks for (the Bürkert generic EDS, serial
-/// numbers 1001, 1002, ...).
-fn devices(args: &LssArgs, count: u32) -> Result<Vec<SimDevice>, String> {
+/// `count` simulated unconfigured devices (the Bürkert generic EDS, serial numbers 1001, 1002,
+/// ...), answering Fastscan in configuration state when `real_slaves`.
+fn devices(
+    count: u32,
+    real_slaves: bool,
+    store_unsupported: bool,
+) -> Result<Vec<SimDevice>, String> {
     if count == 0 {
         return Ok(Vec::new());
     }
@@ -232,8 +244,8 @@ fn devices(args: &LssArgs, count: u32) -> Result<Vec<SimDevice>, String> {
         .map(|i| {
             let a = LssAddress::new(0x39, 0x0100_0001, 1, 1001 + i);
             let mut slave = SlaveConfig::unconfigured(a);
-            slave.fastscan_in_configuration = args.real_slaves;
-            if args.store_unsupported {
+            slave.fastscan_in_configuration = real_slaves;
+            if store_unsupported {
                 slave.store = StoreSupport::NotSupported;
             }
             SimDevice::unconfigured_with(od.clone(), slave)
@@ -275,7 +287,11 @@ fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
         Some(d) => return fail(format!("--duration {d}: give a number of seconds")),
         None => None,
     };
-    let mut devices = match devices(args, args.unconfigured.max(1)) {
+    let mut devices = match devices(
+        args.unconfigured.max(1),
+        args.real_slaves,
+        args.store_unsupported,
+    ) {
         Ok(d) => Devices(d),
         Err(e) => return fail(e),
     };
@@ -301,7 +317,12 @@ fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
     }
 }
 
-fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Global) -> ExitCode {
+fn command(
+    net: &canopen::Network,
+    command: MasterCommand,
+    step_timeout: u64,
+    g: Global,
+) -> ExitCode {
     let lss = net.lss();
     let fastscan = FastscanConfig {
         response_timeout: Duration::from_millis(step_timeout),
@@ -309,7 +330,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
     };
     let proc1 = |step| Procedure::single(step);
     let result: Result<serde_json::Value, String> = match command {
-        LssCommand::SwitchGlobal { mode } => {
+        MasterCommand::SwitchGlobal { mode } => {
             let m = match mode.as_str() {
                 "config" | "configuration" => Mode::Configuration,
                 "waiting" | "operation" => Mode::Waiting,
@@ -319,7 +340,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 .map(|_| json!({"ok": true}))
                 .map_err(|e| e.to_string())
         }
-        LssCommand::SwitchSelective {
+        MasterCommand::SwitchSelective {
             vendor,
             product,
             revision,
@@ -336,7 +357,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 _ => Err("address parts must be numbers (0x hex or decimal)".into()),
             }
         }
-        LssCommand::ConfigureNodeId { node_id, no_store } => match NodeId::new(node_id) {
+        MasterCommand::ConfigureNodeId { node_id, no_store } => match NodeId::new(node_id) {
             Ok(n) => lss
                 .procedure(Procedure::assign_node_id(n, !no_store))
                 .map(|r| {
@@ -357,7 +378,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 .map_err(|e| e.to_string()),
             Err(e) => Err(e.to_string()),
         },
-        LssCommand::SetBitRate { kbit, delay } => {
+        MasterCommand::SetBitRate { kbit, delay } => {
             match BitRate::ALL
                 .into_iter()
                 .find(|r| r.bits_per_second() == Some(kbit * 1000))
@@ -369,28 +390,27 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 None => Err(format!("{kbit} kbit/s is not in the CiA bit timing table")),
             }
         }
-        LssCommand::Store => lss
+        MasterCommand::Store => lss
             .procedure(proc1(Step::StoreConfiguration))
             .map(|_| json!({"ok": true}))
             .map_err(|e| e.to_string()),
-        LssCommand::Inquire => lss
+        MasterCommand::Inquire => lss
             .procedure(Procedure::inquire_all())
             .map(|r| json!({"identity": r.address().map(|a| addr_json(&a)), "node_id": r.node_id}))
             .map_err(|e| e.to_string()),
-        LssCommand::IdentifyNonConfigured => lss
+        MasterCommand::IdentifyNonConfigured => lss
             .procedure(proc1(Step::IdentifyNonConfigured))
             .map(|r| json!({"present": r.present}))
             .map_err(|e| e.to_string()),
-        LssCommand::Fastscan => lss
+        MasterCommand::Fastscan => lss
             .fastscan(fastscan)
             .map(|a| json!({"found": a.as_ref().map(addr_json)}))
             .map_err(|e| e.to_string()),
-        LssCommand::DiscoverAll => lss
+        MasterCommand::DiscoverAll => lss
             .discover_all(fastscan)
             .map(|l| json!({"found": l.iter().map(addr_json).collect::<Vec<_>>()}))
             .map_err(|e| e.to_string()),
-        LssCommand::Simulate { .. } => Err("lss simulate runs on its own".into()),
-        LssCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
+        MasterCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
             (Ok(f), Ok(l)) => {
                 let mut config = AssignConfig::with_pool(NodeIdPool::range(f, l));
                 config.fastscan = fastscan;
