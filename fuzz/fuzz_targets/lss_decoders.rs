@@ -1,5 +1,6 @@
-//! Every canopen-lss decoder on arbitrary bytes: no panic, and whatever decodes re-encodes to a
-//! value that decodes to the same thing (unknown command specifiers keep every byte).
+//! Every canopen-lss decoder on arbitrary bytes: no panic, whatever decodes re-encodes to a
+//! value that decodes to the same thing (unknown command specifiers keep every byte), and its
+//! CiA 305 text (`Display`) is written without a panic.
 #![no_main]
 
 use can_frame::{CanFrame, CanId};
@@ -14,6 +15,7 @@ fuzz_target!(|data: &[u8]| {
         if let Request::Unknown { .. } = r {
             assert_eq!(&r.emit()[..], data);
         }
+        assert!(r.to_string().starts_with("LSS "));
     }
     if let Ok(r) = Response::parse(data) {
         assert_eq!(Response::parse(&r.emit()), Ok(r));
@@ -21,6 +23,7 @@ fuzz_target!(|data: &[u8]| {
         if let Response::Unknown { .. } = r {
             assert_eq!(&r.emit()[..], data);
         }
+        assert!(r.to_string().starts_with("LSS "));
         let _ = match r {
             Response::ConfigureNodeId(s)
             | Response::ConfigureBitTiming(s)

@@ -1,6 +1,7 @@
-//! Random request sequences against the LSS slave and random response sequences against the
-//! assign-all master, on a virtual clock: no panic, bounded output, and the slave's node-IDs
-//! stay valid (1..=127 or 0xFF).
+//! Random request sequences against the LSS slave (either kind: answering Fastscan in
+//! configuration state or not) and random response sequences against the assign-all master, on
+//! a virtual clock: no panic, bounded output, and the slave's node-IDs stay valid (1..=127 or
+//! 0xFF).
 #![no_main]
 
 use can_frame::{Duration, Instant, NodeId};
@@ -15,9 +16,12 @@ fn valid(id: u8) -> bool {
 }
 
 fuzz_target!(|data: &[u8]| {
-    let mut slave = LssSlave::new(SlaveConfig::unconfigured(LssAddress::new(
-        0x78, 0x1234, 2, 0xCAFE,
-    )));
+    let Some((&kind, data)) = data.split_first() else {
+        return;
+    };
+    let mut config = SlaveConfig::unconfigured(LssAddress::new(0x78, 0x1234, 2, 0xCAFE));
+    config.fastscan_in_configuration = kind & 1 != 0;
+    let mut slave = LssSlave::new(config);
     let mut master = AssignAll::new(AssignConfig::with_pool(NodeIdPool::all()));
     let mut now = Instant::ZERO;
     let _ = master.start(now);

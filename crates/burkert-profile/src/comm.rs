@@ -3,32 +3,51 @@
 
 use core::fmt;
 
-/// Bit-rate codes of 0x2001 sub 1: the CiA 305 bit timing table 0 (default 2 = 500 kbit/s).
+use canopen_lss::BitRate as Cia;
+
+/// Bit-rate codes of 0x2001 sub 1: an entry of the CiA 305 bit timing table 0
+/// ([`canopen_lss::BitRate`], the one copy of that table), without its automatic bit rate
+/// detection (codes 0..=8; default 2 = 500 kbit/s).
 ///
 /// The Bürkert manual marks 800 kbit/s as not offered and 100 kbit/s as reserved; both remain
 /// typed here because they are valid CiA 305 codes — [`BitRate::offered_by_burkert`] says which
 /// ones a Bürkert device accepts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub enum BitRate {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct BitRate(Cia);
+
+// The rates keep the names they had as enum variants, so they read and match the same.
+#[allow(non_upper_case_globals)]
+impl BitRate {
     /// 0 — 1 Mbit/s.
-    Kbit1000,
+    pub const Kbit1000: BitRate = BitRate(Cia::Kbit1000);
     /// 1 — 800 kbit/s (not offered by Bürkert).
-    Kbit800,
+    pub const Kbit800: BitRate = BitRate(Cia::Kbit800);
     /// 2 — 500 kbit/s (default).
-    #[default]
-    Kbit500,
+    pub const Kbit500: BitRate = BitRate(Cia::Kbit500);
     /// 3 — 250 kbit/s.
-    Kbit250,
+    pub const Kbit250: BitRate = BitRate(Cia::Kbit250);
     /// 4 — 125 kbit/s.
-    Kbit125,
+    pub const Kbit125: BitRate = BitRate(Cia::Kbit125);
     /// 5 — 100 kbit/s (reserved in the Bürkert table).
-    Kbit100,
+    pub const Kbit100: BitRate = BitRate(Cia::Kbit100);
     /// 6 — 50 kbit/s.
-    Kbit50,
+    pub const Kbit50: BitRate = BitRate(Cia::Kbit50);
     /// 7 — 20 kbit/s.
-    Kbit20,
+    pub const Kbit20: BitRate = BitRate(Cia::Kbit20);
     /// 8 — 10 kbit/s.
-    Kbit10,
+    pub const Kbit10: BitRate = BitRate(Cia::Kbit10);
+}
+
+impl Default for BitRate {
+    fn default() -> Self {
+        Self::Kbit500
+    }
+}
+
+impl From<BitRate> for Cia {
+    fn from(rate: BitRate) -> Self {
+        rate.0
+    }
 }
 
 /// A value of 0x2001 that is outside the values the manual defines.
@@ -68,21 +87,24 @@ impl BitRate {
 
     /// From the table index (0x2001 sub 1, or the LSS configure-bit-timing index).
     pub const fn from_code(code: u8) -> Result<Self, CommValueError> {
-        if (code as usize) < Self::ALL.len() {
-            Ok(Self::ALL[code as usize])
-        } else {
-            Err(CommValueError::BitRate(code))
+        match Cia::from_index(code) {
+            Some(rate) if rate.bits_per_second().is_some() => Ok(Self(rate)),
+            _ => Err(CommValueError::BitRate(code)),
         }
     }
 
     /// The table index.
     pub const fn code(self) -> u8 {
-        self as u8
+        self.0.index()
     }
 
     /// The bit rate in kbit/s.
     pub const fn kbits(self) -> u32 {
-        [1000, 800, 500, 250, 125, 100, 50, 20, 10][self as usize]
+        match self.0.bits_per_second() {
+            Some(bits) => bits / 1000,
+            // Not constructible: `from_code` refuses automatic detection.
+            None => 0,
+        }
     }
 
     /// From kbit/s.
@@ -95,7 +117,7 @@ impl BitRate {
 
     /// Whether a Bürkert device offers this bit rate (not 800k, not the reserved 100k).
     pub const fn offered_by_burkert(self) -> bool {
-        !matches!(self, Self::Kbit800 | Self::Kbit100)
+        !matches!(self.0, Cia::Kbit800 | Cia::Kbit100)
     }
 }
 

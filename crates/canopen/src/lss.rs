@@ -1,7 +1,7 @@
 //! LSS master services on the [`Network`] (CiA 305): the `canopen-lss` machines driven by the
 //! network's loop. One LSS job runs at a time (LSS has one channel per bus, COB-IDs 0x7E5/0x7E4).
 //!
-//! Every service goes through one driver, [`Lss::run`]: it starts the machine, hands it to the
+//! Every service goes through one driver, `Lss::run`: it starts the machine, hands it to the
 //! network's core (which feeds it frames and timeouts), waits for its result, and flushes what
 //! the machine queued last, so that a service that only transmits (switch mode global,
 //! activate bit timing) has its frame on the bus when the call returns.

@@ -92,6 +92,21 @@ fn write_record(
 
 #[derive(Debug, Subcommand)]
 pub(crate) enum LssCommand {
+    #[command(flatten)]
+    Master(MasterCommand),
+    /// Run the --unconfigured devices (default 1) as LSS slaves on the interface (--iface),
+    /// until stopped or for --duration seconds: the peers for the other commands in another
+    /// process.
+    Simulate {
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+}
+
+/// The LSS master's commands.
+#[derive(Debug, Subcommand)]
+pub(crate) enum MasterCommand {
     /// Switch mode global: `config` or `waiting`.
     SwitchGlobal {
         /// `config` or `waiting`.
@@ -169,7 +184,11 @@ fn addr_json(a: &LssAddress) -> serde_json::Value {
 
 /// `canopen lss ...`
 pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
-    if let LssCommand::AssignAll { first, last } = args.command
+    let master = match args.command {
+        LssCommand::Simulate { duration } => return simulate(opts, &args, duration),
+        LssCommand::Master(m) => m,
+    };
+    if let MasterCommand::AssignAll { first, last } = master
         && first > last
     {
         eprintln!("error: empty node-ID pool: --first {first} is above --last {last}");
@@ -189,24 +208,17 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
     if let (Some(mem), Some(_)) = (mem.as_ref(), args.record_bus.as_ref()) {
         mem.attach(Recorder(log.clone()));
     }
-    if let Some(mem) = mem.as_ref()
-        && args.unconfigured > 0
-    {
-        let od = match canopen::od::parse(BURKERT_EDS) {
-            Ok(p) => p.od,
-            Err(e) => return fail(e),
-        };
-        for i in 0..args.unconfigured {
-            let a = LssAddress::new(0x39, 0x0100_0001, 1, 1001 + i);
-            let mut slave = SlaveConfig::unconfigured(a);
-            slave.fastscan_in_configuration = args.real_slaves;
-            if args.store_unsupported {
-                slave.store = StoreSupport::NotSupported;
+    if let Some(mem) = mem.as_ref() {
+        match devices(args.unconfigured, args.real_slaves, args.store_unsupported) {
+            Ok(devices) => {
+                for d in devices {
+                    mem.attach(d);
+                }
             }
-            mem.attach(SimDevice::unconfigured_with(od.clone(), slave));
+            Err(e) => return fail(e),
         }
     }
-    let code = command(&net, args.command, args.step_timeout, g);
+    let code = command(&net, master, args.step_timeout, g);
     if let (Some(mem), Some(path)) = (mem.as_ref(), args.record_bus.as_ref())
         && let Err(e) = write_record(mem, &log, path)
     {
@@ -215,7 +227,102 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
     code
 }
 
-fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Global) -> ExitCode {
+/// `count` simulated unconfigured devices (the Bürkert generic EDS, serial numbers 1001, 1002,
+/// ...), answering Fastscan in configuration state when `real_slaves`.
+fn devices(
+    count: u32,
+    real_slaves: bool,
+    store_unsupported: bool,
+) -> Result<Vec<SimDevice>, String> {
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let od = canopen::od::parse(BURKERT_EDS)
+        .map_err(|e| e.to_string())?
+        .od;
+    Ok((0..count)
+        .map(|i| {
+            let a = LssAddress::new(0x39, 0x0100_0001, 1, 1001 + i);
+            let mut slave = SlaveConfig::unconfigured(a);
+            slave.fastscan_in_configuration = real_slaves;
+            if store_unsupported {
+                slave.store = StoreSupport::NotSupported;
+            }
+            SimDevice::unconfigured_with(od.clone(), slave)
+        })
+        .collect())
+}
+
+/// Several simulated devices as one station on one socket.
+struct Devices(Vec<SimDevice>);
+
+impl Station for Devices {
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
+        for d in &mut self.0 {
+            d.handle_frame(now, frame);
+        }
+    }
+    fn handle_timeout(&mut self, now: Instant) {
+        for d in &mut self.0 {
+            if d.poll_timeout().is_some_and(|t| t <= now) {
+                d.handle_timeout(now);
+            }
+        }
+    }
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        self.0.iter_mut().find_map(|d| d.poll_transmit())
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        self.0.iter().filter_map(|d| d.poll_timeout()).min()
+    }
+}
+
+/// `canopen --iface IF lss --unconfigured N simulate`
+fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
+    let Some(iface) = opts.iface.as_deref() else {
+        return fail("lss simulate runs the devices on an interface: give --iface");
+    };
+    let limit = match duration {
+        Some(d) if d.is_finite() && d >= 0.0 => Some(std::time::Duration::from_secs_f64(d)),
+        Some(d) => return fail(format!("--duration {d}: give a number of seconds")),
+        None => None,
+    };
+    let mut devices = match devices(
+        args.unconfigured.max(1),
+        args.real_slaves,
+        args.store_unsupported,
+    ) {
+        Ok(d) => Devices(d),
+        Err(e) => return fail(e),
+    };
+    let mut transport = match canopen::socketcan::SocketCan::open(iface) {
+        Ok(t) => t,
+        Err(e) => return fail(format!("{iface}: {e}")),
+    };
+    eprintln!(
+        "simulating {} unconfigured LSS slave(s) on {iface}{}",
+        devices.0.len(),
+        if args.real_slaves {
+            " (answering Fastscan in configuration state)"
+        } else {
+            ""
+        }
+    );
+    let started = std::time::Instant::now();
+    match canopen::run_station(&mut transport, &mut devices, || {
+        limit.is_some_and(|l| started.elapsed() >= l)
+    }) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => fail(e),
+    }
+}
+
+fn command(
+    net: &canopen::Network,
+    command: MasterCommand,
+    step_timeout: u64,
+    g: Global,
+) -> ExitCode {
     let lss = net.lss();
     let fastscan = FastscanConfig {
         response_timeout: Duration::from_millis(step_timeout),
@@ -223,7 +330,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
     };
     let proc1 = |step| Procedure::single(step);
     let result: Result<serde_json::Value, String> = match command {
-        LssCommand::SwitchGlobal { mode } => {
+        MasterCommand::SwitchGlobal { mode } => {
             let m = match mode.as_str() {
                 "config" | "configuration" => Mode::Configuration,
                 "waiting" | "operation" => Mode::Waiting,
@@ -233,7 +340,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 .map(|_| json!({"ok": true}))
                 .map_err(|e| e.to_string())
         }
-        LssCommand::SwitchSelective {
+        MasterCommand::SwitchSelective {
             vendor,
             product,
             revision,
@@ -250,7 +357,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 _ => Err("address parts must be numbers (0x hex or decimal)".into()),
             }
         }
-        LssCommand::ConfigureNodeId { node_id, no_store } => match NodeId::new(node_id) {
+        MasterCommand::ConfigureNodeId { node_id, no_store } => match NodeId::new(node_id) {
             Ok(n) => lss
                 .procedure(Procedure::assign_node_id(n, !no_store))
                 .map(|r| {
@@ -271,7 +378,7 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 .map_err(|e| e.to_string()),
             Err(e) => Err(e.to_string()),
         },
-        LssCommand::SetBitRate { kbit, delay } => {
+        MasterCommand::SetBitRate { kbit, delay } => {
             match BitRate::ALL
                 .into_iter()
                 .find(|r| r.bits_per_second() == Some(kbit * 1000))
@@ -283,27 +390,27 @@ fn command(net: &canopen::Network, command: LssCommand, step_timeout: u64, g: Gl
                 None => Err(format!("{kbit} kbit/s is not in the CiA bit timing table")),
             }
         }
-        LssCommand::Store => lss
+        MasterCommand::Store => lss
             .procedure(proc1(Step::StoreConfiguration))
             .map(|_| json!({"ok": true}))
             .map_err(|e| e.to_string()),
-        LssCommand::Inquire => lss
+        MasterCommand::Inquire => lss
             .procedure(Procedure::inquire_all())
             .map(|r| json!({"identity": r.address().map(|a| addr_json(&a)), "node_id": r.node_id}))
             .map_err(|e| e.to_string()),
-        LssCommand::IdentifyNonConfigured => lss
+        MasterCommand::IdentifyNonConfigured => lss
             .procedure(proc1(Step::IdentifyNonConfigured))
             .map(|r| json!({"present": r.present}))
             .map_err(|e| e.to_string()),
-        LssCommand::Fastscan => lss
+        MasterCommand::Fastscan => lss
             .fastscan(fastscan)
             .map(|a| json!({"found": a.as_ref().map(addr_json)}))
             .map_err(|e| e.to_string()),
-        LssCommand::DiscoverAll => lss
+        MasterCommand::DiscoverAll => lss
             .discover_all(fastscan)
             .map(|l| json!({"found": l.iter().map(addr_json).collect::<Vec<_>>()}))
             .map_err(|e| e.to_string()),
-        LssCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
+        MasterCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
             (Ok(f), Ok(l)) => {
                 let mut config = AssignConfig::with_pool(NodeIdPool::range(f, l));
                 config.fastscan = fastscan;

@@ -240,3 +240,10 @@ fn step_timeout_is_documented_and_used() {
     let o = canopen(&["lss", "--step-timeout", "0", "fastscan"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn simulate_needs_an_interface() {
+    let o = canopen(&["lss", "--unconfigured", "2", "simulate", "--duration", "1"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("give --iface"), "{}", stderr(&o));
+}

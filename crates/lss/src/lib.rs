@@ -13,9 +13,12 @@
 //!   - [`Fastscan`] finds one unconfigured slave's address, [`DiscoverAll`] every one;
 //!   - [`Slowscan`] finds slaves by binary search over serial (and revision) ranges with
 //!     identify remote slave;
-//!   - [`AssignAll`] is the commissioning workflow: find every unconfigured slave, give each a
-//!     node-ID from a table keyed by LSS address or from a pool, store, and report.
-//! - [`LssSlave`]: the device side (for the simulator), including the Fastscan responder.
+//!   - [`AssignAll`] is the commissioning workflow: find an unconfigured slave, give it a
+//!     node-ID from a table keyed by LSS address or from a pool, store, release it, and again
+//!     until none is left; then report.
+//! - [`LssSlave`]: the device side (for the simulator), including the Fastscan responder;
+//!   [`SlaveConfig::fastscan_in_configuration`] makes it answer Fastscan in configuration state
+//!   too, as real slaves do, which the master machines are tested against.
 //!
 //! No sockets, threads or clocks: callers pass [`can_frame::Instant`]s in. The crate is
 //! `#![no_std]` without an allocator (fixed-size `heapless` lists, at most 127 slaves per

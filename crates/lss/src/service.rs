@@ -281,7 +281,7 @@ impl ServiceReport {
     }
 }
 
-/// Runs one [`Procedure`] at a time; see [`LssMachine`] for the call order.
+/// Runs one [`Procedure`] at a time; see [`LssMachine`](crate::LssMachine) for the call order.
 #[derive(Debug, Clone)]
 pub struct LssMaster {
     config: MasterConfig,

@@ -1106,6 +1106,25 @@ mod props {
             prop_assert_eq!(ids.len(), addrs.len());
         }
     }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// The successor search finds every real slave once, in ascending order, from any
+        /// starting scan, however the addresses share prefixes.
+        #[test]
+        fn discover_all_finds_each_real_slave_once(
+            addrs in proptest::collection::btree_set(address(), 1..8),
+        ) {
+            let addrs: Vec<LssAddress> = addrs.into_iter().collect();
+            let mut bus = Bus::with_real(Delivery::Merged, &addrs);
+            let mut m = DiscoverAll::new(fast(ResponsePolicy::FirstAnswer));
+            m.start(bus.now).unwrap();
+            let found = bus.run(&mut m).0.unwrap();
+            prop_assert_eq!(found.as_slice(), addrs.as_slice());
+            prop_assert!(bus.fastscans() <= 133 + addrs.len() as u64 * (4 + 6 + 128 + 133));
+        }
+    }
 }
 
 #[test]
