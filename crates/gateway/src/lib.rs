@@ -5,6 +5,8 @@
 //! * [`value`]: the data types of the mapping and their text forms.
 //! * [`command`]: typed requests, responses and event lines, and the formatter back to text.
 //! * [`parse`]: the nom parser from a line to a [`Request`].
+//! * [`server`]: the [`Gateway`]: connections over TCP, a Unix socket, stdio or any byte
+//!   stream in front of one `canopen::Network`, with one request queue per node.
 //!
 //! ```
 //! use canopen_gateway::{Command, parse_line};
@@ -16,9 +18,12 @@
 //! ```
 
 pub mod command;
+mod exec;
 pub mod parse;
+pub mod server;
 pub mod value;
 
 pub use command::{Command, ErrorCode, Event, EventKind, NmtService, Reply, Request, Response};
 pub use parse::{ParseError, parse_line};
+pub use server::{Config, Gateway, Version};
 pub use value::{DataType, Value};
