@@ -7,8 +7,9 @@
 //!   connection and apply to the requests read after them.
 //! * SDO requests go to one queue per node, served by that node's worker thread: requests to
 //!   one node run one after another (CANopen has one SDO channel per node), requests to
-//!   different nodes run in parallel. LSS requests share one queue (one LSS channel per bus).
-//!   NMT and settings are answered at once. Each queue serves its connections round-robin, so a
+//!   different nodes run in parallel. NMT commands to a node go to its queue too, so that
+//!   `write` then `start` happen in that order; NMT to all nodes (node 0) and the settings are
+//!   answered at once. LSS requests share one queue (one LSS channel per bus). Each queue serves its connections round-robin, so a
 //!   connection with many requests waiting delays another's by at most one request per node.
 //! * Replies carry the request's sequence number; replies to different nodes may overtake one
 //!   another.
@@ -219,6 +220,10 @@ enum Work {
         value: crate::value::Value,
         sdo: SdoSettings,
     },
+    Nmt {
+        node: u8,
+        service: crate::command::NmtService,
+    },
     Lss(Command),
 }
 
@@ -322,6 +327,7 @@ impl Shared {
                     value,
                     sdo,
                 } => exec::write(&self.net, *node, *index, *sub, value, *sdo),
+                Work::Nmt { node, service } => exec::nmt(&self.net, *node, *service),
                 Work::Lss(c) => exec::lss(&self.net, c),
             };
             job.client.complete(
@@ -583,7 +589,16 @@ impl Gateway {
             Command::Nmt(service) => match node {
                 None => err(ErrorCode::NO_DEFAULT_NODE),
                 Some(n) if n > 127 => err(ErrorCode::UNSUPPORTED_NODE),
-                Some(n) => Some(exec::nmt(&shared.net, n, *service)),
+                // To all nodes: at once.
+                Some(0) => Some(exec::nmt(&shared.net, 0, *service)),
+                // Behind this connection's earlier requests to the node.
+                Some(n) => queue(
+                    n,
+                    Work::Nmt {
+                        node: n,
+                        service: *service,
+                    },
+                ),
             },
             Command::SetNetwork(n) => {
                 if *n != shared.config.net {
