@@ -158,7 +158,7 @@ fn unix_socket_session() {
     let _ = std::fs::remove_file(&path);
     let spec = format!("unix:{}", path.display());
     let (_gw, addrs) = start(&[&spec]);
-    assert_eq!(addrs, [spec.clone()]);
+    assert_eq!(addrs, std::slice::from_ref(&spec));
     let mut s = std::os::unix::net::UnixStream::connect(&path).unwrap();
     s.write_all(b"[1] 3 r 0x1018 1 x32\n[2] 3 w 0x1017 0 u16 750\n[3] 3 r 0x1017 0\n")
         .unwrap();
