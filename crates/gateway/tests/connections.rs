@@ -155,3 +155,65 @@ fn sdo_to_different_nodes_runs_in_parallel() {
     assert!(kinds[..8].iter().all(|&(_, cs)| cs == 0x40), "{kinds:x?}");
     assert!(kinds[8..].iter().all(|&(_, cs)| cs == 0x80), "{kinds:x?}");
 }
+
+#[test]
+fn connections_beyond_the_limit_are_refused_over_tcp() {
+    use std::io::{BufRead, BufReader, Write};
+    let (gw, _bus) = gateway(
+        &[4],
+        Config {
+            max_connections: 2,
+            ..Config::default()
+        },
+    );
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    gw.serve_tcp(listener);
+    let connect = || {
+        let s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(std::time::Duration::from_secs(30)))
+            .unwrap();
+        (s.try_clone().unwrap(), BufReader::new(s))
+    };
+    let ask = |c: &mut (std::net::TcpStream, BufReader<std::net::TcpStream>), req: &str| {
+        c.0.write_all(req.as_bytes()).unwrap();
+        let mut l = String::new();
+        c.1.read_line(&mut l).unwrap();
+        l
+    };
+    let mut first = connect();
+    let mut second = connect();
+    assert_eq!(ask(&mut first, "[1] 4 r 0x1017 0 u16\n"), "[1] 500\r\n");
+    assert_eq!(ask(&mut second, "[1] 4 r 0x1017 0 u16\n"), "[1] 500\r\n");
+    let mut third = connect();
+    let mut l = String::new();
+    third.1.read_line(&mut l).unwrap();
+    assert_eq!(l, "ERROR:600\r\n");
+    l.clear();
+    assert_eq!(third.1.read_line(&mut l).unwrap(), 0, "closed");
+    // Once one leaves, a new connection is served.
+    // Once one leaves (its thread ends shortly after), a new connection is served.
+    drop(first);
+    let mut served = false;
+    for _ in 0..100 {
+        let mut next = connect();
+        // A refused connection hears ERROR:600 at once; a served one hears nothing unasked.
+        next.0
+            .set_read_timeout(Some(std::time::Duration::from_millis(300)))
+            .unwrap();
+        let mut l = String::new();
+        match next.1.read_line(&mut l) {
+            Ok(_) => assert_eq!(l, "ERROR:600\r\n"),
+            Err(_) => {
+                next.0
+                    .set_read_timeout(Some(std::time::Duration::from_secs(30)))
+                    .unwrap();
+                assert_eq!(ask(&mut next, "[2] 4 r 0x1017 0 u16\n"), "[2] 500\r\n");
+                served = true;
+                break;
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    assert!(served);
+}
