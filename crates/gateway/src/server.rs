@@ -20,7 +20,7 @@
 //!   (later ones are dropped for that connection only), and an upload is at most
 //!   [`Config::max_upload`] bytes. A connection whose peer stopped reading or vanished holds
 //!   only its own requests: the node workers never wait for a connection.
-//! * A background thread drives the network when nobody else does (heartbeats, boot-up and
+//! * A background thread drives the network while no request runs (heartbeats, boot-up and
 //!   EMCY are received) and turns its events into event lines for the connections that asked
 //!   for them with `_events 1`.
 
@@ -268,6 +268,8 @@ struct Shared {
     next_client: AtomicU64,
     stop: AtomicBool,
     threads: Mutex<Vec<JoinHandle<()>>>,
+    /// Requests being carried out: while there are any, their threads drive the network.
+    active: std::sync::atomic::AtomicUsize,
 }
 
 impl Shared {
@@ -312,6 +314,7 @@ impl Shared {
                 job.client.complete(String::new());
                 continue;
             }
+            self.active.fetch_add(1, Ordering::SeqCst);
             let reply = match &job.work {
                 Work::Read {
                     node,
@@ -330,6 +333,7 @@ impl Shared {
                 Work::Nmt { node, service } => exec::nmt(&self.net, *node, *service),
                 Work::Lss(c) => exec::lss(&self.net, c),
             };
+            self.active.fetch_sub(1, Ordering::SeqCst);
             job.client.complete(
                 Response {
                     seq: job.seq,
@@ -402,6 +406,7 @@ impl Gateway {
             next_client: AtomicU64::new(1),
             stop: AtomicBool::new(false),
             threads: Mutex::new(Vec::new()),
+            active: std::sync::atomic::AtomicUsize::new(0),
         });
         let s = shared.clone();
         if let Ok(h) = std::thread::Builder::new()
@@ -833,13 +838,17 @@ fn forward_events(shared: &Shared, events: &mpsc::Receiver<NetworkEvent>) {
     }
 }
 
-/// Drives the network every `period` of real time, so events arrive while no request runs.
-/// On a virtual-clock bus this also keeps simulated time close to real time.
+/// Drives the network for `period` at a time while no request runs (a running request's
+/// thread drives it then, without waiting for this one's receive slices), so events arrive
+/// when the gateway is idle. On a virtual-clock bus this also keeps simulated time close to
+/// real time.
 fn drive(shared: &Shared, period: std::time::Duration) {
     let step = Duration::from_micros(period.as_micros().try_into().unwrap_or(u64::MAX));
     while !shared.stop.load(Ordering::SeqCst) {
         let start = std::time::Instant::now();
-        let _ = shared.net.run_for(step);
+        if shared.active.load(Ordering::SeqCst) == 0 {
+            let _ = shared.net.run_for(step);
+        }
         if let Some(rest) = period.checked_sub(start.elapsed()) {
             std::thread::sleep(rest);
         }
