@@ -12,6 +12,7 @@ mod bus;
 mod cpos;
 mod demo;
 mod eds;
+mod gateway;
 mod lss_cmd;
 mod nmt_cmd;
 mod sdo_cmd;
@@ -92,6 +93,8 @@ enum Command {
     Demo,
     /// Bürkert devices: status with the LED colour, locate, maintenance, LED, logbook.
     Burkert(burkert::BurkertArgs),
+    /// CiA 309-3 ASCII gateway over TCP, Unix sockets and stdio.
+    Gateway(gateway::GatewayArgs),
 }
 
 /// Options every command group may read.
@@ -142,5 +145,6 @@ fn main() -> ExitCode {
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
         Command::Cpos(args) => cpos::run(args, global),
         Command::Burkert(args) => burkert::run(args, &cli.bus, global),
+        Command::Gateway(args) => gateway::run(args, &cli.bus),
     }
 }

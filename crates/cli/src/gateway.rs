@@ -1,0 +1,99 @@
+//! `canopen gateway`: the CiA 309-3 ASCII gateway (`canopen-gateway`) on the bus the global
+//! options open (`--iface`, or the in-memory bus with the `--eds` devices simulated), over TCP,
+//! Unix sockets and stdio at once.
+
+use std::process::ExitCode;
+
+use canopen_gateway::{Config, Gateway};
+use clap::Args;
+
+use crate::bus::{BusOpts, open_network};
+
+/// Arguments of `canopen gateway`.
+#[derive(Debug, Args)]
+pub(crate) struct GatewayArgs {
+    /// Where to accept connections (repeatable): `tcp:HOST:PORT`, `tcp:PORT` (loopback) or
+    /// `unix:PATH`. Port 0 picks a free port; the address is printed on stderr.
+    #[arg(long, value_name = "tcp:HOST:PORT|unix:PATH")]
+    listen: Vec<String>,
+    /// Serve standard input and output as one more connection; the gateway ends with stdin.
+    #[arg(long)]
+    stdio: bool,
+    /// SDO timeout every connection starts with, in ms (`set sdo_timeout` changes it).
+    #[arg(long, default_value_t = 500)]
+    sdo_timeout: u64,
+}
+
+enum Listener {
+    Tcp(std::net::TcpListener),
+    Unix(std::os::unix::net::UnixListener),
+}
+
+fn bind(spec: &str) -> Result<(Listener, String), String> {
+    if let Some(rest) = spec.strip_prefix("tcp:") {
+        let addr = if rest.contains(':') {
+            rest.to_owned()
+        } else {
+            format!("127.0.0.1:{rest}")
+        };
+        let l = std::net::TcpListener::bind(&addr).map_err(|e| format!("{spec}: {e}"))?;
+        let local = l.local_addr().map_err(|e| format!("{spec}: {e}"))?;
+        return Ok((Listener::Tcp(l), format!("tcp:{local}")));
+    }
+    if let Some(path) = spec.strip_prefix("unix:") {
+        let l = std::os::unix::net::UnixListener::bind(path).map_err(|e| format!("{spec}: {e}"))?;
+        return Ok((Listener::Unix(l), spec.to_owned()));
+    }
+    Err(format!(
+        "--listen {spec}: expected tcp:HOST:PORT, tcp:PORT or unix:PATH"
+    ))
+}
+
+/// `canopen gateway ...`
+pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
+    if args.listen.is_empty() && !args.stdio {
+        eprintln!(
+            "error: nothing to serve: give --listen tcp:HOST:PORT, --listen unix:PATH or --stdio"
+        );
+        return ExitCode::FAILURE;
+    }
+    let mut listeners = Vec::new();
+    for spec in &args.listen {
+        match bind(spec) {
+            Ok(l) => listeners.push(l),
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    // The in-memory bus (if that is the bus) lives as long as the gateway.
+    let (net, _memory) = match open_network(opts) {
+        Ok(n) => n,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let config = Config {
+        sdo_timeout: canopen::Duration::from_millis(args.sdo_timeout),
+        ..Config::default()
+    };
+    let gateway = Gateway::new(net, config);
+    let mut threads = Vec::new();
+    for (l, name) in listeners {
+        eprintln!("canopen gateway: listening on {name}");
+        threads.push(match l {
+            Listener::Tcp(l) => gateway.serve_tcp(l),
+            Listener::Unix(l) => gateway.serve_unix(l),
+        });
+    }
+    if args.stdio {
+        gateway.serve_stdio();
+        return ExitCode::SUCCESS;
+    }
+    for t in threads {
+        let _ = t.join();
+    }
+    ExitCode::SUCCESS
+}

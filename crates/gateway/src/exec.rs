@@ -1,0 +1,304 @@
+//! Carrying out one request on a [`Network`]: SDO upload and download, NMT, the LSS services,
+//! and the mapping of the master's errors to the replies of CiA 309-3 (an SDO abort code as
+//! `ERROR:0x........`, a local failure as a gateway error code).
+
+use std::io::Write;
+use std::sync::{Arc, Mutex};
+
+use can_frame::{Duration, NodeId};
+use canopen::{Error, Network, SdoErrorKind};
+use canopen_lss::{
+    AddressPart, AssignConfig, BitTiming, FastscanConfig, LssAddress, LssError, Mode, NodeIdPool,
+    Procedure, ResponseError, Service, Step,
+};
+
+use crate::command::{AllNodes, Command, ErrorCode, NmtService, Reply, ScanType};
+use crate::value::{DataType, Value};
+
+/// SDO abort 0x05040005: out of memory (an upload longer than the gateway takes).
+const ABORT_OUT_OF_MEMORY: u32 = 0x0504_0005;
+/// SDO abort 0x06070010: data type does not match, length of service parameter does not match.
+const ABORT_TYPE_LENGTH: u32 = 0x0607_0010;
+
+/// The reply for a failed request of the master API.
+pub(crate) fn error_reply(e: &Error) -> Reply {
+    match e {
+        Error::Sdo(e) => match &e.kind {
+            SdoErrorKind::Transfer(k) => Reply::Abort(k.abort_code().get()),
+            SdoErrorKind::Io(_) => Reply::Abort(ABORT_OUT_OF_MEMORY),
+            _ => Reply::Error(ErrorCode::INTERNAL_STATE),
+        },
+        Error::Timeout(_) => Reply::Error(ErrorCode::TIMEOUT),
+        Error::Lss(e) => Reply::Error(lss_error(e)),
+        _ => Reply::Error(ErrorCode::INTERNAL_STATE),
+    }
+}
+
+fn lss_error(e: &LssError) -> ErrorCode {
+    match e {
+        LssError::Timeout { .. } => ErrorCode::TIMEOUT,
+        LssError::Rejected { service, error } => match (service, error) {
+            (_, ResponseError::VendorSpecific(_)) => ErrorCode::LSS_MANUFACTURER,
+            (_, ResponseError::StorageMediaAccess) => ErrorCode::LSS_MEDIA_ERROR,
+            (Service::ConfigureNodeId, _) => ErrorCode::LSS_NODE_ID_NOT_SUPPORTED,
+            (Service::ConfigureBitTiming, _) => ErrorCode::LSS_BIT_RATE_NOT_SUPPORTED,
+            (Service::StoreConfiguration, _) => ErrorCode::LSS_STORE_FAILED,
+            _ => ErrorCode::LSS_MANUFACTURER,
+        },
+        _ => ErrorCode::INTERNAL_STATE,
+    }
+}
+
+/// A writer that keeps at most `limit` bytes and fails past them (the transfer is then
+/// aborted), so a client cannot make the gateway hold an unbounded upload.
+struct Bounded {
+    buf: Arc<Mutex<Vec<u8>>>,
+    limit: usize,
+}
+
+impl Write for Bounded {
+    fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
+        let mut b = self
+            .buf
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if b.len() + data.len() > self.limit {
+            return Err(std::io::Error::other(
+                "upload longer than the gateway takes",
+            ));
+        }
+        b.extend_from_slice(data);
+        Ok(data.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// The SDO settings a request runs with (the client's, when it was read).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SdoSettings {
+    pub(crate) timeout: Duration,
+    pub(crate) block: bool,
+    pub(crate) max_upload: usize,
+}
+
+/// SDO upload, shown as `data_type` (else the dictionary's type, else `hex`).
+pub(crate) fn read(
+    net: &Network,
+    node: NodeId,
+    index: u16,
+    sub: u8,
+    data_type: Option<DataType>,
+    s: SdoSettings,
+) -> Reply {
+    let n = net.node(node);
+    let dt = data_type
+        .or_else(|| {
+            n.dictionary()
+                .and_then(|od| od.sub(index, sub).map(|e| e.data_type))
+                .and_then(DataType::from_od)
+        })
+        .unwrap_or(DataType::Hex);
+    let buf = Arc::new(Mutex::new(Vec::new()));
+    let sink = Bounded {
+        buf: buf.clone(),
+        limit: s.max_upload,
+    };
+    let r = n
+        .sdo()
+        .timeout(s.timeout)
+        .block(s.block)
+        .upload_to((index, sub), sink);
+    if let Err(e) = r {
+        return error_reply(&e);
+    }
+    let bytes = std::mem::take(
+        &mut *buf
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner),
+    );
+    match Value::from_le_bytes(dt, &bytes) {
+        Ok(v) => Reply::Text(v.to_string()),
+        Err(_) => Reply::Abort(ABORT_TYPE_LENGTH),
+    }
+}
+
+/// SDO download.
+pub(crate) fn write(
+    net: &Network,
+    node: NodeId,
+    index: u16,
+    sub: u8,
+    value: &Value,
+    s: SdoSettings,
+) -> Reply {
+    match net
+        .node(node)
+        .sdo()
+        .timeout(s.timeout)
+        .block(s.block)
+        .write((index, sub), value.to_le_bytes())
+    {
+        Ok(()) => Reply::Ok,
+        Err(e) => error_reply(&e),
+    }
+}
+
+/// NMT module control; node 0 is every node.
+pub(crate) fn nmt(net: &Network, node: u8, service: NmtService) -> Reply {
+    use canopen_nmt::CommandSpecifier as Cs;
+    let cs = match service {
+        NmtService::Start => Cs::Start,
+        NmtService::Stop => Cs::Stop,
+        NmtService::PreOperational => Cs::EnterPreOperational,
+        NmtService::ResetNode => Cs::ResetNode,
+        NmtService::ResetCommunication => Cs::ResetCommunication,
+    };
+    let r = match NodeId::new(node) {
+        Ok(id) => {
+            let nmt = net.node(id).nmt();
+            match service {
+                NmtService::Start => nmt.start(),
+                NmtService::Stop => nmt.stop(),
+                NmtService::PreOperational => nmt.enter_preoperational(),
+                NmtService::ResetNode => nmt.reset_node(),
+                NmtService::ResetCommunication => nmt.reset_communication(),
+            }
+        }
+        Err(_) => net.nmt_all(cs),
+    };
+    match r {
+        Ok(()) => Reply::Ok,
+        Err(e) => error_reply(&e),
+    }
+}
+
+fn address_text(a: &LssAddress) -> String {
+    format!(
+        "0x{:08X} 0x{:08X} 0x{:08X} 0x{:08X}",
+        a.vendor_id, a.product_code, a.revision_number, a.serial_number
+    )
+}
+
+fn step(net: &Network, step: Step) -> Result<canopen_lss::ServiceReport, Reply> {
+    net.lss()
+        .procedure(Procedure::single(step))
+        .map_err(|e| error_reply(&e))
+}
+
+/// The LSS services (CiA 305); one runs at a time on a network.
+pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
+    let ok = |r: Result<canopen_lss::ServiceReport, Reply>| r.map_or_else(|e| e, |_| Reply::Ok);
+    match *command {
+        Command::LssSwitchGlobal(config) => ok(step(
+            net,
+            Step::SwitchModeGlobal(if config {
+                Mode::Configuration
+            } else {
+                Mode::Waiting
+            }),
+        )),
+        Command::LssSwitchSelective([v, p, r, s]) => ok(step(
+            net,
+            Step::SwitchModeSelective(LssAddress {
+                vendor_id: v,
+                product_code: p,
+                revision_number: r,
+                serial_number: s,
+            }),
+        )),
+        Command::LssSetNode(n) => ok(step(net, Step::ConfigureNodeId(n))),
+        Command::LssConfBitrate { table, index } => ok(step(
+            net,
+            Step::ConfigureBitTiming(BitTiming { table, index }),
+        )),
+        Command::LssActivateBitrate(delay_ms) => {
+            ok(step(net, Step::ActivateBitTiming { delay_ms }))
+        }
+        Command::LssStore => ok(step(net, Step::StoreConfiguration)),
+        Command::LssInquireAddr(Some(part)) => {
+            let Some(part) = AddressPart::from_index(part) else {
+                return Reply::Error(ErrorCode::SYNTAX);
+            };
+            match step(net, Step::InquireIdentity(part)) {
+                Ok(r) => match r.identity[usize::from(part.index())] {
+                    Some(v) => Reply::Text(format!("0x{v:08X}")),
+                    None => Reply::Error(ErrorCode::TIMEOUT),
+                },
+                Err(e) => e,
+            }
+        }
+        Command::LssInquireAddr(None) => match net.lss().procedure(Procedure::inquire_all()) {
+            Ok(r) => match r.address() {
+                Some(a) => Reply::Text(address_text(&a)),
+                None => Reply::Error(ErrorCode::TIMEOUT),
+            },
+            Err(e) => error_reply(&e),
+        },
+        Command::LssGetNode => match step(net, Step::InquireNodeId) {
+            Ok(r) => match r.node_id {
+                Some(n) => Reply::Text(n.to_string()),
+                None => Reply::Error(ErrorCode::TIMEOUT),
+            },
+            Err(e) => e,
+        },
+        Command::LssFastscan(timeout) => {
+            let mut cfg = FastscanConfig::default();
+            if let Some(ms) = timeout {
+                cfg.response_timeout = Duration::from_millis(ms.into());
+            }
+            match net.lss().fastscan(cfg) {
+                Ok(Some(a)) => Reply::Text(address_text(&a)),
+                Ok(None) => Reply::Error(ErrorCode::TIMEOUT),
+                Err(e) => error_reply(&e),
+            }
+        }
+        Command::LssAllNodes(args) => all_nodes(net, args),
+        _ => Reply::Error(ErrorCode::REQUEST_NOT_SUPPORTED),
+    }
+}
+
+/// `lss_allnodes`: every unconfigured slave gets the next free node-ID from `node_start` on.
+/// Lines `<vendor> <product> <revision> <serial> <node-ID>` for each, then `OK`.
+fn all_nodes(net: &Network, args: Option<AllNodes>) -> Reply {
+    let mut start = 2u8;
+    let mut cfg = AssignConfig::with_pool(NodeIdPool::all());
+    cfg.store = true;
+    if let Some(a) = args {
+        cfg.fastscan.response_timeout = Duration::from_millis(a.timeout_ms.into());
+        if let Some(asg) = a.assign {
+            start = asg.node_start;
+            cfg.store = asg.store;
+            if let Some(scan) = asg.scan {
+                // Fastscan takes known values for a leading run of parts; a part to ignore
+                // or a known part after a scanned one is not supported.
+                let mut scanning = false;
+                for (i, (t, v)) in scan.iter().enumerate() {
+                    match t {
+                        ScanType::Match if !scanning => cfg.fastscan.known[i] = Some(*v),
+                        ScanType::Scan => scanning = true,
+                        _ => return Reply::Error(ErrorCode::REQUEST_NOT_SUPPORTED),
+                    }
+                }
+            }
+        }
+    }
+    let (Ok(first), Ok(last)) = (NodeId::new(start), NodeId::new(127)) else {
+        return Reply::Error(ErrorCode::UNSUPPORTED_NODE);
+    };
+    cfg.pool = NodeIdPool::range(first, last);
+    match net.lss().assign_all(cfg) {
+        Ok(report) => {
+            let lines = report
+                .assigned()
+                .map(|(a, n)| format!("{} {}", address_text(&a), n.get()))
+                .collect();
+            match report.stopped {
+                Some(e) if report.assigned().next().is_none() => Reply::Error(lss_error(&e)),
+                _ => Reply::Lines(lines),
+            }
+        }
+        Err(e) => error_reply(&e),
+    }
+}

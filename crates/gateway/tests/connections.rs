@@ -1,0 +1,219 @@
+//! Many connections at once: every request answered with its own sequence number, a connection
+//! that stops reading or vanishes costs the others nothing, over-long lines are refused, and
+//! SDO requests to different nodes run in parallel.
+
+mod common;
+
+use std::collections::HashMap;
+
+use canopen_gateway::Config;
+use common::{Client, gateway};
+
+/// Sends `n` pipelined reads spread over `nodes` (each node's 0x1017 holds 100 + node) and
+/// checks every reply by its sequence number.
+fn pipelined_reads(c: &mut Client, first_seq: u32, n: u32, nodes: &[u8]) {
+    let mut want = HashMap::new();
+    let mut text = String::new();
+    for i in 0..n {
+        let seq = first_seq + i;
+        let node = nodes[i as usize % nodes.len()];
+        text.push_str(&format!("[{seq}] {node} r 0x1017 0 u16\r\n"));
+        want.insert(seq, format!("[{seq}] {}\r\n", 100 + u32::from(node)));
+    }
+    c.send(&text);
+    for _ in 0..n {
+        let line = c.line();
+        let seq: u32 = line[1..line.find(']').unwrap()].parse().unwrap();
+        assert_eq!(want.remove(&seq).as_deref(), Some(line.as_str()));
+    }
+    assert!(want.is_empty());
+}
+
+fn set_heartbeat_times(gw: &canopen_gateway::Gateway, nodes: &[u8]) {
+    let mut c = Client::connect(gw);
+    for &n in nodes {
+        let line = format!("[{n}] {n} w 0x1017 0 u16 {}\n", 100 + u32::from(n));
+        assert_eq!(c.ask(&line, 1), format!("[{n}] OK\r\n"));
+    }
+}
+
+#[test]
+fn forty_connections_at_once() {
+    let nodes: Vec<u8> = (1..=8).collect();
+    let (gw, _bus) = gateway(&nodes, Config::default());
+    set_heartbeat_times(&gw, &nodes);
+    let threads: Vec<_> = (0..40)
+        .map(|k| {
+            let gw = gw.clone();
+            let nodes = nodes.clone();
+            std::thread::spawn(move || {
+                let mut c = Client::connect(&gw);
+                pipelined_reads(&mut c, k * 1000, 30, &nodes);
+            })
+        })
+        .collect();
+    for t in threads {
+        t.join().unwrap();
+    }
+}
+
+#[test]
+fn a_stalled_or_vanished_connection_costs_the_others_nothing() {
+    let nodes = [1u8, 2];
+    let (gw, _bus) = gateway(&nodes, Config::default());
+    set_heartbeat_times(&gw, &nodes);
+    // Sends far more than the gateway takes at once and never reads.
+    let mut stalled = Client::connect(&gw);
+    let flood: String = (0..5000)
+        .map(|i| format!("[{i}] 1 r 0x1008 0 vs\r\n"))
+        .collect();
+    let flood_thread = {
+        let mut w = stalled.writer.try_clone().unwrap();
+        std::thread::spawn(move || {
+            use std::io::Write as _;
+            // Blocks once the gateway stops reading this connection.
+            let _ = w.write_all(flood.as_bytes());
+        })
+    };
+    // Vanishes with requests in flight.
+    {
+        let mut gone = Client::connect(&gw);
+        gone.send(
+            &(0..50)
+                .map(|i| format!("[{i}] 2 r 0x1008 0 vs\r\n"))
+                .collect::<String>(),
+        );
+    }
+    let mut fine = Client::connect(&gw);
+    pipelined_reads(&mut fine, 1, 200, &nodes);
+    // The stalled connection still gets its replies, in order per node, once it reads.
+    let first = stalled.line();
+    assert_eq!(first, "[0] \"Buerkert generic device\"\r\n");
+    drop(stalled);
+    let _ = flood_thread.join();
+}
+
+#[test]
+fn over_long_lines_are_refused_and_the_connection_goes_on() {
+    let (gw, _bus) = gateway(&[4], Config::default());
+    let mut c = Client::connect(&gw);
+    let long = format!("[7] 4 w 0x2000 0 vs \"{}\"\r\n", "x".repeat(10_000));
+    assert_eq!(c.ask(&long, 1), "[7] ERROR:600\r\n");
+    let no_end = format!("[8] {}", "y".repeat(5000));
+    c.send(&no_end);
+    assert_eq!(
+        c.ask("\n[9] 4 r 0x1017 0 u16\r\n", 2),
+        "[8] ERROR:600\r\n[9] 500\r\n"
+    );
+    // Bytes that are not UTF-8 are a syntax error.
+    c.send("[10] 4 r \u{0}");
+    c.writer
+        .try_clone()
+        .map(|mut w| {
+            use std::io::Write as _;
+            w.write_all(&[0xFF, 0xFE, b'\n']).unwrap();
+        })
+        .unwrap();
+    assert_eq!(c.line(), "[10] ERROR:101\r\n");
+}
+
+#[test]
+fn sdo_to_different_nodes_runs_in_parallel() {
+    use canopen::transport::{Received, Transport};
+    use canopen::{BusConfig, ClockMode, MemoryBus, Network};
+
+    // Nobody answers at nodes 20..=27, so each read ends with the SDO timeout and its abort.
+    // In parallel, all eight requests are on the bus before the first abort; one after another,
+    // each abort would come before the next request. A real-time bus, so that the requests'
+    // submission is not raced by a virtual clock jumping ahead.
+    let bus = MemoryBus::with_config(BusConfig {
+        clock: ClockMode::RealTime,
+        ..BusConfig::default()
+    });
+    let mut tap = bus.endpoint();
+    let gw = canopen_gateway::Gateway::new(Network::new(bus.endpoint()), Config::default());
+    let mut c = Client::connect(&gw);
+    assert_eq!(c.ask("[1] set sdo_timeout 400\n", 1), "[1] OK\r\n");
+    let text: String = (20..28)
+        .map(|n| format!("[{n}] {n} r 0x1000 0 u32\n"))
+        .collect();
+    c.send(&text);
+    for _ in 20..28 {
+        assert!(c.line().ends_with("] ERROR:0x05040000\r\n"));
+    }
+    let mut kinds = Vec::new();
+    while let Ok(Some(r)) = tap.recv_until(tap.now()) {
+        if let Received::Frame { frame, .. } = r {
+            let id = frame.id().as_raw();
+            if (0x600 + 20..0x600 + 28).contains(&id) {
+                // 0x40: initiate upload; 0x80: abort.
+                kinds.push((id - 0x600, frame.data()[0]));
+            }
+        }
+    }
+    assert_eq!(kinds.len(), 16, "{kinds:x?}");
+    assert!(kinds[..8].iter().all(|&(_, cs)| cs == 0x40), "{kinds:x?}");
+    assert!(kinds[8..].iter().all(|&(_, cs)| cs == 0x80), "{kinds:x?}");
+}
+
+#[test]
+fn connections_beyond_the_limit_are_refused_over_tcp() {
+    use std::io::{BufRead, BufReader, Write};
+    let (gw, _bus) = gateway(
+        &[4],
+        Config {
+            max_connections: 2,
+            ..Config::default()
+        },
+    );
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    gw.serve_tcp(listener);
+    let connect = || {
+        let s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(std::time::Duration::from_secs(30)))
+            .unwrap();
+        (s.try_clone().unwrap(), BufReader::new(s))
+    };
+    let ask = |c: &mut (std::net::TcpStream, BufReader<std::net::TcpStream>), req: &str| {
+        c.0.write_all(req.as_bytes()).unwrap();
+        let mut l = String::new();
+        c.1.read_line(&mut l).unwrap();
+        l
+    };
+    let mut first = connect();
+    let mut second = connect();
+    assert_eq!(ask(&mut first, "[1] 4 r 0x1017 0 u16\n"), "[1] 500\r\n");
+    assert_eq!(ask(&mut second, "[1] 4 r 0x1017 0 u16\n"), "[1] 500\r\n");
+    let mut third = connect();
+    let mut l = String::new();
+    third.1.read_line(&mut l).unwrap();
+    assert_eq!(l, "ERROR:600\r\n");
+    l.clear();
+    assert_eq!(third.1.read_line(&mut l).unwrap(), 0, "closed");
+    // Once one leaves, a new connection is served.
+    // Once one leaves (its thread ends shortly after), a new connection is served.
+    drop(first);
+    let mut served = false;
+    for _ in 0..100 {
+        let mut next = connect();
+        // A refused connection hears ERROR:600 at once; a served one hears nothing unasked.
+        next.0
+            .set_read_timeout(Some(std::time::Duration::from_millis(300)))
+            .unwrap();
+        let mut l = String::new();
+        match next.1.read_line(&mut l) {
+            Ok(_) => assert_eq!(l, "ERROR:600\r\n"),
+            Err(_) => {
+                next.0
+                    .set_read_timeout(Some(std::time::Duration::from_secs(30)))
+                    .unwrap();
+                assert_eq!(ask(&mut next, "[2] 4 r 0x1017 0 u16\n"), "[2] 500\r\n");
+                served = true;
+                break;
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    assert!(served);
+}
