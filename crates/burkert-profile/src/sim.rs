@@ -684,43 +684,53 @@ impl BurkertDevice {
             .and_then(|v| u8::try_from(v).ok())
             .and_then(|v| NodeId::new(v).ok())
             .unwrap_or_else(|| self.sim.node());
-        let mut sim = SimDevice::new(node, (*self.od).clone()).with_hook(BurkertHook {
+        let sim = SimDevice::new(node, (*self.od).clone()).with_hook(BurkertHook {
             shared: self.shared.clone(),
         });
-        // The profile objects are stored settings; the communication objects take their
-        // defaults for the (new) node-ID.
+        self.sim = sim;
+        self.shared().state = DeviceState::Initialising;
+        let what = if device {
+            "device reset"
+        } else {
+            "communication reset"
+        };
+        self.after_reset(now, &old, device, what);
+    }
+
+    /// What every reset leaves behind, however it came (0x2001 sub 4 or NMT): the profile
+    /// objects (0x2000 and up) are stored settings and keep their values, the communication
+    /// objects have their defaults for the (new) node-ID, 0x2001 sub 4 reads 0 again; a device
+    /// reset also counts a boot and ends locating and maintenance.
+    fn after_reset(&mut self, now: Instant, old: &Values, device: bool, what: &str) {
+        let node = self.sim.node();
+        let v = self.sim.values_mut();
         for (index, sub) in self.od.entries() {
             if index >= 0x2000
-                && let Some(v) = old.get(index, sub.sub_index)
+                && let Some(x) = old.get(index, sub.sub_index)
             {
-                sim.values_mut().set(index, sub.sub_index, v.to_vec());
+                v.set(index, sub.sub_index, x.to_vec());
             }
         }
-        sim.values_mut().set(0x2001, 4, vec![0]);
+        v.set(0x2001, 2, vec![node.get()]);
+        v.set(0x2001, 4, vec![0]);
         let mut s = self.shared();
         s.node = node;
-        s.state = DeviceState::Initialising;
+        s.log("device", format!("{what}, node-ID {}", node.get()));
         if device {
             s.boots += 1;
             s.booted_at = now;
             s.maintenance = false;
             s.locate_latched = false;
             s.locate_until = None;
-            s.log("device", format!("device reset, node-ID {}", node.get()));
             let boots = s.boots;
             drop(s);
-            let v = sim.values_mut();
+            let v = self.sim.values_mut();
             v.set(0x2101, 1, vec![0]);
             v.set(0x210A, 1, vec![0]);
             v.set(0x2004, 0x0D, boots.to_le_bytes().to_vec());
         } else {
-            s.log(
-                "device",
-                format!("communication reset, node-ID {}", node.get()),
-            );
             drop(s);
         }
-        self.sim = sim;
         self.sync_values();
     }
 
@@ -740,40 +750,12 @@ impl BurkertDevice {
         }
         let old = self.sim.values().clone();
         self.sim.handle_frame(now, frame);
-        let node = self.sim.node();
-        let v = self.sim.values_mut();
-        for (index, sub) in self.od.entries() {
-            if index >= 0x2000
-                && let Some(x) = old.get(index, sub.sub_index)
-            {
-                v.set(index, sub.sub_index, x.to_vec());
-            }
-        }
-        v.set(0x2001, 2, vec![node.get()]);
-        v.set(0x2001, 4, vec![0]);
-        let mut s = self.shared();
-        s.node = node;
-        if device {
-            s.boots += 1;
-            s.booted_at = now;
-            s.maintenance = false;
-            s.locate_latched = false;
-            s.locate_until = None;
-            s.log("device", format!("NMT reset node, node-ID {}", node.get()));
-            let boots = s.boots;
-            drop(s);
-            let v = self.sim.values_mut();
-            v.set(0x2101, 1, vec![0]);
-            v.set(0x210A, 1, vec![0]);
-            v.set(0x2004, 0x0D, boots.to_le_bytes().to_vec());
+        let what = if device {
+            "NMT reset node"
         } else {
-            s.log(
-                "device",
-                format!("NMT reset communication, node-ID {}", node.get()),
-            );
-            drop(s);
-        }
-        self.sync_values();
+            "NMT reset communication"
+        };
+        self.after_reset(now, &old, device, what);
     }
 
     /// NMT reset node (`Some(true)`) / reset communication (`Some(false)`) addressed to this
