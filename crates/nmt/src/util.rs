@@ -1,6 +1,6 @@
-//! Small private helpers: frame building from already-valid identifiers, deadline arithmetic.
+//! Small private helpers: frame building from already-valid identifiers.
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
+use can_frame::{CanFrame, CanId};
 
 /// COB-ID 0x000 as a `CanId`; the fallback for the (unreachable) failure paths below.
 const ZERO_ID: CanId = match CanId::standard(0) {
@@ -24,21 +24,4 @@ pub(crate) fn data_frame(cob_id: u16, data: &[u8]) -> CanFrame {
 pub(crate) fn remote_frame(cob_id: u16, dlc: usize) -> CanFrame {
     let id = std_id(cob_id);
     CanFrame::remote(id, dlc.min(8)).unwrap_or(CanFrame::from_array(id, [0; 8]))
-}
-
-/// The earlier of two optional deadlines.
-pub(crate) fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
-    match (a, b) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, None) => a,
-        (None, b) => b,
-    }
-}
-
-/// The next deadline of a periodic timer that just fired at `now` for `deadline`: one period
-/// after the old deadline (no drift), but never in the past (a caller that slept through several
-/// periods gets one transmission, not a burst).
-pub(crate) fn reschedule(deadline: Instant, period: Duration, now: Instant) -> Instant {
-    let next = deadline + period;
-    if next <= now { now + period } else { next }
 }
