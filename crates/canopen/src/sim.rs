@@ -440,14 +440,14 @@ impl SimDevice {
     }
 
     fn collect(&mut self) {
-        while let Some(f) = self.nmt.poll_transmit() {
+        while let Some(f) = self.nmt.poll_transmit_frame() {
             self.out.push_back(f);
         }
         while let Some(data) = self.sdo.poll_transmit() {
             let id = std_id(FunctionCode::SdoTx.cob_id(self.node));
             self.out.push_back(CanFrame::from_array(id, data));
         }
-        while let Some(f) = self.emcy.poll_transmit() {
+        while let Some(f) = self.emcy.poll_transmit_frame() {
             self.out.push_back(f);
         }
         while let Some(f) = self.lss.poll_transmit_frame() {
