@@ -13,7 +13,7 @@ use can_frame::{CanFrame, Duration, Instant, NodeId};
 use heapless::Deque;
 
 use crate::error::{CapacityError, DecodeError};
-use crate::util::data_frame;
+use crate::util::{data_frame, push_dropping_oldest};
 
 /// An emergency error code. Open: every value is kept, known ones have a CiA 301 meaning.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -364,10 +364,8 @@ impl EmcyConsumer {
             at: now,
             emcy,
         };
-        if let Err(ev) = self.events.push_back(ev) {
-            self.events.pop_front();
+        if push_dropping_oldest(&mut self.events, ev) {
             self.dropped = self.dropped.saturating_add(1);
-            let _ = self.events.push_back(ev);
         }
         Ok(())
     }

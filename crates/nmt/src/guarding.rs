@@ -15,6 +15,7 @@ use crate::error::{CapacityError, DecodeError};
 use crate::error_control::{ErrorControlFrame, ErrorControlMessage, GuardResponse};
 use crate::heartbeat::{last_state_text, state_change};
 use crate::state::NmtState;
+use crate::util::push_dropping_oldest;
 
 /// What the guarding master reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -252,10 +253,8 @@ impl<const N: usize> GuardingMaster<N> {
             e.expected_toggle = Some(!r.toggle);
         }
         for ev in out.into_iter().flatten() {
-            if let Err(ev) = self.events.push_back(ev) {
-                self.events.pop_front();
+            if push_dropping_oldest(&mut self.events, ev) {
                 self.dropped = self.dropped.saturating_add(1);
-                let _ = self.events.push_back(ev);
             }
         }
         true

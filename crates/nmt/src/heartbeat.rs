@@ -13,6 +13,7 @@ use heapless::{Deque, Vec};
 use crate::error::{CapacityError, DecodeError};
 use crate::error_control::{ErrorControlFrame, Heartbeat};
 use crate::state::NmtState;
+use crate::util::push_dropping_oldest;
 
 /// One sub-entry of object 0x1016: bits 16..=23 node-ID, bits 0..=15 heartbeat time in ms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -351,10 +352,8 @@ impl<const N: usize> HeartbeatConsumer<N> {
     }
 
     fn push_dropping_oldest(&mut self, ev: HeartbeatEvent) {
-        if let Err(ev) = self.events.push_back(ev) {
-            self.events.pop_front();
+        if push_dropping_oldest(&mut self.events, ev) {
             self.dropped = self.dropped.saturating_add(1);
-            let _ = self.events.push_back(ev);
         }
     }
 

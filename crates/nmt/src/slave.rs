@@ -19,6 +19,7 @@ use crate::error_control::{
 use crate::guarding::{GuardingResponder, LifeGuardingEvent};
 use crate::heartbeat::HeartbeatProducer;
 use crate::state::{DeviceState, Service};
+use crate::util::push_dropping_oldest;
 
 /// Error-control configuration of a device.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -159,18 +160,11 @@ impl NmtSlave {
             node: self.node,
             kind: ErrorControlFrame::Payload(byte),
         };
-        if let Err(msg) = self.tx.push_back(msg) {
-            // The caller is not draining; the oldest message is the stalest.
-            self.tx.pop_front();
-            let _ = self.tx.push_back(msg);
-        }
+        push_dropping_oldest(&mut self.tx, msg);
     }
 
     fn push_event(&mut self, ev: SlaveEvent) {
-        if self.events.push_back(ev).is_err() {
-            self.events.pop_front();
-            let _ = self.events.push_back(ev);
-        }
+        push_dropping_oldest(&mut self.events, ev);
     }
 
     fn set_state(&mut self, to: DeviceState) {

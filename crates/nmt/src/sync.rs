@@ -9,7 +9,7 @@
 use can_frame::{CanFrame, Duration, Instant, Periodic};
 
 use crate::error::{ConfigError, DecodeError};
-use crate::util::data_frame;
+use crate::util::{data_frame, service_data};
 
 /// The default SYNC COB-ID (0x1005 default).
 pub const SYNC_COB_ID: u16 = can_frame::cob::SYNC;
@@ -36,13 +36,7 @@ impl SyncMessage {
 
     /// Decodes a frame, checking the COB-ID against `cob_id` (normally [`SYNC_COB_ID`]).
     pub fn from_frame(frame: &CanFrame, cob_id: u16) -> Result<Self, DecodeError> {
-        if frame.cob_id() != Some(cob_id) {
-            return Err(DecodeError::WrongCobId(frame.id().as_raw()));
-        }
-        if frame.is_remote() {
-            return Err(DecodeError::UnexpectedRemote { message: "SYNC" });
-        }
-        Self::parse(frame.data())
+        Self::parse(service_data(frame, cob_id, "SYNC")?)
     }
 
     /// The frame on `cob_id`.

@@ -8,7 +8,7 @@
 use can_frame::{CanFrame, Duration, Instant, Periodic};
 
 use crate::error::{ConfigError, DecodeError};
-use crate::util::data_frame;
+use crate::util::{data_frame, service_data};
 
 /// The default TIME COB-ID.
 pub const TIME_COB_ID: u16 = can_frame::cob::TIME;
@@ -63,13 +63,7 @@ impl TimeOfDay {
 
     /// Decodes a frame, checking the COB-ID against `cob_id` (normally [`TIME_COB_ID`]).
     pub fn from_frame(frame: &CanFrame, cob_id: u16) -> Result<Self, DecodeError> {
-        if frame.cob_id() != Some(cob_id) {
-            return Err(DecodeError::WrongCobId(frame.id().as_raw()));
-        }
-        if frame.is_remote() {
-            return Err(DecodeError::UnexpectedRemote { message: "TIME" });
-        }
-        Self::parse(frame.data())
+        Self::parse(service_data(frame, cob_id, "TIME")?)
     }
 
     /// The six data bytes (reserved bits 0).
