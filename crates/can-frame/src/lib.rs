@@ -8,6 +8,7 @@
 //!   function a COB-ID belongs to and for which node.
 //! - [`time`] — microsecond [`Instant`] and [`Duration`]. The protocol crates never read a clock;
 //!   callers pass the current instant in, so every timeout is testable on a virtual clock.
+//! - [`timer`] — [`Periodic`] timers for producers, [`is_due`] and [`earliest`] for deadlines.
 //!
 //! The crate is `#![no_std]` without an allocator; the `std` feature (default) adds
 //! `Instant::now`-style conveniences where a real clock exists and `std::error::Error` through
@@ -23,9 +24,11 @@ mod frame;
 pub mod id;
 mod node;
 pub mod time;
+pub mod timer;
 
 pub use cob::{CobId, FunctionCode, PdoNumber};
 pub use frame::{CanFrame, FrameError, HexBytes};
 pub use id::{CanId, ExtendedId, IdError, StandardId};
 pub use node::{NodeId, NodeIdError};
 pub use time::{Duration, Instant};
+pub use timer::{Periodic, earliest, is_due};

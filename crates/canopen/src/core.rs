@@ -374,7 +374,7 @@ impl Core {
     }
 
     fn drain_guarding(&mut self) {
-        while let Some(f) = self.guarding.poll_transmit() {
+        while let Some(f) = self.guarding.poll_transmit_frame() {
             self.tx.push_back(f);
         }
         while let Some(ev) = self.guarding.poll_event() {
@@ -777,7 +777,7 @@ impl Core {
             && sync.poll_timeout().is_some_and(|t| t <= now)
         {
             sync.handle_timeout(now);
-            while let Some(f) = sync.poll_transmit() {
+            while let Some(f) = sync.poll_transmit_frame() {
                 self.tx.push_back(f);
             }
         }

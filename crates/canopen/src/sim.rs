@@ -466,7 +466,7 @@ impl SimDevice {
     }
 
     fn collect(&mut self) {
-        while let Some(f) = self.nmt.poll_transmit() {
+        while let Some(f) = self.nmt.poll_transmit_frame() {
             self.out.push_back(f);
         }
         for ch in &mut self.sdo {
@@ -474,7 +474,7 @@ impl SimDevice {
                 self.out.push_back(ch.ids.response_frame(data));
             }
         }
-        while let Some(f) = self.emcy.poll_transmit() {
+        while let Some(f) = self.emcy.poll_transmit_frame() {
             self.out.push_back(f);
         }
         while let Some(f) = self.lss.poll_transmit_frame() {

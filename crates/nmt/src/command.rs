@@ -7,7 +7,7 @@
 use can_frame::{CanFrame, NodeId};
 
 use crate::error::DecodeError;
-use crate::util::data_frame;
+use crate::util::{data_frame, service_data};
 
 /// COB-ID of NMT module control.
 pub const NMT_COB_ID: u16 = can_frame::cob::NMT;
@@ -175,15 +175,7 @@ impl NmtCommand {
 
     /// Decodes a whole frame: COB-ID 0x000, data frame, two bytes.
     pub fn from_frame(frame: &CanFrame) -> Result<Self, DecodeError> {
-        if frame.cob_id() != Some(NMT_COB_ID) {
-            return Err(DecodeError::WrongCobId(frame.id().as_raw()));
-        }
-        if frame.is_remote() {
-            return Err(DecodeError::UnexpectedRemote {
-                message: Self::NAME,
-            });
-        }
-        Self::parse(frame.data())
+        Self::parse(service_data(frame, NMT_COB_ID, Self::NAME)?)
     }
 
     /// The two data bytes.

@@ -13,7 +13,7 @@ use can_frame::{CanFrame, Duration, Instant, NodeId};
 use heapless::Deque;
 
 use crate::error::{CapacityError, DecodeError};
-use crate::util::data_frame;
+use crate::util::{data_frame, push_dropping_oldest};
 
 /// An emergency error code. Open: every value is kept, known ones have a CiA 301 meaning.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -364,10 +364,8 @@ impl EmcyConsumer {
             at: now,
             emcy,
         };
-        if let Err(ev) = self.events.push_back(ev) {
-            self.events.pop_front();
+        if push_dropping_oldest(&mut self.events, ev) {
             self.dropped = self.dropped.saturating_add(1);
-            let _ = self.events.push_back(ev);
         }
         Ok(())
     }
@@ -399,7 +397,7 @@ pub struct EmcyProducer {
     inhibit: Duration,
     last_sent: Option<Instant>,
     waiting: Deque<Emcy, EMCY_QUEUE_CAPACITY>,
-    tx: Deque<CanFrame, EMCY_QUEUE_CAPACITY>,
+    tx: Deque<Emcy, EMCY_QUEUE_CAPACITY>,
 }
 
 impl EmcyProducer {
@@ -440,7 +438,7 @@ impl EmcyProducer {
             let Some(emcy) = self.waiting.pop_front() else {
                 return;
             };
-            let _ = self.tx.push_back(emcy.to_frame(self.cob_id));
+            let _ = self.tx.push_back(emcy);
             self.last_sent = Some(now);
         }
     }
@@ -450,10 +448,16 @@ impl EmcyProducer {
         self.release(now);
     }
 
-    /// The next frame to send.
+    /// The next emergency to send.
     #[must_use]
-    pub fn poll_transmit(&mut self) -> Option<CanFrame> {
+    pub fn poll_transmit(&mut self) -> Option<Emcy> {
         self.tx.pop_front()
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame on the producer's COB-ID.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self) -> Option<CanFrame> {
+        self.poll_transmit().map(|e| e.to_frame(self.cob_id))
     }
 
     /// When the next waiting emergency may go out.
@@ -603,18 +607,19 @@ mod tests {
         let e0 = Emcy::new(EmcyCode::NO_ERROR, ErrorRegister::EMPTY);
         p.signal(Instant::from_millis(100), e1).unwrap();
         assert_eq!(
-            p.poll_transmit().map(|f| f.data()[0..2].to_vec()),
+            p.poll_transmit_frame().map(|f| f.data()[0..2].to_vec()),
             Some(std::vec![0x00, 0x40])
         );
         assert_eq!(p.poll_timeout(), None);
         p.signal(Instant::from_millis(103), e0).unwrap();
-        assert_eq!(p.poll_transmit(), None, "inhibited");
+        assert_eq!(p.poll_transmit_frame(), None, "inhibited");
         assert_eq!(p.poll_timeout(), Some(Instant::from_millis(110)));
         p.handle_timeout(Instant::from_millis(109));
-        assert_eq!(p.poll_transmit(), None);
+        assert_eq!(p.poll_transmit_frame(), None);
         p.handle_timeout(Instant::from_millis(110));
         assert_eq!(
-            p.poll_transmit().map(|f| Emcy::parse(f.data()).unwrap()),
+            p.poll_transmit_frame()
+                .map(|f| Emcy::parse(f.data()).unwrap()),
             Some(e0)
         );
         for _ in 0..EMCY_QUEUE_CAPACITY {

@@ -173,6 +173,15 @@ impl ErrorControlMessage {
     pub fn from_frame(frame: &CanFrame) -> Result<Self, DecodeError> {
         ErrorControlFrame::from_frame(frame).map(|(node, kind)| Self { node, kind })
     }
+
+    /// The frame on 0x700 + node: a remote frame (DLC 1) for a guarding request, else one
+    /// data byte.
+    pub fn to_frame(&self) -> CanFrame {
+        match self.kind {
+            ErrorControlFrame::GuardRequest => guard_request(self.node),
+            ErrorControlFrame::Payload(b) => data_frame(error_control_cob_id(self.node), &[b]),
+        }
+    }
 }
 
 impl fmt::Display for ErrorControlMessage {

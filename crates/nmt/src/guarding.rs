@@ -8,14 +8,14 @@
 //! arrives within it, the master reports the node lost ("node guarding event"); if no request
 //! arrives within it, the device reports a "life guarding event".
 
-use can_frame::{CanFrame, Duration, Instant, NodeId};
+use can_frame::{CanFrame, Duration, Instant, NodeId, Periodic, earliest, is_due};
 use heapless::{Deque, Vec};
 
 use crate::error::{CapacityError, DecodeError};
-use crate::error_control::{ErrorControlFrame, GuardResponse, guard_request};
+use crate::error_control::{ErrorControlFrame, ErrorControlMessage, GuardResponse};
 use crate::heartbeat::{last_state_text, state_change};
 use crate::state::NmtState;
-use crate::util::{earliest, reschedule};
+use crate::util::push_dropping_oldest;
 
 /// What the guarding master reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -87,9 +87,9 @@ pub const GUARDING_EVENT_CAPACITY: usize = 64;
 #[derive(Debug, Clone)]
 struct Entry {
     node: NodeId,
-    guard_time: Duration,
+    /// The guarding requests, every guard time.
+    poll: Periodic,
     life_time: Duration,
-    next_poll: Instant,
     life_deadline: Option<Instant>,
     expected_toggle: Option<bool>,
     state: Option<NmtState>,
@@ -102,6 +102,7 @@ struct Entry {
 /// passes, [`handle_timeout`](Self::handle_timeout), then drain
 /// [`poll_transmit`](Self::poll_transmit) (the remote requests) and [`poll_event`](Self::poll_event);
 /// for every received frame [`handle_frame`](Self::handle_frame) and drain the events.
+/// [`poll_transmit_frame`](Self::poll_transmit_frame) gives the requests as remote frames.
 ///
 /// The first request goes out at the instant `guard` is called; the life time counts from there.
 /// Until the first answer either toggle value is accepted (the node may still be guarded by an
@@ -109,7 +110,8 @@ struct Entry {
 #[derive(Debug, Clone)]
 pub struct GuardingMaster<const N: usize = 127> {
     entries: Vec<Entry, N>,
-    tx: Deque<CanFrame, N>,
+    /// Nodes a guarding request is due for.
+    tx: Deque<NodeId, N>,
     events: Deque<GuardingEvent, GUARDING_EVENT_CAPACITY>,
     dropped: u32,
 }
@@ -145,11 +147,12 @@ impl<const N: usize> GuardingMaster<N> {
             return Ok(());
         }
         let life_time = guard_time.saturating_mul(u64::from(life_time_factor.max(1)));
+        let mut poll = Periodic::new(guard_time);
+        poll.start_at(now);
         let entry = Entry {
             node,
-            guard_time,
+            poll,
             life_time,
-            next_poll: now,
             life_deadline: Some(now + life_time),
             expected_toggle: None,
             state: None,
@@ -250,10 +253,8 @@ impl<const N: usize> GuardingMaster<N> {
             e.expected_toggle = Some(!r.toggle);
         }
         for ev in out.into_iter().flatten() {
-            if let Err(ev) = self.events.push_back(ev) {
-                self.events.pop_front();
+            if push_dropping_oldest(&mut self.events, ev) {
                 self.dropped = self.dropped.saturating_add(1);
-                let _ = self.events.push_back(ev);
             }
         }
         true
@@ -262,13 +263,12 @@ impl<const N: usize> GuardingMaster<N> {
     /// Sends the due requests and reports nodes whose life time ran out.
     pub fn handle_timeout(&mut self, now: Instant) {
         for e in self.entries.iter_mut() {
-            if e.next_poll <= now {
+            if e.poll.fire(now) {
                 // A full queue means the caller is not draining; skip this poll rather than
                 // queue stale requests.
-                let _ = self.tx.push_back(guard_request(e.node));
-                e.next_poll = reschedule(e.next_poll, e.guard_time, now);
+                let _ = self.tx.push_back(e.node);
             }
-            if e.life_deadline.is_some_and(|d| d <= now) && !self.events.is_full() {
+            if is_due(e.life_deadline, now) && !self.events.is_full() {
                 e.life_deadline = None;
                 e.lost = true;
                 let _ = self.events.push_back(GuardingEvent::Lost {
@@ -279,10 +279,20 @@ impl<const N: usize> GuardingMaster<N> {
         }
     }
 
-    /// The next remote request to send.
+    /// The next guarding request to send (an [`ErrorControlMessage`] whose kind is
+    /// [`ErrorControlFrame::GuardRequest`]).
     #[must_use]
-    pub fn poll_transmit(&mut self) -> Option<CanFrame> {
-        self.tx.pop_front()
+    pub fn poll_transmit(&mut self) -> Option<ErrorControlMessage> {
+        self.tx.pop_front().map(|node| ErrorControlMessage {
+            node,
+            kind: ErrorControlFrame::GuardRequest,
+        })
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame: the remote frame on 0x700 + node.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self) -> Option<CanFrame> {
+        self.poll_transmit().map(|m| m.to_frame())
     }
 
     /// The next event.
@@ -294,9 +304,11 @@ impl<const N: usize> GuardingMaster<N> {
     /// The earliest poll or life-time deadline.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.entries.iter().fold(None, |acc, e| {
-            earliest(earliest(acc, Some(e.next_poll)), e.life_deadline)
-        })
+        earliest(
+            self.entries
+                .iter()
+                .flat_map(|e| [e.poll.deadline(), e.life_deadline]),
+        )
     }
 
     /// How many frame events were dropped because the queue was full.
@@ -395,7 +407,7 @@ impl GuardingResponder {
 
     /// Reports [`LifeGuardingEvent::Lost`] once when the life time has run out.
     pub fn handle_timeout(&mut self, now: Instant) -> Option<LifeGuardingEvent> {
-        if self.deadline.is_some_and(|d| d <= now) {
+        if is_due(self.deadline, now) {
             self.deadline = None;
             self.lost = true;
             return Some(LifeGuardingEvent::Lost);

@@ -7,13 +7,13 @@
 //! configured); the next heartbeat re-arms it. A consumer time of 0 tracks states but never
 //! times out.
 
-use can_frame::{CanFrame, Duration, Instant, NodeId};
+use can_frame::{CanFrame, Duration, Instant, NodeId, Periodic, earliest, is_due};
 use heapless::{Deque, Vec};
 
 use crate::error::{CapacityError, DecodeError};
 use crate::error_control::{ErrorControlFrame, Heartbeat};
 use crate::state::NmtState;
-use crate::util::{earliest, reschedule};
+use crate::util::push_dropping_oldest;
 
 /// One sub-entry of object 0x1016: bits 16..=23 node-ID, bits 0..=15 heartbeat time in ms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -133,6 +133,22 @@ struct Entry {
     booted: bool,
     deadline: Option<Instant>,
     lost: bool,
+    /// When the last boot-up or heartbeat arrived.
+    last_seen: Option<Instant>,
+}
+
+impl Entry {
+    const fn new(node: NodeId, timeout: Duration) -> Self {
+        Self {
+            node,
+            timeout,
+            state: None,
+            booted: false,
+            deadline: None,
+            lost: false,
+            last_seen: None,
+        }
+    }
 }
 
 /// Monitors the heartbeats of up to `N` nodes (default: all 127).
@@ -146,11 +162,16 @@ struct Entry {
 /// left for the next `handle_timeout` (its deadline stays due), so loss events are never dropped;
 /// events from frames drop the oldest event when the queue is full (counted in
 /// [`dropped_events`](Self::dropped_events)).
+///
+/// The consumer is where a master keeps each node's NMT state: [`state`](Self::state) and
+/// [`last_seen`](Self::last_seen). With [`observe_all`](Self::observe_all) it also tracks the
+/// nodes nobody configured a consumer time for, from their first boot-up or heartbeat on.
 #[derive(Debug, Clone)]
 pub struct HeartbeatConsumer<const N: usize = 127> {
     entries: Vec<Entry, N>,
     events: Deque<HeartbeatEvent, HEARTBEAT_EVENT_CAPACITY>,
     dropped: u32,
+    observe_all: bool,
 }
 
 impl<const N: usize> Default for HeartbeatConsumer<N> {
@@ -166,7 +187,19 @@ impl<const N: usize> HeartbeatConsumer<N> {
             entries: Vec::new(),
             events: Deque::new(),
             dropped: 0,
+            observe_all: false,
         }
+    }
+
+    /// Whether to track nodes that are not monitored: a boot-up or heartbeat of a node without
+    /// an entry adds one with consumer time 0 (as far as the capacity `N` allows), so its state
+    /// is kept and its [`BootUp`](HeartbeatEvent::BootUp) and
+    /// [`StateChanged`](HeartbeatEvent::StateChanged) events are reported; it never times out.
+    /// Off by default. A master that also runs node guarding passes the answers of guarded
+    /// nodes to the [`GuardingMaster`](crate::GuardingMaster) only: their toggle bit is not a
+    /// heartbeat state.
+    pub fn observe_all(&mut self, on: bool) {
+        self.observe_all = on;
     }
 
     /// Monitors `node` with consumer time `timeout` (zero: track states, never time out).
@@ -180,14 +213,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
             return Ok(());
         }
         self.entries
-            .push(Entry {
-                node,
-                timeout,
-                state: None,
-                booted: false,
-                deadline: None,
-                lost: false,
-            })
+            .push(Entry::new(node, timeout))
             .map_err(|_| CapacityError { capacity: N })
     }
 
@@ -229,7 +255,27 @@ impl<const N: usize> HeartbeatConsumer<N> {
         self.entries.iter().any(|e| e.node == node && e.lost)
     }
 
-    /// Takes a frame. `Ok(false)`: not a heartbeat of a monitored node (remote frames are node
+    /// When the last boot-up or heartbeat of `node` arrived (`None` if it is not tracked or
+    /// nothing arrived yet).
+    pub fn last_seen(&self, node: NodeId) -> Option<Instant> {
+        self.entries.iter().find(|e| e.node == node)?.last_seen
+    }
+
+    /// The consumer time of `node`: `Some(Duration::ZERO)` for a node whose state is only
+    /// tracked, `None` for a node without an entry.
+    pub fn consumer_time(&self, node: NodeId) -> Option<Duration> {
+        self.entries
+            .iter()
+            .find(|e| e.node == node)
+            .map(|e| e.timeout)
+    }
+
+    /// The nodes with an entry (monitored or only tracked), in no particular order.
+    pub fn nodes(&self) -> impl Iterator<Item = NodeId> + '_ {
+        self.entries.iter().map(|e| e.node)
+    }
+
+    /// Takes a frame. `Ok(false)`: not a heartbeat of a monitored (or tracked) node (remote frames are node
     /// guarding, not heartbeat); `Ok(true)`: handled; `Err`: a malformed frame on a monitored
     /// node's error-control COB-ID.
     pub fn handle_frame(&mut self, now: Instant, frame: &CanFrame) -> Result<bool, DecodeError> {
@@ -259,11 +305,21 @@ impl<const N: usize> HeartbeatConsumer<N> {
         }
     }
 
-    /// Takes a decoded heartbeat of `node`. Returns false if `node` is not monitored.
+    /// Takes a decoded heartbeat of `node`. Returns false if `node` is not monitored (nor
+    /// tracked, see [`observe_all`](Self::observe_all)).
     pub fn handle_heartbeat(&mut self, now: Instant, node: NodeId, hb: Heartbeat) -> bool {
-        let Some(e) = self.entries.iter_mut().find(|e| e.node == node) else {
-            return false;
+        let i = match self.entries.iter().position(|e| e.node == node) {
+            Some(i) => i,
+            None if self.observe_all => {
+                if self.entries.push(Entry::new(node, Duration::ZERO)).is_err() {
+                    return false;
+                }
+                self.entries.len() - 1
+            }
+            None => return false,
         };
+        let e = &mut self.entries[i];
+        e.last_seen = Some(now);
         let mut out: [Option<HeartbeatEvent>; 2] = [None, None];
         if hb.is_boot_up() {
             e.booted = true;
@@ -296,10 +352,8 @@ impl<const N: usize> HeartbeatConsumer<N> {
     }
 
     fn push_dropping_oldest(&mut self, ev: HeartbeatEvent) {
-        if let Err(ev) = self.events.push_back(ev) {
-            self.events.pop_front();
+        if push_dropping_oldest(&mut self.events, ev) {
             self.dropped = self.dropped.saturating_add(1);
-            let _ = self.events.push_back(ev);
         }
     }
 
@@ -309,7 +363,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
             if self.events.is_full() {
                 return;
             }
-            if e.deadline.is_some_and(|d| d <= now) {
+            if is_due(e.deadline, now) {
                 e.deadline = None;
                 e.lost = true;
                 let _ = self.events.push_back(HeartbeatEvent::Lost {
@@ -329,9 +383,7 @@ impl<const N: usize> HeartbeatConsumer<N> {
     /// The earliest armed heartbeat deadline.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.entries
-            .iter()
-            .fold(None, |acc, e| earliest(acc, e.deadline))
+        earliest(self.entries.iter().map(|e| e.deadline))
     }
 
     /// How many frame events were dropped because the queue was full.
@@ -346,15 +398,15 @@ impl<const N: usize> HeartbeatConsumer<N> {
 /// [`set_state`](Self::set_state); when [`poll_timeout`](Self::poll_timeout) passes,
 /// [`handle_timeout`](Self::handle_timeout) and drain [`poll_transmit`](Self::poll_transmit).
 /// The boot-up message counts as the first heartbeat, so the first one is due one period after
-/// `start`.
+/// `start`. [`poll_transmit`](Self::poll_transmit) gives the [`Heartbeat`],
+/// [`poll_transmit_frame`](Self::poll_transmit_frame) its frame on 0x700 + node.
 #[derive(Debug, Clone)]
 pub struct HeartbeatProducer {
     node: NodeId,
-    period: Duration,
+    timer: Periodic,
     state: NmtState,
     running: bool,
-    next: Option<Instant>,
-    pending: Option<CanFrame>,
+    pending: Option<Heartbeat>,
 }
 
 impl HeartbeatProducer {
@@ -362,10 +414,9 @@ impl HeartbeatProducer {
     pub const fn new(node: NodeId, period_ms: u16) -> Self {
         Self {
             node,
-            period: Duration::from_millis(period_ms as u64),
+            timer: Periodic::new(Duration::from_millis(period_ms as u64)),
             state: NmtState::PreOperational,
             running: false,
-            next: None,
             pending: None,
         }
     }
@@ -373,20 +424,21 @@ impl HeartbeatProducer {
     /// Starts producing (no effect with period 0).
     pub fn start(&mut self, now: Instant) {
         self.running = true;
-        self.next = (!self.period.is_zero()).then(|| now + self.period);
+        self.timer.start_at(now + self.timer.period());
     }
 
     /// Stops producing.
     pub fn stop(&mut self) {
         self.running = false;
-        self.next = None;
+        self.timer.stop();
         self.pending = None;
     }
 
     /// Changes the producer time (an SDO write to 0x1017). If the producer has been started, the
     /// next heartbeat is due one new period from `now` (0 pauses it until a non-zero time).
     pub fn set_period(&mut self, now: Instant, period_ms: u16) {
-        self.period = Duration::from_millis(u64::from(period_ms));
+        self.timer
+            .set_period(Duration::from_millis(u64::from(period_ms)));
         if self.running {
             self.start(now);
         }
@@ -394,7 +446,7 @@ impl HeartbeatProducer {
 
     /// The producer time.
     pub const fn period(&self) -> Duration {
-        self.period
+        self.timer.period()
     }
 
     /// The state the next heartbeat reports.
@@ -404,22 +456,27 @@ impl HeartbeatProducer {
 
     /// Sends the heartbeat that is due, if any.
     pub fn handle_timeout(&mut self, now: Instant) {
-        if let Some(due) = self.next.filter(|d| *d <= now) {
-            self.pending = Some(Heartbeat { state: self.state }.to_frame(self.node));
-            self.next = Some(reschedule(due, self.period, now));
+        if self.timer.fire(now) {
+            self.pending = Some(Heartbeat { state: self.state });
         }
     }
 
-    /// The next frame to send.
+    /// The next heartbeat to send.
     #[must_use]
-    pub fn poll_transmit(&mut self) -> Option<CanFrame> {
+    pub fn poll_transmit(&mut self) -> Option<Heartbeat> {
         self.pending.take()
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame on 0x700 + node.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self) -> Option<CanFrame> {
+        self.poll_transmit().map(|hb| hb.to_frame(self.node))
     }
 
     /// When the next heartbeat is due.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.next
+        self.timer.deadline()
     }
 }
 
@@ -509,6 +566,146 @@ mod tests {
             .to_string(),
             "node 5: EMCY 0x5000 (device hardware), error register 0x01 (generic)"
         );
+    }
+
+    #[test]
+    fn producers_speak_typed_messages_and_frame_them() {
+        use crate::{
+            Emcy, EmcyCode, EmcyProducer, ErrorControlFrame, ErrorControlMessage, ErrorRegister,
+            GuardingMaster, NmtSlave, SYNC_COB_ID, SlaveConfig, SyncConfig, SyncMessage,
+            SyncProducer, TIME_COB_ID, TimeOfDay, TimeProducer,
+        };
+        let node = NodeId::new(5).unwrap();
+        let t0 = Instant::from_millis(10);
+
+        let mut hb = HeartbeatProducer::new(node, 100);
+        hb.start(t0);
+        hb.handle_timeout(t0 + Duration::from_millis(100));
+        assert_eq!(
+            hb.poll_transmit(),
+            Some(Heartbeat {
+                state: NmtState::PreOperational
+            })
+        );
+        hb.handle_timeout(t0 + Duration::from_millis(200));
+        assert_eq!(
+            hb.poll_transmit_frame(),
+            Some(
+                Heartbeat {
+                    state: NmtState::PreOperational
+                }
+                .to_frame(node)
+            )
+        );
+
+        let mut sync = SyncProducer::new(SyncConfig::new(Duration::from_millis(1), 3).unwrap());
+        sync.start(t0);
+        sync.handle_timeout(t0);
+        assert_eq!(sync.poll_transmit(), Some(SyncMessage { counter: Some(1) }));
+        sync.handle_timeout(t0 + Duration::from_millis(1));
+        assert_eq!(
+            sync.poll_transmit_frame(),
+            Some(SyncMessage { counter: Some(2) }.to_frame(SYNC_COB_ID))
+        );
+
+        let mut time = TimeProducer::new(TIME_COB_ID, Duration::ZERO);
+        time.set_clock(t0, 946_728_000_000);
+        assert!(time.publish(t0));
+        assert_eq!(
+            time.poll_transmit(),
+            TimeOfDay::from_unix_millis(946_728_000_000)
+        );
+
+        let emcy = Emcy::new(EmcyCode::GENERIC, ErrorRegister::GENERIC);
+        let mut p = EmcyProducer::new(0x085, 0);
+        p.signal(t0, emcy).unwrap();
+        p.signal(t0, emcy).unwrap();
+        assert_eq!(p.poll_transmit(), Some(emcy));
+        assert_eq!(p.poll_transmit_frame(), Some(emcy.to_frame(0x085)));
+
+        let mut g = GuardingMaster::<4>::new();
+        g.guard(t0, node, Duration::from_millis(100), 3).unwrap();
+        g.handle_timeout(t0);
+        let request = g.poll_transmit().unwrap();
+        assert_eq!(
+            request,
+            ErrorControlMessage {
+                node,
+                kind: ErrorControlFrame::GuardRequest
+            }
+        );
+        assert_eq!(request.to_frame(), crate::guard_request(node));
+
+        let mut dev = NmtSlave::new(node, SlaveConfig::default());
+        dev.boot(t0);
+        assert_eq!(
+            dev.poll_transmit(),
+            Some(ErrorControlMessage {
+                node,
+                kind: ErrorControlFrame::Payload(0)
+            })
+        );
+    }
+
+    #[test]
+    fn observe_all_tracks_unmonitored_nodes() {
+        extern crate std;
+        let n5 = NodeId::new(5).unwrap();
+        let n6 = NodeId::new(6).unwrap();
+        let ms = Instant::from_millis;
+        let hb = |state| Heartbeat { state };
+        let mut c = HeartbeatConsumer::<8>::new();
+        assert!(!c.handle_heartbeat(ms(1), n5, hb(NmtState::Operational)));
+        assert_eq!(
+            (c.state(n5), c.last_seen(n5)),
+            (None, None),
+            "off by default"
+        );
+
+        c.observe_all(true);
+        assert!(c.handle_heartbeat(ms(10), n5, Heartbeat::BOOT_UP));
+        assert_eq!(c.poll_event(), Some(HeartbeatEvent::BootUp { node: n5 }));
+        assert_eq!(c.state(n5), Some(NmtState::BootUp));
+        assert!(c.handle_heartbeat(ms(20), n5, hb(NmtState::PreOperational)));
+        assert_eq!(
+            c.poll_event(),
+            Some(HeartbeatEvent::StateChanged {
+                node: n5,
+                from: None,
+                to: NmtState::PreOperational
+            })
+        );
+        assert!(c.handle_heartbeat(ms(30), n5, hb(NmtState::PreOperational)));
+        assert_eq!(c.poll_event(), None, "same state, no event");
+        assert_eq!(c.last_seen(n5), Some(ms(30)));
+        assert_eq!(c.consumer_time(n5), Some(Duration::ZERO));
+        assert_eq!(c.poll_timeout(), None, "a tracked node never times out");
+        c.handle_timeout(ms(100_000));
+        assert_eq!(c.poll_event(), None);
+
+        // Monitoring it later keeps the state; the next heartbeat arms the timeout.
+        c.monitor(n5, Duration::from_millis(100)).unwrap();
+        assert_eq!(c.state(n5), Some(NmtState::PreOperational));
+        assert!(c.handle_heartbeat(ms(40), n5, hb(NmtState::Operational)));
+        assert_eq!(
+            c.poll_event(),
+            Some(HeartbeatEvent::StateChanged {
+                node: n5,
+                from: Some(NmtState::PreOperational),
+                to: NmtState::Operational
+            })
+        );
+        assert_eq!(c.poll_timeout(), Some(ms(140)));
+
+        let frame = Heartbeat {
+            state: NmtState::Stopped,
+        }
+        .to_frame(n6);
+        assert_eq!(c.handle_frame(ms(50), &frame), Ok(true));
+        assert_eq!(c.state(n6), Some(NmtState::Stopped));
+        let mut nodes: std::vec::Vec<u8> = c.nodes().map(NodeId::get).collect();
+        nodes.sort_unstable();
+        assert_eq!(nodes, [5, 6]);
     }
 
     #[test]

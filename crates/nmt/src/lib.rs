@@ -4,8 +4,11 @@
 //! - **Codecs** turn the data bytes of one service into a typed value and back. Parsing never
 //!   panics and keeps unknown wire codes, so decode-encode round trips are lossless:
 //!   [`NmtCommand`] (module control, COB-ID 0x000), [`Heartbeat`] and [`GuardResponse`]
-//!   (0x700 + node), [`SyncMessage`], [`TimeOfDay`], [`Emcy`] with [`EmcyCode`] and
-//!   [`ErrorRegister`].
+//!   (0x700 + node; [`ErrorControlMessage`] is any frame there with its node), [`SyncMessage`],
+//!   [`TimeOfDay`], [`Emcy`] with [`EmcyCode`] and [`ErrorRegister`]. Each has a `Display`
+//!   text in CiA 301 words (`NMT Start remote node, all nodes`, `heartbeat node 5
+//!   Operational`, `EMCY 0x5000 (device hardware), error register 0x01 (generic)`), as do the
+//!   machines' events.
 //! - **Machines** are fed with frames and the current [`Instant`] and hand back frames to send,
 //!   events and their next deadline. They never read a clock or touch I/O.
 //!   - Master side: [`HeartbeatConsumer`], [`GuardingMaster`], [`SyncProducer`],
@@ -18,9 +21,12 @@
 //! 2. for each received frame call `handle_frame(now, &frame)`; it returns `Ok(false)` for frames
 //!    that are not its business, so a router may offer a frame to several machines;
 //! 3. when `poll_timeout()` is at or before the current time, call `handle_timeout(now)`;
-//! 4. after each of these calls drain `poll_transmit()` (frames to put on the bus) and
-//!    `poll_event()` until they return `None`, then sleep until the new `poll_timeout()` or the
-//!    next frame.
+//! 4. after each of these calls drain `poll_transmit()` (typed messages) or its frame adapter
+//!    `poll_transmit_frame()` (frames to put on the bus) and `poll_event()` until they return
+//!    `None`, then sleep until the new `poll_timeout()` or the next frame.
+//!
+//! The producers' periods run on [`can_frame::Periodic`]; a driver tests a machine's deadline
+//! with [`can_frame::is_due`] and folds several with [`can_frame::earliest`].
 //!
 //! ```
 //! use canopen_nmt::{Duration, Heartbeat, HeartbeatConsumer, HeartbeatEvent, Instant, NmtState, NodeId};

@@ -8,16 +8,18 @@
 //! (application and communication area, or communication area only), applies the restored
 //! configuration and calls [`NmtSlave::boot`] again, which sends the boot-up message.
 
-use can_frame::{CanFrame, Instant, NodeId};
+use can_frame::{CanFrame, Instant, NodeId, earliest};
 use heapless::Deque;
 
 use crate::command::{CommandSpecifier, NMT_COB_ID, NmtCommand};
 use crate::error::DecodeError;
-use crate::error_control::{Heartbeat, error_control_cob_id};
+use crate::error_control::{
+    ErrorControlFrame, ErrorControlMessage, Heartbeat, error_control_cob_id,
+};
 use crate::guarding::{GuardingResponder, LifeGuardingEvent};
 use crate::heartbeat::HeartbeatProducer;
 use crate::state::{DeviceState, Service};
-use crate::util::earliest;
+use crate::util::push_dropping_oldest;
 
 /// Error-control configuration of a device.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -85,7 +87,8 @@ pub struct NmtSlave {
     state: DeviceState,
     heartbeat: HeartbeatProducer,
     guarding: GuardingResponder,
-    tx: Deque<CanFrame, TX_CAPACITY>,
+    /// Error-control data bytes to send: boot-up, heartbeats, guarding answers.
+    tx: Deque<ErrorControlMessage, TX_CAPACITY>,
     events: Deque<SlaveEvent, EVENT_CAPACITY>,
 }
 
@@ -135,7 +138,7 @@ impl NmtSlave {
         if self.state != DeviceState::Initialising {
             return;
         }
-        self.push_tx(Heartbeat::BOOT_UP.to_frame(self.node));
+        self.push_tx(Heartbeat::BOOT_UP.emit());
         self.guarding.reset();
         self.set_state(DeviceState::PreOperational);
         self.heartbeat.start(now);
@@ -152,19 +155,16 @@ impl NmtSlave {
         self.guarding.configure(guard_time_ms, life_time_factor);
     }
 
-    fn push_tx(&mut self, f: CanFrame) {
-        if self.tx.push_back(f).is_err() {
-            // The caller is not draining; the oldest frame is the stalest.
-            self.tx.pop_front();
-            let _ = self.tx.push_back(f);
-        }
+    fn push_tx(&mut self, byte: u8) {
+        let msg = ErrorControlMessage {
+            node: self.node,
+            kind: ErrorControlFrame::Payload(byte),
+        };
+        push_dropping_oldest(&mut self.tx, msg);
     }
 
     fn push_event(&mut self, ev: SlaveEvent) {
-        if self.events.push_back(ev).is_err() {
-            self.events.pop_front();
-            let _ = self.events.push_back(ev);
-        }
+        push_dropping_oldest(&mut self.events, ev);
     }
 
     fn set_state(&mut self, to: DeviceState) {
@@ -224,7 +224,7 @@ impl NmtSlave {
             return;
         }
         let (answer, ev) = self.guarding.handle_request(now, self.state.wire());
-        self.push_tx(answer.to_frame(self.node));
+        self.push_tx(answer.emit());
         if ev == Some(LifeGuardingEvent::Resumed) {
             self.push_event(SlaveEvent::LifeGuardingResumed);
         }
@@ -233,18 +233,25 @@ impl NmtSlave {
     /// Sends the due heartbeat and reports a life guarding event.
     pub fn handle_timeout(&mut self, now: Instant) {
         self.heartbeat.handle_timeout(now);
-        if let Some(f) = self.heartbeat.poll_transmit() {
-            self.push_tx(f);
+        if let Some(hb) = self.heartbeat.poll_transmit() {
+            self.push_tx(hb.emit());
         }
         if self.guarding.handle_timeout(now) == Some(LifeGuardingEvent::Lost) {
             self.push_event(SlaveEvent::LifeGuardingLost);
         }
     }
 
-    /// The next frame to send.
+    /// The next message to send: the boot-up message, a heartbeat or a node-guarding answer,
+    /// all one byte on 0x700 + node.
     #[must_use]
-    pub fn poll_transmit(&mut self) -> Option<CanFrame> {
+    pub fn poll_transmit(&mut self) -> Option<ErrorControlMessage> {
         self.tx.pop_front()
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self) -> Option<CanFrame> {
+        self.poll_transmit().map(|m| m.to_frame())
     }
 
     /// The next event.
@@ -256,6 +263,6 @@ impl NmtSlave {
     /// The next heartbeat or life-time deadline.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        earliest(self.heartbeat.poll_timeout(), self.guarding.poll_timeout())
+        earliest([self.heartbeat.poll_timeout(), self.guarding.poll_timeout()])
     }
 }

@@ -6,10 +6,10 @@
 //! after the one carrying the overflow value carries 1 again. It restarts at 1 whenever the
 //! producer is (re)started.
 
-use can_frame::{CanFrame, Duration, Instant};
+use can_frame::{CanFrame, Duration, Instant, Periodic};
 
 use crate::error::{ConfigError, DecodeError};
-use crate::util::{data_frame, reschedule};
+use crate::util::{data_frame, service_data};
 
 /// The default SYNC COB-ID (0x1005 default).
 pub const SYNC_COB_ID: u16 = can_frame::cob::SYNC;
@@ -36,13 +36,7 @@ impl SyncMessage {
 
     /// Decodes a frame, checking the COB-ID against `cob_id` (normally [`SYNC_COB_ID`]).
     pub fn from_frame(frame: &CanFrame, cob_id: u16) -> Result<Self, DecodeError> {
-        if frame.cob_id() != Some(cob_id) {
-            return Err(DecodeError::WrongCobId(frame.id().as_raw()));
-        }
-        if frame.is_remote() {
-            return Err(DecodeError::UnexpectedRemote { message: "SYNC" });
-        }
-        Self::parse(frame.data())
+        Self::parse(service_data(frame, cob_id, "SYNC")?)
     }
 
     /// The frame on `cob_id`.
@@ -113,13 +107,15 @@ impl SyncConfig {
 /// the caller is late by more than a period, the missed SYNCs are not sent in a burst; the next
 /// one is due a period after the late one.
 /// A SYNC that was not drained before the next one became due is replaced by it.
+/// [`poll_transmit`](Self::poll_transmit) gives the [`SyncMessage`],
+/// [`poll_transmit_frame`](Self::poll_transmit_frame) its frame on the configured COB-ID.
 #[derive(Debug, Clone)]
 pub struct SyncProducer {
     config: SyncConfig,
     /// The counter the next SYNC carries.
     counter: u8,
-    next: Option<Instant>,
-    pending: Option<CanFrame>,
+    timer: Periodic,
+    pending: Option<SyncMessage>,
 }
 
 impl SyncProducer {
@@ -128,7 +124,7 @@ impl SyncProducer {
         Self {
             config,
             counter: 1,
-            next: None,
+            timer: Periodic::new(config.period),
             pending: None,
         }
     }
@@ -141,8 +137,9 @@ impl SyncProducer {
     /// Replaces the configuration (e.g. after an SDO write to 0x1006 or 0x1019) and restarts at
     /// `now` if the producer was running.
     pub fn reconfigure(&mut self, now: Instant, config: SyncConfig) {
-        let running = self.next.is_some();
+        let running = self.timer.is_running();
         self.config = config;
+        self.timer = Periodic::new(config.period);
         if running {
             self.start(now);
         }
@@ -152,28 +149,23 @@ impl SyncProducer {
     /// A zero period leaves the producer stopped.
     pub fn start(&mut self, now: Instant) {
         self.counter = 1;
-        self.next = if self.config.period.is_zero() {
-            None
-        } else {
-            Some(now)
-        };
+        self.timer.start_at(now);
     }
 
     /// Stops producing (a queued, not yet polled SYNC is dropped).
     pub fn stop(&mut self) {
-        self.next = None;
+        self.timer.stop();
         self.pending = None;
     }
 
     /// Whether the producer is running.
     pub const fn is_running(&self) -> bool {
-        self.next.is_some()
+        self.timer.is_running()
     }
 
     /// Sends the SYNC that is due, if any.
     pub fn handle_timeout(&mut self, now: Instant) {
-        let Some(due) = self.next else { return };
-        if now < due {
+        if !self.timer.fire(now) {
             return;
         }
         let counter = if self.config.counter_overflow >= 2 {
@@ -187,20 +179,25 @@ impl SyncProducer {
         } else {
             None
         };
-        self.pending = Some(SyncMessage { counter }.to_frame(self.config.cob_id));
-        self.next = Some(reschedule(due, self.config.period, now));
+        self.pending = Some(SyncMessage { counter });
     }
 
     /// The next SYNC to send.
     #[must_use]
-    pub fn poll_transmit(&mut self) -> Option<CanFrame> {
+    pub fn poll_transmit(&mut self) -> Option<SyncMessage> {
         self.pending.take()
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame on the configured COB-ID.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self) -> Option<CanFrame> {
+        self.poll_transmit().map(|m| m.to_frame(self.config.cob_id))
     }
 
     /// When the next SYNC is due.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.next
+        self.timer.deadline()
     }
 }
 

@@ -5,10 +5,10 @@
 //! 1984-01-01 as UNSIGNED16. 1984-01-01 is Unix day 5113 (14 years of 365 days plus the leap days
 //! of 1972, 1976 and 1980).
 
-use can_frame::{CanFrame, Duration, Instant};
+use can_frame::{CanFrame, Duration, Instant, Periodic};
 
 use crate::error::{ConfigError, DecodeError};
-use crate::util::{data_frame, reschedule};
+use crate::util::{data_frame, service_data};
 
 /// The default TIME COB-ID.
 pub const TIME_COB_ID: u16 = can_frame::cob::TIME;
@@ -63,13 +63,7 @@ impl TimeOfDay {
 
     /// Decodes a frame, checking the COB-ID against `cob_id` (normally [`TIME_COB_ID`]).
     pub fn from_frame(frame: &CanFrame, cob_id: u16) -> Result<Self, DecodeError> {
-        if frame.cob_id() != Some(cob_id) {
-            return Err(DecodeError::WrongCobId(frame.id().as_raw()));
-        }
-        if frame.is_remote() {
-            return Err(DecodeError::UnexpectedRemote { message: "TIME" });
-        }
-        Self::parse(frame.data())
+        Self::parse(service_data(frame, cob_id, "TIME")?)
     }
 
     /// The six data bytes (reserved bits 0).
@@ -167,14 +161,14 @@ impl core::fmt::Display for TimeOfDay {
 /// monotonic instant, and it extrapolates from there. Call order: `set_clock`; then
 /// [`publish`](Self::publish) for a one-off message and/or a period in [`new`](Self::new) plus
 /// [`handle_timeout`](Self::handle_timeout) when [`poll_timeout`](Self::poll_timeout) passes;
-/// drain [`poll_transmit`](Self::poll_transmit) after each.
+/// drain [`poll_transmit`](Self::poll_transmit) (the [`TimeOfDay`]) or
+/// [`poll_transmit_frame`](Self::poll_transmit_frame) (its frame) after each.
 #[derive(Debug, Clone)]
 pub struct TimeProducer {
     cob_id: u16,
-    period: Duration,
+    timer: Periodic,
     reference: Option<(Instant, u64)>,
-    next: Option<Instant>,
-    pending: Option<CanFrame>,
+    pending: Option<TimeOfDay>,
 }
 
 impl TimeProducer {
@@ -183,9 +177,8 @@ impl TimeProducer {
     pub const fn new(cob_id: u16, period: Duration) -> Self {
         Self {
             cob_id,
-            period,
+            timer: Periodic::new(period),
             reference: None,
-            next: None,
             pending: None,
         }
     }
@@ -194,8 +187,8 @@ impl TimeProducer {
     /// periodic transmission (first message due at `now`) if a period is set.
     pub fn set_clock(&mut self, now: Instant, unix_millis: u64) {
         self.reference = Some((now, unix_millis));
-        if !self.period.is_zero() && self.next.is_none() {
-            self.next = Some(now);
+        if !self.timer.is_running() {
+            self.timer.start_at(now);
         }
     }
 
@@ -214,7 +207,7 @@ impl TimeProducer {
     pub fn publish(&mut self, now: Instant) -> bool {
         match self.time_at(now) {
             Some(t) => {
-                self.pending = Some(t.to_frame(self.cob_id));
+                self.pending = Some(t);
                 true
             }
             None => false,
@@ -223,22 +216,27 @@ impl TimeProducer {
 
     /// Sends the periodic message that is due, if any.
     pub fn handle_timeout(&mut self, now: Instant) {
-        if let Some(due) = self.next.filter(|d| *d <= now) {
+        if self.timer.fire(now) {
             self.publish(now);
-            self.next = Some(reschedule(due, self.period, now));
         }
     }
 
-    /// The next frame to send.
+    /// The next TIME message to send.
     #[must_use]
-    pub fn poll_transmit(&mut self) -> Option<CanFrame> {
+    pub fn poll_transmit(&mut self) -> Option<TimeOfDay> {
         self.pending.take()
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame on the producer's COB-ID.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self) -> Option<CanFrame> {
+        self.poll_transmit().map(|t| t.to_frame(self.cob_id))
     }
 
     /// When the next periodic message is due.
     #[must_use]
     pub fn poll_timeout(&self) -> Option<Instant> {
-        self.next
+        self.timer.deadline()
     }
 }
 
@@ -341,13 +339,13 @@ mod tests {
         p.set_clock(t0, 946_728_000_000);
         assert_eq!(p.poll_timeout(), Some(t0));
         p.handle_timeout(t0);
-        let f = p.poll_transmit().unwrap();
+        let f = p.poll_transmit_frame().unwrap();
         assert_eq!(f.data(), &[0x00, 0x2E, 0x93, 0x02, 0xD4, 0x16]);
         assert_eq!(p.poll_timeout(), Some(Instant::from_millis(6_000)));
         p.handle_timeout(Instant::from_millis(6_000));
-        let t = TimeOfDay::from_frame(&p.poll_transmit().unwrap(), TIME_COB_ID).unwrap();
+        let t = TimeOfDay::from_frame(&p.poll_transmit_frame().unwrap(), TIME_COB_ID).unwrap();
         assert_eq!(t.millis(), 43_201_000);
-        assert_eq!(p.poll_transmit(), None);
+        assert_eq!(p.poll_transmit_frame(), None);
     }
 
     proptest! {

@@ -1,6 +1,10 @@
-//! Small private helpers: frame building from already-valid identifiers, deadline arithmetic.
+//! Small private helpers: frame building from already-valid identifiers, decoding a frame of
+//! a service on a known COB-ID, and the bounded queues that drop their oldest entry.
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
+use can_frame::{CanFrame, CanId};
+use heapless::Deque;
+
+use crate::error::DecodeError;
 
 /// COB-ID 0x000 as a `CanId`; the fallback for the (unreachable) failure paths below.
 const ZERO_ID: CanId = match CanId::standard(0) {
@@ -26,19 +30,30 @@ pub(crate) fn remote_frame(cob_id: u16, dlc: usize) -> CanFrame {
     CanFrame::remote(id, dlc.min(8)).unwrap_or(CanFrame::from_array(id, [0; 8]))
 }
 
-/// The earlier of two optional deadlines.
-pub(crate) fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
-    match (a, b) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, None) => a,
-        (None, b) => b,
+/// The data of `frame` if it is a data frame on `cob_id`; the errors name `message`.
+pub(crate) fn service_data<'f>(
+    frame: &'f CanFrame,
+    cob_id: u16,
+    message: &'static str,
+) -> Result<&'f [u8], DecodeError> {
+    if frame.cob_id() != Some(cob_id) {
+        return Err(DecodeError::WrongCobId(frame.id().as_raw()));
     }
+    if frame.is_remote() {
+        return Err(DecodeError::UnexpectedRemote { message });
+    }
+    Ok(frame.data())
 }
 
-/// The next deadline of a periodic timer that just fired at `now` for `deadline`: one period
-/// after the old deadline (no drift), but never in the past (a caller that slept through several
-/// periods gets one transmission, not a burst).
-pub(crate) fn reschedule(deadline: Instant, period: Duration, now: Instant) -> Instant {
-    let next = deadline + period;
-    if next <= now { now + period } else { next }
+/// Appends `item`; when the queue is full the oldest entry makes room (a caller that does not
+/// drain loses the stalest). Returns whether an entry was dropped.
+pub(crate) fn push_dropping_oldest<T, const N: usize>(queue: &mut Deque<T, N>, item: T) -> bool {
+    match queue.push_back(item) {
+        Ok(()) => false,
+        Err(item) => {
+            queue.pop_front();
+            let _ = queue.push_back(item);
+            true
+        }
+    }
 }

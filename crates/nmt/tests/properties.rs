@@ -182,7 +182,7 @@ proptest! {
             }
             let got: Vec<_> = std::iter::from_fn(|| g.poll_event()).collect();
             prop_assert_eq!(got, expected);
-            let requests: Vec<_> = std::iter::from_fn(|| g.poll_transmit()).collect();
+            let requests: Vec<_> = std::iter::from_fn(|| g.poll_transmit_frame()).collect();
             prop_assert_eq!(requests.len(), expected_requests);
             prop_assert!(requests.iter().all(|f| f.is_remote() && f.cob_id() == Some(0x70A)));
             let model_next = Some(Instant::from_millis(life_deadline.map_or(next_poll, |d| d.min(next_poll))));

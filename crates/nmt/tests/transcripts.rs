@@ -193,7 +193,7 @@ fn guarding_lost_after_guard_time_times_life_factor() {
         .unwrap();
     assert_eq!(g.poll_timeout(), Some(ms(0)));
     g.handle_timeout(ms(0));
-    assert_eq!(frames(|| g.poll_transmit()), ["707#R1"]);
+    assert_eq!(frames(|| g.poll_transmit_frame()), ["707#R1"]);
     // The node answers (toggle 0, pre-operational).
     assert_eq!(
         g.handle_frame(ms(2), &CanFrame::new(hb(7, 0).id(), &[0x7F]).unwrap()),
@@ -211,7 +211,7 @@ fn guarding_lost_after_guard_time_times_life_factor() {
     for t in [100, 200, 300] {
         assert_eq!(g.poll_timeout(), Some(ms(t)));
         g.handle_timeout(ms(t));
-        assert_eq!(frames(|| g.poll_transmit()), ["707#R1"]);
+        assert_eq!(frames(|| g.poll_transmit_frame()), ["707#R1"]);
         assert!(gevents(&mut g).is_empty());
     }
     assert_eq!(g.poll_timeout(), Some(ms(302)));
@@ -226,7 +226,7 @@ fn guarding_lost_after_guard_time_times_life_factor() {
     assert!(g.is_lost(node(7)));
     // Polling continues; an answer (toggle 1, operational) recovers the node.
     g.handle_timeout(ms(400));
-    assert_eq!(frames(|| g.poll_transmit()), ["707#R1"]);
+    assert_eq!(frames(|| g.poll_transmit_frame()), ["707#R1"]);
     g.handle_response(ms(401), node(7), 0x85);
     assert_eq!(
         gevents(&mut g),
@@ -260,7 +260,7 @@ fn guarding_never_answered_is_lost_after_life_time() {
             last_state: None
         }]
     );
-    assert_eq!(frames(|| g.poll_transmit()).len(), 3);
+    assert_eq!(frames(|| g.poll_transmit_frame()).len(), 3);
 }
 
 #[test]
@@ -315,8 +315,8 @@ fn sync_counter_wraps_at_overflow() {
         let now = p.poll_timeout().unwrap();
         assert_eq!(now, ms(100 + 10 * i));
         p.handle_timeout(now);
-        sent.push(p.poll_transmit().unwrap().to_string());
-        assert_eq!(p.poll_transmit(), None);
+        sent.push(p.poll_transmit_frame().unwrap().to_string());
+        assert_eq!(p.poll_transmit_frame(), None);
     }
     assert_eq!(
         sent,
@@ -326,26 +326,26 @@ fn sync_counter_wraps_at_overflow() {
     );
     // A late caller gets one SYNC, not a burst, and the counter continues.
     p.handle_timeout(ms(1000));
-    assert_eq!(frames(|| p.poll_transmit()), ["080#02"]);
+    assert_eq!(frames(|| p.poll_transmit_frame()), ["080#02"]);
     assert_eq!(p.poll_timeout(), Some(ms(1010)));
     // Restart resets the counter to 1.
     p.stop();
     assert_eq!(p.poll_timeout(), None);
     p.start(ms(2000));
     p.handle_timeout(ms(2000));
-    assert_eq!(frames(|| p.poll_transmit()), ["080#01"]);
+    assert_eq!(frames(|| p.poll_transmit_frame()), ["080#01"]);
     // Without counter: empty SYNC.
     let mut p = SyncProducer::new(SyncConfig::new(Duration::from_millis(1), 0).unwrap());
     p.start(ms(0));
     p.handle_timeout(ms(0));
-    assert_eq!(frames(|| p.poll_transmit()), ["080#"]);
+    assert_eq!(frames(|| p.poll_transmit_frame()), ["080#"]);
     // Overflow 240: 240 then 1.
     let mut p = SyncProducer::new(SyncConfig::new(Duration::from_millis(1), 240).unwrap());
     p.start(ms(0));
     let counters: Vec<u8> = (0..241)
         .map(|i| {
             p.handle_timeout(ms(i));
-            p.poll_transmit().unwrap().data()[0]
+            p.poll_transmit_frame().unwrap().data()[0]
         })
         .collect();
     assert_eq!(counters[239], 240);
@@ -359,10 +359,10 @@ fn time_epoch_on_the_wire() {
     p.set_clock(ms(7000), EPOCH_1984_UNIX_DAYS * 86_400_000);
     assert_eq!(p.poll_timeout(), None, "no period, no schedule");
     assert!(p.publish(ms(7000)));
-    assert_eq!(frames(|| p.poll_transmit()), ["100#000000000000"]);
+    assert_eq!(frames(|| p.poll_transmit_frame()), ["100#000000000000"]);
     // One day and 1.5 s later.
     assert!(p.publish(ms(7000 + 86_401_500)));
-    assert_eq!(frames(|| p.poll_transmit()), ["100#DC0500000100"]);
+    assert_eq!(frames(|| p.poll_transmit_frame()), ["100#DC0500000100"]);
 }
 
 #[test]
@@ -383,7 +383,7 @@ fn slave_against_master_machines() {
     dev.boot(ms(0));
     assert_eq!(dev.state(), DeviceState::PreOperational);
     assert!(dev.allows(Service::Sdo) && !dev.allows(Service::Pdo));
-    let wire = frames(|| dev.poll_transmit());
+    let wire = frames(|| dev.poll_transmit_frame());
     assert_eq!(wire, ["704#00"]);
     hbc.handle_frame(ms(0), &hb(4, 0)).unwrap();
     assert_eq!(events(&mut hbc), [HeartbeatEvent::BootUp { node: n }]);
@@ -397,7 +397,7 @@ fn slave_against_master_machines() {
     // Heartbeat every 100 ms.
     assert_eq!(dev.poll_timeout(), Some(ms(100)));
     dev.handle_timeout(ms(100));
-    let f = dev.poll_transmit().unwrap();
+    let f = dev.poll_transmit_frame().unwrap();
     assert_eq!(f.to_string(), "704#7F");
     hbc.handle_frame(ms(100), &f).unwrap();
     // Start all nodes.
@@ -407,7 +407,7 @@ fn slave_against_master_machines() {
     assert_eq!(dev.state(), DeviceState::Operational);
     assert!(dev.allows(Service::Pdo));
     dev.handle_timeout(ms(200));
-    hbc.handle_frame(ms(200), &dev.poll_transmit().unwrap())
+    hbc.handle_frame(ms(200), &dev.poll_transmit_frame().unwrap())
         .unwrap();
     let _ = events(&mut hbc);
     // Stop node 4 only; a command for node 5 is ignored.
@@ -422,7 +422,7 @@ fn slave_against_master_machines() {
     assert_eq!(dev.state(), DeviceState::Stopped);
     assert!(!dev.allows(Service::Sdo) && dev.allows(Service::ErrorControl));
     dev.handle_timeout(ms(300));
-    let f = dev.poll_transmit().unwrap();
+    let f = dev.poll_transmit_frame().unwrap();
     assert_eq!(f.to_string(), "704#04", "heartbeat continues in Stopped");
     hbc.handle_frame(ms(300), &f).unwrap();
     assert_eq!(
@@ -453,7 +453,7 @@ fn slave_against_master_machines() {
         }]
     );
     dev.boot(ms(500));
-    assert_eq!(frames(|| dev.poll_transmit()), ["704#00"]);
+    assert_eq!(frames(|| dev.poll_transmit_frame()), ["704#00"]);
     hbc.handle_frame(ms(500), &hb(4, 0)).unwrap();
     assert_eq!(events(&mut hbc), [HeartbeatEvent::BootUp { node: n }]);
     // Unknown command specifier: reported, state unchanged.
@@ -480,18 +480,18 @@ fn slave_guarding_against_master() {
     );
     let mut gm = GuardingMaster::<2>::new();
     dev.boot(ms(0));
-    let _ = frames(|| dev.poll_transmit());
+    let _ = frames(|| dev.poll_transmit_frame());
     while dev.poll_event().is_some() {}
     gm.guard(ms(0), n, Duration::from_millis(100), 2).unwrap();
     let mut now = ms(0);
     let mut answers = Vec::new();
     for _ in 0..4 {
         gm.handle_timeout(now);
-        for req in frames(|| gm.poll_transmit()) {
+        for req in frames(|| gm.poll_transmit_frame()) {
             assert_eq!(req, "709#R1");
             dev.handle_guard_request(now);
         }
-        while let Some(f) = dev.poll_transmit() {
+        while let Some(f) = dev.poll_transmit_frame() {
             answers.push(f.to_string());
             gm.handle_frame(now, &f).unwrap();
         }
@@ -512,7 +512,7 @@ fn slave_guarding_against_master() {
     assert_eq!(dev.poll_event(), Some(SlaveEvent::LifeGuardingLost));
     dev.handle_guard_request(ms(900));
     assert_eq!(dev.poll_event(), Some(SlaveEvent::LifeGuardingResumed));
-    assert_eq!(frames(|| dev.poll_transmit()), ["709#7F"]);
+    assert_eq!(frames(|| dev.poll_transmit_frame()), ["709#7F"]);
 }
 
 #[test]
@@ -527,7 +527,7 @@ fn emcy_from_device_to_master() {
     p.signal(ms(5), e).unwrap();
     p.signal(ms(5), Emcy::new(EmcyCode::NO_ERROR, ErrorRegister::EMPTY))
         .unwrap();
-    let wire = frames(|| p.poll_transmit());
+    let wire = frames(|| p.poll_transmit_frame());
     assert_eq!(wire, ["086#508211DEAD000001", "086#0000000000000000"]);
     let f = e.to_frame(emcy_cob_id(node(6)));
     assert_eq!(c.handle_frame(ms(6), &f), Ok(true));
@@ -546,7 +546,7 @@ fn producer_reconfiguration() {
     assert_eq!(p.poll_timeout(), Some(ms(50)));
     p.set_state(NmtState::Operational);
     p.handle_timeout(ms(50));
-    assert_eq!(frames(|| p.poll_transmit()), ["702#05"]);
+    assert_eq!(frames(|| p.poll_transmit_frame()), ["702#05"]);
     p.set_period(ms(60), 0);
     assert_eq!(p.poll_timeout(), None);
     p.set_period(ms(70), 200);
@@ -561,7 +561,7 @@ fn producer_reconfiguration() {
     s.handle_timeout(ms(0));
     s.handle_timeout(ms(10));
     assert_eq!(
-        frames(|| s.poll_transmit()),
+        frames(|| s.poll_transmit_frame()),
         ["080#02"],
         "an undrained SYNC is replaced"
     );
@@ -571,7 +571,7 @@ fn producer_reconfiguration() {
     );
     assert_eq!(s.poll_timeout(), Some(ms(15)));
     s.handle_timeout(ms(15));
-    assert_eq!(frames(|| s.poll_transmit()), ["080#01"]);
+    assert_eq!(frames(|| s.poll_transmit_frame()), ["080#01"]);
     assert_eq!(s.poll_timeout(), Some(ms(35)));
     s.reconfigure(ms(20), SyncConfig::new(Duration::ZERO, 0).unwrap());
     assert!(!s.is_running());

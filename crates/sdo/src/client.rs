@@ -11,7 +11,7 @@
 //!    [`Busy`], handing the buffer back; the caller (the master) queues.
 //! 3. Loop:
 //!    - send every frame [`Client::poll_transmit`] yields (request COB-ID, 0x600 + node by
-//!      default; see [`SdoCobIds`](crate::SdoCobIds));
+//!      default; see [`SdoCobIds`]);
 //!    - feed every frame from the server's response COB-ID to [`Client::handle_response`];
 //!    - when the clock reaches [`Client::poll_timeout`], call [`Client::handle_timeout`];
 //!    - after each of these, drain [`Client::poll_event`]: exactly one [`Event`] ends each
@@ -36,10 +36,11 @@
 //!   optionally bounds the whole transfer as well. On expiry the client sends abort
 //!   0x05040000 and reports [`ErrorKind::Timeout`].
 
-use can_frame::{Duration, Instant};
+use can_frame::{CanFrame, Duration, Instant};
 
 use crate::abort::AbortCode;
 use crate::buffer::{Sink, Source};
+use crate::cob::SdoCobIds;
 use crate::crc::Crc16;
 pub use crate::error::{Busy, ErrorKind, TransferError, Violation};
 use crate::queue::Ring;
@@ -546,6 +547,22 @@ impl<S: Sink, D: Source> Client<S, D> {
             }
             .emit(),
         )
+    }
+
+    /// Feeds `frame` if it is a data frame on the channel's response identifier; returns
+    /// whether it was. The frame adapter over [`handle_response`](Self::handle_response).
+    pub fn handle_frame(&mut self, now: Instant, ids: &SdoCobIds, frame: &CanFrame) -> bool {
+        let ours = ids.is_response(frame);
+        if ours {
+            self.handle_response(now, frame.data());
+        }
+        ours
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame on the channel's request identifier.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self, ids: &SdoCobIds) -> Option<CanFrame> {
+        self.poll_transmit().map(|data| ids.request_frame(data))
     }
 
     /// The event that ended a transfer, once.

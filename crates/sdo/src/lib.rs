@@ -65,16 +65,24 @@
 //!
 //! # Wiring it into a master or a device
 //!
-//! - Master: one [`Client`] per node (e.g. `Client<Vec<u8>, Vec<u8>>` with `alloc`), one
-//!   transfer at a time; queue further requests until [`Client::is_idle`]. Send
-//!   [`Client::poll_transmit`] bytes with [`SdoCobIds::request_frame`] (0x600 + node, or the
-//!   COB-IDs of 0x1280 via [`SdoCobIds::from_parameters`]); pass the data of frames for which
-//!   [`SdoCobIds::is_response`] holds to [`Client::handle_response`]. A failed transfer gives a
+//! - Master: one [`Client`] per server channel (e.g. `Client<Vec<u8>, Vec<u8>>` with
+//!   `alloc`), one transfer at a time; queue further requests until [`Client::is_idle`]. The
+//!   channel's [`SdoCobIds`] is the one path to its identifiers: [`SdoCobIds::default_for`] the
+//!   node (0x600 / 0x580 + node), or [`SdoCobIds::from_parameters`] with the COB-IDs of a
+//!   parameter record (a device's second server 0x1201, a changed 0x1200, or 0x1280). Send
+//!   [`Client::poll_transmit_frame`] and offer received frames to [`Client::handle_frame`]
+//!   (the frame adapters over [`Client::poll_transmit`] / [`Client::handle_response`]). A failed transfer gives a
 //!   [`TransferError`] with index, sub-index and [`TransferError::abort_code`];
 //!   [`TransferError::is_server_abort`] tells the device's refusal from local failures. The
 //!   node is the master's to add.
-//! - Device simulator: one [`Server`] per SDO channel, fed with [`Server::handle_request`] and
-//!   an [`ObjectAccess`] implementation over the object dictionary.
+//! - Device simulator: one [`Server`] per SDO channel, fed with [`Server::handle_frame`] (or
+//!   [`Server::handle_request`] with the data bytes) and an [`ObjectAccess`] implementation over
+//!   the object dictionary; its answers from [`Server::poll_transmit_frame`].
+//!
+//! The machines take and give the eight data bytes rather than parsed messages: the segments
+//! of a block transfer's sub-block cannot be told from other messages by their bytes, so only
+//! the machine, which knows whether it expects a sub-block, can parse what arrives (see
+//! [`wire`]).
 //!
 //! The crate is `#![no_std]` without an allocator; `alloc` adds [`Sink`]/[`Source`] for `Vec`
 //! and `Box`, `std` (default) implies `alloc`.
@@ -102,7 +110,7 @@ pub use client::{
     Buffer, Busy, Client, ClientConfig, Direction, ErrorKind, Event, Method, Progress,
     TransferError, Violation,
 };
-pub use cob::SdoCobIds;
+pub use cob::{SDO_CLIENT_PARAMETER, SDO_SERVER_PARAMETER, SdoCobIds};
 pub use crc::{Crc16, crc16};
 pub use server::{Access, LengthRule, ObjectAccess, ObjectInfo, Server, ServerConfig, ServerEvent};
 pub use wire::{

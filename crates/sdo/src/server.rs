@@ -24,9 +24,10 @@
 //! A new initiate request while a transfer runs ends the old transfer (reported as
 //! [`ServerEvent::Superseded`]) and starts the new one: the client has given up on the old one.
 
-use can_frame::{Duration, Instant};
+use can_frame::{CanFrame, Duration, Instant};
 
 use crate::abort::AbortCode;
+use crate::cob::SdoCobIds;
 use crate::crc::Crc16;
 use crate::queue::Ring;
 mod object;
@@ -274,6 +275,28 @@ impl Server {
                 self.abort(mux, code);
             }
         }
+    }
+
+    /// Feeds `frame` if it is a data frame on the channel's request identifier; returns
+    /// whether it was. The frame adapter over [`handle_request`](Self::handle_request).
+    pub fn handle_frame<O: ObjectAccess + ?Sized>(
+        &mut self,
+        now: Instant,
+        ids: &SdoCobIds,
+        frame: &CanFrame,
+        od: &mut O,
+    ) -> bool {
+        let ours = ids.is_request(frame);
+        if ours {
+            self.handle_request(now, frame.data(), od);
+        }
+        ours
+    }
+
+    /// [`poll_transmit`](Self::poll_transmit) as a frame on the channel's response identifier.
+    #[must_use]
+    pub fn poll_transmit_frame(&mut self, ids: &SdoCobIds) -> Option<CanFrame> {
+        self.poll_transmit().map(|data| ids.response_frame(data))
     }
 
     /// Checks the timeout: a client silent for longer than the timeout within a transfer is

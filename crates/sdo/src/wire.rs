@@ -273,7 +273,7 @@ impl Segment {
         let cmd = b[field::COMMAND];
         let n = (cmd & field::SEG_N_MASK) >> field::SEG_N_SHIFT;
         Self {
-            toggle: cmd & field::TOGGLE != 0,
+            toggle: toggle_of(cmd),
             data: seg7(b),
             len: 7 - n,
             last: cmd & field::LAST != 0,
@@ -284,7 +284,7 @@ impl Segment {
         let n = 7 - self.len.min(7);
         let mut b = [0u8; 8];
         b[field::COMMAND] = (cs << field::CS_SHIFT)
-            | if self.toggle { field::TOGGLE } else { 0 }
+            | toggle_flag(self.toggle)
             | (n << field::SEG_N_SHIFT)
             | if self.last { field::LAST } else { 0 };
         b[field::SEGMENT].copy_from_slice(&self.data);
@@ -368,7 +368,6 @@ impl ClientRequest {
     pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
         let b = bytes8(data)?;
         let cmd = b[field::COMMAND];
-        let unknown = Err(DecodeError::UnknownCommand(cmd));
         Ok(match cmd >> field::CS_SHIFT {
             0 => Self::DownloadSegment(Segment::parse(b)),
             1 => Self::InitiateDownload {
@@ -379,91 +378,65 @@ impl ClientRequest {
                 mux: Multiplexer::read(b),
             },
             3 => Self::UploadSegment {
-                toggle: cmd & field::TOGGLE != 0,
+                toggle: toggle_of(cmd),
             },
-            4 => Self::Abort {
-                mux: Multiplexer::read(b),
-                code: AbortCode(u32_at_data(b)),
-            },
+            4 => {
+                let (mux, code) = parse_abort(b);
+                Self::Abort { mux, code }
+            }
             5 => match cmd & 0x03 {
                 0 => Self::BlockUploadInitiate {
                     mux: Multiplexer::read(b),
-                    crc: cmd & field::BLOCK_CRC != 0,
+                    crc: crc_of(cmd),
                     blksize: b[field::INIT_BLKSIZE],
                     pst: b[field::PST],
                 },
                 1 => Self::BlockUploadEnd,
-                2 => Self::BlockUploadAck {
-                    ackseq: b[field::ACKSEQ],
-                    blksize: b[field::ACK_BLKSIZE],
-                },
+                2 => {
+                    let (ackseq, blksize) = parse_ack(b);
+                    Self::BlockUploadAck { ackseq, blksize }
+                }
                 _ => Self::BlockUploadStart,
             },
-            6 => {
-                if cmd & 0x01 == 0 {
-                    Self::BlockDownloadInitiate {
-                        mux: Multiplexer::read(b),
-                        crc: cmd & field::BLOCK_CRC != 0,
-                        size: (cmd & field::BLOCK_SIZE != 0).then(|| u32_at_data(b)),
-                    }
-                } else {
-                    Self::BlockDownloadEnd {
-                        unused: (cmd & field::END_N_MASK) >> field::END_N_SHIFT,
-                        crc: u16::from_le_bytes([b[field::CRC.start], b[field::CRC.start + 1]]),
-                    }
-                }
+            6 if cmd & 0x01 == 0 => {
+                let (mux, crc, size) = parse_sized_block_initiate(b);
+                Self::BlockDownloadInitiate { mux, crc, size }
             }
-            _ => return unknown,
+            6 => {
+                let (unused, crc) = parse_block_end(b);
+                Self::BlockDownloadEnd { unused, crc }
+            }
+            _ => return Err(DecodeError::UnknownCommand(cmd)),
         })
     }
 
     /// Encodes the request into its eight bytes. Out-of-range fields are clamped.
     pub fn emit(&self) -> [u8; 8] {
-        let mut b = [0u8; 8];
         match *self {
-            Self::DownloadSegment(seg) => return seg.emit(0),
-            Self::InitiateDownload { mux, data } => {
-                let (flags, d) = data.emit();
-                b[field::COMMAND] = (1 << field::CS_SHIFT) | flags;
-                mux.write(&mut b);
-                b[field::DATA].copy_from_slice(&d);
-            }
-            Self::InitiateUpload { mux } => {
-                b[field::COMMAND] = 2 << field::CS_SHIFT;
-                mux.write(&mut b);
-            }
-            Self::UploadSegment { toggle } => {
-                b[field::COMMAND] = (3 << field::CS_SHIFT) | if toggle { field::TOGGLE } else { 0 };
-            }
-            Self::Abort { mux, code } => return emit_abort(mux, code),
+            Self::DownloadSegment(seg) => seg.emit(0),
+            Self::InitiateDownload { mux, data } => emit_initiate(1, mux, data),
+            Self::InitiateUpload { mux } => emit_command(2, 0, Some(mux)),
+            Self::UploadSegment { toggle } => emit_command(3, toggle_flag(toggle), None),
+            Self::Abort { mux, code } => emit_abort(mux, code),
             Self::BlockUploadInitiate {
                 mux,
                 crc,
                 blksize,
                 pst,
             } => {
-                b[field::COMMAND] = (5 << field::CS_SHIFT) | crc_flag(crc);
-                mux.write(&mut b);
+                let mut b = emit_command(5, crc_flag(crc), Some(mux));
                 b[field::INIT_BLKSIZE] = blksize;
                 b[field::PST] = pst;
+                b
             }
-            Self::BlockUploadEnd => b[field::COMMAND] = (5 << field::CS_SHIFT) | 1,
-            Self::BlockUploadAck { ackseq, blksize } => {
-                b[field::COMMAND] = (5 << field::CS_SHIFT) | 2;
-                b[field::ACKSEQ] = ackseq;
-                b[field::ACK_BLKSIZE] = blksize;
-            }
-            Self::BlockUploadStart => b[field::COMMAND] = (5 << field::CS_SHIFT) | 3,
+            Self::BlockUploadEnd => emit_command(5, 1, None),
+            Self::BlockUploadAck { ackseq, blksize } => emit_ack(5, ackseq, blksize),
+            Self::BlockUploadStart => emit_command(5, 3, None),
             Self::BlockDownloadInitiate { mux, crc, size } => {
-                b[field::COMMAND] = (6 << field::CS_SHIFT)
-                    | crc_flag(crc)
-                    | if size.is_some() { field::BLOCK_SIZE } else { 0 };
-                mux.write(&mut b);
-                b[field::DATA].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+                emit_sized_block_initiate(6, mux, crc, size)
             }
-            Self::BlockDownloadEnd { unused, crc } => return emit_block_end(6, unused, crc),
+            Self::BlockDownloadEnd { unused, crc } => emit_block_end(6, unused, crc),
         }
-        b
     }
 }
 
@@ -538,11 +511,10 @@ impl ServerResponse {
     pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
         let b = bytes8(data)?;
         let cmd = b[field::COMMAND];
-        let unknown = Err(DecodeError::UnknownCommand(cmd));
         Ok(match cmd >> field::CS_SHIFT {
             0 => Self::UploadSegment(Segment::parse(b)),
             1 => Self::DownloadSegment {
-                toggle: cmd & field::TOGGLE != 0,
+                toggle: toggle_of(cmd),
             },
             2 => Self::InitiateUpload {
                 mux: Multiplexer::read(b),
@@ -551,99 +523,145 @@ impl ServerResponse {
             3 => Self::InitiateDownload {
                 mux: Multiplexer::read(b),
             },
-            4 => Self::Abort {
-                mux: Multiplexer::read(b),
-                code: AbortCode(u32_at_data(b)),
-            },
+            4 => {
+                let (mux, code) = parse_abort(b);
+                Self::Abort { mux, code }
+            }
             5 => match cmd & 0x03 {
                 0 => Self::BlockDownloadInitiate {
                     mux: Multiplexer::read(b),
-                    crc: cmd & field::BLOCK_CRC != 0,
+                    crc: crc_of(cmd),
                     blksize: b[field::INIT_RESP_BLKSIZE],
                 },
                 1 => Self::BlockDownloadEnd,
-                2 => Self::BlockDownloadAck {
-                    ackseq: b[field::ACKSEQ],
-                    blksize: b[field::ACK_BLKSIZE],
-                },
-                _ => return unknown,
-            },
-            6 => {
-                if cmd & 0x01 == 0 {
-                    Self::BlockUploadInitiate {
-                        mux: Multiplexer::read(b),
-                        crc: cmd & field::BLOCK_CRC != 0,
-                        size: (cmd & field::BLOCK_SIZE != 0).then(|| u32_at_data(b)),
-                    }
-                } else {
-                    Self::BlockUploadEnd {
-                        unused: (cmd & field::END_N_MASK) >> field::END_N_SHIFT,
-                        crc: u16::from_le_bytes([b[field::CRC.start], b[field::CRC.start + 1]]),
-                    }
+                2 => {
+                    let (ackseq, blksize) = parse_ack(b);
+                    Self::BlockDownloadAck { ackseq, blksize }
                 }
+                _ => return Err(DecodeError::UnknownCommand(cmd)),
+            },
+            6 if cmd & 0x01 == 0 => {
+                let (mux, crc, size) = parse_sized_block_initiate(b);
+                Self::BlockUploadInitiate { mux, crc, size }
             }
-            _ => return unknown,
+            6 => {
+                let (unused, crc) = parse_block_end(b);
+                Self::BlockUploadEnd { unused, crc }
+            }
+            _ => return Err(DecodeError::UnknownCommand(cmd)),
         })
     }
 
     /// Encodes the response into its eight bytes. Out-of-range fields are clamped.
     pub fn emit(&self) -> [u8; 8] {
-        let mut b = [0u8; 8];
         match *self {
-            Self::UploadSegment(seg) => return seg.emit(0),
-            Self::DownloadSegment { toggle } => {
-                b[field::COMMAND] = (1 << field::CS_SHIFT) | if toggle { field::TOGGLE } else { 0 };
-            }
-            Self::InitiateUpload { mux, data } => {
-                let (flags, d) = data.emit();
-                b[field::COMMAND] = (2 << field::CS_SHIFT) | flags;
-                mux.write(&mut b);
-                b[field::DATA].copy_from_slice(&d);
-            }
-            Self::InitiateDownload { mux } => {
-                b[field::COMMAND] = 3 << field::CS_SHIFT;
-                mux.write(&mut b);
-            }
-            Self::Abort { mux, code } => return emit_abort(mux, code),
+            Self::UploadSegment(seg) => seg.emit(0),
+            Self::DownloadSegment { toggle } => emit_command(1, toggle_flag(toggle), None),
+            Self::InitiateUpload { mux, data } => emit_initiate(2, mux, data),
+            Self::InitiateDownload { mux } => emit_command(3, 0, Some(mux)),
+            Self::Abort { mux, code } => emit_abort(mux, code),
             Self::BlockDownloadInitiate { mux, crc, blksize } => {
-                b[field::COMMAND] = (5 << field::CS_SHIFT) | crc_flag(crc);
-                mux.write(&mut b);
+                let mut b = emit_command(5, crc_flag(crc), Some(mux));
                 b[field::INIT_RESP_BLKSIZE] = blksize;
+                b
             }
-            Self::BlockDownloadAck { ackseq, blksize } => {
-                b[field::COMMAND] = (5 << field::CS_SHIFT) | 2;
-                b[field::ACKSEQ] = ackseq;
-                b[field::ACK_BLKSIZE] = blksize;
-            }
-            Self::BlockDownloadEnd => b[field::COMMAND] = (5 << field::CS_SHIFT) | 1,
+            Self::BlockDownloadAck { ackseq, blksize } => emit_ack(5, ackseq, blksize),
+            Self::BlockDownloadEnd => emit_command(5, 1, None),
             Self::BlockUploadInitiate { mux, crc, size } => {
-                b[field::COMMAND] = (6 << field::CS_SHIFT)
-                    | crc_flag(crc)
-                    | if size.is_some() { field::BLOCK_SIZE } else { 0 };
-                mux.write(&mut b);
-                b[field::DATA].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+                emit_sized_block_initiate(6, mux, crc, size)
             }
-            Self::BlockUploadEnd { unused, crc } => return emit_block_end(6, unused, crc),
+            Self::BlockUploadEnd { unused, crc } => emit_block_end(6, unused, crc),
         }
-        b
     }
+}
+
+// The fields client and server messages share: CiA 301 lays out the two directions' abort,
+// initiate, block initiate, acknowledge and block end messages alike.
+
+fn toggle_of(cmd: u8) -> bool {
+    cmd & field::TOGGLE != 0
+}
+
+fn toggle_flag(toggle: bool) -> u8 {
+    if toggle { field::TOGGLE } else { 0 }
+}
+
+fn crc_of(cmd: u8) -> bool {
+    cmd & field::BLOCK_CRC != 0
 }
 
 fn crc_flag(crc: bool) -> u8 {
     if crc { field::BLOCK_CRC } else { 0 }
 }
 
-fn emit_abort(mux: Multiplexer, code: AbortCode) -> [u8; 8] {
+/// Byte 0 from the command specifier `cs` and `flags`, and the multiplexer if the message
+/// carries one; the other bytes zero.
+fn emit_command(cs: u8, flags: u8, mux: Option<Multiplexer>) -> [u8; 8] {
     let mut b = [0u8; 8];
-    b[field::COMMAND] = 4 << field::CS_SHIFT;
-    mux.write(&mut b);
+    b[field::COMMAND] = (cs << field::CS_SHIFT) | flags;
+    if let Some(mux) = mux {
+        mux.write(&mut b);
+    }
+    b
+}
+
+fn emit_initiate(cs: u8, mux: Multiplexer, data: Initiate) -> [u8; 8] {
+    let (flags, d) = data.emit();
+    let mut b = emit_command(cs, flags, Some(mux));
+    b[field::DATA].copy_from_slice(&d);
+    b
+}
+
+fn parse_abort(b: &[u8; 8]) -> (Multiplexer, AbortCode) {
+    (Multiplexer::read(b), AbortCode(u32_at_data(b)))
+}
+
+fn emit_abort(mux: Multiplexer, code: AbortCode) -> [u8; 8] {
+    let mut b = emit_command(4, 0, Some(mux));
     b[field::DATA].copy_from_slice(&code.0.to_le_bytes());
     b
 }
 
+/// Initiate block download (client) and initiate block upload response (server): multiplexer,
+/// CRC support and the size if indicated.
+fn parse_sized_block_initiate(b: &[u8; 8]) -> (Multiplexer, bool, Option<u32>) {
+    let cmd = b[field::COMMAND];
+    (
+        Multiplexer::read(b),
+        crc_of(cmd),
+        (cmd & field::BLOCK_SIZE != 0).then(|| u32_at_data(b)),
+    )
+}
+
+fn emit_sized_block_initiate(cs: u8, mux: Multiplexer, crc: bool, size: Option<u32>) -> [u8; 8] {
+    let size_flag = if size.is_some() { field::BLOCK_SIZE } else { 0 };
+    let mut b = emit_command(cs, crc_flag(crc) | size_flag, Some(mux));
+    b[field::DATA].copy_from_slice(&size.unwrap_or(0).to_le_bytes());
+    b
+}
+
+/// A sub-block acknowledgement: ackseq and the next blksize.
+fn parse_ack(b: &[u8; 8]) -> (u8, u8) {
+    (b[field::ACKSEQ], b[field::ACK_BLKSIZE])
+}
+
+fn emit_ack(cs: u8, ackseq: u8, blksize: u8) -> [u8; 8] {
+    let mut b = emit_command(cs, 2, None);
+    b[field::ACKSEQ] = ackseq;
+    b[field::ACK_BLKSIZE] = blksize;
+    b
+}
+
+/// End block download (client) and end block upload (server): unused bytes and CRC.
+fn parse_block_end(b: &[u8; 8]) -> (u8, u16) {
+    (
+        (b[field::COMMAND] & field::END_N_MASK) >> field::END_N_SHIFT,
+        u16::from_le_bytes([b[field::CRC.start], b[field::CRC.start + 1]]),
+    )
+}
+
 fn emit_block_end(cs: u8, unused: u8, crc: u16) -> [u8; 8] {
-    let mut b = [0u8; 8];
-    b[field::COMMAND] = (cs << field::CS_SHIFT) | ((unused.min(7)) << field::END_N_SHIFT) | 1;
+    let mut b = emit_command(cs, ((unused.min(7)) << field::END_N_SHIFT) | 1, None);
     b[field::CRC].copy_from_slice(&crc.to_le_bytes());
     b
 }

@@ -1690,3 +1690,49 @@ fn transfer_timeout_bounds_the_whole_transfer() {
     assert_eq!(drain(&mut c), [abort_bytes(DOMAIN, AbortCode::TIMEOUT)]);
     assert_eq!(failed(c.poll_event()).kind, ErrorKind::Timeout);
 }
+
+/// A device's second SDO server channel (0x1201: requests on 0x641, responses on 0x5C1) beside
+/// the default one of node 1: the frame adapters route by the pair they are given, so a
+/// transfer on the second channel runs there, and frames of the default channel are not its.
+#[test]
+fn second_server_channel_over_frame_adapters() {
+    use can_frame::{CanFrame, NodeId};
+    use canopen_sdo::SdoCobIds;
+
+    let default = SdoCobIds::default_for(NodeId::new(1).unwrap());
+    let second = SdoCobIds::from_parameters(0x641, 0x5C1).unwrap();
+    let mut od = MemOd::new();
+    od.set(DOMAIN, (0..1000u32).map(|i| (i * 7) as u8).collect());
+    let mut client = TestClient::new(ClientConfig::default());
+    let mut server_default = Server::new(ServerConfig::default());
+    let mut server_second = Server::new(ServerConfig::default());
+    for method in [Method::Normal, Method::Block] {
+        client.start_upload(T0, DOMAIN, Vec::new(), method).unwrap();
+        let mut bus: Vec<CanFrame> = Vec::new();
+        let mut seen = Vec::new();
+        while let Some(f) = client.poll_transmit_frame(&second) {
+            bus.push(f);
+        }
+        while let Some(frame) = bus.pop() {
+            seen.push(frame.id().as_raw());
+            assert!(!server_default.handle_frame(T0, &default, &frame, &mut od));
+            assert!(!client.handle_frame(T0, &default, &frame));
+            if server_second.handle_frame(T0, &second, &frame, &mut od) {
+                while let Some(f) = server_second.poll_transmit_frame(&second) {
+                    bus.insert(0, f);
+                }
+            }
+            if client.handle_frame(T0, &second, &frame) {
+                while let Some(f) = client.poll_transmit_frame(&second) {
+                    bus.insert(0, f);
+                }
+            }
+        }
+        assert_eq!(uploaded(client.poll_event().unwrap()), od.value(DOMAIN));
+        assert!(
+            seen.iter().all(|id| *id == 0x641 || *id == 0x5C1),
+            "{seen:x?}"
+        );
+        assert!(server_default.is_idle() && server_default.poll_transmit().is_none());
+    }
+}
