@@ -31,6 +31,13 @@ pub(crate) struct BusOpts {
     node_eds: Vec<String>,
 }
 
+impl BusOpts {
+    /// The SocketCAN interface, if one was given.
+    pub(crate) fn iface(&self) -> Option<&str> {
+        self.iface.as_deref()
+    }
+}
+
 fn parse_u16(s: &str) -> Result<u16, String> {
     let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
         Some(h) => u16::from_str_radix(h, 16),
@@ -740,14 +747,23 @@ fn pump(
 }
 
 /// `canopen monitor`
-pub(crate) fn run_monitor(opts: &BusOpts, duration: Option<f64>, g: Global) -> ExitCode {
+pub(crate) fn run_monitor(
+    opts: &BusOpts,
+    duration: Option<f64>,
+    devicenet: bool,
+    g: Global,
+) -> ExitCode {
     let mut bus = match open(opts) {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
     let pdos = PdoDecoder::from_dictionaries(&bus.dictionaries);
     let r = pump(&mut bus, duration, |frame, at| {
-        let text = pdos.decode(frame).unwrap_or_else(|| decode(frame));
+        let text = if devicenet {
+            devicenet::decode(frame).to_string()
+        } else {
+            pdos.decode(frame).unwrap_or_else(|| decode(frame))
+        };
         if g.json {
             outln(&json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string(), "decoded": text}).to_string());
         } else {

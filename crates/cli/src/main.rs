@@ -35,7 +35,8 @@ enum Command {
     /// EDS/DCF files: check, lint, show, convert to DCF, generate Rust.
     #[command(subcommand)]
     Eds(eds::EdsCommand),
-    /// GEMÜ 1436 cPos positioner: parameters, actions, error list (against a SIMULATED positioner).
+    /// GEMÜ 1436 cPos positioner: parameters, actions, error list; over DeviceNet with --iface,
+    /// else against a SIMULATED positioner.
     Cpos(cpos::CposArgs),
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
@@ -55,6 +56,9 @@ enum Command {
         /// Stop after this many seconds (required on the in-memory bus).
         #[arg(long)]
         duration: Option<f64>,
+        /// Decode the frames as DeviceNet instead of CANopen.
+        #[arg(long)]
+        devicenet: bool,
     },
     /// Run a simulated device from an EDS on the bus.
     Simulate {
@@ -123,7 +127,10 @@ fn main() -> ExitCode {
         Command::Sdo(cmd) => bus::run_sdo(cmd, &cli.bus, global),
         Command::Nmt { command, target } => bus::run_nmt(command, &target, &cli.bus, global),
         Command::Scan => bus::run_scan(&cli.bus, global),
-        Command::Monitor { duration } => bus::run_monitor(&cli.bus, duration, global),
+        Command::Monitor {
+            duration,
+            devicenet,
+        } => bus::run_monitor(&cli.bus, duration, devicenet, global),
         Command::Simulate {
             eds,
             node_id,
@@ -139,7 +146,7 @@ fn main() -> ExitCode {
         Command::Replay { file } => bus::run_replay(&cli.bus, &file, global),
         Command::Demo => demo::run(),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
-        Command::Cpos(args) => cpos::run(args, global),
+        Command::Cpos(args) => cpos::run(args, cli.bus.iface(), global),
         Command::Burkert(args) => burkert::run(args, global),
     }
 }
