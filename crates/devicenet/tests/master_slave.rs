@@ -424,10 +424,34 @@ fn slave_gone_master_loses_and_reconnects() {
             .any(|e| matches!(e, MasterEvent::ConnectFailed(ConnectError::Timeout { .. })))
     );
     // The slave is back; it still holds the allocation for this master (its poll connection
-    // timed out), so the master's new Allocate is refused until the explicit connection times
-    // out too: after that, it connects again.
+    // timed out): the master's Allocate is answered "already in requested mode/state", the
+    // master releases the set and allocates again.
     b.slave = slave;
-    b.until(15_000, Bus::connected);
+    b.until(3000, Bus::connected);
+}
+
+#[test]
+fn restarted_master_releases_and_allocates_again() {
+    let mut b = Bus::new(11, 13);
+    b.until(3000, Bus::connected);
+    // The master process restarts (same MAC ID) without releasing.
+    b.master = Master::new(MasterConfig::new(MacId::new(63).unwrap()));
+    b.master.start(b.now);
+    b.log.clear();
+    b.until(2500, Bus::connected);
+    let frames: Vec<(u16, Vec<u8>)> = b.log.iter().map(|(_, f)| raw(f)).collect();
+    let unconnected: Vec<&Vec<u8>> = frames
+        .iter()
+        .filter(|(id, _)| *id == 0x5FE || *id == 0x5FB)
+        .map(|(_, d)| d)
+        .take(6)
+        .collect();
+    assert_eq!(unconnected[0][1..], [0x4B, 0x03, 0x01, 0x03, 0x00]);
+    assert_eq!(unconnected[1][1..], [0x94, 0x0B, 0xFF]);
+    assert_eq!(unconnected[2][1..], [0x4C, 0x03, 0x01, 0x03]);
+    assert_eq!(unconnected[3][1..], [0xCC]);
+    assert_eq!(unconnected[4][1..], [0x4B, 0x03, 0x01, 0x03, 0x00]);
+    assert_eq!(unconnected[5][1..], [0xCB, 0x00]);
 }
 
 #[test]

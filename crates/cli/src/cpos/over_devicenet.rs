@@ -240,6 +240,17 @@ impl Link {
     }
 }
 
+impl Drop for Link {
+    /// Releases the connection set, so the next command connects at once.
+    fn drop(&mut self) {
+        let now = self.transport.now();
+        self.master.disconnect(now);
+        while let Some(f) = self.master.poll_transmit() {
+            let _ = self.transport.send(&f);
+        }
+    }
+}
+
 /// The simulated cPos's DeviceNet slave as a station, printing its events.
 struct SimStation {
     slave: Slave<CposSlave>,

@@ -99,6 +99,14 @@ impl CposMaster {
         self.master.start(now);
     }
 
+    /// Releases the connection (the frames to send are in [`CposMaster::poll_transmit`]); the
+    /// master stays disconnected.
+    pub fn disconnect(&mut self, now: Instant) {
+        self.master.disconnect(now);
+        self.sizes = None;
+        self.held = None;
+    }
+
     /// The client (queue requests here).
     pub fn client_mut(&mut self) -> &mut Client {
         &mut self.client

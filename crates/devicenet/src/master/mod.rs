@@ -18,6 +18,9 @@
 //!    explicit connection is kept alive with a read of the Identity status every half explicit
 //!    rate; application requests go through [`Master::get_attribute`] /
 //!    [`Master::set_attribute`], one at a time.
+//!    A slave that still holds the set for this MAC ID (the master restarted) answers the
+//!    Allocate with "already in requested mode/state": the master releases the set and
+//!    allocates again.
 //! 4. Loss: no poll response within 4 × the poll rate, or an explicit request without answer,
 //!    ends the connection ([`MasterEvent::ConnectionLost`]); the master connects again after
 //!    [`MasterConfig::reconnect_delay`]. A refused step of the connect sequence is a
@@ -32,9 +35,13 @@ use crate::explicit::{
 };
 use crate::fragment::{FragmentByte, MessageBuf, Reassembler, io_frames};
 use crate::id::{DnId, MacId, Predefined};
-use crate::identity::{AttributeError, DuplicateMacCheck, Identity, attr};
+use crate::identity::{DuplicateMacCheck, Identity, attr};
 use crate::link::{Link, LinkEvent, TX_LEN};
-use crate::status::CipError;
+
+mod event;
+
+use crate::status::{CipError, GeneralStatus};
+pub use event::{ConnectError, ExplicitFailure, Handle, MasterError, MasterEvent};
 
 /// Master settings.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -93,102 +100,9 @@ pub enum MasterState {
     Faulted,
 }
 
-/// Why a connect attempt failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ConnectError {
-    /// The slave refused a step.
-    #[error("{step}: the slave answered {error}")]
-    Refused {
-        /// The step.
-        step: &'static str,
-        /// Its status.
-        error: CipError,
-    },
-    /// No answer.
-    #[error("{step}: no answer from the slave")]
-    Timeout {
-        /// The step.
-        step: &'static str,
-    },
-    /// An answer that does not fit the step.
-    #[error("{step}: malformed answer")]
-    Malformed {
-        /// The step.
-        step: &'static str,
-    },
-    /// Identity data that does not decode.
-    #[error("identity: {0}")]
-    Identity(AttributeError),
-}
-
-/// How an application's explicit request ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ExplicitFailure {
-    /// The slave answered with an Error Response.
-    #[error("{0}")]
-    Refused(CipError),
-    /// No answer within the response timeout.
-    #[error("no answer within the response timeout")]
-    Timeout,
-    /// The connection is not (or no longer) established.
-    #[error("not connected")]
-    NotConnected,
-}
-
-/// A local refusal of [`Master::get_attribute`] / [`Master::set_attribute`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum MasterError {
-    /// Not connected.
-    #[error("not connected to the slave")]
-    NotConnected,
-    /// The request queue is full.
-    #[error("explicit request queue is full")]
-    QueueFull,
-    /// The data does not fit a message.
-    #[error("request data too long")]
-    TooLong,
-}
-
-/// Handle of an application's explicit request.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct Handle(pub u32);
-
-/// What the master reports.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum MasterEvent {
-    /// The Duplicate MAC ID check passed.
-    Online,
-    /// Another station uses the master's MAC ID.
-    DuplicateMac(DuplicateMacCheck),
-    /// The connection set is allocated and the poll connection established.
-    Connected {
-        /// The slave's Identity object.
-        identity: Identity,
-        /// Poll response size (the slave's produced connection size).
-        produced_size: u16,
-        /// Poll command size (the slave's consumed connection size).
-        consumed_size: u16,
-    },
-    /// A connect attempt failed; the master tries again after the reconnect delay.
-    ConnectFailed(ConnectError),
-    /// A complete poll response.
-    Input(MessageBuf),
-    /// The connection was lost; the master tries again after the reconnect delay.
-    ConnectionLost,
-    /// An application's explicit request ended.
-    ExplicitDone {
-        /// The request.
-        handle: Handle,
-        /// Response data, or why not.
-        result: Result<MessageBuf, ExplicitFailure>,
-    },
-}
-
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Step {
+    Release,
     Allocate,
     ExplicitRate,
     Identity(u8),
@@ -202,6 +116,7 @@ enum Step {
 impl Step {
     fn name(self) -> &'static str {
         match self {
+            Step::Release => "Release_Master/Slave_Connection_Set",
             Step::Allocate => "Allocate_Master/Slave_Connection_Set",
             Step::ExplicitRate => "explicit connection expected packet rate",
             Step::Identity(_) => "Identity object",
@@ -316,14 +231,7 @@ impl Master {
     /// [`Master::connect`].
     pub fn disconnect(&mut self, now: Instant) {
         if matches!(self.state, MasterState::Connected | MasterState::Connecting) {
-            let mut m = MessageBuf::new();
-            let _ = Request::Release {
-                class: CLASS_DEVICENET,
-                instance: 1,
-                choice: AllocationChoice::EXPLICIT.union(AllocationChoice::POLLED),
-            }
-            .emit(&mut m);
-            self.send_unconnected(&m);
+            self.release_request();
         }
         self.drop_connection(now);
         self.state = MasterState::Disconnected;
@@ -377,6 +285,17 @@ impl Master {
         {
             let _ = self.tx.push_back(frame);
         }
+    }
+
+    fn release_request(&mut self) {
+        let mut m = MessageBuf::new();
+        let _ = Request::Release {
+            class: CLASS_DEVICENET,
+            instance: 1,
+            choice: AllocationChoice::EXPLICIT.union(AllocationChoice::POLLED),
+        }
+        .emit(&mut m);
+        self.send_unconnected(&m);
     }
 
     fn begin_connect(&mut self, now: Instant) {
@@ -465,6 +384,7 @@ impl Master {
                 self.dispatch(now);
             }
             Step::KeepAlive | Step::App(_) => self.dispatch(now),
+            Step::Release => {}
         }
     }
 
@@ -596,6 +516,20 @@ impl Master {
                 let _ = self.identity.set_attribute(attr::STATUS, data);
             }
             (Step::KeepAlive, Response::Error(_)) => {}
+            // The slave still holds the set for this MAC ID (this master restarted, or its
+            // release was lost): release it and allocate again.
+            (
+                Step::Allocate,
+                Response::Error(CipError {
+                    general: GeneralStatus::AlreadyInRequestedState,
+                    ..
+                }),
+            ) if connecting => {
+                self.release_request();
+                self.in_flight = Some((Step::Release, now + self.config.response_timeout));
+                return;
+            }
+            (Step::Release, _) => return self.begin_connect(now),
             (_, Response::Error(error)) if connecting => {
                 return self.connect_failed(
                     now,
