@@ -587,3 +587,29 @@ fn unconnected_port_refuses_other_services() {
     );
     assert_eq!(s.poll_transmit(), None);
 }
+
+#[test]
+fn other_body_formats_are_refused() {
+    // A hand-made slave answers the Allocate with body format 2 (16/16).
+    let mut m = Master::new(MasterConfig::new(MacId::new(63).unwrap()));
+    m.start(Instant::ZERO);
+    m.handle_timeout(Instant::from_millis(1000));
+    m.handle_timeout(Instant::from_millis(2000));
+    while m.poll_transmit().is_some() {}
+    let id = CanId::standard(0x5FB).unwrap();
+    m.handle_frame(
+        Instant::from_millis(2001),
+        &CanFrame::new(id, &[0x40, 0xCB, 0x02]).unwrap(),
+    );
+    let mut events = Vec::new();
+    while let Some(e) = m.poll_event() {
+        events.push(e);
+    }
+    assert!(
+        events.contains(&MasterEvent::ConnectFailed(
+            ConnectError::UnsupportedBodyFormat(2)
+        )),
+        "{events:?}"
+    );
+    assert_eq!(m.state(), MasterState::Disconnected);
+}

@@ -28,6 +28,10 @@ pub enum ConnectError {
         /// The step.
         step: &'static str,
     },
+    /// The slave announced a message body format other than 8/8 (1 = 8/16, 2 = 16/16,
+    /// 3 = 16/8; 0xFF = none given).
+    #[error("the slave uses message body format {0}; only 8/8 (0) is supported")]
+    UnsupportedBodyFormat(u8),
     /// Identity data that does not decode.
     #[error("identity: {0}")]
     Identity(AttributeError),

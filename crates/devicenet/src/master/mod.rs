@@ -542,6 +542,15 @@ impl Master {
             (Step::Allocate, Response::Success { service, .. }) if service != ALLOCATE => {
                 return self.connect_failed(now, ConnectError::Malformed { step: step.name() });
             }
+            // Only the 8/8 message body format (0) is spoken here.
+            (Step::Allocate, Response::Success { data, .. })
+                if data.first().map(|b| b & 0x0F) != Some(0) =>
+            {
+                return self.connect_failed(
+                    now,
+                    ConnectError::UnsupportedBodyFormat(data.first().map_or(0xFF, |b| b & 0x0F)),
+                );
+            }
             (Step::Identity(n), Response::Success { data, .. }) => {
                 if let Err(e) = self.identity.set_attribute(n, data) {
                     return self.connect_failed(now, ConnectError::Identity(e));
