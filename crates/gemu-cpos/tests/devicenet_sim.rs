@@ -8,8 +8,9 @@ use canopen::mem::{BusConfig, Endpoint, MemoryBus, StationId};
 use canopen::transport::{Received, Station, Transport};
 use devicenet::{MacId, Slave};
 use gemu_cpos::action::{
-    ActionId, ActionRequest, ActionStatus, ErrorCode, GoFunction, GoStatus, InitValveStatus,
-    NoInitFunction, RunFunction,
+    ActionId, ActionRequest, ActionStatus, AdjustTimeStatus, DoneStatus, ErrorCode,
+    FindCoefficientStatus, FindFunctionFunction, FindFunctionStatus, GoFunction, GoStatus,
+    InitPilotStatus, InitValveStatus, NoInitFunction, RunFunction,
 };
 use gemu_cpos::channel::{ActionBusy, ActionSource, DiagnosticCode, ErrorEntry};
 use gemu_cpos::client::{ActionOutcome, Event, Failure, Refusal, Reply, RequestId};
@@ -528,4 +529,96 @@ fn duplicate_mac_of_the_cpos_keeps_it_off_line() {
     bus.run_for(Duration::from_secs(3));
     let state = bus.with_station(slave, |s| s.0.network_state()).unwrap();
     assert_eq!(state, devicenet::slave::NetworkState::Faulted);
+}
+
+#[test]
+fn the_other_actions_over_devicenet() {
+    let mut b = Bench::new();
+    // Clear error list and set default end at once.
+    b.sim(|s| s.raise_error(ErrorCode::POT_WRONG_DIR));
+    assert_eq!(
+        b.act(ActionRequest::ClearErrorList),
+        Ok(Reply::Action {
+            action: ActionId::ClearErrorList,
+            status: ActionStatus::ClearErrorList(DoneStatus::Done)
+        })
+    );
+    assert_eq!(b.sim(|s| s.error_list().count()), 0);
+    assert_eq!(
+        b.act(ActionRequest::SetDefault),
+        Ok(Reply::Action {
+            action: ActionId::SetDefault,
+            status: ActionStatus::SetDefault(DoneStatus::Done)
+        })
+    );
+    // Find function, then (initialised) adjust time, find coefficient and init pilot, each to
+    // its end through every phase.
+    b.act(ActionRequest::FindFunction(FindFunctionFunction::Activate))
+        .unwrap();
+    b.until(|b| b.ended(ActionId::FindFunction).is_some());
+    assert_eq!(
+        b.progress(ActionId::FindFunction),
+        [
+            FindFunctionStatus::StartPosition,
+            FindFunctionStatus::TestPattern,
+            FindFunctionStatus::Inactive
+        ]
+        .map(ActionStatus::FindFunction)
+    );
+    b.sim(|s| s.set_initialised(true));
+    b.act(ActionRequest::AdjustTime(RunFunction::Start))
+        .unwrap();
+    b.until(|b| b.ended(ActionId::AdjustTime).is_some());
+    assert_eq!(
+        b.progress(ActionId::AdjustTime),
+        [
+            AdjustTimeStatus::StartPosition,
+            AdjustTimeStatus::MeasureClose,
+            AdjustTimeStatus::MeasureOpen,
+            AdjustTimeStatus::Inactive
+        ]
+        .map(ActionStatus::AdjustTime)
+    );
+    b.act(ActionRequest::FindCoefficient(RunFunction::Start))
+        .unwrap();
+    b.until(|b| b.ended(ActionId::FindCoefficient).is_some());
+    use FindCoefficientStatus::*;
+    assert_eq!(
+        b.progress(ActionId::FindCoefficient),
+        [
+            ApproachPoint(1),
+            ApproachPoint(2),
+            ApproachPoint(3),
+            Inactive
+        ]
+        .map(ActionStatus::FindCoefficient)
+    );
+    b.act(ActionRequest::InitPilot(RunFunction::Start)).unwrap();
+    b.until(|b| b.ended(ActionId::InitPilot).is_some());
+    assert_eq!(
+        b.progress(ActionId::InitPilot),
+        [InitPilotStatus::Active, InitPilotStatus::Inactive].map(ActionStatus::InitPilot)
+    );
+    // GoOpen approach, then cancel; init valve started and cancelled.
+    b.act(ActionRequest::GoOpen(GoFunction::Approach)).unwrap();
+    b.run_for(Duration::from_millis(500));
+    b.act(ActionRequest::GoOpen(GoFunction::Cancel)).unwrap();
+    b.until(|b| b.ended(ActionId::GoOpen).is_some());
+    assert_eq!(
+        b.ended(ActionId::GoOpen),
+        Some(ActionOutcome::Ended(ActionStatus::GoOpen(
+            GoStatus::Cancelled
+        )))
+    );
+    b.act(ActionRequest::InitValve(RunFunction::Start)).unwrap();
+    b.run_for(Duration::from_secs(3));
+    assert_eq!(
+        b.act(ActionRequest::InitValve(RunFunction::Cancel)),
+        Ok(Reply::Action {
+            action: ActionId::InitValve,
+            status: ActionStatus::InitValve(InitValveStatus::Inactive)
+        })
+    );
+    assert!(b.sim(|s| s.running_action().is_none()));
+    assert!(b.frames > 1000, "{} frames received", b.frames);
 }
