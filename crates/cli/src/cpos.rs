@@ -1,9 +1,10 @@
 //! `canopen cpos ...`: the GEMÜ 1436 cPos positioner (crate `gemu-cpos`).
 //!
-//! The cPos sits behind a fieldbus gateway (DeviceNet/Profinet) that is not modelled on the bus
-//! yet, so these commands talk to an in-process simulated positioner on a virtual clock: every
-//! invocation starts a fresh, not yet initialised simulator. The requests, answers, toggle bytes
-//! and timeouts are the real client's.
+//! With `--iface` the commands drive a cPos over DeviceNet (its DeviceNet variant speaks the
+//! Predefined Master/Slave Connection Set on the same CAN interface as CANopen; `canopen cpos
+//! simulate --iface ...` is a simulated one). Without it they talk to an in-process simulated
+//! positioner on a virtual clock: every invocation starts a fresh, not yet initialised
+//! simulator. Either way the requests, answers, toggle bytes and timeouts are the real client's.
 
 use std::process::ExitCode;
 
@@ -23,6 +24,8 @@ use serde_json::{Value as Json, json};
 
 use crate::Global;
 
+mod over_devicenet;
+
 /// Options of the simulated positioner.
 #[derive(Debug, Args)]
 pub(crate) struct SimArgs {
@@ -37,12 +40,30 @@ pub(crate) struct SimArgs {
     no_air: bool,
 }
 
-/// GEMÜ 1436 cPos positioner commands, run against an in-process SIMULATED positioner (the
-/// gateway that carries the cPos image is not modelled on the bus yet).
+impl SimArgs {
+    /// A fresh simulator set up as asked.
+    fn simulator(&self) -> SimulatedCpos {
+        let mut sim = SimulatedCpos::new(SimConfig::default());
+        sim.set_initialised(self.initialised);
+        for c in &self.raise_error {
+            sim.raise_error(ErrorCode(*c));
+        }
+        if self.no_air {
+            sim.set_air_supply(false);
+        }
+        sim
+    }
+}
+
+/// GEMÜ 1436 cPos positioner commands. With --iface over DeviceNet (the cPos at --mac, through
+/// the Predefined Master/Slave Connection Set); without it against an in-process SIMULATED
+/// positioner on a virtual clock.
 #[derive(Debug, Args)]
 pub(crate) struct CposArgs {
     #[command(flatten)]
     sim: SimArgs,
+    #[command(flatten)]
+    dn: over_devicenet::DnOpts,
     #[command(subcommand)]
     command: CposCommand,
 }
@@ -85,6 +106,13 @@ pub(crate) enum CposCommand {
     Errors,
     /// Demo: initialise the simulated valve and show every phase of the run.
     Demo,
+    /// Run a simulated cPos as a DeviceNet slave at --mac: with --iface on that interface until
+    /// stopped (or --duration), without it on the in-memory bus for --duration.
+    Simulate {
+        /// Stop after this many seconds (required on the in-memory bus).
+        #[arg(long)]
+        duration: Option<f64>,
+    },
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -120,50 +148,116 @@ pub(crate) enum FunctionArg {
 
 const CYCLE: Duration = Duration::from_millis(10);
 
-/// Client and simulator exchanging images every 10 ms of virtual time.
+/// What carries the image: the in-process simulator, or a DeviceNet poll connection.
+enum Carrier {
+    /// Client and simulator exchanging images every 10 ms of virtual time.
+    Local {
+        client: Box<Client>,
+        sim: Box<SimulatedCpos>,
+    },
+    /// The client through a DeviceNet master on a CAN interface.
+    DeviceNet(Box<over_devicenet::Link>),
+}
+
+/// A client and what carries its image, with the events seen so far.
 struct Bench {
-    client: Client,
-    sim: SimulatedCpos,
+    carrier: Carrier,
     now: Instant,
+    /// When the bench was ready (event times are printed relative to it).
+    start: Instant,
     events: Vec<(Instant, Event)>,
 }
 
 impl Bench {
-    fn new(args: &SimArgs) -> Self {
-        let mut sim = SimulatedCpos::new(SimConfig::default());
-        sim.set_initialised(args.initialised);
-        for c in &args.raise_error {
-            sim.raise_error(ErrorCode(*c));
+    fn new(
+        sim: &SimArgs,
+        dn: &over_devicenet::DnOpts,
+        iface: Option<&str>,
+    ) -> Result<Self, String> {
+        if let Some(iface) = iface {
+            if sim.initialised || !sim.raise_error.is_empty() || sim.no_air {
+                return Err(
+                    "--initialised, --raise-error and --no-air set up the in-process simulator; \
+                     with --iface give them to `canopen cpos simulate`"
+                        .into(),
+                );
+            }
+            let link = over_devicenet::Link::connect(dn, iface)?;
+            let now = link.now();
+            return Ok(Self {
+                carrier: Carrier::DeviceNet(Box::new(link)),
+                now,
+                start: now,
+                events: Vec::new(),
+            });
         }
-        if args.no_air {
-            sim.set_air_supply(false);
+        if dn.over_devicenet {
+            let link = over_devicenet::Link::connect_simulated(dn, sim)?;
+            let now = link.now();
+            return Ok(Self {
+                carrier: Carrier::DeviceNet(Box::new(link)),
+                now,
+                start: now,
+                events: Vec::new(),
+            });
         }
         let mut b = Self {
-            client: Client::new(ClientConfig::default()),
-            sim,
+            carrier: Carrier::Local {
+                client: Box::new(Client::new(ClientConfig::default())),
+                sim: Box::new(sim.simulator()),
+            },
             now: Instant::ZERO,
+            start: Instant::ZERO,
             events: Vec::new(),
         };
         b.cycle();
-        b
+        Ok(b)
+    }
+
+    fn client(&mut self) -> &mut Client {
+        match &mut self.carrier {
+            Carrier::Local { client, .. } => client,
+            Carrier::DeviceNet(link) => link.client(),
+        }
+    }
+
+    /// The in-process simulator, if that is what carries the image.
+    fn sim(&mut self) -> Option<&mut SimulatedCpos> {
+        match &mut self.carrier {
+            Carrier::Local { sim, .. } => Some(&mut **sim),
+            Carrier::DeviceNet(_) => None,
+        }
+    }
+
+    fn elapsed(&self) -> Duration {
+        self.now.saturating_duration_since(self.start)
     }
 
     fn cycle(&mut self) {
-        self.now += CYCLE;
-        let now = self.now;
-        if self.sim.poll_timeout().is_some_and(|t| t <= now) {
-            self.sim.handle_timeout(now);
-        }
-        self.sim.handle_master_image(now, &self.client.image());
-        while let Some(d) = self.sim.poll_diagnostic() {
-            self.client.handle_diagnostic(now, d);
-        }
-        self.client.handle_image(now, &self.sim.device_image());
-        if self.client.poll_timeout().is_some_and(|t| t <= now) {
-            self.client.handle_timeout(now);
-        }
-        while let Some(e) = self.client.poll_event() {
-            self.events.push((now, e));
+        match &mut self.carrier {
+            Carrier::Local { client, sim } => {
+                self.now += CYCLE;
+                let now = self.now;
+                if sim.poll_timeout().is_some_and(|t| t <= now) {
+                    sim.handle_timeout(now);
+                }
+                sim.handle_master_image(now, &client.image());
+                while let Some(d) = sim.poll_diagnostic() {
+                    client.handle_diagnostic(now, d);
+                }
+                client.handle_image(now, &sim.device_image());
+                if client.poll_timeout().is_some_and(|t| t <= now) {
+                    client.handle_timeout(now);
+                }
+                while let Some(e) = client.poll_event() {
+                    self.events.push((now, e));
+                }
+            }
+            Carrier::DeviceNet(link) => {
+                let until = self.now + CYCLE;
+                link.pump(until, &mut self.events);
+                self.now = link.now();
+            }
         }
     }
 
@@ -182,7 +276,7 @@ impl Bench {
 
     /// Runs until the client is idle (an action it watches has ended).
     fn settle(&mut self) {
-        while !self.client.is_idle() {
+        while !self.client().is_idle() {
             self.cycle();
         }
         for _ in 0..10 {
@@ -223,8 +317,10 @@ fn param_json(p: &ParamDef) -> Json {
     })
 }
 
-pub(crate) fn run(args: CposArgs, global: Global) -> ExitCode {
-    match args.command {
+pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCode {
+    let CposArgs { sim, dn, command } = args;
+    let bench = || Bench::new(&sim, &dn, iface);
+    match command {
         CposCommand::Params => {
             if global.json {
                 let all: Vec<Json> = PARAMETERS.iter().map(param_json).collect();
@@ -256,8 +352,12 @@ pub(crate) fn run(args: CposArgs, global: Global) -> ExitCode {
             let Some(p) = find_param(&name) else {
                 return fail(global, &format!("no parameter {name:?}"));
             };
-            let mut b = Bench::new(&args.sim);
-            let id = match b.client.get(b.now, p.id) {
+            let mut b = match bench() {
+                Ok(b) => b,
+                Err(e) => return fail(global, &e),
+            };
+            let now = b.now;
+            let id = match b.client().get(now, p.id) {
                 Ok(id) => id,
                 Err(e) => return fail(global, &e.to_string()),
             };
@@ -270,8 +370,12 @@ pub(crate) fn run(args: CposArgs, global: Global) -> ExitCode {
             let Some(v) = p.parse_value(&value) else {
                 return fail(global, &format!("{value:?} is not a value of {}", p.name));
             };
-            let mut b = Bench::new(&args.sim);
-            let id = match b.client.set(b.now, p.id, v) {
+            let mut b = match bench() {
+                Ok(b) => b,
+                Err(e) => return fail(global, &e),
+            };
+            let now = b.now;
+            let id = match b.client().set(now, p.id, v) {
                 Ok(id) => id,
                 Err(e) => return fail(global, &format!("{}: {e}", p.name)),
             };
@@ -288,15 +392,32 @@ pub(crate) fn run(args: CposArgs, global: Global) -> ExitCode {
                 Ok(r) => r,
                 Err(e) => return fail(global, &e),
             };
-            let mut b = Bench::new(&args.sim);
-            if let Some(code) = fault {
-                b.sim
-                    .inject_fault(request.action(), fault_step, ErrorCode(code));
+            if fault.is_some() && (iface.is_some() || dn.over_devicenet) {
+                return fail(
+                    global,
+                    "--fault needs the in-process simulator (without --iface and --over-devicenet)",
+                );
+            }
+            let mut b = match bench() {
+                Ok(b) => b,
+                Err(e) => return fail(global, &e),
+            };
+            if let (Some(code), Some(sim)) = (fault, b.sim()) {
+                sim.inject_fault(request.action(), fault_step, ErrorCode(code));
             }
             run_action(&mut b, global, request)
         }
-        CposCommand::Errors => errors(&mut Bench::new(&args.sim), global),
-        CposCommand::Demo => demo(&args.sim, global),
+        CposCommand::Errors => match bench() {
+            Ok(mut b) => errors(&mut b, global),
+            Err(e) => fail(global, &e),
+        },
+        CposCommand::Demo => match bench() {
+            Ok(b) => demo(b, global),
+            Err(e) => fail(global, &e),
+        },
+        CposCommand::Simulate { duration } => {
+            over_devicenet::simulate(&sim, &dn, iface, duration, global)
+        }
     }
 }
 
@@ -374,15 +495,17 @@ fn build_action(a: ActionArg, f: Option<FunctionArg>, pwm: u16) -> Result<Action
     })
 }
 
-fn secs(t: Instant) -> f64 {
-    t.as_micros() as f64 / 1e6
+/// Seconds since the bench was ready.
+fn secs(b: &Bench, t: Instant) -> f64 {
+    t.saturating_duration_since(b.start).as_micros() as f64 / 1e6
 }
 
 /// Starts `request`, follows its progress; a NoInit motion or a GoClose/GoOpen approach runs for
 /// 2 s and is then ended (end event / adopt); an error is acknowledged.
 fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode {
     let action = request.action();
-    let id = match b.client.action(b.now, request) {
+    let now = b.now;
+    let id = match b.client().action(now, request) {
         Ok(id) => id,
         Err(e) => return fail(global, &e.to_string()),
     };
@@ -396,7 +519,7 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
     }
     let mut acknowledged = false;
     let mut followups = 0;
-    while b.client.active_action() == Some(action) && followups < 4 {
+    while b.client().active_action() == Some(action) && followups < 4 {
         let before = b.events.len();
         b.cycle();
         let waiting = b.events[before..].iter().find_map(|(_, e)| match e {
@@ -422,7 +545,7 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
                 }
                 _ => ActionRequest::InitPilot(RunFunction::AcknowledgeError),
             })
-        } else if open_ended && b.now >= Instant::from_millis(2_000) {
+        } else if open_ended && b.elapsed() >= Duration::from_millis(2_000) {
             Some(match action {
                 ActionId::NoInit => ActionRequest::NoInit(NoInitFunction::EndEvent),
                 ActionId::GoClose => ActionRequest::GoClose(GoFunction::Adopt),
@@ -430,17 +553,19 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
                 _ => break,
             })
         } else if !open_ended
-            && b.client.active_action().is_some()
-            && b.now >= Instant::from_millis(120_000)
+            && b.client().active_action().is_some()
+            && b.elapsed() >= Duration::from_millis(120_000)
         {
-            let _ = b.client.quit(b.now);
+            let now = b.now;
+            let _ = b.client().quit(now);
             None
         } else {
             None
         };
         if let Some(r) = next {
             followups += 1;
-            if let Ok(id) = b.client.action(b.now, r) {
+            let now = b.now;
+            if let Ok(id) = b.client().action(now, r) {
                 let _ = b.wait(id);
             }
         }
@@ -455,7 +580,7 @@ fn print_events(b: &Bench, global: Global, action: ActionId) -> ExitCode {
     for (t, e) in &b.events {
         match e {
             Event::ActionProgress { action: a, status } if *a == action => {
-                lines.push(json!({ "t": secs(*t), "event": "progress", "status": status.to_string(), "value": status.to_value() }));
+                lines.push(json!({ "t": secs(b, *t), "event": "progress", "status": status.to_string(), "value": status.to_value() }));
             }
             Event::ActionEnded { action: a, outcome } if *a == action => {
                 let text = match outcome {
@@ -469,11 +594,11 @@ fn print_events(b: &Bench, global: Global, action: ActionId) -> ExitCode {
                         "timed out".to_owned()
                     }
                 };
-                lines.push(json!({ "t": secs(*t), "event": "ended", "outcome": text }));
+                lines.push(json!({ "t": secs(b, *t), "event": "ended", "outcome": text }));
             }
             Event::ParameterChanged { param, value } => {
                 let name = param.def().map_or("?", |p| p.name);
-                lines.push(json!({ "t": secs(*t), "event": "parameter", "name": name, "id": param.0, "value": value }));
+                lines.push(json!({ "t": secs(b, *t), "event": "parameter", "name": name, "id": param.0, "value": value }));
             }
             _ => {}
         }
@@ -512,7 +637,8 @@ fn print_events(b: &Bench, global: Global, action: ActionId) -> ExitCode {
 fn errors(b: &mut Bench, global: Global) -> ExitCode {
     let mut list = Vec::new();
     for pos in 0..=u16::MAX {
-        let Ok(id) = b.client.read_error_list(b.now, pos) else {
+        let now = b.now;
+        let Ok(id) = b.client().read_error_list(now, pos) else {
             break;
         };
         match b.wait(id) {
@@ -527,10 +653,11 @@ fn errors(b: &mut Bench, global: Global) -> ExitCode {
         let mut out = Vec::new();
         let mut n = 1u16;
         loop {
+            let now = b.now;
             let id = if warnings {
-                b.client.active_warnings(b.now, n)
+                b.client().active_warnings(now, n)
             } else {
-                b.client.active_errors(b.now, n)
+                b.client().active_errors(now, n)
             };
             let Ok(id) = id else { break };
             match b.wait(id) {
@@ -589,14 +716,20 @@ fn errors(b: &mut Bench, global: Global) -> ExitCode {
     ExitCode::SUCCESS
 }
 
-fn demo(args: &SimArgs, global: Global) -> ExitCode {
+fn demo(mut b: Bench, global: Global) -> ExitCode {
     if !global.json {
-        crate::outln("GEMÜ 1436 cPos demo (simulated positioner, virtual time): init valve");
+        let what = match b.carrier {
+            Carrier::Local { .. } => "simulated positioner, virtual time",
+            Carrier::DeviceNet(_) => "over DeviceNet",
+        };
+        crate::outln(&format!("GEMÜ 1436 cPos demo ({what}): init valve"));
     }
-    let mut b = Bench::new(args);
     let code = run_action(&mut b, global, ActionRequest::InitValve(RunFunction::Start));
-    if !global.json && code == ExitCode::SUCCESS {
-        crate::outln(&format!("valve initialised: {}", b.sim.is_initialised()));
+    if !global.json
+        && code == ExitCode::SUCCESS
+        && let Some(sim) = b.sim()
+    {
+        crate::outln(&format!("valve initialised: {}", sim.is_initialised()));
     }
     code
 }

@@ -40,7 +40,8 @@ enum Command {
     /// EDS/DCF files: check, lint, show, convert to DCF, generate Rust.
     #[command(subcommand)]
     Eds(eds::EdsCommand),
-    /// GEMÜ 1436 cPos positioner: parameters, actions, error list (against a SIMULATED positioner).
+    /// GEMÜ 1436 cPos positioner: parameters, actions, error list; over DeviceNet with --iface,
+    /// else against a SIMULATED positioner.
     Cpos(cpos::CposArgs),
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
@@ -60,6 +61,9 @@ enum Command {
         /// Stop after this many seconds (required on the in-memory bus).
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
+        /// Decode the frames as DeviceNet instead of CANopen.
+        #[arg(long)]
+        devicenet: bool,
     },
     /// Run a simulated device from an EDS on the bus.
     Simulate {
@@ -130,7 +134,10 @@ fn main() -> ExitCode {
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
         Command::Nmt { command, target } => nmt_cmd::run(command, &target, &cli.bus, global),
         Command::Scan => nmt_cmd::run_scan(&cli.bus, global),
-        Command::Monitor { duration } => traffic::run_monitor(&cli.bus, duration, global),
+        Command::Monitor {
+            duration,
+            devicenet,
+        } => traffic::run_monitor(&cli.bus, duration, devicenet, global),
         Command::Simulate {
             eds,
             node_id,
@@ -143,7 +150,7 @@ fn main() -> ExitCode {
         Command::Replay { file } => traffic::run_replay(&cli.bus, &file, global),
         Command::Demo => demo::run(),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
-        Command::Cpos(args) => cpos::run(args, global),
+        Command::Cpos(args) => cpos::run(args, cli.bus.iface.as_deref(), global),
         Command::Burkert(args) => burkert::run(args, &cli.bus, global),
         Command::Gateway(args) => gateway::run(args, &cli.bus),
     }

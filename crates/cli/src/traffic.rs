@@ -11,22 +11,34 @@ use serde_json::json;
 use crate::bus::{BusOpts, fail};
 use crate::{Global, outln};
 
-/// `canopen monitor`
-pub(crate) fn run_monitor(opts: &BusOpts, duration: Option<f64>, g: Global) -> ExitCode {
+/// `canopen monitor` (`--devicenet`: the frames read as DeviceNet, CAN's other application
+/// layer on the same wire, e.g. for the GEMÜ cPos)
+pub(crate) fn run_monitor(
+    opts: &BusOpts,
+    duration: Option<f64>,
+    devicenet: bool,
+    g: Global,
+) -> ExitCode {
     let mut bus = match opts.open() {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
     let mut monitor = Monitor::new(bus.bus_dictionary());
     let r = bus.pump(duration, |frame, at| {
+        let what = if devicenet {
+            devicenet::decode(frame).to_string()
+        } else {
+            monitor.what(frame)
+        };
         if g.json {
             outln(
                 &json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string(),
-                        "decoded": monitor.what(frame)})
+                        "decoded": what})
                 .to_string(),
             );
         } else {
-            outln(&format!("{at}  {}", monitor.describe(frame)));
+            let shown = frame.to_string();
+            outln(&format!("{at}  {shown:<28} {what}"));
         }
     });
     match r {

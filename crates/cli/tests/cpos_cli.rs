@@ -87,3 +87,127 @@ fn error_list_and_refused_actions() {
     assert!(events.iter().any(|e| e["value"] == 0x16FE));
     assert!(events.iter().any(|e| e["value"] == 0x16FF));
 }
+
+/// The same commands with the image carried over DeviceNet (Predefined Master/Slave Connection
+/// Set on the in-memory bus) to a simulated cPos behind a DeviceNet slave.
+#[test]
+fn commands_over_devicenet_on_the_in_memory_bus() {
+    let out = canopen(&[
+        "--json",
+        "cpos",
+        "--over-devicenet",
+        "set",
+        "Mode",
+        "manual",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    assert_eq!(v["value"], 2);
+    let out = canopen(&["cpos", "--over-devicenet", "--mac", "12", "get", "CtrlFn"]);
+    assert_eq!(stdout(&out).trim(), "CtrlFn (0x0834) = 0 (NC)");
+    // The device's diagnostics come through the explicit connection.
+    let out = canopen(&[
+        "cpos",
+        "--over-devicenet",
+        "--initialised",
+        "action",
+        "no-init",
+        "open-fast",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("diagnostic 0x42"));
+    let out = canopen(&[
+        "cpos",
+        "--over-devicenet",
+        "--no-air",
+        "action",
+        "init-valve",
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Init Valve cannot be started"));
+    let out = canopen(&[
+        "--json",
+        "cpos",
+        "--over-devicenet",
+        "--raise-error",
+        "22",
+        "errors",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    assert_eq!(v["error_list"][0]["code"], 22);
+    assert_eq!(v["active_errors"].as_array().unwrap().len(), 1);
+    let out = canopen(&["cpos", "--over-devicenet", "demo"]);
+    assert!(out.status.success(), "{out:?}");
+    let text = stdout(&out);
+    assert!(text.contains("over DeviceNet"));
+    assert!(text.contains("ended: initialisation inactive"), "{text}");
+    // GoOpen approach, then adopt after 2 s.
+    let out = canopen(&[
+        "cpos",
+        "--over-devicenet",
+        "--initialised",
+        "action",
+        "go-open",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(stdout(&out).contains("GoOpen: ended"), "{}", stdout(&out));
+}
+
+#[test]
+fn devicenet_options_are_checked() {
+    // Short images carry no parameter channel.
+    let out = canopen(&[
+        "cpos",
+        "--over-devicenet",
+        "--send",
+        "5",
+        "--receive",
+        "3",
+        "get",
+        "Mode",
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("no parameter channel"),
+        "{out:?}"
+    );
+    // Sizes the cPos does not offer.
+    let out = canopen(&["cpos", "--over-devicenet", "--send", "6", "get", "Mode"]);
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("not a cPos setting"),
+        "{out:?}"
+    );
+    let out = canopen(&["cpos", "--mac", "64", "get", "Mode"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("out of range"));
+    // --fault needs the in-process simulator.
+    let out = canopen(&[
+        "cpos",
+        "--over-devicenet",
+        "action",
+        "init-valve",
+        "--fault",
+        "22",
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("in-process simulator"));
+}
+
+#[test]
+fn simulate_on_the_in_memory_bus() {
+    let out = canopen(&["cpos", "simulate"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--duration"));
+    // Alone on the bus it passes its Duplicate MAC ID check (two requests, 1 s apart) and waits.
+    let out = canopen(&[
+        "--json",
+        "cpos",
+        "--mac",
+        "5",
+        "simulate",
+        "--duration",
+        "3",
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    let v: serde_json::Value = serde_json::from_str(stdout(&out).trim()).unwrap();
+    assert_eq!(v["event"], "on line (Duplicate MAC ID check passed)");
+    assert_eq!(v["time"], 2.0);
+}

@@ -4,8 +4,8 @@
 //!
 //! Source: the GEMÜ 1436 cPos DeviceNet manual (chapters 5 and 6) and the Profinet manual's
 //! chapter 5.6 (same channel, same actions). The DeviceNet and Profinet variants carry the same
-//! bytes; the crate does not care what carries them (a fieldbus gateway, a PDO pair, a test
-//! harness).
+//! bytes; the core does not care what carries them (a fieldbus gateway, a PDO pair, a test
+//! harness), and [`over_devicenet`] carries them on DeviceNet itself.
 //!
 //! Layers, bottom up:
 //! - [`image`]: the 13-byte master→device and 11-byte device→master images (big-endian).
@@ -16,6 +16,8 @@
 //! - [`client`]: a sans-IO client (request queue, toggle byte, 'N' after queries, one action at a
 //!   time, progress and parameter-change events, timeouts).
 //! - [`sim`]: a simulated cPos behind the same image, for tests, the CLI and demos.
+//! - [`over_devicenet`]: the image in a DeviceNet poll connection (crate `devicenet`): the
+//!   client through a DeviceNet master, the simulator behind a DeviceNet slave.
 //!
 //! Every decoder is total: bytes become a typed value or a typed error, never a panic.
 //! `#![no_std]` without an allocator when built with `default-features = false`.
@@ -84,6 +86,7 @@ pub mod action;
 pub mod channel;
 pub mod client;
 pub mod image;
+pub mod over_devicenet;
 pub mod params;
 pub mod sim;
 

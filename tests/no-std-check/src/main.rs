@@ -10,6 +10,7 @@ extern crate canopen_nmt;
 extern crate canopen_od;
 extern crate canopen_pdo;
 extern crate canopen_sdo;
+extern crate devicenet;
 extern crate gemu_cpos;
 
 use core::panic::PanicInfo;
@@ -37,10 +38,12 @@ pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
     let heartbeat = canopen_nmt::Heartbeat::parse(&[0x7F]);
     let sdo = canopen_sdo::ClientRequest::parse(&[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
     let mut server = canopen_sdo::Server::new(canopen_sdo::ServerConfig::default());
+    let dn = devicenet::DuplicateMacCheck::parse(&[0; 7]);
     if id.is_ok()
         && colour.is_ok()
         && heartbeat.is_ok()
         && sdo.is_ok()
+        && dn.is_ok()
         && server.poll_transmit().is_none()
     {
         0
