@@ -205,7 +205,7 @@ enum Phase {
 pub struct AssignAll {
     config: AssignConfig,
     pool: NodeIdPool,
-    io: Io<AssignReport>,
+    io: Io<AssignReport, AssignEntry>,
     phase: Phase,
     found: Vec<LssAddress, MAX_SLAVES>,
     /// Whether a found slave is still unconfigured (and so still answers Fastscan).
@@ -279,7 +279,7 @@ impl AssignAll {
         };
         // One entry per found slave, and `found` has the same capacity.
         let _ = self.report.entries.push(entry);
-        self.io.events.push(MasterEvent::Assigned(entry));
+        self.io.events.push(MasterEvent::Progress(entry));
     }
 
     fn finish(&mut self, stopped: Option<LssError>) {
@@ -393,16 +393,17 @@ impl AssignAll {
     }
 }
 
-driven_machine!(AssignAll, AssignReport);
+driven_machine!(AssignAll, AssignReport, AssignEntry);
 
 impl Driven for AssignAll {
     type Output = AssignReport;
+    type Progress = AssignEntry;
 
-    fn io(&self) -> &Io<Self::Output> {
+    fn io(&self) -> &Io<Self::Output, Self::Progress> {
         &self.io
     }
 
-    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+    fn io_mut(&mut self) -> &mut Io<Self::Output, Self::Progress> {
         &mut self.io
     }
 

@@ -413,12 +413,13 @@ driven_machine!(Fastscan, Option<LssAddress>);
 
 impl Driven for Fastscan {
     type Output = Option<LssAddress>;
+    type Progress = core::convert::Infallible;
 
-    fn io(&self) -> &Io<Self::Output> {
+    fn io(&self) -> &Io<Self::Output, Self::Progress> {
         &self.io
     }
 
-    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+    fn io_mut(&mut self) -> &mut Io<Self::Output, Self::Progress> {
         &mut self.io
     }
 
@@ -505,12 +506,13 @@ driven_machine!(DiscoverAll, AddressList);
 
 impl Driven for DiscoverAll {
     type Output = AddressList;
+    type Progress = core::convert::Infallible;
 
-    fn io(&self) -> &Io<Self::Output> {
+    fn io(&self) -> &Io<Self::Output, Self::Progress> {
         &self.io
     }
 
-    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+    fn io_mut(&mut self) -> &mut Io<Self::Output, Self::Progress> {
         &mut self.io
     }
 

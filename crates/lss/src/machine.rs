@@ -25,6 +25,8 @@
 //! frames on 0x7E4 win arbitration against the master's 0x7E5, so an answer already queued in a
 //! slave's controller always precedes the next request).
 
+use core::convert::Infallible;
+
 use can_frame::{CanFrame, Duration, Instant};
 use heapless::Deque;
 
@@ -42,10 +44,11 @@ pub enum ResponsePolicy {
     FirstAnswer,
 }
 
-/// What a master machine reports.
+/// What a master machine reports: `T` is what it produces when it finishes, `P` what it reports
+/// as it goes (the assign-all workflow: each slave's outcome; nothing for the others).
 #[derive(Debug, Clone, PartialEq, Eq)]
 #[non_exhaustive]
-pub enum MasterEvent<T> {
+pub enum MasterEvent<T, P = Infallible> {
     /// Activate bit timing was sent: the master's own CAN controller must switch to
     /// `bit_timing` at `at` (after the switch delay), as the slaves do.
     SwitchBitRate {
@@ -56,8 +59,8 @@ pub enum MasterEvent<T> {
     },
     /// A scan found a slave.
     Found(LssAddress),
-    /// The assign workflow finished with one slave (assigned or failed).
-    Assigned(crate::assign::AssignEntry),
+    /// A step of the procedure finished (assign-all: one slave assigned or failed).
+    Progress(P),
     /// The machine finished.
     Done(Result<T, LssError>),
 }
@@ -66,6 +69,9 @@ pub enum MasterEvent<T> {
 pub trait LssMachine {
     /// What the machine produces when it finishes successfully.
     type Output;
+
+    /// What the machine reports as it goes ([`MasterEvent::Progress`]); `Infallible` for none.
+    type Progress;
 
     /// A response received on COB-ID 0x7E4.
     fn handle_response(&mut self, now: Instant, response: &Response);
@@ -84,7 +90,7 @@ pub trait LssMachine {
 
     /// The next event; [`MasterEvent::Done`] comes last.
     #[must_use]
-    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output>>;
+    fn poll_event(&mut self) -> Option<MasterEvent<Self::Output, Self::Progress>>;
 
     /// Whether the machine has finished (its `Done` event may still be waiting to be polled).
     fn is_finished(&self) -> bool;
@@ -111,13 +117,13 @@ pub trait LssMachine {
 
 /// What every master machine has: its exchange, its events and whether it finished.
 #[derive(Debug, Clone)]
-pub(crate) struct Io<T> {
+pub(crate) struct Io<T, P = Infallible> {
     pub(crate) ex: Exchange,
-    pub(crate) events: Events<T>,
+    pub(crate) events: Events<T, P>,
     pub(crate) finished: bool,
 }
 
-impl<T> Io<T> {
+impl<T, P> Io<T, P> {
     pub(crate) const fn new() -> Self {
         Self {
             ex: Exchange::new(),
@@ -134,9 +140,12 @@ pub(crate) trait Driven {
     /// What the machine produces.
     type Output;
 
-    fn io(&self) -> &Io<Self::Output>;
+    /// What it reports as it goes.
+    type Progress;
 
-    fn io_mut(&mut self) -> &mut Io<Self::Output>;
+    fn io(&self) -> &Io<Self::Output, Self::Progress>;
+
+    fn io_mut(&mut self) -> &mut Io<Self::Output, Self::Progress>;
 
     /// The awaited exchange ended.
     fn on_reply(&mut self, now: Instant, reply: Reply);
@@ -175,8 +184,12 @@ pub(crate) fn poll_timeout<D: Driven>(d: &D) -> Option<Instant> {
 /// driver above (a blanket implementation would expose the crate-private trait).
 macro_rules! driven_machine {
     ($machine:ty, $out:ty) => {
+        $crate::machine::driven_machine!($machine, $out, core::convert::Infallible);
+    };
+    ($machine:ty, $out:ty, $progress:ty) => {
         impl $crate::machine::LssMachine for $machine {
             type Output = $out;
+            type Progress = $progress;
 
             fn handle_response(&mut self, now: Instant, response: &$crate::wire::Response) {
                 $crate::machine::handle_response(self, now, response);
@@ -194,7 +207,7 @@ macro_rules! driven_machine {
                 $crate::machine::poll_timeout(self)
             }
 
-            fn poll_event(&mut self) -> Option<$crate::machine::MasterEvent<$out>> {
+            fn poll_event(&mut self) -> Option<$crate::machine::MasterEvent<$out, $progress>> {
                 self.io.events.poll()
             }
 
@@ -208,12 +221,12 @@ pub(crate) use driven_machine;
 
 /// Progress events (oldest dropped when nobody polls) and the final result.
 #[derive(Debug, Clone)]
-pub(crate) struct Events<T> {
-    queue: Deque<MasterEvent<T>, 4>,
+pub(crate) struct Events<T, P = Infallible> {
+    queue: Deque<MasterEvent<T, P>, 4>,
     done: Option<Result<T, LssError>>,
 }
 
-impl<T> Events<T> {
+impl<T, P> Events<T, P> {
     pub(crate) const fn new() -> Self {
         Self {
             queue: Deque::new(),
@@ -227,7 +240,7 @@ impl<T> Events<T> {
     }
 
     /// A progress event; drops the oldest one when the queue is full.
-    pub(crate) fn push(&mut self, event: MasterEvent<T>) {
+    pub(crate) fn push(&mut self, event: MasterEvent<T, P>) {
         if self.queue.is_full() {
             let _ = self.queue.pop_front();
         }
@@ -238,7 +251,7 @@ impl<T> Events<T> {
         self.done = Some(result);
     }
 
-    pub(crate) fn poll(&mut self) -> Option<MasterEvent<T>> {
+    pub(crate) fn poll(&mut self) -> Option<MasterEvent<T, P>> {
         self.queue
             .pop_front()
             .or_else(|| self.done.take().map(MasterEvent::Done))

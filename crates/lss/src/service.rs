@@ -542,12 +542,13 @@ driven_machine!(LssMaster, ServiceReport);
 
 impl Driven for LssMaster {
     type Output = ServiceReport;
+    type Progress = core::convert::Infallible;
 
-    fn io(&self) -> &Io<Self::Output> {
+    fn io(&self) -> &Io<Self::Output, Self::Progress> {
         &self.io
     }
 
-    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+    fn io_mut(&mut self) -> &mut Io<Self::Output, Self::Progress> {
         &mut self.io
     }
 

@@ -202,12 +202,13 @@ driven_machine!(Slowscan, AddressList);
 
 impl Driven for Slowscan {
     type Output = AddressList;
+    type Progress = core::convert::Infallible;
 
-    fn io(&self) -> &Io<Self::Output> {
+    fn io(&self) -> &Io<Self::Output, Self::Progress> {
         &self.io
     }
 
-    fn io_mut(&mut self) -> &mut Io<Self::Output> {
+    fn io_mut(&mut self) -> &mut Io<Self::Output, Self::Progress> {
         &mut self.io
     }
 

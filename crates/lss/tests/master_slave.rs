@@ -251,7 +251,7 @@ fn assign_all(n: usize, delivery: Delivery, seed: u64, real: bool) {
     }
     let assigned_events = events
         .iter()
-        .filter(|e| matches!(e, MasterEvent::Assigned(_)))
+        .filter(|e| matches!(e, MasterEvent::Progress(_)))
         .count();
     assert_eq!(assigned_events, n);
     // Every slave succeeded, so every scan was an ordinary one: n that found a slave and the

@@ -64,7 +64,8 @@ pub(crate) enum Delivery {
 
 /// A node that answers requests by a script (for error codes real slaves do not produce).
 /// What [`Bus::run`] returns: the result and the events before it.
-pub(crate) type RunResult<T> = (Result<T, LssError>, Vec<MasterEvent<T>>);
+pub(crate) type RunResult<T, P = core::convert::Infallible> =
+    (Result<T, LssError>, Vec<MasterEvent<T, P>>);
 
 pub(crate) type Script = Box<dyn FnMut(&Request) -> Option<Response>>;
 
@@ -194,7 +195,7 @@ impl Bus {
     }
 
     /// Runs `m` until it reports `Done`; returns the result and the events before it.
-    pub(crate) fn run<M: LssMachine>(&mut self, m: &mut M) -> RunResult<M::Output> {
+    pub(crate) fn run<M: LssMachine>(&mut self, m: &mut M) -> RunResult<M::Output, M::Progress> {
         let mut events = Vec::new();
         for _ in 0..1_000_000 {
             while let Some(f) = m.poll_transmit_frame() {
