@@ -1,0 +1,244 @@
+//! Boot and audit against simulated devices on the in-memory bus, with the failures real
+//! devices produce: an absent mandatory slave, a wrong identity, a configuration write the
+//! device refuses, an absent optional slave.
+
+use std::path::Path;
+
+use canopen::od::AccessType;
+use canopen::{MemoryBus, Network, NmtState, NodeId, SimDevice};
+use canopen_manager::boot::ConfigOutcome;
+use canopen_manager::simulate::{attach_slaves, factory_dictionary};
+use canopen_manager::{
+    AuditOptions, BootErrorCode, BootEvent, BootStep, NetworkConfig, SlaveStatus, audit, boot,
+    boot_with,
+};
+
+fn data(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+fn load(name: &str) -> NetworkConfig {
+    NetworkConfig::load(data(name)).expect("test description")
+}
+
+fn parse(text: &str) -> NetworkConfig {
+    NetworkConfig::parse(text, &data("inline.toml")).expect("test description")
+}
+
+fn node(n: u8) -> NodeId {
+    NodeId::new(n).unwrap()
+}
+
+fn u32_at(net: &Network, n: u8, index: u16, sub: u8) -> u32 {
+    let b = net.node(node(n)).sdo().read((index, sub)).unwrap();
+    let mut a = [0; 4];
+    a[..b.len()].copy_from_slice(&b);
+    u32::from_le_bytes(a)
+}
+
+#[test]
+fn three_slaves_boot_configure_and_start() {
+    let config = load("three.toml");
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    attach_slaves(&bus, &config, &[]);
+    let mut events = Vec::new();
+    let report = boot_with(&net, &config, |e| events.push(e.clone()));
+    assert!(report.mandatory_ok);
+    for s in &report.slaves {
+        assert_eq!(s.status, SlaveStatus::Operational, "{s:?}");
+        assert_eq!(s.error_code, None);
+        assert!(
+            matches!(s.configuration, ConfigOutcome::Written(n) if n >= 3),
+            "{s:?}"
+        );
+        assert!(s.error_control.as_deref().unwrap().starts_with("heartbeat"));
+    }
+    // The DCF's values are in the devices, $NODEID resolved per node.
+    assert_eq!(u32_at(&net, 5, 0x2001, 0), 0x1005);
+    assert_eq!(u32_at(&net, 6, 0x2001, 0), 0x1006);
+    assert_eq!(u32_at(&net, 7, 0x2000, 0), 321);
+    assert_eq!(u32_at(&net, 7, 0x1017, 0), 50);
+    assert_eq!(u32_at(&net, 5, 0x1020, 1), 0x2A3F);
+    // Parallel: the whole boot takes less network time than the slaves' boots one after another.
+    let serial: u64 = report.slaves.iter().map(|s| s.elapsed.as_micros()).sum();
+    assert!(report.elapsed.as_micros() < serial, "{report:?}");
+    // Every slave reported every step, and the heartbeats now say Operational.
+    for n in [5, 6, 7] {
+        for step in [
+            BootStep::DevicePresent,
+            BootStep::Identity,
+            BootStep::Configuration,
+            BootStep::ErrorControl,
+            BootStep::Start,
+        ] {
+            assert!(
+                events.contains(&BootEvent::StepDone {
+                    node: node(n),
+                    step
+                }),
+                "node {n} {step:?}"
+            );
+        }
+    }
+    net.run_for(canopen::Duration::from_millis(300)).unwrap();
+    for n in [5, 6, 7] {
+        assert_eq!(net.last_state(node(n)), Some(NmtState::Operational));
+    }
+
+    // A second boot finds 0x1020 in place on the stamped DCF's slaves and skips their configuration.
+    let again = boot(&net, &config);
+    assert_eq!(again.slaves[0].configuration, ConfigOutcome::Verified);
+    assert_eq!(again.slaves[1].configuration, ConfigOutcome::Verified);
+    assert!(matches!(
+        again.slaves[2].configuration,
+        ConfigOutcome::Written(_)
+    ));
+}
+
+#[test]
+fn absent_mandatory_slave_stops_the_start() {
+    let config = load("three.toml");
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    attach_slaves(&bus, &config, &[node(6)]);
+    let report = boot(&net, &config);
+    assert!(!report.mandatory_ok);
+    let s = &report.slaves[1];
+    assert_eq!(s.status, SlaveStatus::Absent);
+    assert_eq!(s.error_code, Some(BootErrorCode::B));
+    assert_eq!(s.step, Some(BootStep::DevicePresent));
+    assert_eq!(s.object.unwrap().to_string(), "0x1000:00");
+    assert_eq!(s.abort_code, Some(0x0504_0000));
+    // No start-all: the others booted but stay pre-operational.
+    assert_eq!(report.slaves[0].status, SlaveStatus::PreOperational);
+    assert_eq!(report.slaves[2].status, SlaveStatus::PreOperational);
+    net.run_for(canopen::Duration::from_millis(300)).unwrap();
+    assert_eq!(net.last_state(node(5)), Some(NmtState::PreOperational));
+}
+
+#[test]
+fn absent_optional_slave_does_not_stop_the_others() {
+    let config = load("three.toml");
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    attach_slaves(&bus, &config, &[node(7)]);
+    let report = boot(&net, &config);
+    assert!(report.mandatory_ok);
+    assert_eq!(report.slaves[2].status, SlaveStatus::Absent);
+    assert_eq!(report.slaves[2].error_code, Some(BootErrorCode::B));
+    assert_eq!(report.slaves[0].status, SlaveStatus::Operational);
+    assert_eq!(report.slaves[1].status, SlaveStatus::Operational);
+    net.run_for(canopen::Duration::from_millis(300)).unwrap();
+    assert_eq!(net.last_state(node(6)), Some(NmtState::Operational));
+}
+
+#[test]
+fn wrong_identity_gives_its_code() {
+    let config = parse(
+        r#"
+[master]
+sdo_timeout_ms = 100
+[[slave]]
+node_id = 5
+dcf = "valve.dcf"
+mandatory = true
+[slave.identity]
+vendor_id = 0x40
+[[slave]]
+node_id = 6
+dcf = "valve.dcf"
+[slave.identity]
+vendor_id = 0x39
+product_code = 0x9999
+[[slave]]
+node_id = 8
+dcf = "valve.dcf"
+[slave.identity]
+device_type = 0x0192
+[[slave]]
+node_id = 9
+dcf = "valve.dcf"
+[slave.identity]
+serial = 0x1002
+"#,
+    );
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    attach_slaves(&bus, &config, &[]);
+    let report = boot(&net, &config);
+    let codes: Vec<_> = report.slaves.iter().map(|s| s.error_code).collect();
+    use BootErrorCode::*;
+    assert_eq!(codes, [Some(D), Some(M), Some(C), Some(O)]);
+    let s = &report.slaves[0];
+    assert_eq!(s.status, SlaveStatus::Failed);
+    assert_eq!(s.step, Some(BootStep::Identity));
+    assert_eq!(s.object.unwrap().to_string(), "0x1018:01");
+    assert!(s.detail.as_deref().unwrap().contains("0x00000039"));
+    assert!(!report.mandatory_ok);
+    // Nothing was configured on a device that is not the one expected.
+    assert_eq!(u32_at(&net, 5, 0x2001, 0), 0);
+}
+
+#[test]
+fn configuration_write_refused_gives_j_with_the_abort() {
+    let config = load("three.toml");
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    // Node 6's firmware has 0x2002 read-only where its DCF says rw.
+    for s in &config.slaves {
+        let mut od = factory_dictionary(&s.dictionary);
+        if s.node_id == node(6) {
+            od.sub_mut(0x2002, 0).unwrap().access = AccessType::Ro;
+        }
+        bus.attach(SimDevice::new(s.node_id, od));
+    }
+    let report = boot(&net, &config);
+    let s = &report.slaves[1];
+    assert_eq!(s.status, SlaveStatus::Failed);
+    assert_eq!(s.error_code, Some(BootErrorCode::J));
+    assert_eq!(s.step, Some(BootStep::Configuration));
+    assert_eq!(s.object.unwrap().to_string(), "0x2002:00");
+    assert_eq!(s.abort_code, Some(0x0601_0002));
+    assert!(s.detail.as_deref().unwrap().contains("0x06010002"), "{s:?}");
+    assert!(!report.mandatory_ok);
+}
+
+#[test]
+fn audit_finds_a_changed_value_and_fix_repairs_it() {
+    let config = load("three.toml");
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let stations = attach_slaves(&bus, &config, &[]);
+    assert!(boot(&net, &config).mandatory_ok);
+    let clean = audit(&net, &config, AuditOptions::default());
+    assert!(clean.is_clean(), "{clean:?}");
+    assert!(clean.slaves.iter().all(|s| s.checked >= 3));
+
+    // Someone changes node 6's close delay behind the master's back.
+    let (_, id6) = stations[1];
+    let now = bus.now();
+    bus.with_station(id6, |d| d.set_value(now, 0x2001, 0, 77u32.to_le_bytes()));
+    let report = audit(&net, &config, AuditOptions::default());
+    assert!(!report.is_clean());
+    assert!(report.slaves[0].differences.is_empty());
+    let d = &report.slaves[1].differences;
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].object.to_string(), "0x2001:00");
+    assert_eq!(d[0].name, "Close Delay");
+    assert_eq!(d[0].expected.to_string(), "4102");
+    assert_eq!(d[0].actual.as_ref().unwrap().to_string(), "77");
+
+    let fixed = audit(
+        &net,
+        &config,
+        AuditOptions {
+            fix: true,
+            ..AuditOptions::default()
+        },
+    );
+    assert_eq!(fixed.slaves[1].differences[0].fixed, Some(Ok(())));
+    assert!(audit(&net, &config, AuditOptions::default()).is_clean());
+}
