@@ -395,3 +395,81 @@ fn set_value(od: &mut ObjectDictionary, key: &str, value: &toml::Value) -> Resul
     sub.extras_mut().parameter_value = Some(field);
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bus.toml")
+    }
+
+    fn error(text: &str) -> ConfigError {
+        NetworkConfig::parse(text, &data()).expect_err("an error")
+    }
+
+    #[test]
+    fn defaults_and_paths_relative_to_the_file() {
+        let c =
+            NetworkConfig::parse("[[slave]]\nnode_id = 5\ndcf = \"valve.dcf\"\n", &data()).unwrap();
+        assert_eq!(c.master.node_id.get(), 1);
+        assert_eq!(c.master.start, StartPolicy::All);
+        assert_eq!(c.master.heartbeat_consumer_percent, 150);
+        assert!(!c.slaves[0].mandatory);
+        assert!(c.slaves[0].source.ends_with("tests/data/valve.dcf"));
+        assert_eq!(c.slaves[0].error_control, ErrorControl::Auto);
+    }
+
+    #[test]
+    fn errors_name_line_and_key() {
+        let e = error("[master]\nnode_id = 1\n[[slave]]\nnode_id = 0\ndcf = \"valve.dcf\"\n");
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(4), Some("slave[1].node_id"))
+        );
+        let e = error("[[slave]]\nnode_id = 5\ndcf = \"missing.dcf\"\n");
+        assert_eq!((e.line, e.key.as_deref()), (Some(3), Some("slave[1].dcf")));
+        assert!(e.message.contains("missing.dcf"), "{e}");
+        let e = error("[[slave]]\nnode_id = 5\n");
+        assert_eq!(e.key.as_deref(), Some("slave[1].dcf"));
+        let e = error("[master]\nstart = \"sometimes\"\n");
+        assert_eq!((e.line, e.key.as_deref()), (Some(2), Some("start")));
+        let e = error("[master]\nnode_id = 1\nspeed = 3\n");
+        assert_eq!(e.line, Some(3));
+        assert!(e.message.contains("speed"), "{e}");
+        let e = error(
+            "[[slave]]\nnode_id = 5\ndcf = \"valve.dcf\"\n[[slave]]\nnode_id = 5\ndcf = \"valve.dcf\"\n",
+        );
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(5), Some("slave[2].node_id"))
+        );
+        let e = error("[[slave]]\nnode_id = 1\ndcf = \"valve.dcf\"\n");
+        assert!(e.message.contains("master"), "{e}");
+        let shown = e.to_string();
+        assert!(shown.contains("bus.toml:2: slave[1].node_id: "), "{shown}");
+    }
+
+    #[test]
+    fn eds_values_are_checked() {
+        let base = "[[slave]]\nnode_id = 5\neds = \"valve-nostamp.dcf\"\n[slave.values]\n";
+        let c =
+            NetworkConfig::parse(&format!("{base}\"0x2001:00\" = \"0x55\"\n"), &data()).unwrap();
+        let v = c.slaves[0]
+            .dictionary
+            .sub(0x2001, 0)
+            .unwrap()
+            .parameter_value()
+            .unwrap();
+        assert_eq!(v.resolve(5).unwrap().as_i128(), Some(0x55));
+        let e = error(&format!("{base}\"0x1018:01\" = 3\n"));
+        assert!(e.message.contains("read-only"), "{e}");
+        assert_eq!(e.line, Some(5));
+        let e = error(&format!("{base}\"0x3000\" = 3\n"));
+        assert!(e.message.contains("no object"), "{e}");
+        let e = error(&format!("{base}\"0x2002\" = 300\n"));
+        assert!(e.key.as_deref().unwrap().contains("0x2002"), "{e}");
+        let e = error(&format!("{base}\"nonsense\" = 3\n"));
+        assert!(e.message.contains("object address"), "{e}");
+    }
+}

@@ -242,3 +242,79 @@ fn audit_finds_a_changed_value_and_fix_repairs_it() {
     assert_eq!(fixed.slaves[1].differences[0].fixed, Some(Ok(())));
     assert!(audit(&net, &config, AuditOptions::default()).is_clean());
 }
+
+#[test]
+fn node_guarding_when_no_heartbeat() {
+    let config = parse(
+        r#"
+[master]
+sdo_timeout_ms = 100
+[[slave]]
+node_id = 9
+eds = "valve-nostamp.dcf"
+mandatory = true
+[slave.values]
+"0x100C" = 50
+"0x100D" = 3
+"#,
+    );
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    attach_slaves(&bus, &config, &[]);
+    let report = boot(&net, &config);
+    let s = &report.slaves[0];
+    assert_eq!(s.status, SlaveStatus::Operational, "{s:?}");
+    assert_eq!(s.error_control.as_deref(), Some("guarding 50 ms x 3"));
+}
+
+#[test]
+fn sixteen_slaves_with_the_failures_of_a_real_line() {
+    let mut text = String::from("[master]\nsdo_timeout_ms = 100\nboot_timeout_ms = 200\n");
+    for n in 2..=17u8 {
+        text.push_str(&format!(
+            "[[slave]]\nnode_id = {n}\ndcf = \"valve.dcf\"\nmandatory = {}\n",
+            n != 3 && n != 4
+        ));
+        if n == 3 {
+            text.push_str("[slave.identity]\nvendor_id = 0x40\n");
+        }
+    }
+    let config = parse(&text);
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    for s in &config.slaves {
+        let n = s.node_id.get();
+        // 4 is absent; 5's firmware refuses a write; 6 is configured already (0x1020 matches).
+        let od = match n {
+            4 => continue,
+            5 => {
+                let mut od = factory_dictionary(&s.dictionary);
+                od.sub_mut(0x2002, 0).unwrap().access = AccessType::Ro;
+                od
+            }
+            6 => s.dictionary.clone(),
+            _ => factory_dictionary(&s.dictionary),
+        };
+        bus.attach(SimDevice::new(s.node_id, od));
+    }
+    let report = boot(&net, &config);
+    let by = |n: u8| report.slaves.iter().find(|s| s.node_id == node(n)).unwrap();
+    assert_eq!(by(3).error_code, Some(BootErrorCode::D));
+    assert_eq!(by(3).status, SlaveStatus::Failed);
+    assert_eq!(by(4).status, SlaveStatus::Absent);
+    assert_eq!(by(5).error_code, Some(BootErrorCode::J));
+    assert_eq!(by(5).abort_code, Some(0x0601_0002));
+    // Node 5 is mandatory: no start-all, every booted slave stays pre-operational.
+    assert!(!report.mandatory_ok);
+    assert_eq!(by(6).configuration, ConfigOutcome::Verified);
+    for n in (2..=17).filter(|n| ![3, 4, 5].contains(n)) {
+        assert_eq!(by(n).status, SlaveStatus::PreOperational, "node {n}");
+        assert_eq!(by(n).error_code, None);
+    }
+    // In parallel: the boot took about one slave's time, not sixteen.
+    let longest = report.slaves.iter().map(|s| s.elapsed).max().unwrap();
+    assert!(
+        report.elapsed.as_micros() <= longest.as_micros() + 1_000,
+        "{report:?}"
+    );
+}
