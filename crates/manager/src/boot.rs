@@ -783,7 +783,10 @@ fn verify_stamp(slave: &SlaveConfig) -> Option<(u32, u32)> {
     let get = |sub| {
         let s = slave.dictionary.sub(0x1020, sub)?;
         let v = s.parameter_value()?.resolve(slave.node_id.get())?;
-        u32::try_from(v.as_i128()?).ok()
+        // A UNSIGNED32 from a DCF, or four bytes from a concise DCF.
+        <[u8; 4]>::try_from(v.to_le_bytes().as_slice())
+            .ok()
+            .map(u32::from_le_bytes)
     };
     let stamp = (get(1)?, get(2)?);
     (stamp != (0, 0)).then_some(stamp)

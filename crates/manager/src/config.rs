@@ -151,6 +151,7 @@ struct RawMaster {
     boot_timeout_ms: Option<u32>,
     sdo_timeout_ms: Option<Spanned<u32>>,
     start: Option<StartPolicy>,
+    dcf: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -354,11 +355,45 @@ impl NetworkConfig {
                 error_control: s.error_control,
             });
         }
-        Ok(Self {
+        let mut config = Self {
             path: path.to_owned(),
             master,
             slaves,
-        })
+        };
+        if let Some(file) = m.as_ref().and_then(|m| m.dcf.clone()) {
+            let source = base.join(file.get_ref());
+            let fail = |message: String| err(Some(file.span()), Some("master.dcf".into()), message);
+            let bytes =
+                std::fs::read(&source).map_err(|e| fail(format!("{}: {e}", source.display())))?;
+            let od = canopen::od::parse(&bytes)
+                .map_err(|e| fail(format!("{}: {e}", source.display())))?
+                .od;
+            let objects = crate::master_dcf::MasterObjects::from_dictionary(&od);
+            let start_given = m.as_ref().is_some_and(|m| m.start.is_some());
+            let start = config.master.start;
+            for node in crate::master_dcf::apply(&objects, &mut config) {
+                let o = &objects.slaves[&node.get()];
+                let Some(concise) = &o.concise_dcf else {
+                    return Err(fail(format!(
+                        "0x1F81 assigns node {node}, which has neither a [[slave]] entry nor a concise DCF in 0x1F22"
+                    )));
+                };
+                let dictionary = crate::master_dcf::dictionary_from_concise(concise)
+                    .map_err(|e| fail(format!("0x1F22 sub {node}: {e}")))?;
+                config.slaves.push(SlaveConfig {
+                    node_id: node,
+                    dictionary,
+                    source: source.clone(),
+                    mandatory: o.mandatory(),
+                    identity: o.identity,
+                    error_control: ErrorControl::Auto,
+                });
+            }
+            if start_given {
+                config.master.start = start;
+            }
+        }
+        Ok(config)
     }
 
     /// The slave with node-ID `node`.

@@ -22,6 +22,7 @@ pub mod boot;
 pub mod codes;
 pub mod config;
 pub mod json;
+pub mod master_dcf;
 pub mod simulate;
 
 pub use audit::{AuditOptions, AuditReport, audit};

@@ -318,3 +318,45 @@ fn sixteen_slaves_with_the_failures_of_a_real_line() {
         "{report:?}"
     );
 }
+
+#[test]
+fn boot_from_a_master_dcf_with_concise_dcfs() {
+    // The master DCF of three.toml, then a description that lists only node 5 and takes the
+    // rest (6 and 7 with their concise DCFs, identity, mandatory flags, start policy) from it.
+    let full = load("three.toml");
+    let dir = std::env::temp_dir().join(format!("canopen-manager-master-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("master.dcf"),
+        canopen_manager::master_dcf::MasterObjects::write_master_dcf(&full),
+    )
+    .unwrap();
+    let text = format!(
+        "[master]\ndcf = \"master.dcf\"\nsdo_timeout_ms = 100\n[[slave]]\nnode_id = 5\ndcf = \"{}\"\n",
+        data("valve.dcf").display()
+    );
+    std::fs::write(dir.join("bus.toml"), text).unwrap();
+    let config = NetworkConfig::load(dir.join("bus.toml")).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(config.slaves.len(), 3);
+    assert!(
+        config.slaves[0].mandatory,
+        "0x1F81 says node 5 is mandatory"
+    );
+    assert_eq!(config.slaves[0].identity.product_code, Some(0x1234));
+    assert_eq!(config.slaves[1].node_id, node(6));
+    assert!(config.slaves[1].mandatory);
+    assert!(!config.slaves[2].mandatory);
+
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    // The devices are the real ones (from their full DCFs), fresh from the factory.
+    attach_slaves(&bus, &full, &[]);
+    let report = boot(&net, &config);
+    for s in &report.slaves {
+        assert_eq!(s.status, SlaveStatus::Operational, "{s:?}");
+    }
+    assert_eq!(u32_at(&net, 6, 0x2001, 0), 0x1006);
+    assert_eq!(u32_at(&net, 7, 0x2000, 0), 321);
+    assert!(audit(&net, &config, AuditOptions::default()).is_clean());
+}
