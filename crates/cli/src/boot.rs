@@ -25,6 +25,10 @@ pub(crate) struct BootArgs {
     /// Print every step of every slave as it happens (text output only).
     #[arg(long)]
     verbose: bool,
+    /// Instead of booting, write the description as a CiA 302 master DCF (0x1F80, 0x1F81,
+    /// 0x1F84..0x1F89, 0x1F22 concise DCFs) to this file.
+    #[arg(long, value_name = "FILE")]
+    write_master_dcf: Option<PathBuf>,
 }
 
 /// `canopen audit`.
@@ -99,6 +103,17 @@ fn slave_line(s: &SlaveReport) -> String {
 
 /// Runs `canopen boot`. Fails (exit 1) when a mandatory slave did not boot.
 pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCode {
+    if let Some(out) = &args.write_master_dcf {
+        let config = match NetworkConfig::load(&args.file) {
+            Ok(c) => c,
+            Err(e) => return bus::fail(e),
+        };
+        let text = canopen_manager::master_dcf::MasterObjects::write_master_dcf(&config);
+        return match std::fs::write(out, text) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => bus::fail(format!("{}: {e}", out.display())),
+        };
+    }
     let (config, net, _memory) = match open(opts, &args.file, &args.absent) {
         Ok(x) => x,
         Err(e) => return bus::fail(e),

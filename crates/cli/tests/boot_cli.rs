@@ -92,3 +92,41 @@ fn audit_is_clean_after_boot() {
         stdout(&o)
     );
 }
+
+#[test]
+fn master_dcf_written_and_booted_from() {
+    let dir = std::env::temp_dir().join(format!("canopen-boot-cli-master-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let master = dir.join("master.dcf");
+    let o = canopen(&[
+        "boot",
+        &three(),
+        "--write-master-dcf",
+        master.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = canopen(&["eds", "check", master.to_str().unwrap()]);
+    assert!(
+        o.status.success(),
+        "{}{}",
+        stdout(&o),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // Only slave 5 listed: 6 and 7 come from 0x1F81/0x1F22 (simulated from the concise DCFs,
+    // which carry no 0x1000, so those two fail the device-present check).
+    let bus = dir.join("bus.toml");
+    std::fs::write(
+        &bus,
+        format!("[master]\ndcf = \"master.dcf\"\nsdo_timeout_ms = 50\nboot_timeout_ms = 50\n[[slave]]\nnode_id = 5\ndcf = \"{DATA}/valve.dcf\"\n"),
+    )
+    .unwrap();
+    let o = canopen(&["boot", bus.to_str().unwrap(), "--json"]);
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let slaves = j["slaves"].as_array().unwrap();
+    assert_eq!(slaves.len(), 3);
+    assert_eq!(slaves[0]["status"], "pre-operational");
+    assert_eq!(slaves[1]["node_id"], 6);
+    assert_eq!(slaves[1]["mandatory"], true);
+    assert_eq!(slaves[1]["error_code"], "B");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
