@@ -669,6 +669,9 @@ impl<'a> SlaveBoot<'a> {
         let guard_ms = guard_ms & 0xFFFF;
         let factor = (factor & 0xFF) as u8;
         seen.retain(|&n| n != node);
+        if self.slave.error_control == ErrorControl::None {
+            return self.error_control_done(on_event);
+        }
         if hb_ms > 0 {
             let consumer_ms =
                 u64::from(hb_ms) * u64::from(self.config.master.heartbeat_consumer_percent) / 100;

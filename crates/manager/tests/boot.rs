@@ -360,3 +360,31 @@ fn boot_from_a_master_dcf_with_concise_dcfs() {
     assert_eq!(u32_at(&net, 7, 0x2000, 0), 321);
     assert!(audit(&net, &config, AuditOptions::default()).is_clean());
 }
+
+#[test]
+fn error_control_none_and_asked_for_but_off() {
+    let config = parse(
+        r#"
+[master]
+sdo_timeout_ms = 100
+start = "individually"
+[[slave]]
+node_id = 9
+eds = "valve-nostamp.dcf"
+error_control = "none"
+[[slave]]
+node_id = 10
+eds = "valve-nostamp.dcf"
+error_control = "heartbeat"
+"#,
+    );
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    attach_slaves(&bus, &config, &[]);
+    let report = boot(&net, &config);
+    assert_eq!(report.slaves[0].status, SlaveStatus::Operational);
+    assert_eq!(report.slaves[0].error_control, None);
+    // Heartbeat asked for, but the slave's 0x1017 is 0: no heartbeat can come (error K).
+    assert_eq!(report.slaves[1].error_code, Some(BootErrorCode::K));
+    assert_eq!(report.slaves[1].object.unwrap().to_string(), "0x1017:00");
+}
