@@ -1,8 +1,8 @@
 //! CANopen network manager (CiA 302-2): boots a whole network from its description
 //! (`bus.toml`, [`config`]) — every slave in parallel through device present, identity,
-//! configuration, error control and NMT start ([`boot`]) — reports per slave what failed with its
+//! configuration, error control and NMT start ([`mod@boot`]) — reports per slave what failed with its
 //! CiA 302-2 boot error code ([`codes`]), and audits the live configuration of every device
-//! against its DCF ([`audit`]). [`simulate`] puts the described slaves on an in-memory bus.
+//! against its DCF ([`mod@audit`]). [`simulate`] puts the described slaves on an in-memory bus.
 //!
 //! ```
 //! use canopen::{MemoryBus, Network};

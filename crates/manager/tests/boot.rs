@@ -388,3 +388,32 @@ error_control = "heartbeat"
     assert_eq!(report.slaves[1].error_code, Some(BootErrorCode::K));
     assert_eq!(report.slaves[1].object.unwrap().to_string(), "0x1017:00");
 }
+
+#[test]
+fn boots_on_a_real_clock_too() {
+    // The host's clock, as on SocketCAN: the boot loop drives the bus in real time. Generous
+    // timeouts: a loaded machine must not make a present slave look absent.
+    let mut config = load("three.toml");
+    config.master.sdo_timeout = canopen::Duration::from_millis(1000);
+    config.master.boot_timeout = canopen::Duration::from_millis(1000);
+    config.master.heartbeat_consumer_percent = 500;
+    let bus = MemoryBus::with_config(canopen::BusConfig {
+        clock: canopen::ClockMode::RealTime,
+        bitrate: Some(1_000_000),
+        ..canopen::BusConfig::default()
+    });
+    let net = Network::new(bus.endpoint());
+    attach_slaves(&bus, &config, &[node(7)]);
+    let report = boot(&net, &config);
+    assert_eq!(
+        report.slaves[0].status,
+        SlaveStatus::Operational,
+        "{report:?}"
+    );
+    assert_eq!(
+        report.slaves[1].status,
+        SlaveStatus::Operational,
+        "{report:?}"
+    );
+    assert_eq!(report.slaves[2].status, SlaveStatus::Absent, "{report:?}");
+}
