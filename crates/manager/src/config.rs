@@ -120,6 +120,9 @@ pub struct SlaveConfig {
     pub identity: IdentityCheck,
     /// How its error control runs.
     pub error_control: ErrorControl,
+    /// Whether the manager resets it (NMT reset communication) when its error control reports
+    /// it lost, so it boots again ([`crate::supervise`]).
+    pub restart_on_loss: bool,
 }
 
 /// A parsed network description.
@@ -168,6 +171,8 @@ struct RawSlave {
     identity: IdentityCheck,
     #[serde(default)]
     error_control: ErrorControl,
+    #[serde(default)]
+    restart_on_loss: bool,
 }
 
 /// The 1-based line of byte offset `at` in `text`.
@@ -353,6 +358,7 @@ impl NetworkConfig {
                 mandatory: s.mandatory,
                 identity: s.identity,
                 error_control: s.error_control,
+                restart_on_loss: s.restart_on_loss,
             });
         }
         let mut config = Self {
@@ -387,6 +393,7 @@ impl NetworkConfig {
                     mandatory: o.mandatory(),
                     identity: o.identity,
                     error_control: ErrorControl::Auto,
+                    restart_on_loss: false,
                 });
             }
             if start_given {

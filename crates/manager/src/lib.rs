@@ -2,7 +2,7 @@
 //! (`bus.toml`, [`config`]) — every slave in parallel through device present, identity,
 //! configuration, error control and NMT start ([`mod@boot`]) — reports per slave what failed with its
 //! CiA 302-2 boot error code ([`codes`]), and audits the live configuration of every device
-//! against its DCF ([`mod@audit`]). [`simulate`] puts the described slaves on an in-memory bus.
+//! against its DCF ([`mod@audit`]); [`mod@supervise`] boots slaves again that appear late or reset. [`simulate`] puts the described slaves on an in-memory bus.
 //!
 //! ```
 //! use canopen::{MemoryBus, Network};
@@ -24,8 +24,10 @@ pub mod config;
 pub mod json;
 pub mod master_dcf;
 pub mod simulate;
+pub mod supervise;
 
 pub use audit::{AuditOptions, AuditReport, audit};
 pub use boot::{BootEvent, BootReport, BootStep, SlaveReport, SlaveStatus, boot, boot_with};
 pub use codes::BootErrorCode;
 pub use config::{ConfigError, NetworkConfig, StartPolicy};
+pub use supervise::{SuperviseEvent, supervise};

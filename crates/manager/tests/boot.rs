@@ -417,3 +417,61 @@ fn boots_on_a_real_clock_too() {
     );
     assert_eq!(report.slaves[2].status, SlaveStatus::Absent, "{report:?}");
 }
+
+#[test]
+fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
+    use canopen::transport::{Received, Transport};
+    use canopen_manager::{SuperviseEvent, supervise};
+    let mut config = load("three.toml");
+    config.slaves[1].restart_on_loss = true;
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let mut tap = bus.endpoint();
+    let stations = attach_slaves(&bus, &config, &[node(7)]);
+    let mut report = boot(&net, &config);
+    assert_eq!(report.slaves[2].status, SlaveStatus::Absent);
+
+    // Node 7 is switched on late; node 6 drops off the bus.
+    bus.attach(SimDevice::new(
+        node(7),
+        factory_dictionary(&config.slaves[2].dictionary),
+    ));
+    bus.detach(stations[1].1).unwrap();
+    let mut seen = Vec::new();
+    let until = net.now() + canopen::Duration::from_millis(400);
+    supervise(&net, &config, &mut report, until, |e| seen.push(e.clone()));
+    assert!(
+        seen.contains(&SuperviseEvent::Rebooting(node(7))),
+        "{seen:?}"
+    );
+    assert_eq!(
+        report.slaves[2].status,
+        SlaveStatus::Operational,
+        "{report:?}"
+    );
+    assert_eq!(u32_at(&net, 7, 0x2000, 0), 321);
+    assert!(seen.contains(&SuperviseEvent::Reset(node(6))), "{seen:?}");
+    assert_eq!(report.slaves[1].status, SlaveStatus::Absent);
+    // The reset went over the bus: NMT reset communication (0x82) to node 6.
+    let mut reset = false;
+    while let Ok(Some(r)) = tap.recv_until(bus.now()) {
+        if let Received::Frame { frame, .. } = r {
+            reset |= frame.id().as_raw() == 0 && frame.data() == [0x82, 6];
+        }
+    }
+    assert!(reset);
+
+    // Node 6 comes back (its boot-up after the reset): booted again.
+    bus.attach(SimDevice::new(
+        node(6),
+        factory_dictionary(&config.slaves[1].dictionary),
+    ));
+    let until = net.now() + canopen::Duration::from_millis(400);
+    supervise(&net, &config, &mut report, until, |_| {});
+    assert_eq!(
+        report.slaves[1].status,
+        SlaveStatus::Operational,
+        "{report:?}"
+    );
+    assert_eq!(u32_at(&net, 6, 0x2001, 0), 0x1006);
+}
