@@ -8,7 +8,9 @@ use std::process::ExitCode;
 
 use canopen::NodeId;
 use canopen_manager::boot::ConfigOutcome;
-use canopen_manager::{AuditOptions, BootEvent, NetworkConfig, SlaveReport, SlaveStatus, json};
+use canopen_manager::{
+    AuditOptions, BootEvent, NetworkConfig, SlaveReport, SlaveStatus, SuperviseEvent, json,
+};
 use clap::Args;
 
 use crate::bus::{self, BusOpts};
@@ -29,6 +31,11 @@ pub(crate) struct BootArgs {
     /// 0x1F84..0x1F89, 0x1F22 concise DCFs) to this file.
     #[arg(long, value_name = "FILE")]
     write_master_dcf: Option<PathBuf>,
+    /// After the boot, supervise the network this many seconds: boot slaves that send boot-up
+    /// (late or reset ones), reset lost slaves marked `restart_on_loss`. The report printed is
+    /// the one at the end.
+    #[arg(long, value_name = "SECONDS", value_parser = bus::parse_seconds)]
+    supervise: Option<f64>,
 }
 
 /// `canopen audit`.
@@ -141,6 +148,26 @@ pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCo
             }
         }
     });
+    let mut report = report;
+    if let Some(secs) = args.supervise {
+        let until = net.now() + bus::seconds(secs);
+        let quiet = global.json;
+        canopen_manager::supervise(&net, &config, &mut report, until, |ev| {
+            if quiet {
+                return;
+            }
+            match ev {
+                SuperviseEvent::Rebooting(n) => {
+                    outln(&format!("node {n}: boot-up, booting it again"))
+                }
+                SuperviseEvent::Reset(n) => {
+                    outln(&format!("node {n}: lost, NMT reset communication"))
+                }
+                SuperviseEvent::Lost(n) => outln(&format!("node {n}: lost")),
+                SuperviseEvent::Boot(_) => {}
+            }
+        });
+    }
     if global.json {
         outln(&json::boot_json(&report).to_string());
     } else {

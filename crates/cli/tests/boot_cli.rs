@@ -130,3 +130,13 @@ fn master_dcf_written_and_booted_from() {
     assert_eq!(slaves[1]["error_code"], "B");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn supervise_keeps_the_network_and_reports_at_the_end() {
+    let o = canopen(&["boot", &three(), "--supervise", "0.3", "--json"]);
+    assert!(o.status.success());
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    for s in j["slaves"].as_array().unwrap() {
+        assert_eq!(s["status"], "operational", "{s}");
+    }
+}
