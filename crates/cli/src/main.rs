@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod boot;
 mod burkert;
 mod bus;
 mod cpos;
@@ -99,6 +100,10 @@ enum Command {
     Burkert(burkert::BurkertArgs),
     /// CiA 309-3 ASCII gateway over TCP, Unix sockets and stdio.
     Gateway(gateway::GatewayArgs),
+    /// Boot a network from its description (bus.toml) the CiA 302-2 way.
+    Boot(boot::BootArgs),
+    /// Compare every device's configuration with its DCF (bus.toml).
+    Audit(boot::AuditArgs),
 }
 
 /// Options every command group may read.
@@ -153,5 +158,7 @@ fn main() -> ExitCode {
         Command::Cpos(args) => cpos::run(args, cli.bus.iface.as_deref(), global),
         Command::Burkert(args) => burkert::run(args, &cli.bus, global),
         Command::Gateway(args) => gateway::run(args, &cli.bus),
+        Command::Boot(args) => boot::run_boot(args, &cli.bus, global),
+        Command::Audit(args) => boot::run_audit(args, &cli.bus, global),
     }
 }

@@ -1,0 +1,517 @@
+//! The network description, `bus.toml`: the master's settings (`[master]`) and one `[[slave]]`
+//! table per device with its DCF (or an EDS plus `[slave.values]`), whether it is mandatory, the
+//! identity it must have and how its error control runs. The CiA 302 master objects these
+//! settings stand for: 0x1F80 (start policy), 0x1F81 (slave assignment: mandatory), 0x1F84..0x1F88
+//! (expected device type, vendor-ID, product code, revision, serial number).
+//!
+//! Paths are relative to the file. Every error names the file, the line and the key.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use canopen::od::{AccessType, FieldValue, ObjectDictionary};
+use canopen::{Duration, NodeId};
+use serde::Deserialize;
+use toml::Spanned;
+
+/// An error in the network description: where (file, line, key) and what.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConfigError {
+    /// The description file.
+    pub path: PathBuf,
+    /// The 1-based line, when the error has a place in the file.
+    pub line: Option<usize>,
+    /// The key the error is about (`slave[2].dcf`), when known.
+    pub key: Option<String>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl core::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{}", self.path.display())?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+        }
+        if let Some(key) = &self.key {
+            write!(f, ": {key}")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+/// When the master sends NMT start (CiA 302 object 0x1F80).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StartPolicy {
+    /// Start every slave together once every mandatory slave has booted (0x1F80 bit 1); no
+    /// slave is started when a mandatory one failed.
+    All,
+    /// Start each slave as soon as its own boot finished.
+    Individually,
+    /// Leave every slave pre-operational (the application starts them).
+    None,
+}
+
+/// How the master watches a slave after its boot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ErrorControl {
+    /// Heartbeat when the slave's 0x1017 is non-zero, else node guarding when its 0x100C is,
+    /// else none.
+    #[default]
+    Auto,
+    /// Heartbeat consumer from the slave's producer time 0x1017.
+    Heartbeat,
+    /// Node guarding with the slave's 0x100C guard time and 0x100D life time factor.
+    Guarding,
+    /// No error control.
+    None,
+}
+
+/// The master's settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MasterConfig {
+    /// The master's own node-ID.
+    pub node_id: NodeId,
+    /// SYNC period (0x1006), started before the slaves are; `None`: no SYNC.
+    pub sync_period: Option<Duration>,
+    /// Heartbeat consumer time as a multiple of the slave's producer time, in percent.
+    pub heartbeat_consumer_percent: u32,
+    /// How long a slave has to answer its first SDO (device present, 0x1000) — retried until then.
+    pub boot_timeout: Duration,
+    /// The response timeout of each SDO request of the boot.
+    pub sdo_timeout: Duration,
+    /// When slaves are started.
+    pub start: StartPolicy,
+}
+
+/// The identity a slave must have (each `Some` is checked against its 0x1000 / 0x1018).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdentityCheck {
+    /// Expected device type 0x1000 (CiA 302 0x1F84).
+    pub device_type: Option<u32>,
+    /// Expected vendor-ID 0x1018:01 (0x1F85).
+    pub vendor_id: Option<u32>,
+    /// Expected product code 0x1018:02 (0x1F86).
+    pub product_code: Option<u32>,
+    /// Expected revision number 0x1018:03 (0x1F87).
+    pub revision: Option<u32>,
+    /// Expected serial number 0x1018:04 (0x1F88).
+    pub serial: Option<u32>,
+}
+
+/// One slave of the network.
+#[derive(Debug, Clone)]
+pub struct SlaveConfig {
+    /// Its node-ID.
+    pub node_id: NodeId,
+    /// Its dictionary: the DCF, or the EDS with `[slave.values]` as parameter values. The
+    /// configuration written at boot is every writable entry with a `ParameterValue`.
+    pub dictionary: ObjectDictionary,
+    /// The DCF or EDS file it came from.
+    pub source: PathBuf,
+    /// Whether the network cannot run without it (0x1F81 bit 3).
+    pub mandatory: bool,
+    /// The identity checks.
+    pub identity: IdentityCheck,
+    /// How its error control runs.
+    pub error_control: ErrorControl,
+    /// Whether the manager resets it (NMT reset communication) when its error control reports
+    /// it lost, so it boots again ([`crate::supervise`]).
+    pub restart_on_loss: bool,
+}
+
+/// A parsed network description.
+#[derive(Debug, Clone)]
+pub struct NetworkConfig {
+    /// The file it was read from.
+    pub path: PathBuf,
+    /// The master's settings.
+    pub master: MasterConfig,
+    /// The slaves in file order.
+    pub slaves: Vec<SlaveConfig>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    #[serde(default)]
+    master: Option<RawMaster>,
+    #[serde(default)]
+    slave: Vec<RawSlave>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaster {
+    node_id: Option<Spanned<u8>>,
+    sync_period_ms: Option<u32>,
+    heartbeat_consumer_percent: Option<Spanned<u32>>,
+    boot_timeout_ms: Option<u32>,
+    sdo_timeout_ms: Option<Spanned<u32>>,
+    start: Option<StartPolicy>,
+    dcf: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSlave {
+    node_id: Spanned<u8>,
+    dcf: Option<Spanned<String>>,
+    eds: Option<Spanned<String>>,
+    #[serde(default)]
+    values: BTreeMap<Spanned<String>, Spanned<toml::Value>>,
+    #[serde(default)]
+    mandatory: bool,
+    #[serde(default)]
+    identity: IdentityCheck,
+    #[serde(default)]
+    error_control: ErrorControl,
+    #[serde(default)]
+    restart_on_loss: bool,
+}
+
+/// The 1-based line of byte offset `at` in `text`.
+fn line_of(text: &str, at: usize) -> usize {
+    text.as_bytes()[..at.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// The key written on a line (`node_id = 5` → `node_id`), for errors the parser reports by place.
+fn key_on_line(text: &str, line: usize) -> Option<String> {
+    let l = text.lines().nth(line.checked_sub(1)?)?;
+    let (key, _) = l.split_once('=')?;
+    let key = key.trim();
+    (!key.is_empty() && !key.starts_with('#')).then(|| key.to_owned())
+}
+
+impl NetworkConfig {
+    /// Reads and checks a description file, and the DCF/EDS files it names.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, ConfigError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
+            path: path.to_owned(),
+            line: None,
+            key: None,
+            message: e.to_string(),
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses description `text` as if read from `path` (relative paths resolve against its
+    /// folder).
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        let err = |span: Option<core::ops::Range<usize>>, key: Option<String>, message: String| {
+            ConfigError {
+                path: path.to_owned(),
+                line: span.map(|s| line_of(text, s.start)),
+                key,
+                message,
+            }
+        };
+        let raw: RawFile = toml::from_str(text).map_err(|e| {
+            let line = e.span().map(|s| line_of(text, s.start));
+            ConfigError {
+                path: path.to_owned(),
+                line,
+                key: line.and_then(|l| key_on_line(text, l)),
+                message: e.message().to_owned(),
+            }
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+
+        let m = raw.master;
+        let master = {
+            let node = m.as_ref().and_then(|m| m.node_id.clone());
+            let node_id = match node {
+                Some(n) => NodeId::new(*n.get_ref()).map_err(|e| {
+                    err(Some(n.span()), Some("master.node_id".into()), e.to_string())
+                })?,
+                None => NodeId::new(1).expect("1 is a node-ID"),
+            };
+            let pct = m
+                .as_ref()
+                .and_then(|m| m.heartbeat_consumer_percent.clone());
+            let heartbeat_consumer_percent = match pct {
+                Some(p) if *p.get_ref() < 100 => {
+                    return Err(err(
+                        Some(p.span()),
+                        Some("master.heartbeat_consumer_percent".into()),
+                        "must be at least 100 (the consumer waits longer than the producer's period)"
+                            .into(),
+                    ));
+                }
+                Some(p) => p.into_inner(),
+                None => 150,
+            };
+            let sdo = m.as_ref().and_then(|m| m.sdo_timeout_ms.clone());
+            let sdo_timeout = match sdo {
+                Some(t) if *t.get_ref() == 0 => {
+                    return Err(err(
+                        Some(t.span()),
+                        Some("master.sdo_timeout_ms".into()),
+                        "must be more than 0".into(),
+                    ));
+                }
+                Some(t) => Duration::from_millis(u64::from(t.into_inner())),
+                None => Duration::from_millis(500),
+            };
+            MasterConfig {
+                node_id,
+                sync_period: m
+                    .as_ref()
+                    .and_then(|m| m.sync_period_ms)
+                    .filter(|&p| p > 0)
+                    .map(|p| Duration::from_millis(u64::from(p))),
+                heartbeat_consumer_percent,
+                boot_timeout: Duration::from_millis(u64::from(
+                    m.as_ref().and_then(|m| m.boot_timeout_ms).unwrap_or(2000),
+                )),
+                sdo_timeout,
+                start: m.as_ref().and_then(|m| m.start).unwrap_or(StartPolicy::All),
+            }
+        };
+
+        let mut slaves: Vec<SlaveConfig> = Vec::new();
+        for (i, s) in raw.slave.into_iter().enumerate() {
+            let key = |k: &str| Some(format!("slave[{}].{k}", i + 1));
+            let node_id = NodeId::new(*s.node_id.get_ref())
+                .map_err(|e| err(Some(s.node_id.span()), key("node_id"), e.to_string()))?;
+            if node_id == master.node_id {
+                return Err(err(
+                    Some(s.node_id.span()),
+                    key("node_id"),
+                    format!("node {node_id} is the master's own node-ID"),
+                ));
+            }
+            if let Some(other) = slaves.iter().position(|o| o.node_id == node_id) {
+                return Err(err(
+                    Some(s.node_id.span()),
+                    key("node_id"),
+                    format!("node {node_id} is already slave[{}]", other + 1),
+                ));
+            }
+            let (file, is_dcf) = match (&s.dcf, &s.eds) {
+                (Some(d), None) => (d, true),
+                (None, Some(e)) => (e, false),
+                (Some(d), Some(_)) => {
+                    return Err(err(
+                        Some(d.span()),
+                        key("dcf"),
+                        "give either dcf or eds, not both".into(),
+                    ));
+                }
+                (None, None) => {
+                    return Err(err(
+                        Some(s.node_id.span()),
+                        key("dcf"),
+                        "missing: every slave needs a dcf (or an eds)".into(),
+                    ));
+                }
+            };
+            let file_key = if is_dcf { "dcf" } else { "eds" };
+            let source = base.join(file.get_ref());
+            let bytes = std::fs::read(&source).map_err(|e| {
+                err(
+                    Some(file.span()),
+                    key(file_key),
+                    format!("{}: {e}", source.display()),
+                )
+            })?;
+            let mut dictionary = canopen::od::parse(&bytes)
+                .map_err(|e| {
+                    err(
+                        Some(file.span()),
+                        key(file_key),
+                        format!("{}: {e}", source.display()),
+                    )
+                })?
+                .od;
+            if is_dcf && !s.values.is_empty() {
+                let (k, _) = s.values.iter().next().expect("not empty");
+                return Err(err(
+                    Some(k.span()),
+                    key("values"),
+                    "values go with an eds; a dcf carries its own".into(),
+                ));
+            }
+            for (k, v) in &s.values {
+                set_value(&mut dictionary, k.get_ref(), v.get_ref()).map_err(|m| {
+                    err(
+                        Some(k.span()),
+                        Some(format!("slave[{}].values.\"{}\"", i + 1, k.get_ref())),
+                        m,
+                    )
+                })?;
+            }
+            slaves.push(SlaveConfig {
+                node_id,
+                dictionary,
+                source,
+                mandatory: s.mandatory,
+                identity: s.identity,
+                error_control: s.error_control,
+                restart_on_loss: s.restart_on_loss,
+            });
+        }
+        let mut config = Self {
+            path: path.to_owned(),
+            master,
+            slaves,
+        };
+        if let Some(file) = m.as_ref().and_then(|m| m.dcf.clone()) {
+            let source = base.join(file.get_ref());
+            let fail = |message: String| err(Some(file.span()), Some("master.dcf".into()), message);
+            let bytes =
+                std::fs::read(&source).map_err(|e| fail(format!("{}: {e}", source.display())))?;
+            let od = canopen::od::parse(&bytes)
+                .map_err(|e| fail(format!("{}: {e}", source.display())))?
+                .od;
+            let objects = crate::master_dcf::MasterObjects::from_dictionary(&od);
+            let start_given = m.as_ref().is_some_and(|m| m.start.is_some());
+            let start = config.master.start;
+            for node in crate::master_dcf::apply(&objects, &mut config) {
+                let o = &objects.slaves[&node.get()];
+                let Some(concise) = &o.concise_dcf else {
+                    return Err(fail(format!(
+                        "0x1F81 assigns node {node}, which has neither a [[slave]] entry nor a concise DCF in 0x1F22"
+                    )));
+                };
+                let dictionary = crate::master_dcf::dictionary_from_concise(concise)
+                    .map_err(|e| fail(format!("0x1F22 sub {node}: {e}")))?;
+                config.slaves.push(SlaveConfig {
+                    node_id: node,
+                    dictionary,
+                    source: source.clone(),
+                    mandatory: o.mandatory(),
+                    identity: o.identity,
+                    error_control: ErrorControl::Auto,
+                    restart_on_loss: false,
+                });
+            }
+            if start_given {
+                config.master.start = start;
+            }
+        }
+        Ok(config)
+    }
+
+    /// The slave with node-ID `node`.
+    pub fn slave(&self, node: NodeId) -> Option<&SlaveConfig> {
+        self.slaves.iter().find(|s| s.node_id == node)
+    }
+}
+
+/// `0x2000:01` (or `0x2000`, sub-index 0) = value: set as the entry's parameter value.
+fn set_value(od: &mut ObjectDictionary, key: &str, value: &toml::Value) -> Result<(), String> {
+    let full = if key.contains(':') {
+        key.to_owned()
+    } else {
+        format!("{key}:00")
+    };
+    let addr: canopen::ObjectAddress = full
+        .parse()
+        .map_err(|e| format!("`{key}` is not an object address (0xIIII:SS): {e}"))?;
+    let sub = od
+        .sub_mut(addr.index, addr.sub_index)
+        .ok_or_else(|| format!("the EDS has no object {addr}"))?;
+    if matches!(sub.access, AccessType::Ro | AccessType::Const) {
+        return Err(format!("object {addr} is read-only"));
+    }
+    let text = match value {
+        toml::Value::Integer(n) => n.to_string(),
+        toml::Value::Float(x) => x.to_string(),
+        toml::Value::Boolean(b) => u8::from(*b).to_string(),
+        toml::Value::String(s) => s.clone(),
+        other => return Err(format!("a {} is no object value", other.type_str())),
+    };
+    let (field, result) = FieldValue::from_text(sub.data_type, &text);
+    result.map_err(|e| format!("`{text}` for a {:?}: {e}", sub.data_type))?;
+    sub.extras_mut().parameter_value = Some(field);
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bus.toml")
+    }
+
+    fn error(text: &str) -> ConfigError {
+        NetworkConfig::parse(text, &data()).expect_err("an error")
+    }
+
+    #[test]
+    fn defaults_and_paths_relative_to_the_file() {
+        let c =
+            NetworkConfig::parse("[[slave]]\nnode_id = 5\ndcf = \"valve.dcf\"\n", &data()).unwrap();
+        assert_eq!(c.master.node_id.get(), 1);
+        assert_eq!(c.master.start, StartPolicy::All);
+        assert_eq!(c.master.heartbeat_consumer_percent, 150);
+        assert!(!c.slaves[0].mandatory);
+        assert!(c.slaves[0].source.ends_with("tests/data/valve.dcf"));
+        assert_eq!(c.slaves[0].error_control, ErrorControl::Auto);
+    }
+
+    #[test]
+    fn errors_name_line_and_key() {
+        let e = error("[master]\nnode_id = 1\n[[slave]]\nnode_id = 0\ndcf = \"valve.dcf\"\n");
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(4), Some("slave[1].node_id"))
+        );
+        let e = error("[[slave]]\nnode_id = 5\ndcf = \"missing.dcf\"\n");
+        assert_eq!((e.line, e.key.as_deref()), (Some(3), Some("slave[1].dcf")));
+        assert!(e.message.contains("missing.dcf"), "{e}");
+        let e = error("[[slave]]\nnode_id = 5\n");
+        assert_eq!(e.key.as_deref(), Some("slave[1].dcf"));
+        let e = error("[master]\nstart = \"sometimes\"\n");
+        assert_eq!((e.line, e.key.as_deref()), (Some(2), Some("start")));
+        let e = error("[master]\nnode_id = 1\nspeed = 3\n");
+        assert_eq!(e.line, Some(3));
+        assert!(e.message.contains("speed"), "{e}");
+        let e = error(
+            "[[slave]]\nnode_id = 5\ndcf = \"valve.dcf\"\n[[slave]]\nnode_id = 5\ndcf = \"valve.dcf\"\n",
+        );
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(5), Some("slave[2].node_id"))
+        );
+        let e = error("[[slave]]\nnode_id = 1\ndcf = \"valve.dcf\"\n");
+        assert!(e.message.contains("master"), "{e}");
+        let shown = e.to_string();
+        assert!(shown.contains("bus.toml:2: slave[1].node_id: "), "{shown}");
+    }
+
+    #[test]
+    fn eds_values_are_checked() {
+        let base = "[[slave]]\nnode_id = 5\neds = \"valve-nostamp.dcf\"\n[slave.values]\n";
+        let c =
+            NetworkConfig::parse(&format!("{base}\"0x2001:00\" = \"0x55\"\n"), &data()).unwrap();
+        let v = c.slaves[0]
+            .dictionary
+            .sub(0x2001, 0)
+            .unwrap()
+            .parameter_value()
+            .unwrap();
+        assert_eq!(v.resolve(5).unwrap().as_i128(), Some(0x55));
+        let e = error(&format!("{base}\"0x1018:01\" = 3\n"));
+        assert!(e.message.contains("read-only"), "{e}");
+        assert_eq!(e.line, Some(5));
+        let e = error(&format!("{base}\"0x3000\" = 3\n"));
+        assert!(e.message.contains("no object"), "{e}");
+        let e = error(&format!("{base}\"0x2002\" = 300\n"));
+        assert!(e.key.as_deref().unwrap().contains("0x2002"), "{e}");
+        let e = error(&format!("{base}\"nonsense\" = 3\n"));
+        assert!(e.message.contains("object address"), "{e}");
+    }
+}
