@@ -110,6 +110,12 @@ pub enum NetworkEvent {
     },
     /// A bus event from the transport.
     Bus(BusEvent),
+    /// The transport failed while the background driver drove it; the driver has stopped
+    /// (see [`Network::stop_driver`](crate::Network::stop_driver)).
+    TransportFailed {
+        /// The transport's error.
+        error: String,
+    },
 }
 
 /// Where an upload's bytes go: memory, or a writer (streamed as they arrive).
@@ -345,7 +351,7 @@ impl Core {
         rx
     }
 
-    fn publish(&mut self, ev: NetworkEvent) {
+    pub(crate) fn publish(&mut self, ev: NetworkEvent) {
         self.subscribers.retain(|s| s.send(ev.clone()).is_ok());
     }
 

@@ -121,6 +121,9 @@ pub enum Error {
     /// A local I/O error (file, writer, reader).
     #[error("I/O: {0}")]
     Io(#[from] std::io::Error),
+    /// The background driver ended because the transport failed (the transport's words).
+    #[error("the network's driver stopped: {0}")]
+    Driver(String),
 }
 
 impl Error {
