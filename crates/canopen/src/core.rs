@@ -266,6 +266,9 @@ pub(crate) struct Core {
     emcy: EmcyConsumer,
     sync: Option<SyncProducer>,
     states: BTreeMap<NodeId, NmtState>,
+    /// Boot-up messages received per node: a waiter compares counts, so a boot-up stays seen
+    /// even when a heartbeat follows it in the same step.
+    boots: BTreeMap<NodeId, u64>,
     subscribers: Vec<mpsc::Sender<NetworkEvent>>,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
@@ -291,6 +294,7 @@ impl Core {
             emcy: EmcyConsumer::new(),
             sync: None,
             states: BTreeMap::new(),
+            boots: BTreeMap::new(),
             subscribers: Vec::new(),
             settle: Duration::from_millis(1),
             lss: None,
@@ -357,6 +361,16 @@ impl Core {
 
     pub(crate) fn last_state(&self, node: NodeId) -> Option<NmtState> {
         self.states.get(&node).copied()
+    }
+
+    /// How many boot-up messages `node` has sent since the network started.
+    pub(crate) fn boot_count(&self, node: NodeId) -> u64 {
+        self.boots.get(&node).copied().unwrap_or(0)
+    }
+
+    /// The time of the latest frame or timer the core was given.
+    pub(crate) fn now(&self) -> Instant {
+        self.now
     }
 
     /// Queues an NMT command (COB-ID 0x000).
@@ -663,6 +677,9 @@ impl Core {
                     .map(|b| NmtState::from_u8(b & 0x7F));
                 if let Some(s) = state {
                     self.states.insert(node, s);
+                    if s == NmtState::BootUp {
+                        *self.boots.entry(node).or_default() += 1;
+                    }
                 }
                 let guarded = self.guarding.handle_frame(now, frame).unwrap_or(false);
                 self.drain_guarding();

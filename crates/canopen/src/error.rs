@@ -121,6 +121,9 @@ pub enum Error {
     /// A local I/O error (file, writer, reader).
     #[error("I/O: {0}")]
     Io(#[from] std::io::Error),
+    /// A request the API cannot serve as asked (the message says why).
+    #[error("{0}")]
+    InvalidRequest(String),
     /// The background driver ended because the transport failed (the transport's words).
     #[error("the network's driver stopped: {0}")]
     Driver(String),

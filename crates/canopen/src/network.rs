@@ -604,12 +604,9 @@ impl Node {
         }
     }
 
-    /// NMT commands to this node.
+    /// NMT commands to this node, and its state (see [`Nmt::state`]).
     pub fn nmt(&self) -> Nmt {
-        Nmt {
-            net: self.net.clone(),
-            target: NmtTarget::Node(self.id),
-        }
+        Nmt::new(&self.net, NmtTarget::Node(self.id))
     }
 
     /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
@@ -668,25 +665,115 @@ impl Node {
     }
 }
 
-/// NMT module control (CiA 301 §7.2.8.3.1) for one node or all.
-#[derive(Clone, Debug)]
+/// NMT module control (CiA 301 §7.2.8.3.1) for one node or all, and a node's NMT state as its
+/// heartbeats, boot-up and guarding answers report it.
+///
+/// Boot-ups are counted, not sampled: [`wait_for_bootup`](Self::wait_for_bootup) returns for a
+/// boot-up received since this handle was made or since its last command, even if a heartbeat
+/// with the next state followed at once (or the background driver received both before the
+/// wait began). So `nmt.reset_node()` then `nmt.wait_for_bootup(t)` cannot miss the boot-up.
+#[derive(Debug)]
 pub struct Nmt {
     net: Network,
     target: NmtTarget,
+    /// The node's boot-up count when this handle was made or last sent a command.
+    boots_seen: AtomicU64,
+}
+
+impl Clone for Nmt {
+    fn clone(&self) -> Self {
+        Self {
+            net: self.net.clone(),
+            target: self.target,
+            boots_seen: AtomicU64::new(self.boots_seen.load(Ordering::SeqCst)),
+        }
+    }
 }
 
 impl Nmt {
-    /// NMT commands to all nodes (node-ID 0).
-    pub fn all(net: &Network) -> Self {
+    fn new(net: &Network, target: NmtTarget) -> Self {
+        let boots = match target {
+            NmtTarget::Node(id) => net.core().boot_count(id),
+            _ => 0,
+        };
         Self {
             net: net.clone(),
-            target: NmtTarget::All,
+            target,
+            boots_seen: AtomicU64::new(boots),
         }
     }
 
+    /// NMT commands to all nodes (node-ID 0).
+    pub fn all(net: &Network) -> Self {
+        Self::new(net, NmtTarget::All)
+    }
+
     fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
-        self.net.core().nmt(cmd, self.target);
+        let mut core = self.net.core();
+        if let NmtTarget::Node(id) = self.target {
+            self.boots_seen.store(core.boot_count(id), Ordering::SeqCst);
+        }
+        core.nmt(cmd, self.target);
+        drop(core);
         self.net.flush()
+    }
+
+    fn node(&self) -> Result<NodeId, Error> {
+        match self.target {
+            NmtTarget::Node(id) => Ok(id),
+            _ => Err(Error::InvalidRequest(
+                "node states are per node: use node.nmt(), not Nmt::all".into(),
+            )),
+        }
+    }
+
+    /// The node's last reported NMT state (`None` before anything was heard from it; `BootUp`
+    /// between its boot-up message and its first heartbeat). `None` for [`Nmt::all`].
+    pub fn state(&self) -> Option<NmtState> {
+        match self.target {
+            NmtTarget::Node(id) => self.net.last_state(id),
+            _ => None,
+        }
+    }
+
+    /// Waits (driving the network) for a boot-up of the node received since this handle was
+    /// made or sent its last command. Times out after `timeout` on the network's clock.
+    pub fn wait_for_bootup(&self, timeout: Duration) -> Result<(), Error> {
+        let node = self.node()?;
+        let seen = self.boots_seen.load(Ordering::SeqCst);
+        let deadline = self.net.now() + timeout;
+        let r = self.net.wait_for(|c| {
+            let boots = c.boot_count(node);
+            if boots > seen {
+                Some(Ok(boots))
+            } else if c.now() >= deadline {
+                Some(Err(Error::Timeout(format!(
+                    "no boot-up from node {node} within {timeout}"
+                ))))
+            } else {
+                None
+            }
+        })??;
+        self.boots_seen.store(r, Ordering::SeqCst);
+        Ok(())
+    }
+
+    /// Waits (driving the network) until the node reports `state`; returns at once if it is in
+    /// it already. Times out after `timeout` on the network's clock.
+    pub fn wait_for_state(&self, state: NmtState, timeout: Duration) -> Result<(), Error> {
+        let node = self.node()?;
+        let deadline = self.net.now() + timeout;
+        self.net.wait_for(|c| {
+            if c.last_state(node) == Some(state) {
+                Some(Ok(()))
+            } else if c.now() >= deadline {
+                Some(Err(Error::Timeout(format!(
+                    "node {node} not {state} within {timeout}"
+                ))))
+            } else {
+                None
+            }
+        })?
     }
 
     /// Start remote node (to Operational).
