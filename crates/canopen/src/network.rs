@@ -943,6 +943,16 @@ impl core::fmt::Debug for Sdo {
 }
 
 impl Sdo {
+    /// The node this client talks to.
+    pub fn node_id(&self) -> NodeId {
+        self.node
+    }
+
+    /// The network.
+    pub fn network(&self) -> &Network {
+        &self.net
+    }
+
     /// Talks to the node's SDO server on another channel than its default one (0x600/0x580 +
     /// node-ID): a further server channel (0x1201..=0x127F) or a changed 0x1200. Requests on
     /// one channel run one at a time; different channels run in parallel.
