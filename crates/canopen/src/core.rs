@@ -554,16 +554,21 @@ impl Core {
             if let Some(ev) = c.client.poll_event() {
                 let finished = c.active.take();
                 let result = match ev {
-                    SdoEvent::Uploaded { sink, .. } => Ok(match sink {
-                        UpSink::Mem(data) => Completion {
+                    SdoEvent::Uploaded { sink, .. } => match sink {
+                        UpSink::Mem(data) => Ok(Completion {
                             transferred: data.len() as u64,
                             data,
+                        }),
+                        // A buffered writer may hold the tail still: flush it, and a failing
+                        // flush fails the upload (the bytes did not all arrive).
+                        UpSink::Stream { mut w, written, .. } => match w.flush() {
+                            Ok(()) => Ok(Completion {
+                                data: Vec::new(),
+                                transferred: written,
+                            }),
+                            Err(e) => Err(SdoErrorKind::Io(format!("flushing the output: {e}"))),
                         },
-                        UpSink::Stream { written, .. } => Completion {
-                            data: Vec::new(),
-                            transferred: written,
-                        },
-                    }),
+                    },
                     SdoEvent::Downloaded { source, .. } => Ok(Completion {
                         data: Vec::new(),
                         transferred: source.0.len() as u64,

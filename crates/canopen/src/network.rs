@@ -1104,7 +1104,9 @@ impl Sdo {
         Ok(())
     }
 
-    /// Uploads an object into `writer`, streaming as segments arrive. Returns the byte count.
+    /// Uploads an object into `writer`, streaming as segments arrive, and flushes it at the
+    /// end. Returns the byte count; a write or the final flush failing is an error
+    /// ([`SdoErrorKind::Io`]), so no data is lost silently.
     pub fn upload_to(
         self,
         entry: impl Into<ObjectAddress>,
