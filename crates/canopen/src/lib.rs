@@ -69,3 +69,8 @@ pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
 pub use typed::{ObjectKey, WriteValue};
+
+/// The README's code, compiled and run as doctests (its "Use as a library" program).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+mod readme {}
