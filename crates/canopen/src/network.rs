@@ -523,11 +523,11 @@ fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) 
         };
         let net = Network { inner };
         if net.waiter_drives() {
-            // Out of the way; a waiter's progress (or the timeout) wakes this thread.
+            // Out of the way until the waiters are done. Not counted in `waiting`: waking this
+            // thread at every step of a waiter would cost each request a context switch; the
+            // timeout is soon enough, and `stop_driver` notifies.
             let c = net.core();
-            net.inner.waiting.fetch_add(1, Ordering::SeqCst);
             let _ = relock(net.inner.cond.wait_timeout(c, STEP_ASIDE));
-            net.inner.waiting.fetch_sub(1, Ordering::SeqCst);
             continue;
         }
         let r = {
