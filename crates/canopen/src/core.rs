@@ -258,7 +258,8 @@ pub const CANCEL_ABORT: AbortCode = AbortCode(0x0800_0000);
 pub(crate) struct Core {
     now: Instant,
     nodes: BTreeMap<NodeId, NodeSlot>,
-    requests: HashMap<RequestId, ReqState>,
+    /// By id; ids only grow, so a B-tree (no hashing) stays small and fast.
+    requests: BTreeMap<RequestId, ReqState>,
     next_request: u64,
     tx: VecDeque<CanFrame>,
     heartbeat: HeartbeatConsumer,
@@ -286,7 +287,7 @@ impl Core {
         Self {
             now: Instant::ZERO,
             nodes: BTreeMap::new(),
-            requests: HashMap::new(),
+            requests: BTreeMap::new(),
             next_request: 1,
             tx: VecDeque::new(),
             heartbeat: HeartbeatConsumer::new(),

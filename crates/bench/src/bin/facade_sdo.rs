@@ -12,8 +12,9 @@
 //! * `Network, real clock, driver thread`: the same with `Network::start_driver` running.
 //!
 //! ```text
-//! cargo run --release -p canopen-bench --bin facade_sdo [-- --count 20000]
+//! cargo run --release -p canopen-bench --bin facade_sdo [-- --count 20000] [--only virtual]
 //! ```
+//! `--only virtual` runs the stepping row alone (for a profiler).
 //! Prints wall-clock nanoseconds per read; judges nothing (the machine is shared).
 
 use std::time::Instant as WallClock;
@@ -152,10 +153,16 @@ fn main() {
     let mut count = 20_000u32;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
-        match (a.as_str(), args.next().and_then(|v| v.parse().ok())) {
+        let v = args.next();
+        match (a.as_str(), v.as_deref().and_then(|v| v.parse().ok())) {
             ("--count", Some(n)) if n > 0 => count = n,
+            ("--only", _) if v.as_deref() == Some("virtual") => {
+                let ns = network(count, ClockMode::Virtual, false);
+                println!("Network, virtual clock, stepping: {ns:.0} ns per read");
+                return;
+            }
             _ => {
-                eprintln!("usage: facade_sdo [--count N]");
+                eprintln!("usage: facade_sdo [--count N] [--only virtual]");
                 std::process::exit(2);
             }
         }
