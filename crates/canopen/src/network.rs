@@ -64,6 +64,8 @@ pub(crate) struct Inner {
     last_wait_end: AtomicU64,
     epoch: std::time::Instant,
     driver: Mutex<DriverSlot>,
+    /// Whether a background driver was started (and not stopped).
+    driven: AtomicBool,
 }
 
 /// The background driver of a network, if one was started.
@@ -126,6 +128,7 @@ impl Network {
                 last_wait_end: AtomicU64::new(0),
                 epoch: std::time::Instant::now(),
                 driver: Mutex::new(DriverSlot::default()),
+                driven: AtomicBool::new(false),
             }),
         }
     }
@@ -165,6 +168,7 @@ impl Network {
             thread: Some(thread),
             error: Some(error),
         };
+        self.inner.driven.store(true, Ordering::SeqCst);
         Ok(())
     }
 
@@ -190,6 +194,7 @@ impl Network {
             thread: None,
             error: Some(error),
         };
+        self.inner.driven.store(true, Ordering::SeqCst);
     }
 
     /// Whether a background driver runs (started and not ended by a transport failure).
@@ -205,6 +210,7 @@ impl Network {
     /// calls goes on as before.
     pub fn stop_driver(&self) -> Result<(), Error> {
         let slot = std::mem::take(&mut *relock(self.inner.driver.lock()));
+        self.inner.driven.store(false, Ordering::SeqCst);
         if let Some(stop) = &slot.stop {
             stop.store(true, Ordering::SeqCst);
         }
@@ -477,10 +483,13 @@ impl Network {
     pub(crate) fn wait_for<T>(&self, done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
         self.inner.driving_waiters.fetch_add(1, Ordering::SeqCst);
         let r = self.wait_loop(done);
-        let since = self.inner.epoch.elapsed().as_nanos();
-        self.inner
-            .last_wait_end
-            .store(u64::try_from(since).unwrap_or(u64::MAX), Ordering::SeqCst);
+        // Only a background driver looks at the time (and reading the clock is not free).
+        if self.inner.driven.load(Ordering::Relaxed) {
+            let since = self.inner.epoch.elapsed().as_nanos();
+            self.inner
+                .last_wait_end
+                .store(u64::try_from(since).unwrap_or(u64::MAX), Ordering::SeqCst);
+        }
         self.inner.driving_waiters.fetch_sub(1, Ordering::SeqCst);
         r
     }
