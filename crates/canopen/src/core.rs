@@ -603,8 +603,16 @@ impl Core {
             let Some(next) = c.queue.pop_front() else {
                 return;
             };
-            let Some(ReqState::Queued(req)) = self.requests.remove(&next) else {
+            // Changed in place: a request is looked up once while it starts.
+            let Some(slot) = self.requests.get_mut(&next) else {
                 continue;
+            };
+            let req = match core::mem::replace(slot, ReqState::Done(Ok(Completion::default()))) {
+                ReqState::Queued(req) => req,
+                other => {
+                    *slot = other;
+                    continue;
+                }
             };
             let SdoRequest {
                 entry,
@@ -638,7 +646,7 @@ impl Core {
                     kind: SdoErrorKind::Busy,
                 }))
             };
-            self.requests.insert(next, state);
+            *slot = state;
         }
     }
 
