@@ -110,6 +110,12 @@ pub enum NetworkEvent {
     },
     /// A bus event from the transport.
     Bus(BusEvent),
+    /// The transport failed while the background driver drove it; the driver has stopped
+    /// (see [`Network::stop_driver`](crate::Network::stop_driver)).
+    TransportFailed {
+        /// The transport's error.
+        error: String,
+    },
 }
 
 /// Where an upload's bytes go: memory, or a writer (streamed as they arrive).
@@ -252,7 +258,8 @@ pub const CANCEL_ABORT: AbortCode = AbortCode(0x0800_0000);
 pub(crate) struct Core {
     now: Instant,
     nodes: BTreeMap<NodeId, NodeSlot>,
-    requests: HashMap<RequestId, ReqState>,
+    /// By id; ids only grow, so a B-tree (no hashing) stays small and fast.
+    requests: BTreeMap<RequestId, ReqState>,
     next_request: u64,
     tx: VecDeque<CanFrame>,
     heartbeat: HeartbeatConsumer,
@@ -260,6 +267,9 @@ pub(crate) struct Core {
     emcy: EmcyConsumer,
     sync: Option<SyncProducer>,
     states: BTreeMap<NodeId, NmtState>,
+    /// Boot-up messages received per node: a waiter compares counts, so a boot-up stays seen
+    /// even when a heartbeat follows it in the same step.
+    boots: BTreeMap<NodeId, u64>,
     subscribers: Vec<mpsc::Sender<NetworkEvent>>,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
@@ -277,7 +287,7 @@ impl Core {
         Self {
             now: Instant::ZERO,
             nodes: BTreeMap::new(),
-            requests: HashMap::new(),
+            requests: BTreeMap::new(),
             next_request: 1,
             tx: VecDeque::new(),
             heartbeat: HeartbeatConsumer::new(),
@@ -285,6 +295,7 @@ impl Core {
             emcy: EmcyConsumer::new(),
             sync: None,
             states: BTreeMap::new(),
+            boots: BTreeMap::new(),
             subscribers: Vec::new(),
             settle: Duration::from_millis(1),
             lss: None,
@@ -345,12 +356,22 @@ impl Core {
         rx
     }
 
-    fn publish(&mut self, ev: NetworkEvent) {
+    pub(crate) fn publish(&mut self, ev: NetworkEvent) {
         self.subscribers.retain(|s| s.send(ev.clone()).is_ok());
     }
 
     pub(crate) fn last_state(&self, node: NodeId) -> Option<NmtState> {
         self.states.get(&node).copied()
+    }
+
+    /// How many boot-up messages `node` has sent since the network started.
+    pub(crate) fn boot_count(&self, node: NodeId) -> u64 {
+        self.boots.get(&node).copied().unwrap_or(0)
+    }
+
+    /// The time of the latest frame or timer the core was given.
+    pub(crate) fn now(&self) -> Instant {
+        self.now
     }
 
     /// Queues an NMT command (COB-ID 0x000).
@@ -534,16 +555,21 @@ impl Core {
             if let Some(ev) = c.client.poll_event() {
                 let finished = c.active.take();
                 let result = match ev {
-                    SdoEvent::Uploaded { sink, .. } => Ok(match sink {
-                        UpSink::Mem(data) => Completion {
+                    SdoEvent::Uploaded { sink, .. } => match sink {
+                        UpSink::Mem(data) => Ok(Completion {
                             transferred: data.len() as u64,
                             data,
+                        }),
+                        // A buffered writer may hold the tail still: flush it, and a failing
+                        // flush fails the upload (the bytes did not all arrive).
+                        UpSink::Stream { mut w, written, .. } => match w.flush() {
+                            Ok(()) => Ok(Completion {
+                                data: Vec::new(),
+                                transferred: written,
+                            }),
+                            Err(e) => Err(SdoErrorKind::Io(format!("flushing the output: {e}"))),
                         },
-                        UpSink::Stream { written, .. } => Completion {
-                            data: Vec::new(),
-                            transferred: written,
-                        },
-                    }),
+                    },
                     SdoEvent::Downloaded { source, .. } => Ok(Completion {
                         data: Vec::new(),
                         transferred: source.0.len() as u64,
@@ -577,8 +603,16 @@ impl Core {
             let Some(next) = c.queue.pop_front() else {
                 return;
             };
-            let Some(ReqState::Queued(req)) = self.requests.remove(&next) else {
+            // Changed in place: a request is looked up once while it starts.
+            let Some(slot) = self.requests.get_mut(&next) else {
                 continue;
+            };
+            let req = match core::mem::replace(slot, ReqState::Done(Ok(Completion::default()))) {
+                ReqState::Queued(req) => req,
+                other => {
+                    *slot = other;
+                    continue;
+                }
             };
             let SdoRequest {
                 entry,
@@ -612,7 +646,7 @@ impl Core {
                     kind: SdoErrorKind::Busy,
                 }))
             };
-            self.requests.insert(next, state);
+            *slot = state;
         }
     }
 
@@ -657,6 +691,9 @@ impl Core {
                     .map(|b| NmtState::from_u8(b & 0x7F));
                 if let Some(s) = state {
                     self.states.insert(node, s);
+                    if s == NmtState::BootUp {
+                        *self.boots.entry(node).or_default() += 1;
+                    }
                 }
                 let guarded = self.guarding.handle_frame(now, frame).unwrap_or(false);
                 self.drain_guarding();

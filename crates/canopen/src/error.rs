@@ -121,6 +121,22 @@ pub enum Error {
     /// A local I/O error (file, writer, reader).
     #[error("I/O: {0}")]
     Io(#[from] std::io::Error),
+    /// A name the node's dictionary does not resolve to one value.
+    #[error("node {node}, object {name:?}: {reason}")]
+    UnknownObject {
+        /// The node.
+        node: NodeId,
+        /// The name asked for (empty when the node has no dictionary at all).
+        name: String,
+        /// Why it does not resolve.
+        reason: String,
+    },
+    /// A request the API cannot serve as asked (the message says why).
+    #[error("{0}")]
+    InvalidRequest(String),
+    /// The background driver ended because the transport failed (the transport's words).
+    #[error("the network's driver stopped: {0}")]
+    Driver(String),
 }
 
 impl Error {

@@ -43,6 +43,7 @@ pub mod sim;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
 pub mod transport;
+pub mod typed;
 
 // The protocol crates, for what the facade does not wrap: applications and the CLI need no
 // other dependency than this crate.
@@ -67,3 +68,9 @@ pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
+pub use typed::{ObjectKey, WriteValue};
+
+/// The README's code, compiled and run as doctests (its "Use as a library" program).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+mod readme {}

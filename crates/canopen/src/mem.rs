@@ -234,6 +234,9 @@ impl<S: Station + Any> AnyStation for S {
 struct Attached {
     id: u64,
     station: Box<dyn AnyStation>,
+    /// The station's `poll_timeout` as of its last input (the bus asks for it at every event;
+    /// a station's timers change only when it is given something).
+    next: Option<Instant>,
 }
 
 enum Clock {
@@ -260,6 +263,17 @@ struct State {
 struct Shared {
     state: Mutex<State>,
     cond: Condvar,
+    /// Whether anyone can wait on `cond`: only real-time waits block, and a notification costs
+    /// a system call even with nobody waiting.
+    real_time: bool,
+}
+
+impl Shared {
+    fn notify(&self) {
+        if self.real_time {
+            self.cond.notify_all();
+        }
+    }
 }
 
 /// An in-memory CAN bus. Cloning gives another handle to the same bus.
@@ -352,10 +366,7 @@ impl State {
     }
 
     fn next_station_event(&self) -> Option<Instant> {
-        self.stations
-            .iter()
-            .filter_map(|s| s.station.poll_timeout())
-            .min()
+        self.stations.iter().filter_map(|s| s.next).min()
     }
 
     fn next_event(&self) -> Option<Instant> {
@@ -413,10 +424,7 @@ impl State {
 
     fn station_timers(&mut self, t: Instant) {
         for i in 0..self.stations.len() {
-            let due = self.stations[i]
-                .station
-                .poll_timeout()
-                .is_some_and(|d| d <= t);
+            let due = self.stations[i].next.is_some_and(|d| d <= t);
             if due {
                 self.stations[i].station.handle_timeout(t);
                 self.drain_station(i, t);
@@ -431,6 +439,7 @@ impl State {
                 self.submit(Participant::Station(id), frame, t);
             }
         }
+        self.stations[i].next = self.stations[i].station.poll_timeout();
     }
 
     fn deliver(&mut self, p: Pending, at: Instant) {
@@ -480,6 +489,7 @@ impl MemoryBus {
 
     /// A bus with the given configuration.
     pub fn with_config(config: BusConfig) -> Self {
+        let config_clock = config.clock;
         let clock = match config.clock {
             ClockMode::Virtual => Clock::Virtual(Instant::ZERO),
             ClockMode::RealTime => Clock::Real(MonotonicClock::new()),
@@ -501,6 +511,7 @@ impl MemoryBus {
         };
         Self {
             shared: Arc::new(Shared {
+                real_time: matches!(config_clock, ClockMode::RealTime),
                 state: Mutex::new(state),
                 cond: Condvar::new(),
             }),
@@ -537,6 +548,7 @@ impl MemoryBus {
         st.stations.push(Attached {
             id,
             station: Box::new(station),
+            next: None,
         });
         // Let the station send what it has right away (e.g. a boot-up message).
         let now = st.now();
@@ -549,7 +561,7 @@ impl MemoryBus {
             st.service_thread = true;
         }
         drop(st);
-        self.shared.cond.notify_all();
+        self.shared.notify();
         if needs_thread {
             self.spawn_service_thread();
         }
@@ -582,7 +594,7 @@ impl MemoryBus {
         st.drain_station(pos, now);
         st.advance(now);
         drop(st);
-        self.shared.cond.notify_all();
+        self.shared.notify();
         Some(r)
     }
 
@@ -601,9 +613,10 @@ impl MemoryBus {
         }
         for a in st.stations.iter_mut() {
             a.station.handle_bus_event(now, &event);
+            a.next = a.station.poll_timeout();
         }
         drop(st);
-        self.shared.cond.notify_all();
+        self.shared.notify();
     }
 
     /// Changes the fault injection (the generator keeps its state unless the seed changed).
@@ -649,7 +662,7 @@ impl MemoryBus {
             }
         }
         drop(st);
-        self.shared.cond.notify_all();
+        self.shared.notify();
     }
 
     /// Lets `d` pass (see [`run_until`](Self::run_until)).
@@ -685,7 +698,7 @@ impl MemoryBus {
                         .wait_timeout(st, wait.into())
                         .unwrap_or_else(|p| p.into_inner());
                     drop(st);
-                    shared.cond.notify_all();
+                    shared.notify();
                 }
             })
             .ok();
@@ -734,7 +747,7 @@ impl Transport for Endpoint {
         st.submit(Participant::Endpoint(self.index), *frame, now);
         st.advance(now);
         drop(st);
-        self.bus.shared.cond.notify_all();
+        self.bus.shared.notify();
         Ok(())
     }
 

@@ -11,10 +11,25 @@
 //!
 //! The async API (`tokio` feature, [`crate::asynch`]) runs the same wait loop on tokio's
 //! blocking pool and cancels the request when the future is dropped.
+//!
+//! Running by itself: [`Network::start_driver`] starts a background driver (a thread; under the
+//! `tokio` feature [`Network::start_driver_on_runtime`] runs it on the caller's runtime's
+//! blocking pool) that drives the network whenever nobody else does, so heartbeats, EMCY, PDO
+//! events, SYNC and timeouts flow with no call from the application. It steps aside while a
+//! thread waits for a request (that thread drives, so a request costs no hand-over between
+//! threads), and stops when [`Network::stop_driver`] is called or the last handle to the
+//! network is dropped. A transport that fails for good (closed, an operating-system error) ends
+//! it: subscribers get
+//! [`NetworkEvent::TransportFailed`] and [`Network::stop_driver`] returns the error.
+//!
+//! The explicit stepping mode stays for deterministic tests: without a driver nothing happens
+//! between calls, and [`Network::run_for`] advances a virtual-clock bus by exactly the time
+//! asked. A driver on a virtual-clock bus would run simulated time as fast as the CPU allows;
+//! use it on SocketCAN or a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime) bus.
 
 use std::io::{Read, Write};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak, mpsc};
 
 use can_frame::{CanFrame, Duration, Instant, NodeId};
 use canopen_nmt::{CommandSpecifier, NmtState, NmtTarget, SyncConfig};
@@ -26,7 +41,7 @@ use crate::core::{
     TransferProgress, UpSink,
 };
 use crate::error::{Error, SdoError, SdoErrorKind};
-use crate::transport::{Received, Transport};
+use crate::transport::{Received, Transport, TransportError};
 use canopen_od::ObjectAddress;
 
 /// Default SDO response timeout.
@@ -43,7 +58,44 @@ pub(crate) struct Inner {
     /// one waits.
     waiting: AtomicUsize,
     io: Mutex<Box<dyn Transport>>,
+    /// Threads inside [`Network::wait_for`]: the background driver steps aside while there are.
+    driving_waiters: AtomicUsize,
+    /// When the last waiter left [`Network::wait_for`], in nanoseconds since `epoch`.
+    last_wait_end: AtomicU64,
+    epoch: std::time::Instant,
+    driver: Mutex<DriverSlot>,
+    /// Whether a background driver was started (and not stopped).
+    driven: AtomicBool,
 }
+
+/// The background driver of a network, if one was started.
+#[derive(Default)]
+struct DriverSlot {
+    stop: Option<Arc<AtomicBool>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    /// Why the driver ended, if the transport failed.
+    error: Option<Arc<Mutex<Option<String>>>>,
+}
+
+impl Drop for Inner {
+    fn drop(&mut self) {
+        let slot = std::mem::take(relock(self.driver.get_mut()));
+        if let Some(stop) = &slot.stop {
+            stop.store(true, Ordering::SeqCst);
+        }
+        // The driver holds only a weak handle, so it ends within one step; joining it from its
+        // own thread (when its step dropped the last handle) would deadlock.
+        if let Some(t) = slot.thread
+            && t.thread().id() != std::thread::current().id()
+        {
+            let _ = t.join();
+        }
+    }
+}
+
+/// How long the background driver keeps out of the way after a waiting thread stopped
+/// driving, so that a caller issuing requests back to back keeps the transport.
+const STEP_ASIDE: std::time::Duration = std::time::Duration::from_millis(2);
 
 /// A CANopen network: the master side of one CAN bus. Cheap to clone (a shared handle).
 #[derive(Clone)]
@@ -72,7 +124,103 @@ impl Network {
                 cond: Condvar::new(),
                 waiting: AtomicUsize::new(0),
                 io: Mutex::new(Box::new(transport)),
+                driving_waiters: AtomicUsize::new(0),
+                last_wait_end: AtomicU64::new(0),
+                epoch: std::time::Instant::now(),
+                driver: Mutex::new(DriverSlot::default()),
+                driven: AtomicBool::new(false),
             }),
+        }
+    }
+
+    /// Opens a SocketCAN interface (e.g. `"can0"`, `"vcan0"`) and starts the background
+    /// driver: the network runs by itself from the first line.
+    ///
+    /// ```no_run
+    /// let net = canopen::Network::open("can0")?;
+    /// # Ok::<(), canopen::Error>(())
+    /// ```
+    #[cfg(all(feature = "socketcan", target_os = "linux"))]
+    pub fn open(interface: &str) -> Result<Self, Error> {
+        let net = Self::new(crate::socketcan::SocketCan::open(interface)?);
+        net.start_driver()?;
+        Ok(net)
+    }
+
+    /// Starts the background driver on a thread of its own (see the module docs). Does nothing
+    /// when one runs already. Use it with a real clock (SocketCAN, a real-time memory bus).
+    pub fn start_driver(&self) -> Result<(), Error> {
+        let mut slot = relock(self.inner.driver.lock());
+        if slot
+            .stop
+            .as_ref()
+            .is_some_and(|s| !s.load(Ordering::SeqCst))
+        {
+            return Ok(());
+        }
+        let (stop, error) = (Arc::new(AtomicBool::new(false)), Arc::new(Mutex::new(None)));
+        let (weak, s, e) = (Arc::downgrade(&self.inner), stop.clone(), error.clone());
+        let thread = std::thread::Builder::new()
+            .name("canopen-driver".into())
+            .spawn(move || drive(&weak, &s, &e))?;
+        *slot = DriverSlot {
+            stop: Some(stop),
+            thread: Some(thread),
+            error: Some(error),
+        };
+        self.inner.driven.store(true, Ordering::SeqCst);
+        Ok(())
+    }
+
+    /// Starts the background driver on the current tokio runtime (its blocking pool: the
+    /// transport's receive blocks). Does nothing when one runs already. Panics outside a tokio
+    /// runtime, as `tokio::task::spawn_blocking` does.
+    #[cfg(feature = "tokio")]
+    pub fn start_driver_on_runtime(&self) {
+        let mut slot = relock(self.inner.driver.lock());
+        if slot
+            .stop
+            .as_ref()
+            .is_some_and(|s| !s.load(Ordering::SeqCst))
+        {
+            return;
+        }
+        let (stop, error) = (Arc::new(AtomicBool::new(false)), Arc::new(Mutex::new(None)));
+        let (weak, s, e) = (Arc::downgrade(&self.inner), stop.clone(), error.clone());
+        // The task ends by itself once `stop` is set or the network is gone.
+        drop(tokio::task::spawn_blocking(move || drive(&weak, &s, &e)));
+        *slot = DriverSlot {
+            stop: Some(stop),
+            thread: None,
+            error: Some(error),
+        };
+        self.inner.driven.store(true, Ordering::SeqCst);
+    }
+
+    /// Whether a background driver runs (started and not ended by a transport failure).
+    pub fn is_driven(&self) -> bool {
+        let slot = relock(self.inner.driver.lock());
+        slot.stop
+            .as_ref()
+            .is_some_and(|s| !s.load(Ordering::SeqCst))
+    }
+
+    /// Stops the background driver and waits for its thread to end. Returns the transport
+    /// error that ended it, if one did. Stepping by [`run_for`](Self::run_for) and by waiting
+    /// calls goes on as before.
+    pub fn stop_driver(&self) -> Result<(), Error> {
+        let slot = std::mem::take(&mut *relock(self.inner.driver.lock()));
+        self.inner.driven.store(false, Ordering::SeqCst);
+        if let Some(stop) = &slot.stop {
+            stop.store(true, Ordering::SeqCst);
+        }
+        self.inner.cond.notify_all();
+        if let Some(t) = slot.thread {
+            let _ = t.join();
+        }
+        match slot.error.and_then(|e| relock(e.lock()).take()) {
+            Some(text) => Err(Error::Driver(text)),
+            None => Ok(()),
         }
     }
 
@@ -332,10 +480,21 @@ impl Network {
 
     /// Drives the network until `done` returns a value (whoever waits drives; see the module
     /// docs).
-    pub(crate) fn wait_for<T>(
-        &self,
-        mut done: impl FnMut(&mut Core) -> Option<T>,
-    ) -> Result<T, Error> {
+    pub(crate) fn wait_for<T>(&self, done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
+        self.inner.driving_waiters.fetch_add(1, Ordering::SeqCst);
+        let r = self.wait_loop(done);
+        // Only a background driver looks at the time (and reading the clock is not free).
+        if self.inner.driven.load(Ordering::Relaxed) {
+            let since = self.inner.epoch.elapsed().as_nanos();
+            self.inner
+                .last_wait_end
+                .store(u64::try_from(since).unwrap_or(u64::MAX), Ordering::SeqCst);
+        }
+        self.inner.driving_waiters.fetch_sub(1, Ordering::SeqCst);
+        r
+    }
+
+    fn wait_loop<T>(&self, mut done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
         loop {
             if let Some(r) = done(&mut self.core()) {
                 return Ok(r);
@@ -361,6 +520,66 @@ impl Network {
                 }
             }
         }
+    }
+}
+
+/// The background driver's loop: one step whenever no waiting thread drives, until `stop` is
+/// set, the network is gone or the transport fails.
+fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) {
+    while !stop.load(Ordering::SeqCst) {
+        let Some(inner) = inner.upgrade() else {
+            return;
+        };
+        let net = Network { inner };
+        if net.waiter_drives() {
+            // Out of the way until the waiters are done. Not counted in `waiting`: waking this
+            // thread at every step of a waiter would cost each request a context switch; the
+            // timeout is soon enough, and `stop_driver` notifies.
+            let c = net.core();
+            let _ = relock(net.inner.cond.wait_timeout(c, STEP_ASIDE));
+            continue;
+        }
+        let r = {
+            let mut io = relock(net.inner.io.lock());
+            net.step(&mut io, None)
+        };
+        if let Err(e) = r {
+            if matches!(
+                e,
+                Error::Transport(
+                    TransportError::InterfaceDown
+                        | TransportError::BusOff
+                        | TransportError::TxQueueFull
+                )
+            ) {
+                // The bus may come back (the transport reports that as a bus event): keep
+                // driving, without spinning on a failing send.
+                std::thread::sleep(STEP_ASIDE);
+                continue;
+            }
+            let text = match e {
+                Error::Transport(t) => t.to_string(),
+                other => other.to_string(),
+            };
+            *relock(error.lock()) = Some(text.clone());
+            stop.store(true, Ordering::SeqCst);
+            net.core()
+                .publish(NetworkEvent::TransportFailed { error: text });
+            net.notify();
+            return;
+        }
+    }
+}
+
+impl Network {
+    /// Whether a thread waiting for a request drives now or did a moment ago.
+    fn waiter_drives(&self) -> bool {
+        if self.inner.driving_waiters.load(Ordering::SeqCst) > 0 {
+            return true;
+        }
+        let last = self.inner.last_wait_end.load(Ordering::SeqCst);
+        let now = u64::try_from(self.inner.epoch.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        last != 0 && now.saturating_sub(last) < STEP_ASIDE.as_nanos() as u64
     }
 }
 
@@ -394,12 +613,9 @@ impl Node {
         }
     }
 
-    /// NMT commands to this node.
+    /// NMT commands to this node, and its state (see [`Nmt::state`]).
     pub fn nmt(&self) -> Nmt {
-        Nmt {
-            net: self.net.clone(),
-            target: NmtTarget::Node(self.id),
-        }
+        Nmt::new(&self.net, NmtTarget::Node(self.id))
     }
 
     /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
@@ -458,25 +674,115 @@ impl Node {
     }
 }
 
-/// NMT module control (CiA 301 §7.2.8.3.1) for one node or all.
-#[derive(Clone, Debug)]
+/// NMT module control (CiA 301 §7.2.8.3.1) for one node or all, and a node's NMT state as its
+/// heartbeats, boot-up and guarding answers report it.
+///
+/// Boot-ups are counted, not sampled: [`wait_for_bootup`](Self::wait_for_bootup) returns for a
+/// boot-up received since this handle was made or since its last command, even if a heartbeat
+/// with the next state followed at once (or the background driver received both before the
+/// wait began). So `nmt.reset_node()` then `nmt.wait_for_bootup(t)` cannot miss the boot-up.
+#[derive(Debug)]
 pub struct Nmt {
     net: Network,
     target: NmtTarget,
+    /// The node's boot-up count when this handle was made or last sent a command.
+    boots_seen: AtomicU64,
+}
+
+impl Clone for Nmt {
+    fn clone(&self) -> Self {
+        Self {
+            net: self.net.clone(),
+            target: self.target,
+            boots_seen: AtomicU64::new(self.boots_seen.load(Ordering::SeqCst)),
+        }
+    }
 }
 
 impl Nmt {
-    /// NMT commands to all nodes (node-ID 0).
-    pub fn all(net: &Network) -> Self {
+    fn new(net: &Network, target: NmtTarget) -> Self {
+        let boots = match target {
+            NmtTarget::Node(id) => net.core().boot_count(id),
+            _ => 0,
+        };
         Self {
             net: net.clone(),
-            target: NmtTarget::All,
+            target,
+            boots_seen: AtomicU64::new(boots),
         }
     }
 
+    /// NMT commands to all nodes (node-ID 0).
+    pub fn all(net: &Network) -> Self {
+        Self::new(net, NmtTarget::All)
+    }
+
     fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
-        self.net.core().nmt(cmd, self.target);
+        let mut core = self.net.core();
+        if let NmtTarget::Node(id) = self.target {
+            self.boots_seen.store(core.boot_count(id), Ordering::SeqCst);
+        }
+        core.nmt(cmd, self.target);
+        drop(core);
         self.net.flush()
+    }
+
+    fn node(&self) -> Result<NodeId, Error> {
+        match self.target {
+            NmtTarget::Node(id) => Ok(id),
+            _ => Err(Error::InvalidRequest(
+                "node states are per node: use node.nmt(), not Nmt::all".into(),
+            )),
+        }
+    }
+
+    /// The node's last reported NMT state (`None` before anything was heard from it; `BootUp`
+    /// between its boot-up message and its first heartbeat). `None` for [`Nmt::all`].
+    pub fn state(&self) -> Option<NmtState> {
+        match self.target {
+            NmtTarget::Node(id) => self.net.last_state(id),
+            _ => None,
+        }
+    }
+
+    /// Waits (driving the network) for a boot-up of the node received since this handle was
+    /// made or sent its last command. Times out after `timeout` on the network's clock.
+    pub fn wait_for_bootup(&self, timeout: Duration) -> Result<(), Error> {
+        let node = self.node()?;
+        let seen = self.boots_seen.load(Ordering::SeqCst);
+        let deadline = self.net.now() + timeout;
+        let r = self.net.wait_for(|c| {
+            let boots = c.boot_count(node);
+            if boots > seen {
+                Some(Ok(boots))
+            } else if c.now() >= deadline {
+                Some(Err(Error::Timeout(format!(
+                    "no boot-up from node {node} within {timeout}"
+                ))))
+            } else {
+                None
+            }
+        })??;
+        self.boots_seen.store(r, Ordering::SeqCst);
+        Ok(())
+    }
+
+    /// Waits (driving the network) until the node reports `state`; returns at once if it is in
+    /// it already. Times out after `timeout` on the network's clock.
+    pub fn wait_for_state(&self, state: NmtState, timeout: Duration) -> Result<(), Error> {
+        let node = self.node()?;
+        let deadline = self.net.now() + timeout;
+        self.net.wait_for(|c| {
+            if c.last_state(node) == Some(state) {
+                Some(Ok(()))
+            } else if c.now() >= deadline {
+                Some(Err(Error::Timeout(format!(
+                    "node {node} not {state} within {timeout}"
+                ))))
+            } else {
+                None
+            }
+        })?
     }
 
     /// Start remote node (to Operational).
@@ -646,6 +952,16 @@ impl core::fmt::Debug for Sdo {
 }
 
 impl Sdo {
+    /// The node this client talks to.
+    pub fn node_id(&self) -> NodeId {
+        self.node
+    }
+
+    /// The network.
+    pub fn network(&self) -> &Network {
+        &self.net
+    }
+
     /// Talks to the node's SDO server on another channel than its default one (0x600/0x580 +
     /// node-ID): a further server channel (0x1201..=0x127F) or a changed 0x1200. Requests on
     /// one channel run one at a time; different channels run in parallel.
@@ -797,7 +1113,9 @@ impl Sdo {
         Ok(())
     }
 
-    /// Uploads an object into `writer`, streaming as segments arrive. Returns the byte count.
+    /// Uploads an object into `writer`, streaming as segments arrive, and flushes it at the
+    /// end. Returns the byte count; a write or the final flush failing is an error
+    /// ([`SdoErrorKind::Io`]), so no data is lost silently.
     pub fn upload_to(
         self,
         entry: impl Into<ObjectAddress>,

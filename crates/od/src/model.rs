@@ -605,6 +605,42 @@ impl ObjectDictionary {
         self.objects.insert(object.index, object)
     }
 
+    /// An object by name, compared without regard to case (`"producer heartbeat time"` finds
+    /// `Producer heartbeat time`). The first in index order when names repeat.
+    pub fn find_object(&self, name: &str) -> Option<&Object> {
+        self.objects.values().find(|o| same_name(&o.name, name))
+    }
+
+    /// The address of a value by name, the way python-canopen resolves names: an object's name
+    /// for a VAR (`"Producer heartbeat time"`), `"object.sub-object"` for an entry of an ARRAY
+    /// or RECORD (`"Identity object.Vendor-ID"`), case-insensitive. A name that contains dots
+    /// itself is tried whole first, then split at each dot from the left. `None` when nothing
+    /// matches, and for the name of an ARRAY or RECORD alone (it has no single value).
+    pub fn find(&self, name: &str) -> Option<crate::ObjectAddress> {
+        if let Some(o) = self.find_object(name)
+            && o.is_simple()
+        {
+            return Some(crate::ObjectAddress::new(o.index, 0));
+        }
+        for (dot, _) in name.match_indices('.') {
+            let (object, sub) = (&name[..dot], &name[dot + 1..]);
+            let found = self
+                .objects
+                .values()
+                .filter(|o| same_name(&o.name, object))
+                .find_map(|o| {
+                    o.subs
+                        .values()
+                        .find(|s| same_name(&s.name, sub))
+                        .map(|s| (o, s))
+                });
+            if let Some((o, s)) = found {
+                return Some(crate::ObjectAddress::new(o.index, s.sub_index));
+            }
+        }
+        None
+    }
+
     /// Iterates over every (index, sub-object) pair in index order.
     pub fn entries(&self) -> impl Iterator<Item = (u16, &SubObject)> + '_ {
         self.objects
@@ -628,4 +664,11 @@ impl ObjectDictionary {
             }
         }
     }
+}
+
+/// Whether two names are equal without regard to case.
+fn same_name(a: &str, b: &str) -> bool {
+    a.chars()
+        .flat_map(char::to_lowercase)
+        .eq(b.chars().flat_map(char::to_lowercase))
 }
