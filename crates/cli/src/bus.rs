@@ -84,7 +84,17 @@ pub(crate) struct Bus {
 impl BusOpts {
     /// The `--eds` dictionaries.
     pub(crate) fn dictionaries(&self) -> Result<Vec<(NodeId, ObjectDictionary)>, String> {
-        self.node_eds.iter().map(|s| load_eds(s)).collect()
+        let mut out: Vec<(NodeId, ObjectDictionary)> = Vec::new();
+        for spec in &self.node_eds {
+            let (node, od) = load_eds(spec)?;
+            if out.iter().any(|(n, _)| *n == node) {
+                return Err(format!(
+                    "--eds {spec}: node {node} already has a dictionary (one --eds per node)"
+                ));
+            }
+            out.push((node, od));
+        }
+        Ok(out)
     }
 
     /// Opens the bus with the `--eds` dictionaries.
@@ -100,7 +110,7 @@ impl BusOpts {
         match &self.iface {
             Some(iface) => {
                 let t = canopen::socketcan::SocketCan::open(iface)
-                    .map_err(|e| format!("{iface}: {e}"))?;
+                    .map_err(|e| format!("{iface}: {e}{}", iface_hint(iface)))?;
                 Ok(Bus {
                     transport: Box::new(t),
                     memory: None,
@@ -193,8 +203,96 @@ pub(crate) fn seconds(secs: f64) -> Duration {
     Duration::from_micros((secs.max(0.0) * 1e6) as u64)
 }
 
-/// Prints `error: ...` and gives the failure exit code.
+/// The hint for an interface that cannot be opened: which interfaces exist, and how to make a
+/// virtual one.
+fn iface_hint(iface: &str) -> String {
+    let exists = std::path::Path::new("/sys/class/net").join(iface).exists();
+    if exists {
+        return String::new();
+    }
+    let mut known: Vec<String> = std::fs::read_dir("/sys/class/net")
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| {
+                    std::fs::read_to_string(format!("/sys/class/net/{n}/type"))
+                        .is_ok_and(|t| t.trim() == "280") // ARPHRD_CAN
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    known.sort();
+    let list = if known.is_empty() {
+        "no CAN interface exists".to_string()
+    } else {
+        format!("CAN interfaces here: {}", known.join(", "))
+    };
+    format!(
+        "\nhint: there is no interface `{iface}` ({list}; `ip link` lists all). A virtual one: \
+         `sudo modprobe vcan && sudo ip link add dev {iface} type vcan && sudo ip link set {iface} up`; \
+         without CAN, `--iface udp` is a bus between processes on this machine"
+    )
+}
+
+/// Whether errors print as JSON (`--json`); set once by `main`.
+static JSON_ERRORS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Makes [`fail`] print JSON.
+pub(crate) fn json_errors(on: bool) {
+    JSON_ERRORS.store(on, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Prints `error: ...` (under `--json` one JSON object `{"error": ...}` on stderr) and gives
+/// the failure exit code.
 pub(crate) fn fail(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
+    fail_fields(&e.to_string(), serde_json::Map::new())
+}
+
+/// [`fail`] with extra JSON fields.
+fn fail_fields(text: &str, mut fields: serde_json::Map<String, serde_json::Value>) -> ExitCode {
+    if JSON_ERRORS.load(std::sync::atomic::Ordering::Relaxed) {
+        fields.insert("error".into(), text.into());
+        eprintln!("{}", serde_json::Value::Object(fields));
+    } else {
+        eprintln!("error: {text}");
+    }
     ExitCode::FAILURE
+}
+
+/// Reports a failed master operation: SDO failures carry node, object, abort code and its
+/// meaning as JSON fields, and a timeout a hint.
+pub(crate) fn fail_op(e: &canopen::Error) -> ExitCode {
+    use canopen::{Error, SdoErrorKind};
+    use serde_json::json;
+    let mut fields = serde_json::Map::new();
+    let mut text = e.to_string();
+    if let Error::Sdo(s) = e {
+        fields.insert("node".into(), json!(s.node.get()));
+        fields.insert("index".into(), json!(s.entry.index));
+        fields.insert("sub".into(), json!(s.entry.sub_index));
+        if let Some(name) = &s.name {
+            fields.insert("name".into(), json!(name));
+        }
+        if let Some(code) = s.abort_code() {
+            fields.insert("abort_code".into(), json!(format!("{:#010x}", code.get())));
+            fields.insert(
+                "meaning".into(),
+                json!(code.description().unwrap_or("unknown abort code")),
+            );
+        }
+        if matches!(
+            s.kind,
+            SdoErrorKind::Transfer(canopen::sdo::ErrorKind::Timeout)
+        ) {
+            let hint = format!(
+                "hint: nothing answered. Is node {} on this bus (`canopen scan` lists the nodes \
+                 that answer), powered, at the same bit rate? On the in-memory bus only \
+                 `--eds NODE=FILE` nodes exist.",
+                s.node
+            );
+            fields.insert("hint".into(), json!(hint));
+            text = format!("{text}\n{hint}");
+        }
+    }
+    fail_fields(&text, fields)
 }

@@ -15,6 +15,7 @@ mod eds;
 mod gateway;
 mod lss_cmd;
 mod nmt_cmd;
+mod objaddr;
 mod sdo_cmd;
 mod simulate;
 mod traffic;
@@ -24,9 +25,15 @@ mod traffic;
 #[derive(Debug, Parser)]
 #[command(name = "canopen", version, about)]
 struct Cli {
-    /// Print machine-readable JSON instead of text.
+    /// Print machine-readable JSON instead of text; errors too, as one JSON object on stderr
+    /// (`error`, and for SDO failures `node`, `index`, `sub`, `abort_code`, `meaning`).
     #[arg(long, global = true)]
     json: bool,
+
+    /// Print unsigned integer values in zero-padded hex (`0x00000039`) instead of decimal
+    /// (`57`), the default of every command. Indices, COB-IDs and abort codes are always hex.
+    #[arg(long, global = true)]
+    hex: bool,
 
     #[command(flatten)]
     bus: bus::BusOpts,
@@ -101,6 +108,8 @@ enum Command {
 #[derive(Debug, Clone, Copy)]
 struct Global {
     json: bool,
+    /// Unsigned values in hex (`--hex`).
+    hex: bool,
 }
 
 /// Writes to stdout. A closed pipe (`canopen eds show F | head`) ends output quietly instead of
@@ -124,7 +133,11 @@ pub(crate) fn outln(text: &str) {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let global = Global { json: cli.json };
+    let global = Global {
+        json: cli.json,
+        hex: cli.hex,
+    };
+    bus::json_errors(cli.json);
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
