@@ -79,7 +79,10 @@ enum Command {
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
-    /// Record traffic in the candump log format.
+    /// Record traffic in the candump log format. The file is written under a temporary name
+    /// and renamed when recording succeeds: a failed run leaves an existing file alone. The
+    /// SocketCAN socket is a classic CAN socket: the kernel does not deliver CAN FD frames to
+    /// it, so FD traffic is not in the log.
     Record {
         /// Output file.
         #[arg(short, long)]
@@ -88,7 +91,8 @@ enum Command {
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
-    /// Replay a candump log with its recorded timing.
+    /// Replay a candump log with its recorded timing. The whole log is read and checked
+    /// before the first frame is sent; CAN FD and error frames are skipped with a count.
     Replay {
         /// candump log file.
         file: std::path::PathBuf,

@@ -1,7 +1,7 @@
 //! `canopen monitor`, `record` and `replay`: the bus's traffic decoded in CiA vocabulary
 //! ([`canopen::describe`]), written to a candump log, or sent again from one.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use canopen::candump::{self, LogEntry, LogFrame};
@@ -35,13 +35,24 @@ pub(crate) fn run_monitor(opts: &BusOpts, duration: Option<f64>, g: Global) -> E
     }
 }
 
+/// `FILE` with a temporary name beside it: `record` writes there and renames on success, so a
+/// failing run leaves an existing `FILE` as it was.
+fn temp_beside(output: &Path) -> PathBuf {
+    let name = output
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "record".into());
+    output.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
 /// `canopen record -o FILE`
-pub(crate) fn run_record(opts: &BusOpts, output: &PathBuf, duration: Option<f64>) -> ExitCode {
+pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -> ExitCode {
     let mut bus = match opts.open() {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
-    let file = match std::fs::File::create(output) {
+    let temp = temp_beside(output);
+    let file = match std::fs::File::create(&temp) {
         Ok(f) => f,
         Err(e) => return fail(format!("{}: {e}", output.display())),
     };
@@ -53,47 +64,82 @@ pub(crate) fn run_record(opts: &BusOpts, output: &PathBuf, duration: Option<f64>
     let start = bus.transport.now();
     let mut w = candump::Writer::new(std::io::BufWriter::new(file));
     let mut err = None;
+    let mut frames = 0u64;
     let r = bus.pump(duration, |frame, at| {
         let entry = LogEntry {
             timestamp_us: epoch + (at - start).as_micros(),
             interface: iface.clone(),
             frame: LogFrame::Can(*frame),
         };
-        if let Err(e) = w.write(&entry) {
-            err = Some(e);
+        match w.write(&entry) {
+            Ok(()) => frames += 1,
+            Err(e) => {
+                err.get_or_insert(e);
+            }
         }
     });
-    let _ = w.flush();
-    match (r, err) {
-        (Ok(()), None) => ExitCode::SUCCESS,
-        (Err(e), _) => fail(e),
-        (_, Some(e)) => fail(e),
+    let flushed = w.flush();
+    let result = match (r, err, flushed) {
+        (Err(e), _, _) => Err(e),
+        (_, Some(e), _) | (_, _, Err(e)) => Err(format!("{}: {e}", output.display())),
+        (Ok(()), None, Ok(())) => {
+            std::fs::rename(&temp, output).map_err(|e| format!("{}: {e}", output.display()))
+        }
+    };
+    match result {
+        Ok(()) => {
+            eprintln!("{frames} frames recorded to {}", output.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            let _ = std::fs::remove_file(&temp);
+            fail(e)
+        }
     }
 }
 
-/// `canopen replay FILE`
-pub(crate) fn run_replay(opts: &BusOpts, file: &PathBuf, g: Global) -> ExitCode {
-    let mut bus = match opts.open() {
-        Ok(b) => b,
-        Err(e) => return fail(e),
-    };
+/// `canopen replay FILE`: reads and checks the whole log first, so a bad line sends nothing.
+/// CAN FD frames are skipped (the transports carry classic frames), with a warning and their
+/// count.
+pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
     let f = match std::fs::File::open(file) {
         Ok(f) => f,
         Err(e) => return fail(format!("{}: {e}", file.display())),
     };
+    let mut frames = Vec::new();
+    let mut fd = 0u64;
+    let mut other = 0u64;
+    for entry in candump::Reader::new(std::io::BufReader::new(f)) {
+        match entry {
+            Ok(LogEntry {
+                timestamp_us,
+                frame: LogFrame::Can(frame),
+                ..
+            }) => frames.push((timestamp_us, frame)),
+            Ok(LogEntry {
+                frame: LogFrame::Fd(_),
+                ..
+            }) => fd += 1,
+            Ok(_) => other += 1,
+            Err(e) => return fail(format!("{}: {e} (nothing was sent)", file.display())),
+        }
+    }
+    if fd > 0 {
+        eprintln!(
+            "warning: {}: skipping {fd} CAN FD frame(s): this bus carries classic CAN frames only",
+            file.display()
+        );
+    }
+    let mut bus = match opts.open() {
+        Ok(b) => b,
+        Err(e) => return fail(e),
+    };
     let mut first: Option<u64> = None;
     let start = bus.transport.now();
     let mut sent = 0u64;
-    for entry in candump::Reader::new(std::io::BufReader::new(f)) {
-        let entry = match entry {
-            Ok(e) => e,
-            Err(e) => return fail(format!("{}: {e}", file.display())),
-        };
-        let LogFrame::Can(frame) = entry.frame else {
-            continue;
-        };
-        let t0 = *first.get_or_insert(entry.timestamp_us);
-        let due = start + Duration::from_micros(entry.timestamp_us.saturating_sub(t0));
+    for (timestamp_us, frame) in frames {
+        let t0 = *first.get_or_insert(timestamp_us);
+        let due = start + Duration::from_micros(timestamp_us.saturating_sub(t0));
         // Keep the recorded spacing (receiving meanwhile, so simulated devices run).
         while bus.transport.now() < due {
             if let Err(e) = bus.transport.recv_until(due) {
@@ -106,7 +152,7 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &PathBuf, g: Global) -> ExitCode 
         sent += 1;
     }
     if g.json {
-        outln(&json!({"sent": sent}).to_string());
+        outln(&json!({"sent": sent, "skipped_fd": fd, "skipped_error_frames": other}).to_string());
     } else {
         eprintln!("{sent} frames replayed");
     }

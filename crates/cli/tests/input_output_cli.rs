@@ -205,3 +205,65 @@ fn hints_for_a_missing_interface_and_a_silent_bus() {
     assert_eq!(v["abort_code"], "0x05040000");
     assert!(v["hint"].as_str().unwrap().contains("nothing answered"));
 }
+
+#[test]
+fn replay_checks_the_whole_log_and_skips_fd_frames() {
+    let log = tmp("fd.log");
+    std::fs::write(
+        &log,
+        "(1.000000) can0 000#0105\n(1.000100) can0 123##1000102030405060708090A0B\n\
+         (1.000200) can0 705#7F\n",
+    )
+    .unwrap();
+    let o = canopen(&["--json", "replay", log.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["sent"], 2);
+    assert_eq!(v["skipped_fd"], 1);
+    assert!(
+        stderr(&o).contains("skipping 1 CAN FD frame"),
+        "{}",
+        stderr(&o)
+    );
+    // A bad line anywhere: refused before the first frame goes out.
+    let bad = tmp("bad.log");
+    std::fs::write(&bad, "(1.000000) can0 000#0105\n(1.000100) can0 123#zz\n").unwrap();
+    let o = canopen(&["replay", bad.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("line 2") && e.contains("nothing was sent"),
+        "{e}"
+    );
+    assert!(!e.contains("replayed"), "{e}");
+}
+
+#[test]
+fn a_failed_record_leaves_the_file_alone() {
+    let out = tmp("keep.log");
+    std::fs::write(&out, "precious\n").unwrap();
+    // The in-memory bus needs --duration: this run fails after opening the bus.
+    let o = canopen(&["record", "-o", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "precious\n");
+    let leftovers: Vec<_> = std::fs::read_dir(out.parent().unwrap())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    // A run that succeeds replaces it.
+    let eds = format!("5={EDS}");
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "record",
+        "-o",
+        out.to_str().unwrap(),
+        "--duration",
+        "0.5",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains(" mem0 705#00"), "{text}");
+}
