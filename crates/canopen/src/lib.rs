@@ -43,6 +43,8 @@ pub mod sim;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
 pub mod transport;
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod udp;
 
 // The protocol crates, for what the facade does not wrap: applications and the CLI need no
 // other dependency than this crate.

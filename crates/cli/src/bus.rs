@@ -17,8 +17,10 @@ use clap::Args;
 /// Options of the bus commands (global: they may stand before or after the subcommand).
 #[derive(Debug, Clone, Args)]
 pub(crate) struct BusOpts {
-    /// SocketCAN interface (e.g. can0, vcan0); without it, an in-memory simulated bus.
-    #[arg(long, global = true)]
+    /// The bus: a SocketCAN interface (can0, vcan0), or `udp[:GROUP[:PORT]]`, a bus over UDP
+    /// multicast between processes on this machine in python-can's `udp_multicast` format
+    /// (default 239.74.163.2:43113). Without it, an in-memory simulated bus inside this process.
+    #[arg(long, global = true, value_name = "IFACE")]
     pub(crate) iface: Option<String>,
     /// Object dictionary of a node, NODE=FILE (repeatable). On the in-memory bus the node is
     /// also simulated from that file.
@@ -109,10 +111,9 @@ impl BusOpts {
     ) -> Result<Bus, String> {
         match &self.iface {
             Some(iface) => {
-                let t = canopen::socketcan::SocketCan::open(iface)
-                    .map_err(|e| format!("{iface}: {e}{}", iface_hint(iface)))?;
+                let t = open_transport(iface)?;
                 Ok(Bus {
-                    transport: Box::new(t),
+                    transport: t,
                     memory: None,
                     dictionaries,
                 })
@@ -203,6 +204,19 @@ pub(crate) fn seconds(secs: f64) -> Duration {
     Duration::from_micros((secs.max(0.0) * 1e6) as u64)
 }
 
+/// Opens `--iface IFACE`: a UDP multicast bus for `udp[:GROUP[:PORT]]`, else SocketCAN.
+pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> {
+    if let Some(spec) = canopen::udp::parse_spec(iface) {
+        let group = spec.map_err(|e| format!("--iface {iface}: {e}"))?;
+        return canopen::udp::UdpMulticast::open(group)
+            .map(|t| Box::new(t) as Box<dyn Transport>)
+            .map_err(|e| format!("{iface}: {e}"));
+    }
+    canopen::socketcan::SocketCan::open(iface)
+        .map(|t| Box::new(t) as Box<dyn Transport>)
+        .map_err(|e| format!("{iface}: {e}{}", iface_hint(iface)))
+}
+
 /// The hint for an interface that cannot be opened: which interfaces exist, and how to make a
 /// virtual one.
 fn iface_hint(iface: &str) -> String {
@@ -230,7 +244,7 @@ fn iface_hint(iface: &str) -> String {
     format!(
         "\nhint: there is no interface `{iface}` ({list}; `ip link` lists all). A virtual one: \
          `sudo modprobe vcan && sudo ip link add dev {iface} type vcan && sudo ip link set {iface} up`; \
-         without CAN, `--iface udp` is a bus between processes on this machine"
+         without CAN, `--iface udp` is a bus between processes on this machine (python-can's udp_multicast)"
     )
 }
 

@@ -295,9 +295,9 @@ fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
         Ok(d) => Devices(d),
         Err(e) => return fail(e),
     };
-    let mut transport = match canopen::socketcan::SocketCan::open(iface) {
+    let mut transport = match crate::bus::open_transport(iface) {
         Ok(t) => t,
-        Err(e) => return fail(format!("{iface}: {e}")),
+        Err(e) => return fail(e),
     };
     eprintln!(
         "simulating {} unconfigured LSS slave(s) on {iface}{}",
