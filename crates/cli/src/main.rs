@@ -62,11 +62,16 @@ enum Command {
     },
     /// List the nodes that answer, with their identity (0x1018).
     Scan,
-    /// Decoded live traffic.
+    /// Decoded live traffic, optionally filtered as candump filters.
     Monitor {
         /// Stop after this many seconds (required on the in-memory bus).
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
+        /// candump-style filters, hex: `ID:MASK` shows frames with `id & MASK == ID & MASK`,
+        /// `ID~MASK` those without; 8-digit IDs filter 29-bit frames. A frame passing any filter
+        /// is shown (comma-separated or repeated: `705:7FF,080~7FF`).
+        #[arg(value_name = "FILTER", value_delimiter = ',', value_parser = traffic::parse_filter)]
+        filters: Vec<traffic::Filter>,
     },
     /// Run a simulated device from an EDS on the bus.
     Simulate {
@@ -147,7 +152,9 @@ fn main() -> ExitCode {
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
         Command::Nmt { command, target } => nmt_cmd::run(command, &target, &cli.bus, global),
         Command::Scan => nmt_cmd::run_scan(&cli.bus, global),
-        Command::Monitor { duration } => traffic::run_monitor(&cli.bus, duration, global),
+        Command::Monitor { duration, filters } => {
+            traffic::run_monitor(&cli.bus, duration, &filters, global)
+        }
         Command::Simulate {
             eds,
             node_id,

@@ -5,20 +5,88 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use canopen::candump::{self, LogEntry, LogFrame};
-use canopen::{Duration, Monitor};
+use canopen::{CanId, Duration, Monitor};
 use serde_json::json;
 
 use crate::bus::{BusOpts, fail};
 use crate::{Global, outln};
 
-/// `canopen monitor`
-pub(crate) fn run_monitor(opts: &BusOpts, duration: Option<f64>, g: Global) -> ExitCode {
+/// One candump-style receive filter: `ID:MASK` passes a frame whose identifier matches `ID` in
+/// the bits of `MASK`, `ID~MASK` one that does not. Three hex digits (or a value up to 0x7FF)
+/// filter 11-bit frames, eight digits (or a larger value) 29-bit frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Filter {
+    id: u32,
+    mask: u32,
+    extended: bool,
+    inverse: bool,
+}
+
+impl Filter {
+    fn matches(&self, id: CanId) -> bool {
+        let (raw, ext) = match id {
+            CanId::Standard(_) => (id.as_raw(), false),
+            CanId::Extended(_) => (id.as_raw(), true),
+        };
+        let hit = ext == self.extended && raw & self.mask == self.id & self.mask;
+        hit != self.inverse
+    }
+}
+
+/// Parses `ID:MASK` or `ID~MASK` (hex, as candump writes them).
+pub(crate) fn parse_filter(s: &str) -> Result<Filter, String> {
+    let (id, mask, inverse) = match (s.split_once(':'), s.split_once('~')) {
+        (Some((i, m)), None) => (i, m, false),
+        (None, Some((i, m))) => (i, m, true),
+        _ => {
+            return Err(format!(
+                "filter `{s}`: expected ID:MASK or ID~MASK in hex (candump's syntax)"
+            ));
+        }
+    };
+    let hex = |t: &str| {
+        let t = t.strip_prefix("0x").unwrap_or(t);
+        if t.is_empty() || t.len() > 8 {
+            return None;
+        }
+        u32::from_str_radix(t, 16).ok()
+    };
+    let (Some(idv), Some(maskv)) = (hex(id), hex(mask)) else {
+        return Err(format!("filter `{s}`: ID and MASK are hex numbers"));
+    };
+    let extended = id.trim_start_matches("0x").len() == 8 || idv > 0x7FF;
+    if idv > 0x1FFF_FFFF {
+        return Err(format!("filter `{s}`: identifier above 0x1FFFFFFF"));
+    }
+    Ok(Filter {
+        id: idv,
+        mask: maskv & if extended { 0x1FFF_FFFF } else { 0x7FF },
+        extended,
+        inverse,
+    })
+}
+
+/// Whether `id` passes `filters`: any of them (none given: all frames), as candump does.
+fn passes(filters: &[Filter], id: CanId) -> bool {
+    filters.is_empty() || filters.iter().any(|f| f.matches(id))
+}
+
+/// `canopen monitor [FILTER...]`
+pub(crate) fn run_monitor(
+    opts: &BusOpts,
+    duration: Option<f64>,
+    filters: &[Filter],
+    g: Global,
+) -> ExitCode {
     let mut bus = match opts.open() {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
     let mut monitor = Monitor::new(bus.bus_dictionary());
     let r = bus.pump(duration, |frame, at| {
+        if !passes(filters, frame.id()) {
+            return;
+        }
         if g.json {
             outln(
                 &json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string(),
@@ -157,4 +225,44 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
         eprintln!("{sent} frames replayed");
     }
     ExitCode::SUCCESS
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sid(raw: u16) -> CanId {
+        CanId::standard(raw).unwrap()
+    }
+
+    #[test]
+    fn filters_as_candump_reads_them() {
+        let f = parse_filter("705:7FF").unwrap();
+        assert!(f.matches(sid(0x705)) && !f.matches(sid(0x706)));
+        let f = parse_filter("700:780").unwrap();
+        assert!(f.matches(sid(0x705)) && f.matches(sid(0x77F)) && !f.matches(sid(0x605)));
+        let f = parse_filter("705~7FF").unwrap();
+        assert!(!f.matches(sid(0x705)) && f.matches(sid(0x706)));
+        let f = parse_filter("00000705:1FFFFFFF").unwrap();
+        assert!(!f.matches(sid(0x705)));
+        assert!(f.matches(CanId::extended(0x705).unwrap()));
+        assert!(parse_filter("12345678:0").unwrap().extended);
+        for bad in [
+            "705",
+            "705:",
+            ":7FF",
+            "zz:7FF",
+            "705:7FF~1",
+            "3FFFFFFFF:0",
+            "40000000:0",
+        ] {
+            assert!(parse_filter(bad).is_err(), "{bad}");
+        }
+        let two = [
+            parse_filter("705:7FF").unwrap(),
+            parse_filter("706:7FF").unwrap(),
+        ];
+        assert!(passes(&two, sid(0x706)) && !passes(&two, sid(0x707)));
+        assert!(passes(&[], sid(0x707)));
+    }
 }

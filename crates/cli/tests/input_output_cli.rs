@@ -267,3 +267,43 @@ fn a_failed_record_leaves_the_file_alone() {
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.contains(" mem0 705#00"), "{text}");
 }
+
+#[test]
+fn monitor_filters_like_candump() {
+    let (e5, e6) = (format!("5={EDS}"), format!("6={EDS}"));
+    let frames = |filters: &[&str]| {
+        let mut args = vec![
+            "--eds",
+            &e5,
+            "--eds",
+            &e6,
+            "--json",
+            "monitor",
+            "--duration",
+            "1.2",
+        ];
+        args.extend_from_slice(filters);
+        let o = canopen(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let mut ids: Vec<String> = stdout(&o)
+            .lines()
+            .map(|l| {
+                let v: serde_json::Value = serde_json::from_str(l).unwrap();
+                v["frame"].as_str().unwrap()[..3].to_string()
+            })
+            .collect();
+        ids.dedup();
+        ids.sort();
+        ids.dedup();
+        ids
+    };
+    assert_eq!(frames(&[]), ["705", "706"]);
+    assert_eq!(frames(&["705:7FF"]), ["705"]);
+    assert_eq!(frames(&["705~7FF"]), ["706"]);
+    assert_eq!(frames(&["705:7FF,706:7FF"]), ["705", "706"]);
+    assert_eq!(frames(&["700:780"]), ["705", "706"]);
+    assert!(frames(&["00000705:1FFFFFFF"]).is_empty());
+    let o = canopen(&["monitor", "--duration", "0", "705"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("ID:MASK"), "{}", stderr(&o));
+}
