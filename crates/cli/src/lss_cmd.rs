@@ -19,7 +19,7 @@ use canopen::{MemoryBus, SimDevice, Station};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
-use crate::bus::{BusOpts, open_network};
+use crate::bus::{BusOpts, fail, open_network};
 use crate::{Global, outln};
 
 const BURKERT_EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
@@ -170,11 +170,6 @@ fn num(s: &str) -> Result<u32, String> {
         None => s.parse(),
     }
     .map_err(|e| format!("`{s}`: {e}"))
-}
-
-fn fail(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
-    ExitCode::FAILURE
 }
 
 fn addr_json(a: &LssAddress) -> serde_json::Value {

@@ -307,3 +307,24 @@ fn monitor_filters_like_candump() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("ID:MASK"), "{}", stderr(&o));
 }
+
+#[test]
+fn every_bus_command_fails_with_one_prefix() {
+    let missing = tmp("missing.log");
+    let missing = missing.to_str().unwrap();
+    for args in [
+        vec!["sdo", "read", "9", "0x1000"],
+        vec!["nmt", "start", "nine"],
+        vec!["--iface", "nosuchcan7", "scan"],
+        vec!["monitor"],
+        vec!["replay", missing],
+        vec!["lss", "assign-all", "--first", "10", "--last", "2"],
+        vec!["gateway", "--listen", "nonsense-scheme:x"],
+        vec!["--eds", "5=/nonexistent.eds", "scan"],
+    ] {
+        let o = canopen(&args);
+        assert!(!o.status.success(), "{args:?}");
+        let e = stderr(&o);
+        assert!(e.starts_with("error: "), "{args:?}: {e}");
+    }
+}
