@@ -328,3 +328,44 @@ fn every_bus_command_fails_with_one_prefix() {
         assert!(e.starts_with("error: "), "{args:?}: {e}");
     }
 }
+
+#[test]
+fn progress_bar_only_on_a_terminal_and_ending_at_100_percent() {
+    let out = tmp("up.bin");
+    let eds = format!("5={EDS}");
+    let args = [
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    // Not a terminal: no bar.
+    let o = canopen(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        !stderr(&o).contains('\r') && !stderr(&o).contains('%'),
+        "{}",
+        stderr(&o)
+    );
+    // A terminal (util-linux `script` gives the command a pseudo-terminal): the bar ends full.
+    let line = std::iter::once(env!("CARGO_BIN_EXE_canopen").to_string())
+        .chain(args.iter().map(|a| format!("'{a}'")))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let o = Command::new("script")
+        .args(["-qec", &line, "/dev/null"])
+        .output()
+        .expect("util-linux `script` runs");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    let last_bar = text
+        .split(['\r', '\n'])
+        .filter(|l| l.contains(" bytes ") && l.contains('%'))
+        .last()
+        .unwrap_or_else(|| panic!("no bar in {text:?}"));
+    assert!(last_bar.ends_with("23/23 bytes 100 %"), "{last_bar:?}");
+}
