@@ -364,8 +364,7 @@ fn progress_bar_only_on_a_terminal_and_ending_at_100_percent() {
     let text = stdout(&o);
     let last_bar = text
         .split(['\r', '\n'])
-        .filter(|l| l.contains(" bytes ") && l.contains('%'))
-        .last()
+        .rfind(|l| l.contains(" bytes ") && l.contains('%'))
         .unwrap_or_else(|| panic!("no bar in {text:?}"));
     assert!(last_bar.ends_with("23/23 bytes 100 %"), "{last_bar:?}");
 }
