@@ -79,7 +79,10 @@ pub(crate) enum SdoCommand {
         #[arg(long)]
         block: bool,
     },
-    /// Write an object: `write NODE OBJECT [SUB] VALUE`.
+    /// Write an object: `write NODE OBJECT [SUB] VALUE`. Negative numbers are values
+    /// (`-42`); a value starting with another `-` (`-0x10`) goes after `--`, which ends the
+    /// options: give `--type` before it.
+    #[command(override_usage = "canopen sdo write [OPTIONS] <NODE> <OBJECT> [SUB] <VALUE>")]
     Write {
         /// Node-ID.
         #[arg(value_parser = parse_node)]
@@ -116,6 +119,7 @@ pub(crate) enum SdoCommand {
         block: bool,
     },
     /// Download a file into an object: `download NODE OBJECT [SUB] FILE`.
+    #[command(override_usage = "canopen sdo download [OPTIONS] <NODE> <OBJECT> [SUB] <FILE>")]
     Download {
         /// Node-ID.
         #[arg(value_parser = parse_node)]
