@@ -79,7 +79,7 @@ def main():
 
         scan = cli("scan").stdout
         print(scan, end="", flush=True)
-        check("scan lists the LocalNode", any(line.split()[:2] == [n, "0x00000abc"] for line in scan.splitlines()), True)
+        check("scan lists the LocalNode", any(line.split()[:2] == [n, str(0xABC)] for line in scan.splitlines()), True)
 
         # TPDO1 (0x2000 mapped) every 50 ms: the CLI's monitor shows the frames, decoded with
         # the EDS; a value changed on the LocalNode shows in the following ones.

@@ -4,8 +4,11 @@
 //! `(1700000000.123456) can0 123#DEADBEEF`. `FRAME` is a 3-digit hex identifier (11-bit) or an
 //! 8-digit one (29-bit), `#`, then the data as hex pairs (can-utils also accepts `.` between
 //! pairs), or `R` for a remote frame with an optional length digit (`123#R`, `123#R8`). An
-//! 8-digit identifier with the error flag `0x20000000` is a CAN error frame. CAN FD lines (`##`)
-//! are reported as unsupported.
+//! 8-digit identifier with the error flag `0x20000000` is a CAN error frame. A CAN FD frame is
+//! `ID##F` then its data: `F` is one hex digit of flags (bit 0 bit-rate switch, bit 1 error
+//! state indicator), the data 0 to 8, 12, 16, 20, 24, 32, 48 or 64 bytes. The stack carries
+//! classic frames only; FD lines are read as [`LogFrame::Fd`] so a tool can tell, count and
+//! skip them.
 //!
 //! The reader is a total decoder of file text: every line becomes an entry or a typed
 //! [`CandumpError`] with its line number; it never panics and reads at most
@@ -26,6 +29,8 @@ pub const ERROR_FLAG: u32 = 0x2000_0000;
 pub enum LogFrame {
     /// A data or remote frame.
     Can(CanFrame),
+    /// A CAN FD frame (read and written, not sent: the transports carry classic frames).
+    Fd(FdFrame),
     /// A CAN error frame: error class bits (identifier without the flag) and detail bytes.
     Error {
         /// Error class bits.
@@ -33,6 +38,42 @@ pub enum LogFrame {
         /// Detail bytes (unused ones zero).
         data: [u8; 8],
     },
+}
+
+/// A CAN FD frame of a log line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FdFrame {
+    /// Identifier.
+    pub id: CanId,
+    /// The flags digit: bit 0 bit-rate switch (BRS), bit 1 error state indicator (ESI).
+    pub flags: u8,
+    len: u8,
+    data: [u8; 64],
+}
+
+/// The data lengths a CAN FD frame can have.
+pub const FD_LENGTHS: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
+
+impl FdFrame {
+    /// An FD frame; `None` when `data` has no valid FD length or `flags` is above 0xF.
+    pub fn new(id: CanId, flags: u8, data: &[u8]) -> Option<Self> {
+        if flags > 0xF || !FD_LENGTHS.contains(&data.len()) {
+            return None;
+        }
+        let mut buf = [0u8; 64];
+        buf[..data.len()].copy_from_slice(data);
+        Some(Self {
+            id,
+            flags,
+            len: data.len() as u8,
+            data: buf,
+        })
+    }
+
+    /// The data bytes.
+    pub fn data(&self) -> &[u8] {
+        &self.data[..usize::from(self.len)]
+    }
 }
 
 /// One line of a candump log.
@@ -65,9 +106,9 @@ pub enum CandumpError {
     /// The data are not hex pairs, or more than 8 bytes.
     #[error("bad frame data `{0}`")]
     BadData(String),
-    /// A CAN FD frame (`##`), which this stack does not carry.
-    #[error("CAN FD frames are not supported")]
-    CanFd,
+    /// A CAN FD line (`##`) whose flags digit is missing or not hex.
+    #[error("bad CAN FD flags `{0}` (expected one hex digit after `##`)")]
+    BadFdFlags(String),
     /// Extra text after the frame.
     #[error("unexpected text after the frame")]
     TrailingText,
@@ -144,14 +185,43 @@ fn parse_timestamp(s: &str) -> Result<u64, CandumpError> {
         .ok_or(CandumpError::BadTimestamp)
 }
 
+/// Decodes hex pairs (`.` between them allowed) into `out`; `None` when they are not hex
+/// pairs or do not fit.
+fn hex_pairs(text: &str, out: &mut [u8]) -> Option<usize> {
+    let mut len = 0usize;
+    let mut digits = text.bytes().filter(|b| *b != b'.');
+    while let Some(hi) = digits.next() {
+        let lo = digits.next()?;
+        *out.get_mut(len)? = (hex_val(hi)? << 4) | hex_val(lo)?;
+        len += 1;
+    }
+    Some(len)
+}
+
 /// Decodes the `ID#DATA` field.
 pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
     let (id, data) = s.split_once('#').ok_or(CandumpError::MissingFrame)?;
-    if data.starts_with('#') {
-        return Err(CandumpError::CanFd);
-    }
     let raw = parse_hex_u32(id).ok_or_else(|| CandumpError::BadId(id.into()))?;
     let bad_id = || CandumpError::BadId(id.into());
+    if let Some(fd) = data.strip_prefix('#') {
+        let can_id = match id.len() {
+            3 => CanId::standard(raw as u16).map_err(|_| bad_id())?,
+            8 => CanId::extended(raw).map_err(|_| bad_id())?,
+            _ => return Err(bad_id()),
+        };
+        let mut chars = fd.chars();
+        let flags = chars
+            .next()
+            .and_then(|c| c.to_digit(16))
+            .ok_or_else(|| CandumpError::BadFdFlags(fd.chars().take(1).collect()))?;
+        let rest = chars.as_str();
+        let bad_data = || CandumpError::BadData(rest.into());
+        let mut bytes = [0u8; 64];
+        let len = hex_pairs(rest, &mut bytes).ok_or_else(bad_data)?;
+        return FdFrame::new(can_id, flags as u8, &bytes[..len])
+            .map(LogFrame::Fd)
+            .ok_or_else(bad_data);
+    }
     let error_frame = id.len() == 8 && raw & ERROR_FLAG != 0;
     let can_id = match id.len() {
         3 => Some(CanId::standard(raw as u16).map_err(|_| bad_id())?),
@@ -174,14 +244,7 @@ pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
             .map_err(|_| bad_data());
     }
     let mut bytes = [0u8; 8];
-    let mut len = 0usize;
-    let mut digits = data.bytes().filter(|b| *b != b'.');
-    while let Some(hi) = digits.next() {
-        let lo = digits.next().ok_or_else(bad_data)?;
-        let v = (hex_val(hi).ok_or_else(bad_data)? << 4) | hex_val(lo).ok_or_else(bad_data)?;
-        *bytes.get_mut(len).ok_or_else(bad_data)? = v;
-        len += 1;
-    }
+    let len = hex_pairs(data, &mut bytes).ok_or_else(bad_data)?;
     match can_id {
         Some(can_id) => CanFrame::new(can_id, &bytes[..len])
             .map(LogFrame::Can)
@@ -218,6 +281,16 @@ pub fn parse_line(line: &str) -> Result<LogEntry, CandumpError> {
 pub fn format_frame(frame: &LogFrame) -> String {
     match frame {
         LogFrame::Can(f) => f.to_string(),
+        LogFrame::Fd(f) => {
+            let mut s = match f.id {
+                CanId::Standard(_) => format!("{:03X}##{:X}", f.id.as_raw(), f.flags),
+                CanId::Extended(_) => format!("{:08X}##{:X}", f.id.as_raw(), f.flags),
+            };
+            for b in f.data() {
+                s.push_str(&format!("{b:02X}"));
+            }
+            s
+        }
         LogFrame::Error { class, data } => {
             let mut s = format!("{:08X}#", class | ERROR_FLAG);
             for b in data {
@@ -416,13 +489,36 @@ mod tests {
             ),
             ("(1.0) can0 123#zz", BadData("zz".into())),
             ("(1.0) can0 123#R9", BadData("R9".into())),
-            ("(1.0) can0 123##1", CanFd),
+            ("(1.0) can0 123##", BadFdFlags(String::new())),
+            ("(1.0) can0 123##x00", BadFdFlags("x".into())),
+            (
+                "(1.0) can0 123##1000102030405060708",
+                BadData("000102030405060708".into()),
+            ),
+            ("(1.0) can0 12##100", BadId("12".into())),
             ("(1.0) can0 123#00 extra", TrailingText),
             ("(99999999999999.0) can0 123#00", BadTimestamp),
         ];
         for (line, want) in cases {
             assert_eq!(parse_line(line), Err(want), "{line:?}");
         }
+    }
+
+    #[test]
+    fn reads_and_writes_can_fd_lines() {
+        let line = "(1.000000) can0 123##1000102030405060708090A0B";
+        let e = parse_line(line).unwrap();
+        let LogFrame::Fd(fd) = e.frame else {
+            panic!("{e:?}")
+        };
+        assert_eq!(fd.id, sid(0x123));
+        assert_eq!(fd.flags, 1);
+        assert_eq!(fd.data(), (0u8..12).collect::<Vec<_>>());
+        assert_eq!(format_line(&e), line);
+        let ext = parse_line("(1.000000) can0 1ABCDEF0##0").unwrap();
+        assert_eq!(format_line(&ext), "(1.000000) can0 1ABCDEF0##0");
+        let long = format!("(1.000000) can0 7FF##3{}", "AB".repeat(64));
+        assert_eq!(format_line(&parse_line(&long).unwrap()), long);
     }
 
     #[test]

@@ -44,6 +44,8 @@ pub mod sim;
 pub mod socketcan;
 pub mod transport;
 pub mod typed;
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod udp;
 
 // The protocol crates, for what the facade does not wrap: applications and the CLI need no
 // other dependency than this crate.

@@ -17,8 +17,10 @@ use clap::Args;
 /// Options of the bus commands (global: they may stand before or after the subcommand).
 #[derive(Debug, Clone, Args)]
 pub(crate) struct BusOpts {
-    /// SocketCAN interface (e.g. can0, vcan0); without it, an in-memory simulated bus.
-    #[arg(long, global = true)]
+    /// The bus: a SocketCAN interface (can0, vcan0), or `udp[:GROUP[:PORT]]`, a bus over UDP
+    /// multicast between processes on this machine in python-can's `udp_multicast` format
+    /// (default 239.74.163.2:43113). Without it, an in-memory simulated bus inside this process.
+    #[arg(long, global = true, value_name = "IFACE")]
     pub(crate) iface: Option<String>,
     /// Object dictionary of a node, NODE=FILE (repeatable). On the in-memory bus the node is
     /// also simulated from that file.
@@ -84,7 +86,17 @@ pub(crate) struct Bus {
 impl BusOpts {
     /// The `--eds` dictionaries.
     pub(crate) fn dictionaries(&self) -> Result<Vec<(NodeId, ObjectDictionary)>, String> {
-        self.node_eds.iter().map(|s| load_eds(s)).collect()
+        let mut out: Vec<(NodeId, ObjectDictionary)> = Vec::new();
+        for spec in &self.node_eds {
+            let (node, od) = load_eds(spec)?;
+            if out.iter().any(|(n, _)| *n == node) {
+                return Err(format!(
+                    "--eds {spec}: node {node} already has a dictionary (one --eds per node)"
+                ));
+            }
+            out.push((node, od));
+        }
+        Ok(out)
     }
 
     /// Opens the bus with the `--eds` dictionaries.
@@ -99,10 +111,9 @@ impl BusOpts {
     ) -> Result<Bus, String> {
         match &self.iface {
             Some(iface) => {
-                let t = canopen::socketcan::SocketCan::open(iface)
-                    .map_err(|e| format!("{iface}: {e}"))?;
+                let t = open_transport(iface)?;
                 Ok(Bus {
-                    transport: Box::new(t),
+                    transport: t,
                     memory: None,
                     dictionaries,
                 })
@@ -193,8 +204,109 @@ pub(crate) fn seconds(secs: f64) -> Duration {
     Duration::from_micros((secs.max(0.0) * 1e6) as u64)
 }
 
-/// Prints `error: ...` and gives the failure exit code.
+/// Opens `--iface IFACE`: a UDP multicast bus for `udp[:GROUP[:PORT]]`, else SocketCAN.
+pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> {
+    if let Some(spec) = canopen::udp::parse_spec(iface) {
+        let group = spec.map_err(|e| format!("--iface {iface}: {e}"))?;
+        return canopen::udp::UdpMulticast::open(group)
+            .map(|t| Box::new(t) as Box<dyn Transport>)
+            .map_err(|e| format!("{iface}: {e}"));
+    }
+    canopen::socketcan::SocketCan::open(iface)
+        .map(|t| Box::new(t) as Box<dyn Transport>)
+        .map_err(|e| format!("{iface}: {e}{}", iface_hint(iface)))
+}
+
+/// The hint for an interface that cannot be opened: which interfaces exist, and how to make a
+/// virtual one.
+fn iface_hint(iface: &str) -> String {
+    let exists = std::path::Path::new("/sys/class/net").join(iface).exists();
+    if exists {
+        return String::new();
+    }
+    let mut known: Vec<String> = std::fs::read_dir("/sys/class/net")
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| {
+                    std::fs::read_to_string(format!("/sys/class/net/{n}/type"))
+                        .is_ok_and(|t| t.trim() == "280") // ARPHRD_CAN
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    known.sort();
+    let list = if known.is_empty() {
+        "no CAN interface exists".to_string()
+    } else {
+        format!("CAN interfaces here: {}", known.join(", "))
+    };
+    format!(
+        "\nhint: there is no interface `{iface}` ({list}; `ip link` lists all). A virtual one: \
+         `sudo modprobe vcan && sudo ip link add dev {iface} type vcan && sudo ip link set {iface} up`; \
+         without CAN, `--iface udp` is a bus between processes on this machine (python-can's udp_multicast)"
+    )
+}
+
+/// Whether errors print as JSON (`--json`); set once by `main`.
+static JSON_ERRORS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Makes [`fail`] print JSON.
+pub(crate) fn json_errors(on: bool) {
+    JSON_ERRORS.store(on, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Prints `error: ...` (under `--json` one JSON object `{"error": ...}` on stderr) and gives
+/// the failure exit code.
 pub(crate) fn fail(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
+    fail_fields(&e.to_string(), serde_json::Map::new())
+}
+
+/// [`fail`] with extra JSON fields.
+fn fail_fields(text: &str, mut fields: serde_json::Map<String, serde_json::Value>) -> ExitCode {
+    if JSON_ERRORS.load(std::sync::atomic::Ordering::Relaxed) {
+        fields.insert("error".into(), text.into());
+        eprintln!("{}", serde_json::Value::Object(fields));
+    } else {
+        eprintln!("error: {text}");
+    }
     ExitCode::FAILURE
+}
+
+/// Reports a failed master operation: SDO failures carry node, object, abort code and its
+/// meaning as JSON fields, and a timeout a hint.
+pub(crate) fn fail_op(e: &canopen::Error) -> ExitCode {
+    use canopen::{Error, SdoErrorKind};
+    use serde_json::json;
+    let mut fields = serde_json::Map::new();
+    let mut text = e.to_string();
+    if let Error::Sdo(s) = e {
+        fields.insert("node".into(), json!(s.node.get()));
+        fields.insert("index".into(), json!(s.entry.index));
+        fields.insert("sub".into(), json!(s.entry.sub_index));
+        if let Some(name) = &s.name {
+            fields.insert("name".into(), json!(name));
+        }
+        if let Some(code) = s.abort_code() {
+            fields.insert("abort_code".into(), json!(format!("{:#010x}", code.get())));
+            fields.insert(
+                "meaning".into(),
+                json!(code.description().unwrap_or("unknown abort code")),
+            );
+        }
+        if matches!(
+            s.kind,
+            SdoErrorKind::Transfer(canopen::sdo::ErrorKind::Timeout)
+        ) {
+            let hint = format!(
+                "hint: nothing answered. Is node {} on this bus (`canopen scan` lists the nodes \
+                 that answer), powered, at the same bit rate? On the in-memory bus only \
+                 `--eds NODE=FILE` nodes exist.",
+                s.node
+            );
+            fields.insert("hint".into(), json!(hint));
+            text = format!("{text}\n{hint}");
+        }
+    }
+    fail_fields(&text, fields)
 }

@@ -41,10 +41,7 @@ fn show_traffic(tap: &mut canopen::Endpoint, monitor: &mut Monitor, max: usize) 
 pub(crate) fn run() -> ExitCode {
     match walk() {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("demo failed: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => crate::bus::fail(format!("demo failed: {e}")),
     }
 }
 

@@ -61,19 +61,13 @@ pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
     for spec in &args.listen {
         match bind(spec) {
             Ok(l) => listeners.push(l),
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::FAILURE;
-            }
+            Err(e) => return crate::bus::fail(e),
         }
     }
     // The in-memory bus (if that is the bus) lives as long as the gateway.
     let (net, _memory) = match open_network(opts) {
         Ok(n) => n,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
+        Err(e) => return crate::bus::fail(e),
     };
     let config = Config {
         sdo_timeout: canopen::Duration::from_millis(args.sdo_timeout),

@@ -19,7 +19,7 @@ use canopen::{MemoryBus, SimDevice, Station};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
-use crate::bus::{BusOpts, open_network};
+use crate::bus::{BusOpts, fail, open_network};
 use crate::{Global, outln};
 
 const BURKERT_EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
@@ -172,11 +172,6 @@ fn num(s: &str) -> Result<u32, String> {
     .map_err(|e| format!("`{s}`: {e}"))
 }
 
-fn fail(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
-    ExitCode::FAILURE
-}
-
 fn addr_json(a: &LssAddress) -> serde_json::Value {
     json!({"vendor_id": a.vendor_id, "product_code": a.product_code,
            "revision": a.revision_number, "serial": a.serial_number})
@@ -295,9 +290,9 @@ fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
         Ok(d) => Devices(d),
         Err(e) => return fail(e),
     };
-    let mut transport = match canopen::socketcan::SocketCan::open(iface) {
+    let mut transport = match crate::bus::open_transport(iface) {
         Ok(t) => t,
-        Err(e) => return fail(format!("{iface}: {e}")),
+        Err(e) => return fail(e),
     };
     eprintln!(
         "simulating {} unconfigured LSS slave(s) on {iface}{}",

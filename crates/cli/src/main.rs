@@ -16,6 +16,7 @@ mod eds;
 mod gateway;
 mod lss_cmd;
 mod nmt_cmd;
+mod objaddr;
 mod sdo_cmd;
 mod simulate;
 mod traffic;
@@ -25,9 +26,15 @@ mod traffic;
 #[derive(Debug, Parser)]
 #[command(name = "canopen", version, about)]
 struct Cli {
-    /// Print machine-readable JSON instead of text.
+    /// Print machine-readable JSON instead of text; errors too, as one JSON object on stderr
+    /// (`error`, and for SDO failures `node`, `index`, `sub`, `abort_code`, `meaning`).
     #[arg(long, global = true)]
     json: bool,
+
+    /// Print unsigned integer values in zero-padded hex (`0x00000039`) instead of decimal
+    /// (`57`), the default of every command. Indices, COB-IDs and abort codes are always hex.
+    #[arg(long, global = true)]
+    hex: bool,
 
     #[command(flatten)]
     bus: bus::BusOpts,
@@ -57,7 +64,7 @@ enum Command {
     },
     /// List the nodes that answer, with their identity (0x1018).
     Scan,
-    /// Decoded live traffic.
+    /// Decoded live traffic, optionally filtered as candump filters.
     Monitor {
         /// Stop after this many seconds (required on the in-memory bus).
         #[arg(long, value_parser = bus::parse_seconds)]
@@ -65,6 +72,11 @@ enum Command {
         /// Decode the frames as DeviceNet instead of CANopen.
         #[arg(long)]
         devicenet: bool,
+        /// candump-style filters, hex: `ID:MASK` shows frames with `id & MASK == ID & MASK`,
+        /// `ID~MASK` those without; 8-digit IDs filter 29-bit frames. A frame passing any filter
+        /// is shown (comma-separated or repeated: `705:7FF,080~7FF`).
+        #[arg(value_name = "FILTER", value_delimiter = ',', value_parser = traffic::parse_filter)]
+        filters: Vec<traffic::Filter>,
     },
     /// Run a simulated device from an EDS on the bus.
     Simulate {
@@ -77,7 +89,10 @@ enum Command {
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
-    /// Record traffic in the candump log format.
+    /// Record traffic in the candump log format. The file is written under a temporary name
+    /// and renamed when recording succeeds: a failed run leaves an existing file alone. The
+    /// SocketCAN socket is a classic CAN socket: the kernel does not deliver CAN FD frames to
+    /// it, so FD traffic is not in the log.
     Record {
         /// Output file.
         #[arg(short, long)]
@@ -86,7 +101,8 @@ enum Command {
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
-    /// Replay a candump log with its recorded timing.
+    /// Replay a candump log with its recorded timing. The whole log is read and checked
+    /// before the first frame is sent; CAN FD and error frames are skipped with a count.
     Replay {
         /// candump log file.
         file: std::path::PathBuf,
@@ -110,6 +126,8 @@ enum Command {
 #[derive(Debug, Clone, Copy)]
 struct Global {
     json: bool,
+    /// Unsigned values in hex (`--hex`).
+    hex: bool,
 }
 
 /// Writes to stdout. A closed pipe (`canopen eds show F | head`) ends output quietly instead of
@@ -133,7 +151,11 @@ pub(crate) fn outln(text: &str) {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let global = Global { json: cli.json };
+    let global = Global {
+        json: cli.json,
+        hex: cli.hex,
+    };
+    bus::json_errors(cli.json);
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
@@ -142,7 +164,8 @@ fn main() -> ExitCode {
         Command::Monitor {
             duration,
             devicenet,
-        } => traffic::run_monitor(&cli.bus, duration, devicenet, global),
+            filters,
+        } => traffic::run_monitor(&cli.bus, duration, &filters, devicenet, global),
         Command::Simulate {
             eds,
             node_id,

@@ -72,7 +72,16 @@ pub(crate) fn run_scan(opts: &BusOpts, g: Global) -> ExitCode {
         Err(e) => return fail(e),
     };
     let found = net.scan(Duration::from_millis(200));
-    let fmt = |v: Option<u32>| v.map_or("-".to_string(), |v| format!("{v:#010x}"));
+    // Decimal like every command's values; `--hex` zero-padded hex.
+    let fmt = |v: Option<u32>| {
+        v.map_or("-".to_string(), |v| {
+            if g.hex {
+                format!("{v:#010x}")
+            } else {
+                v.to_string()
+            }
+        })
+    };
     if g.json {
         let list: Vec<_> = found
             .iter()
@@ -89,7 +98,7 @@ pub(crate) fn run_scan(opts: &BusOpts, g: Global) -> ExitCode {
         for s in &found {
             let id = s.identity;
             outln(&format!(
-                "{:>4}  {}  {}  {}  {}",
+                "{:>4}  {:<10}  {:<10}  {:<10}  {}",
                 s.node.get(),
                 fmt(Some(id.vendor_id)),
                 fmt(id.product_code),

@@ -12,7 +12,7 @@ use canopen::{DataType, Network, NodeId, ObjectAddress, Value};
 use clap::{Subcommand, ValueEnum};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail, parse_node, parse_u8, parse_u16};
+use crate::bus::{BusOpts, fail, fail_op, parse_node, parse_u8};
 use crate::{Global, outln};
 
 /// Value types for `--type`.
@@ -51,19 +51,27 @@ impl Ty {
     }
 }
 
+/// How the SDO commands name an object (see `canopen sdo --help`).
+const OBJECT_HELP: &str = "Object: index in hex (0x1017, as CANopen writes it) or decimal \
+    (4119); with --eds NODE=FILE also its name from the dictionary (\"Producer heartbeat \
+    time\", case-insensitive; \"OBJECT/SUB\" names a sub-object)";
+
+/// SDO transfers. Objects are named by index (hex `0x1017`, CANopen's notation, or decimal)
+/// and sub-index (default 0), or by their dictionary name with `--eds NODE=FILE`. Negative
+/// values need no `--`: `sdo write 4 0x2120 1 -42 --type i64`.
 #[derive(Debug, Subcommand)]
 pub(crate) enum SdoCommand {
-    /// Read an object; prints the value alone.
+    /// Read an object; prints the value alone (integers in decimal, `--hex` for unsigned ones
+    /// in zero-padded hex).
     Read {
         /// Node-ID.
         #[arg(value_parser = parse_node)]
         node: NodeId,
-        /// Index (0x hex or decimal).
-        #[arg(value_parser = parse_u16)]
-        index: u16,
-        /// Sub-index.
+        #[arg(help = OBJECT_HELP)]
+        object: String,
+        /// Sub-index (default 0, or the sub-object a name selects).
         #[arg(value_parser = parse_u8)]
-        sub: u8,
+        sub: Option<u8>,
         /// Value type (default: from --eds, else bytes).
         #[arg(long = "type", value_enum)]
         ty: Option<Ty>,
@@ -71,19 +79,21 @@ pub(crate) enum SdoCommand {
         #[arg(long)]
         block: bool,
     },
-    /// Write an object.
+    /// Write an object: `write NODE OBJECT [SUB] VALUE`. Negative numbers are values
+    /// (`-42`); a value starting with another `-` (`-0x10`) goes after `--`, which ends the
+    /// options: give `--type` before it.
+    #[command(override_usage = "canopen sdo write [OPTIONS] <NODE> <OBJECT> [SUB] <VALUE>")]
     Write {
         /// Node-ID.
         #[arg(value_parser = parse_node)]
         node: NodeId,
-        /// Index.
-        #[arg(value_parser = parse_u16)]
-        index: u16,
-        /// Sub-index.
-        #[arg(value_parser = parse_u8)]
-        sub: u8,
-        /// The value (integers decimal or 0x hex; bytes as hex).
-        value: String,
+        #[arg(help = OBJECT_HELP)]
+        object: String,
+        /// `[SUB] VALUE`: the sub-index (default 0) and the value (integers decimal or 0x hex,
+        /// negative ones as `-42`; bytes as hex).
+        #[arg(num_args = 1..=2, required = true, value_names = ["SUB", "VALUE"],
+              allow_negative_numbers = true)]
+        args: Vec<String>,
         /// Value type (default: from --eds).
         #[arg(long = "type", value_enum)]
         ty: Option<Ty>,
@@ -96,12 +106,11 @@ pub(crate) enum SdoCommand {
         /// Node-ID.
         #[arg(value_parser = parse_node)]
         node: NodeId,
-        /// Index.
-        #[arg(value_parser = parse_u16)]
-        index: u16,
-        /// Sub-index.
+        #[arg(help = OBJECT_HELP)]
+        object: String,
+        /// Sub-index (default 0).
         #[arg(value_parser = parse_u8)]
-        sub: u8,
+        sub: Option<u8>,
         /// Output file.
         #[arg(short, long)]
         output: PathBuf,
@@ -109,23 +118,50 @@ pub(crate) enum SdoCommand {
         #[arg(long)]
         block: bool,
     },
-    /// Download a file into an object.
+    /// Download a file into an object: `download NODE OBJECT [SUB] FILE`.
+    #[command(override_usage = "canopen sdo download [OPTIONS] <NODE> <OBJECT> [SUB] <FILE>")]
     Download {
         /// Node-ID.
         #[arg(value_parser = parse_node)]
         node: NodeId,
-        /// Index.
-        #[arg(value_parser = parse_u16)]
-        index: u16,
-        /// Sub-index.
-        #[arg(value_parser = parse_u8)]
-        sub: u8,
-        /// Input file.
-        file: PathBuf,
+        #[arg(help = OBJECT_HELP)]
+        object: String,
+        /// `[SUB] FILE`: the sub-index (default 0) and the input file.
+        #[arg(num_args = 1..=2, required = true, value_names = ["SUB", "FILE"])]
+        args: Vec<String>,
         /// Use block transfer.
         #[arg(long)]
         block: bool,
     },
+}
+
+/// Splits `[SUB] LAST` positionals.
+fn sub_and_last(args: &[String]) -> Result<(Option<u8>, &str), String> {
+    match args {
+        [last] => Ok((None, last)),
+        [sub, last] => Ok((Some(parse_u8(sub)?), last)),
+        _ => Err("expected [SUB] and one more argument".into()),
+    }
+}
+
+/// The object address of `object` and `sub` on `node`.
+fn address(
+    net: &Network,
+    node: NodeId,
+    object: &str,
+    sub: Option<u8>,
+) -> Result<ObjectAddress, String> {
+    let od = net.node(node).dictionary();
+    let r = crate::objaddr::resolve(object, od.as_deref())?;
+    let sub = match (r.sub, sub) {
+        (Some(named), Some(given)) if named != given => {
+            return Err(format!(
+                "`{object}` is sub-index {named}, but sub-index {given} was given"
+            ));
+        }
+        (named, given) => named.or(given).unwrap_or(0),
+    };
+    Ok(ObjectAddress::new(r.index, sub))
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -134,11 +170,18 @@ fn hex(bytes: &[u8]) -> String {
 
 /// A value as the command prints it: the value's own text, except byte-typed objects as one
 /// hex word (as `candump` prints data).
-fn format_value(v: &Value) -> String {
+/// With `hex`, unsigned integers print zero-padded in hex (`0x00000039`).
+pub(crate) fn format_value(v: &Value, hex_style: bool) -> String {
     match v {
         Value::OctetString(b) | Value::Domain(b) => hex(b),
+        other if hex_style && is_unsigned(other) => format!("{other:#}"),
         other => other.to_string(),
     }
+}
+
+fn is_unsigned(v: &Value) -> bool {
+    let dt = v.data_type();
+    v.as_i128().is_some() && !dt.is_signed() && dt != DataType::Boolean
 }
 
 fn json_value(v: &Value) -> serde_json::Value {
@@ -213,8 +256,25 @@ fn data_type_of(
     })
 }
 
+/// The transfer's progress bar on stderr, drawn only when stderr is a terminal; a transfer
+/// that succeeds ends it at 100 %.
 struct Bar {
     on: bool,
+}
+
+fn bar_line(done: u64, total: Option<u64>) -> String {
+    match total {
+        Some(t) if t > 0 => {
+            let filled = (done.min(t) * 30 / t) as usize;
+            format!(
+                "\r[{}{}] {done}/{t} bytes {:>3} %",
+                "#".repeat(filled),
+                " ".repeat(30 - filled),
+                done.min(t) * 100 / t
+            )
+        }
+        _ => format!("\r{done} bytes"),
+    }
 }
 
 impl Bar {
@@ -226,27 +286,17 @@ impl Bar {
     fn callback(&self) -> impl FnMut(canopen::TransferProgress) + Send + 'static {
         let on = self.on;
         move |p| {
-            if !on {
-                return;
+            if on {
+                let _ = std::io::stderr().write_all(bar_line(p.done, p.total).as_bytes());
             }
-            let line = match p.total {
-                Some(t) if t > 0 => {
-                    let filled = (p.done * 30 / t) as usize;
-                    format!(
-                        "\r[{}{}] {}/{} bytes",
-                        "#".repeat(filled),
-                        " ".repeat(30 - filled.min(30)),
-                        p.done,
-                        t
-                    )
-                }
-                _ => format!("\r{} bytes", p.done),
-            };
-            let _ = std::io::stderr().write_all(line.as_bytes());
         }
     }
-    fn finish(&self) {
+    /// Ends the bar: full with the byte count of a transfer that succeeded.
+    fn finish(&self, done: Option<u64>) {
         if self.on {
+            if let Some(n) = done {
+                let _ = std::io::stderr().write_all(bar_line(n, Some(n)).as_bytes());
+            }
             eprintln!();
         }
     }
@@ -258,127 +308,128 @@ pub(crate) fn run(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
         Ok(b) => b.into_network(),
         Err(e) => return fail(e),
     };
+    match run_on(&net, cmd, g) {
+        Ok(code) => code,
+        Err(Failure::Op(e)) => fail_op(&e),
+        Err(Failure::Usage(e)) => fail(e),
+    }
+}
+
+/// Why a command failed: the master's error (with its fields), or bad input.
+enum Failure {
+    Op(canopen::Error),
+    Usage(String),
+}
+
+impl From<String> for Failure {
+    fn from(e: String) -> Self {
+        Self::Usage(e)
+    }
+}
+
+impl From<canopen::Error> for Failure {
+    fn from(e: canopen::Error) -> Self {
+        Self::Op(e)
+    }
+}
+
+fn addr_json(node: NodeId, entry: ObjectAddress) -> serde_json::Value {
+    json!({"node": node.get(), "index": entry.index, "sub": entry.sub_index})
+}
+
+fn with(mut base: serde_json::Value, key: &str, v: serde_json::Value) -> String {
+    base[key] = v;
+    base.to_string()
+}
+
+fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure> {
     match cmd {
         SdoCommand::Read {
             node,
-            index,
+            object,
             sub,
             ty,
             block,
         } => {
-            let entry = ObjectAddress::new(index, sub);
-            let dt = data_type_of(&net, node, entry, ty).unwrap_or(DataType::Domain);
-            let value = match net.node(node).sdo().block(block).read_as(entry, dt) {
-                Ok(v) => v,
-                Err(e) => return fail(e),
-            };
+            let entry = address(net, node, &object, sub)?;
+            let dt = data_type_of(net, node, entry, ty).unwrap_or(DataType::Domain);
+            let value = net.node(node).sdo().block(block).read_as(entry, dt)?;
             if g.json {
-                outln(
-                    &json!({"node": node.get(), "index": index, "sub": sub,
-                            "value": json_value(&value), "raw": hex(&value.to_le_bytes())})
-                    .to_string(),
-                );
+                let mut v = addr_json(node, entry);
+                v["raw"] = json!(hex(&value.to_le_bytes()));
+                outln(&with(v, "value", json_value(&value)));
             } else {
-                outln(&format_value(&value));
+                outln(&format_value(&value, g.hex));
             }
-            ExitCode::SUCCESS
         }
         SdoCommand::Write {
             node,
-            index,
-            sub,
-            value,
+            object,
+            args,
             ty,
             block,
         } => {
-            let entry = ObjectAddress::new(index, sub);
-            let Some(dt) = data_type_of(&net, node, entry, ty) else {
-                return fail(format!(
+            let (sub, value) = sub_and_last(&args)?;
+            let entry = address(net, node, &object, sub)?;
+            let Some(dt) = data_type_of(net, node, entry, ty) else {
+                return Err(format!(
                     "node {node}, object {entry}: give --type (or --eds {node}=FILE)"
-                ));
+                )
+                .into());
             };
-            let bytes = match parse_value(dt, &value) {
-                Ok(b) => b,
-                Err(e) => return fail(e),
-            };
-            match net.node(node).sdo().block(block).write(entry, bytes) {
-                Ok(()) => {
-                    if g.json {
-                        outln(
-                            &json!({"node": node.get(), "index": index, "sub": sub, "ok": true})
-                                .to_string(),
-                        );
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => fail(e),
+            let bytes = parse_value(dt, value)?;
+            net.node(node).sdo().block(block).write(entry, bytes)?;
+            if g.json {
+                outln(&with(addr_json(node, entry), "ok", json!(true)));
             }
         }
         SdoCommand::Upload {
             node,
-            index,
+            object,
             sub,
             output,
             block,
         } => {
-            let file = match std::fs::File::create(&output) {
-                Ok(f) => f,
-                Err(e) => return fail(format!("{}: {e}", output.display())),
-            };
+            let entry = address(net, node, &object, sub)?;
+            let file =
+                std::fs::File::create(&output).map_err(|e| format!("{}: {e}", output.display()))?;
             let bar = Bar::new();
             let r = net
                 .node(node)
                 .sdo()
                 .block(block)
                 .on_progress(bar.callback())
-                .upload_to((index, sub), std::io::BufWriter::new(file));
-            bar.finish();
-            match r {
-                Ok(n) => {
-                    if g.json {
-                        outln(
-                            &json!({"node": node.get(), "index": index, "sub": sub, "bytes": n})
-                                .to_string(),
-                        );
-                    } else {
-                        eprintln!("{n} bytes written to {}", output.display());
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => fail(e),
+                .upload_to(entry, std::io::BufWriter::new(file));
+            bar.finish(r.as_ref().ok().copied());
+            let n = r?;
+            if g.json {
+                outln(&with(addr_json(node, entry), "bytes", json!(n)));
+            } else {
+                eprintln!("{n} bytes written to {}", output.display());
             }
         }
         SdoCommand::Download {
             node,
-            index,
-            sub,
-            file,
+            object,
+            args,
             block,
         } => {
-            let f = match std::fs::File::open(&file) {
-                Ok(f) => f,
-                Err(e) => return fail(format!("{}: {e}", file.display())),
-            };
+            let (sub, file) = sub_and_last(&args)?;
+            let entry = address(net, node, &object, sub)?;
+            let f = std::fs::File::open(file).map_err(|e| format!("{file}: {e}"))?;
             let bar = Bar::new();
             let r = net
                 .node(node)
                 .sdo()
                 .block(block)
                 .on_progress(bar.callback())
-                .download_from((index, sub), f);
-            bar.finish();
-            match r {
-                Ok(n) => {
-                    if g.json {
-                        outln(
-                            &json!({"node": node.get(), "index": index, "sub": sub, "bytes": n})
-                                .to_string(),
-                        );
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => fail(e),
+                .download_from(entry, f);
+            bar.finish(r.as_ref().ok().copied());
+            let n = r?;
+            if g.json {
+                outln(&with(addr_json(node, entry), "bytes", json!(n)));
             }
         }
     }
+    Ok(ExitCode::SUCCESS)
 }

@@ -155,7 +155,8 @@ fn monitor_simulate_record_replay() {
     );
     let o = with_node5(&["--json", "replay", log.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(stdout(&o).trim(), r#"{"sent":3}"#);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["sent"], 3);
     std::fs::write(&log, "(1.0) can0 123#zz\n").unwrap();
     let o = canopen(&["replay", log.to_str().unwrap()]);
     assert!(!o.status.success());
