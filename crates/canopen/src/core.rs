@@ -25,7 +25,7 @@ use std::sync::Arc;
 use std::sync::mpsc;
 
 use can_frame::cob::{FunctionCode, LSS_SLAVE_TO_MASTER};
-use can_frame::{CanFrame, CanId, CobId, Duration, Instant, NodeId};
+use can_frame::{CanFrame, CanId, CobId, Duration, Instant, NodeId, is_due};
 use canopen_nmt::{
     CommandSpecifier, EmcyConsumer, EmcyEvent, GuardingEvent, GuardingMaster, HeartbeatConsumer,
     HeartbeatEvent, NmtCommand, NmtState, NmtTarget, SyncConfig, SyncProducer,
@@ -796,22 +796,22 @@ impl Core {
     /// Fires every timer that is due at `now`.
     pub(crate) fn handle_timeout(&mut self, now: Instant) {
         self.set_now(now);
-        if self.heartbeat.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.heartbeat.poll_timeout(), now) {
             self.heartbeat.handle_timeout(now);
             self.drain_heartbeat();
         }
-        if self.guarding.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.guarding.poll_timeout(), now) {
             self.guarding.handle_timeout(now);
             self.drain_guarding();
         }
         if let Some(job) = &mut self.lss
-            && job.poll_timeout().is_some_and(|t| t <= now)
+            && is_due(job.poll_timeout(), now)
         {
             job.handle_timeout(now);
             self.pump_lss();
         }
         if let Some(sync) = &mut self.sync
-            && sync.poll_timeout().is_some_and(|t| t <= now)
+            && is_due(sync.poll_timeout(), now)
         {
             sync.handle_timeout(now);
             while let Some(f) = sync.poll_transmit_frame() {
@@ -823,8 +823,7 @@ impl Core {
             .iter()
             .flat_map(|(n, s)| s.channels.iter().enumerate().map(move |(i, c)| (*n, i, c)))
             .filter(|(_, _, c)| {
-                c.client.poll_timeout().is_some_and(|t| t <= now)
-                    || (c.has_waiting() && c.ready_at <= now)
+                is_due(c.client.poll_timeout(), now) || (c.has_waiting() && c.ready_at <= now)
             })
             .map(|(n, i, _)| (n, i))
             .collect();
@@ -833,7 +832,7 @@ impl Core {
                 .nodes
                 .get_mut(&node)
                 .and_then(|s| s.channels.get_mut(ch))
-                && c.client.poll_timeout().is_some_and(|t| t <= now)
+                && is_due(c.client.poll_timeout(), now)
             {
                 c.client.handle_timeout(now);
             }

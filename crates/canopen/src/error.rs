@@ -55,14 +55,6 @@ impl SdoError {
     }
 }
 
-/// Formats an abort code as `0x06020000 (meaning)`.
-pub fn describe_abort(code: AbortCode) -> String {
-    match code.description() {
-        Some(text) => format!("{:#010x} ({text})", code.get()),
-        None => format!("{:#010x} (unknown abort code)", code.get()),
-    }
-}
-
 impl core::fmt::Display for SdoError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         write!(
@@ -76,7 +68,7 @@ impl core::fmt::Display for SdoError {
         f.write_str(": ")?;
         match &self.kind {
             SdoErrorKind::Transfer(ErrorKind::ServerAbort(code)) => {
-                write!(f, "SDO abort {}", describe_abort(*code))
+                write!(f, "SDO abort {code}")
             }
             SdoErrorKind::Transfer(ErrorKind::Timeout) => {
                 f.write_str("no response from the node (SDO timeout; sent abort 0x05040000)")

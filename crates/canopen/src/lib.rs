@@ -63,7 +63,7 @@ pub use canopen_sdo::{AbortCode, Method, SdoCobIds};
 
 pub use crate::core::{CANCEL_ABORT, NetworkEvent, ProgressFn, RequestId, TransferProgress};
 pub use describe::{BusDictionary, Description, Monitor, describe};
-pub use error::{Error, SdoError, SdoErrorKind, describe_abort};
+pub use error::{Error, SdoError, SdoErrorKind};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};

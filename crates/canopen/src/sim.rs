@@ -26,7 +26,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use can_frame::cob::FunctionCode;
-use can_frame::{CanFrame, Instant, NodeId};
+use can_frame::{CanFrame, Instant, NodeId, is_due};
 use canopen_lss::{LssAddress, LssSlave, SlaveConfig as LssConfig, SlaveEvent as LssEvent};
 use canopen_nmt::{DeviceState, Emcy, EmcyProducer, NmtSlave, Service, SlaveConfig, SlaveEvent};
 use canopen_od::{AccessType, ObjectDictionary};
@@ -657,32 +657,32 @@ impl Station for SimDevice {
                 self.after_nmt(now);
             }
         }
-        if self.lss.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.lss.poll_timeout(), now) {
             self.lss.handle_timeout(now);
             self.after_lss(now);
         }
-        if self.nmt.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.nmt.poll_timeout(), now) {
             self.nmt.handle_timeout(now);
             self.after_nmt(now);
         }
         for ch in 0..self.sdo.len() {
-            if self.sdo[ch].server.poll_timeout().is_some_and(|t| t <= now) {
+            if is_due(self.sdo[ch].server.poll_timeout(), now) {
                 self.serve_sdo(now, ch, |server, now, objs| {
                     server.handle_timeout(now, objs)
                 });
             }
         }
-        if self.emcy.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.emcy.poll_timeout(), now) {
             self.emcy.handle_timeout(now);
         }
-        if self.pdo.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.pdo.poll_timeout(), now) {
             self.pdo
                 .handle_timeout(now, &mut crate::pdo_glue::Store(&mut self.values));
             self.collect();
         }
         let mut actions = HookActions::default();
         for h in self.hooks.iter_mut() {
-            if h.poll_timeout().is_some_and(|t| t <= now) {
+            if is_due(h.poll_timeout(), now) {
                 h.on_timeout(now, &mut self.values, &mut actions);
             }
         }

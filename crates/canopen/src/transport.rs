@@ -10,7 +10,7 @@
 //! the blocking API and the async API need: the async API drives the same loop from a blocking
 //! worker thread (tokio's `spawn_blocking`), so there is only one driving loop in the crate.
 
-use can_frame::{CanFrame, Duration, Instant};
+use can_frame::{CanFrame, Duration, Instant, is_due};
 
 /// Something that happened on the bus other than a received frame.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -175,7 +175,7 @@ pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
     let slice = Duration::from_millis(50);
     let mut now = transport.now();
     loop {
-        if station.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(station.poll_timeout(), now) {
             station.handle_timeout(now);
         }
         while let Some(frame) = station.poll_transmit() {

@@ -6,6 +6,7 @@
 //! positioner on a virtual clock: every invocation starts a fresh, not yet initialised
 //! simulator. Either way the requests, answers, toggle bytes and timeouts are the real client's.
 
+use canopen::frame::is_due;
 use std::process::ExitCode;
 
 use canopen::{Duration, Instant};
@@ -238,7 +239,7 @@ impl Bench {
             Carrier::Local { client, sim } => {
                 self.now += CYCLE;
                 let now = self.now;
-                if sim.poll_timeout().is_some_and(|t| t <= now) {
+                if is_due(sim.poll_timeout(), now) {
                     sim.handle_timeout(now);
                 }
                 sim.handle_master_image(now, &client.image());
@@ -246,7 +247,7 @@ impl Bench {
                     client.handle_diagnostic(now, d);
                 }
                 client.handle_image(now, &sim.device_image());
-                if client.poll_timeout().is_some_and(|t| t <= now) {
+                if is_due(client.poll_timeout(), now) {
                     client.handle_timeout(now);
                 }
                 while let Some(e) = client.poll_event() {
@@ -299,7 +300,7 @@ fn fail(global: Global, msg: &str) -> ExitCode {
     if global.json {
         crate::outln(&json!({ "ok": false, "error": msg }).to_string());
     } else {
-        eprintln!("canopen cpos: {msg}");
+        eprintln!("error: {msg}");
     }
     ExitCode::FAILURE
 }

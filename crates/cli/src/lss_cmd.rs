@@ -6,6 +6,7 @@
 //! `--store-unsupported` makes them refuse store configuration (error 1), and `--record-bus FILE` writes
 //! every frame the bus carried to a candump log.
 
+use canopen::frame::is_due;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
@@ -259,7 +260,7 @@ impl Station for Devices {
     }
     fn handle_timeout(&mut self, now: Instant) {
         for d in &mut self.0 {
-            if d.poll_timeout().is_some_and(|t| t <= now) {
+            if is_due(d.poll_timeout(), now) {
                 d.handle_timeout(now);
             }
         }

@@ -1,7 +1,7 @@
 //! The master machine against the slave machine on a virtual bus: every frame one sends reaches
 //! the other (and a third station, when there is one), time advances in 1 ms steps.
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
+use can_frame::{CanFrame, CanId, Duration, Instant, is_due};
 use devicenet::explicit::Path;
 use devicenet::fragment::MessageBuf;
 use devicenet::master::{ConnectError, ExplicitFailure};
@@ -120,16 +120,16 @@ impl Bus {
     fn step(&mut self) {
         self.now += Duration::from_millis(1);
         let now = self.now;
-        if self.master.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.master.poll_timeout(), now) {
             self.master.handle_timeout(now);
         }
         if let Some(s) = &mut self.slave
-            && s.poll_timeout().is_some_and(|t| t <= now)
+            && is_due(s.poll_timeout(), now)
         {
             s.handle_timeout(now);
         }
         if let Some(o) = &mut self.other
-            && o.poll_timeout().is_some_and(|t| t <= now)
+            && is_due(o.poll_timeout(), now)
         {
             o.handle_timeout(now);
         }

@@ -1,7 +1,7 @@
 //! The client against the simulated cPos on a virtual clock: every instruction and action path,
 //! refusals and diagnostics.
 
-use can_frame::{Duration, Instant};
+use can_frame::{Duration, Instant, is_due};
 use gemu_cpos::action::{
     ActionId, ActionRequest, ActionStatus, AdjustTimeStatus, DoneStatus, ErrorCode,
     FindCoefficientStatus, FindFunctionFunction, FindFunctionStatus, GoFunction, GoStatus,
@@ -51,7 +51,7 @@ impl Bench {
     fn cycle(&mut self) {
         self.now += CYCLE;
         let now = self.now;
-        if self.sim.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.sim.poll_timeout(), now) {
             self.sim.handle_timeout(now);
         }
         let img = self.client.image();
@@ -70,7 +70,7 @@ impl Bench {
             // Through the byte codec, as a carrier would deliver it.
             self.client.handle_bytes(now, &dev.to_bytes()).unwrap();
         }
-        if self.client.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.client.poll_timeout(), now) {
             self.client.handle_timeout(now);
         }
         while let Some(e) = self.client.poll_event() {

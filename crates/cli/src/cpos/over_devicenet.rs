@@ -2,6 +2,7 @@
 //! on a CAN transport, and `canopen cpos simulate` (the simulated cPos behind a DeviceNet
 //! slave).
 
+use canopen::frame::is_due;
 use std::process::ExitCode;
 
 use canopen::mem::MemoryBus;
@@ -196,7 +197,7 @@ impl Link {
         loop {
             while let Some(f) = self.master.poll_transmit() {
                 if let Err(e) = self.transport.send(&f) {
-                    eprintln!("canopen cpos: cannot send: {e}");
+                    eprintln!("error: cannot send: {e}");
                     std::process::exit(1);
                 }
             }
@@ -209,12 +210,12 @@ impl Link {
                 Ok(Some(Received::Frame { frame, at })) => self.master.handle_frame(at, &frame),
                 Ok(_) => {}
                 Err(e) => {
-                    eprintln!("canopen cpos: cannot receive: {e}");
+                    eprintln!("error: cannot receive: {e}");
                     std::process::exit(1);
                 }
             }
             let now = self.transport.now();
-            if self.master.poll_timeout().is_some_and(|t| t <= now) {
+            if is_due(self.master.poll_timeout(), now) {
                 self.master.handle_timeout(now);
             }
             while let Some(e) = self.master.poll_event() {
@@ -230,10 +231,10 @@ impl Link {
             match e {
                 CposEvent::Client(e) => events.push((now, e)),
                 CposEvent::ConnectionLost => {
-                    eprintln!("canopen cpos: DeviceNet connection lost, reconnecting")
+                    eprintln!("note: DeviceNet connection lost, reconnecting")
                 }
-                CposEvent::Connected { .. } => eprintln!("canopen cpos: DeviceNet reconnected"),
-                CposEvent::BadImage(e) => eprintln!("canopen cpos: bad image from the cPos: {e}"),
+                CposEvent::Connected { .. } => eprintln!("note: DeviceNet reconnected"),
+                CposEvent::BadImage(e) => eprintln!("warning: bad image from the cPos: {e}"),
                 _ => {}
             }
         }

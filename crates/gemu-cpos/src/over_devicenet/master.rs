@@ -5,7 +5,7 @@
 //! then drain [`CposMaster::poll_transmit`] and [`CposMaster::poll_event`]. Queue requests on
 //! [`CposMaster::client_mut`] once [`CposEvent::Connected`] has come.
 
-use can_frame::{CanFrame, Instant};
+use can_frame::{CanFrame, Instant, is_due};
 use devicenet::explicit::Path;
 use devicenet::master::{ConnectError, Handle};
 use devicenet::{DuplicateMacCheck, Identity, Master, MasterConfig, MasterEvent, MasterState};
@@ -273,11 +273,11 @@ impl CposMaster {
 
     /// Fires due timers (the master's and the client's).
     pub fn handle_timeout(&mut self, now: Instant) {
-        if self.master.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.master.poll_timeout(), now) {
             self.master.handle_timeout(now);
             self.drain_master(now);
         }
-        if self.client.poll_timeout().is_some_and(|t| t <= now) {
+        if is_due(self.client.poll_timeout(), now) {
             self.client.handle_timeout(now);
             self.drain_client();
         }
