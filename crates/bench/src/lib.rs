@@ -12,6 +12,8 @@
 //! The workload (CiA 301 §7.2.4 SDO uploads): expedited reads of [`EXPEDITED_ENTRY`] (4 bytes),
 //! and a [`LARGE_LEN`]-byte upload of [`LARGE_ENTRY`], segmented and by block transfer.
 
+pub mod load;
+
 use can_frame::NodeId;
 use canopen::SimDevice;
 
