@@ -258,6 +258,8 @@ pub struct LoadConfig {
     pub sdo: bool,
     /// Largest SDO value written and read back.
     pub sdo_max_len: usize,
+    /// SDO response timeout.
+    pub sdo_timeout: Duration,
     /// Seed of the SDO sizes and data.
     pub seed: u64,
     /// Bus time between two memory samples.
@@ -274,7 +276,8 @@ impl LoadConfig {
             bitrate: 1_000_000,
             worst_case_stuffing: false,
             sdo: false,
-            sdo_max_len: 1024,
+            sdo_max_len: 256,
+            sdo_timeout: Duration::from_secs(5),
             seed: 1,
             sample_every: Duration::from_secs(1),
         }
@@ -392,23 +395,31 @@ enum SdoJob {
     Read(Pending<Vec<u8>>, Vec<u8>),
 }
 
-fn new_write(net: &Network, node: NodeId, rng: &mut Rng, max_len: usize) -> SdoJob {
-    let len = 1 + rng.below(max_len as u64) as usize;
+/// What each SDO job needs to know.
+struct SdoPlan {
+    max_len: usize,
+    timeout: Duration,
+}
+
+fn new_write(net: &Network, node: NodeId, rng: &mut Rng, plan: &SdoPlan) -> SdoJob {
+    let len = 1 + rng.below(plan.max_len as u64) as usize;
     let data: Vec<u8> = (0..len).map(|_| rng.next() as u8).collect();
     let method = [Method::Normal, Method::Segmented, Method::Block][rng.below(3) as usize];
     let p = net
         .node(node)
         .sdo()
+        .timeout(plan.timeout)
         .method(method)
         .submit_write((SDO_DOMAIN, 0), data.clone());
     SdoJob::Write(p, data)
 }
 
-fn new_read(net: &Network, node: NodeId, rng: &mut Rng, expect: Vec<u8>) -> SdoJob {
+fn new_read(net: &Network, node: NodeId, rng: &mut Rng, plan: &SdoPlan, expect: Vec<u8>) -> SdoJob {
     let block = rng.below(2) == 0;
     let p = net
         .node(node)
         .sdo()
+        .timeout(plan.timeout)
         .block(block)
         .submit_read((SDO_DOMAIN, 0));
     SdoJob::Read(p, expect)
@@ -428,7 +439,7 @@ fn pump_sdo(
     net: &Network,
     jobs: &mut [Option<SdoJob>],
     rng: &mut Rng,
-    max_len: usize,
+    plan: &SdoPlan,
     tally: &mut SdoTally,
 ) {
     for (i, slot) in jobs.iter_mut().enumerate() {
@@ -446,11 +457,11 @@ fn pump_sdo(
                 Ok(()) => {
                     tally.writes_ok += 1;
                     tally.bytes += data.len() as u64;
-                    new_read(net, node, rng, data)
+                    new_read(net, node, rng, plan, data)
                 }
                 Err(e) => {
                     *tally.errors.entry(error_text(&e)).or_default() += 1;
-                    new_write(net, node, rng, max_len)
+                    new_write(net, node, rng, plan)
                 }
             },
             Some(SdoJob::Read(p, expect)) => {
@@ -462,9 +473,9 @@ fn pump_sdo(
                     Ok(_) => tally.wrong_data += 1,
                     Err(e) => *tally.errors.entry(error_text(&e)).or_default() += 1,
                 }
-                new_write(net, node, rng, max_len)
+                new_write(net, node, rng, plan)
             }
-            None => new_write(net, node, rng, max_len),
+            None => new_write(net, node, rng, plan),
         });
     }
 }
@@ -558,6 +569,10 @@ pub fn run(
     let mut rng = Rng(config.seed);
     let mut jobs: Vec<Option<SdoJob>> = (0..config.nodes).map(|_| None).collect();
     let mut tally = SdoTally::default();
+    let plan = SdoPlan {
+        max_len: config.sdo_max_len,
+        timeout: config.sdo_timeout,
+    };
 
     let sample = |t: Instant, start: Instant| Sample {
         bus_seconds: (t - start).as_micros() as f64 / 1e6,
@@ -579,7 +594,7 @@ pub fn run(
             tracker.take(&mut report, e);
         }
         if config.sdo {
-            pump_sdo(&net, &mut jobs, &mut rng, config.sdo_max_len, &mut tally);
+            pump_sdo(&net, &mut jobs, &mut rng, &plan, &mut tally);
         }
         if t >= next_sample {
             report.samples.push(sample(t, start));

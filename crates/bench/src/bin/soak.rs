@@ -6,12 +6,14 @@
 //!
 //! ```text
 //! cargo run --release -p canopen-bench --bin soak -- --nodes 64 --seconds 60 [--sdo]
-//!     [--sdo-max BYTES] [--load SHARE] [--stuffing] [--seed N] [--sample-ms MS]
+//!     [--sdo-max BYTES] [--sdo-timeout-ms MS] [--load SHARE] [--stuffing] [--seed N] [--sample-ms MS]
 //! ```
 //!
 //! `--sdo` adds SDO traffic to every node at once: each node in turn downloads a DOMAIN of
-//! random size (1..=`--sdo-max`, default 1024 bytes; expedited, segmented or block at random)
-//! and uploads it back (segmented or block), the upload checked against what was written.
+//! random size (1..=`--sdo-max`, default 256 bytes; expedited, segmented or block at random)
+//! and uploads it back (segmented or block), the upload checked against what was written; the
+//! response timeout is `--sdo-timeout-ms` (default 5000: SDO frames lose arbitration to every
+//! PDO, and 64 clients at once share what the PDOs leave of the bus).
 //!
 //! Memory: the resident set size and the bytes allocated and not freed (this binary's counting
 //! global allocator, `stats_alloc`) are sampled every `--sample-ms` of bus time (default 1000),
@@ -47,6 +49,7 @@ struct Args {
     seconds: f64,
     sdo: bool,
     sdo_max: usize,
+    sdo_timeout_ms: u64,
     load: f64,
     stuffing: bool,
     seed: u64,
@@ -58,7 +61,8 @@ fn parse_args() -> Result<Args, String> {
         nodes: 64,
         seconds: 10.0,
         sdo: false,
-        sdo_max: 1024,
+        sdo_max: 256,
+        sdo_timeout_ms: 5000,
         load: 0.95,
         stuffing: false,
         seed: 1,
@@ -73,6 +77,7 @@ fn parse_args() -> Result<Args, String> {
             "--seconds" => a.seconds = value()?.parse().map_err(|e| bad(&e))?,
             "--sdo" => a.sdo = true,
             "--sdo-max" => a.sdo_max = value()?.parse().map_err(|e| bad(&e))?,
+            "--sdo-timeout-ms" => a.sdo_timeout_ms = value()?.parse().map_err(|e| bad(&e))?,
             "--load" => a.load = value()?.parse().map_err(|e| bad(&e))?,
             "--stuffing" => a.stuffing = true,
             "--seed" => a.seed = value()?.parse().map_err(|e| bad(&e))?,
@@ -103,7 +108,8 @@ fn main() -> ExitCode {
     config.worst_case_stuffing = a.stuffing;
     config.sync_period = load::sync_period_for(a.nodes, config.bitrate, a.stuffing, a.load);
     config.sdo = a.sdo;
-    config.sdo_max_len = a.sdo_max;
+    config.sdo_max_len = a.sdo_max.max(1);
+    config.sdo_timeout = Duration::from_millis(a.sdo_timeout_ms);
     config.seed = a.seed;
     config.sample_every = Duration::from_millis(a.sample_ms.max(1));
     println!(
