@@ -579,6 +579,9 @@ pub fn run(
         rss_kib: rss_kib(),
         live_bytes: live_bytes(),
     };
+    // Room for every sample up front, so the sample list does not grow the heap it measures.
+    let expected = config.bus_time.as_micros() / config.sample_every.as_micros().max(1);
+    report.samples.reserve(expected as usize + 3);
     let start = net.now();
     let stats0 = rig.bus.stats();
     report.samples.push(sample(start, start));
