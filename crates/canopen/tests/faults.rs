@@ -1,0 +1,522 @@
+//! Faults on the in-memory bus (virtual clock, 1 Mbit/s timing model), each with its outcome
+//! stated exactly: a device power-cycled in the middle of a transfer, frame loss and
+//! duplication across every SDO method, a babbling node on identifier 0x001, and scripted
+//! servers that break the SDO protocol (CiA 301 §7.2.4.3). Every check counts or compares;
+//! none reads a wall clock.
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use canopen::frame::CanId;
+use canopen::mem::StationId;
+use canopen::sdo::{ErrorKind, Violation};
+use canopen::{
+    AbortCode, BusConfig, CanFrame, Duration, Faults, Instant, MemoryBus, Method, Network, NodeId,
+    SdoErrorKind, SimDevice, Station,
+};
+
+const EDS: &[u8] = include_bytes!("../../../tests/vcan/test-device.eds");
+const NODE: u8 = 5;
+/// The variable-size object the transfers move (VISIBLE_STRING "Test text").
+const BIG: (u16, u8) = (0x2001, 0);
+
+fn n(id: u8) -> NodeId {
+    NodeId::new(id).unwrap()
+}
+
+fn payload(len: usize, salt: u8) -> Vec<u8> {
+    (0..len)
+        .map(|i| (i as u8).wrapping_mul(31).wrapping_add(salt) | 0x20)
+        .collect()
+}
+
+/// The rig's test device with `BIG` holding `big` bytes.
+fn device(big: usize) -> SimDevice {
+    let mut d = SimDevice::from_eds(n(NODE), EDS).unwrap();
+    d.values_mut().set(BIG.0, BIG.1, payload(big, 0));
+    d
+}
+
+fn bus(faults: Faults) -> MemoryBus {
+    MemoryBus::with_config(BusConfig {
+        bitrate: Some(1_000_000),
+        faults,
+        ..BusConfig::default()
+    })
+}
+
+/// Master and one device, the device's boot-up consumed.
+fn rig(faults: Faults, big: usize) -> (MemoryBus, Network, StationId<SimDevice>) {
+    let bus = bus(Faults::none());
+    let net = Network::new(bus.endpoint());
+    let dev = bus.attach(device(big));
+    net.run_for(Duration::from_millis(5)).unwrap();
+    bus.set_faults(faults);
+    (bus, net, dev)
+}
+
+/// Drives the network in small steps until `cond` holds (bounded).
+fn run_until_true(net: &Network, mut cond: impl FnMut() -> bool) {
+    for _ in 0..100_000 {
+        if cond() {
+            return;
+        }
+        net.run_for(Duration::from_micros(200)).unwrap();
+    }
+    panic!("condition never held");
+}
+
+fn transfer_kind(e: &canopen::SdoError) -> ErrorKind {
+    match &e.kind {
+        SdoErrorKind::Transfer(k) => *k,
+        other => panic!("not a transfer error: {other:?} ({e})"),
+    }
+}
+
+/// [`transfer_kind`] of an SDO error of the API.
+fn kind(e: &canopen::Error) -> ErrorKind {
+    match e {
+        canopen::Error::Sdo(s) => transfer_kind(s),
+        other => panic!("not an SDO error: {other}"),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A device power-cycled in the middle of a transfer.
+
+/// Power cycle: the device is taken off the bus and a new one (factory values, idle SDO server)
+/// is attached, which boots at once (boot-up message 0x700 + node-ID).
+fn power_cycle(bus: &MemoryBus, dev: StationId<SimDevice>, big: usize) -> StationId<SimDevice> {
+    bus.detach(dev).unwrap();
+    bus.attach(device(big))
+}
+
+#[test]
+fn power_cycle_during_a_block_upload_ends_it_with_a_clean_error_and_the_next_request_works() {
+    const LEN: usize = 8 * 1024;
+    let (bus, net, dev) = rig(Faults::none(), LEN);
+    let done = Arc::new(AtomicU64::new(0));
+    let seen = done.clone();
+    let timeout = Duration::from_millis(200);
+    let p = net
+        .node(n(NODE))
+        .sdo()
+        .block(true)
+        .timeout(timeout)
+        .on_progress(move |pr| seen.store(pr.done, Ordering::SeqCst))
+        .submit_read(BIG);
+    run_until_true(&net, || done.load(Ordering::SeqCst) > 0);
+    let got = done.load(Ordering::SeqCst);
+    assert!(got > 0 && got < LEN as u64, "{got}");
+    let cut = net.now();
+    let _dev = power_cycle(&bus, dev, LEN);
+    let e = p.wait().unwrap_err();
+    let ended = net.now();
+    println!(
+        "block upload cut after {got} bytes: {e} (after {:?})",
+        ended - cut
+    );
+    // Today's outcome: the facade does not act on the boot-up. The segments of the block that
+    // were already waiting for the wire still arrive (the in-memory bus keeps a detached
+    // station's queued frames), then the client's block acknowledgement reaches the new
+    // device's idle server, which refuses it: abort 0x05040001 (client/server command specifier
+    // not valid or unknown), about 14 ms (the rest of a 127-segment block) after the cut. A
+    // facade that ends the transfer on the boot-up names it instead.
+    let named_boot = e.to_string().to_lowercase().contains("boot");
+    assert!(
+        named_boot || e.server_abort() == Some(AbortCode::INVALID_COMMAND),
+        "{e}"
+    );
+    assert!(ended - cut < timeout, "{:?}", ended - cut);
+    // The next request works, and so does the whole upload again.
+    let v = net.node(n(NODE)).sdo().read((0x1000, 0)).unwrap();
+    assert_eq!(v, 0x0002_0191u32.to_le_bytes());
+    let all = net.node(n(NODE)).sdo().block(true).read(BIG).unwrap();
+    assert_eq!(all, payload(LEN, 0));
+}
+
+#[test]
+fn power_cycle_during_a_segmented_download_ends_it_with_a_clean_error_and_the_next_request_works() {
+    const LEN: usize = 2 * 1024;
+    let (bus, net, dev) = rig(Faults::none(), 16);
+    let done = Arc::new(AtomicU64::new(0));
+    let seen = done.clone();
+    let p = net
+        .node(n(NODE))
+        .sdo()
+        .method(Method::Segmented)
+        .timeout(Duration::from_millis(200))
+        .on_progress(move |pr| seen.store(pr.done, Ordering::SeqCst))
+        .submit_write(BIG, payload(LEN, 7));
+    run_until_true(&net, || done.load(Ordering::SeqCst) >= 70);
+    let sent = done.load(Ordering::SeqCst);
+    assert!(sent < LEN as u64, "{sent}");
+    let dev = power_cycle(&bus, dev, 16);
+    let e = p.wait().unwrap_err();
+    println!("segmented download cut after {sent} bytes: {e}");
+    // Today's outcome: the client's next segment reaches the new device's idle server, which
+    // refuses a segment without an initiate: abort 0x05040001 (client/server command specifier
+    // not valid or unknown).
+    let named_boot = e.to_string().to_lowercase().contains("boot");
+    assert!(
+        named_boot || e.server_abort() == Some(AbortCode::INVALID_COMMAND),
+        "{e}"
+    );
+    // The device kept its factory value: nothing of the cut download was committed.
+    let stored = bus
+        .with_station(dev, |d| d.values().get(BIG.0, BIG.1).map(<[u8]>::to_vec))
+        .unwrap();
+    assert_eq!(stored, Some(payload(16, 0)));
+    net.node(n(NODE))
+        .sdo()
+        .method(Method::Segmented)
+        .write(BIG, payload(LEN, 9))
+        .unwrap();
+    assert_eq!(net.node(n(NODE)).sdo().read(BIG).unwrap(), payload(LEN, 9));
+}
+
+// ---------------------------------------------------------------------------------------------
+// 20 % frame loss and 5 % duplication across every SDO method.
+
+#[derive(Debug, Clone, Copy)]
+enum Op {
+    Upload(Method),
+    Download(Method, usize),
+}
+
+const OPS: [Op; 7] = [
+    Op::Upload(Method::Normal), // expedited (4 bytes) and segmented (200 bytes)
+    Op::Upload(Method::Block),  // 200 bytes
+    Op::Download(Method::Normal, 3), // expedited
+    Op::Download(Method::Normal, 150), // segmented
+    Op::Download(Method::Segmented, 3), // segmented, 3 bytes
+    Op::Download(Method::Block, 3), // block, one segment
+    Op::Download(Method::Block, 1000), // block, several blocks
+];
+
+#[test]
+fn loss_and_duplication_give_correct_data_or_a_clean_error_never_wrong_data() {
+    let mut ok = 0u32;
+    let mut failed = std::collections::BTreeMap::<String, u32>::new();
+    for seed in 0..40u64 {
+        let (bus, net, dev) = rig(
+            Faults {
+                drop: 0.20,
+                duplicate: 0.05,
+                seed: 0xF00D + seed,
+                ..Faults::none()
+            },
+            200,
+        );
+        let mut current = payload(200, 0);
+        for (i, op) in OPS.iter().enumerate() {
+            let sdo = || net.node(n(NODE)).sdo().timeout(Duration::from_millis(50));
+            match *op {
+                Op::Upload(method) => {
+                    // A 4-byte object (expedited) and the 200-byte one (segmented or block).
+                    match sdo().read((0x2000, 0)) {
+                        Ok(v) => {
+                            assert_eq!(v, 0x1234_5678u32.to_le_bytes(), "seed {seed}");
+                            ok += 1;
+                        }
+                        Err(e) => *failed.entry(kind_text(&e)).or_default() += 1,
+                    }
+                    match sdo().method(method).read(BIG) {
+                        Ok(v) => {
+                            assert_eq!(v, current, "seed {seed} {op:?}: wrong data");
+                            ok += 1;
+                        }
+                        Err(e) => *failed.entry(kind_text(&e)).or_default() += 1,
+                    }
+                }
+                Op::Download(method, len) => {
+                    let new = payload(len, (seed as u8).wrapping_add(i as u8));
+                    let r = sdo().method(method).write(BIG, new.clone());
+                    // Let late and duplicated frames settle before looking at the device.
+                    net.run_for(Duration::from_millis(20)).unwrap();
+                    let stored = bus
+                        .with_station(dev, |d| d.values().get(BIG.0, BIG.1).map(<[u8]>::to_vec))
+                        .unwrap()
+                        .unwrap();
+                    match r {
+                        Ok(()) => {
+                            assert_eq!(stored, new, "seed {seed} {op:?}: wrong data stored");
+                            ok += 1;
+                        }
+                        Err(e) => {
+                            // A failed download leaves the old value or, when only the
+                            // server's confirmation was lost, the whole new one: never a mix.
+                            assert!(
+                                stored == current || stored == new,
+                                "seed {seed} {op:?}: {e}: stored {} bytes",
+                                stored.len()
+                            );
+                            *failed.entry(kind_text(&e)).or_default() += 1;
+                        }
+                    }
+                    current = stored;
+                }
+            }
+        }
+    }
+    println!("loss and duplication: {ok} transfers correct, failed cleanly: {failed:?}");
+    assert!(ok > 0);
+}
+
+/// The kind of a failure, without node and object; panics on anything but a clean SDO error.
+fn kind_text(e: &canopen::Error) -> String {
+    let canopen::Error::Sdo(s) = e else {
+        panic!("not an SDO error: {e}")
+    };
+    match s.kind {
+        SdoErrorKind::Transfer(ErrorKind::Timeout) => "timeout".into(),
+        SdoErrorKind::Transfer(ErrorKind::ServerAbort(code)) => format!("server abort {code}"),
+        SdoErrorKind::Transfer(ErrorKind::Protocol(v)) => format!("protocol: {v}"),
+        ref other => panic!("unexpected failure {other:?}: {e}"),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A babbling node flooding identifier 0x001.
+
+/// Puts an 8-byte frame with identifier 0x001 on the bus every `period` (faster than the wire
+/// takes them: it always has one waiting, as a babbling controller does).
+struct Babbler {
+    period: Duration,
+    next: Instant,
+    out: VecDeque<CanFrame>,
+}
+
+impl Station for Babbler {
+    fn handle_frame(&mut self, _now: Instant, _frame: &CanFrame) {}
+    fn handle_timeout(&mut self, now: Instant) {
+        while self.next <= now {
+            self.out
+                .push_back(CanFrame::new(CanId::standard(0x001).unwrap(), &[0xBA; 8]).unwrap());
+            self.next += self.period;
+        }
+    }
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        self.out.pop_front()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        Some(self.next)
+    }
+}
+
+#[test]
+fn a_babbling_node_on_0x001_the_master_keeps_its_deadlines() {
+    let (bus, net, _dev) = rig(Faults::none(), 16);
+    let start = net.now();
+    let stats0 = bus.stats();
+    let babbler = bus.attach(Babbler {
+        period: Duration::from_micros(100),
+        next: start,
+        out: VecDeque::new(),
+    });
+    let timeout = Duration::from_millis(100);
+    let t0 = net.now();
+    let e = net
+        .node(n(NODE))
+        .sdo()
+        .timeout(timeout)
+        .read((0x1000, 0))
+        .unwrap_err();
+    let waited = net.now() - t0;
+    // The request (0x605) never wins arbitration against 0x001: the response timeout fires on
+    // time (within one 2 ms drive slice) and the error says so.
+    assert_eq!(kind(&e), ErrorKind::Timeout, "{e}");
+    assert!(
+        waited >= timeout && waited <= timeout + Duration::from_millis(2),
+        "{waited:?}"
+    );
+    let stats = bus.stats();
+    let elapsed = (net.now() - start).as_micros() as f64;
+    let load = (stats.busy.as_micros() - stats0.busy.as_micros()) as f64 / elapsed;
+    println!(
+        "babbler: bus load {:.1} %, {} frames in {:?}; SDO timeout after {waited:?}",
+        load * 100.0,
+        stats.frames - stats0.frames,
+        net.now() - start
+    );
+    assert!(load > 0.99, "{load}");
+    // Quiet again: the next request works.
+    bus.detach(babbler).unwrap();
+    net.run_for(Duration::from_millis(5)).unwrap();
+    assert_eq!(
+        net.node(n(NODE)).sdo().read((0x1000, 0)).unwrap(),
+        0x0002_0191u32.to_le_bytes()
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Servers that break the protocol, scripted frame by frame.
+
+/// The responses to one request.
+type Script = Box<dyn FnMut(&[u8]) -> Vec<[u8; 8]> + Send>;
+
+/// An SDO server on node `NODE` that answers each request with the frames `script` returns,
+/// and records every request.
+struct Scripted {
+    script: Script,
+    requests: Arc<std::sync::Mutex<Vec<[u8; 8]>>>,
+    out: VecDeque<CanFrame>,
+}
+
+impl Station for Scripted {
+    fn handle_frame(&mut self, _now: Instant, frame: &CanFrame) {
+        if frame.cob_id() != Some(0x600 + u16::from(NODE)) {
+            return;
+        }
+        let mut req = [0u8; 8];
+        let len = frame.data().len().min(8);
+        req[..len].copy_from_slice(&frame.data()[..len]);
+        self.requests.lock().unwrap().push(req);
+        for data in (self.script)(&req) {
+            let id = CanId::standard(0x580 + u16::from(NODE)).unwrap();
+            self.out.push_back(CanFrame::new(id, &data).unwrap());
+        }
+    }
+    fn handle_timeout(&mut self, _now: Instant) {}
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        self.out.pop_front()
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+}
+
+type Requests = Arc<std::sync::Mutex<Vec<[u8; 8]>>>;
+
+fn scripted(
+    script: impl FnMut(&[u8]) -> Vec<[u8; 8]> + Send + 'static,
+) -> (MemoryBus, Network, Requests) {
+    let bus = bus(Faults::none());
+    let net = Network::new(bus.endpoint());
+    let requests = Requests::default();
+    bus.attach(Scripted {
+        script: Box::new(script),
+        requests: requests.clone(),
+        out: VecDeque::new(),
+    });
+    (bus, net, requests)
+}
+
+/// The abort the client put on the bus last (command 0x80), if any, once the bus carried it.
+fn last_abort(net: &Network, requests: &Requests) -> Option<u32> {
+    net.run_for(Duration::from_millis(1)).unwrap();
+    requests
+        .lock()
+        .unwrap()
+        .iter()
+        .rev()
+        .find(|r| r[0] == 0x80)
+        .map(|r| u32::from_le_bytes([r[4], r[5], r[6], r[7]]))
+}
+
+const TIMEOUT: Duration = Duration::from_millis(50);
+
+#[test]
+fn a_response_with_the_wrong_multiplexer_is_ignored_and_the_request_times_out() {
+    // Upload of 0x1000:00 answered with an expedited response for 0x1001:00.
+    let (_bus, net, requests) = scripted(|req| match req[0] {
+        0x40 => vec![[0x43, 0x01, 0x10, 0x00, 1, 2, 3, 4]],
+        _ => vec![],
+    });
+    let e = net
+        .node(n(NODE))
+        .sdo()
+        .timeout(TIMEOUT)
+        .read((0x1000, 0))
+        .unwrap_err();
+    println!("wrong multiplexer: {e}");
+    assert_eq!(kind(&e), ErrorKind::Timeout, "{e}");
+    assert_eq!(last_abort(&net, &requests), Some(AbortCode::TIMEOUT.get()));
+}
+
+#[test]
+fn a_segment_with_the_wrong_toggle_bit_aborts_with_0x05030000() {
+    // Segmented upload of 20 bytes; the first segment carries toggle 1 instead of 0.
+    let (_bus, net, requests) = scripted(|req| match req[0] {
+        0x40 => vec![[0x41, 0x01, 0x20, 0x00, 20, 0, 0, 0]],
+        0x60 => vec![[0x10, b'a', b'b', b'c', b'd', b'e', b'f', b'g']],
+        _ => vec![],
+    });
+    let e = net
+        .node(n(NODE))
+        .sdo()
+        .timeout(TIMEOUT)
+        .read((0x2001, 0))
+        .unwrap_err();
+    println!("wrong toggle: {e}");
+    assert_eq!(kind(&e), ErrorKind::Protocol(Violation::Toggle), "{e}");
+    assert_eq!(last_abort(&net, &requests), Some(0x0503_0000));
+}
+
+#[test]
+fn segments_beyond_the_announced_size_abort_with_0x06070012() {
+    // Announces 10 bytes, then sends 7 + 7.
+    let (_bus, net, requests) = scripted(|req| match req[0] {
+        0x40 => vec![[0x41, 0x01, 0x20, 0x00, 10, 0, 0, 0]],
+        0x60 => vec![[0x00, 1, 2, 3, 4, 5, 6, 7]],
+        0x70 => vec![[0x11, 8, 9, 10, 11, 12, 13, 14]],
+        _ => vec![],
+    });
+    let e = net
+        .node(n(NODE))
+        .sdo()
+        .timeout(TIMEOUT)
+        .read((0x2001, 0))
+        .unwrap_err();
+    println!("oversized segments: {e}");
+    assert_eq!(
+        kind(&e),
+        ErrorKind::Protocol(Violation::TooLong { size: 10 }),
+        "{e}"
+    );
+    assert_eq!(last_abort(&net, &requests), Some(0x0607_0012));
+}
+
+#[test]
+fn a_block_upload_whose_crc_does_not_match_aborts_with_0x05040004() {
+    let data: Vec<u8> = (0..20u8).collect();
+    let good = canopen::sdo::crc16(&data);
+    let bad = good ^ 0x5A5A;
+    let d = data.clone();
+    let (_bus, net, requests) = scripted(move |req| match req[0] & 0xE3 {
+        // Initiate block upload (ccs 5, cs 0): CRC supported, size 20.
+        0xA0 => vec![[0xC6, 0x01, 0x20, 0x00, 20, 0, 0, 0]],
+        // Start upload (cs 3): three segments, the last one flagged.
+        0xA3 => (0..3)
+            .map(|k| {
+                let mut f = [0u8; 8];
+                f[0] = (k + 1) as u8 | if k == 2 { 0x80 } else { 0 };
+                for (j, b) in d.iter().skip(k * 7).take(7).enumerate() {
+                    f[1 + j] = *b;
+                }
+                f
+            })
+            .collect(),
+        // Block ack (cs 2): end of block, 1 byte of the last segment unused, wrong CRC.
+        0xA2 => vec![[0xC1 | (1 << 2), bad as u8, (bad >> 8) as u8, 0, 0, 0, 0, 0]],
+        _ => vec![],
+    });
+    let e = net
+        .node(n(NODE))
+        .sdo()
+        .block(true)
+        .timeout(TIMEOUT)
+        .read((0x2001, 0))
+        .unwrap_err();
+    println!("block CRC: {e}");
+    assert_eq!(
+        kind(&e),
+        ErrorKind::Protocol(Violation::Crc {
+            computed: good,
+            received: bad
+        }),
+        "{e}"
+    );
+    assert_eq!(last_abort(&net, &requests), Some(0x0504_0004));
+}
