@@ -148,16 +148,10 @@ pub fn load_dictionary() -> ObjectDictionary {
     parse(&load_eds(1))
 }
 
-/// The dictionary the master is given for each node: the same objects, but the TPDOs' type
-/// says 255 (event-driven).
-///
-/// Why: the master mirrors a node's TPDOs as receive PDOs of the same transmission type, and a
-/// synchronous receive PDO takes effect on the next SYNC (CiA 301 §7.2.2.2), which the master
-/// never receives (it produces the SYNC itself). Given the device's own dictionary, the master
-/// publishes no `NetworkEvent::PdoValues` for synchronous TPDOs at all. With type 255 in its
-/// copy the mirror decodes each PDO when it arrives; the device still sends on SYNC.
+/// The dictionary the master is given for each node: the device's own, with its synchronous
+/// TPDOs (the master mirrors them as event-driven receive PDOs, so each decodes on arrival).
 pub fn master_dictionary() -> ObjectDictionary {
-    parse(&load_eds(255))
+    parse(&load_eds(1))
 }
 
 fn parse(text: &str) -> ObjectDictionary {

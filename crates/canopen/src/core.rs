@@ -416,6 +416,7 @@ impl Core {
     /// The master's view of a node's TPDO `number` (1-based) after a remap: received frames
     /// decode with `config` from now on.
     pub(crate) fn mirror_tpdo(&mut self, node: NodeId, number: u8, config: canopen_pdo::PdoConfig) {
+        let config = crate::pdo_glue::mirrored(config);
         let Some(slot) = self.nodes.get_mut(&node) else {
             return;
         };

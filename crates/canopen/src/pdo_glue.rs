@@ -70,13 +70,23 @@ pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> M
     let mut numbers = Vec::new();
     for n in 0..4u16 {
         if let Some(c) = read_pdo(&view, Direction::Transmit, n)
-            && let Ok(id) = e.add_rpdo(c)
+            && let Ok(id) = e.add_rpdo(mirrored(c))
         {
             numbers.push((n as u8 + 1, id));
         }
     }
     e.set_enabled(Instant::ZERO, true);
     (e, numbers)
+}
+
+/// A node's TPDO as the master's receive PDO: taken the moment it arrives. A synchronous TPDO
+/// mirrored as a synchronous RPDO would wait for the next SYNC, which the master (the SYNC
+/// producer) never receives; so the mirror is event-driven whatever the node's type.
+pub(crate) fn mirrored(mut config: PdoConfig) -> PdoConfig {
+    config.comm = config
+        .comm
+        .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer);
+    config
 }
 
 /// `mapping` with value kinds from the node's dictionary (a mapping built from raw entries
