@@ -266,7 +266,6 @@ pub(crate) struct Core {
     guarding: Box<GuardingMaster>,
     emcy: EmcyConsumer,
     sync: Option<SyncProducer>,
-    states: BTreeMap<NodeId, NmtState>,
     /// Boot-up messages received per node: a waiter compares counts, so a boot-up stays seen
     /// even when a heartbeat follows it in the same step.
     boots: BTreeMap<NodeId, u64>,
@@ -290,11 +289,16 @@ impl Core {
             requests: BTreeMap::new(),
             next_request: 1,
             tx: VecDeque::new(),
-            heartbeat: HeartbeatConsumer::new(),
+            heartbeat: {
+                // The consumer keeps every node's NMT state (monitored or not); the core keeps
+                // no copy of its own.
+                let mut h = HeartbeatConsumer::new();
+                h.observe_all(true);
+                h
+            },
             guarding: Box::new(GuardingMaster::new()),
             emcy: EmcyConsumer::new(),
             sync: None,
-            states: BTreeMap::new(),
             boots: BTreeMap::new(),
             subscribers: Vec::new(),
             settle: Duration::from_millis(1),
@@ -361,7 +365,9 @@ impl Core {
     }
 
     pub(crate) fn last_state(&self, node: NodeId) -> Option<NmtState> {
-        self.states.get(&node).copied()
+        self.guarding
+            .state(node)
+            .or_else(|| self.heartbeat.state(node))
     }
 
     /// How many boot-up messages `node` has sent since the network started.
@@ -684,42 +690,17 @@ impl Core {
                 self.handle_sdo_response(now, node, 0, frame);
             }
             FunctionCode::NmtErrorControl => {
-                let previous = self.states.get(&node).copied();
-                let state = frame
-                    .data()
-                    .first()
-                    .filter(|_| !frame.is_remote() && frame.data().len() == 1)
-                    .map(|b| NmtState::from_u8(b & 0x7F));
-                if let Some(s) = state {
-                    self.states.insert(node, s);
-                    if s == NmtState::BootUp {
-                        *self.boots.entry(node).or_default() += 1;
-                    }
+                if !frame.is_remote() && frame.data() == [0] {
+                    *self.boots.entry(node).or_default() += 1;
                 }
+                // A guarded node's answers go to the guarding master alone (their toggle bit
+                // is no heartbeat state); every other node's frames to the heartbeat consumer,
+                // which reports boot-ups and state changes of unmonitored nodes too.
                 let guarded = self.guarding.handle_frame(now, frame).unwrap_or(false);
                 self.drain_guarding();
-                let monitored = self.heartbeat.handle_frame(now, frame).unwrap_or(false) || guarded;
-                self.drain_heartbeat();
-                // Nodes nobody monitors still report boot-up and state changes.
-                match state {
-                    Some(_) if monitored => {}
-                    Some(NmtState::BootUp) => {
-                        self.publish(NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node }))
-                    }
-                    Some(to) if previous != Some(to) && previous != Some(NmtState::BootUp) => self
-                        .publish(NetworkEvent::Heartbeat(HeartbeatEvent::StateChanged {
-                            node,
-                            from: previous,
-                            to,
-                        })),
-                    Some(to) if previous == Some(NmtState::BootUp) => {
-                        self.publish(NetworkEvent::Heartbeat(HeartbeatEvent::StateChanged {
-                            node,
-                            from: None,
-                            to,
-                        }))
-                    }
-                    _ => {}
+                if !guarded {
+                    let _ = self.heartbeat.handle_frame(now, frame);
+                    self.drain_heartbeat();
                 }
             }
             FunctionCode::Emcy => {
