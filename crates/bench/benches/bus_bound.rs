@@ -1,5 +1,5 @@
 //! SDO throughput on the in-memory bus with the bit-rate timing model, as a share of the CAN
-//! bus bound (issue 6, "Benchmarks").
+//! bus bound.
 //!
 //! `cargo bench -p canopen-bench --bench bus_bound` prints one table per timing model (1 Mbit/s
 //! without stuff bits, then with the worst-case number of stuff bits): 1000 expedited reads, a

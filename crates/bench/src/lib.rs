@@ -1,4 +1,4 @@
-//! SDO throughput benchmarks of the `canopen` master (issue 6, "Benchmarks").
+//! SDO throughput benchmarks of the `canopen` master.
 //!
 //! Two programs share the definitions of this library:
 //! * the bench `bus_bound` (`cargo bench -p canopen-bench --bench bus_bound`): expedited,
