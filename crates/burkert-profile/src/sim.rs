@@ -28,6 +28,9 @@
 //! - 0x2003 sub 4 serves a logbook XML document of a few KiB as a DOMAIN, with an entry for
 //!   each event of the simulation;
 //! - the status LED computed with [`LedState::indication`] ([`BurkertDevice::led`]).
+//!
+//! One cohesive machine (the device hook and the station share the device's state), so it
+//! stays in one file.
 
 use std::prelude::rust_2024::*;
 use std::{format, vec};

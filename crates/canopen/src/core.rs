@@ -18,6 +18,9 @@
 //! parallel. A request is identified by a [`RequestId`]; its result is only ever stored under
 //! that id, and the SDO client ignores responses whose multiplexer is not the running
 //! transfer's, so a late answer to a cancelled request never completes another one.
+//!
+//! One cohesive machine: the routing, the request table and the per-node machines it feeds
+//! belong together, so the file stays whole.
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::io::Write;

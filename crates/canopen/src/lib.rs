@@ -37,7 +37,9 @@ pub mod error;
 pub mod lss;
 pub mod mem;
 pub mod network;
+mod node;
 mod pdo_glue;
+mod request;
 pub mod scan;
 pub mod sim;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]

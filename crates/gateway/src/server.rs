@@ -23,6 +23,9 @@
 //! * A background thread drives the network while no request runs (heartbeats, boot-up and
 //!   EMCY are received) and turns its events into event lines for the connections that asked
 //!   for them with `_events 1`.
+//!
+//! One cohesive unit (connections, per-node queues and workers share one state), so it stays
+//! in one file.
 
 use std::collections::{HashMap, VecDeque};
 use std::io::{BufRead, BufReader, Read, Write};

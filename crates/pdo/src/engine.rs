@@ -43,6 +43,9 @@
 //! device); one with more is processed from its first bytes ([`Event::LengthExceeded`], EMCY
 //! 0x8220). The receive deadline (event timer of a receive PDO) is armed by each reception and
 //! reported once per lapse ([`Event::Timeout`]).
+//!
+//! One cohesive machine (its receive and transmit halves share the timers and the SYNC
+//! counter), so it stays in one file.
 
 use can_frame::{CanFrame, CanId, Duration, Instant};
 use heapless::{Deque, Vec};
