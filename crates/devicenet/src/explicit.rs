@@ -338,7 +338,9 @@ impl<'a> Request<'a> {
             (SET_ATTRIBUTE_SINGLE, &[c, i, a, ref data @ ..]) => {
                 Request::SetAttributeSingle(Path::new(c, i, a), data)
             }
-            (ALLOCATE, &[class, instance, choice, mac]) => Request::Allocate {
+            // The allocator's MAC ID takes bits 0..=5; a byte with the reserved bits set is
+            // kept as it came (an `Other` request) so nothing is lost in a round trip.
+            (ALLOCATE, &[class, instance, choice, mac]) if mac & 0xC0 == 0 => Request::Allocate {
                 class,
                 instance,
                 choice: AllocationChoice(choice),

@@ -121,7 +121,7 @@ pub struct SlaveConfig {
     /// How its error control runs.
     pub error_control: ErrorControl,
     /// Whether the manager resets it (NMT reset communication) when its error control reports
-    /// it lost, so it boots again ([`crate::supervise`]).
+    /// it lost, so it boots again ([`crate::supervise()`]).
     pub restart_on_loss: bool,
 }
 
