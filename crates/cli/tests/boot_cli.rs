@@ -1,20 +1,10 @@
 //! `canopen boot` and `canopen audit` run as a binary on the in-memory bus, the slaves of the
 //! description simulated from their DCFs.
 
-use std::process::{Command, Output};
+mod common;
+use common::{canopen, stdout};
 
 const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../manager/tests/data");
-
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 fn three() -> String {
     format!("{DATA}/three.toml")

@@ -1,24 +1,12 @@
 //! `canopen burkert ...` run as a binary against a Bürkert device simulated on the in-memory
 //! bus (no `--iface`).
 
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
+use common::{canopen, stderr, stdout};
 
 const EDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
-
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn json(o: &Output) -> serde_json::Value {
     assert!(o.status.success(), "{}", stderr(o));

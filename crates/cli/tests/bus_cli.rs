@@ -1,29 +1,17 @@
 //! The bus commands run as a binary against devices simulated on the in-memory bus.
 
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
+use common::{canopen, stderr, stdout};
 
 const EDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
-
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 fn with_node5(args: &[&str]) -> Output {
     let eds = format!("5={EDS}");
     let mut all = vec!["--eds", eds.as_str()];
     all.extend_from_slice(args);
     canopen(&all)
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn tmp(name: &str) -> std::path::PathBuf {

@@ -1,17 +1,7 @@
 //! `canopen cpos ...` run as a process against the simulated GEMÜ 1436 cPos.
 
-use std::process::{Command, Output};
-
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+mod common;
+use common::{canopen, stdout};
 
 #[test]
 fn demo_shows_every_init_valve_phase() {

@@ -1,14 +1,10 @@
 //! `canopen eds ...` run as a process, the way users and scripts call it.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
+mod common;
+use common::canopen;
 
 fn repo(rel: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

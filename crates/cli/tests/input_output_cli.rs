@@ -1,7 +1,10 @@
 //! How the binary reads what a user types (negative values, indices, names, sub-index
 //! defaults, repeated flags) and how it reports (number style, JSON errors, hints).
 
-use std::process::{Command, Output};
+use std::process::Command;
+
+mod common;
+use common::{canopen, stderr, stdout};
 
 const EDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
 
@@ -19,21 +22,6 @@ const SIGNED_EDS: &str = "[FileInfo]\nFileName=signed.eds\nFileVersion=1\nEDSVer
 [2120]\nParameterName=Offset\nObjectType=0x9\nSubNumber=2\n\
 [2120sub0]\nParameterName=Number of entries\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\nPDOMapping=0\n\
 [2120sub1]\nParameterName=Signed offset\nObjectType=0x7\nDataType=0x0015\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n";
-
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn tmp(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("canopen-cli-io-{}", std::process::id()));

@@ -1,22 +1,10 @@
 //! `canopen lss` as a binary against simulated LSS slaves on the in-memory bus, with the bus
 //! recorded to a candump log (`--record-bus`) to check what reached the wire.
 
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{canopen, stderr, stdout};
 
 fn tmp(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("canopen-lss-test-{}", std::process::id()));

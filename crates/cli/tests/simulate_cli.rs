@@ -2,14 +2,9 @@
 //! (logbook, locating, NE 107), any other EDS the generic simulator.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn canopen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_canopen"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
+mod common;
+use common::canopen;
 
 fn repo(rel: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
