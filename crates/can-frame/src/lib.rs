@@ -14,7 +14,7 @@
 //! `Instant::now`-style conveniences where a real clock exists and `std::error::Error` through
 //! `core::error::Error`.
 #![no_std]
-#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "std")]
 extern crate std;

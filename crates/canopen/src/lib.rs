@@ -14,8 +14,7 @@
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
 //! ```
-//! use can_frame::NodeId;
-//! use canopen::{MemoryBus, Network, SimDevice};
+//! use canopen::{MemoryBus, Network, NodeId, SimDevice};
 //!
 //! let eds = include_bytes!("../../../eds/burkert-generic.eds");
 //! let node = NodeId::new(5).unwrap();
@@ -26,7 +25,7 @@
 //! assert_eq!(net.node(node).sdo().read((0x1017, 0)).unwrap(), 100u16.to_le_bytes());
 //! net.node(node).nmt().start().unwrap();
 //! ```
-#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "tokio")]
 pub mod asynch;
@@ -39,6 +38,7 @@ pub mod mem;
 pub mod network;
 mod node;
 mod pdo_glue;
+pub mod prelude;
 mod request;
 pub mod scan;
 pub mod sim;

@@ -666,7 +666,8 @@ impl MemoryBus {
     }
 
     /// Lets `d` pass (see [`run_until`](Self::run_until)).
-    pub fn run_for(&self, d: Duration) {
+    pub fn run_for(&self, d: impl Into<Duration>) {
+        let d: Duration = d.into();
         let until = self.now() + d;
         self.run_until(until);
     }

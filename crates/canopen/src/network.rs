@@ -256,14 +256,21 @@ impl Network {
     }
 
     /// Watches a node's heartbeat: a `Lost` event when none arrives within `timeout`.
-    pub fn monitor_heartbeat(&self, id: NodeId, timeout: Duration) -> bool {
+    pub fn monitor_heartbeat(&self, id: NodeId, timeout: impl Into<Duration>) -> bool {
+        let timeout: Duration = timeout.into();
         self.core().monitor_heartbeat(id, timeout)
     }
 
     /// Guards a node (CiA 301 node guarding): a remote request every `guard_time`, a `Lost`
     /// event when no answer comes within `guard_time × life_time_factor`. A zero guard time
     /// stops guarding.
-    pub fn guard_node(&self, id: NodeId, guard_time: Duration, life_time_factor: u8) -> bool {
+    pub fn guard_node(
+        &self,
+        id: NodeId,
+        guard_time: impl Into<Duration>,
+        life_time_factor: u8,
+    ) -> bool {
+        let guard_time: Duration = guard_time.into();
         let ok = self.core().guard_node(id, guard_time, life_time_factor);
         self.wake();
         ok
@@ -275,7 +282,8 @@ impl Network {
     }
 
     /// Starts producing SYNC (CiA 301 §7.2.3) with the given period, COB-ID 0x080.
-    pub fn start_sync(&self, period: Duration) {
+    pub fn start_sync(&self, period: impl Into<Duration>) {
+        let period: Duration = period.into();
         if let Ok(cfg) = SyncConfig::new(period, 0) {
             self.core().start_sync(cfg);
         }
@@ -295,7 +303,8 @@ impl Network {
     /// `Duration::ZERO` gives the full expedited rate (the pause otherwise caps a node at about
     /// 800 expedited transfers per second at 1 Mbit/s); on a bus that duplicates frames keep it.
     /// Transfers to different nodes never wait for each other.
-    pub fn set_transfer_gap(&self, gap: Duration) {
+    pub fn set_transfer_gap(&self, gap: impl Into<Duration>) {
+        let gap: Duration = gap.into();
         self.core().settle = gap;
     }
 
@@ -318,7 +327,8 @@ impl Network {
 
     /// Drives the network for `d` (receives, dispatches events, runs timers). On a virtual-clock
     /// bus this advances simulated time.
-    pub fn run_for(&self, d: Duration) -> Result<(), Error> {
+    pub fn run_for(&self, d: impl Into<Duration>) -> Result<(), Error> {
+        let d: Duration = d.into();
         let until = self.now() + d;
         self.run_until(until)
     }

@@ -177,7 +177,8 @@ impl Nmt {
 
     /// Waits (driving the network) for a boot-up of the node received since this handle was
     /// made or sent its last command. Times out after `timeout` on the network's clock.
-    pub fn wait_for_bootup(&self, timeout: Duration) -> Result<(), Error> {
+    pub fn wait_for_bootup(&self, timeout: impl Into<Duration>) -> Result<(), Error> {
+        let timeout: Duration = timeout.into();
         let node = self.node()?;
         let seen = self.boots_seen.load(Ordering::SeqCst);
         let deadline = self.net.now() + timeout;
@@ -199,7 +200,12 @@ impl Nmt {
 
     /// Waits (driving the network) until the node reports `state`; returns at once if it is in
     /// it already. Times out after `timeout` on the network's clock.
-    pub fn wait_for_state(&self, state: NmtState, timeout: Duration) -> Result<(), Error> {
+    pub fn wait_for_state(
+        &self,
+        state: NmtState,
+        timeout: impl Into<Duration>,
+    ) -> Result<(), Error> {
+        let timeout: Duration = timeout.into();
         let node = self.node()?;
         let deadline = self.net.now() + timeout;
         self.net.wait_for(|c| {

@@ -190,7 +190,8 @@ impl Sdo {
     }
 
     /// Sets the response timeout (per server response).
-    pub fn timeout(mut self, timeout: Duration) -> Self {
+    pub fn timeout(mut self, timeout: impl Into<Duration>) -> Self {
+        let timeout: Duration = timeout.into();
         self.timeout = timeout;
         self
     }

@@ -40,7 +40,8 @@ fn u32_of(bytes: &[u8]) -> Option<u32> {
 impl Network {
     /// The nodes that answer an SDO read of 0x1018:01 within `timeout`, in node-ID order, with
     /// their identity (sub-indices 2..=4 read from each node found).
-    pub fn scan(&self, timeout: Duration) -> Vec<ScannedNode> {
+    pub fn scan(&self, timeout: impl Into<Duration>) -> Vec<ScannedNode> {
+        let timeout: Duration = timeout.into();
         let pending: Vec<_> = NodeId::all()
             .map(|n| {
                 (

@@ -51,7 +51,7 @@
 //! The crate is `#![no_std]` without an allocator; bounded tables use `heapless`. The `std`
 //! feature (default) adds [`TimeOfDay::from_system_time`] and [`TimeOfDay::to_system_time`].
 #![no_std]
-#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "std")]
 extern crate std;

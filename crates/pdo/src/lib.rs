@@ -49,7 +49,7 @@
 //! Every decoder of bus bytes here is total: frames of any length and content give a typed
 //! value, a typed error or an [`Event`], never a panic.
 #![no_std]
-#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;

@@ -87,7 +87,7 @@
 //! The crate is `#![no_std]` without an allocator; `alloc` adds [`Sink`]/[`Source`] for `Vec`
 //! and `Box`, `std` (default) implies `alloc`.
 #![no_std]
-#![cfg_attr(docsrs, feature(doc_auto_cfg))]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;
