@@ -116,9 +116,9 @@ pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCo
             Err(e) => return bus::fail(e),
         };
         let text = canopen_manager::master_dcf::MasterObjects::write_master_dcf(&config);
-        return match std::fs::write(out, text) {
+        return match crate::outfile::write_whole(out, text.as_bytes()) {
             Ok(()) => ExitCode::SUCCESS,
-            Err(e) => bus::fail(format!("{}: {e}", out.display())),
+            Err(e) => bus::fail(e),
         };
     }
     let (config, net, _memory) = match open(opts, &args.file, &args.absent) {

@@ -272,7 +272,8 @@ fn ansi(g: Global) -> bool {
 }
 
 fn logbook(dev: &BurkertNode, output: &PathBuf, block: bool, g: Global) -> Result<(), Error> {
-    let file = std::fs::File::create(output)?;
+    let out = crate::outfile::OutFile::create(output).map_err(std::io::Error::other)?;
+    let file = out.writer().map_err(std::io::Error::other)?;
     let bar = std::io::stderr().is_terminal() && !g.json;
     let last = Arc::new(Mutex::new((0u64, None)));
     let l2 = last.clone();
@@ -284,6 +285,7 @@ fn logbook(dev: &BurkertNode, output: &PathBuf, block: bool, g: Global) -> Resul
             *v = (p.done, p.total);
         }
     })?;
+    out.commit().map_err(std::io::Error::other)?;
     if bar {
         eprintln!();
     }

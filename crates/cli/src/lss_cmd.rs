@@ -83,12 +83,13 @@ fn write_record(
 ) -> Result<(), String> {
     mem.run_for(Duration::from_millis(1));
     let entries = std::mem::take(&mut *log.lock().unwrap_or_else(|p| p.into_inner()));
-    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut w = Writer::new(std::io::BufWriter::new(file));
+    let out = crate::outfile::OutFile::create(path)?;
+    let mut w = Writer::new(std::io::BufWriter::new(out.writer()?));
     for e in &entries {
         w.write(e).map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    w.flush().map_err(|e| format!("{}: {e}", path.display()))
+    w.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+    out.commit()
 }
 
 #[derive(Debug, Subcommand)]

@@ -5,8 +5,9 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory as _, Parser, Subcommand};
 
+mod argv;
 mod boot;
 mod burkert;
 mod bus;
@@ -17,6 +18,7 @@ mod gateway;
 mod lss_cmd;
 mod nmt_cmd;
 mod objaddr;
+mod outfile;
 mod sdo_cmd;
 mod simulate;
 mod traffic;
@@ -64,7 +66,8 @@ enum Command {
     },
     /// List the nodes that answer, with their identity (0x1018).
     Scan,
-    /// Decoded live traffic, optionally filtered as candump filters.
+    /// Decoded live traffic, optionally filtered as candump filters (CAN FD frames shown, not
+    /// decoded).
     Monitor {
         /// Stop after this many seconds (required on the in-memory bus).
         #[arg(long, value_parser = bus::parse_seconds)]
@@ -89,10 +92,10 @@ enum Command {
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
-    /// Record traffic in the candump log format. The file is written under a temporary name
-    /// and renamed when recording succeeds: a failed run leaves an existing file alone. The
-    /// SocketCAN socket is a classic CAN socket: the kernel does not deliver CAN FD frames to
-    /// it, so FD traffic is not in the log.
+    /// Record traffic in the candump log format, CAN FD frames in candump's FD syntax
+    /// (`123##1...`; on SocketCAN the socket receives FD frames when the interface's MTU is
+    /// 72). The file is written under a temporary name and renamed when recording succeeds: a
+    /// failed run leaves an existing file alone.
     Record {
         /// Output file.
         #[arg(short, long)]
@@ -150,7 +153,8 @@ pub(crate) fn outln(text: &str) {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let args = argv::options_after_values(&Cli::command(), std::env::args_os().collect());
+    let cli = Cli::parse_from(args);
     let global = Global {
         json: cli.json,
         hex: cli.hex,

@@ -1,6 +1,7 @@
 //! How the binary reads what a user types (negative values, indices, names, sub-index
 //! defaults, repeated flags) and how it reports (number style, JSON errors, hints).
 
+use std::os::unix::fs::FileTypeExt as _;
 use std::process::Command;
 
 mod common;
@@ -49,6 +50,16 @@ fn negative_numbers_are_values() {
         vec![
             "--eds", &eds, "sdo", "write", "4", "0x2120", "--", "1", "-0x10",
         ],
+        // Options after the value, also after `--`, and `-t` for `--type`.
+        vec![
+            "--eds", &eds, "sdo", "write", "4", "0x2120", "1", "--", "-42", "--type", "i64",
+        ],
+        vec![
+            "--eds", &eds, "sdo", "write", "4", "0x2120", "1", "-42", "-t", "i64",
+        ],
+        vec![
+            "--eds", &eds, "sdo", "write", "4", "0x2120", "1", "--", "-0x10", "-t", "i64", "--json",
+        ],
         vec![
             "--eds",
             &eds,
@@ -74,6 +85,45 @@ fn negative_numbers_are_values() {
     ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("out of range"), "{}", stderr(&o));
+}
+
+/// The value that arrives is the one typed: written from one process to a simulator in
+/// another, read back.
+#[test]
+fn negative_values_after_dashes_arrive_as_typed() {
+    let iface = common::udp_bus(2);
+    let eds_file = tmp("signed-sim.eds");
+    std::fs::write(&eds_file, SIGNED_EDS).unwrap();
+    let mut sim = common::simulator(&iface, eds_file.to_str().unwrap(), "4", "30");
+    let eds = format!("4={}", eds_file.display());
+    let read = || {
+        let o = canopen(&[
+            "--iface", &iface, "--eds", &eds, "sdo", "read", "4", "0x2120", "1",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    for (args, expected) in [
+        (vec!["1", "--", "-42", "--type", "i64"], "-42\n"),
+        (vec!["1", "--", "-0x10", "-t", "i64", "--json"], "-16\n"),
+        (vec!["1", "-7", "-t", "i64"], "-7\n"),
+        (vec!["--", "1", "-0x20", "--type=i64"], "-32\n"),
+    ] {
+        let mut line = vec![
+            "--iface", &iface, "--eds", &eds, "sdo", "write", "4", "0x2120",
+        ];
+        line.extend(&args);
+        let o = canopen(&line);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        assert_eq!(read(), expected, "{args:?}");
+    }
+    // cpos takes negative values too (the simulated positioner checks the range).
+    let o = canopen(&["cpos", "set", "4 mA S", "--", "-5", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["value"], -5);
+    let _ = sim.kill();
+    let _ = sim.wait();
 }
 
 #[test]
@@ -355,4 +405,132 @@ fn progress_bar_only_on_a_terminal_and_ending_at_100_percent() {
         .rfind(|l| l.contains(" bytes ") && l.contains('%'))
         .unwrap_or_else(|| panic!("no bar in {text:?}"));
     assert!(last_bar.ends_with("23/23 bytes 100 %"), "{last_bar:?}");
+}
+
+/// `.tmp` files left in `dir`.
+fn leftovers(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+#[test]
+fn an_upload_file_appears_whole_or_not_at_all() {
+    let eds = format!("5={EDS}");
+    let dir = tmp("upload");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("name.bin");
+    std::fs::write(&file, "precious\n").unwrap();
+    // The device aborts (no such object): the old file stays, no partial file is left.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1234",
+        "-o",
+        file.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("0x06020000"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "precious\n");
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    let fresh = dir.join("fresh.bin");
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1234",
+        "-o",
+        fresh.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(!fresh.exists());
+    // A good upload replaces the file.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        file.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(&file).unwrap(),
+        "Buerkert generic device"
+    );
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    // A device file is written directly (never renamed over), and its write error reported.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        "/dev/full",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("No space left on device"),
+        "{}",
+        stderr(&o)
+    );
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "--json",
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        "/dev/full",
+    ]);
+    assert!(!o.status.success());
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
+    assert!(
+        v["error"].as_str().unwrap().contains("No space left"),
+        "{v}"
+    );
+    assert_eq!(v["index"], 0x1008);
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        "/dev/null",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // `record` likewise.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "record",
+        "-o",
+        "/dev/full",
+        "--duration",
+        "0.5",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("No space left"), "{}", stderr(&o));
+    assert!(
+        std::fs::metadata("/dev/full")
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
 }

@@ -1,7 +1,10 @@
 //! Several CLI processes on one bus without CAN hardware: `--iface udp:GROUP:PORT`, the UDP
 //! multicast bus in python-can's `udp_multicast` format.
 
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
+
+mod common;
+use common::{stderr, stdout};
 
 const EDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
 
@@ -9,49 +12,12 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_canopen"))
 }
 
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A bus of this test's own (group and port from the process ID), so parallel runs do not meet.
 fn bus(salt: u16) -> String {
-    let port = 30000 + (std::process::id() % 10000) as u16 * 2 + salt;
-    format!("udp:239.74.163.{}:{port}", 10 + salt)
+    common::udp_bus(salt)
 }
 
-/// Starts `simulate` on `iface` for `secs` seconds and waits until it answers.
 fn simulator(iface: &str, secs: &str) -> std::process::Child {
-    let mut child = bin()
-        .args([
-            "--iface",
-            iface,
-            "simulate",
-            EDS,
-            "--node-id",
-            "5",
-            "--duration",
-            secs,
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("simulate starts");
-    for _ in 0..50 {
-        let o = bin()
-            .args(["--iface", iface, "sdo", "read", "5", "0x1000"])
-            .output()
-            .unwrap();
-        if o.status.success() {
-            return child;
-        }
-    }
-    let _ = child.kill();
-    let _ = child.wait();
-    panic!("the simulator never answered on {iface}");
+    common::simulator(iface, EDS, "5", secs)
 }
 
 #[test]
