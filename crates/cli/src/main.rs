@@ -33,8 +33,10 @@ struct Cli {
     #[arg(long, global = true)]
     json: bool,
 
-    /// Print unsigned integer values in zero-padded hex (`0x00000039`) instead of decimal
-    /// (`57`), the default of every command. Indices, COB-IDs and abort codes are always hex.
+    /// Print unsigned values in zero-padded hex (`0x00000039`) instead of decimal (`57`), the
+    /// default of every command: object values (sdo read, audit), identities (scan, lss,
+    /// burkert status). Indices, COB-IDs, abort codes and CAN identifiers are always hex;
+    /// signed values, strings and EDS text (eds show) print as they are.
     #[arg(long, global = true)]
     hex: bool,
 
@@ -131,6 +133,19 @@ struct Global {
     json: bool,
     /// Unsigned values in hex (`--hex`).
     hex: bool,
+}
+
+impl Global {
+    /// A 32-bit unsigned value (an identity value, an object's value) as every command prints
+    /// it: decimal, with `--hex` zero-padded hex.
+    fn u32(self, v: u32) -> String {
+        if self.hex {
+            // As `Value` writes it in hex (`sdo read --hex`): upper-case digits.
+            format!("0x{v:08X}")
+        } else {
+            v.to_string()
+        }
+    }
 }
 
 /// Writes to stdout. A closed pipe (`canopen eds show F | head`) ends output quietly instead of

@@ -82,11 +82,11 @@ fn a_bad_udp_spec_is_refused() {
 }
 
 /// python-can and python-canopen on the same bus: python-canopen reads the CLI's simulator,
-/// and the CLI's `monitor` sees what python-can sends. Needs the workspace's `.venv` with
-/// python-can, python-canopen and `msgpack` importable (python-can's udp_multicast needs it):
-/// `PYTHONPATH=DIR_WITH_MSGPACK cargo test -p canopen-cli --test udp_bus_cli -- --ignored`.
+/// and the CLI's `monitor` sees what python-can sends, `sdo read` sees a python-canopen
+/// LocalNode's answer, and python-can receives what the CLI sends. Needs the workspace's
+/// `.venv` with python-can, python-canopen and `msgpack` (python-can's udp_multicast needs
+/// it; scripts/test-all's setup stage installs them).
 #[test]
-#[ignore = "needs python-can with msgpack"]
 fn interoperates_with_python_can_udp_multicast() {
     let iface = bus(1);
     let (group, port) = iface.strip_prefix("udp:").unwrap().split_once(':').unwrap();
@@ -125,4 +125,41 @@ fn interoperates_with_python_can_udp_multicast() {
     let text = stdout(&out);
     assert!(text.contains("705#05"), "{text}");
     assert!(text.contains("000#0100"), "{text}");
+
+    // The CLI sends, python-can receives: NMT start node 5 and an SDO request.
+    let recv = format!(
+        "import can, sys\n\
+         bus = can.Bus(interface='udp_multicast', channel='{group}', port={port})\n\
+         print('READY', flush=True)\n\
+         seen = []\n\
+         while len(seen) < 2:\n\
+         \x20   m = bus.recv(timeout=10)\n\
+         \x20   if m is None: break\n\
+         \x20   if m.arbitration_id in (0x000, 0x605):\n\
+         \x20       seen.append(f'{{m.arbitration_id:03X}}#{{m.data.hex().upper()}}')\n\
+         print(' '.join(seen))\n\
+         bus.shutdown()\n"
+    );
+    let mut py = Command::new(python)
+        .args(["-c", &recv])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(py.stdout.take().unwrap()));
+    assert_eq!(lines.next().unwrap().unwrap(), "READY");
+    let o = bin()
+        .args(["--iface", &iface, "nmt", "start", "5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Nothing answers this read: its request is on the bus all the same.
+    let o = bin()
+        .args(["--iface", &iface, "sdo", "read", "5", "0x1017"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let seen = lines.next().unwrap().unwrap();
+    assert_eq!(seen, "000#0105 605#4017100000000000", "python-can received");
+    assert!(py.wait().unwrap().success());
 }
