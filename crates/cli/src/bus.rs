@@ -175,7 +175,8 @@ impl Bus {
         d
     }
 
-    /// Runs the bus for `secs` (forever without, on SocketCAN), handing each received frame
+    /// Runs the bus for `secs` (without, until a signal [`stop_on_signals`] took, or forever;
+    /// not on the in-memory bus), handing each received frame
     /// to `f` (CAN FD frames too, on a bus opened with [`BusOpts::open_watching`]); other bus
     /// events are printed. The in-memory bus needs a duration.
     pub(crate) fn pump(
@@ -190,8 +191,10 @@ impl Bus {
         }
         loop {
             let now = self.transport.now();
-            let deadline = end.unwrap_or(now + Duration::from_millis(200));
-            if end.is_some_and(|e| now >= e) {
+            let deadline = end.map_or(now + Duration::from_millis(200), |e| {
+                e.min(now + Duration::from_millis(200))
+            });
+            if end.is_some_and(|e| now >= e) || STOP.load(std::sync::atomic::Ordering::Relaxed) {
                 return Ok(());
             }
             match self.transport.recv_until(deadline) {
@@ -205,6 +208,31 @@ impl Bus {
             }
         }
     }
+}
+
+/// Set when SIGINT or SIGTERM arrived after [`stop_on_signals`].
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Makes Ctrl-C (SIGINT) and SIGTERM end [`Bus::pump`] at its next turn (within 200 ms)
+/// instead of killing the process, so `record` can still put its file in place; a second
+/// signal ends the process (exit status 130). Call it before any other thread starts: the
+/// signals are blocked in this thread (and so in every thread started later) and taken by a
+/// thread of their own with `sigwait`.
+pub(crate) fn stop_on_signals() -> Result<(), String> {
+    use nix::sys::signal::{SigSet, Signal};
+    let mut set = SigSet::empty();
+    set.add(Signal::SIGINT);
+    set.add(Signal::SIGTERM);
+    set.thread_block()
+        .map_err(|e| format!("cannot block SIGINT: {e}"))?;
+    std::thread::spawn(move || {
+        while set.wait().is_ok() {
+            if STOP.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                std::process::exit(130);
+            }
+        }
+    });
+    Ok(())
 }
 
 /// A frame [`Bus::pump`] received.

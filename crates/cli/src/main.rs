@@ -96,8 +96,9 @@ enum Command {
     },
     /// Record traffic in the candump log format, CAN FD frames in candump's FD syntax
     /// (`123##1...`; on SocketCAN the socket receives FD frames when the interface's MTU is
-    /// 72). The file is written under a temporary name and renamed when recording succeeds: a
-    /// failed run leaves an existing file alone.
+    /// 72), until --duration ends or Ctrl-C (SIGINT, SIGTERM). The file is written under a
+    /// temporary name and renamed when recording succeeds: a failed run leaves an existing
+    /// file alone.
     Record {
         /// Output file.
         #[arg(short, long)]

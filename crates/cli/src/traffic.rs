@@ -116,9 +116,13 @@ pub(crate) fn run_monitor(
     }
 }
 
-/// `canopen record -o FILE`: every frame, CAN FD frames in candump's FD syntax (`123##1...`).
-/// The file appears when recording ends well (see [`OutFile`]).
+/// `canopen record -o FILE`: every frame, CAN FD frames in candump's FD syntax (`123##1...`),
+/// until `--duration` or Ctrl-C. The file appears when recording ends well (see [`OutFile`]).
 pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -> ExitCode {
+    // Before the bus opens (its transport may start threads): Ctrl-C ends the recording.
+    if let Err(e) = crate::bus::stop_on_signals() {
+        return fail(e);
+    }
     let mut bus = match opts.open_watching() {
         Ok(b) => b,
         Err(e) => return fail(e),

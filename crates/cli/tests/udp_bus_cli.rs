@@ -67,6 +67,40 @@ fn simulate_and_sdo_read_in_two_processes() {
     let _ = sim.wait();
 }
 
+/// `record` without `--duration` runs until Ctrl-C, and then puts its log in place.
+#[test]
+fn record_ends_on_ctrl_c_with_its_log_in_place() {
+    let iface = bus(2);
+    let dir = std::env::temp_dir().join(format!("canopen-cli-udp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("until-ctrl-c.log");
+    let mut rec = bin()
+        .args(["--iface", &iface, "record", "-o", log.to_str().unwrap()])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = std::io::BufRead::lines(std::io::BufReader::new(rec.stderr.take().unwrap()));
+    assert!(err.next().unwrap().unwrap().starts_with("recording"));
+    let o = bin()
+        .args(["--iface", &iface, "nmt", "start", "5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    assert!(!log.exists(), "the log appears when recording ends");
+    let kill = Command::new("kill")
+        .args(["-INT", &rec.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = rec.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+    let last = err.next().unwrap().unwrap();
+    assert!(last.starts_with("1 frames recorded"), "{last}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.trim_end().ends_with(" 000#0105"), "{text}");
+}
+
 #[test]
 fn a_bad_udp_spec_is_refused() {
     let o = bin()
