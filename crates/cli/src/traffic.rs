@@ -144,6 +144,9 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
     let mut w = candump::Writer::new(std::io::BufWriter::new(file));
     let mut err = None;
     let (mut frames, mut fd) = (0u64, 0u64);
+    if duration.is_none() && bus.memory.is_some() {
+        return fail("on the in-memory bus give --duration SECONDS");
+    }
     eprintln!("recording {iface} to {}", output.display());
     let r = bus.pump(duration, |traffic, at| {
         let (frame, is_fd) = match traffic {
