@@ -29,7 +29,8 @@ pub const ERROR_FLAG: u32 = 0x2000_0000;
 pub enum LogFrame {
     /// A data or remote frame.
     Can(CanFrame),
-    /// A CAN FD frame (read and written, not sent: the transports carry classic frames).
+    /// A CAN FD frame (read and written, not sent: the transports carry classic frames;
+    /// SocketCAN opened for FD reports received ones as `BusEvent::FdFrame`).
     Fd(FdFrame),
     /// A CAN error frame: error class bits (identifier without the flag) and detail bytes.
     Error {
@@ -45,7 +46,8 @@ pub enum LogFrame {
 pub struct FdFrame {
     /// Identifier.
     pub id: CanId,
-    /// The flags digit: bit 0 bit-rate switch (BRS), bit 1 error state indicator (ESI).
+    /// The flags digit: bit 0 bit-rate switch (BRS), bit 1 error state indicator (ESI), bit 2
+    /// the FD format flag (FDF) that Linux 6.2 and later set on received frames.
     pub flags: u8,
     len: u8,
     data: [u8; 64],

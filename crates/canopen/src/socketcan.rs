@@ -16,6 +16,10 @@
 //! while it lies between half and 17/16 of the wait needed, which saves a `setsockopt` per call
 //! when the deadlines keep the same distance (the master's drive slice, the simulator's loop).
 //! A deadline that has passed is a non-blocking read (`MSG_DONTWAIT`).
+//!
+//! CAN FD: [`SocketCan::open_fd`] also asks for CAN FD frames (`CAN_RAW_FD_FRAMES`, what
+//! `socketcan::CanFdSocket` sets). The master's protocols run on classic frames, so an FD frame
+//! is reported as [`BusEvent::FdFrame`] (for `canopen record` and `monitor`), not as a frame.
 
 use std::collections::VecDeque;
 use std::io::IoSliceMut;
@@ -26,6 +30,7 @@ use can_frame::{CanFrame, CanId, Instant};
 use nix::sys::socket::{ControlMessageOwned, MsgFlags, recvmsg, setsockopt, sockopt};
 use socketcan::{EmbeddedFrame, Socket, SocketOptions};
 
+use crate::candump::{FD_LENGTHS, FdFrame};
 use crate::transport::{BusEvent, Received, Transport, TransportError};
 
 const CAN_EFF_FLAG: u32 = 0x8000_0000;
@@ -36,6 +41,8 @@ const CAN_ERR_BUSOFF: u32 = 0x0000_0040;
 const CAN_ERR_RESTARTED: u32 = 0x0000_0100;
 const CAN_ERR_CRTL_RX_PASSIVE: u8 = 0x10;
 const CAN_ERR_CRTL_TX_PASSIVE: u8 = 0x20;
+/// The size of a `struct canfd_frame`, what a read returns for a CAN FD frame.
+const CANFD_MTU: usize = 72;
 
 /// A CAN interface opened through SocketCAN.
 pub struct SocketCan {
@@ -90,6 +97,28 @@ pub(crate) fn decode_raw(buf: &[u8]) -> Option<RawFrame> {
     Some(RawFrame::Frame(frame))
 }
 
+/// Decodes the 72 bytes of a Linux `struct canfd_frame`: identifier, length, the flags digit
+/// candump prints (low four bits of `flags`: BRS, ESI, FDF) and the data, padded with zeros to
+/// the next CAN FD length as the wire carries it. Total: bad lengths or identifiers give `None`.
+pub(crate) fn decode_raw_fd(buf: &[u8]) -> Option<FdFrame> {
+    let id_bytes: [u8; 4] = buf.get(0..4)?.try_into().ok()?;
+    let raw_id = u32::from_ne_bytes(id_bytes);
+    if raw_id & (CAN_ERR_FLAG | CAN_RTR_FLAG) != 0 {
+        return None;
+    }
+    let len = usize::from(*buf.get(4)?);
+    let flags = *buf.get(5)? & 0x0F;
+    let id = if raw_id & CAN_EFF_FLAG != 0 {
+        CanId::extended(raw_id & 0x1FFF_FFFF).ok()?
+    } else {
+        CanId::standard((raw_id & 0x7FF) as u16).ok()?
+    };
+    let padded = *FD_LENGTHS.iter().find(|&&l| l >= len)?;
+    let mut data = [0u8; 64];
+    data[..len].copy_from_slice(buf.get(8..8 + len)?);
+    FdFrame::new(id, flags, &data[..padded])
+}
+
 /// The events an error frame stands for: the frame itself, then state changes it signals.
 pub(crate) fn error_events(class: u32, data: [u8; 8]) -> Vec<BusEvent> {
     let mut out = vec![BusEvent::ErrorFrame { class, data }];
@@ -136,6 +165,16 @@ impl SocketCan {
         })
     }
 
+    /// Opens `iface` as [`open`](Self::open) does and also receives CAN FD frames, as
+    /// [`BusEvent::FdFrame`]s (when the interface carries them: an MTU of 72). Sending stays
+    /// classic.
+    pub fn open_fd(iface: &str) -> Result<Self, TransportError> {
+        let t = Self::open(iface)?;
+        t.socket
+            .set_socket_option_int(nix::libc::SOL_CAN_RAW, nix::libc::CAN_RAW_FD_FRAMES, 1)?;
+        Ok(t)
+    }
+
     fn came_up(&mut self) {
         if self.down {
             self.down = false;
@@ -170,7 +209,7 @@ impl SocketCan {
     /// One `recvmsg`: blocking with the socket's read timeout, or not blocking with
     /// `MSG_DONTWAIT`. `Ok(false)`: nothing arrived.
     fn read_one(&mut self, flags: MsgFlags) -> Result<bool, TransportError> {
-        let mut buf = [0u8; 16];
+        let mut buf = [0u8; CANFD_MTU];
         let mut cmsg = nix::cmsg_space!(u32);
         let (n, drops) = {
             let mut iov = [IoSliceMut::new(&mut buf)];
@@ -204,6 +243,14 @@ impl SocketCan {
                 .push_back(Received::Event(BusEvent::RxOverflow { dropped }));
         }
         let at = self.clock.now();
+        if n == CANFD_MTU {
+            if let Some(frame) = decode_raw_fd(&buf) {
+                let frame = Box::new(frame);
+                self.events
+                    .push_back(Received::Event(BusEvent::FdFrame { frame, at }));
+            }
+            return Ok(true);
+        }
         match buf.get(..n).and_then(decode_raw) {
             Some(RawFrame::Frame(frame)) => self.events.push_back(Received::Frame { frame, at }),
             Some(RawFrame::Error { class, data }) => {
@@ -305,6 +352,31 @@ mod tests {
                 data: [0; 8]
             }
         );
+    }
+
+    #[test]
+    fn decodes_kernel_fd_frames() {
+        let mut b = [0u8; CANFD_MTU];
+        b[..4].copy_from_slice(&0x123u32.to_ne_bytes());
+        b[4] = 12;
+        b[5] = 0x05; // BRS | FDF
+        for (i, x) in b[8..20].iter_mut().enumerate() {
+            *x = i as u8;
+        }
+        let f = decode_raw_fd(&b).unwrap();
+        assert_eq!(f.id, CanId::standard(0x123).unwrap());
+        assert_eq!((f.flags, f.data().len(), f.data()[11]), (5, 12, 11));
+        // A length between the FD lengths is padded as the wire carries it.
+        b[4] = 9;
+        assert_eq!(decode_raw_fd(&b).unwrap().data().len(), 12);
+        b[..4].copy_from_slice(&(0x1234_5678 | CAN_EFF_FLAG).to_ne_bytes());
+        assert!(decode_raw_fd(&b).unwrap().id.is_extended());
+        b[4] = 65;
+        assert_eq!(decode_raw_fd(&b), None);
+        b[4] = 8;
+        b[..4].copy_from_slice(&(1 | CAN_ERR_FLAG).to_ne_bytes());
+        assert_eq!(decode_raw_fd(&b), None);
+        assert_eq!(decode_raw_fd(&b[..5]), None);
     }
 
     #[test]

@@ -40,6 +40,14 @@ pub enum BusEvent {
         /// Frames lost since the previous overflow report.
         dropped: u64,
     },
+    /// A CAN FD frame arrived. Only a transport opened for CAN FD reports them (SocketCAN's
+    /// `SocketCan::open_fd`); the master's protocols use classic frames and ignore it.
+    FdFrame {
+        /// The frame.
+        frame: Box<crate::candump::FdFrame>,
+        /// When it was received, on the transport's clock.
+        at: Instant,
+    },
 }
 
 impl core::fmt::Display for BusEvent {
@@ -56,6 +64,11 @@ impl core::fmt::Display for BusEvent {
             Self::RxOverflow { dropped } => {
                 write!(f, "receive queue overflow: {dropped} frame(s) dropped")
             }
+            Self::FdFrame { frame, .. } => write!(
+                f,
+                "CAN FD frame {}",
+                crate::candump::format_frame(&crate::candump::LogFrame::Fd(**frame))
+            ),
         }
     }
 }

@@ -116,9 +116,9 @@ pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCo
             Err(e) => return bus::fail(e),
         };
         let text = canopen_manager::master_dcf::MasterObjects::write_master_dcf(&config);
-        return match std::fs::write(out, text) {
+        return match crate::outfile::write_whole(out, text.as_bytes()) {
             Ok(()) => ExitCode::SUCCESS,
-            Err(e) => bus::fail(format!("{}: {e}", out.display())),
+            Err(e) => bus::fail(e),
         };
     }
     let (config, net, _memory) = match open(opts, &args.file, &args.absent) {
@@ -225,10 +225,11 @@ pub(crate) fn run_audit(args: AuditArgs, opts: &BusOpts, global: Global) -> Exit
                 s.unreadable.len()
             ));
             for d in &s.differences {
+                let value = |v: &canopen::Value| crate::sdo_cmd::format_value(v, global.hex);
                 let actual = d
                     .actual
                     .as_ref()
-                    .map_or_else(|| format!("{:02X?}", d.actual_bytes), ToString::to_string);
+                    .map_or_else(|| format!("{:02X?}", d.actual_bytes), value);
                 let fixed = match &d.fixed {
                     Some(Ok(())) => " (fixed)".to_owned(),
                     Some(Err(e)) => format!(" (fix failed: {e})"),
@@ -236,7 +237,10 @@ pub(crate) fn run_audit(args: AuditArgs, opts: &BusOpts, global: Global) -> Exit
                 };
                 outln(&format!(
                     "  {} {:?} {:?}: expected {}, actual {actual}{fixed}",
-                    d.object, d.name, d.data_type, d.expected
+                    d.object,
+                    d.name,
+                    d.data_type,
+                    value(&d.expected)
                 ));
             }
             for u in &s.unreadable {

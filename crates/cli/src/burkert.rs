@@ -271,8 +271,14 @@ fn ansi(g: Global) -> bool {
     !g.json && std::io::stdout().is_terminal()
 }
 
-fn logbook(dev: &BurkertNode, output: &PathBuf, block: bool, g: Global) -> Result<(), Error> {
-    let file = std::fs::File::create(output)?;
+fn logbook(
+    dev: &BurkertNode,
+    output: &std::path::Path,
+    block: bool,
+    g: Global,
+) -> Result<(), Error> {
+    let out = crate::outfile::OutFile::create(output).map_err(std::io::Error::other)?;
+    let file = out.writer().map_err(std::io::Error::other)?;
     let bar = std::io::stderr().is_terminal() && !g.json;
     let last = Arc::new(Mutex::new((0u64, None)));
     let l2 = last.clone();
@@ -284,6 +290,7 @@ fn logbook(dev: &BurkertNode, output: &PathBuf, block: bool, g: Global) -> Resul
             *v = (p.done, p.total);
         }
     })?;
+    out.commit().map_err(std::io::Error::other)?;
     if bar {
         eprintln!();
     }
@@ -372,10 +379,10 @@ fn print_report(id: NodeId, r: &DeviceReport, g: Global) {
     );
     let mut line = |k: &str, v: String| t.push_str(&format!("  {k:<16} {v}\n"));
     if let Some(v) = d.serial_number {
-        line("serial number", v.to_string());
+        line("serial number", g.u32(v));
     }
     if let Some(v) = d.software_version {
-        line("software", format!("{v:#010x}"));
+        line("software", g.u32(v));
     }
     if let Some(ne) = s.ne107 {
         line(

@@ -9,8 +9,9 @@
 use std::process::ExitCode;
 
 use burkert_profile::SimulatedDevice;
+use canopen::candump::FdFrame;
 use canopen::mem::MemoryBus;
-use canopen::transport::{Received, Transport};
+use canopen::transport::{BusEvent, Received, Transport};
 use canopen::{BusDictionary, CanFrame, Duration, Instant, Network, NodeId, ObjectDictionary};
 use clap::Args;
 
@@ -104,14 +105,28 @@ impl BusOpts {
         self.open_with(self.dictionaries()?)
     }
 
+    /// Opens the bus with the `--eds` dictionaries to watch its traffic: on SocketCAN CAN FD
+    /// frames are received too (see [`Bus::pump`]).
+    pub(crate) fn open_watching(&self) -> Result<Bus, String> {
+        self.open_inner(self.dictionaries()?, true)
+    }
+
     /// Opens the bus with `dictionaries`; on the in-memory bus each node is simulated.
     pub(crate) fn open_with(
         &self,
         dictionaries: Vec<(NodeId, ObjectDictionary)>,
     ) -> Result<Bus, String> {
+        self.open_inner(dictionaries, false)
+    }
+
+    fn open_inner(
+        &self,
+        dictionaries: Vec<(NodeId, ObjectDictionary)>,
+        fd: bool,
+    ) -> Result<Bus, String> {
         match &self.iface {
             Some(iface) => {
-                let t = open_transport(iface)?;
+                let t = open_transport_with(iface, fd)?;
                 Ok(Bus {
                     transport: t,
                     memory: None,
@@ -160,12 +175,14 @@ impl Bus {
         d
     }
 
-    /// Runs the bus for `secs` (forever without, on SocketCAN), handing each received frame
-    /// to `f`. The in-memory bus needs a duration.
+    /// Runs the bus for `secs` (without, until a signal [`stop_on_signals`] took, or forever;
+    /// not on the in-memory bus), handing each received frame
+    /// to `f` (CAN FD frames too, on a bus opened with [`BusOpts::open_watching`]); other bus
+    /// events are printed. The in-memory bus needs a duration.
     pub(crate) fn pump(
         &mut self,
         secs: Option<f64>,
-        mut f: impl FnMut(&CanFrame, Instant),
+        mut f: impl FnMut(Traffic<'_>, Instant),
     ) -> Result<(), String> {
         let start = self.transport.now();
         let end = secs.map(|s| start + seconds(s));
@@ -174,16 +191,65 @@ impl Bus {
         }
         loop {
             let now = self.transport.now();
-            let deadline = end.unwrap_or(now + Duration::from_millis(200));
-            if end.is_some_and(|e| now >= e) {
+            let deadline = end.map_or(now + Duration::from_millis(200), |e| {
+                e.min(now + Duration::from_millis(200))
+            });
+            if end.is_some_and(|e| now >= e) || STOP.load(std::sync::atomic::Ordering::Relaxed) {
                 return Ok(());
             }
             match self.transport.recv_until(deadline) {
-                Ok(Some(Received::Frame { frame, at })) => f(&frame, at),
+                Ok(Some(Received::Frame { frame, at })) => f(Traffic::Can(&frame), at),
+                Ok(Some(Received::Event(BusEvent::FdFrame { frame, at }))) => {
+                    f(Traffic::Fd(&frame), at)
+                }
                 Ok(Some(Received::Event(e))) => eprintln!("bus: {e}"),
                 Ok(None) => {}
                 Err(e) => return Err(e.to_string()),
             }
+        }
+    }
+}
+
+/// Set when SIGINT or SIGTERM arrived after [`stop_on_signals`].
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Makes Ctrl-C (SIGINT) and SIGTERM end [`Bus::pump`] at its next turn (within 200 ms)
+/// instead of killing the process, so `record` can still put its file in place; a second
+/// signal ends the process (exit status 130). Call it before any other thread starts: the
+/// signals are blocked in this thread (and so in every thread started later) and taken by a
+/// thread of their own with `sigwait`.
+pub(crate) fn stop_on_signals() -> Result<(), String> {
+    use nix::sys::signal::{SigSet, Signal};
+    let mut set = SigSet::empty();
+    set.add(Signal::SIGINT);
+    set.add(Signal::SIGTERM);
+    set.thread_block()
+        .map_err(|e| format!("cannot block SIGINT: {e}"))?;
+    std::thread::spawn(move || {
+        while set.wait().is_ok() {
+            if STOP.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                std::process::exit(130);
+            }
+        }
+    });
+    Ok(())
+}
+
+/// A frame [`Bus::pump`] received.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Traffic<'a> {
+    /// A classic data or remote frame.
+    Can(&'a CanFrame),
+    /// A CAN FD frame.
+    Fd(&'a FdFrame),
+}
+
+impl Traffic<'_> {
+    /// The frame's identifier.
+    pub(crate) fn id(self) -> canopen::CanId {
+        match self {
+            Self::Can(f) => f.id(),
+            Self::Fd(f) => f.id,
         }
     }
 }
@@ -206,13 +272,24 @@ pub(crate) fn seconds(secs: f64) -> Duration {
 
 /// Opens `--iface IFACE`: a UDP multicast bus for `udp[:GROUP[:PORT]]`, else SocketCAN.
 pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> {
+    open_transport_with(iface, false)
+}
+
+/// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`.
+fn open_transport_with(iface: &str, fd: bool) -> Result<Box<dyn Transport>, String> {
+    use canopen::socketcan::SocketCan;
     if let Some(spec) = canopen::udp::parse_spec(iface) {
         let group = spec.map_err(|e| format!("--iface {iface}: {e}"))?;
         return canopen::udp::UdpMulticast::open(group)
             .map(|t| Box::new(t) as Box<dyn Transport>)
             .map_err(|e| format!("{iface}: {e}"));
     }
-    canopen::socketcan::SocketCan::open(iface)
+    let socket = if fd {
+        SocketCan::open_fd(iface)
+    } else {
+        SocketCan::open(iface)
+    };
+    socket
         .map(|t| Box::new(t) as Box<dyn Transport>)
         .map_err(|e| format!("{iface}: {e}{}", iface_hint(iface)))
 }
@@ -271,6 +348,29 @@ fn fail_fields(text: &str, mut fields: serde_json::Map<String, serde_json::Value
         eprintln!("error: {text}");
     }
     ExitCode::FAILURE
+}
+
+/// Prints a warning on stderr: `PREFIX: TEXT` (`warning`, `note`), under `--json` one JSON
+/// object `{"warning": TEXT, ...fields}` (the kind in `"level"`), so a script reading stderr
+/// line by line as JSON gets JSON.
+pub(crate) fn warn(
+    prefix: &str,
+    text: &str,
+    mut fields: serde_json::Map<String, serde_json::Value>,
+) {
+    if JSON_ERRORS.load(std::sync::atomic::Ordering::Relaxed) {
+        fields.insert("warning".into(), text.into());
+        fields.insert("level".into(), prefix.into());
+        eprintln!("{}", serde_json::Value::Object(fields));
+    } else {
+        eprintln!("{prefix}: {text}");
+    }
+}
+
+/// A usage error found after parsing (exit code 2, as clap's), printed as [`fail`] does.
+pub(crate) fn fail_usage(e: impl std::fmt::Display) -> ExitCode {
+    let _ = fail(e);
+    ExitCode::from(2)
 }
 
 /// Reports a failed master operation: SDO failures carry node, object, abort code and its

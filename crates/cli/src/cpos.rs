@@ -83,7 +83,8 @@ pub(crate) enum CposCommand {
     Set {
         /// Parameter name or ID.
         name: String,
-        /// Value or label.
+        /// Value or label (negative numbers as `-5`).
+        #[arg(allow_negative_numbers = true)]
         value: String,
     },
     /// Run an action and follow its status until it ends.

@@ -168,12 +168,9 @@ fn emit(output: Option<&Path>, text: &str) -> ExitCode {
             crate::out(text);
             ExitCode::SUCCESS
         }
-        Some(path) => match std::fs::write(path, text) {
+        Some(path) => match crate::outfile::write_whole(path, text.as_bytes()) {
             Ok(()) => ExitCode::SUCCESS,
-            Err(e) => {
-                eprintln!("{}: error: {e}", path.display());
-                ExitCode::FAILURE
-            }
+            Err(e) => crate::bus::fail(e),
         },
     }
 }

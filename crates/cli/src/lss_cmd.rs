@@ -25,9 +25,6 @@ use crate::{Global, outln};
 
 const BURKERT_EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
 
-/// The exit code of a usage error (as clap's).
-const USAGE: u8 = 2;
-
 #[derive(Debug, Args)]
 pub(crate) struct LssArgs {
     /// In-memory bus only: simulate this many unconfigured devices.
@@ -83,12 +80,13 @@ fn write_record(
 ) -> Result<(), String> {
     mem.run_for(Duration::from_millis(1));
     let entries = std::mem::take(&mut *log.lock().unwrap_or_else(|p| p.into_inner()));
-    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut w = Writer::new(std::io::BufWriter::new(file));
+    let out = crate::outfile::OutFile::create(path)?;
+    let mut w = Writer::new(std::io::BufWriter::new(out.writer()?));
     for e in &entries {
         w.write(e).map_err(|e| format!("{}: {e}", path.display()))?;
     }
-    w.flush().map_err(|e| format!("{}: {e}", path.display()))
+    w.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+    out.commit()
 }
 
 #[derive(Debug, Subcommand)]
@@ -173,6 +171,33 @@ fn num(s: &str) -> Result<u32, String> {
     .map_err(|e| format!("`{s}`: {e}"))
 }
 
+/// An LSS address in text, in the number style of every command (`--hex`).
+fn addr_text(a: &LssAddress, g: Global) -> String {
+    format!(
+        "vendor-id {}, product {}, revision {}, serial {}",
+        g.u32(a.vendor_id),
+        g.u32(a.product_code),
+        g.u32(a.revision_number),
+        g.u32(a.serial_number)
+    )
+}
+
+/// One line of the assign-all report.
+fn entry_text(e: &canopen::lss::AssignEntry, g: Global) -> String {
+    let what = match (e.node_id, e.outcome) {
+        (Some(id), AssignOutcome::Assigned) => format!("node-ID {id}"),
+        (Some(id), AssignOutcome::StoreFailed(err)) => {
+            format!("node-ID {id} assigned, not stored: {err}")
+        }
+        (Some(id), AssignOutcome::Failed(err)) => format!("node-ID {id} failed: {err}"),
+        (None, AssignOutcome::Failed(err)) => format!("failed: {err}"),
+        (None, _) => "no node-ID".into(),
+    };
+    format!("{}: {what}", addr_text(&e.address, g))
+}
+
+const NONE_ANSWERED: &str = "no unconfigured slave answered";
+
 fn addr_json(a: &LssAddress) -> serde_json::Value {
     json!({"vendor_id": a.vendor_id, "product_code": a.product_code,
            "revision": a.revision_number, "serial": a.serial_number})
@@ -187,8 +212,9 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
     if let MasterCommand::AssignAll { first, last } = master
         && first > last
     {
-        eprintln!("error: empty node-ID pool: --first {first} is above --last {last}");
-        return ExitCode::from(USAGE);
+        return crate::bus::fail_usage(format!(
+            "empty node-ID pool: --first {first} is above --last {last}"
+        ));
     }
     let (net, mem) = match open_network(opts) {
         Ok(x) => x,
@@ -381,7 +407,12 @@ fn command(
             {
                 Some(rate) => lss
                     .procedure(Procedure::change_bit_rate(BitTiming::standard(rate), delay))
-                    .map(|_| json!({"kbit": kbit}))
+                    .map(|_| {
+                        if !g.json {
+                            outln(&format!("bit rate {kbit} kbit/s configured"));
+                        }
+                        json!({"kbit": kbit})
+                    })
                     .map_err(|e| e.to_string()),
                 None => Err(format!("{kbit} kbit/s is not in the CiA bit timing table")),
             }
@@ -392,19 +423,54 @@ fn command(
             .map_err(|e| e.to_string()),
         MasterCommand::Inquire => lss
             .procedure(Procedure::inquire_all())
-            .map(|r| json!({"identity": r.address().map(|a| addr_json(&a)), "node_id": r.node_id}))
+            .map(|r| {
+                if !g.json {
+                    let id = r
+                        .address()
+                        .map_or("identity incomplete".into(), |a| addr_text(&a, g));
+                    let node = r.node_id.map_or("-".into(), |n| n.to_string());
+                    outln(&format!("{id}, node-ID {node}"));
+                }
+                json!({"identity": r.address().map(|a| addr_json(&a)), "node_id": r.node_id})
+            })
             .map_err(|e| e.to_string()),
         MasterCommand::IdentifyNonConfigured => lss
             .procedure(proc1(Step::IdentifyNonConfigured))
-            .map(|r| json!({"present": r.present}))
+            .map(|r| {
+                if !g.json {
+                    outln(if r.present == Some(true) {
+                        "an unconfigured slave answered"
+                    } else {
+                        NONE_ANSWERED
+                    });
+                }
+                json!({"present": r.present})
+            })
             .map_err(|e| e.to_string()),
         MasterCommand::Fastscan => lss
             .fastscan(fastscan)
-            .map(|a| json!({"found": a.as_ref().map(addr_json)}))
+            .map(|a| {
+                if !g.json {
+                    outln(&a.as_ref().map_or(NONE_ANSWERED.into(), |a| {
+                        format!("found {}", addr_text(a, g))
+                    }));
+                }
+                json!({"found": a.as_ref().map(addr_json)})
+            })
             .map_err(|e| e.to_string()),
         MasterCommand::DiscoverAll => lss
             .discover_all(fastscan)
-            .map(|l| json!({"found": l.iter().map(addr_json).collect::<Vec<_>>()}))
+            .map(|l| {
+                if !g.json {
+                    if l.is_empty() {
+                        outln(NONE_ANSWERED);
+                    }
+                    for a in &l {
+                        outln(&format!("found {}", addr_text(a, g)));
+                    }
+                }
+                json!({"found": l.iter().map(addr_json).collect::<Vec<_>>()})
+            })
             .map_err(|e| e.to_string()),
         MasterCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
             (Ok(f), Ok(l)) => {
@@ -414,7 +480,7 @@ fn command(
                     .map(|rep| {
                         if !g.json {
                             for e in &rep.entries {
-                                outln(&e.to_string());
+                                outln(&entry_text(e, g));
                             }
                             if let Some(why) = &rep.stopped {
                                 outln(&format!("stopped early: {why}"));
@@ -450,10 +516,8 @@ fn command(
     };
     match result {
         Ok(v) => {
-            // Text mode prints the JSON too, except for plain acknowledgements and the
-            // assign-all report already printed line by line.
-            let printed = v.get("assigned").is_some() || v.get("stored").is_some();
-            if g.json || (!printed && v != json!({"ok": true})) {
+            // Text mode printed its lines already (plain acknowledgements print nothing).
+            if g.json {
                 outln(&v.to_string());
             }
             ExitCode::SUCCESS

@@ -5,8 +5,9 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory as _, Parser, Subcommand};
 
+mod argv;
 mod boot;
 mod burkert;
 mod bus;
@@ -17,6 +18,7 @@ mod gateway;
 mod lss_cmd;
 mod nmt_cmd;
 mod objaddr;
+mod outfile;
 mod sdo_cmd;
 mod simulate;
 mod traffic;
@@ -31,8 +33,10 @@ struct Cli {
     #[arg(long, global = true)]
     json: bool,
 
-    /// Print unsigned integer values in zero-padded hex (`0x00000039`) instead of decimal
-    /// (`57`), the default of every command. Indices, COB-IDs and abort codes are always hex.
+    /// Print unsigned values in zero-padded hex (`0x00000039`) instead of decimal (`57`), the
+    /// default of every command: object values (sdo read, audit), identities (scan, lss,
+    /// burkert status). Indices, COB-IDs, abort codes and CAN identifiers are always hex;
+    /// signed values, strings and EDS text (eds show) print as they are.
     #[arg(long, global = true)]
     hex: bool,
 
@@ -64,7 +68,8 @@ enum Command {
     },
     /// List the nodes that answer, with their identity (0x1018).
     Scan,
-    /// Decoded live traffic, optionally filtered as candump filters.
+    /// Decoded live traffic, optionally filtered as candump filters (CAN FD frames shown, not
+    /// decoded).
     Monitor {
         /// Stop after this many seconds (required on the in-memory bus).
         #[arg(long, value_parser = bus::parse_seconds)]
@@ -89,10 +94,11 @@ enum Command {
         #[arg(long, value_parser = bus::parse_seconds)]
         duration: Option<f64>,
     },
-    /// Record traffic in the candump log format. The file is written under a temporary name
-    /// and renamed when recording succeeds: a failed run leaves an existing file alone. The
-    /// SocketCAN socket is a classic CAN socket: the kernel does not deliver CAN FD frames to
-    /// it, so FD traffic is not in the log.
+    /// Record traffic in the candump log format, CAN FD frames in candump's FD syntax
+    /// (`123##1...`; on SocketCAN the socket receives FD frames when the interface's MTU is
+    /// 72), until --duration ends or Ctrl-C (SIGINT, SIGTERM). The file is written under a
+    /// temporary name and renamed when recording succeeds: a failed run leaves an existing
+    /// file alone.
     Record {
         /// Output file.
         #[arg(short, long)]
@@ -130,6 +136,19 @@ struct Global {
     hex: bool,
 }
 
+impl Global {
+    /// A 32-bit unsigned value (an identity value, an object's value) as every command prints
+    /// it: decimal, with `--hex` zero-padded hex.
+    fn u32(self, v: u32) -> String {
+        if self.hex {
+            // As `Value` writes it in hex (`sdo read --hex`): upper-case digits.
+            format!("0x{v:08X}")
+        } else {
+            v.to_string()
+        }
+    }
+}
+
 /// Writes to stdout. A closed pipe (`canopen eds show F | head`) ends output quietly instead of
 /// panicking the way `print!` does; other write errors are reported once on stderr.
 pub(crate) fn out(text: &str) {
@@ -150,7 +169,8 @@ pub(crate) fn outln(text: &str) {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let args = argv::options_after_values(&Cli::command(), std::env::args_os().collect());
+    let cli = Cli::parse_from(args);
     let global = Global {
         json: cli.json,
         hex: cli.hex,

@@ -73,15 +73,7 @@ pub(crate) fn run_scan(opts: &BusOpts, g: Global) -> ExitCode {
     };
     let found = net.scan(Duration::from_millis(200));
     // Decimal like every command's values; `--hex` zero-padded hex.
-    let fmt = |v: Option<u32>| {
-        v.map_or("-".to_string(), |v| {
-            if g.hex {
-                format!("{v:#010x}")
-            } else {
-                v.to_string()
-            }
-        })
-    };
+    let fmt = |v: Option<u32>| v.map_or("-".to_string(), |v| g.u32(v));
     if g.json {
         let list: Vec<_> = found
             .iter()

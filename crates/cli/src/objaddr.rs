@@ -4,8 +4,8 @@
 //! after a slash (`"Identity object/Serial number"`).
 //!
 //! A plain four-digit decimal below 0x1000 (`1017`) is almost always a hex index typed without
-//! `0x`: it is still read as decimal, but a note on stderr says what was read and what the
-//! user probably meant.
+//! `0x`: it is still read as decimal, but a note on stderr (under `--json` a JSON warning
+//! object) says what was read and what the user probably meant.
 
 use canopen::ObjectDictionary;
 
@@ -22,8 +22,8 @@ pub(crate) fn decimal_note(text: &str, index: u16) -> Option<String> {
     let looks_hex = text.len() == 4 && text.bytes().all(|b| b.is_ascii_digit());
     (looks_hex && index < 0x1000).then(|| {
         format!(
-            "note: index `{text}` is decimal, object 0x{index:04X}; CANopen writes indices in \
-             hex: for object 0x{text} write `0x{text}`"
+            "index `{text}` is decimal, object 0x{index:04X}; CANopen writes indices in hex: \
+             for object 0x{text} write `0x{text}`"
         )
     })
 }
@@ -38,7 +38,10 @@ pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resol
     if starts_numeric {
         let index = crate::bus::parse_u16(text)?;
         if let Some(note) = decimal_note(text, index) {
-            eprintln!("{note}");
+            let mut fields = serde_json::Map::new();
+            fields.insert("given".into(), text.into());
+            fields.insert("index".into(), index.into());
+            crate::bus::warn("note", &note, fields);
         }
         return Ok(Resolved { index, sub: None });
     }

@@ -13,6 +13,7 @@ use clap::{Subcommand, ValueEnum};
 use serde_json::json;
 
 use crate::bus::{BusOpts, fail, fail_op, parse_node, parse_u8};
+use crate::outfile::OutFile;
 use crate::{Global, outln};
 
 /// Value types for `--type`.
@@ -58,7 +59,8 @@ const OBJECT_HELP: &str = "Object: index in hex (0x1017, as CANopen writes it) o
 
 /// SDO transfers. Objects are named by index (hex `0x1017`, CANopen's notation, or decimal)
 /// and sub-index (default 0), or by their dictionary name with `--eds NODE=FILE`. Negative
-/// values need no `--`: `sdo write 4 0x2120 1 -42 --type i64`.
+/// values need no `--` (`sdo write 4 0x2120 1 -42 --type i64`); other values that start with
+/// `-` go after `--`, and options may still follow them (`... 1 -- -0x10 -t i64`).
 #[derive(Debug, Subcommand)]
 pub(crate) enum SdoCommand {
     /// Read an object; prints the value alone (integers in decimal, `--hex` for unsigned ones
@@ -73,15 +75,15 @@ pub(crate) enum SdoCommand {
         #[arg(value_parser = parse_u8)]
         sub: Option<u8>,
         /// Value type (default: from --eds, else bytes).
-        #[arg(long = "type", value_enum)]
+        #[arg(short = 't', long = "type", value_enum)]
         ty: Option<Ty>,
         /// Use block transfer.
         #[arg(long)]
         block: bool,
     },
     /// Write an object: `write NODE OBJECT [SUB] VALUE`. Negative numbers are values
-    /// (`-42`); a value starting with another `-` (`-0x10`) goes after `--`, which ends the
-    /// options: give `--type` before it.
+    /// (`-42`); a value starting with another `-` (`-0x10`, or text) goes after `--`. Options
+    /// may follow the value either way: `write 4 0x2120 1 -- -0x10 --type i64`.
     #[command(override_usage = "canopen sdo write [OPTIONS] <NODE> <OBJECT> [SUB] <VALUE>")]
     Write {
         /// Node-ID.
@@ -95,13 +97,14 @@ pub(crate) enum SdoCommand {
               allow_negative_numbers = true)]
         args: Vec<String>,
         /// Value type (default: from --eds).
-        #[arg(long = "type", value_enum)]
+        #[arg(short = 't', long = "type", value_enum)]
         ty: Option<Ty>,
         /// Use block transfer.
         #[arg(long)]
         block: bool,
     },
-    /// Upload an object into a file.
+    /// Upload an object into a file. The file appears when the upload succeeded: it is
+    /// written under a temporary name beside it and renamed at the end.
     Upload {
         /// Node-ID.
         #[arg(value_parser = parse_node)]
@@ -391,17 +394,17 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             block,
         } => {
             let entry = address(net, node, &object, sub)?;
-            let file =
-                std::fs::File::create(&output).map_err(|e| format!("{}: {e}", output.display()))?;
+            let file = OutFile::create(&output)?;
             let bar = Bar::new();
             let r = net
                 .node(node)
                 .sdo()
                 .block(block)
                 .on_progress(bar.callback())
-                .upload_to(entry, std::io::BufWriter::new(file));
+                .upload_to(entry, std::io::BufWriter::new(file.writer()?));
             bar.finish(r.as_ref().ok().copied());
             let n = r?;
+            file.commit()?;
             if g.json {
                 outln(&with(addr_json(node, entry), "bytes", json!(n)));
             } else {

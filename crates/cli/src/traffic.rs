@@ -1,14 +1,15 @@
 //! `canopen monitor`, `record` and `replay`: the bus's traffic decoded in CiA vocabulary
 //! ([`canopen::describe`]), written to a candump log, or sent again from one.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 
 use canopen::candump::{self, LogEntry, LogFrame};
 use canopen::{CanId, Duration, Monitor};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail};
+use crate::bus::{BusOpts, Traffic, fail};
+use crate::outfile::OutFile;
 use crate::{Global, outln};
 
 /// One candump-style receive filter: `ID:MASK` passes a frame whose identifier matches `ID` in
@@ -72,7 +73,8 @@ fn passes(filters: &[Filter], id: CanId) -> bool {
 }
 
 /// `canopen monitor [FILTER...]` (`--devicenet`: the frames read as DeviceNet, CAN's other
-/// application layer on the same wire, e.g. for the GEMÜ cPos)
+/// application layer on the same wire, e.g. for the GEMÜ cPos). CAN FD frames are shown in
+/// candump's syntax, not decoded.
 pub(crate) fn run_monitor(
     opts: &BusOpts,
     duration: Option<f64>,
@@ -80,28 +82,31 @@ pub(crate) fn run_monitor(
     devicenet: bool,
     g: Global,
 ) -> ExitCode {
-    let mut bus = match opts.open() {
+    let mut bus = match opts.open_watching() {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
     let mut monitor = Monitor::new(bus.bus_dictionary());
-    let r = bus.pump(duration, |frame, at| {
-        if !passes(filters, frame.id()) {
+    let r = bus.pump(duration, |traffic, at| {
+        if !passes(filters, traffic.id()) {
             return;
         }
-        let what = if devicenet {
-            devicenet::decode(frame).to_string()
-        } else {
-            monitor.what(frame)
+        let (shown, what) = match traffic {
+            Traffic::Can(frame) if devicenet => {
+                (frame.to_string(), devicenet::decode(frame).to_string())
+            }
+            Traffic::Can(frame) => (frame.to_string(), monitor.what(frame)),
+            Traffic::Fd(frame) => (
+                candump::format_frame(&LogFrame::Fd(*frame)),
+                "CAN FD frame (not decoded)".to_owned(),
+            ),
         };
         if g.json {
             outln(
-                &json!({"time": at.as_micros() as f64 / 1e6, "frame": frame.to_string(),
-                        "decoded": what})
-                .to_string(),
+                &json!({"time": at.as_micros() as f64 / 1e6, "frame": shown, "decoded": what})
+                    .to_string(),
             );
         } else {
-            let shown = frame.to_string();
             outln(&format!("{at}  {shown:<28} {what}"));
         }
     });
@@ -111,26 +116,24 @@ pub(crate) fn run_monitor(
     }
 }
 
-/// `FILE` with a temporary name beside it: `record` writes there and renames on success, so a
-/// failing run leaves an existing `FILE` as it was.
-fn temp_beside(output: &Path) -> PathBuf {
-    let name = output
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "record".into());
-    output.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
-}
-
-/// `canopen record -o FILE`
+/// `canopen record -o FILE`: every frame, CAN FD frames in candump's FD syntax (`123##1...`),
+/// until `--duration` or Ctrl-C. The file appears when recording ends well (see [`OutFile`]).
 pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -> ExitCode {
-    let mut bus = match opts.open() {
+    // Before the bus opens (its transport may start threads): Ctrl-C ends the recording.
+    if let Err(e) = crate::bus::stop_on_signals() {
+        return fail(e);
+    }
+    let mut bus = match opts.open_watching() {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
-    let temp = temp_beside(output);
-    let file = match std::fs::File::create(&temp) {
+    let out = match OutFile::create(output) {
         Ok(f) => f,
-        Err(e) => return fail(format!("{}: {e}", output.display())),
+        Err(e) => return fail(e),
+    };
+    let file = match out.writer() {
+        Ok(f) => f,
+        Err(e) => return fail(e),
     };
     let iface = opts.iface.clone().unwrap_or_else(|| "mem0".into());
     let epoch = std::time::SystemTime::now()
@@ -140,15 +143,26 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
     let start = bus.transport.now();
     let mut w = candump::Writer::new(std::io::BufWriter::new(file));
     let mut err = None;
-    let mut frames = 0u64;
-    let r = bus.pump(duration, |frame, at| {
+    let (mut frames, mut fd) = (0u64, 0u64);
+    if duration.is_none() && bus.memory.is_some() {
+        return fail("on the in-memory bus give --duration SECONDS");
+    }
+    eprintln!("recording {iface} to {}", output.display());
+    let r = bus.pump(duration, |traffic, at| {
+        let (frame, is_fd) = match traffic {
+            Traffic::Can(f) => (LogFrame::Can(*f), false),
+            Traffic::Fd(f) => (LogFrame::Fd(*f), true),
+        };
         let entry = LogEntry {
             timestamp_us: epoch + (at - start).as_micros(),
             interface: iface.clone(),
-            frame: LogFrame::Can(*frame),
+            frame,
         };
         match w.write(&entry) {
-            Ok(()) => frames += 1,
+            Ok(()) => {
+                frames += 1;
+                fd += u64::from(is_fd);
+            }
             Err(e) => {
                 err.get_or_insert(e);
             }
@@ -158,19 +172,19 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
     let result = match (r, err, flushed) {
         (Err(e), _, _) => Err(e),
         (_, Some(e), _) | (_, _, Err(e)) => Err(format!("{}: {e}", output.display())),
-        (Ok(()), None, Ok(())) => {
-            std::fs::rename(&temp, output).map_err(|e| format!("{}: {e}", output.display()))
-        }
+        (Ok(()), None, Ok(())) => out.commit(),
     };
     match result {
         Ok(()) => {
-            eprintln!("{frames} frames recorded to {}", output.display());
+            let of_them = if fd > 0 {
+                format!(" ({fd} of them CAN FD)")
+            } else {
+                String::new()
+            };
+            eprintln!("{frames} frames{of_them} recorded to {}", output.display());
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            let _ = std::fs::remove_file(&temp);
-            fail(e)
-        }
+        Err(e) => fail(e),
     }
 }
 
@@ -201,9 +215,15 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
         }
     }
     if fd > 0 {
-        eprintln!(
-            "warning: {}: skipping {fd} CAN FD frame(s): this bus carries classic CAN frames only",
-            file.display()
+        let mut fields = serde_json::Map::new();
+        fields.insert("skipped_fd".into(), fd.into());
+        crate::bus::warn(
+            "warning",
+            &format!(
+                "{}: skipping {fd} CAN FD frame(s): this bus carries classic CAN frames only",
+                file.display()
+            ),
+            fields,
         );
     }
     let mut bus = match opts.open() {

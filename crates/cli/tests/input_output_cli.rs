@@ -1,6 +1,7 @@
 //! How the binary reads what a user types (negative values, indices, names, sub-index
 //! defaults, repeated flags) and how it reports (number style, JSON errors, hints).
 
+use std::os::unix::fs::FileTypeExt as _;
 use std::process::Command;
 
 mod common;
@@ -49,6 +50,16 @@ fn negative_numbers_are_values() {
         vec![
             "--eds", &eds, "sdo", "write", "4", "0x2120", "--", "1", "-0x10",
         ],
+        // Options after the value, also after `--`, and `-t` for `--type`.
+        vec![
+            "--eds", &eds, "sdo", "write", "4", "0x2120", "1", "--", "-42", "--type", "i64",
+        ],
+        vec![
+            "--eds", &eds, "sdo", "write", "4", "0x2120", "1", "-42", "-t", "i64",
+        ],
+        vec![
+            "--eds", &eds, "sdo", "write", "4", "0x2120", "1", "--", "-0x10", "-t", "i64", "--json",
+        ],
         vec![
             "--eds",
             &eds,
@@ -74,6 +85,45 @@ fn negative_numbers_are_values() {
     ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("out of range"), "{}", stderr(&o));
+}
+
+/// The value that arrives is the one typed: written from one process to a simulator in
+/// another, read back.
+#[test]
+fn negative_values_after_dashes_arrive_as_typed() {
+    let iface = common::udp_bus(2);
+    let eds_file = tmp("signed-sim.eds");
+    std::fs::write(&eds_file, SIGNED_EDS).unwrap();
+    let mut sim = common::simulator(&iface, eds_file.to_str().unwrap(), "4", "30");
+    let eds = format!("4={}", eds_file.display());
+    let read = || {
+        let o = canopen(&[
+            "--iface", &iface, "--eds", &eds, "sdo", "read", "4", "0x2120", "1",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        stdout(&o)
+    };
+    for (args, expected) in [
+        (vec!["1", "--", "-42", "--type", "i64"], "-42\n"),
+        (vec!["1", "--", "-0x10", "-t", "i64", "--json"], "-16\n"),
+        (vec!["1", "-7", "-t", "i64"], "-7\n"),
+        (vec!["--", "1", "-0x20", "--type=i64"], "-32\n"),
+    ] {
+        let mut line = vec![
+            "--iface", &iface, "--eds", &eds, "sdo", "write", "4", "0x2120",
+        ];
+        line.extend(&args);
+        let o = canopen(&line);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        assert_eq!(read(), expected, "{args:?}");
+    }
+    // cpos takes negative values too (the simulated positioner checks the range).
+    let o = canopen(&["cpos", "set", "4 mA S", "--", "-5", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["value"], -5);
+    let _ = sim.kill();
+    let _ = sim.wait();
 }
 
 #[test]
@@ -106,6 +156,27 @@ fn indices_sub_defaults_and_names() {
     let o = read(&["4119"]);
     assert_eq!(stdout(&o), "500\n");
     assert!(!stderr(&o).contains("note"), "{}", stderr(&o));
+    // Under --json the note is a JSON warning object, like the error after it.
+    let o = canopen(&[
+        "--json",
+        "--eds",
+        &format!("5={EDS}"),
+        "sdo",
+        "read",
+        "5",
+        "1017",
+        "0",
+    ]);
+    let lines: Vec<serde_json::Value> = stderr(&o)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON: {l}: {e}")))
+        .collect();
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert!(lines[0]["warning"].as_str().unwrap().contains("is decimal"));
+    assert_eq!(lines[0]["level"], "note");
+    assert_eq!(lines[0]["given"], "1017");
+    assert_eq!(lines[0]["index"], 1017);
+    assert!(lines[1]["error"].is_string());
 }
 
 #[test]
@@ -142,6 +213,102 @@ fn one_number_style_with_a_hex_switch() {
     // Signed values and strings are the same either way.
     let o = canopen(&["--eds", &eds, "--hex", "sdo", "read", "5", "0x1008"]);
     assert_eq!(stdout(&o), "Buerkert generic device\n");
+    // LSS identities: the same style, the same switch.
+    let lss = |args: &[&str]| {
+        let o = canopen(args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        stdout(&o)
+    };
+    assert_eq!(
+        lss(&["lss", "--unconfigured", "1", "fastscan"]),
+        "found vendor-id 57, product 16777217, revision 1, serial 1001\n"
+    );
+    assert_eq!(
+        lss(&["--hex", "lss", "--unconfigured", "1", "fastscan"]),
+        "found vendor-id 0x00000039, product 0x01000001, revision 0x00000001, serial 0x000003E9\n"
+    );
+    assert_eq!(
+        lss(&[
+            "--hex",
+            "lss",
+            "--unconfigured",
+            "2",
+            "assign-all",
+            "--first",
+            "5"
+        ]),
+        "vendor-id 0x00000039, product 0x01000001, revision 0x00000001, serial 0x000003E9: node-ID 5\n\
+         vendor-id 0x00000039, product 0x01000001, revision 0x00000001, serial 0x000003EA: node-ID 6\n"
+    );
+    assert_eq!(
+        lss(&["lss", "--unconfigured", "2", "discover-all"]),
+        "found vendor-id 57, product 16777217, revision 1, serial 1001\n\
+         found vendor-id 57, product 16777217, revision 1, serial 1002\n"
+    );
+    assert_eq!(
+        lss(&["lss", "--unconfigured", "1", "identify-non-configured"]),
+        "an unconfigured slave answered\n"
+    );
+    // JSON keeps numbers as numbers.
+    let v: serde_json::Value = serde_json::from_str(&lss(&[
+        "--hex",
+        "--json",
+        "lss",
+        "--unconfigured",
+        "1",
+        "fastscan",
+    ]))
+    .unwrap();
+    assert_eq!(v["found"]["serial"], 1001);
+    // Bürkert status: serial number and software version.
+    let status = lss(&["--eds", &eds, "burkert", "status", "5"]);
+    assert!(status.contains("software         65536\n"), "{status}");
+    let status = lss(&["--hex", "--eds", &eds, "burkert", "status", "5"]);
+    assert!(status.contains("software         0x00010000\n"), "{status}");
+    assert!(status.contains("serial number    0x00000000\n"), "{status}");
+}
+
+/// `audit` prints the values that differ in the same style: a device changed behind the
+/// master's back (on a UDP bus, the simulator in another process).
+#[test]
+fn audit_values_follow_the_hex_switch() {
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../manager/tests/data");
+    let toml = tmp("one-valve.toml");
+    std::fs::write(
+        &toml,
+        format!(
+            "[master]\nnode_id = 1\nsdo_timeout_ms = 300\n\n[[slave]]\nnode_id = 6\n\
+             dcf = \"{data}/valve.dcf\"\nmandatory = true\n"
+        ),
+    )
+    .unwrap();
+    let iface = common::udp_bus(3);
+    let mut sim = common::simulator(&iface, &format!("{data}/valve.dcf"), "6", "30");
+    let o = canopen(&[
+        "--iface", &iface, "sdo", "write", "6", "0x2001", "77", "-t", "u32",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let audit = |hex: bool| {
+        let mut args = vec!["--iface", &iface, "audit", toml.to_str().unwrap()];
+        if hex {
+            args.insert(0, "--hex");
+        }
+        let o = canopen(&args);
+        assert!(!o.status.success(), "a difference fails the audit");
+        stdout(&o)
+    };
+    let text = audit(false);
+    assert!(
+        text.contains("\"Close Delay\" Unsigned32: expected 4102, actual 77"),
+        "{text}"
+    );
+    let text = audit(true);
+    assert!(
+        text.contains("\"Close Delay\" Unsigned32: expected 0x00001006, actual 0x0000004D"),
+        "{text}"
+    );
+    let _ = sim.kill();
+    let _ = sim.wait();
 }
 
 #[test]
@@ -159,7 +326,21 @@ fn json_errors_are_json_with_fields() {
         v["meaning"],
         "Object does not exist in the object dictionary"
     );
-    // Usage errors too.
+    // Usage errors too (with clap's exit code 2 where the usage is wrong).
+    let o = canopen(&[
+        "--json",
+        "lss",
+        "--unconfigured",
+        "1",
+        "assign-all",
+        "--first",
+        "10",
+        "--last",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
+    assert!(v["error"].as_str().unwrap().contains("empty node-ID pool"));
     let o = canopen(&["--json", "--eds", &eds, "--eds", &eds, "scan"]);
     let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
     assert!(
@@ -355,4 +536,132 @@ fn progress_bar_only_on_a_terminal_and_ending_at_100_percent() {
         .rfind(|l| l.contains(" bytes ") && l.contains('%'))
         .unwrap_or_else(|| panic!("no bar in {text:?}"));
     assert!(last_bar.ends_with("23/23 bytes 100 %"), "{last_bar:?}");
+}
+
+/// `.tmp` files left in `dir`.
+fn leftovers(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+#[test]
+fn an_upload_file_appears_whole_or_not_at_all() {
+    let eds = format!("5={EDS}");
+    let dir = tmp("upload");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("name.bin");
+    std::fs::write(&file, "precious\n").unwrap();
+    // The device aborts (no such object): the old file stays, no partial file is left.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1234",
+        "-o",
+        file.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("0x06020000"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "precious\n");
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    let fresh = dir.join("fresh.bin");
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1234",
+        "-o",
+        fresh.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(!fresh.exists());
+    // A good upload replaces the file.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        file.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(&file).unwrap(),
+        "Buerkert generic device"
+    );
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    // A device file is written directly (never renamed over), and its write error reported.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        "/dev/full",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("No space left on device"),
+        "{}",
+        stderr(&o)
+    );
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "--json",
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        "/dev/full",
+    ]);
+    assert!(!o.status.success());
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
+    assert!(
+        v["error"].as_str().unwrap().contains("No space left"),
+        "{v}"
+    );
+    assert_eq!(v["index"], 0x1008);
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "sdo",
+        "upload",
+        "5",
+        "0x1008",
+        "-o",
+        "/dev/null",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // `record` likewise.
+    let o = canopen(&[
+        "--eds",
+        &eds,
+        "record",
+        "-o",
+        "/dev/full",
+        "--duration",
+        "0.5",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("No space left"), "{}", stderr(&o));
+    assert!(
+        std::fs::metadata("/dev/full")
+            .unwrap()
+            .file_type()
+            .is_char_device()
+    );
 }

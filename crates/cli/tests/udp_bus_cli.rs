@@ -1,7 +1,10 @@
 //! Several CLI processes on one bus without CAN hardware: `--iface udp:GROUP:PORT`, the UDP
 //! multicast bus in python-can's `udp_multicast` format.
 
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
+
+mod common;
+use common::{stderr, stdout};
 
 const EDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
 
@@ -9,49 +12,12 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_canopen"))
 }
 
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A bus of this test's own (group and port from the process ID), so parallel runs do not meet.
 fn bus(salt: u16) -> String {
-    let port = 30000 + (std::process::id() % 10000) as u16 * 2 + salt;
-    format!("udp:239.74.163.{}:{port}", 10 + salt)
+    common::udp_bus(salt)
 }
 
-/// Starts `simulate` on `iface` for `secs` seconds and waits until it answers.
 fn simulator(iface: &str, secs: &str) -> std::process::Child {
-    let mut child = bin()
-        .args([
-            "--iface",
-            iface,
-            "simulate",
-            EDS,
-            "--node-id",
-            "5",
-            "--duration",
-            secs,
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("simulate starts");
-    for _ in 0..50 {
-        let o = bin()
-            .args(["--iface", iface, "sdo", "read", "5", "0x1000"])
-            .output()
-            .unwrap();
-        if o.status.success() {
-            return child;
-        }
-    }
-    let _ = child.kill();
-    let _ = child.wait();
-    panic!("the simulator never answered on {iface}");
+    common::simulator(iface, EDS, "5", secs)
 }
 
 #[test]
@@ -101,6 +67,40 @@ fn simulate_and_sdo_read_in_two_processes() {
     let _ = sim.wait();
 }
 
+/// `record` without `--duration` runs until Ctrl-C, and then puts its log in place.
+#[test]
+fn record_ends_on_ctrl_c_with_its_log_in_place() {
+    let iface = bus(2);
+    let dir = std::env::temp_dir().join(format!("canopen-cli-udp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("until-ctrl-c.log");
+    let mut rec = bin()
+        .args(["--iface", &iface, "record", "-o", log.to_str().unwrap()])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = std::io::BufRead::lines(std::io::BufReader::new(rec.stderr.take().unwrap()));
+    assert!(err.next().unwrap().unwrap().starts_with("recording"));
+    let o = bin()
+        .args(["--iface", &iface, "nmt", "start", "5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    assert!(!log.exists(), "the log appears when recording ends");
+    let kill = Command::new("kill")
+        .args(["-INT", &rec.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = rec.wait().unwrap();
+    assert!(status.success(), "{status:?}");
+    let last = err.next().unwrap().unwrap();
+    assert!(last.starts_with("1 frames recorded"), "{last}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.trim_end().ends_with(" 000#0105"), "{text}");
+}
+
 #[test]
 fn a_bad_udp_spec_is_refused() {
     let o = bin()
@@ -116,11 +116,11 @@ fn a_bad_udp_spec_is_refused() {
 }
 
 /// python-can and python-canopen on the same bus: python-canopen reads the CLI's simulator,
-/// and the CLI's `monitor` sees what python-can sends. Needs the workspace's `.venv` with
-/// python-can, python-canopen and `msgpack` importable (python-can's udp_multicast needs it):
-/// `PYTHONPATH=DIR_WITH_MSGPACK cargo test -p canopen-cli --test udp_bus_cli -- --ignored`.
+/// and the CLI's `monitor` sees what python-can sends, `sdo read` sees a python-canopen
+/// LocalNode's answer, and python-can receives what the CLI sends. Needs the workspace's
+/// `.venv` with python-can, python-canopen and `msgpack` (python-can's udp_multicast needs
+/// it; scripts/test-all's setup stage installs them).
 #[test]
-#[ignore = "needs python-can with msgpack"]
 fn interoperates_with_python_can_udp_multicast() {
     let iface = bus(1);
     let (group, port) = iface.strip_prefix("udp:").unwrap().split_once(':').unwrap();
@@ -159,4 +159,41 @@ fn interoperates_with_python_can_udp_multicast() {
     let text = stdout(&out);
     assert!(text.contains("705#05"), "{text}");
     assert!(text.contains("000#0100"), "{text}");
+
+    // The CLI sends, python-can receives: NMT start node 5 and an SDO request.
+    let recv = format!(
+        "import can, sys\n\
+         bus = can.Bus(interface='udp_multicast', channel='{group}', port={port})\n\
+         print('READY', flush=True)\n\
+         seen = []\n\
+         while len(seen) < 2:\n\
+         \x20   m = bus.recv(timeout=10)\n\
+         \x20   if m is None: break\n\
+         \x20   if m.arbitration_id in (0x000, 0x605):\n\
+         \x20       seen.append(f'{{m.arbitration_id:03X}}#{{m.data.hex().upper()}}')\n\
+         print(' '.join(seen))\n\
+         bus.shutdown()\n"
+    );
+    let mut py = Command::new(python)
+        .args(["-c", &recv])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(py.stdout.take().unwrap()));
+    assert_eq!(lines.next().unwrap().unwrap(), "READY");
+    let o = bin()
+        .args(["--iface", &iface, "nmt", "start", "5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Nothing answers this read: its request is on the bus all the same.
+    let o = bin()
+        .args(["--iface", &iface, "sdo", "read", "5", "0x1017"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let seen = lines.next().unwrap().unwrap();
+    assert_eq!(seen, "000#0105 605#4017100000000000", "python-can received");
+    assert!(py.wait().unwrap().success());
 }

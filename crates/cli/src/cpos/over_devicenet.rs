@@ -100,9 +100,10 @@ pub(crate) struct Link {
     _memory: Option<MemoryBus>,
 }
 
+/// Opens `iface` as every bus command does (SocketCAN or `udp`, with the hint for an interface
+/// that does not exist).
 fn open(iface: &str) -> Result<Box<dyn Transport>, String> {
-    let t = canopen::socketcan::SocketCan::open(iface).map_err(|e| format!("{iface}: {e}"))?;
-    Ok(Box::new(t))
+    crate::bus::open_transport(iface)
 }
 
 impl Link {
