@@ -788,6 +788,25 @@ impl Transport for Endpoint {
     fn now(&self) -> Instant {
         self.bus.now()
     }
+
+    fn is_virtual(&self) -> bool {
+        !self.bus.shared.real_time
+    }
+
+    fn next_event(&self) -> Option<Instant> {
+        let st = self.bus.lock();
+        if !matches!(st.clock, Clock::Virtual(_)) {
+            return None;
+        }
+        let waiting = st
+            .endpoints
+            .get(self.index)
+            .is_some_and(|e| e.lost > 0 || !e.queue.is_empty());
+        if waiting {
+            return Some(st.now());
+        }
+        st.next_event()
+    }
 }
 
 #[cfg(test)]

@@ -52,7 +52,10 @@ pub(crate) struct Inner {
     /// Threads waiting on `cond`: a notification costs a system call, so it is only sent when
     /// one waits.
     waiting: AtomicUsize,
-    io: Mutex<Box<dyn Transport>>,
+    pub(crate) io: Mutex<Box<dyn Transport>>,
+    /// The async API's wake-ups and its tie between a virtual clock and tokio's.
+    #[cfg(feature = "tokio")]
+    pub(crate) reactor: crate::asynch::Reactor,
     /// Threads inside [`Network::wait_for`]: the background driver steps aside while there are.
     driving_waiters: AtomicUsize,
     /// When the last waiter left [`Network::wait_for`], in nanoseconds since `epoch`.
@@ -113,12 +116,16 @@ impl Network {
     pub fn new(transport: impl Transport + 'static) -> Self {
         let mut core = Core::new();
         core.set_now(transport.now());
+        #[cfg(feature = "tokio")]
+        let reactor = crate::asynch::Reactor::new(transport.is_virtual());
         Self {
             inner: Arc::new(Inner {
                 core: Mutex::new(core),
                 cond: Condvar::new(),
                 waiting: AtomicUsize::new(0),
                 io: Mutex::new(Box::new(transport)),
+                #[cfg(feature = "tokio")]
+                reactor,
                 driving_waiters: AtomicUsize::new(0),
                 last_wait_end: AtomicU64::new(0),
                 epoch: std::time::Instant::now(),
@@ -357,15 +364,19 @@ impl Network {
     }
 
     /// Wakes the threads waiting for progress, if there are any.
-    fn notify(&self) {
+    pub(crate) fn notify(&self) {
         if self.inner.waiting.load(Ordering::SeqCst) > 0 {
             self.inner.cond.notify_all();
         }
     }
 
     /// One driving step: flush, receive until the next deadline (bounded by `limit` and the
-    /// drive slice), feed the core.
-    fn step(&self, io: &mut Box<dyn Transport>, limit: Option<Instant>) -> Result<(), Error> {
+    /// drive slice), feed the core. Returns whether a frame or bus event was received.
+    pub(crate) fn step(
+        &self,
+        io: &mut Box<dyn Transport>,
+        limit: Option<Instant>,
+    ) -> Result<bool, Error> {
         let now = io.now();
         let (frames, next) = {
             let mut c = self.core();
@@ -384,6 +395,7 @@ impl Network {
             deadline = deadline.min(l);
         }
         let got = io.recv_until(deadline.max(now));
+        let received = matches!(got, Ok(Some(_)));
         // A frame's reception time is the time now, give or take the decoding; only otherwise
         // ask the clock.
         let now = match &got {
@@ -409,7 +421,7 @@ impl Network {
             io.send(f)?;
         }
         self.notify();
-        Ok(())
+        Ok(received)
     }
 
     pub(crate) fn submit(&self, req: SdoRequest) -> RequestId {
@@ -495,7 +507,9 @@ impl Network {
                 return Ok(r);
             }
             match self.inner.io.try_lock() {
-                Ok(mut io) => self.step(&mut io, None)?,
+                Ok(mut io) => {
+                    self.step(&mut io, None)?;
+                }
                 Err(_) => {
                     let mut c = self.core();
                     if let Some(r) = done(&mut c) {

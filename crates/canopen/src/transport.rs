@@ -122,6 +122,20 @@ pub trait Transport: Send {
         let now = self.now();
         self.recv_until(now)
     }
+
+    /// Whether the clock is virtual: it stands still until [`recv_until`](Self::recv_until)
+    /// waits, and then jumps to the next event or the deadline at once (no real time passes).
+    /// The async API ties such a clock to tokio's (see [`crate::asynch`]). Default: `false`.
+    fn is_virtual(&self) -> bool {
+        false
+    }
+
+    /// On a virtual clock: when the transport next has something to deliver or do by itself
+    /// (a received frame already waiting: now; a frame leaving the wire; a timer of a station
+    /// on the bus). `None` when nothing is pending, and always on a real clock (the default).
+    fn next_event(&self) -> Option<Instant> {
+        None
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -133,6 +147,12 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn now(&self) -> Instant {
         (**self).now()
+    }
+    fn is_virtual(&self) -> bool {
+        (**self).is_virtual()
+    }
+    fn next_event(&self) -> Option<Instant> {
+        (**self).next_event()
     }
 }
 
