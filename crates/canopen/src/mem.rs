@@ -10,6 +10,9 @@
 //!   thread per virtual bus and attach simulated devices with [`MemoryBus::attach`], so they are
 //!   stepped by the same loop. [`ClockMode::RealTime`] follows the host's monotonic clock; a
 //!   service thread steps attached stations, and endpoints may be used from several threads.
+//!   Under the async API (`tokio` feature) a virtual clock follows tokio's clock: real time on
+//!   a normal runtime, jumps under a paused one, so tokio's timers and the bus's timeouts fire
+//!   in their order (see `canopen::asynch`).
 //! * **Timing model** (optional, [`BusConfig::bitrate`]). Each frame occupies the wire for its
 //!   length in bits (ISO 11898-1 classic frame: 47 + 8·n bits for an 11-bit identifier, 67 + 8·n
 //!   for a 29-bit one, including the 3-bit interframe space), optionally with the worst-case

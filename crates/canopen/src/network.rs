@@ -9,8 +9,9 @@
 //! several threads share one transport safely. Requests to different nodes progress together
 //! whichever of them is being waited on; requests to one node run in submission order.
 //!
-//! The async API (`tokio` feature, [`crate::asynch`]) runs the same wait loop on tokio's
-//! blocking pool and cancels the request when the future is dropped.
+//! The async API (`tokio` feature, `crate::asynch`) runs the same wait loop on tokio's
+//! blocking pool on a real clock, steps it from the task on a virtual clock (whose time then
+//! follows tokio's), and cancels the request when the future is dropped.
 //!
 //! Running by itself: [`Network::start_driver`] starts a background driver (a thread; under the
 //! `tokio` feature [`Network::start_driver_on_runtime`] runs it on the caller's runtime's

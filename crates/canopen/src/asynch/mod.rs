@@ -46,6 +46,41 @@
 //!
 //! See [`events`] for the event stream.
 //!
+//! A test on the virtual bus under a paused tokio clock: runs in microseconds, and the timeout
+//! fires after 50 ms of the one clock, long before the read's 1 s SDO timeout.
+//!
+//! ```
+//! use canopen::{Duration, MemoryBus, Network, NetworkEvent, NmtState, NodeId, SimDevice};
+//!
+//! #[tokio::main(flavor = "current_thread", start_paused = true)]
+//! async fn main() -> Result<(), Box<dyn std::error::Error>> {
+//!     let eds = include_bytes!("../../../../eds/burkert-generic.eds");
+//!     let bus = MemoryBus::new(); // virtual clock: follows tokio's
+//!     let net = Network::new(bus.endpoint());
+//!     let mut events = net.events();
+//!     let id = NodeId::new(5)?;
+//!     bus.attach(SimDevice::from_eds(id, &eds[..])?);
+//!     let nmt = net.node(id).nmt();
+//!     nmt.start_async().await?;
+//!     nmt.wait_for_state_async(NmtState::Operational, Duration::from_secs(1)).await?;
+//!     let heartbeat = net.node(id).sdo().read_async((0x1017, 0)).await?;
+//!     assert_eq!(heartbeat, 500u16.to_le_bytes());
+//!
+//!     let t0 = tokio::time::Instant::now();
+//!     let absent = net.node(NodeId::new(9)?).sdo().read_async((0x1000, 0));
+//!     let r = tokio::time::timeout(std::time::Duration::from_millis(50), absent).await;
+//!     assert!(r.is_err()); // and node 9 was sent an SDO abort
+//!     assert_eq!(t0.elapsed(), std::time::Duration::from_millis(50));
+//!
+//!     while let Some(Ok(event)) = events.try_next() {
+//!         if let NetworkEvent::Heartbeat(e) = event {
+//!             println!("{e:?}");
+//!         }
+//!     }
+//!     Ok(())
+//! }
+//! ```
+//!
 //! PDO transmit from the master has no async twin yet: the facade has no blocking RPDO
 //! transmit API to mirror.
 
