@@ -25,8 +25,10 @@
 //!
 //! The explicit stepping mode stays for deterministic tests: without a driver nothing happens
 //! between calls, and [`Network::run_for`] advances a virtual-clock bus by exactly the time
-//! asked. A driver on a virtual-clock bus would run simulated time as fast as the CPU allows;
-//! use it on SocketCAN or a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime) bus.
+//! asked. A driver thread on a virtual-clock bus would run simulated time as fast as the CPU
+//! allows; use it on SocketCAN or a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime)
+//! bus. (Under the `tokio` feature, `start_driver_on_runtime` on a virtual-clock bus is a task
+//! that keeps the bus at tokio's time instead.)
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak, mpsc};
@@ -176,8 +178,9 @@ impl Network {
     }
 
     /// Starts the background driver on the current tokio runtime (its blocking pool: the
-    /// transport's receive blocks). Does nothing when one runs already. Panics outside a tokio
-    /// runtime, as `tokio::task::spawn_blocking` does.
+    /// transport's receive blocks; on a virtual-clock bus, a task that keeps the bus at
+    /// tokio's time instead, see `canopen::asynch`). Does nothing when one runs already.
+    /// Panics outside a tokio runtime, as `tokio::task::spawn_blocking` does.
     #[cfg(feature = "tokio")]
     pub fn start_driver_on_runtime(&self) {
         let mut slot = relock(self.inner.driver.lock());
@@ -191,7 +194,11 @@ impl Network {
         let (stop, error) = (Arc::new(AtomicBool::new(false)), Arc::new(Mutex::new(None)));
         let (weak, s, e) = (Arc::downgrade(&self.inner), stop.clone(), error.clone());
         // The task ends by itself once `stop` is set or the network is gone.
-        drop(tokio::task::spawn_blocking(move || drive(&weak, &s, &e)));
+        if self.is_virtual_clock() {
+            crate::asynch::spawn_virtual_driver(weak, s, e);
+        } else {
+            drop(tokio::task::spawn_blocking(move || drive(&weak, &s, &e)));
+        }
         *slot = DriverSlot {
             stop: Some(stop),
             thread: None,

@@ -457,7 +457,7 @@ async fn waits_on_a_real_clock_bus_and_a_dropped_wait_ends() {
             .await
             .is_err()
     );
-    let found = net.scan_async(Duration::from_millis(50)).await.unwrap();
+    let found = net.scan_async(Duration::from_millis(200)).await.unwrap();
     assert_eq!(found.len(), 1);
     assert_eq!(found[0].node, n(5));
     let mut events = net.events();
@@ -472,4 +472,57 @@ async fn waits_on_a_real_clock_bus_and_a_dropped_wait_ends() {
         }
     }
     assert!(saw_change, "the state change is an event");
+}
+
+#[tokio::test(start_paused = true)]
+async fn the_driver_on_a_virtual_bus_keeps_it_at_tokio_time() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let mut events = net.events();
+    bus.attach(Counter {
+        next: Instant::ZERO + Duration::from_millis(1),
+        sent: 0,
+        left: 1000,
+        out: None,
+    });
+    net.start_driver_on_runtime();
+    assert!(net.is_driven());
+    let t0 = tokio::time::Instant::now();
+    // Events flow while the test only awaits the stream.
+    for want in 0..50u16 {
+        match events.next().await {
+            Some(Ok(NetworkEvent::Pdo { data, .. })) => {
+                assert_eq!(u16::from_le_bytes([data[0], data[1]]), want);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    // One frame per millisecond of tokio time: the bus did not run ahead of it.
+    let elapsed = t0.elapsed();
+    assert!(
+        elapsed >= std::time::Duration::from_millis(49)
+            && elapsed <= std::time::Duration::from_millis(51),
+        "{elapsed:?}"
+    );
+    // Requests work beside the driver.
+    bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
+    assert_eq!(
+        net.node(n(5)).sdo().read_async((0x1018, 1)).await.unwrap(),
+        0x39u32.to_le_bytes()
+    );
+    // Stopped, the bus stands still.
+    net.stop_driver().unwrap();
+    tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    while events.try_next().is_some() {}
+    tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    assert!(events.try_next().is_none(), "no driver, no events");
+    // Started again and then let go with the network: the driver ends, the stream ends.
+    net.start_driver_on_runtime();
+    tokio::time::sleep(std::time::Duration::from_millis(10)).await;
+    drop(net);
+    let ended = tokio::time::timeout(std::time::Duration::from_secs(1), async {
+        while events.next().await.is_some() {}
+    })
+    .await;
+    assert!(ended.is_ok(), "the stream ends when the network is gone");
 }

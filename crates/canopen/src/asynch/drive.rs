@@ -19,13 +19,14 @@
 //! backwards, and the async side follows tokio from there.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, Weak};
 
 use can_frame::{Duration, Instant};
 
-use crate::core::Core;
+use crate::core::{Core, NetworkEvent};
 use crate::error::Error;
-use crate::network::Network;
+use crate::network::{Inner, Network};
+use crate::transport::TransportError;
 
 /// Steps taken in one go before the future yields to the runtime.
 const STEPS_PER_TURN: usize = 1024;
@@ -258,4 +259,65 @@ pub(crate) async fn flush(net: &Network) -> Result<(), Error> {
     tokio::task::spawn_blocking(move || n.flush())
         .await
         .map_err(|e| Error::Driver(format!("the sending task failed: {e}")))?
+}
+
+/// Longest the virtual-clock driver sleeps without looking whether it should stop, on tokio's
+/// clock (it also wakes for every event due and every other future's progress).
+const DRIVER_SLICE: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// The background driver of a virtual-clock network: a task that keeps the bus at tokio's
+/// time, so heartbeats, EMCY and PDO events flow while the application awaits something else.
+/// Ends when `stop` is set, the network is gone or the transport fails for good.
+pub(crate) fn spawn_virtual_driver(
+    inner: Weak<Inner>,
+    stop: Arc<AtomicBool>,
+    error: Arc<Mutex<Option<String>>>,
+) {
+    drop(tokio::spawn(async move {
+        while !stop.load(Ordering::SeqCst) {
+            let Some(inner) = inner.upgrade() else {
+                return;
+            };
+            let net = Network { inner };
+            let progress = net.inner.reactor.progress.notified();
+            let mut progress = std::pin::pin!(progress);
+            progress.as_mut().enable();
+            let slice_end = tokio::time::Instant::now() + DRIVER_SLICE;
+            let wake = match catch_up_once(&net, None) {
+                Ok(Some(Next::Now)) => None,
+                Ok(Some(Next::At(t))) => Some(t.min(slice_end)),
+                Ok(Some(Next::Never) | None) => Some(slice_end),
+                Err(Error::Transport(
+                    TransportError::InterfaceDown
+                    | TransportError::BusOff
+                    | TransportError::TxQueueFull,
+                )) => Some(slice_end),
+                Err(e) => {
+                    let text = match e {
+                        Error::Transport(t) => t.to_string(),
+                        other => other.to_string(),
+                    };
+                    *error.lock().unwrap_or_else(|p| p.into_inner()) = Some(text.clone());
+                    stop.store(true, Ordering::SeqCst);
+                    net.core()
+                        .publish(NetworkEvent::TransportFailed { error: text });
+                    net.notify();
+                    return;
+                }
+            };
+            match wake {
+                None => tokio::task::yield_now().await,
+                Some(t) => {
+                    tokio::select! {
+                        () = progress => {}
+                        () = tokio::time::sleep_until(t) => {}
+                    }
+                }
+            }
+            // The last handle is this one: the application let the network go.
+            if Arc::strong_count(&net.inner) == 1 {
+                return;
+            }
+        }
+    }));
 }

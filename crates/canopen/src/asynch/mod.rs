@@ -41,8 +41,9 @@
 //!   before a 10 s SDO timeout, and the dropped read sends its abort. The blocking and
 //!   stepping calls ([`Network::run_for`], a blocking read) still jump virtual time as before;
 //!   time never runs backwards, the async side follows tokio from where they left it. Nothing
-//!   moves a virtual bus while no future waits: run [`Network::run_for_async`] in a task for
-//!   events to flow.
+//!   moves a virtual bus while no future waits: for events to flow meanwhile, start the driver
+//!   with [`Network::start_driver_on_runtime`] (on a virtual bus, a task that keeps the bus at
+//!   tokio's time and ends with the network) or run [`Network::run_for_async`] in a task.
 //!
 //! See [`events`] for the event stream.
 //!
@@ -87,7 +88,7 @@
 mod drive;
 pub mod events;
 
-pub(crate) use drive::Reactor;
+pub(crate) use drive::{Reactor, spawn_virtual_driver};
 pub use events::{DEFAULT_EVENT_CAPACITY, EventStream, Lagged};
 
 use can_frame::{CanFrame, Duration, Instant, NodeId};
