@@ -190,7 +190,8 @@ async fn nmt_commands_and_state_waits() {
         .unwrap();
     nmt.start_async().await.unwrap();
     // Heartbeats every 500 ms (0x1017 default) report the new state.
-    nmt.wait_for_state_async(NmtState::Operational, Duration::from_secs(1))
+    // std's Duration works as well.
+    nmt.wait_for_state_async(NmtState::Operational, std::time::Duration::from_secs(1))
         .await
         .unwrap();
     assert_eq!(nmt.state(), Some(NmtState::Operational));

@@ -382,8 +382,9 @@ impl Nmt {
     /// command (async [`wait_for_bootup`](Self::wait_for_bootup): boot-ups are counted, so
     /// one followed at once by a heartbeat is not missed). Times out after `timeout` on the
     /// network's clock.
-    pub async fn wait_for_bootup_async(&self, timeout: Duration) -> Result<(), Error> {
+    pub async fn wait_for_bootup_async(&self, timeout: impl Into<Duration>) -> Result<(), Error> {
         use std::sync::atomic::Ordering;
+        let timeout: Duration = timeout.into();
         let node = self.node_id()?;
         drive::catch_up(&self.net)?;
         let seen = self.boots_seen.load(Ordering::SeqCst);
@@ -411,8 +412,9 @@ impl Nmt {
     pub async fn wait_for_state_async(
         &self,
         state: NmtState,
-        timeout: Duration,
+        timeout: impl Into<Duration>,
     ) -> Result<(), Error> {
+        let timeout: Duration = timeout.into();
         let node = self.node_id()?;
         drive::catch_up(&self.net)?;
         let deadline = self.net.now() + timeout;
@@ -456,7 +458,8 @@ impl Network {
     /// EMCY, PDO events and timers flow meanwhile. On a virtual-clock bus `d` passes on tokio's
     /// clock (see the module docs); run it in a task to keep such a bus going while other
     /// futures wait on events.
-    pub async fn run_for_async(&self, d: Duration) -> Result<(), Error> {
+    pub async fn run_for_async(&self, d: impl Into<Duration>) -> Result<(), Error> {
+        let d: Duration = d.into();
         drive::catch_up(self)?;
         let until = self.now() + d;
         self.run_until_async(until).await
@@ -469,7 +472,11 @@ impl Network {
 
     /// The nodes that answer an SDO read of 0x1018:01 within `timeout`, with their identity
     /// (async [`scan`](Self::scan)). All reads run at once; dropping the future cancels them.
-    pub async fn scan_async(&self, timeout: Duration) -> Result<Vec<ScannedNode>, Error> {
+    pub async fn scan_async(
+        &self,
+        timeout: impl Into<Duration>,
+    ) -> Result<Vec<ScannedNode>, Error> {
+        let timeout: Duration = timeout.into();
         drive::catch_up(self)?;
         let first: Vec<Req> = NodeId::all()
             .filter_map(|n| {
