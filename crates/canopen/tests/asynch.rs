@@ -527,3 +527,67 @@ async fn the_driver_on_a_virtual_bus_keeps_it_at_tokio_time() {
     .await;
     assert!(ended.is_ok(), "the stream ends when the network is gone");
 }
+
+/// A writer whose bytes the test keeps, and whose flush fails when asked to.
+#[derive(Clone)]
+struct Kept {
+    bytes: std::sync::Arc<std::sync::Mutex<Vec<u8>>>,
+    fail_flush: bool,
+}
+
+impl std::io::Write for Kept {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.bytes.lock().unwrap().extend_from_slice(b);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        if self.fail_flush {
+            Err(std::io::Error::other("disk full"))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+#[tokio::test(start_paused = true)]
+async fn streamed_upload_and_download() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
+    let out = Kept {
+        bytes: Default::default(),
+        fail_flush: false,
+    };
+    // 0x1008 (device name) is longer than 4 bytes: a segmented upload.
+    let n_bytes = net
+        .node(n(5))
+        .sdo()
+        .upload_to_async((0x1008, 0), out.clone())
+        .await
+        .unwrap();
+    assert_eq!(&out.bytes.lock().unwrap()[..], b"Buerkert generic device");
+    assert_eq!(n_bytes, 23);
+    // A flush that fails fails the upload: no silent data loss.
+    let bad = Kept {
+        bytes: Default::default(),
+        fail_flush: true,
+    };
+    let e = net
+        .node(n(5))
+        .sdo()
+        .upload_to_async((0x1008, 0), bad)
+        .await
+        .unwrap_err();
+    assert!(e.to_string().contains("disk full"), "{e}");
+    let sent = net
+        .node(n(5))
+        .sdo()
+        .download_from_async((0x1017, 0), 300u16.to_le_bytes().to_vec())
+        .await
+        .unwrap();
+    assert_eq!(sent, 2);
+    assert_eq!(
+        net.node(n(5)).sdo().read_async((0x1017, 0)).await.unwrap(),
+        300u16.to_le_bytes()
+    );
+}

@@ -7,6 +7,7 @@
 //! | [`Sdo::get`], [`Sdo::set`] (by name, typed) | [`Sdo::get_async`], [`Sdo::set_async`] |
 //! | [`Sdo::read_value`], [`Sdo::read_as`] | [`Sdo::read_value_async`], [`Sdo::read_as_async`] |
 //! | [`Sdo::read_entry`], [`Sdo::write_entry`] | [`Sdo::read_entry_async`], [`Sdo::write_entry_async`] |
+//! | [`Sdo::upload_to`], [`Sdo::download_from`] | [`Sdo::upload_to_async`], [`Sdo::download_from_async`] |
 //! | [`Pending::wait`] | [`Pending::wait_async`] |
 //! | [`Nmt::start`], `stop`, `enter_preoperational`, `reset_node`, `reset_communication` | [`Nmt::start_async`], … |
 //! | [`Nmt::wait_for_bootup`], [`Nmt::wait_for_state`] | [`Nmt::wait_for_bootup_async`], [`Nmt::wait_for_state_async`] |
@@ -99,7 +100,7 @@ use canopen_lss::{
 use canopen_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canopen_od::{DataType, ObjectAddress, Value};
 
-use crate::core::{Completion, RequestId, Taken};
+use crate::core::{Completion, DownSource, Op, RequestId, Taken, UpSink};
 use crate::error::{Error, SdoError, SdoErrorKind};
 use crate::lss::{Lss, Outcome};
 use crate::network::{Network, Nmt, Pending, Sdo, SdoValue};
@@ -243,6 +244,40 @@ impl Sdo {
     ) -> Result<(), Error> {
         drive::catch_up(&self.net)?;
         Ok(wait_pending(self.submit_write(entry, value)).await?)
+    }
+
+    /// Uploads an object into `writer`, streaming as segments arrive, and flushes it at the end
+    /// (async [`upload_to`](Self::upload_to)). Returns the byte count; a failing write or flush
+    /// is an error. The writer is called from whatever drives the network (this task on a
+    /// virtual clock, tokio's blocking pool on a real one).
+    pub async fn upload_to_async(
+        self,
+        entry: impl Into<ObjectAddress>,
+        writer: impl std::io::Write + Send + 'static,
+    ) -> Result<u64, Error> {
+        drive::catch_up(&self.net)?;
+        let sink = UpSink::Stream {
+            w: Box::new(writer),
+            written: 0,
+            error: None,
+        };
+        let pending = self.request(entry.into(), Op::Upload(sink), |c| c.transferred);
+        Ok(wait_pending(pending).await?)
+    }
+
+    /// Downloads `data` into an object (async [`download_from`](Self::download_from), with the
+    /// bytes read already: reading a file is the caller's, with tokio's file API or
+    /// `spawn_blocking`). Returns the byte count.
+    pub async fn download_from_async(
+        self,
+        entry: impl Into<ObjectAddress>,
+        data: Vec<u8>,
+    ) -> Result<u64, Error> {
+        drive::catch_up(&self.net)?;
+        let pending = self.request(entry.into(), Op::Download(DownSource(data)), |c| {
+            c.transferred
+        });
+        Ok(wait_pending(pending).await?)
     }
 
     /// Reads an object by name or address, decoded with its dictionary type (async
