@@ -591,3 +591,58 @@ async fn streamed_upload_and_download() {
         300u16.to_le_bytes()
     );
 }
+
+/// An endpoint that counts its receive calls.
+struct Counting {
+    inner: canopen::Endpoint,
+    calls: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl Transport for Counting {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), canopen::TransportError> {
+        self.inner.send(frame)
+    }
+    fn recv_until(
+        &mut self,
+        deadline: Instant,
+    ) -> Result<Option<Received>, canopen::TransportError> {
+        self.calls
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.inner.recv_until(deadline)
+    }
+    fn now(&self) -> Instant {
+        self.inner.now()
+    }
+    fn is_virtual(&self) -> bool {
+        self.inner.is_virtual()
+    }
+    fn next_event(&self) -> Option<Instant> {
+        self.inner.next_event()
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn waiting_futures_on_a_virtual_bus_in_real_time_sleep_rather_than_spin() {
+    let bus = MemoryBus::new();
+    let calls = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let net = Network::new(Counting {
+        inner: bus.endpoint(),
+        calls: calls.clone(),
+    });
+    assert!(net.is_virtual_clock());
+    // The driver task and two waits that only time can end, side by side, for 300 ms of real
+    // time.
+    net.start_driver_on_runtime();
+    let nmt = net.node(n(5)).nmt();
+    let (a, b) = tokio::join!(
+        nmt.wait_for_state_async(NmtState::Stopped, Duration::from_millis(300)),
+        net.run_for_async(Duration::from_millis(300)),
+    );
+    assert!(matches!(a, Err(Error::Timeout(_))), "{a:?}");
+    b.unwrap();
+    // Each catches up to tokio's time when its timer fires (in steps of at most 2 ms), not in
+    // a loop that wakes the others: spinning futures would make hundreds of thousands of calls
+    // in 300 ms.
+    let calls = calls.load(std::sync::atomic::Ordering::Relaxed);
+    assert!(calls < 5_000, "{calls} receive calls");
+}

@@ -91,7 +91,7 @@ fn catch_up_once(net: &Network, deadline: Option<Instant>) -> Result<Option<Next
         return Ok(None);
     };
     let r = &net.inner.reactor;
-    let before = net.core().now();
+    let due = net.core().poll_timeout();
     let target = r.target(io.now());
     let mut received = false;
     let mut steps = 0;
@@ -109,7 +109,11 @@ fn catch_up_once(net: &Network, deadline: Option<Instant>) -> Result<Option<Next
     let mut next = io.next_event();
     drop(io);
     let core = net.core();
-    let progressed = received || core.now() > before;
+    // What can end another future's wait: a frame or bus event, or a core timer (an SDO or
+    // LSS timeout). Time passing alone is not: waits with a deadline sleep until it, and
+    // waking the others for it would have two futures on a real-time runtime wake each
+    // other for ever.
+    let progressed = received || due.is_some_and(|t| t <= target);
     for t in [core.poll_timeout(), deadline].into_iter().flatten() {
         next = Some(next.map_or(t, |n| n.min(t)));
     }
