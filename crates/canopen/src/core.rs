@@ -121,6 +121,13 @@ pub enum NetworkEvent {
     },
 }
 
+/// A subscriber other than an mpsc channel (the async API's event streams): it takes each
+/// event as it is published and says whether it still wants more.
+pub(crate) trait EventSink: Send {
+    /// Takes one event; `false` when the subscriber is gone (it is then forgotten).
+    fn deliver(&self, event: &NetworkEvent) -> bool;
+}
+
 /// Where an upload's bytes go: memory, or a writer (streamed as they arrive).
 pub(crate) enum UpSink {
     Mem(Vec<u8>),
@@ -273,6 +280,7 @@ pub(crate) struct Core {
     /// even when a heartbeat follows it in the same step.
     boots: BTreeMap<NodeId, u64>,
     subscribers: Vec<mpsc::Sender<NetworkEvent>>,
+    sinks: Vec<Box<dyn EventSink>>,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
     /// than the next transfer.
@@ -304,6 +312,7 @@ impl Core {
             sync: None,
             boots: BTreeMap::new(),
             subscribers: Vec::new(),
+            sinks: Vec::new(),
             settle: Duration::from_millis(1),
             lss: None,
             lss_result: None,
@@ -363,7 +372,14 @@ impl Core {
         rx
     }
 
+    /// Adds a subscriber that takes events by reference (see [`EventSink`]).
+    #[cfg(feature = "tokio")]
+    pub(crate) fn add_sink(&mut self, sink: Box<dyn EventSink>) {
+        self.sinks.push(sink);
+    }
+
     pub(crate) fn publish(&mut self, ev: NetworkEvent) {
+        self.sinks.retain(|s| s.deliver(&ev));
         self.subscribers.retain(|s| s.send(ev.clone()).is_ok());
     }
 

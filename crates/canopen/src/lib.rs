@@ -64,6 +64,8 @@ pub use canopen_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canopen_sdo::{AbortCode, Method, SdoCobIds};
 
 pub use crate::core::{CANCEL_ABORT, NetworkEvent, ProgressFn, RequestId, TransferProgress};
+#[cfg(feature = "tokio")]
+pub use asynch::{EventStream, Lagged};
 pub use describe::{BusDictionary, Description, Monitor, describe};
 pub use error::{Error, SdoError, SdoErrorKind};
 pub use lss::{Lss, LssOutcome};

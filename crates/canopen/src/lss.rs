@@ -30,7 +30,7 @@ pub enum LssOutcome {
 }
 
 /// A machine output the network's core can carry as an [`LssOutcome`].
-trait Outcome: Sized {
+pub(crate) trait Outcome: Sized {
     /// What the public API returns.
     type Value;
     fn into_outcome(self) -> LssOutcome;
@@ -131,7 +131,7 @@ where
 /// LSS master services of a network.
 #[derive(Debug, Clone)]
 pub struct Lss {
-    net: Network,
+    pub(crate) net: Network,
 }
 
 impl Network {

@@ -10,6 +10,9 @@
 //!   thread per virtual bus and attach simulated devices with [`MemoryBus::attach`], so they are
 //!   stepped by the same loop. [`ClockMode::RealTime`] follows the host's monotonic clock; a
 //!   service thread steps attached stations, and endpoints may be used from several threads.
+//!   Under the async API (`tokio` feature) a virtual clock follows tokio's clock: real time on
+//!   a normal runtime, jumps under a paused one, so tokio's timers and the bus's timeouts fire
+//!   in their order (see `canopen::asynch`).
 //! * **Timing model** (optional, [`BusConfig::bitrate`]). Each frame occupies the wire for its
 //!   length in bits (ISO 11898-1 classic frame: 47 + 8·n bits for an 11-bit identifier, 67 + 8·n
 //!   for a 29-bit one, including the 3-bit interframe space), optionally with the worst-case
@@ -788,6 +791,25 @@ impl Transport for Endpoint {
 
     fn now(&self) -> Instant {
         self.bus.now()
+    }
+
+    fn is_virtual(&self) -> bool {
+        !self.bus.shared.real_time
+    }
+
+    fn next_event(&self) -> Option<Instant> {
+        let st = self.bus.lock();
+        if !matches!(st.clock, Clock::Virtual(_)) {
+            return None;
+        }
+        let waiting = st
+            .endpoints
+            .get(self.index)
+            .is_some_and(|e| e.lost > 0 || !e.queue.is_empty());
+        if waiting {
+            return Some(st.now());
+        }
+        st.next_event()
     }
 }
 

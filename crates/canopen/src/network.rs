@@ -9,8 +9,9 @@
 //! several threads share one transport safely. Requests to different nodes progress together
 //! whichever of them is being waited on; requests to one node run in submission order.
 //!
-//! The async API (`tokio` feature, [`crate::asynch`]) runs the same wait loop on tokio's
-//! blocking pool and cancels the request when the future is dropped.
+//! The async API (`tokio` feature, `crate::asynch`) runs the same wait loop on tokio's
+//! blocking pool on a real clock, steps it from the task on a virtual clock (whose time then
+//! follows tokio's), and cancels the request when the future is dropped.
 //!
 //! Running by itself: [`Network::start_driver`] starts a background driver (a thread; under the
 //! `tokio` feature [`Network::start_driver_on_runtime`] runs it on the caller's runtime's
@@ -24,8 +25,10 @@
 //!
 //! The explicit stepping mode stays for deterministic tests: without a driver nothing happens
 //! between calls, and [`Network::run_for`] advances a virtual-clock bus by exactly the time
-//! asked. A driver on a virtual-clock bus would run simulated time as fast as the CPU allows;
-//! use it on SocketCAN or a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime) bus.
+//! asked. A driver thread on a virtual-clock bus would run simulated time as fast as the CPU
+//! allows; use it on SocketCAN or a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime)
+//! bus. (Under the `tokio` feature, `start_driver_on_runtime` on a virtual-clock bus is a task
+//! that keeps the bus at tokio's time instead.)
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak, mpsc};
@@ -52,7 +55,10 @@ pub(crate) struct Inner {
     /// Threads waiting on `cond`: a notification costs a system call, so it is only sent when
     /// one waits.
     waiting: AtomicUsize,
-    io: Mutex<Box<dyn Transport>>,
+    pub(crate) io: Mutex<Box<dyn Transport>>,
+    /// The async API's wake-ups and its tie between a virtual clock and tokio's.
+    #[cfg(feature = "tokio")]
+    pub(crate) reactor: crate::asynch::Reactor,
     /// Threads inside [`Network::wait_for`]: the background driver steps aside while there are.
     driving_waiters: AtomicUsize,
     /// When the last waiter left [`Network::wait_for`], in nanoseconds since `epoch`.
@@ -113,12 +119,16 @@ impl Network {
     pub fn new(transport: impl Transport + 'static) -> Self {
         let mut core = Core::new();
         core.set_now(transport.now());
+        #[cfg(feature = "tokio")]
+        let reactor = crate::asynch::Reactor::new(transport.is_virtual());
         Self {
             inner: Arc::new(Inner {
                 core: Mutex::new(core),
                 cond: Condvar::new(),
                 waiting: AtomicUsize::new(0),
                 io: Mutex::new(Box::new(transport)),
+                #[cfg(feature = "tokio")]
+                reactor,
                 driving_waiters: AtomicUsize::new(0),
                 last_wait_end: AtomicU64::new(0),
                 epoch: std::time::Instant::now(),
@@ -168,8 +178,9 @@ impl Network {
     }
 
     /// Starts the background driver on the current tokio runtime (its blocking pool: the
-    /// transport's receive blocks). Does nothing when one runs already. Panics outside a tokio
-    /// runtime, as `tokio::task::spawn_blocking` does.
+    /// transport's receive blocks; on a virtual-clock bus, a task that keeps the bus at
+    /// tokio's time instead, see `canopen::asynch`). Does nothing when one runs already.
+    /// Panics outside a tokio runtime, as `tokio::task::spawn_blocking` does.
     #[cfg(feature = "tokio")]
     pub fn start_driver_on_runtime(&self) {
         let mut slot = relock(self.inner.driver.lock());
@@ -183,7 +194,11 @@ impl Network {
         let (stop, error) = (Arc::new(AtomicBool::new(false)), Arc::new(Mutex::new(None)));
         let (weak, s, e) = (Arc::downgrade(&self.inner), stop.clone(), error.clone());
         // The task ends by itself once `stop` is set or the network is gone.
-        drop(tokio::task::spawn_blocking(move || drive(&weak, &s, &e)));
+        if self.is_virtual_clock() {
+            crate::asynch::spawn_virtual_driver(weak, s, e);
+        } else {
+            drop(tokio::task::spawn_blocking(move || drive(&weak, &s, &e)));
+        }
         *slot = DriverSlot {
             stop: Some(stop),
             thread: None,
@@ -367,15 +382,19 @@ impl Network {
     }
 
     /// Wakes the threads waiting for progress, if there are any.
-    fn notify(&self) {
+    pub(crate) fn notify(&self) {
         if self.inner.waiting.load(Ordering::SeqCst) > 0 {
             self.inner.cond.notify_all();
         }
     }
 
     /// One driving step: flush, receive until the next deadline (bounded by `limit` and the
-    /// drive slice), feed the core.
-    fn step(&self, io: &mut Box<dyn Transport>, limit: Option<Instant>) -> Result<(), Error> {
+    /// drive slice), feed the core. Returns whether a frame or bus event was received.
+    pub(crate) fn step(
+        &self,
+        io: &mut Box<dyn Transport>,
+        limit: Option<Instant>,
+    ) -> Result<bool, Error> {
         let now = io.now();
         let (frames, next) = {
             let mut c = self.core();
@@ -394,6 +413,7 @@ impl Network {
             deadline = deadline.min(l);
         }
         let got = io.recv_until(deadline.max(now));
+        let received = matches!(got, Ok(Some(_)));
         // A frame's reception time is the time now, give or take the decoding; only otherwise
         // ask the clock.
         let now = match &got {
@@ -419,7 +439,7 @@ impl Network {
             io.send(f)?;
         }
         self.notify();
-        Ok(())
+        Ok(received)
     }
 
     pub(crate) fn submit(&self, req: SdoRequest) -> RequestId {
@@ -505,7 +525,9 @@ impl Network {
                 return Ok(r);
             }
             match self.inner.io.try_lock() {
-                Ok(mut io) => self.step(&mut io, None)?,
+                Ok(mut io) => {
+                    self.step(&mut io, None)?;
+                }
                 Err(_) => {
                     let mut c = self.core();
                     if let Some(r) = done(&mut c) {

@@ -202,7 +202,12 @@ impl Sdo {
         self
     }
 
-    fn request<T>(self, entry: ObjectAddress, op: Op, output: fn(Completion) -> T) -> Pending<T> {
+    pub(crate) fn request<T>(
+        self,
+        entry: ObjectAddress,
+        op: Op,
+        output: fn(Completion) -> T,
+    ) -> Pending<T> {
         let node = self.node;
         let req = SdoRequest {
             node,

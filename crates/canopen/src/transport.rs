@@ -7,8 +7,10 @@
 //! on: a real monotonic clock for SocketCAN, a virtual one for the deterministic in-memory bus.
 //!
 //! The shape is blocking with an absolute deadline ([`Transport::recv_until`]). That is what both
-//! the blocking API and the async API need: the async API drives the same loop from a blocking
-//! worker thread (tokio's `spawn_blocking`), so there is only one driving loop in the crate.
+//! the blocking API and the async API need: on a real clock the async API drives the same loop
+//! from a blocking worker thread (tokio's `spawn_blocking`); on a virtual clock
+//! ([`Transport::is_virtual`]) a `recv_until` never blocks, so an async task steps the same
+//! loop up to tokio's time and sleeps on a tokio timer until [`Transport::next_event`].
 
 use can_frame::{CanFrame, Duration, Instant, is_due};
 
@@ -135,6 +137,20 @@ pub trait Transport: Send {
         let now = self.now();
         self.recv_until(now)
     }
+
+    /// Whether the clock is virtual: it stands still until [`recv_until`](Self::recv_until)
+    /// waits, and then jumps to the next event or the deadline at once (no real time passes).
+    /// The async API ties such a clock to tokio's (see `canopen::asynch`). Default: `false`.
+    fn is_virtual(&self) -> bool {
+        false
+    }
+
+    /// On a virtual clock: when the transport next has something to deliver or do by itself
+    /// (a received frame already waiting: now; a frame leaving the wire; a timer of a station
+    /// on the bus). `None` when nothing is pending, and always on a real clock (the default).
+    fn next_event(&self) -> Option<Instant> {
+        None
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -146,6 +162,12 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn now(&self) -> Instant {
         (**self).now()
+    }
+    fn is_virtual(&self) -> bool {
+        (**self).is_virtual()
+    }
+    fn next_event(&self) -> Option<Instant> {
+        (**self).next_event()
     }
 }
 

@@ -230,6 +230,17 @@ impl Sdo {
         key: impl Into<ObjectKey<'k>>,
         value: impl Into<WriteValue>,
     ) -> Result<(), Error> {
+        let (at, typed) = self.typed_write(key, value)?;
+        self.write(at, typed)
+    }
+
+    /// The address `key` names and `value` converted to its type: what [`set`](Self::set)
+    /// writes (the async twin shares it).
+    pub(crate) fn typed_write<'k>(
+        &self,
+        key: impl Into<ObjectKey<'k>>,
+        value: impl Into<WriteValue>,
+    ) -> Result<(ObjectAddress, Value), Error> {
         let at = self.resolve(key)?;
         let od = self.typed_dictionary()?;
         let node = self.node_id();
@@ -250,6 +261,6 @@ impl Sdo {
                 type_name(data_type)
             ),
         })?;
-        self.write(at, typed)
+        Ok((at, typed))
     }
 }
