@@ -27,7 +27,9 @@ pub mod simulate;
 pub mod supervise;
 
 pub use audit::{AuditOptions, AuditReport, audit};
-pub use boot::{BootEvent, BootReport, BootStep, SlaveReport, SlaveStatus, boot, boot_with};
+pub use boot::{
+    BootEvent, BootReport, BootStep, SlaveReport, SlaveStatus, SoftwareOutcome, boot, boot_with,
+};
 pub use codes::BootErrorCode;
-pub use config::{ConfigError, NetworkConfig, StartPolicy};
+pub use config::{ConfigError, NetworkConfig, SoftwareCheck, StartPolicy};
 pub use supervise::{SuperviseEvent, supervise};
