@@ -352,6 +352,16 @@ impl NetworkConfig {
     /// Parses description `text` as if read from `path` (relative paths resolve against its
     /// folder).
     pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        Self::parse_with_files(text, path, &|p| std::fs::read(p))
+    }
+
+    /// [`parse`](Self::parse), reading the files the description names (DCF, EDS, program,
+    /// master DCF) through `read` instead of the file system.
+    pub fn parse_with_files(
+        text: &str,
+        path: &Path,
+        read: &dyn Fn(&Path) -> std::io::Result<Vec<u8>>,
+    ) -> Result<Self, ConfigError> {
         let err = |span: Option<core::ops::Range<usize>>, key: Option<String>, message: String| {
             ConfigError {
                 path: path.to_owned(),
@@ -462,7 +472,7 @@ impl NetworkConfig {
             };
             let file_key = if is_dcf { "dcf" } else { "eds" };
             let source = base.join(file.get_ref());
-            let bytes = std::fs::read(&source).map_err(|e| {
+            let bytes = read(&source).map_err(|e| {
                 err(
                     Some(file.span()),
                     key(file_key),
@@ -515,7 +525,7 @@ impl NetworkConfig {
                         None => None,
                         Some(p) => {
                             let path = base.join(p.get_ref());
-                            let data = std::fs::read(&path).map_err(|e| {
+                            let data = read(&path).map_err(|e| {
                                 err(
                                     Some(p.span()),
                                     key("software.program"),
@@ -563,8 +573,7 @@ impl NetworkConfig {
         if let Some(file) = m.as_ref().and_then(|m| m.dcf.clone()) {
             let source = base.join(file.get_ref());
             let fail = |message: String| err(Some(file.span()), Some("master.dcf".into()), message);
-            let bytes =
-                std::fs::read(&source).map_err(|e| fail(format!("{}: {e}", source.display())))?;
+            let bytes = read(&source).map_err(|e| fail(format!("{}: {e}", source.display())))?;
             let od = canopen::od::parse(&bytes)
                 .map_err(|e| fail(format!("{}: {e}", source.display())))?
                 .od;
