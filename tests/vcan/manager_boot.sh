@@ -15,16 +15,20 @@ data=$PWD/crates/manager/tests/data
 dir=/tmp/manager-boot
 mkdir -p "$dir"
 
-# The devices as they come from the factory: the DCF without its parameter values. Node 5's
+# The valves' DCF with a 500 ms heartbeat (fifteen devices at 10 Hz load the emulated guest).
+# The devices as they come from the factory: that DCF without its parameter values. Node 5's
 # firmware has 0x2002 read-only where its DCF says rw.
+awk '/^\[/{s=$0} s=="[1017]" && /^ParameterValue=/{$0="ParameterValue=500"} {print}' "$data/valve.dcf" >"$dir/valve.dcf"
+grep -A7 '^\[1017\]' "$dir/valve.dcf" | grep -q 'ParameterValue=500'
+data=$dir
 sed '/^ParameterValue=/d' "$data/valve.dcf" >"$dir/factory.dcf"
 awk '/^\[/{s=$0} s=="[2002]" && /^AccessType=/{$0="AccessType=ro"} {print}' "$dir/factory.dcf" >"$dir/factory-ro.dcf"
 grep -A4 '^\[2002\]' "$dir/factory-ro.dcf" | grep -q 'AccessType=ro'
 
 # The description: generous timeouts for the emulated guest. Node 3 and 5 are optional, so the
-# others start together; the heartbeat consumer waits five producer periods.
+# others start together; the heartbeat consumer waits three producer periods.
 {
-    printf '[master]\nnode_id = 1\nsdo_timeout_ms = 3000\nboot_timeout_ms = 4000\nheartbeat_consumer_percent = 500\n'
+    printf '[master]\nnode_id = 1\nsdo_timeout_ms = 3000\nboot_timeout_ms = 4000\nheartbeat_consumer_percent = 300\n'
     for n in $(seq 2 17); do
         printf '\n[[slave]]\nnode_id = %d\ndcf = "%s"\n' "$n" "$data/valve.dcf"
         case $n in
@@ -37,7 +41,16 @@ grep -A4 '^\[2002\]' "$dir/factory-ro.dcf" | grep -q 'AccessType=ro'
 } >"$dir/bus.toml"
 
 pids=()
-cleanup() { for p in "${pids[@]}" "${dump:-}"; do kill "$p" 2>/dev/null || true; done; }
+cleanup() {
+    local rc=$?
+    for p in "${pids[@]}" "${dump:-}"; do kill "$p" 2>/dev/null || true; done
+    if [ "$rc" != 0 ]; then
+        for f in "$dir/boot.json" "$dir/audit.json"; do
+            [ -s "$f" ] && { echo "--- $f"; cat "$f"; echo; }
+        done
+    fi
+    return "$rc"
+}
 trap cleanup EXIT
 sim() { # node file
     "$canopen" --iface vcan0 simulate "$2" --node-id "$1" >/dev/null &
@@ -67,11 +80,13 @@ for n in $(seq 2 17); do
 done
 echo "15 simulators answer"
 
-# `wait_heartbeat NODE STATE SECONDS`: a heartbeat of NODE carrying STATE arrives.
+# `wait_heartbeat NODE STATE SECONDS [PID]`: a heartbeat of NODE carrying STATE arrives (while
+# process PID, the master, still runs).
 wait_heartbeat() {
     python3 - "$@" <<'EOF'
-import socket, struct, sys, time
+import os, socket, struct, sys, time
 node, state, secs = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
+pid = int(sys.argv[4]) if len(sys.argv) > 4 else None
 s = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
 s.setsockopt(socket.SOL_CAN_RAW, socket.CAN_RAW_FILTER, struct.pack("=II", 0x700 + node, 0x7FF))
 s.bind(("vcan0",))
@@ -81,6 +96,12 @@ while time.time() < end:
     try:
         can_id, dlc, data = struct.unpack("=IB3x8s", s.recv(16))
     except socket.timeout:
+        try:
+            ended = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0] == "Z"
+        except OSError:
+            ended = True
+        if pid is not None and ended:
+            sys.exit(f"the master ended before node {node} sent heartbeat {state:#04x}")
         continue
     if dlc == 1 and data[0] == state:
         sys.exit(0)
@@ -93,12 +114,12 @@ t0=$EPOCHREALTIME
 master=$!
 pids+=("$master")
 # Node 17 operational (the start-all came), then it drops off the bus and comes back fresh.
-wait_heartbeat 17 5 60
+wait_heartbeat 17 5 180 "$master"
 echo "node 17 operational after $(python3 -c "print(round($EPOCHREALTIME - $t0, 1))") s"
 kill "$sim17"
-sleep 3
+sleep 5
 pids+=("$(sim 17 "$dir/factory.dcf")")
-wait_heartbeat 17 5 25
+wait_heartbeat 17 5 25 "$master"
 echo "node 17 operational again"
 wait "$master"
 echo "boot and supervision done after $(python3 -c "print(round($EPOCHREALTIME - $t0, 1))") s"
@@ -116,7 +137,7 @@ def check(n, **want):
     print(f"ok: node {n}: " + ", ".join(f"{k}={v}" for k, v in want.items()))
 for n in [2, *range(7, 18)]:
     check(n, status="operational", error_code=None, step=None, object=None, abort_code=None,
-          configuration="written", values_written=4, error_control="heartbeat 500 ms",
+          configuration="written", values_written=4, error_control="heartbeat 1500 ms",
           mandatory=True, software=None)
 check(3, status="failed", error_code="D", step="identity", object="0x1018:01",
       abort_code=None, configuration=None, mandatory=False)
