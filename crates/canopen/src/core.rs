@@ -389,6 +389,11 @@ impl Core {
             .or_else(|| self.heartbeat.state(node))
     }
 
+    /// When the latest heartbeat or boot-up of `node` arrived.
+    pub(crate) fn last_heartbeat(&self, node: NodeId) -> Option<Instant> {
+        self.heartbeat.last_seen(node)
+    }
+
     /// How many boot-up messages `node` has sent since the network started.
     pub(crate) fn boot_count(&self, node: NodeId) -> u64 {
         self.boots.get(&node).copied().unwrap_or(0)

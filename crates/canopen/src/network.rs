@@ -296,6 +296,12 @@ impl Network {
         self.core().last_state(id)
     }
 
+    /// When the latest heartbeat (or boot-up) of a node arrived, monitored or not: a sign of
+    /// life that, unlike [`last_state`](Self::last_state), also shows a node repeating its state.
+    pub fn last_heartbeat(&self, id: NodeId) -> Option<Instant> {
+        self.core().last_heartbeat(id)
+    }
+
     /// Starts producing SYNC (CiA 301 §7.2.3) with the given period, COB-ID 0x080.
     pub fn start_sync(&self, period: impl Into<Duration>) {
         let period: Duration = period.into();

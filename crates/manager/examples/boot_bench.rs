@@ -1,7 +1,8 @@
 //! Boots 64 simulated slaves, 40 configured objects each, on the in-memory bus with the
 //! 1 Mbit/s timing model, and prints side by side: the parallel boot's bus time, the time the
 //! wire was busy with the boot's frames (the bound no boot can beat), and the same slaves booted
-//! one after another (the way a serial configuration loop does it, modelled on the same bus).
+//! one after another (the way a serial configuration loop such as python-canopen's
+//! `load_configuration()` does it: a model on the same bus, python-canopen itself is not run).
 //!
 //! `cargo run --release -p canopen-manager --example boot_bench`
 

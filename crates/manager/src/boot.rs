@@ -1,9 +1,13 @@
-//! Network boot-up the CiA 302-2 way: every slave in a thread of its own (the facade runs
-//! different nodes' SDOs in parallel), each through the "boot slave" steps — device present
-//! (0x1000), identity (0x1000 and 0x1018 against the expected values), configuration (the DCF's
-//! values, skipped when 0x1020 already holds the DCF's configuration date and time; 0x1020
-//! written last), error control start (heartbeat consumer from 0x1017, or node guarding) — then
-//! NMT start, per slave or all together once every mandatory slave has booted.
+//! Network boot-up the CiA 302-2 way: every slave at once (the facade runs different nodes' SDOs
+//! in parallel), each through the "boot slave" steps — device present (0x1000), identity (0x1000
+//! and 0x1018 against the expected values), for a keep-alive slave the node state by its
+//! heartbeat or guarding (an operational slave is left running: no reset, no configuration,
+//! code L; any other gets NMT reset communication), the application software version (0x1F52
+//! against the expected date and time, with the CiA 302-3 program download through 0x1F51
+//! program control and 0x1F50 program data when an update is needed and allowed), configuration
+//! (the DCF's values, skipped when 0x1020 already holds the DCF's configuration date and time;
+//! 0x1020 written last), error control start (heartbeat consumer from 0x1017, or node guarding)
+//! — then NMT start, per slave or all together once every mandatory slave has booted.
 
 use std::time::Instant as WallInstant;
 
@@ -24,6 +28,11 @@ pub enum BootStep {
     DevicePresent,
     /// Comparing 0x1000 and 0x1018 against the expected identity.
     Identity,
+    /// Keep-alive slaves: learning the node state from its heartbeat or guarding answer.
+    NodeState,
+    /// Comparing the application software 0x1F52 with the expected one, downloading the
+    /// program when needed and allowed.
+    Software,
     /// Writing the DCF's values (or finding them in place by 0x1020).
     Configuration,
     /// Starting the heartbeat consumer or node guarding.
@@ -38,6 +47,8 @@ impl BootStep {
         match self {
             Self::DevicePresent => "device-present",
             Self::Identity => "identity",
+            Self::NodeState => "node-state",
+            Self::Software => "software",
             Self::Configuration => "configuration",
             Self::ErrorControl => "error-control",
             Self::Start => "start",
@@ -82,6 +93,18 @@ pub enum ConfigOutcome {
     Verified,
 }
 
+/// How a slave's software check went.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SoftwareOutcome {
+    /// Not asked for, or not reached.
+    #[default]
+    NotChecked,
+    /// 0x1F52 matched the expected date and time.
+    Verified,
+    /// The program was downloaded and 0x1F52 matches now.
+    Updated,
+}
+
 /// The boot of one slave.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlaveReport {
@@ -101,6 +124,8 @@ pub struct SlaveReport {
     pub abort_code: Option<u32>,
     /// On failure, what happened in words.
     pub detail: Option<String>,
+    /// The software check.
+    pub software: SoftwareOutcome,
     /// The configuration step.
     pub configuration: ConfigOutcome,
     /// The error control started (`heartbeat 150 ms`, `guarding 100 ms x 3`), if any.
@@ -177,6 +202,28 @@ impl Failure {
     }
 }
 
+/// What the network reported since the last poll, by node.
+#[derive(Default)]
+struct Seen {
+    /// A state change or recovery by heartbeat or guarding: the node is alive.
+    life: Vec<NodeId>,
+    /// A boot-up message.
+    boot_ups: Vec<NodeId>,
+}
+
+impl SlaveReport {
+    /// Whether the slave booted: no error code, or L (operational already, left running).
+    pub fn booted(&self) -> bool {
+        match self.error_code {
+            None => matches!(
+                self.status,
+                SlaveStatus::PreOperational | SlaveStatus::Operational
+            ),
+            Some(code) => code == BootErrorCode::L,
+        }
+    }
+}
+
 /// Boots the network `net` as `config` describes; blocks until done.
 pub fn boot(net: &Network, config: &NetworkConfig) -> BootReport {
     boot_with(net, config, |_| {})
@@ -206,7 +253,7 @@ pub fn boot_with(
         net.start_sync(p);
     }
     let events = net.subscribe();
-    let mut seen = Vec::new();
+    let mut seen = Seen::default();
     let mut slaves: Vec<SlaveBoot<'_>> = config
         .slaves
         .iter()
@@ -222,7 +269,11 @@ pub fn boot_with(
                 | NetworkEvent::Guarding(
                     GuardingEvent::StateChanged { node, .. }
                     | GuardingEvent::Recovered { node, .. },
-                ) => seen.push(node),
+                ) => seen.life.push(node),
+                NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node })
+                | NetworkEvent::Guarding(GuardingEvent::BootUp { node }) => {
+                    seen.boot_ups.push(node)
+                }
                 _ => {}
             }
         }
@@ -231,7 +282,8 @@ pub fn boot_with(
             s.poll(&mut seen, &mut on_event);
             running |= !s.finished;
         }
-        seen.clear();
+        seen.life.clear();
+        seen.boot_ups.clear();
         if !running {
             break;
         }
@@ -242,16 +294,12 @@ pub fn boot_with(
     }
     let mut reports: Vec<SlaveReport> = slaves.into_iter().map(|s| s.report).collect();
 
-    let mandatory_ok = reports
-        .iter()
-        .all(|r| !r.mandatory || r.status == SlaveStatus::PreOperational);
+    let mandatory_ok = reports.iter().all(|r| !r.mandatory || r.booted());
     if config.master.start == StartPolicy::All && mandatory_ok {
         if let Some(p) = config.master.sync_period {
             net.start_sync(p);
         }
-        let all_booted = reports
-            .iter()
-            .all(|r| r.status == SlaveStatus::PreOperational);
+        let all_booted = reports.iter().all(SlaveReport::booted);
         // A broadcast when every slave booted; otherwise only the booted ones, so a slave that
         // failed its checks is not started unconfigured.
         let started = if all_booted {
@@ -274,9 +322,7 @@ pub fn boot_with(
             }
         }
     }
-    let mandatory_ok = reports
-        .iter()
-        .all(|r| !r.mandatory || r.error_code.is_none());
+    let mandatory_ok = reports.iter().all(|r| !r.mandatory || r.booted());
     BootReport {
         slaves: reports,
         mandatory_ok,
@@ -299,6 +345,21 @@ enum Phase {
     Identity(usize, Pending<Vec<u8>>),
     /// Looking for the next identity check.
     NextIdentity(usize),
+    /// Keep-alive: waiting for a heartbeat (or guarding answer) after `since` that tells the
+    /// node state, until `deadline`.
+    NodeState {
+        since: Instant,
+        deadline: Instant,
+        guarding: bool,
+    },
+    /// NMT reset communication sent: waiting for the boot-up until `deadline`.
+    AwaitBootUp { deadline: Instant, guarding: bool },
+    /// Reading 0x1F52:01 and :02 (`true`: after a program download).
+    SoftwareVersion(Pending<Vec<u8>>, Pending<Vec<u8>>, bool),
+    /// Program download step `i` (stop, clear, program data, start).
+    Download(usize, Pending<()>),
+    /// Starting program download step `i`.
+    NextDownload(usize),
     /// Reading 0x1020:01 and :02 to see whether the configuration is in place.
     Verify(Pending<Vec<u8>>, Pending<Vec<u8>>),
     /// Writing `writes[i]`.
@@ -307,8 +368,9 @@ enum Phase {
     NextWrite(usize),
     /// Collecting 0x1017, 0x100C, 0x100D.
     ErrorControl([Param; 3]),
-    /// Waiting for the first heartbeat (or guarding answer) until the deadline.
-    AwaitLife(Instant, String),
+    /// Waiting for the first heartbeat (or guarding answer) after the first instant, until the
+    /// second.
+    AwaitLife(Instant, Instant, String),
     /// Boot over (report filled in).
     Over,
 }
@@ -327,6 +389,8 @@ struct SlaveBoot<'a> {
     report: SlaveReport,
     finished: bool,
     started_event: bool,
+    /// Keep-alive found the slave operational: it is left running (code L).
+    initially_operational: bool,
 }
 
 fn to_u32(bytes: &[u8]) -> u32 {
@@ -376,12 +440,14 @@ impl<'a> SlaveBoot<'a> {
                 object: None,
                 abort_code: None,
                 detail: None,
+                software: SoftwareOutcome::NotChecked,
                 configuration: ConfigOutcome::NotRun,
                 error_control: None,
                 elapsed: Duration::ZERO,
             },
             finished: false,
             started_event: false,
+            initially_operational: false,
         };
         let deadline = net.now() + config.master.boot_timeout;
         this.phase = Phase::Present(this.read(ObjectAddress::new(0x1000, 0)), deadline);
@@ -414,7 +480,7 @@ impl<'a> SlaveBoot<'a> {
         }
     }
 
-    fn poll(&mut self, seen: &mut Vec<NodeId>, on_event: &mut impl FnMut(&BootEvent)) {
+    fn poll(&mut self, seen: &mut Seen, on_event: &mut impl FnMut(&BootEvent)) {
         if self.finished {
             return;
         }
@@ -458,8 +524,12 @@ impl<'a> SlaveBoot<'a> {
             Phase::ErrorControl(ps) => ps
                 .iter()
                 .any(|p| matches!(p, Param::Reading(r) if !r.is_done())),
-            Phase::AwaitLife(..) => true,
-            Phase::NextIdentity(_) | Phase::NextWrite(_) | Phase::Over => false,
+            Phase::SoftwareVersion(a, b, _) => !(a.is_done() && b.is_done()),
+            Phase::Download(_, p) => !p.is_done(),
+            Phase::AwaitLife(..) | Phase::NodeState { .. } | Phase::AwaitBootUp { .. } => true,
+            Phase::NextIdentity(_) | Phase::NextWrite(_) | Phase::NextDownload(_) | Phase::Over => {
+                false
+            }
         }
     }
 
@@ -504,13 +574,50 @@ impl<'a> SlaveBoot<'a> {
     fn advance(
         &mut self,
         phase: Phase,
-        seen: &mut Vec<NodeId>,
+        seen: &mut Seen,
         on_event: &mut impl FnMut(&BootEvent),
     ) -> Result<Option<Phase>, Failure> {
         let node = self.slave.node_id;
         if self.is_waiting(&phase) {
-            if let Phase::AwaitLife(deadline, what) = &phase {
-                if seen.contains(&node) {
+            let now = self.net.now();
+            let heard_since =
+                |since: Instant| self.net.last_heartbeat(node).is_some_and(|t| t > since);
+            match &phase {
+                Phase::NodeState {
+                    since,
+                    deadline,
+                    guarding,
+                } => {
+                    let alive = if *guarding {
+                        seen.life.contains(&node)
+                    } else {
+                        heard_since(*since)
+                    };
+                    if alive {
+                        return self.node_state_known(*guarding, on_event).map(Some);
+                    }
+                    if now >= *deadline {
+                        return Err(
+                            self.no_state(*guarding, "no answer with the node state in time")
+                        );
+                    }
+                }
+                Phase::AwaitBootUp { deadline, guarding } => {
+                    if seen.boot_ups.contains(&node) {
+                        self.step_done(BootStep::NodeState, None, on_event);
+                        return self.begin_software(on_event).map(Some);
+                    }
+                    if now >= *deadline {
+                        return Err(
+                            self.no_state(*guarding, "no boot-up after NMT reset communication")
+                        );
+                    }
+                }
+                _ => {}
+            }
+            if let Phase::AwaitLife(since, deadline, what) = &phase {
+                let heartbeat = what.starts_with("heartbeat");
+                if seen.life.contains(&node) || (heartbeat && heard_since(*since)) {
                     self.report.error_control = Some(what.clone());
                     return self.error_control_done(on_event);
                 }
@@ -566,14 +673,61 @@ impl<'a> SlaveBoot<'a> {
                     Phase::Identity(i, self.read(ObjectAddress::new(0x1018, sub)))
                 }
                 None => {
-                    self.step_done(BootStep::Identity, Some(BootStep::Configuration), on_event);
-                    match verify_stamp(self.slave) {
-                        Some(_) => Phase::Verify(
-                            self.read(ObjectAddress::new(0x1020, 1)),
-                            self.read(ObjectAddress::new(0x1020, 2)),
-                        ),
-                        None => Phase::NextWrite(0),
+                    self.step_done(BootStep::Identity, None, on_event);
+                    if self.slave.keep_alive {
+                        self.begin_node_state(on_event)
+                    } else {
+                        self.begin_software(on_event)?
                     }
+                }
+            },
+            Phase::SoftwareVersion(date, time, downloaded) => {
+                return self.software_version(date, time, downloaded, on_event);
+            }
+            Phase::NextDownload(i) => {
+                let program = self
+                    .slave
+                    .software
+                    .as_ref()
+                    .and_then(|w| w.program.as_ref());
+                let control = ObjectAddress::new(0x1F51, 1);
+                match (i, program) {
+                    (0, _) => Phase::Download(0, self.sdo().submit_write(control, 0u8)),
+                    (1, _) => Phase::Download(1, self.sdo().submit_write(control, 3u8)),
+                    (2, Some(p)) => Phase::Download(
+                        2,
+                        self.sdo()
+                            .submit_write(ObjectAddress::new(0x1F50, 1), p.data.as_slice()),
+                    ),
+                    (3, _) => Phase::Download(3, self.sdo().submit_write(control, 1u8)),
+                    _ => Phase::SoftwareVersion(
+                        self.read(ObjectAddress::new(0x1F52, 1)),
+                        self.read(ObjectAddress::new(0x1F52, 2)),
+                        true,
+                    ),
+                }
+            }
+            Phase::Download(i, p) => match p.wait() {
+                Ok(()) => Phase::NextDownload(i + 1),
+                // Stopping the program may restart the device into its boot loader before it
+                // confirms: a timeout there is no failure.
+                Err(e) if i == 0 && is_timeout(&e) => Phase::NextDownload(1),
+                Err(e) => {
+                    let mut f = Failure::sdo(BootStep::Software, BootErrorCode::I, &e);
+                    f.detail = format!(
+                        "program download, {}: {}",
+                        [
+                            "stop program",
+                            "clear program",
+                            "program data",
+                            "start program"
+                        ]
+                        .get(i)
+                        .copied()
+                        .unwrap_or("step"),
+                        f.detail
+                    );
+                    return Err(f);
                 }
             },
             Phase::Identity(i, p) => {
@@ -631,8 +785,229 @@ impl<'a> SlaveBoot<'a> {
                 });
                 return self.start_error_control(hb, gt, lf, seen, on_event);
             }
-            Phase::AwaitLife(..) | Phase::Over => return Ok(None),
+            Phase::AwaitLife(..)
+            | Phase::NodeState { .. }
+            | Phase::AwaitBootUp { .. }
+            | Phase::Over => return Ok(None),
         }))
+    }
+
+    /// The DCF's value of a parameter (0 when it has none).
+    fn dcf_u32(&self, index: u16) -> u32 {
+        self.slave
+            .dictionary
+            .sub(index, 0)
+            .and_then(|s| s.effective_value(self.slave.node_id.get()))
+            .and_then(|v| v.as_i128())
+            .map_or(0, |v| v as u32)
+    }
+
+    /// Keep-alive: wait for the node to tell its state — by heartbeat when its DCF gives a
+    /// producer time (within the consumer time), else by node guarding (within the life time).
+    fn begin_node_state(&mut self, on_event: &mut impl FnMut(&BootEvent)) -> Phase {
+        let node = self.slave.node_id;
+        on_event(&BootEvent::StepStarted {
+            node,
+            step: BootStep::NodeState,
+        });
+        let now = self.net.now();
+        let hb = self.dcf_u32(0x1017) & 0xFFFF;
+        let (gt, lf) = (self.dcf_u32(0x100C) & 0xFFFF, self.dcf_u32(0x100D) & 0xFF);
+        let guarding = hb == 0 && gt > 0 && lf > 0;
+        let window = if guarding {
+            self.net
+                .guard_node(node, Duration::from_millis(u64::from(gt)), lf as u8);
+            Duration::from_millis(u64::from(gt * lf))
+        } else if hb > 0 {
+            Duration::from_millis(
+                u64::from(hb) * u64::from(self.config.master.heartbeat_consumer_percent) / 100,
+            )
+        } else {
+            self.config.master.boot_timeout
+        };
+        Phase::NodeState {
+            since: now,
+            deadline: now + window,
+            guarding,
+        }
+    }
+
+    fn no_state(&self, guarding: bool, what: &str) -> Failure {
+        Failure {
+            step: BootStep::NodeState,
+            code: if guarding {
+                BootErrorCode::F
+            } else {
+                BootErrorCode::E
+            },
+            object: Some(ObjectAddress::new(
+                if guarding { 0x100C } else { 0x1017 },
+                0,
+            )),
+            abort: None,
+            detail: format!(
+                "keep-alive check by {}: {what}",
+                if guarding {
+                    "node guarding"
+                } else {
+                    "heartbeat"
+                }
+            ),
+            absent: false,
+        }
+    }
+
+    /// The node told its state: an operational slave is left running and goes straight to
+    /// error control (no reset, no software or configuration check); any other is reset and
+    /// booted as usual once its boot-up arrives.
+    fn node_state_known(
+        &mut self,
+        guarding: bool,
+        on_event: &mut impl FnMut(&BootEvent),
+    ) -> Result<Phase, Failure> {
+        let node = self.slave.node_id;
+        if self.net.last_state(node) == Some(canopen::NmtState::Operational) {
+            self.initially_operational = true;
+            self.step_done(BootStep::NodeState, Some(BootStep::ErrorControl), on_event);
+            return Ok(self.error_control_phase());
+        }
+        self.net
+            .node(node)
+            .nmt()
+            .reset_communication()
+            .map_err(|e| Failure {
+                step: BootStep::NodeState,
+                code: if guarding {
+                    BootErrorCode::F
+                } else {
+                    BootErrorCode::E
+                },
+                object: None,
+                abort: None,
+                detail: format!("NMT reset communication could not be sent: {e}"),
+                absent: false,
+            })?;
+        Ok(Phase::AwaitBootUp {
+            deadline: self.net.now() + self.config.master.boot_timeout,
+            guarding,
+        })
+    }
+
+    /// The software check (0x1F81 bit 5), or straight on to the configuration.
+    fn begin_software(&mut self, on_event: &mut impl FnMut(&BootEvent)) -> Result<Phase, Failure> {
+        let Some(w) = &self.slave.software else {
+            return Ok(self.begin_configuration(on_event));
+        };
+        let node = self.slave.node_id;
+        on_event(&BootEvent::StepStarted {
+            node,
+            step: BootStep::Software,
+        });
+        if w.expected().is_none() {
+            return Err(Failure {
+                step: BootStep::Software,
+                code: BootErrorCode::G,
+                object: Some(ObjectAddress::new(
+                    if w.date.unwrap_or(0) == 0 { 0x1F53 } else { 0x1F54 },
+                    node.get(),
+                )),
+                abort: None,
+                detail: "the software check needs the expected application software date (0x1F53) and time (0x1F54)".into(),
+                absent: false,
+            });
+        }
+        Ok(Phase::SoftwareVersion(
+            self.read(ObjectAddress::new(0x1F52, 1)),
+            self.read(ObjectAddress::new(0x1F52, 2)),
+            false,
+        ))
+    }
+
+    /// 0x1F52 read: matches (on to the configuration), or an update is needed.
+    fn software_version(
+        &mut self,
+        date: Pending<Vec<u8>>,
+        time: Pending<Vec<u8>>,
+        downloaded: bool,
+        on_event: &mut impl FnMut(&BootEvent),
+    ) -> Result<Option<Phase>, Failure> {
+        let node = self.slave.node_id;
+        let code = if downloaded {
+            BootErrorCode::I
+        } else {
+            BootErrorCode::G
+        };
+        let read = |p: Pending<Vec<u8>>| {
+            p.wait().map(|b| to_u32(&b)).map_err(|e| {
+                let mut f = Failure::sdo(BootStep::Software, code, &e);
+                f.detail = format!("application software version 0x1F52: {}", f.detail);
+                f
+            })
+        };
+        let actual = (read(date)?, read(time)?);
+        let Some(w) = self.slave.software.as_ref() else {
+            return Ok(Some(self.begin_configuration(on_event)));
+        };
+        let expected = w.expected().unwrap_or_default();
+        if actual == expected {
+            self.report.software = if downloaded {
+                SoftwareOutcome::Updated
+            } else {
+                SoftwareOutcome::Verified
+            };
+            self.step_done(BootStep::Software, None, on_event);
+            return Ok(Some(self.begin_configuration(on_event)));
+        }
+        let differs = format!(
+            "0x1F52 is date {} time {}, expected date {} time {}",
+            actual.0, actual.1, expected.0, expected.1
+        );
+        let fail = |code, object: ObjectAddress, detail: String| Failure {
+            step: BootStep::Software,
+            code,
+            object: Some(object),
+            abort: None,
+            detail,
+            absent: false,
+        };
+        let version = ObjectAddress::new(0x1F52, 1);
+        if downloaded {
+            return Err(fail(
+                BootErrorCode::I,
+                version,
+                format!("after the program download {differs}"),
+            ));
+        }
+        if !w.update || self.slave.keep_alive {
+            let why = if w.update {
+                "no update on a keep-alive slave"
+            } else {
+                "update not allowed (0x1F81 bit 6)"
+            };
+            return Err(fail(BootErrorCode::H, version, format!("{differs}; {why}")));
+        }
+        if w.program.is_none() {
+            return Err(fail(
+                BootErrorCode::G,
+                ObjectAddress::new(0x1F58, node.get()),
+                format!("{differs}; update allowed but no program (0x1F58) configured"),
+            ));
+        }
+        Ok(Some(Phase::NextDownload(0)))
+    }
+
+    fn begin_configuration(&mut self, on_event: &mut impl FnMut(&BootEvent)) -> Phase {
+        on_event(&BootEvent::StepStarted {
+            node: self.slave.node_id,
+            step: BootStep::Configuration,
+        });
+        match verify_stamp(self.slave) {
+            Some(_) => Phase::Verify(
+                self.read(ObjectAddress::new(0x1020, 1)),
+                self.read(ObjectAddress::new(0x1020, 2)),
+            ),
+            None => Phase::NextWrite(0),
+        }
     }
 
     fn configuration_done(&mut self, on_event: &mut impl FnMut(&BootEvent)) -> Phase {
@@ -641,6 +1016,10 @@ impl<'a> SlaveBoot<'a> {
             Some(BootStep::ErrorControl),
             on_event,
         );
+        self.error_control_phase()
+    }
+
+    fn error_control_phase(&mut self) -> Phase {
         let want = self.slave.error_control;
         let hb = if matches!(want, ErrorControl::Heartbeat | ErrorControl::Auto) {
             self.param(0x1017)
@@ -661,14 +1040,14 @@ impl<'a> SlaveBoot<'a> {
         hb_ms: u32,
         guard_ms: u32,
         factor: u32,
-        seen: &mut Vec<NodeId>,
+        seen: &mut Seen,
         on_event: &mut impl FnMut(&BootEvent),
     ) -> Result<Option<Phase>, Failure> {
         let node = self.slave.node_id;
         let hb_ms = hb_ms & 0xFFFF;
         let guard_ms = guard_ms & 0xFFFF;
         let factor = (factor & 0xFF) as u8;
-        seen.retain(|&n| n != node);
+        seen.life.retain(|&n| n != node);
         if self.slave.error_control == ErrorControl::None {
             return self.error_control_done(on_event);
         }
@@ -678,6 +1057,7 @@ impl<'a> SlaveBoot<'a> {
             let consumer = Duration::from_millis(consumer_ms);
             self.net.monitor_heartbeat(node, consumer);
             return Ok(Some(Phase::AwaitLife(
+                self.net.now(),
                 self.net.now() + consumer,
                 format!("heartbeat {consumer_ms} ms"),
             )));
@@ -687,6 +1067,7 @@ impl<'a> SlaveBoot<'a> {
                 .guard_node(node, Duration::from_millis(u64::from(guard_ms)), factor);
             let life = Duration::from_millis(u64::from(guard_ms) * u64::from(factor));
             return Ok(Some(Phase::AwaitLife(
+                self.net.now(),
                 self.net.now() + life,
                 format!("guarding {guard_ms} ms x {factor}"),
             )));
@@ -721,6 +1102,17 @@ impl<'a> SlaveBoot<'a> {
         on_event: &mut impl FnMut(&BootEvent),
     ) -> Result<Option<Phase>, Failure> {
         let node = self.slave.node_id;
+        if self.initially_operational {
+            // Left running as found: no NMT start, and the CiA 302-2 code L says why.
+            self.step_done(BootStep::ErrorControl, None, on_event);
+            self.report.status = SlaveStatus::Operational;
+            self.report.error_code = Some(BootErrorCode::L);
+            self.report.step = Some(BootStep::NodeState);
+            self.report.detail = Some(
+                "operational when its boot began (keep-alive): not reset, software and configuration not checked".into(),
+            );
+            return Ok(None);
+        }
         self.step_done(
             BootStep::ErrorControl,
             self.start.then_some(BootStep::Start),

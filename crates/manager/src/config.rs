@@ -2,12 +2,15 @@
 //! table per device with its DCF (or an EDS plus `[slave.values]`), whether it is mandatory, the
 //! identity it must have and how its error control runs. The CiA 302 master objects these
 //! settings stand for: 0x1F80 (start policy), 0x1F81 (slave assignment: mandatory), 0x1F84..0x1F88
-//! (expected device type, vendor-ID, product code, revision, serial number).
+//! (expected device type, vendor-ID, product code, revision, serial number), 0x1F81 bits 4..6
+//! with 0x1F53/0x1F54/0x1F58 (keep-alive; the application software check against the expected
+//! date and time; the program download that may update it, CiA 302-3).
 //!
 //! Paths are relative to the file. Every error names the file, the line and the key.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use canopen::od::{AccessType, FieldValue, ObjectDictionary};
 use canopen::{Duration, NodeId};
@@ -104,6 +107,129 @@ pub struct IdentityCheck {
     pub serial: Option<u32>,
 }
 
+/// The application software a slave must run (CiA 302-2 "check software version", CiA 302-3
+/// program download): its 0x1F52 date and time against the expected ones.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct SoftwareCheck {
+    /// Expected application software date 0x1F53 (days since 1984-01-01); `None` or 0: not
+    /// configured, which fails the boot with error G.
+    pub date: Option<u32>,
+    /// Expected application software time 0x1F54 (ms after midnight); `None` or 0: not
+    /// configured (error G).
+    pub time: Option<u32>,
+    /// Whether the manager may download the program when the slave's differs (0x1F81 bit 6).
+    pub update: bool,
+    /// The program to download (0x1F58), if any: its bytes and the file they came from.
+    pub program: Option<Program>,
+}
+
+/// A program image for the download to 0x1F50:01.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Program {
+    /// The file it was read from.
+    pub path: PathBuf,
+    /// The image.
+    pub data: Arc<Vec<u8>>,
+}
+
+impl SoftwareCheck {
+    /// The expected (date, time) when both are configured (non-zero).
+    pub fn expected(&self) -> Option<(u32, u32)> {
+        match (self.date, self.time) {
+            (Some(d), Some(t)) if d != 0 && t != 0 => Some((d, t)),
+            _ => None,
+        }
+    }
+}
+
+/// Days from 1984-01-01 (the CANopen TIME_OF_DAY epoch) to `year-month-day`.
+pub fn days_since_1984(year: i32, month: u32, day: u32) -> Option<u32> {
+    if !(1..=12).contains(&month) || day == 0 {
+        return None;
+    }
+    let leap = |y: i32| (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+    let month_days = [
+        31,
+        if leap(year) { 29 } else { 28 },
+        31,
+        30,
+        31,
+        30,
+        31,
+        31,
+        30,
+        31,
+        30,
+        31,
+    ];
+    if day > month_days[month as usize - 1] || year < 1984 {
+        return None;
+    }
+    let years: u32 = (1984..year).map(|y| if leap(y) { 366 } else { 365 }).sum();
+    let months: u32 = month_days[..month as usize - 1].iter().sum();
+    Some(years + months + day - 1)
+}
+
+/// A date as `bus.toml` gives it: days since 1984-01-01, or `"YYYY-MM-DD"`.
+fn parse_date(v: &toml::Value) -> Result<u32, String> {
+    match v {
+        toml::Value::Integer(n) => {
+            u32::try_from(*n).map_err(|_| format!("{n} is not a day count (0..=4294967295)"))
+        }
+        toml::Value::String(s) => {
+            let bad = || format!("`{s}` is not a date (YYYY-MM-DD)");
+            let mut parts = s.splitn(3, '-');
+            let mut next = || parts.next().and_then(|p| p.parse::<u32>().ok());
+            let (y, m, d) = (
+                next().ok_or_else(bad)?,
+                next().ok_or_else(bad)?,
+                next().ok_or_else(bad)?,
+            );
+            let y = i32::try_from(y).map_err(|_| bad())?;
+            days_since_1984(y, m, d)
+                .ok_or_else(|| format!("`{s}` is not a date from 1984-01-01 on"))
+        }
+        other => Err(format!("a {} is no date", other.type_str())),
+    }
+}
+
+/// A time of day as `bus.toml` gives it: ms after midnight, or `"HH:MM[:SS[.mmm]]"`.
+fn parse_time(v: &toml::Value) -> Result<u32, String> {
+    const DAY_MS: u32 = 86_400_000;
+    let ms = match v {
+        toml::Value::Integer(n) => {
+            u32::try_from(*n).map_err(|_| format!("{n} is not a time in ms"))?
+        }
+        toml::Value::String(s) => {
+            let bad = || format!("`{s}` is not a time of day (HH:MM[:SS[.mmm]])");
+            let (hms, frac) = s.split_once('.').unwrap_or((s, ""));
+            let parts: Vec<u32> = hms
+                .split(':')
+                .map(|p| p.parse::<u32>().map_err(|_| bad()))
+                .collect::<Result<_, _>>()?;
+            let (h, m, sec) = match parts[..] {
+                [h, m] => (h, m, 0),
+                [h, m, sec] => (h, m, sec),
+                _ => return Err(bad()),
+            };
+            let millis = match frac.len() {
+                0 => 0,
+                1..=3 => frac.parse::<u32>().map_err(|_| bad())? * 10u32.pow(3 - frac.len() as u32),
+                _ => return Err(bad()),
+            };
+            if h > 23 || m > 59 || sec > 59 {
+                return Err(bad());
+            }
+            ((h * 60 + m) * 60 + sec) * 1000 + millis
+        }
+        other => return Err(format!("a {} is no time of day", other.type_str())),
+    };
+    if ms >= DAY_MS {
+        return Err(format!("{ms} ms is not within a day (< {DAY_MS})"));
+    }
+    Ok(ms)
+}
+
 /// One slave of the network.
 #[derive(Debug, Clone)]
 pub struct SlaveConfig {
@@ -123,6 +249,11 @@ pub struct SlaveConfig {
     /// Whether the manager resets it (NMT reset communication) when its error control reports
     /// it lost, so it boots again ([`crate::supervise()`]).
     pub restart_on_loss: bool,
+    /// Keep-alive (0x1F81 bit 4): the manager must not reset the slave when it is operational;
+    /// its boot first checks the node state by its heartbeat (or guarding).
+    pub keep_alive: bool,
+    /// The application software check and update (0x1F81 bits 5 and 6), if asked for.
+    pub software: Option<SoftwareCheck>,
 }
 
 /// A parsed network description.
@@ -173,6 +304,19 @@ struct RawSlave {
     error_control: ErrorControl,
     #[serde(default)]
     restart_on_loss: bool,
+    #[serde(default)]
+    keep_alive: bool,
+    software: Option<RawSoftware>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSoftware {
+    date: Option<Spanned<toml::Value>>,
+    time: Option<Spanned<toml::Value>>,
+    #[serde(default)]
+    update: bool,
+    program: Option<Spanned<String>>,
 }
 
 /// The 1-based line of byte offset `at` in `text`.
@@ -208,6 +352,16 @@ impl NetworkConfig {
     /// Parses description `text` as if read from `path` (relative paths resolve against its
     /// folder).
     pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        Self::parse_with_files(text, path, &|p| std::fs::read(p))
+    }
+
+    /// [`parse`](Self::parse), reading the files the description names (DCF, EDS, program,
+    /// master DCF) through `read` instead of the file system.
+    pub fn parse_with_files(
+        text: &str,
+        path: &Path,
+        read: &dyn Fn(&Path) -> std::io::Result<Vec<u8>>,
+    ) -> Result<Self, ConfigError> {
         let err = |span: Option<core::ops::Range<usize>>, key: Option<String>, message: String| {
             ConfigError {
                 path: path.to_owned(),
@@ -318,7 +472,7 @@ impl NetworkConfig {
             };
             let file_key = if is_dcf { "dcf" } else { "eds" };
             let source = base.join(file.get_ref());
-            let bytes = std::fs::read(&source).map_err(|e| {
+            let bytes = read(&source).map_err(|e| {
                 err(
                     Some(file.span()),
                     key(file_key),
@@ -351,6 +505,54 @@ impl NetworkConfig {
                     )
                 })?;
             }
+            let software = match s.software {
+                None => None,
+                Some(w) => {
+                    let field =
+                        |v: Option<Spanned<toml::Value>>,
+                         name: &str,
+                         parse: fn(&toml::Value) -> Result<u32, String>| {
+                            v.map(|v| {
+                                parse(v.get_ref()).map_err(|m| {
+                                    err(Some(v.span()), key(&format!("software.{name}")), m)
+                                })
+                            })
+                            .transpose()
+                        };
+                    let date = field(w.date, "date", parse_date)?;
+                    let time = field(w.time, "time", parse_time)?;
+                    let program = match w.program {
+                        None => None,
+                        Some(p) => {
+                            let path = base.join(p.get_ref());
+                            let data = read(&path).map_err(|e| {
+                                err(
+                                    Some(p.span()),
+                                    key("software.program"),
+                                    format!("{}: {e}", path.display()),
+                                )
+                            })?;
+                            if data.is_empty() {
+                                return Err(err(
+                                    Some(p.span()),
+                                    key("software.program"),
+                                    format!("{}: the program file is empty", path.display()),
+                                ));
+                            }
+                            Some(Program {
+                                path,
+                                data: Arc::new(data),
+                            })
+                        }
+                    };
+                    Some(SoftwareCheck {
+                        date,
+                        time,
+                        update: w.update,
+                        program,
+                    })
+                }
+            };
             slaves.push(SlaveConfig {
                 node_id,
                 dictionary,
@@ -359,6 +561,8 @@ impl NetworkConfig {
                 identity: s.identity,
                 error_control: s.error_control,
                 restart_on_loss: s.restart_on_loss,
+                keep_alive: s.keep_alive,
+                software,
             });
         }
         let mut config = Self {
@@ -369,8 +573,7 @@ impl NetworkConfig {
         if let Some(file) = m.as_ref().and_then(|m| m.dcf.clone()) {
             let source = base.join(file.get_ref());
             let fail = |message: String| err(Some(file.span()), Some("master.dcf".into()), message);
-            let bytes =
-                std::fs::read(&source).map_err(|e| fail(format!("{}: {e}", source.display())))?;
+            let bytes = read(&source).map_err(|e| fail(format!("{}: {e}", source.display())))?;
             let od = canopen::od::parse(&bytes)
                 .map_err(|e| fail(format!("{}: {e}", source.display())))?
                 .od;
@@ -394,6 +597,8 @@ impl NetworkConfig {
                     identity: o.identity,
                     error_control: ErrorControl::Auto,
                     restart_on_loss: false,
+                    keep_alive: o.keep_alive(),
+                    software: o.software.clone(),
                 });
             }
             if start_given {
@@ -490,6 +695,48 @@ mod tests {
         assert!(e.message.contains("master"), "{e}");
         let shown = e.to_string();
         assert!(shown.contains("bus.toml:2: slave[1].node_id: "), "{shown}");
+    }
+
+    #[test]
+    fn keep_alive_and_software_keys() {
+        let c = NetworkConfig::parse(
+            "[[slave]]\nnode_id = 5\ndcf = \"valve-boot.dcf\"\nkeep_alive = true\n[slave.software]\ndate = \"2026-03-01\"\ntime = \"10:00:01.5\"\nupdate = true\nprogram = \"valve-v2.bin\"\n",
+            &data(),
+        )
+        .unwrap();
+        let s = &c.slaves[0];
+        assert!(s.keep_alive);
+        let w = s.software.as_ref().unwrap();
+        assert_eq!(w.expected(), Some((15400, 36_001_500)));
+        assert!(w.update);
+        assert_eq!(w.program.as_ref().unwrap().data.len(), 208);
+        assert_eq!(days_since_1984(1984, 1, 1), Some(0));
+        assert_eq!(days_since_1984(1985, 3, 1), Some(366 + 59));
+        assert_eq!(days_since_1984(2023, 2, 29), None);
+
+        let base = "[[slave]]\nnode_id = 5\ndcf = \"valve-boot.dcf\"\n[slave.software]\n";
+        let e = error(&format!("{base}date = \"2026-13-01\"\n"));
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(5), Some("slave[1].software.date"))
+        );
+        let e = error(&format!("{base}date = 1\ntime = \"24:00\"\n"));
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(6), Some("slave[1].software.time"))
+        );
+        let e = error(&format!("{base}time = 86400000\n"));
+        assert!(e.message.contains("within a day"), "{e}");
+        let e = error(&format!("{base}program = \"missing.bin\"\n"));
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(5), Some("slave[1].software.program"))
+        );
+        let e = error(&format!("{base}version = 3\n"));
+        assert_eq!(e.line, Some(5));
+        assert!(e.message.contains("version"), "{e}");
+        let e = error("[[slave]]\nnode_id = 5\ndcf = \"valve.dcf\"\nkeep_alive = 3\n");
+        assert_eq!((e.line, e.key.as_deref()), (Some(4), Some("keep_alive")));
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use serde_json::{Value as Json, json};
 
 use crate::audit::AuditReport;
-use crate::boot::{BootReport, ConfigOutcome, SlaveReport};
+use crate::boot::{BootReport, ConfigOutcome, SlaveReport, SoftwareOutcome};
 
 fn micros(d: canopen::Duration) -> u64 {
     d.as_micros()
@@ -27,6 +27,11 @@ pub fn slave_json(s: &SlaveReport) -> Json {
         "object": s.object.map(|o| o.to_string()),
         "abort_code": s.abort_code.map(|c| format!("{c:#010x}")),
         "detail": s.detail,
+        "software": match s.software {
+            SoftwareOutcome::NotChecked => Json::Null,
+            SoftwareOutcome::Verified => json!("verified"),
+            SoftwareOutcome::Updated => json!("updated"),
+        },
         "configuration": configured,
         "values_written": written,
         "error_control": s.error_control,

@@ -17,6 +17,8 @@
 //! assert!(report.slaves.iter().all(|s| s.status == SlaveStatus::Operational));
 //! ```
 
+#[cfg(feature = "tokio")]
+pub mod asynch;
 pub mod audit;
 pub mod boot;
 pub mod codes;
@@ -26,8 +28,10 @@ pub mod master_dcf;
 pub mod simulate;
 pub mod supervise;
 
-pub use audit::{AuditOptions, AuditReport, audit};
-pub use boot::{BootEvent, BootReport, BootStep, SlaveReport, SlaveStatus, boot, boot_with};
+pub use audit::{AuditEvent, AuditOptions, AuditReport, audit, audit_with};
+pub use boot::{
+    BootEvent, BootReport, BootStep, SlaveReport, SlaveStatus, SoftwareOutcome, boot, boot_with,
+};
 pub use codes::BootErrorCode;
-pub use config::{ConfigError, NetworkConfig, StartPolicy};
+pub use config::{ConfigError, NetworkConfig, SoftwareCheck, StartPolicy};
 pub use supervise::{SuperviseEvent, supervise};

@@ -1,6 +1,8 @@
 //! The CiA 302 master objects, so descriptions made with other tools and this one meet: 0x1F80
 //! NMT startup, 0x1F81 slave assignment, 0x1F84..0x1F88 expected device type, vendor-ID, product
-//! code, revision and serial number, 0x1F22 concise DCFs and 0x1F89 boot time — written from a
+//! code, revision and serial number, 0x1F22 concise DCFs, 0x1F89 boot time, and for the software
+//! check (CiA 302-3) 0x1F53/0x1F54 expected application software date and time and 0x1F58
+//! program data — written from a
 //! [`NetworkConfig`] into a master dictionary (and so a master DCF), and read back from one.
 
 use std::collections::BTreeMap;
@@ -10,7 +12,7 @@ use canopen::od::{AccessType, FieldValue, Object, ObjectCode, ObjectDictionary, 
 use canopen::{DataType, NodeId};
 
 use crate::boot::configured_values;
-use crate::config::{IdentityCheck, NetworkConfig, StartPolicy};
+use crate::config::{IdentityCheck, NetworkConfig, Program, SoftwareCheck, StartPolicy};
 
 /// 0x1F80 bit 0: the device is the NMT master.
 pub const STARTUP_NMT_MASTER: u32 = 1 << 0;
@@ -24,6 +26,12 @@ pub const ASSIGN_SLAVE: u32 = 1 << 0;
 pub const ASSIGN_BOOT: u32 = 1 << 2;
 /// 0x1F81 bit 3: the slave is mandatory.
 pub const ASSIGN_MANDATORY: u32 = 1 << 3;
+/// 0x1F81 bit 4: keep-alive, do not reset the slave when it is operational.
+pub const ASSIGN_KEEP_ALIVE: u32 = 1 << 4;
+/// 0x1F81 bit 5: verify the slave's application software version (0x1F52 against 0x1F53/0x1F54).
+pub const ASSIGN_VERIFY_SOFTWARE: u32 = 1 << 5;
+/// 0x1F81 bit 6: an automatic software update (program download) is allowed.
+pub const ASSIGN_UPDATE_SOFTWARE: u32 = 1 << 6;
 
 /// What the master objects say about one slave.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -34,12 +42,19 @@ pub struct SlaveObjects {
     pub identity: IdentityCheck,
     /// 0x1F22 sub node, the concise DCF.
     pub concise_dcf: Option<Vec<u8>>,
+    /// With 0x1F81 bit 5: 0x1F53/0x1F54 sub node, bit 6, and 0x1F58 sub node.
+    pub software: Option<SoftwareCheck>,
 }
 
 impl SlaveObjects {
     /// Whether 0x1F81 marks the slave mandatory.
     pub fn mandatory(&self) -> bool {
         self.assignment & ASSIGN_MANDATORY != 0
+    }
+
+    /// Whether 0x1F81 sets the keep-alive bit.
+    pub fn keep_alive(&self) -> bool {
+        self.assignment & ASSIGN_KEEP_ALIVE != 0
     }
 }
 
@@ -89,6 +104,15 @@ impl MasterObjects {
                 if s.mandatory {
                     assignment |= ASSIGN_MANDATORY;
                 }
+                if s.keep_alive {
+                    assignment |= ASSIGN_KEEP_ALIVE;
+                }
+                if let Some(w) = &s.software {
+                    assignment |= ASSIGN_VERIFY_SOFTWARE;
+                    if w.update {
+                        assignment |= ASSIGN_UPDATE_SOFTWARE;
+                    }
+                }
                 let values = configured_values(s);
                 let concise = (!values.is_empty()).then(|| {
                     concise_dcf(
@@ -103,6 +127,7 @@ impl MasterObjects {
                         assignment,
                         identity: s.identity,
                         concise_dcf: concise,
+                        software: s.software.clone(),
                     },
                 )
             })
@@ -172,9 +197,22 @@ impl MasterObjects {
             }));
         }
         od.insert(array(0x1F22, "Concise DCF", DataType::Domain, &|s| {
-            s.concise_dcf
-                .as_ref()
-                .map(|b| b.iter().map(|x| format!("{x:02X}")).collect())
+            s.concise_dcf.as_ref().map(|b| hex(b))
+        }));
+        od.insert(array(
+            0x1F53,
+            "Expected Application SW Date",
+            DataType::Unsigned32,
+            &|s| s.software.as_ref()?.date.map(|v| format!("{v:#010x}")),
+        ));
+        od.insert(array(
+            0x1F54,
+            "Expected Application SW Time",
+            DataType::Unsigned32,
+            &|s| s.software.as_ref()?.time.map(|v| format!("{v:#010x}")),
+        ));
+        od.insert(array(0x1F58, "Program Data", DataType::Domain, &|s| {
+            s.software.as_ref()?.program.as_ref().map(|p| hex(&p.data))
         }));
         od.rebuild_object_lists();
         od
@@ -197,10 +235,21 @@ impl MasterObjects {
                 continue;
             }
             let id = |i: usize| Some(u32_at(IDENTITY[i].0, node)).filter(|&v| v != 0);
-            let concise = match value(0x1F22, node) {
+            let domain = |index: u16| match value(index, node) {
                 Some(canopen::Value::Domain(b)) if !b.is_empty() => Some(b),
                 _ => None,
             };
+            let concise = domain(0x1F22);
+            let nonzero = |index: u16| Some(u32_at(index, node)).filter(|&v| v != 0);
+            let software = (assignment & ASSIGN_VERIFY_SOFTWARE != 0).then(|| SoftwareCheck {
+                date: nonzero(0x1F53),
+                time: nonzero(0x1F54),
+                update: assignment & ASSIGN_UPDATE_SOFTWARE != 0,
+                program: domain(0x1F58).map(|data| Program {
+                    path: format!("0x1F58:{node:02X}").into(),
+                    data: std::sync::Arc::new(data),
+                }),
+            });
             slaves.insert(
                 node,
                 SlaveObjects {
@@ -213,6 +262,7 @@ impl MasterObjects {
                         serial: id(4),
                     },
                     concise_dcf: concise,
+                    software,
                 },
             );
         }
@@ -230,6 +280,11 @@ impl MasterObjects {
         od.file_info.description = Some("CANopen manager objects (CiA 302)".into());
         canopen::od::write_dcf(&od, config.master.node_id.get(), None)
     }
+}
+
+/// Bytes as the hex text of a DOMAIN value.
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|x| format!("{x:02X}")).collect()
 }
 
 /// A field from text the writer produced itself (always valid for its type).
@@ -290,6 +345,10 @@ pub fn apply(objects: &MasterObjects, config: &mut NetworkConfig) -> Vec<NodeId>
                 s.identity = o.identity;
             }
             s.mandatory |= o.mandatory();
+            s.keep_alive |= o.keep_alive();
+            if s.software.is_none() {
+                s.software = o.software.clone();
+            }
         }
     }
     objects
@@ -338,6 +397,35 @@ mod tests {
             assert_eq!((e.index, e.sub_index), (addr.index, addr.sub_index));
             assert_eq!(e.data, v.to_le_bytes());
         }
+    }
+
+    #[test]
+    fn keep_alive_and_software_objects_round_trip() {
+        let mut config = three();
+        config.slaves[0].keep_alive = true;
+        config.slaves[1].software = Some(SoftwareCheck {
+            date: Some(15400),
+            time: Some(36_000_000),
+            update: true,
+            program: Some(Program {
+                path: "0x1F58:06".into(),
+                data: std::sync::Arc::new(vec![1, 2, 3, 0xFE]),
+            }),
+        });
+        config.slaves[2].software = Some(SoftwareCheck {
+            date: Some(9),
+            ..SoftwareCheck::default()
+        });
+        let objects = MasterObjects::from_config(&config);
+        assert_eq!(objects.slaves[&5].assignment, 0x1D);
+        assert_eq!(objects.slaves[&6].assignment, 0x6D);
+        assert_eq!(objects.slaves[&7].assignment, 0x25);
+        let text = MasterObjects::write_master_dcf(&config);
+        let od = canopen::od::parse(text.as_bytes()).unwrap().od;
+        let back = MasterObjects::from_dictionary(&od);
+        assert_eq!(back, objects);
+        assert!(back.slaves[&5].keep_alive());
+        assert_eq!(back.slaves[&7].software.as_ref().unwrap().expected(), None);
     }
 
     #[test]
