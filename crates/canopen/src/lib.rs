@@ -38,6 +38,7 @@ pub mod lss;
 pub mod mem;
 pub mod network;
 mod node;
+mod pdo_access;
 mod pdo_glue;
 mod request;
 pub mod scan;
@@ -69,6 +70,9 @@ pub use error::{Error, SdoError, SdoErrorKind};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
+pub use pdo_access::{
+    MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
+};
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
