@@ -285,6 +285,9 @@ pub(crate) struct Core {
     sdo_routes: HashMap<CanId, (NodeId, usize)>,
     /// Nodes' TPDOs configured on COB-IDs other than their predefined ones, by COB-ID.
     pdo_routes: HashMap<CanId, NodeId>,
+    /// No node's PDO engine has a deadline before this (a lower bound: a deadline that moved
+    /// later is found out when this one passes, so a received PDO costs no scan of all nodes).
+    pdo_next: Option<Instant>,
 }
 
 impl Core {
@@ -312,6 +315,7 @@ impl Core {
             lss_result: None,
             sdo_routes: HashMap::new(),
             pdo_routes: HashMap::new(),
+            pdo_next: None,
         }
     }
 
@@ -433,9 +437,9 @@ impl Core {
         let Some(slot) = self.nodes.get_mut(&node) else {
             return;
         };
-        slot.pdo
-            .get_or_insert_with(crate::pdo_glue::NodePdos::new)
-            .mirror_tpdo(number, config);
+        let pdos = slot.pdo.get_or_insert_with(crate::pdo_glue::NodePdos::new);
+        pdos.mirror_tpdo(number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
         self.route_pdos();
     }
 
@@ -482,9 +486,10 @@ impl Core {
         let Some(slot) = self.nodes.get_mut(&node) else {
             return Err(canopen_pdo::EngineError::UnknownPdo);
         };
-        slot.pdo
-            .get_or_insert_with(crate::pdo_glue::NodePdos::new)
-            .start_rpdo(now, number, config)
+        let pdos = slot.pdo.get_or_insert_with(crate::pdo_glue::NodePdos::new);
+        let r = pdos.start_rpdo(now, number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        r
     }
 
     /// Reconfigures a transmitted RPDO with the node's new COB-ID and mapping, keeping the
@@ -508,16 +513,20 @@ impl Core {
         let mut config = canopen_pdo::PdoConfig::new(old.comm, mapping);
         config.comm.cob_id = comm.cob_id;
         let now = self.now;
-        pdos.start_rpdo(now, number, config)
+        let r = pdos.start_rpdo(now, number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        r
     }
 
     /// Stops transmitting `node`'s RPDO `number`; `false` when it was not transmitted.
     pub(crate) fn stop_rpdo(&mut self, node: NodeId, number: u16) -> bool {
         let now = self.now;
-        self.nodes
-            .get_mut(&node)
-            .and_then(|s| s.pdo.as_mut())
-            .is_some_and(|p| p.stop_rpdo(now, number))
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return false;
+        };
+        let stopped = pdos.stop_rpdo(now, number);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        stopped
     }
 
     /// Sets mapped values of `node`'s transmitted RPDOs (little-endian, sized as mapped) and
@@ -532,7 +541,7 @@ impl Core {
             pdos.image.set(*addr, bytes);
         }
         pdos.engine.update(now, &mut pdos.image);
-        Self::drain_pdos(pdos, &mut self.tx);
+        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
     }
 
     /// An application event for `node`'s transmitted RPDO `number`.
@@ -545,17 +554,31 @@ impl Core {
             return false;
         };
         let ok = pdos.engine.trigger(now, id, &mut pdos.image).is_ok();
-        Self::drain_pdos(pdos, &mut self.tx);
+        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
         ok
     }
 
     /// Queues a node engine's frames; its events other than receptions (deadlines, store
     /// failures) have no subscriber yet and are dropped.
-    fn drain_pdos(pdos: &mut crate::pdo_glue::NodePdos, tx: &mut VecDeque<CanFrame>) {
+    fn drain_pdos(
+        pdos: &mut crate::pdo_glue::NodePdos,
+        tx: &mut VecDeque<CanFrame>,
+        bound: &mut Option<Instant>,
+    ) {
         while let Some(f) = pdos.engine.poll_transmit() {
             tx.push_back(f);
         }
         while pdos.engine.poll_event().is_some() {}
+        Self::pdo_touched(pdos, bound);
+    }
+
+    /// After an input to a node's engine: its next deadline, and the core's bound lowered to
+    /// it.
+    fn pdo_touched(pdos: &mut crate::pdo_glue::NodePdos, bound: &mut Option<Instant>) {
+        pdos.next = pdos.engine.poll_timeout();
+        if let Some(t) = pdos.next {
+            *bound = Some(bound.map_or(t, |b| b.min(t)));
+        }
     }
 
     /// Starts an LSS job (replacing a running one).
@@ -873,6 +896,11 @@ impl Core {
                 .engine
                 .handle_frame(now, frame, &mut canopen_pdo::NullStore)
             {
+                // Reception re-arms a receive deadline (moves it later): the bound stays valid.
+                pdos.next = pdos.engine.poll_timeout();
+                if let Some(t) = pdos.next {
+                    self.pdo_next = Some(self.pdo_next.map_or(t, |b| b.min(t)));
+                }
                 while let Some(ev) = pdos.engine.poll_event() {
                     if let canopen_pdo::Event::Received { pdo, .. } = ev
                         && let Some(values) = pdos.engine.received(pdo)
@@ -954,16 +982,20 @@ impl Core {
                 for pdos in self.nodes.values_mut().filter_map(|s| s.pdo.as_mut()) {
                     if !pdos.rpdos.is_empty() {
                         pdos.engine.handle_sync(now, counter, &mut pdos.image);
-                        Self::drain_pdos(pdos, &mut self.tx);
+                        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
                     }
                 }
             }
         }
-        for pdos in self.nodes.values_mut().filter_map(|s| s.pdo.as_mut()) {
-            if is_due(pdos.engine.poll_timeout(), now) {
-                pdos.engine.handle_timeout(now, &mut pdos.image);
-                Self::drain_pdos(pdos, &mut self.tx);
+        if is_due(self.pdo_next, now) {
+            let mut next = None;
+            for pdos in self.nodes.values_mut().filter_map(|s| s.pdo.as_mut()) {
+                if is_due(pdos.next, now) {
+                    pdos.engine.handle_timeout(now, &mut pdos.image);
+                }
+                Self::drain_pdos(pdos, &mut self.tx, &mut next);
             }
+            self.pdo_next = next;
         }
         let due: Vec<(NodeId, usize)> = self
             .nodes
@@ -998,9 +1030,7 @@ impl Core {
         consider(self.sync.as_ref().and_then(|s| s.poll_timeout()));
         consider(self.guarding.poll_timeout());
         consider(self.lss.as_ref().and_then(|j| j.poll_timeout()));
-        for pdos in self.nodes.values().filter_map(|s| s.pdo.as_ref()) {
-            consider(pdos.engine.poll_timeout());
-        }
+        consider(self.pdo_next);
         for c in self.nodes.values().flat_map(|s| &s.channels) {
             consider(c.client.poll_timeout());
             if c.has_waiting() {

@@ -28,6 +28,9 @@ pub(crate) struct NodePdos {
     pub(crate) idle: Vec<TpdoId>,
     /// The values the application set for the transmitted RPDOs, by mapped object.
     pub(crate) image: MapStore,
+    /// The engine's `poll_timeout` as of its last input (kept so the core need not ask every
+    /// node's engine at every step).
+    pub(crate) next: Option<can_frame::Instant>,
 }
 
 impl NodePdos {
@@ -42,6 +45,7 @@ impl NodePdos {
             rpdos: Vec::new(),
             idle: Vec::new(),
             image: MapStore::new(),
+            next: None,
         }
     }
 
