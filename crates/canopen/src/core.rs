@@ -887,28 +887,27 @@ impl Core {
         let mut number = None;
         if let Some(slot) = self.nodes.get_mut(&node)
             && let Some(pdos) = &mut slot.pdo
-        {
-            number = pdos
-                .engine
-                .rpdo_by_can_id(frame.id())
-                .and_then(|id| pdos.tpdo_number(id));
-            if pdos
+            && pdos
                 .engine
                 .handle_frame(now, frame, &mut canopen_pdo::NullStore)
-            {
-                // Reception re-arms a receive deadline (moves it later): the bound stays valid.
-                pdos.next = pdos.engine.poll_timeout();
-                if let Some(t) = pdos.next {
-                    self.pdo_next = Some(self.pdo_next.map_or(t, |b| b.min(t)));
-                }
-                while let Some(ev) = pdos.engine.poll_event() {
-                    if let canopen_pdo::Event::Received { pdo, .. } = ev
-                        && let Some(values) = pdos.engine.received(pdo)
-                    {
-                        let values: Vec<_> =
-                            values.iter().map(|(obj, v)| (obj.addr(), v)).collect();
-                        decoded.push(values);
+        {
+            // The mirror arms no receive deadlines (see `pdo_glue::mirrored`), so a reception
+            // leaves the engine's timers as they were.
+            while let Some(ev) = pdos.engine.poll_event() {
+                match ev {
+                    canopen_pdo::Event::Received { pdo, .. } => {
+                        number = number.or_else(|| pdos.tpdo_number(pdo));
+                        if let Some(values) = pdos.engine.received(pdo) {
+                            let values: Vec<_> =
+                                values.iter().map(|(obj, v)| (obj.addr(), v)).collect();
+                            decoded.push(values);
+                        }
                     }
+                    canopen_pdo::Event::LengthError { pdo, .. }
+                    | canopen_pdo::Event::LengthExceeded { pdo, .. } => {
+                        number = number.or_else(|| pdos.tpdo_number(pdo));
+                    }
+                    _ => {}
                 }
             }
         }

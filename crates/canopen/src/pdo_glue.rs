@@ -196,10 +196,15 @@ pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> N
 /// A node's TPDO as the master's receive PDO: taken the moment it arrives. A synchronous TPDO
 /// mirrored as a synchronous RPDO would wait for the next SYNC, which the master (the SYNC
 /// producer) never receives; so the mirror is event-driven whatever the node's type.
+///
+/// The mirror arms no receive deadline (the event timer is cleared): the master reports no
+/// missing TPDOs, and a deadline re-armed by every reception would cost each received frame a
+/// timer update.
 pub(crate) fn mirrored(mut config: PdoConfig) -> PdoConfig {
     config.comm = config
         .comm
-        .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer);
+        .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer)
+        .with_event_timer(0);
     config
 }
 
