@@ -11,6 +11,9 @@
 //!   consumer, SYNC producer, LSS master) held in one sans-IO core, and drives their deadlines.
 //!   The blocking API ([`Node::sdo`], [`Node::nmt`], [`Network::lss`], [`Network::subscribe`])
 //!   and the async API ([`asynch`], `tokio` feature) are loops around that one core.
+//! * PDOs from the master: [`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO
+//!   parameters; TPDOs arrive decoded ([`NetworkEvent::PdoValues`]) from the COB-IDs the node
+//!   uses; [`Rpdos::start`] transmits its RPDOs through the `canopen-pdo` engine.
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
 //! ```
