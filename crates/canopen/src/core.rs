@@ -339,17 +339,23 @@ impl Core {
     }
 
     pub(crate) fn add_node(&mut self, node: NodeId, od: Option<Arc<ObjectDictionary>>) {
+        let with_dictionary = od.is_some();
         match self.nodes.get_mut(&node) {
             Some(slot) => {
                 if let Some(od) = od {
-                    slot.pdo = Some(crate::pdo_glue::mirror_engine(&od, node));
+                    slot.pdo
+                        .get_or_insert_with(crate::pdo_glue::NodePdos::new)
+                        .mirror_dictionary(&od, node);
                     slot.od = Some(od);
-                    self.route_pdos();
                 }
             }
             None => {
                 self.nodes.insert(node, NodeSlot::new(node, od));
             }
+        }
+        // A dictionary may put TPDOs on COB-IDs outside the predefined set.
+        if with_dictionary {
+            self.route_pdos();
         }
     }
 
@@ -542,6 +548,17 @@ impl Core {
         }
         pdos.engine.update(now, &mut pdos.image);
         Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
+    }
+
+    /// The length in bits of `addr` in `node`'s transmitted RPDO `number`: `None` when that
+    /// RPDO is not transmitted, `Some(Err(()))` when it does not map `addr`.
+    pub(crate) fn rpdo_bits(
+        &self,
+        node: NodeId,
+        number: u16,
+        addr: ObjectAddress,
+    ) -> Option<Result<u8, ()>> {
+        self.nodes.get(&node)?.pdo.as_ref()?.rpdo_bits(number, addr)
     }
 
     /// An application event for `node`'s transmitted RPDO `number`.

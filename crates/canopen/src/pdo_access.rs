@@ -441,12 +441,6 @@ impl Rpdos {
             event_timer: event_millis(how.event_timer).map_err(|m| pdo.error(m))?,
             sync_start: 0,
         };
-        let objects = mapping
-            .objects()
-            .iter()
-            .filter(|o| !o.is_dummy())
-            .map(|o| (o.addr(), o.bits()))
-            .collect();
         let now = self.node.net.now();
         let mut core = self.node.net.core();
         core.set_now(now);
@@ -457,7 +451,6 @@ impl Rpdos {
         Ok(RpdoSender {
             node: self.node.clone(),
             number: pdo.number,
-            objects,
         })
     }
 }
@@ -539,8 +532,6 @@ impl Transmission {
 pub struct RpdoSender {
     node: Node,
     number: u16,
-    /// The mapped objects and their lengths in bits.
-    objects: Vec<(ObjectAddress, u8)>,
 }
 
 impl RpdoSender {
@@ -576,12 +567,22 @@ impl RpdoSender {
         let mut encoded = Vec::new();
         for (key, value) in values {
             let addr = self.node.sdo().resolve(key)?;
-            let Some(&(_, bits)) = self.objects.iter().find(|(a, _)| *a == addr) else {
-                return Err(Error::Value {
-                    node: self.node.id,
-                    entry: addr,
-                    message: format!("not mapped in RPDO{}", self.number),
-                });
+            // The mapping as the engine has it now (a saved RPDO may have changed it).
+            let bits = match self
+                .node
+                .net
+                .core()
+                .rpdo_bits(self.node.id, self.number, addr)
+            {
+                None => return Err(self.stopped()),
+                Some(Err(())) => {
+                    return Err(Error::Value {
+                        node: self.node.id,
+                        entry: addr,
+                        message: format!("not mapped in RPDO{}", self.number),
+                    });
+                }
+                Some(Ok(bits)) => bits,
             };
             let bytes = encode(od.as_deref(), addr, bits, value.into()).map_err(|message| {
                 Error::Value {

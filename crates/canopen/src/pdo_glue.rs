@@ -182,15 +182,37 @@ pub(crate) fn device_engine(view: &OdView<'_>, now: Instant) -> Box<PdoEngine> {
 /// The master's PDOs for one node with a dictionary: the node's TPDOs (from its dictionary,
 /// `$NODEID` resolved) mirrored as receive PDOs.
 pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> NodePdos {
-    let view = OdView::new(od, node.get());
     let mut pdos = NodePdos::new();
-    for n in 0..4u16 {
-        if let Some(c) = read_pdo(&view, Direction::Transmit, n) {
-            pdos.mirror_tpdo(n as u8 + 1, c);
+    pdos.mirror_dictionary(od, node);
+    pdos
+}
+
+impl NodePdos {
+    /// Mirrors the TPDO1..4 of the node's dictionary (`$NODEID` resolved); RPDOs being
+    /// transmitted stay as they are.
+    pub(crate) fn mirror_dictionary(&mut self, od: &ObjectDictionary, node: can_frame::NodeId) {
+        let view = OdView::new(od, node.get());
+        for n in 0..4u16 {
+            if let Some(c) = read_pdo(&view, Direction::Transmit, n) {
+                self.mirror_tpdo(n as u8 + 1, c);
+            }
         }
     }
-    pdos.engine.set_enabled(Instant::ZERO, true);
-    pdos
+
+    /// The length in bits of `addr` in the node's transmitted RPDO `number`; `None` when the
+    /// RPDO is not transmitted or does not map it.
+    pub(crate) fn rpdo_bits(&self, number: u16, addr: ObjectAddress) -> Option<Result<u8, ()>> {
+        let config = self.engine.tpdo(self.rpdo_id(number)?)?;
+        Some(
+            config
+                .mapping
+                .objects()
+                .iter()
+                .find(|o| !o.is_dummy() && o.addr() == addr)
+                .map(|o| o.bits())
+                .ok_or(()),
+        )
+    }
 }
 
 /// A node's TPDO as the master's receive PDO: taken the moment it arrives. A synchronous TPDO

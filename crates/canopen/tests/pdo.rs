@@ -359,10 +359,11 @@ fn rpdo_on_change_reaches_the_device() {
     assert!(tx.set("Control Value 1.Value", "text").is_err());
     assert!(tx.set((0x2500, 1), 1.0f32).is_err(), "not mapped in RPDO1");
     tx.stop().unwrap();
-    assert!(tx.set((0x2540, 1), 2.0f32).is_ok(), "stored, not sent");
+    assert!(tx.set((0x2540, 1), 2.0f32).is_err(), "stopped");
+    assert!(tx.trigger().is_err());
+    assert!(tx.stop().is_err());
     r.net.run_for(Duration::from_millis(5)).unwrap();
     assert!(on(&frames(&mut r.tap), 0x205).is_empty());
-    assert!(tx.trigger().is_err());
     assert!(
         node.rpdo()
             .start(
@@ -514,18 +515,27 @@ fn a_transmitted_rpdo_follows_a_saved_cob_id() {
         .rpdo()
         .start(rpdos.get(1).unwrap(), Transmission::on_change())
         .unwrap();
-    rpdos
-        .get_mut(1)
-        .unwrap()
-        .set_can_id(CanId::standard(0x222).unwrap());
+    let r1 = rpdos.get_mut(1).unwrap();
+    r1.set_can_id(CanId::standard(0x222).unwrap());
+    r1.clear();
+    r1.map("Control Value 2.Value").unwrap();
     node.rpdo().save(&mut rpdos).unwrap();
     frames(&mut r.tap);
-    tx.set((0x2540, 1), 8.0f32).unwrap();
+    assert!(
+        tx.set("Control Value 1.Value", 8.0f32).is_err(),
+        "no longer mapped"
+    );
+    tx.set("Control Value 2.Value", 8.0f32).unwrap();
     r.net.run_for(Duration::from_millis(5)).unwrap();
     let seen = frames(&mut r.tap);
     assert!(on(&seen, 0x205).is_empty());
-    assert_eq!(on(&seen, 0x222).len(), 1);
-    assert_eq!(device_value(&r, 0x2540, 1), 8.0f32.to_le_bytes());
+    let sent: Vec<_> = on(&seen, 0x222).into_iter().map(|(_, d)| d).collect();
+    assert_eq!(
+        sent,
+        [8.0f32.to_le_bytes().to_vec()],
+        "4 bytes: the new mapping"
+    );
+    assert_eq!(device_value(&r, 0x2541, 1), 8.0f32.to_le_bytes());
 }
 
 /// With the background driver on a real-time bus, cyclic RPDOs flow while the application
