@@ -11,7 +11,8 @@
 //! * 0x581..=0x5FF SDO responses → the node's SDO client (`canopen-sdo`);
 //! * 0x701..=0x77F error control → the heartbeat consumer (`canopen-nmt`);
 //! * 0x081..=0x0FF EMCY → the EMCY consumer (`canopen-nmt`);
-//! * TPDO1..4 → PDO events;
+//! * TPDO1..4 → PDO events; a TPDO the node was configured to send on another COB-ID
+//!   (learnt from reading or saving its PDO parameters) is routed by that COB-ID;
 //! * 0x7E4 LSS responses → LSS events.
 //!
 //! SDO requests queue per node and run one at a time per node; different nodes run in
@@ -232,8 +233,8 @@ impl SdoChannel {
 
 struct NodeSlot {
     od: Option<Arc<ObjectDictionary>>,
-    /// The node's TPDOs mirrored as receive PDOs, with their TPDO numbers.
-    pdo: Option<crate::pdo_glue::Mirror>,
+    /// The node's TPDOs mirrored as receive PDOs, and its RPDOs the master transmits.
+    pdo: Option<crate::pdo_glue::NodePdos>,
     /// The node's SDO channels: the default one first, then those opened on other COB-IDs.
     channels: Vec<SdoChannel>,
 }
@@ -290,6 +291,11 @@ pub(crate) struct Core {
     /// Response COB-IDs of the SDO channels opened on other than the default identifiers,
     /// with their node and channel index (default channels route by function code).
     sdo_routes: HashMap<CanId, (NodeId, usize)>,
+    /// Nodes' TPDOs configured on COB-IDs other than their predefined ones, by COB-ID.
+    pdo_routes: HashMap<CanId, NodeId>,
+    /// No node's PDO engine has a deadline before this (a lower bound: a deadline that moved
+    /// later is found out when this one passes, so a received PDO costs no scan of all nodes).
+    pdo_next: Option<Instant>,
 }
 
 impl Core {
@@ -317,6 +323,8 @@ impl Core {
             lss: None,
             lss_result: None,
             sdo_routes: HashMap::new(),
+            pdo_routes: HashMap::new(),
+            pdo_next: None,
         }
     }
 
@@ -340,16 +348,23 @@ impl Core {
     }
 
     pub(crate) fn add_node(&mut self, node: NodeId, od: Option<Arc<ObjectDictionary>>) {
+        let with_dictionary = od.is_some();
         match self.nodes.get_mut(&node) {
             Some(slot) => {
                 if let Some(od) = od {
-                    slot.pdo = Some(crate::pdo_glue::mirror_engine(&od, node));
+                    slot.pdo
+                        .get_or_insert_with(crate::pdo_glue::NodePdos::new)
+                        .mirror_dictionary(&od, node);
                     slot.od = Some(od);
                 }
             }
             None => {
                 self.nodes.insert(node, NodeSlot::new(node, od));
             }
+        }
+        // A dictionary may put TPDOs on COB-IDs outside the predefined set.
+        if with_dictionary {
+            self.route_pdos();
         }
     }
 
@@ -443,25 +458,164 @@ impl Core {
         self.sync = None;
     }
 
-    /// The master's view of a node's TPDO `number` (1-based) after a remap: received frames
-    /// decode with `config` from now on.
+    /// The master's view of a node's TPDO `number` (1-based) after a remap or a read of its
+    /// parameters: received frames decode with `config` from now on, from its COB-ID.
     pub(crate) fn mirror_tpdo(&mut self, node: NodeId, number: u8, config: canopen_pdo::PdoConfig) {
-        let config = crate::pdo_glue::mirrored(config);
         let Some(slot) = self.nodes.get_mut(&node) else {
             return;
         };
-        let (engine, numbers) = slot
-            .pdo
-            .get_or_insert_with(|| (Box::new(crate::pdo_glue::PdoEngine::new()), Vec::new()));
-        match numbers.iter().find(|(n, _)| *n == number) {
-            Some((_, id)) => {
-                let _ = engine.set_rpdo(*id, config);
-            }
-            None => {
-                if let Ok(id) = engine.add_rpdo(config) {
-                    numbers.push((number, id));
+        let pdos = slot.pdo.get_or_insert_with(crate::pdo_glue::NodePdos::new);
+        pdos.mirror_tpdo(number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        self.route_pdos();
+    }
+
+    /// Rebuilds the COB-ID routes of TPDOs outside the predefined connection set.
+    fn route_pdos(&mut self) {
+        self.pdo_routes.clear();
+        for (node, slot) in &self.nodes {
+            let Some(pdos) = &slot.pdo else {
+                continue;
+            };
+            for (_, id) in &pdos.tpdos {
+                let Some(config) = pdos.engine.rpdo(*id) else {
+                    continue;
+                };
+                if !config.comm.cob_id.is_valid() || config.mapping.is_empty() {
+                    continue;
+                }
+                let Ok(can_id) = config.comm.cob_id.can_id() else {
+                    continue;
+                };
+                let predefined = can_id
+                    .as_standard()
+                    .and_then(CobId::classify)
+                    .is_some_and(|c| {
+                        matches!(c.function, FunctionCode::Tpdo(_)) && c.node == Some(*node)
+                    });
+                if !predefined {
+                    self.pdo_routes.insert(can_id, *node);
                 }
             }
+        }
+    }
+
+    /// Starts transmitting `node`'s RPDO `number` with `config` (see
+    /// [`NodePdos::start_rpdo`](crate::pdo_glue::NodePdos::start_rpdo)).
+    pub(crate) fn start_rpdo(
+        &mut self,
+        node: NodeId,
+        number: u16,
+        config: canopen_pdo::PdoConfig,
+    ) -> Result<(), canopen_pdo::EngineError> {
+        let now = self.now;
+        self.add_node(node, None);
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return Err(canopen_pdo::EngineError::UnknownPdo);
+        };
+        let pdos = slot.pdo.get_or_insert_with(crate::pdo_glue::NodePdos::new);
+        let r = pdos.start_rpdo(now, number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        r
+    }
+
+    /// Reconfigures a transmitted RPDO with the node's new COB-ID and mapping, keeping the
+    /// master's transmission parameters; nothing when it is not transmitted.
+    pub(crate) fn retarget_rpdo(
+        &mut self,
+        node: NodeId,
+        number: u16,
+        comm: canopen_pdo::CommParams,
+        mapping: canopen_pdo::Mapping,
+    ) -> Result<(), canopen_pdo::EngineError> {
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return Ok(());
+        };
+        let Some(id) = pdos.rpdo_id(number) else {
+            return Ok(());
+        };
+        let Some(old) = pdos.engine.tpdo(id).cloned() else {
+            return Ok(());
+        };
+        let mut config = canopen_pdo::PdoConfig::new(old.comm, mapping);
+        config.comm.cob_id = comm.cob_id;
+        let now = self.now;
+        let r = pdos.start_rpdo(now, number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        r
+    }
+
+    /// Stops transmitting `node`'s RPDO `number`; `false` when it was not transmitted.
+    pub(crate) fn stop_rpdo(&mut self, node: NodeId, number: u16) -> bool {
+        let now = self.now;
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return false;
+        };
+        let stopped = pdos.stop_rpdo(now, number);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        stopped
+    }
+
+    /// Sets mapped values of `node`'s transmitted RPDOs (little-endian, sized as mapped) and
+    /// lets the engine see the change: event-driven RPDOs go out now or after their inhibit
+    /// time, synchronous acyclic ones at the next SYNC.
+    pub(crate) fn set_rpdo_values(&mut self, node: NodeId, values: &[(ObjectAddress, Vec<u8>)]) {
+        let now = self.now;
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return;
+        };
+        for (addr, bytes) in values {
+            pdos.image.set(*addr, bytes);
+        }
+        pdos.engine.update(now, &mut pdos.image);
+        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
+    }
+
+    /// The length in bits of `addr` in `node`'s transmitted RPDO `number`: `None` when that
+    /// RPDO is not transmitted, `Some(Err(()))` when it does not map `addr`.
+    pub(crate) fn rpdo_bits(
+        &self,
+        node: NodeId,
+        number: u16,
+        addr: ObjectAddress,
+    ) -> Option<Result<u8, ()>> {
+        self.nodes.get(&node)?.pdo.as_ref()?.rpdo_bits(number, addr)
+    }
+
+    /// An application event for `node`'s transmitted RPDO `number`.
+    pub(crate) fn trigger_rpdo(&mut self, node: NodeId, number: u16) -> bool {
+        let now = self.now;
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return false;
+        };
+        let Some(id) = pdos.rpdo_id(number) else {
+            return false;
+        };
+        let ok = pdos.engine.trigger(now, id, &mut pdos.image).is_ok();
+        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
+        ok
+    }
+
+    /// Queues a node engine's frames; its events other than receptions (deadlines, store
+    /// failures) have no subscriber yet and are dropped.
+    fn drain_pdos(
+        pdos: &mut crate::pdo_glue::NodePdos,
+        tx: &mut VecDeque<CanFrame>,
+        bound: &mut Option<Instant>,
+    ) {
+        while let Some(f) = pdos.engine.poll_transmit() {
+            tx.push_back(f);
+        }
+        while pdos.engine.poll_event().is_some() {}
+        Self::pdo_touched(pdos, bound);
+    }
+
+    /// After an input to a node's engine: its next deadline, and the core's bound lowered to
+    /// it.
+    fn pdo_touched(pdos: &mut crate::pdo_glue::NodePdos, bound: &mut Option<Instant>) {
+        pdos.next = pdos.engine.poll_timeout();
+        if let Some(t) = pdos.next {
+            *bound = Some(bound.map_or(t, |b| b.min(t)));
         }
     }
 
@@ -685,6 +839,12 @@ impl Core {
     pub(crate) fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
         self.set_now(now);
         let Some(raw) = frame.cob_id() else {
+            // 29-bit identifiers: only PDOs configured on them.
+            if let Some(&node) = self.pdo_routes.get(&frame.id())
+                && !frame.is_remote()
+            {
+                self.handle_tpdo(now, node, None, frame);
+            }
             return;
         };
         if raw == LSS_SLAVE_TO_MASTER {
@@ -703,17 +863,18 @@ impl Core {
             self.handle_sdo_response(now, node, ch, frame);
             return;
         }
-        let Some(cob) = CobId::classify(raw) else {
-            return;
-        };
-        let Some(node) = cob.node else {
-            return;
-        };
-        match cob.function {
-            FunctionCode::SdoTx if !frame.is_remote() => {
+        let cob = CobId::classify(raw);
+        match cob {
+            Some(CobId {
+                function: FunctionCode::SdoTx,
+                node: Some(node),
+            }) if !frame.is_remote() => {
                 self.handle_sdo_response(now, node, 0, frame);
             }
-            FunctionCode::NmtErrorControl => {
+            Some(CobId {
+                function: FunctionCode::NmtErrorControl,
+                node: Some(node),
+            }) => {
                 if !frame.is_remote() && frame.data() == [0] {
                     *self.boots.entry(node).or_default() += 1;
                 }
@@ -727,53 +888,83 @@ impl Core {
                     self.drain_heartbeat();
                 }
             }
-            FunctionCode::Emcy => {
+            Some(CobId {
+                function: FunctionCode::Emcy,
+                node: Some(_),
+            }) => {
                 let _ = self.emcy.handle_frame(now, frame);
                 while let Some(ev) = self.emcy.poll_event() {
                     self.publish(NetworkEvent::Emcy(ev));
                 }
             }
-            FunctionCode::Tpdo(n) if !frame.is_remote() => {
-                self.publish(NetworkEvent::Pdo {
-                    node,
-                    number: n.get(),
-                    data: frame.data().to_vec(),
-                    at: now,
-                });
-                let mut decoded = Vec::new();
-                if let Some(slot) = self.nodes.get_mut(&node)
-                    && let Some((engine, numbers)) = &mut slot.pdo
-                    && engine.handle_frame(now, frame, &mut canopen_pdo::NullStore)
-                {
-                    while let Some(ev) = engine.poll_event() {
-                        if let canopen_pdo::Event::Received { pdo, .. } = ev
-                            && let Some(values) = engine.received(pdo)
-                        {
-                            let number = numbers
-                                .iter()
-                                .find(|(_, id)| *id == pdo)
-                                .map_or(n.get(), |(num, _)| *num);
-                            let values = values
-                                .iter()
-                                .map(|(obj, v)| {
-                                    let a = obj.addr();
-                                    (a, v)
-                                })
-                                .collect();
-                            decoded.push((number, values));
-                        }
-                    }
-                }
-                for (number, values) in decoded {
-                    self.publish(NetworkEvent::PdoValues {
-                        node,
-                        number,
-                        values,
-                        at: now,
-                    });
+            _ if frame.is_remote() => {}
+            // A TPDO configured on another COB-ID than its predefined one.
+            _ if !self.pdo_routes.is_empty() && self.pdo_routes.contains_key(&frame.id()) => {
+                if let Some(&node) = self.pdo_routes.get(&frame.id()) {
+                    self.handle_tpdo(now, node, None, frame);
                 }
             }
+            Some(CobId {
+                function: FunctionCode::Tpdo(n),
+                node: Some(node),
+            }) => self.handle_tpdo(now, node, Some(n.get()), frame),
             _ => {}
+        }
+    }
+
+    /// A TPDO of `node` (`predefined`: its number in the predefined connection set, when it
+    /// came on such a COB-ID): the raw event, then the values decoded through the mirror.
+    fn handle_tpdo(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        predefined: Option<u8>,
+        frame: &CanFrame,
+    ) {
+        let mut decoded = Vec::new();
+        let mut number = None;
+        if let Some(slot) = self.nodes.get_mut(&node)
+            && let Some(pdos) = &mut slot.pdo
+            && pdos
+                .engine
+                .handle_frame(now, frame, &mut canopen_pdo::NullStore)
+        {
+            // The mirror arms no receive deadlines (see `pdo_glue::mirrored`), so a reception
+            // leaves the engine's timers as they were.
+            while let Some(ev) = pdos.engine.poll_event() {
+                match ev {
+                    canopen_pdo::Event::Received { pdo, .. } => {
+                        number = number.or_else(|| pdos.tpdo_number(pdo));
+                        if let Some(values) = pdos.engine.received(pdo) {
+                            let values: Vec<_> =
+                                values.iter().map(|(obj, v)| (obj.addr(), v)).collect();
+                            decoded.push(values);
+                        }
+                    }
+                    canopen_pdo::Event::LengthError { pdo, .. }
+                    | canopen_pdo::Event::LengthExceeded { pdo, .. } => {
+                        number = number.or_else(|| pdos.tpdo_number(pdo));
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let Some(number) = number.or(predefined) else {
+            return;
+        };
+        self.publish(NetworkEvent::Pdo {
+            node,
+            number,
+            data: frame.data().to_vec(),
+            at: now,
+        });
+        for values in decoded {
+            self.publish(NetworkEvent::PdoValues {
+                node,
+                number,
+                values,
+                at: now,
+            });
         }
     }
 
@@ -821,8 +1012,27 @@ impl Core {
         {
             sync.handle_timeout(now);
             while let Some(f) = sync.poll_transmit_frame() {
+                // The master's own SYNC drives the synchronous RPDOs it transmits: they follow
+                // the SYNC frame on the bus.
+                let counter = f.data().first().copied();
                 self.tx.push_back(f);
+                for pdos in self.nodes.values_mut().filter_map(|s| s.pdo.as_mut()) {
+                    if !pdos.rpdos.is_empty() {
+                        pdos.engine.handle_sync(now, counter, &mut pdos.image);
+                        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
+                    }
+                }
             }
+        }
+        if is_due(self.pdo_next, now) {
+            let mut next = None;
+            for pdos in self.nodes.values_mut().filter_map(|s| s.pdo.as_mut()) {
+                if is_due(pdos.next, now) {
+                    pdos.engine.handle_timeout(now, &mut pdos.image);
+                }
+                Self::drain_pdos(pdos, &mut self.tx, &mut next);
+            }
+            self.pdo_next = next;
         }
         let due: Vec<(NodeId, usize)> = self
             .nodes
@@ -857,6 +1067,7 @@ impl Core {
         consider(self.sync.as_ref().and_then(|s| s.poll_timeout()));
         consider(self.guarding.poll_timeout());
         consider(self.lss.as_ref().and_then(|j| j.poll_timeout()));
+        consider(self.pdo_next);
         for c in self.nodes.values().flat_map(|s| &s.channels) {
             consider(c.client.poll_timeout());
             if c.has_waiting() {

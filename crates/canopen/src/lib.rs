@@ -11,6 +11,9 @@
 //!   consumer, SYNC producer, LSS master) held in one sans-IO core, and drives their deadlines.
 //!   The blocking API ([`Node::sdo`], [`Node::nmt`], [`Network::lss`], [`Network::subscribe`])
 //!   and the async API ([`asynch`], `tokio` feature) are loops around that one core.
+//! * PDOs from the master: [`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO
+//!   parameters; TPDOs arrive decoded ([`NetworkEvent::PdoValues`]) from the COB-IDs the node
+//!   uses; [`Rpdos::start`] transmits its RPDOs through the `canopen-pdo` engine.
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
 //! ```
@@ -37,6 +40,7 @@ pub mod lss;
 pub mod mem;
 pub mod network;
 mod node;
+mod pdo_access;
 mod pdo_glue;
 pub mod prelude;
 mod request;
@@ -71,6 +75,9 @@ pub use error::{Error, SdoError, SdoErrorKind};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
+pub use pdo_access::{
+    MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
+};
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};

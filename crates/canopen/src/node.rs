@@ -11,7 +11,6 @@ use canopen_sdo::{Method, SdoCobIds};
 
 use crate::error::Error;
 use crate::network::*;
-use canopen_od::ObjectAddress;
 
 /// A node on the network.
 #[derive(Clone, Debug)]
@@ -50,8 +49,9 @@ impl Node {
 
     /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
     /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
-    /// from `canopen_pdo::remap`). After a TPDO remap the master decodes that TPDO with the new
-    /// mapping.
+    /// from `canopen_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
+    /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
+    /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
     pub fn remap_pdo(
         &self,
         direction: canopen_pdo::Direction,
@@ -73,29 +73,7 @@ impl Node {
                 .sub(direction.mapping_index(n), 0)
                 .is_none_or(|s| s.access.is_writable());
         }
-        let steps = canopen_pdo::remap(direction, n, &comm, &mapping, &remote).map_err(|e| {
-            Error::Value {
-                node: self.id,
-                entry: ObjectAddress::new(direction.comm_index(n), 0),
-                message: e.to_string(),
-            }
-        })?;
-        for step in &steps {
-            self.sdo()
-                .write((step.index, step.subindex), step.value())?;
-        }
-        if matches!(direction, canopen_pdo::Direction::Transmit) {
-            let mapping = match self.dictionary() {
-                Some(od) => crate::pdo_glue::typed_mapping(&od, self.id, direction, mapping),
-                None => mapping,
-            };
-            self.net.core().mirror_tpdo(
-                self.id,
-                (n + 1) as u8,
-                canopen_pdo::PdoConfig::new(comm, mapping),
-            );
-        }
-        Ok(())
+        crate::pdo_access::configure(self, direction, n, &comm, mapping, &remote)
     }
 
     /// The node's dictionary, if it was added with one.

@@ -1,13 +1,14 @@
 //! PDO glue (CiA 301 §7.2.2): the `canopen-pdo` engine configured from a dictionary's PDO
 //! parameter objects (0x1400.., 0x1600.., 0x1800.., 0x1A00..), for the simulator (a device's own
-//! TPDOs and RPDOs over its current values) and for the master (a node's TPDOs mirrored as
-//! receive PDOs, so received frames decode into values).
+//! TPDOs and RPDOs over its current values) and for the master: per node one engine whose
+//! receive side mirrors the node's TPDOs (received frames decode into values) and whose transmit
+//! side produces the node's RPDOs from the master's process image (see [`NodePdos`]).
 
 use can_frame::{CanId, Instant};
 use canopen_od::ObjectDictionary;
 use canopen_pdo::{
-    CommParams, Dictionary, Direction, Engine, Mapping, ObjectAddress, ObjectStore, OdView,
-    PdoConfig, RpdoId, StoreError,
+    CommParams, Dictionary, Direction, Engine, MapStore, Mapping, ObjectAddress, ObjectStore,
+    OdView, PdoConfig, RpdoId, StoreError, TpdoId,
 };
 
 use crate::sim::Values;
@@ -15,8 +16,124 @@ use crate::sim::Values;
 /// Four PDOs each way, as the predefined connection set has.
 pub(crate) type PdoEngine = Engine<4, 4>;
 
-/// The master's mirror of a node's TPDOs: the engine and (TPDO number, receive PDO id) pairs.
-pub(crate) type Mirror = (Box<PdoEngine>, Vec<(u8, RpdoId)>);
+/// The master's PDOs with one node: one engine, the receive half mirroring the node's TPDOs,
+/// the transmit half producing the node's RPDOs (the master is their producer).
+pub(crate) struct NodePdos {
+    pub(crate) engine: Box<PdoEngine>,
+    /// (TPDO number of the node, the engine's receive PDO), in the engine's order.
+    pub(crate) tpdos: Vec<(u8, RpdoId)>,
+    /// (RPDO number of the node, the engine's transmit PDO) of the RPDOs being transmitted.
+    pub(crate) rpdos: Vec<(u16, TpdoId)>,
+    /// Transmit PDOs of the engine no RPDO uses any more (stopped), for reuse.
+    pub(crate) idle: Vec<TpdoId>,
+    /// The values the application set for the transmitted RPDOs, by mapped object.
+    pub(crate) image: MapStore,
+    /// The engine's `poll_timeout` as of its last input (kept so the core need not ask every
+    /// node's engine at every step).
+    pub(crate) next: Option<can_frame::Instant>,
+}
+
+impl NodePdos {
+    /// No PDOs yet. The engine takes no SYNC from frames: the master produces SYNC itself and
+    /// feeds it with `handle_sync`.
+    pub(crate) fn new() -> Self {
+        let mut engine = Box::new(PdoEngine::new());
+        engine.set_sync_cob_id(None);
+        Self {
+            engine,
+            tpdos: Vec::new(),
+            rpdos: Vec::new(),
+            idle: Vec::new(),
+            image: MapStore::new(),
+            next: None,
+        }
+    }
+
+    /// Decodes the node's TPDO `number` with `config` from now on (mirrored event-driven).
+    /// With four mirrored already, the slot of one that is not valid is taken over.
+    pub(crate) fn mirror_tpdo(&mut self, number: u8, config: PdoConfig) {
+        let config = mirrored(config);
+        if let Some((_, id)) = self.tpdos.iter().find(|(n, _)| *n == number) {
+            let _ = self.engine.set_rpdo(*id, config);
+            return;
+        }
+        match self.engine.add_rpdo(config.clone()) {
+            Ok(id) => self.tpdos.push((number, id)),
+            Err(_) => {
+                let engine = &self.engine;
+                let unused = self.tpdos.iter_mut().find(|(_, id)| {
+                    engine
+                        .rpdo(*id)
+                        .is_none_or(|c| !c.comm.cob_id.is_valid() || c.mapping.is_empty())
+                });
+                if let Some(slot) = unused
+                    && self.engine.set_rpdo(slot.1, config).is_ok()
+                {
+                    slot.0 = number;
+                }
+            }
+        }
+    }
+
+    /// The node's TPDO number of the engine's receive PDO `id`.
+    pub(crate) fn tpdo_number(&self, id: RpdoId) -> Option<u8> {
+        self.tpdos.iter().find(|(_, r)| *r == id).map(|(n, _)| *n)
+    }
+
+    /// Starts (or reconfigures) transmitting the node's RPDO `number` with `config` (the
+    /// node's COB-ID and mapping, the master's transmission parameters). Mapped objects the
+    /// application has not set yet are zero.
+    pub(crate) fn start_rpdo(
+        &mut self,
+        now: can_frame::Instant,
+        number: u16,
+        config: PdoConfig,
+    ) -> Result<(), canopen_pdo::EngineError> {
+        for o in config.mapping.objects() {
+            if !o.is_dummy() && self.image.get(o.addr()).is_none() {
+                self.image.set(o.addr(), &vec![0; o.byte_len()]);
+            }
+        }
+        if let Some((_, id)) = self.rpdos.iter().find(|(n, _)| *n == number) {
+            return self.engine.set_tpdo(now, *id, config);
+        }
+        let id = match self.idle.pop() {
+            Some(id) => match self.engine.set_tpdo(now, id, config) {
+                Ok(()) => id,
+                Err(e) => {
+                    self.idle.push(id);
+                    return Err(e);
+                }
+            },
+            None => self.engine.add_tpdo(now, config)?,
+        };
+        self.rpdos.push((number, id));
+        Ok(())
+    }
+
+    /// Stops transmitting the node's RPDO `number`; `false` when it was not transmitted.
+    pub(crate) fn stop_rpdo(&mut self, now: can_frame::Instant, number: u16) -> bool {
+        let Some(i) = self.rpdos.iter().position(|(n, _)| *n == number) else {
+            return false;
+        };
+        let (_, id) = self.rpdos.swap_remove(i);
+        // An invalid COB-ID makes the engine's PDO take part in nothing.
+        if let Some(mut config) = self.engine.tpdo(id).cloned() {
+            config.comm.cob_id = config.comm.cob_id.with_valid(false);
+            let _ = self.engine.set_tpdo(now, id, config);
+        }
+        self.idle.push(id);
+        true
+    }
+
+    /// The engine's transmit PDO of the node's RPDO `number`, when it is being transmitted.
+    pub(crate) fn rpdo_id(&self, number: u16) -> Option<TpdoId> {
+        self.rpdos
+            .iter()
+            .find(|(n, _)| *n == number)
+            .map(|(_, id)| *id)
+    }
+}
 
 /// A device's values as the PDO engine's process image.
 pub(crate) struct Store<'a>(pub(crate) &'a mut Values);
@@ -62,30 +179,54 @@ pub(crate) fn device_engine(view: &OdView<'_>, now: Instant) -> Box<PdoEngine> {
     e
 }
 
-/// The master's engine for one node: the node's TPDOs (from its dictionary, `$NODEID`
-/// resolved) as receive PDOs. Returns the engine and the TPDO number (1-based) of each RPDO.
-pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> Mirror {
-    let view = OdView::new(od, node.get());
-    let mut e = Box::new(PdoEngine::new());
-    let mut numbers = Vec::new();
-    for n in 0..4u16 {
-        if let Some(c) = read_pdo(&view, Direction::Transmit, n)
-            && let Ok(id) = e.add_rpdo(mirrored(c))
-        {
-            numbers.push((n as u8 + 1, id));
+/// The master's PDOs for one node with a dictionary: the node's TPDOs (from its dictionary,
+/// `$NODEID` resolved) mirrored as receive PDOs.
+pub(crate) fn mirror_engine(od: &ObjectDictionary, node: can_frame::NodeId) -> NodePdos {
+    let mut pdos = NodePdos::new();
+    pdos.mirror_dictionary(od, node);
+    pdos
+}
+
+impl NodePdos {
+    /// Mirrors the TPDO1..4 of the node's dictionary (`$NODEID` resolved); RPDOs being
+    /// transmitted stay as they are.
+    pub(crate) fn mirror_dictionary(&mut self, od: &ObjectDictionary, node: can_frame::NodeId) {
+        let view = OdView::new(od, node.get());
+        for n in 0..4u16 {
+            if let Some(c) = read_pdo(&view, Direction::Transmit, n) {
+                self.mirror_tpdo(n as u8 + 1, c);
+            }
         }
     }
-    e.set_enabled(Instant::ZERO, true);
-    (e, numbers)
+
+    /// The length in bits of `addr` in the node's transmitted RPDO `number`; `None` when the
+    /// RPDO is not transmitted or does not map it.
+    pub(crate) fn rpdo_bits(&self, number: u16, addr: ObjectAddress) -> Option<Result<u8, ()>> {
+        let config = self.engine.tpdo(self.rpdo_id(number)?)?;
+        Some(
+            config
+                .mapping
+                .objects()
+                .iter()
+                .find(|o| !o.is_dummy() && o.addr() == addr)
+                .map(|o| o.bits())
+                .ok_or(()),
+        )
+    }
 }
 
 /// A node's TPDO as the master's receive PDO: taken the moment it arrives. A synchronous TPDO
 /// mirrored as a synchronous RPDO would wait for the next SYNC, which the master (the SYNC
 /// producer) never receives; so the mirror is event-driven whatever the node's type.
+///
+/// The mirror arms no receive deadline (the event timer is cleared): the master reports no
+/// missing TPDOs, and a deadline re-armed by every reception would cost each received frame a
+/// timer update.
 pub(crate) fn mirrored(mut config: PdoConfig) -> PdoConfig {
     config.comm = config
         .comm
-        .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer);
+        .with_transmission_type(canopen_pdo::TransmissionType::EventManufacturer)
+        .with_event_timer(0);
     config
 }
 

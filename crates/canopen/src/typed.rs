@@ -114,7 +114,7 @@ fn type_name(t: DataType) -> String {
 }
 
 /// The object's name for messages.
-fn object_name(od: &ObjectDictionary, at: ObjectAddress) -> String {
+pub(crate) fn object_name(od: &ObjectDictionary, at: ObjectAddress) -> String {
     match od.get(at.index) {
         Some(o) if o.is_simple() => o.name.to_string(),
         Some(o) => match o.sub(at.sub_index) {
@@ -126,7 +126,7 @@ fn object_name(od: &ObjectDictionary, at: ObjectAddress) -> String {
 }
 
 /// `value` as a value of `t`, or why not.
-fn convert(value: WriteValue, t: DataType) -> Result<Value, String> {
+pub(crate) fn convert(value: WriteValue, t: DataType) -> Result<Value, String> {
     let integer = |v: i128| -> Result<Value, String> {
         match t {
             DataType::Real32 => return Ok(Value::Real32(v as f32)),
