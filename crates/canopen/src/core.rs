@@ -195,6 +195,35 @@ enum ReqState {
     Done(Result<Completion, SdoError>),
 }
 
+/// How many entries the master's tables hold at one moment, for soak tests (none may grow
+/// while the traffic stays the same) and diagnostics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub struct Occupancy {
+    /// Nodes the master knows.
+    pub nodes: usize,
+    /// SDO client channels over all nodes.
+    pub sdo_channels: usize,
+    /// Entries of the request table: queued, running, or finished and not yet taken.
+    pub requests: usize,
+    /// Requests waiting in the channels' queues.
+    pub queued_requests: usize,
+    /// Frames not yet handed to the transport.
+    pub unsent_frames: usize,
+    /// Nodes with a boot-up count.
+    pub boot_counts: usize,
+    /// Event subscribers.
+    pub subscribers: usize,
+}
+
+/// A frame waiting to be handed to the transport.
+pub(crate) struct Outgoing {
+    pub(crate) frame: CanFrame,
+    /// The SDO transfer the frame belongs to: node, channel index and the channel's transfer
+    /// number (see [`Core::withdraw`]).
+    transfer: Option<(NodeId, usize, u64)>,
+}
+
 /// One SDO client channel to a node's server (CiA 301 §7.2.4.2): its COB-IDs, its client
 /// machine and its request queue. Requests on one channel run one at a time.
 struct SdoChannel {
@@ -204,6 +233,10 @@ struct SdoChannel {
     active: Option<RequestId>,
     /// The next queued transfer may start at this time (see [`Core::settle`]).
     ready_at: Instant,
+    /// Number of the running (or last) transfer, counting from 1.
+    transfer: u64,
+    /// Frames that transfer has queued so far.
+    queued: usize,
 }
 
 impl SdoChannel {
@@ -214,6 +247,8 @@ impl SdoChannel {
             queue: VecDeque::new(),
             active: None,
             ready_at: Instant::ZERO,
+            transfer: 0,
+            queued: 0,
         }
     }
 
@@ -264,7 +299,8 @@ pub(crate) struct Core {
     /// By id; ids only grow, so a B-tree (no hashing) stays small and fast.
     requests: BTreeMap<RequestId, ReqState>,
     next_request: u64,
-    tx: VecDeque<CanFrame>,
+    /// Frames not yet handed to the transport (a full transmit queue keeps them here).
+    tx: VecDeque<Outgoing>,
     heartbeat: HeartbeatConsumer,
     guarding: Box<GuardingMaster>,
     emcy: EmcyConsumer,
@@ -385,11 +421,56 @@ impl Core {
 
     /// Queues an NMT command (COB-ID 0x000).
     pub(crate) fn nmt(&mut self, cmd: CommandSpecifier, target: NmtTarget) {
-        self.tx.push_back(NmtCommand::new(cmd, target).to_frame());
+        self.queue(NmtCommand::new(cmd, target).to_frame());
     }
 
     pub(crate) fn send_raw(&mut self, frame: CanFrame) {
-        self.tx.push_back(frame);
+        self.queue(frame);
+    }
+
+    fn queue(&mut self, frame: CanFrame) {
+        self.tx.push_back(Outgoing {
+            frame,
+            transfer: None,
+        });
+    }
+
+    /// Queues a periodic frame (SYNC, a guarding request) unless one with its identifier still
+    /// waits for the transport: while the transmit queue is full, a periodic producer must not
+    /// pile up copies, and a late copy says nothing the waiting one does not. An `urgent` frame
+    /// goes ahead of everything queued: the SYNC is the time base of the synchronous PDOs and
+    /// must not wait behind SDO frames for room in the transmit queue.
+    fn queue_periodic(&mut self, frame: CanFrame, urgent: bool) {
+        if self.tx.iter().any(|o| o.frame.id() == frame.id()) {
+            return;
+        }
+        let o = Outgoing {
+            frame,
+            transfer: None,
+        };
+        if urgent {
+            self.tx.push_front(o);
+        } else {
+            self.tx.push_back(o);
+        }
+    }
+
+    /// Takes back the frames of an SDO transfer that failed and are still waiting for the
+    /// transport. If none of its frames left, the server never heard of the transfer and its
+    /// abort goes too; otherwise the abort (command byte 0x80, no other client frame starts
+    /// so) stays, so the server ends its side, and only the data frames behind it go. Without
+    /// this, a client that times out while its frames wait for a busy bus queues an abort and
+    /// the next transfer behind them, the queue grows for as long as the bus is overloaded,
+    /// and the server gets the stale requests long after the client gave up.
+    fn withdraw(&mut self, tag: (NodeId, usize, u64), queued: usize) {
+        let waiting = self.tx.iter().filter(|o| o.transfer == Some(tag)).count();
+        if waiting == 0 {
+            return;
+        }
+        let none_left = waiting >= queued;
+        self.tx.retain(|o| {
+            o.transfer != Some(tag) || (!none_left && o.frame.data().first() == Some(&0x80))
+        });
     }
 
     pub(crate) fn monitor_heartbeat(&mut self, node: NodeId, timeout: Duration) -> bool {
@@ -405,7 +486,7 @@ impl Core {
 
     fn drain_guarding(&mut self) {
         while let Some(f) = self.guarding.poll_transmit_frame() {
-            self.tx.push_back(f);
+            self.queue_periodic(f, false);
         }
         while let Some(ev) = self.guarding.poll_event() {
             self.publish(NetworkEvent::Guarding(ev));
@@ -460,7 +541,10 @@ impl Core {
     fn pump_lss(&mut self) {
         if let Some(job) = &mut self.lss {
             while let Some(f) = job.poll_transmit() {
-                self.tx.push_back(f);
+                self.tx.push_back(Outgoing {
+                    frame: f,
+                    transfer: None,
+                });
             }
             if let Some(r) = job.poll() {
                 self.lss_result = Some(r);
@@ -546,7 +630,11 @@ impl Core {
                 return;
             };
             while let Some(data) = c.client.poll_transmit() {
-                self.tx.push_back(c.ids.request_frame(data));
+                c.queued += 1;
+                self.tx.push_back(Outgoing {
+                    frame: c.ids.request_frame(data),
+                    transfer: Some((node, ch, c.transfer)),
+                });
             }
             if let (Some(active), Some(p)) = (c.active, c.client.progress())
                 && let Some(ReqState::Active {
@@ -564,6 +652,8 @@ impl Core {
             }
             if let Some(ev) = c.client.poll_event() {
                 let finished = c.active.take();
+                let failed =
+                    matches!(ev, SdoEvent::Failed { .. }).then_some((c.transfer, c.queued));
                 let result = match ev {
                     SdoEvent::Uploaded { sink, .. } => match sink {
                         UpSink::Mem(data) => Ok(Completion {
@@ -592,6 +682,9 @@ impl Core {
                     }),
                 };
                 c.ready_at = self.now + self.settle;
+                if let Some((transfer, queued)) = failed {
+                    self.withdraw((node, ch, transfer), queued);
+                }
                 // A cancelled request is no longer in the table: its result is dropped here.
                 if let Some(id) = finished
                     && let Some(ReqState::Active { entry, .. }) = self.requests.get(&id)
@@ -632,6 +725,8 @@ impl Core {
                 progress,
                 ..
             } = req;
+            c.transfer += 1;
+            c.queued = 0;
             let cfg = c.client.config().with_timeout(timeout);
             c.client.set_config(cfg);
             let mux = Multiplexer::new(entry.index, entry.sub_index);
@@ -799,8 +894,8 @@ impl Core {
             && is_due(sync.poll_timeout(), now)
         {
             sync.handle_timeout(now);
-            while let Some(f) = sync.poll_transmit_frame() {
-                self.tx.push_back(f);
+            while let Some(f) = self.sync.as_mut().and_then(|s| s.poll_transmit_frame()) {
+                self.queue_periodic(f, true);
             }
         }
         let due: Vec<(NodeId, usize)> = self
@@ -845,9 +940,31 @@ impl Core {
         t
     }
 
-    /// The next frame to send.
-    pub(crate) fn poll_transmit(&mut self) -> Option<CanFrame> {
-        self.tx.pop_front()
+    /// The sizes of the tables (see [`Occupancy`]).
+    pub(crate) fn occupancy(&self) -> Occupancy {
+        let channels = || self.nodes.values().flat_map(|s| &s.channels);
+        Occupancy {
+            nodes: self.nodes.len(),
+            sdo_channels: channels().count(),
+            requests: self.requests.len(),
+            queued_requests: channels().map(|c| c.queue.len()).sum(),
+            unsent_frames: self.tx.len(),
+            boot_counts: self.boots.len(),
+            subscribers: self.subscribers.len(),
+        }
+    }
+
+    /// Every frame waiting to be sent, in order.
+    pub(crate) fn take_transmit(&mut self) -> Vec<Outgoing> {
+        self.tx.drain(..).collect()
+    }
+
+    /// Puts back frames the transport did not take (its transmit queue was full), ahead of
+    /// anything queued since, so the order on the bus stays the order queued.
+    pub(crate) fn unsend(&mut self, rest: Vec<Outgoing>) {
+        for o in rest.into_iter().rev() {
+            self.tx.push_front(o);
+        }
     }
 
     /// Fills in the object name of an error from the node's dictionary.

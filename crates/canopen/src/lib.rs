@@ -63,7 +63,9 @@ pub use canopen_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
 pub use canopen_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canopen_sdo::{AbortCode, Method, SdoCobIds};
 
-pub use crate::core::{CANCEL_ABORT, NetworkEvent, ProgressFn, RequestId, TransferProgress};
+pub use crate::core::{
+    CANCEL_ABORT, NetworkEvent, Occupancy, ProgressFn, RequestId, TransferProgress,
+};
 pub use describe::{BusDictionary, Description, Monitor, describe};
 pub use error::{Error, SdoError, SdoErrorKind};
 pub use lss::{Lss, LssOutcome};

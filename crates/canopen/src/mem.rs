@@ -93,6 +93,11 @@ pub struct BusConfig {
     pub worst_case_stuffing: bool,
     /// Receive queue length of each endpoint; beyond it frames are dropped and reported.
     pub queue_capacity: usize,
+    /// Frames each endpoint may have waiting for the wire; beyond it [`Transport::send`] fails
+    /// with [`TransportError::TxQueueFull`], as a SocketCAN socket does with `ENOBUFS`. A
+    /// controller's transmit queue is bounded, so a sender that offers more than the bus
+    /// carries meets back-pressure instead of an ever longer backlog.
+    pub tx_queue_capacity: usize,
     /// Fault injection.
     pub faults: Faults,
 }
@@ -104,6 +109,7 @@ impl Default for BusConfig {
             bitrate: None,
             worst_case_stuffing: false,
             queue_capacity: 4096,
+            tx_queue_capacity: 256,
             faults: Faults::none(),
         }
     }
@@ -671,6 +677,11 @@ impl MemoryBus {
         self.run_until(until);
     }
 
+    /// Frames waiting for the wire (submitted by endpoints and stations, not yet sent).
+    pub fn pending_frames(&self) -> usize {
+        self.lock().pending.len()
+    }
+
     /// Counters of what the bus did so far.
     pub fn stats(&self) -> BusStats {
         self.lock().stats
@@ -744,7 +755,12 @@ impl Transport for Endpoint {
         }
         let now = st.now();
         st.advance(now);
-        st.submit(Participant::Endpoint(self.index), *frame, now);
+        let me = Participant::Endpoint(self.index);
+        let waiting = st.pending.iter().filter(|p| p.from == me).count();
+        if waiting >= st.config.tx_queue_capacity {
+            return Err(TransportError::TxQueueFull);
+        }
+        st.submit(me, *frame, now);
         st.advance(now);
         drop(st);
         self.bus.shared.notify();
