@@ -237,6 +237,9 @@ struct SdoChannel {
     transfer: u64,
     /// Frames that transfer has queued so far.
     queued: usize,
+    /// The node sent a boot-up while the transfer ran: it ends with
+    /// [`SdoErrorKind::NodeRebooted`].
+    rebooted: bool,
 }
 
 impl SdoChannel {
@@ -249,6 +252,7 @@ impl SdoChannel {
             ready_at: Instant::ZERO,
             transfer: 0,
             queued: 0,
+            rebooted: false,
         }
     }
 
@@ -462,15 +466,43 @@ impl Core {
     /// this, a client that times out while its frames wait for a busy bus queues an abort and
     /// the next transfer behind them, the queue grows for as long as the bus is overloaded,
     /// and the server gets the stale requests long after the client gave up.
-    fn withdraw(&mut self, tag: (NodeId, usize, u64), queued: usize) {
+    ///
+    /// With `server_forgot` (the server rebooted) every waiting frame goes, the abort too.
+    fn withdraw(&mut self, tag: (NodeId, usize, u64), queued: usize, server_forgot: bool) {
         let waiting = self.tx.iter().filter(|o| o.transfer == Some(tag)).count();
         if waiting == 0 {
             return;
         }
-        let none_left = waiting >= queued;
+        let keep_abort = waiting < queued && !server_forgot;
         self.tx.retain(|o| {
-            o.transfer != Some(tag) || (!none_left && o.frame.data().first() == Some(&0x80))
+            o.transfer != Some(tag) || (keep_abort && o.frame.data().first() == Some(&0x80))
         });
+    }
+
+    /// A boot-up message from `node`: its SDO servers start idle, so every transfer running
+    /// to it can no longer complete. Each ends with [`SdoErrorKind::NodeRebooted`] at once
+    /// (rather than with the response timeout, or with the abort the rebooted server answers
+    /// the next segment with), and without an abort: the server has no transfer to abort, and
+    /// the abort service is unconfirmed (CiA 301), so one reaching an idle server changes
+    /// nothing and would only cost bus time. The transfer's frames still waiting for the transport are withdrawn; queued
+    /// requests start on the rebooted server as usual.
+    fn end_transfers_on_boot(&mut self, node: NodeId) {
+        let now = self.now;
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return;
+        };
+        let mut running = Vec::new();
+        for (i, c) in slot.channels.iter_mut().enumerate() {
+            if c.active.is_some() {
+                // The client's abort path ends the transfer; its abort frame is withdrawn
+                // with the rest (see `pump_channel`).
+                c.rebooted = c.client.abort(now, CANCEL_ABORT);
+                running.push(i);
+            }
+        }
+        for ch in running {
+            self.pump_channel(node, ch);
+        }
     }
 
     pub(crate) fn monitor_heartbeat(&mut self, node: NodeId, timeout: Duration) -> bool {
@@ -654,6 +686,7 @@ impl Core {
                 let finished = c.active.take();
                 let failed =
                     matches!(ev, SdoEvent::Failed { .. }).then_some((c.transfer, c.queued));
+                let rebooted = core::mem::take(&mut c.rebooted);
                 let result = match ev {
                     SdoEvent::Uploaded { sink, .. } => match sink {
                         UpSink::Mem(data) => Ok(Completion {
@@ -674,6 +707,7 @@ impl Core {
                         data: Vec::new(),
                         transferred: source.0.len() as u64,
                     }),
+                    SdoEvent::Failed { .. } if rebooted => Err(SdoErrorKind::NodeRebooted),
                     SdoEvent::Failed { error, buffer } => Err(match buffer {
                         canopen_sdo::Buffer::Sink(UpSink::Stream { error: Some(e), .. }) => {
                             SdoErrorKind::Io(e.to_string())
@@ -683,7 +717,7 @@ impl Core {
                 };
                 c.ready_at = self.now + self.settle;
                 if let Some((transfer, queued)) = failed {
-                    self.withdraw((node, ch, transfer), queued);
+                    self.withdraw((node, ch, transfer), queued, rebooted);
                 }
                 // A cancelled request is no longer in the table: its result is dropped here.
                 if let Some(id) = finished
@@ -790,6 +824,7 @@ impl Core {
             FunctionCode::NmtErrorControl => {
                 if !frame.is_remote() && frame.data() == [0] {
                     *self.boots.entry(node).or_default() += 1;
+                    self.end_transfers_on_boot(node);
                 }
                 // A guarded node's answers go to the guarding master alone (their toggle bit
                 // is no heartbeat state); every other node's frames to the heartbeat consumer,

@@ -935,6 +935,36 @@ mod tests {
     }
 
     #[test]
+    fn a_full_transmit_queue_refuses_frames_until_the_wire_takes_some() {
+        let bus = MemoryBus::with_config(BusConfig {
+            bitrate: Some(125_000),
+            tx_queue_capacity: 3,
+            ..BusConfig::default()
+        });
+        let mut a = bus.endpoint();
+        let mut b = bus.endpoint();
+        // The first frame goes onto the idle wire at once, three wait, the fifth is refused.
+        let results: Vec<_> = (0..5u8).map(|i| a.send(&frame(0x200, &[i]))).collect();
+        assert!(results[..4].iter().all(Result::is_ok), "{results:?}");
+        assert!(matches!(results[4], Err(TransportError::TxQueueFull)));
+        assert_eq!(bus.pending_frames(), 3);
+        // One frame time (55 bits at 125 kbit/s = 440 us) later there is room for one more.
+        let (f, _) = recv_frame(&mut b, Instant::from_micros(450)).unwrap();
+        assert_eq!(f.data(), [0]);
+        a.send(&frame(0x200, &[5])).unwrap();
+        assert!(matches!(
+            a.send(&frame(0x200, &[6])),
+            Err(TransportError::TxQueueFull)
+        ));
+        // Nothing refused was delivered, nothing accepted was lost, the order kept.
+        let mut got = vec![0];
+        while let Some((f, _)) = recv_frame(&mut b, Instant::from_millis(10)) {
+            got.push(f.data()[0]);
+        }
+        assert_eq!(got, [0, 1, 2, 3, 5]);
+    }
+
+    #[test]
     fn overflow_is_reported_not_silent() {
         let bus = MemoryBus::with_config(BusConfig {
             queue_capacity: 2,

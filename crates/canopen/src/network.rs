@@ -345,7 +345,8 @@ impl Network {
         self.core().occupancy()
     }
 
-    /// Sends what the core has queued, without waiting for anything.
+    /// Sends what the core has queued, without waiting for anything. Frames a full transmit
+    /// queue refuses ([`TransportError::TxQueueFull`]) stay queued for the next driving step.
     pub fn flush(&self) -> Result<(), Error> {
         let mut io = relock(self.inner.io.lock());
         let now = io.now();
