@@ -237,8 +237,13 @@ struct SdoChannel {
     transfer: u64,
     /// Frames that transfer has queued so far.
     queued: usize,
-    /// The node sent a boot-up while the transfer ran: it ends with
-    /// [`SdoErrorKind::NodeRebooted`].
+    /// The server has answered the running transfer at least once.
+    answered: bool,
+    /// The node sent a boot-up while the transfer ran, before the server answered it: if the
+    /// response timeout ends the transfer, the error is [`SdoErrorKind::NodeRebooted`].
+    boot_seen: bool,
+    /// The node sent a boot-up after its server had answered the transfer: it ends at once
+    /// with [`SdoErrorKind::NodeRebooted`].
     rebooted: bool,
 }
 
@@ -252,6 +257,8 @@ impl SdoChannel {
             ready_at: Instant::ZERO,
             transfer: 0,
             queued: 0,
+            answered: false,
+            boot_seen: false,
             rebooted: false,
         }
     }
@@ -479,13 +486,16 @@ impl Core {
         });
     }
 
-    /// A boot-up message from `node`: its SDO servers start idle, so every transfer running
-    /// to it can no longer complete. Each ends with [`SdoErrorKind::NodeRebooted`] at once
+    /// A boot-up message from `node`: its SDO servers start idle. A transfer the server has
+    /// answered can no longer complete: it ends with [`SdoErrorKind::NodeRebooted`] at once
     /// (rather than with the response timeout, or with the abort the rebooted server answers
-    /// the next segment with), and without an abort: the server has no transfer to abort, and
-    /// the abort service is unconfirmed (CiA 301), so one reaching an idle server changes
-    /// nothing and would only cost bus time. The transfer's frames still waiting for the transport are withdrawn; queued
-    /// requests start on the rebooted server as usual.
+    /// the next segment with). A transfer not answered yet may have been sent to the server
+    /// after its reboot (a boot-up can lose arbitration to the device's first SDO response,
+    /// or wait behind it), so it goes on; if it then times out, the error is `NodeRebooted`.
+    /// Either way without an abort: the server has no transfer to abort, and the abort
+    /// service is unconfirmed (CiA 301), so one reaching an idle server changes nothing and
+    /// would only cost bus time. The transfer's frames still waiting for the transport are
+    /// withdrawn; queued requests start on the rebooted server as usual.
     fn end_transfers_on_boot(&mut self, node: NodeId) {
         let now = self.now;
         let Some(slot) = self.nodes.get_mut(&node) else {
@@ -493,11 +503,16 @@ impl Core {
         };
         let mut running = Vec::new();
         for (i, c) in slot.channels.iter_mut().enumerate() {
-            if c.active.is_some() {
+            if c.active.is_none() {
+                continue;
+            }
+            if c.answered {
                 // The client's abort path ends the transfer; its abort frame is withdrawn
                 // with the rest (see `pump_channel`).
                 c.rebooted = c.client.abort(now, CANCEL_ABORT);
                 running.push(i);
+            } else {
+                c.boot_seen = true;
             }
         }
         for ch in running {
@@ -686,7 +701,12 @@ impl Core {
                 let finished = c.active.take();
                 let failed =
                     matches!(ev, SdoEvent::Failed { .. }).then_some((c.transfer, c.queued));
-                let rebooted = core::mem::take(&mut c.rebooted);
+                let boot_seen = core::mem::take(&mut c.boot_seen);
+                let timed_out = matches!(
+                    &ev,
+                    SdoEvent::Failed { error, .. } if error.kind == canopen_sdo::ErrorKind::Timeout
+                );
+                let rebooted = core::mem::take(&mut c.rebooted) || (boot_seen && timed_out);
                 let result = match ev {
                     SdoEvent::Uploaded { sink, .. } => match sink {
                         UpSink::Mem(data) => Ok(Completion {
@@ -761,6 +781,8 @@ impl Core {
             } = req;
             c.transfer += 1;
             c.queued = 0;
+            c.answered = false;
+            c.boot_seen = false;
             let cfg = c.client.config().with_timeout(timeout);
             c.client.set_config(cfg);
             let mux = Multiplexer::new(entry.index, entry.sub_index);
@@ -893,6 +915,7 @@ impl Core {
             .get_mut(&node)
             .and_then(|s| s.channels.get_mut(ch))
         {
+            c.answered |= c.active.is_some();
             c.client.handle_response(now, frame.data());
             self.pump_channel(node, ch);
         }

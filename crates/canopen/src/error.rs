@@ -23,8 +23,10 @@ pub enum SdoErrorKind {
     /// The transport failed while the request ran.
     Transport(String),
     /// The node sent a boot-up message (it was reset or power-cycled) while the transfer ran:
-    /// its SDO server forgot the transfer, so it ended at once, without an abort. Nothing of
-    /// a download is known to be stored; the next request goes to the rebooted node.
+    /// its SDO server forgot the transfer. A transfer the server had answered ends at once; one
+    /// not answered yet ends when its response timeout passes without an answer. No abort is
+    /// sent. Nothing of a download is known to be stored; the next request goes to the
+    /// rebooted node.
     NodeRebooted,
 }
 
