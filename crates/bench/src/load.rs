@@ -258,6 +258,8 @@ pub struct LoadConfig {
     pub seed: u64,
     /// Bus time between two memory samples.
     pub sample_every: Duration,
+    /// Frames each endpoint may have waiting for the wire ([`BusConfig::tx_queue_capacity`]).
+    pub tx_queue: usize,
 }
 
 impl LoadConfig {
@@ -274,6 +276,10 @@ impl LoadConfig {
             sdo_timeout: Duration::from_secs(5),
             seed: 1,
             sample_every: Duration::from_secs(1),
+            // The transmit queue length Linux gives a CAN interface (`txqueuelen` 10): with
+            // the SDO traffic the master offers more than the bus carries, and a deeper queue
+            // only holds more requests that reach their server after the client gave up.
+            tx_queue: 10,
         }
     }
 }
@@ -287,6 +293,48 @@ pub struct Sample {
     pub rss_kib: u64,
     /// Bytes allocated and not freed (from the caller's counting allocator), if known.
     pub live_bytes: Option<u64>,
+    /// Table sizes at the sample.
+    pub tables: Tables,
+}
+
+/// Sizes of the tables a long run must keep bounded: the master's (see
+/// [`canopen::Occupancy`]), the bus's backlog and the subscriber's own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Tables {
+    /// The master's table sizes.
+    pub master: canopen::Occupancy,
+    /// Frames waiting for the wire on the in-memory bus.
+    pub bus_backlog: usize,
+    /// Entries of the subscriber's per-node, per-TPDO counter table.
+    pub counters: usize,
+}
+
+impl Tables {
+    /// The tables with an entry per node, channel, request or subscriber (the rest are queues).
+    pub const KEYED: [&'static str; 6] = [
+        "nodes",
+        "SDO channels",
+        "requests",
+        "boot-up counts",
+        "subscribers",
+        "PDO counters",
+    ];
+
+    /// The sizes by name, for printing and comparing.
+    pub fn named(&self) -> [(&'static str, usize); 9] {
+        let m = &self.master;
+        [
+            ("nodes", m.nodes),
+            ("SDO channels", m.sdo_channels),
+            ("requests", m.requests),
+            ("queued requests", m.queued_requests),
+            ("unsent frames", m.unsent_frames),
+            ("boot-up counts", m.boot_counts),
+            ("subscribers", m.subscribers),
+            ("bus backlog", self.bus_backlog),
+            ("PDO counters", self.counters),
+        ]
+    }
 }
 
 /// Outcome of the SDO traffic.
@@ -525,6 +573,7 @@ fn rig(config: &LoadConfig) -> Rig {
         clock: ClockMode::Virtual,
         bitrate: Some(config.bitrate),
         worst_case_stuffing: config.worst_case_stuffing,
+        tx_queue_capacity: config.tx_queue,
         ..BusConfig::default()
     });
     let od = load_dictionary();
@@ -568,17 +617,24 @@ pub fn run(
         timeout: config.sdo_timeout,
     };
 
-    let sample = |t: Instant, start: Instant| Sample {
+    let sample = |t: Instant, start: Instant, counters: usize| Sample {
         bus_seconds: (t - start).as_micros() as f64 / 1e6,
         rss_kib: rss_kib(),
         live_bytes: live_bytes(),
+        tables: Tables {
+            master: net.occupancy(),
+            bus_backlog: rig.bus.pending_frames(),
+            counters,
+        },
     };
     // Room for every sample up front, so the sample list does not grow the heap it measures.
     let expected = config.bus_time.as_micros() / config.sample_every.as_micros().max(1);
     report.samples.reserve(expected as usize + 3);
     let start = net.now();
     let stats0 = rig.bus.stats();
-    report.samples.push(sample(start, start));
+    report
+        .samples
+        .push(sample(start, start, tracker.last.len()));
     let cpu0 = thread_cpu_seconds();
     net.start_sync(config.sync_period);
     let end = start + config.bus_time;
@@ -594,7 +650,7 @@ pub fn run(
             pump_sdo(&net, &mut jobs, &mut rng, &plan, &mut tally);
         }
         if t >= next_sample {
-            report.samples.push(sample(t, start));
+            report.samples.push(sample(t, start, tracker.last.len()));
             next_sample += config.sample_every;
         }
     }
@@ -607,7 +663,9 @@ pub fn run(
         tracker.take(&mut report, e);
     }
     report.cpu_seconds = thread_cpu_seconds() - cpu0;
-    report.samples.push(sample(net.now(), start));
+    report
+        .samples
+        .push(sample(net.now(), start, tracker.last.len()));
     for id in &rig.devices {
         report.sent += rig.bus.with_station(*id, |d| d.sent).unwrap_or(0);
     }

@@ -203,6 +203,35 @@ enum ReqState {
     Done(Result<Completion, SdoError>),
 }
 
+/// How many entries the master's tables hold at one moment, for soak tests (none may grow
+/// while the traffic stays the same) and diagnostics.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub struct Occupancy {
+    /// Nodes the master knows.
+    pub nodes: usize,
+    /// SDO client channels over all nodes.
+    pub sdo_channels: usize,
+    /// Entries of the request table: queued, running, or finished and not yet taken.
+    pub requests: usize,
+    /// Requests waiting in the channels' queues.
+    pub queued_requests: usize,
+    /// Frames not yet handed to the transport.
+    pub unsent_frames: usize,
+    /// Nodes with a boot-up count.
+    pub boot_counts: usize,
+    /// Event subscribers.
+    pub subscribers: usize,
+}
+
+/// A frame waiting to be handed to the transport.
+pub(crate) struct Outgoing {
+    pub(crate) frame: CanFrame,
+    /// The SDO transfer the frame belongs to: node, channel index and the channel's transfer
+    /// number (see [`Core::withdraw`]).
+    transfer: Option<(NodeId, usize, u64)>,
+}
+
 /// One SDO client channel to a node's server (CiA 301 §7.2.4.2): its COB-IDs, its client
 /// machine and its request queue. Requests on one channel run one at a time.
 struct SdoChannel {
@@ -212,6 +241,18 @@ struct SdoChannel {
     active: Option<RequestId>,
     /// The next queued transfer may start at this time (see [`Core::settle`]).
     ready_at: Instant,
+    /// Number of the running (or last) transfer, counting from 1.
+    transfer: u64,
+    /// Frames that transfer has queued so far.
+    queued: usize,
+    /// The server has answered the running transfer at least once.
+    answered: bool,
+    /// The node sent a boot-up while the transfer ran, before the server answered it: if the
+    /// response timeout ends the transfer, the error is [`SdoErrorKind::NodeRebooted`].
+    boot_seen: bool,
+    /// The node sent a boot-up after its server had answered the transfer: it ends at once
+    /// with [`SdoErrorKind::NodeRebooted`].
+    rebooted: bool,
 }
 
 impl SdoChannel {
@@ -222,6 +263,11 @@ impl SdoChannel {
             queue: VecDeque::new(),
             active: None,
             ready_at: Instant::ZERO,
+            transfer: 0,
+            queued: 0,
+            answered: false,
+            boot_seen: false,
+            rebooted: false,
         }
     }
 
@@ -272,7 +318,8 @@ pub(crate) struct Core {
     /// By id; ids only grow, so a B-tree (no hashing) stays small and fast.
     requests: BTreeMap<RequestId, ReqState>,
     next_request: u64,
-    tx: VecDeque<CanFrame>,
+    /// Frames not yet handed to the transport (a full transmit queue keeps them here).
+    tx: VecDeque<Outgoing>,
     heartbeat: HeartbeatConsumer,
     guarding: Box<GuardingMaster>,
     emcy: EmcyConsumer,
@@ -421,11 +468,92 @@ impl Core {
 
     /// Queues an NMT command (COB-ID 0x000).
     pub(crate) fn nmt(&mut self, cmd: CommandSpecifier, target: NmtTarget) {
-        self.tx.push_back(NmtCommand::new(cmd, target).to_frame());
+        self.queue(NmtCommand::new(cmd, target).to_frame());
     }
 
     pub(crate) fn send_raw(&mut self, frame: CanFrame) {
-        self.tx.push_back(frame);
+        self.queue(frame);
+    }
+
+    fn queue(&mut self, frame: CanFrame) {
+        self.tx.push_back(Outgoing {
+            frame,
+            transfer: None,
+        });
+    }
+
+    /// Queues a periodic frame (SYNC, a guarding request) unless one with its identifier still
+    /// waits for the transport: while the transmit queue is full, a periodic producer must not
+    /// pile up copies, and a late copy says nothing the waiting one does not. An `urgent` frame
+    /// goes ahead of everything queued: the SYNC is the time base of the synchronous PDOs and
+    /// must not wait behind SDO frames for room in the transmit queue.
+    fn queue_periodic(&mut self, frame: CanFrame, urgent: bool) {
+        if self.tx.iter().any(|o| o.frame.id() == frame.id()) {
+            return;
+        }
+        let o = Outgoing {
+            frame,
+            transfer: None,
+        };
+        if urgent {
+            self.tx.push_front(o);
+        } else {
+            self.tx.push_back(o);
+        }
+    }
+
+    /// Takes back the frames of an SDO transfer that failed and are still waiting for the
+    /// transport. If none of its frames left, the server never heard of the transfer and its
+    /// abort goes too; otherwise the abort (command byte 0x80, no other client frame starts
+    /// so) stays, so the server ends its side, and only the data frames behind it go. Without
+    /// this, a client that times out while its frames wait for a busy bus queues an abort and
+    /// the next transfer behind them, the queue grows for as long as the bus is overloaded,
+    /// and the server gets the stale requests long after the client gave up.
+    ///
+    /// With `server_forgot` (the server rebooted) every waiting frame goes, the abort too.
+    fn withdraw(&mut self, tag: (NodeId, usize, u64), queued: usize, server_forgot: bool) {
+        let waiting = self.tx.iter().filter(|o| o.transfer == Some(tag)).count();
+        if waiting == 0 {
+            return;
+        }
+        let keep_abort = waiting < queued && !server_forgot;
+        self.tx.retain(|o| {
+            o.transfer != Some(tag) || (keep_abort && o.frame.data().first() == Some(&0x80))
+        });
+    }
+
+    /// A boot-up message from `node`: its SDO servers start idle. A transfer the server has
+    /// answered can no longer complete: it ends with [`SdoErrorKind::NodeRebooted`] at once
+    /// (rather than with the response timeout, or with the abort the rebooted server answers
+    /// the next segment with). A transfer not answered yet may have been sent to the server
+    /// after its reboot (a boot-up can lose arbitration to the device's first SDO response,
+    /// or wait behind it), so it goes on; if it then times out, the error is `NodeRebooted`.
+    /// Either way without an abort: the server has no transfer to abort, and the abort
+    /// service is unconfirmed (CiA 301), so one reaching an idle server changes nothing and
+    /// would only cost bus time. The transfer's frames still waiting for the transport are
+    /// withdrawn; queued requests start on the rebooted server as usual.
+    fn end_transfers_on_boot(&mut self, node: NodeId) {
+        let now = self.now;
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return;
+        };
+        let mut running = Vec::new();
+        for (i, c) in slot.channels.iter_mut().enumerate() {
+            if c.active.is_none() {
+                continue;
+            }
+            if c.answered {
+                // The client's abort path ends the transfer; its abort frame is withdrawn
+                // with the rest (see `pump_channel`).
+                c.rebooted = c.client.abort(now, CANCEL_ABORT);
+                running.push(i);
+            } else {
+                c.boot_seen = true;
+            }
+        }
+        for ch in running {
+            self.pump_channel(node, ch);
+        }
     }
 
     pub(crate) fn monitor_heartbeat(&mut self, node: NodeId, timeout: Duration) -> bool {
@@ -441,7 +569,7 @@ impl Core {
 
     fn drain_guarding(&mut self) {
         while let Some(f) = self.guarding.poll_transmit_frame() {
-            self.tx.push_back(f);
+            self.queue_periodic(f, false);
         }
         while let Some(ev) = self.guarding.poll_event() {
             self.publish(NetworkEvent::Guarding(ev));
@@ -600,11 +728,14 @@ impl Core {
     /// failures) have no subscriber yet and are dropped.
     fn drain_pdos(
         pdos: &mut crate::pdo_glue::NodePdos,
-        tx: &mut VecDeque<CanFrame>,
+        tx: &mut VecDeque<Outgoing>,
         bound: &mut Option<Instant>,
     ) {
-        while let Some(f) = pdos.engine.poll_transmit() {
-            tx.push_back(f);
+        while let Some(frame) = pdos.engine.poll_transmit() {
+            tx.push_back(Outgoing {
+                frame,
+                transfer: None,
+            });
         }
         while pdos.engine.poll_event().is_some() {}
         Self::pdo_touched(pdos, bound);
@@ -635,7 +766,10 @@ impl Core {
     fn pump_lss(&mut self) {
         if let Some(job) = &mut self.lss {
             while let Some(f) = job.poll_transmit() {
-                self.tx.push_back(f);
+                self.tx.push_back(Outgoing {
+                    frame: f,
+                    transfer: None,
+                });
             }
             if let Some(r) = job.poll() {
                 self.lss_result = Some(r);
@@ -721,7 +855,11 @@ impl Core {
                 return;
             };
             while let Some(data) = c.client.poll_transmit() {
-                self.tx.push_back(c.ids.request_frame(data));
+                c.queued += 1;
+                self.tx.push_back(Outgoing {
+                    frame: c.ids.request_frame(data),
+                    transfer: Some((node, ch, c.transfer)),
+                });
             }
             if let (Some(active), Some(p)) = (c.active, c.client.progress())
                 && let Some(ReqState::Active {
@@ -739,6 +877,14 @@ impl Core {
             }
             if let Some(ev) = c.client.poll_event() {
                 let finished = c.active.take();
+                let failed =
+                    matches!(ev, SdoEvent::Failed { .. }).then_some((c.transfer, c.queued));
+                let boot_seen = core::mem::take(&mut c.boot_seen);
+                let timed_out = matches!(
+                    &ev,
+                    SdoEvent::Failed { error, .. } if error.kind == canopen_sdo::ErrorKind::Timeout
+                );
+                let rebooted = core::mem::take(&mut c.rebooted) || (boot_seen && timed_out);
                 let result = match ev {
                     SdoEvent::Uploaded { sink, .. } => match sink {
                         UpSink::Mem(data) => Ok(Completion {
@@ -759,6 +905,7 @@ impl Core {
                         data: Vec::new(),
                         transferred: source.0.len() as u64,
                     }),
+                    SdoEvent::Failed { .. } if rebooted => Err(SdoErrorKind::NodeRebooted),
                     SdoEvent::Failed { error, buffer } => Err(match buffer {
                         canopen_sdo::Buffer::Sink(UpSink::Stream { error: Some(e), .. }) => {
                             SdoErrorKind::Io(e.to_string())
@@ -767,6 +914,9 @@ impl Core {
                     }),
                 };
                 c.ready_at = self.now + self.settle;
+                if let Some((transfer, queued)) = failed {
+                    self.withdraw((node, ch, transfer), queued, rebooted);
+                }
                 // A cancelled request is no longer in the table: its result is dropped here.
                 if let Some(id) = finished
                     && let Some(ReqState::Active { entry, .. }) = self.requests.get(&id)
@@ -807,6 +957,10 @@ impl Core {
                 progress,
                 ..
             } = req;
+            c.transfer += 1;
+            c.queued = 0;
+            c.answered = false;
+            c.boot_seen = false;
             let cfg = c.client.config().with_timeout(timeout);
             c.client.set_config(cfg);
             let mux = Multiplexer::new(entry.index, entry.sub_index);
@@ -877,6 +1031,7 @@ impl Core {
             }) => {
                 if !frame.is_remote() && frame.data() == [0] {
                     *self.boots.entry(node).or_default() += 1;
+                    self.end_transfers_on_boot(node);
                 }
                 // A guarded node's answers go to the guarding master alone (their toggle bit
                 // is no heartbeat state); every other node's frames to the heartbeat consumer,
@@ -975,6 +1130,7 @@ impl Core {
             .get_mut(&node)
             .and_then(|s| s.channels.get_mut(ch))
         {
+            c.answered |= c.active.is_some();
             c.client.handle_response(now, frame.data());
             self.pump_channel(node, ch);
         }
@@ -1011,11 +1167,11 @@ impl Core {
             && is_due(sync.poll_timeout(), now)
         {
             sync.handle_timeout(now);
-            while let Some(f) = sync.poll_transmit_frame() {
+            while let Some(f) = self.sync.as_mut().and_then(|s| s.poll_transmit_frame()) {
                 // The master's own SYNC drives the synchronous RPDOs it transmits: they follow
-                // the SYNC frame on the bus.
+                // the SYNC frame on the bus (the SYNC goes to the front of the queue).
                 let counter = f.data().first().copied();
-                self.tx.push_back(f);
+                self.queue_periodic(f, true);
                 for pdos in self.nodes.values_mut().filter_map(|s| s.pdo.as_mut()) {
                     if !pdos.rpdos.is_empty() {
                         pdos.engine.handle_sync(now, counter, &mut pdos.image);
@@ -1077,9 +1233,31 @@ impl Core {
         t
     }
 
-    /// The next frame to send.
-    pub(crate) fn poll_transmit(&mut self) -> Option<CanFrame> {
-        self.tx.pop_front()
+    /// The sizes of the tables (see [`Occupancy`]).
+    pub(crate) fn occupancy(&self) -> Occupancy {
+        let channels = || self.nodes.values().flat_map(|s| &s.channels);
+        Occupancy {
+            nodes: self.nodes.len(),
+            sdo_channels: channels().count(),
+            requests: self.requests.len(),
+            queued_requests: channels().map(|c| c.queue.len()).sum(),
+            unsent_frames: self.tx.len(),
+            boot_counts: self.boots.len(),
+            subscribers: self.subscribers.len(),
+        }
+    }
+
+    /// Every frame waiting to be sent, in order.
+    pub(crate) fn take_transmit(&mut self) -> Vec<Outgoing> {
+        self.tx.drain(..).collect()
+    }
+
+    /// Puts back frames the transport did not take (its transmit queue was full), ahead of
+    /// anything queued since, so the order on the bus stays the order queued.
+    pub(crate) fn unsend(&mut self, rest: Vec<Outgoing>) {
+        for o in rest.into_iter().rev() {
+            self.tx.push_front(o);
+        }
     }
 
     /// Fills in the object name of an error from the node's dictionary.

@@ -22,6 +22,12 @@ pub enum SdoErrorKind {
     Io(String),
     /// The transport failed while the request ran.
     Transport(String),
+    /// The node sent a boot-up message (it was reset or power-cycled) while the transfer ran:
+    /// its SDO server forgot the transfer. A transfer the server had answered ends at once; one
+    /// not answered yet ends when its response timeout passes without an answer. No abort is
+    /// sent. Nothing of a download is known to be stored; the next request goes to the
+    /// rebooted node.
+    NodeRebooted,
 }
 
 /// An SDO request failed.
@@ -78,6 +84,12 @@ impl core::fmt::Display for SdoError {
             SdoErrorKind::Busy => f.write_str("the node's SDO client is busy"),
             SdoErrorKind::Io(e) => write!(f, "local I/O error: {e}"),
             SdoErrorKind::Transport(e) => write!(f, "transport failed: {e}"),
+            SdoErrorKind::NodeRebooted => write!(
+                f,
+                "node {} rebooted (boot-up message received) during the transfer; the \
+                 transfer ended without an abort, the device has forgotten it",
+                self.node
+            ),
         }
     }
 }

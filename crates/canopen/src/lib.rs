@@ -67,7 +67,9 @@ pub use canopen_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
 pub use canopen_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canopen_sdo::{AbortCode, Method, SdoCobIds};
 
-pub use crate::core::{CANCEL_ABORT, NetworkEvent, ProgressFn, RequestId, TransferProgress};
+pub use crate::core::{
+    CANCEL_ABORT, NetworkEvent, Occupancy, ProgressFn, RequestId, TransferProgress,
+};
 #[cfg(feature = "tokio")]
 pub use asynch::{EventStream, Lagged};
 pub use describe::{BusDictionary, Description, Monitor, describe};

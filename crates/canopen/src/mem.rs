@@ -96,6 +96,11 @@ pub struct BusConfig {
     pub worst_case_stuffing: bool,
     /// Receive queue length of each endpoint; beyond it frames are dropped and reported.
     pub queue_capacity: usize,
+    /// Frames each endpoint may have waiting for the wire; beyond it [`Transport::send`] fails
+    /// with [`TransportError::TxQueueFull`], as a SocketCAN socket does with `ENOBUFS`. A
+    /// controller's transmit queue is bounded, so a sender that offers more than the bus
+    /// carries meets back-pressure instead of an ever longer backlog.
+    pub tx_queue_capacity: usize,
     /// Fault injection.
     pub faults: Faults,
 }
@@ -107,6 +112,7 @@ impl Default for BusConfig {
             bitrate: None,
             worst_case_stuffing: false,
             queue_capacity: 4096,
+            tx_queue_capacity: 256,
             faults: Faults::none(),
         }
     }
@@ -675,6 +681,11 @@ impl MemoryBus {
         self.run_until(until);
     }
 
+    /// Frames waiting for the wire (submitted by endpoints and stations, not yet sent).
+    pub fn pending_frames(&self) -> usize {
+        self.lock().pending.len()
+    }
+
     /// Counters of what the bus did so far.
     pub fn stats(&self) -> BusStats {
         self.lock().stats
@@ -748,7 +759,12 @@ impl Transport for Endpoint {
         }
         let now = st.now();
         st.advance(now);
-        st.submit(Participant::Endpoint(self.index), *frame, now);
+        let me = Participant::Endpoint(self.index);
+        let waiting = st.pending.iter().filter(|p| p.from == me).count();
+        if waiting >= st.config.tx_queue_capacity {
+            return Err(TransportError::TxQueueFull);
+        }
+        st.submit(me, *frame, now);
         st.advance(now);
         drop(st);
         self.bus.shared.notify();
@@ -939,6 +955,36 @@ mod tests {
             "{stats:?}"
         );
         assert_eq!(got.len() as u64, 1000 - stats.dropped + stats.duplicated);
+    }
+
+    #[test]
+    fn a_full_transmit_queue_refuses_frames_until_the_wire_takes_some() {
+        let bus = MemoryBus::with_config(BusConfig {
+            bitrate: Some(125_000),
+            tx_queue_capacity: 3,
+            ..BusConfig::default()
+        });
+        let mut a = bus.endpoint();
+        let mut b = bus.endpoint();
+        // The first frame goes onto the idle wire at once, three wait, the fifth is refused.
+        let results: Vec<_> = (0..5u8).map(|i| a.send(&frame(0x200, &[i]))).collect();
+        assert!(results[..4].iter().all(Result::is_ok), "{results:?}");
+        assert!(matches!(results[4], Err(TransportError::TxQueueFull)));
+        assert_eq!(bus.pending_frames(), 3);
+        // One frame time (55 bits at 125 kbit/s = 440 us) later there is room for one more.
+        let (f, _) = recv_frame(&mut b, Instant::from_micros(450)).unwrap();
+        assert_eq!(f.data(), [0]);
+        a.send(&frame(0x200, &[5])).unwrap();
+        assert!(matches!(
+            a.send(&frame(0x200, &[6])),
+            Err(TransportError::TxQueueFull)
+        ));
+        // Nothing refused was delivered, nothing accepted was lost, the order kept.
+        let mut got = vec![0];
+        while let Some((f, _)) = recv_frame(&mut b, Instant::from_millis(10)) {
+            got.push(f.data()[0]);
+        }
+        assert_eq!(got, [0, 1, 2, 3, 5]);
     }
 
     #[test]

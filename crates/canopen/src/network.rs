@@ -49,6 +49,10 @@ pub const DEFAULT_SDO_TIMEOUT: Duration = Duration::from_millis(1000);
 /// requests submitted by other threads start promptly on a real clock.
 const DRIVE_SLICE: Duration = Duration::from_millis(2);
 
+/// How soon a step tries again when the transport's transmit queue was full (about two 8-byte
+/// frames at 1 Mbit/s: room comes back as frames leave the wire).
+const TX_RETRY: Duration = Duration::from_micros(250);
+
 pub(crate) struct Inner {
     core: Mutex<Core>,
     cond: Condvar,
@@ -366,18 +370,23 @@ impl Network {
         }
     }
 
-    /// Sends what the core has queued, without waiting for anything.
+    /// How many entries the master's tables hold now (nodes, SDO channels, requests, frames
+    /// waiting for the transport, ...): a long run with steady traffic must see them stay put.
+    pub fn occupancy(&self) -> crate::core::Occupancy {
+        self.core().occupancy()
+    }
+
+    /// Sends what the core has queued, without waiting for anything. Frames a full transmit
+    /// queue refuses ([`TransportError::TxQueueFull`]) stay queued for the next driving step.
     pub fn flush(&self) -> Result<(), Error> {
         let mut io = relock(self.inner.io.lock());
         let now = io.now();
         let frames = {
             let mut c = self.core();
             c.handle_timeout(now);
-            std::iter::from_fn(|| c.poll_transmit()).collect::<Vec<_>>()
+            c.take_transmit()
         };
-        for f in frames {
-            io.send(&f)?;
-        }
+        self.send_queued(&mut io, frames)?;
         drop(io);
         self.notify();
         Ok(())
@@ -405,13 +414,10 @@ impl Network {
         let (frames, next) = {
             let mut c = self.core();
             c.handle_timeout(now);
-            let frames: Vec<_> = std::iter::from_fn(|| c.poll_transmit()).collect();
-            (frames, c.poll_timeout())
+            (c.take_transmit(), c.poll_timeout())
         };
-        for f in &frames {
-            io.send(f)?;
-        }
-        let mut deadline = now + DRIVE_SLICE;
+        let backlog = self.send_queued(io, frames)?;
+        let mut deadline = now + if backlog { TX_RETRY } else { DRIVE_SLICE };
         if let Some(t) = next {
             deadline = deadline.min(t);
         }
@@ -439,13 +445,34 @@ impl Network {
                 }
             }
             c.handle_timeout(now);
-            std::iter::from_fn(|| c.poll_transmit()).collect::<Vec<_>>()
+            c.take_transmit()
         };
-        for f in &more {
-            io.send(f)?;
-        }
+        self.send_queued(io, more)?;
         self.notify();
         Ok(received)
+    }
+
+    /// Hands queued frames to the transport in order. A full transmit queue is back-pressure,
+    /// not a failure: the frames it did not take go back to the front of the core's queue for
+    /// the next step (where a failed SDO transfer's frames can still be withdrawn). Returns
+    /// whether frames stayed behind.
+    fn send_queued(
+        &self,
+        io: &mut Box<dyn Transport>,
+        mut frames: Vec<crate::core::Outgoing>,
+    ) -> Result<bool, Error> {
+        for i in 0..frames.len() {
+            match io.send(&frames[i].frame) {
+                Ok(()) => {}
+                Err(TransportError::TxQueueFull) => {
+                    let rest = frames.split_off(i);
+                    self.core().unsend(rest);
+                    return Ok(true);
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+        Ok(false)
     }
 
     pub(crate) fn submit(&self, req: SdoRequest) -> RequestId {
@@ -459,13 +486,8 @@ impl Network {
         self.wake();
         // Put the abort on the bus now if nobody is driving.
         if let Ok(mut io) = self.inner.io.try_lock() {
-            let frames: Vec<_> = {
-                let mut c = self.core();
-                std::iter::from_fn(|| c.poll_transmit()).collect()
-            };
-            for f in &frames {
-                let _ = io.send(f);
-            }
+            let frames = self.core().take_transmit();
+            let _ = self.send_queued(&mut io, frames);
         }
     }
 
