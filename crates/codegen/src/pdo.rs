@@ -52,6 +52,34 @@ fn field_type(kind: ValueKind, data_type: Option<DataType>, bits: u8) -> String 
     }
 }
 
+/// A field's name: the object's name for a VAR, the sub-object's for an ARRAY or RECORD entry,
+/// with the object's name in front when another mapped object has a sub-object of the same name
+/// (`Sensor Value 1.Value` and `Sensor Value 2.Value` become `sensor_value_1_value`, ...).
+fn field_name(od: &ObjectDictionary, mapping: &Mapping, addr: canopen_od::ObjectAddress) -> String {
+    let fallback = format!("obj_{:04x}_{}", addr.index, addr.sub_index);
+    let short = |a: canopen_od::ObjectAddress| {
+        let obj = od.get(a.index)?;
+        if obj.is_simple() {
+            return Some(names::snake(&obj.name, &fallback));
+        }
+        Some(names::snake(&obj.sub(a.sub_index)?.name, &fallback))
+    };
+    let Some(mine) = short(addr) else {
+        return fallback;
+    };
+    let shared = mapping
+        .objects()
+        .iter()
+        .filter(|o| !o.is_dummy() && o.addr() != addr)
+        .any(|o| short(o.addr()).as_deref() == Some(mine.as_str()));
+    match od.get(addr.index) {
+        Some(obj) if shared && !obj.is_simple() => {
+            names::snake(&format!("{} {}", obj.name, mine), &fallback)
+        }
+        _ => mine,
+    }
+}
+
 /// The `ValueKind` variant's name.
 fn kind_name(kind: ValueKind) -> &'static str {
     match kind {
@@ -166,15 +194,8 @@ impl Generator<'_> {
                 },
                 None => (addr.to_string(), None),
             };
-            let base = match od.get(addr.index) {
-                Some(obj) if !obj.is_simple() => obj
-                    .sub(addr.sub_index)
-                    .map_or_else(String::new, |s| s.name.to_string()),
-                Some(obj) => obj.name.to_string(),
-                None => String::new(),
-            };
             let field = scope.unique(
-                names::snake(&base, &format!("obj_{:04x}_{}", addr.index, addr.sub_index)),
+                field_name(od, mapping, addr),
                 &format!("{:04x}_{}", addr.index, addr.sub_index),
             );
             let ty = field_type(o.kind, data_type, o.bits());
