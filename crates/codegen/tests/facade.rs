@@ -154,3 +154,25 @@ fn the_client_reads_and_writes_typed_objects() {
     let err = absent.producer_heartbeat_time().read().unwrap_err();
     assert!(matches!(err, canopen::Error::Sdo(_)), "{err}");
 }
+
+#[test]
+fn fixed_and_predefined_cob_ids_and_a_struct_of_dummies() {
+    // TPDO5 maps one UNSIGNED16 dummy on the fixed COB-ID 0x40000485 (no `$NODEID`): a struct
+    // without fields, two zero bytes on 0x485 whatever the node.
+    assert_eq!(device::Tpdo5::DATA_LEN, 2);
+    let frame = device::Tpdo5 {}.to_frame(node()).unwrap();
+    assert_eq!((frame.id().as_raw(), frame.data()), (0x485, &[0u8, 0][..]));
+    assert_eq!(
+        device::Tpdo5::from_data(&[0xFF, 0xFF]),
+        Ok(device::Tpdo5 {})
+    );
+    // RPDO2 has no communication parameter in the file: the predefined connection set's.
+    assert_eq!(
+        device::Rpdo2::cob_id(node())
+            .unwrap()
+            .can_id()
+            .unwrap()
+            .as_raw(),
+        0x300 + 0x2A
+    );
+}

@@ -213,6 +213,46 @@ pub mod rpdo1_mapping_parameter {
     }
 }
 
+/// RPDO2 mapping parameter
+///
+/// Object `0x1601`, Record with 2 sub-objects.
+#[allow(dead_code)]
+pub mod rpdo2_mapping_parameter {
+    /// The object index, `0x1601`.
+    pub const INDEX: u16 = 0x1601;
+    /// Number of mapped objects
+    ///
+    /// `0x1601` sub 0: UNSIGNED8, rw; default `1`.
+    pub const NUMBER_OF_MAPPED_OBJECTS: ::canopen::od::Entry<u8> = ::canopen::od::Entry::new(0x1601, 0, ::canopen::od::DataType::Unsigned8);
+    /// Mapped object 1
+    ///
+    /// `0x1601` sub 1: UNSIGNED32, rw; default `0x20040110`.
+    pub const MAPPED_OBJECT_1: ::canopen::od::Entry<u32> = ::canopen::od::Entry::new(0x1601, 1, ::canopen::od::DataType::Unsigned32);
+
+    /// SDO access to the sub-objects of RPDO2 mapping parameter.
+    #[derive(Debug, Clone)]
+    pub struct Client {
+        node: ::canopen::Node,
+    }
+
+    impl Client {
+        /// The sub-objects on `node`.
+        pub fn new(node: ::canopen::Node) -> Self {
+            Self { node }
+        }
+
+        /// RPDO2 mapping parameter.Number of mapped objects (`0x1601:00`).
+        pub fn number_of_mapped_objects(&self) -> super::client::ReadWrite<u8> {
+            super::client::ReadWrite::new(self.node.clone(), NUMBER_OF_MAPPED_OBJECTS)
+        }
+
+        /// RPDO2 mapping parameter.Mapped object 1 (`0x1601:01`).
+        pub fn mapped_object_1(&self) -> super::client::ReadWrite<u32> {
+            super::client::ReadWrite::new(self.node.clone(), MAPPED_OBJECT_1)
+        }
+    }
+}
+
 /// TPDO1 communication parameter
 ///
 /// Object `0x1800`, Record with 6 sub-objects.
@@ -517,6 +557,82 @@ pub mod tpdo4_communication_parameter {
     }
 }
 
+/// TPDO5 communication parameter
+///
+/// Object `0x1804`, Record with 6 sub-objects.
+#[allow(dead_code)]
+pub mod tpdo5_communication_parameter {
+    /// The object index, `0x1804`.
+    pub const INDEX: u16 = 0x1804;
+    /// Highest sub-index supported
+    ///
+    /// `0x1804` sub 0: UNSIGNED8, const; default `5`.
+    pub const HIGHEST_SUB_INDEX_SUPPORTED: ::canopen::od::Entry<u8> = ::canopen::od::Entry::new(0x1804, 0, ::canopen::od::DataType::Unsigned8);
+    /// COB-ID used by PDO
+    ///
+    /// `0x1804` sub 1: UNSIGNED32, rw; default `0x40000485`.
+    pub const COB_ID_USED_BY_PDO: ::canopen::od::Entry<u32> = ::canopen::od::Entry::new(0x1804, 1, ::canopen::od::DataType::Unsigned32);
+    /// Transmission type
+    ///
+    /// `0x1804` sub 2: UNSIGNED8, rw; default `255`.
+    pub const TRANSMISSION_TYPE: ::canopen::od::Entry<u8> = ::canopen::od::Entry::new(0x1804, 2, ::canopen::od::DataType::Unsigned8);
+    /// Inhibit time
+    ///
+    /// `0x1804` sub 3: UNSIGNED16, rw; default `0`.
+    pub const INHIBIT_TIME: ::canopen::od::Entry<u16> = ::canopen::od::Entry::new(0x1804, 3, ::canopen::od::DataType::Unsigned16);
+    /// Reserved
+    ///
+    /// `0x1804` sub 4: UNSIGNED8, rw; default `0`.
+    pub const RESERVED: ::canopen::od::Entry<u8> = ::canopen::od::Entry::new(0x1804, 4, ::canopen::od::DataType::Unsigned8);
+    /// Event timer
+    ///
+    /// `0x1804` sub 5: UNSIGNED16, rw; default `0`.
+    pub const EVENT_TIMER: ::canopen::od::Entry<u16> = ::canopen::od::Entry::new(0x1804, 5, ::canopen::od::DataType::Unsigned16);
+
+    /// SDO access to the sub-objects of TPDO5 communication parameter.
+    #[derive(Debug, Clone)]
+    pub struct Client {
+        node: ::canopen::Node,
+    }
+
+    impl Client {
+        /// The sub-objects on `node`.
+        pub fn new(node: ::canopen::Node) -> Self {
+            Self { node }
+        }
+
+        /// TPDO5 communication parameter.Highest sub-index supported (`0x1804:00`).
+        pub fn highest_sub_index_supported(&self) -> super::client::ReadOnly<u8> {
+            super::client::ReadOnly::new(self.node.clone(), HIGHEST_SUB_INDEX_SUPPORTED)
+        }
+
+        /// TPDO5 communication parameter.COB-ID used by PDO (`0x1804:01`).
+        pub fn cob_id_used_by_pdo(&self) -> super::client::ReadWrite<u32> {
+            super::client::ReadWrite::new(self.node.clone(), COB_ID_USED_BY_PDO)
+        }
+
+        /// TPDO5 communication parameter.Transmission type (`0x1804:02`).
+        pub fn transmission_type(&self) -> super::client::ReadWrite<u8> {
+            super::client::ReadWrite::new(self.node.clone(), TRANSMISSION_TYPE)
+        }
+
+        /// TPDO5 communication parameter.Inhibit time (`0x1804:03`).
+        pub fn inhibit_time(&self) -> super::client::ReadWrite<u16> {
+            super::client::ReadWrite::new(self.node.clone(), INHIBIT_TIME)
+        }
+
+        /// TPDO5 communication parameter.Reserved (`0x1804:04`).
+        pub fn reserved(&self) -> super::client::ReadWrite<u8> {
+            super::client::ReadWrite::new(self.node.clone(), RESERVED)
+        }
+
+        /// TPDO5 communication parameter.Event timer (`0x1804:05`).
+        pub fn event_timer(&self) -> super::client::ReadWrite<u16> {
+            super::client::ReadWrite::new(self.node.clone(), EVENT_TIMER)
+        }
+    }
+}
+
 /// TPDO1 mapping parameter
 ///
 /// Object `0x1A00`, Record with 7 sub-objects.
@@ -749,6 +865,46 @@ pub mod tpdo4_mapping_parameter {
     }
 }
 
+/// TPDO5 mapping parameter
+///
+/// Object `0x1A04`, Record with 2 sub-objects.
+#[allow(dead_code)]
+pub mod tpdo5_mapping_parameter {
+    /// The object index, `0x1A04`.
+    pub const INDEX: u16 = 0x1A04;
+    /// Number of mapped objects
+    ///
+    /// `0x1A04` sub 0: UNSIGNED8, rw; default `1`.
+    pub const NUMBER_OF_MAPPED_OBJECTS: ::canopen::od::Entry<u8> = ::canopen::od::Entry::new(0x1A04, 0, ::canopen::od::DataType::Unsigned8);
+    /// Mapped object 1
+    ///
+    /// `0x1A04` sub 1: UNSIGNED32, rw; default `0x00060010`.
+    pub const MAPPED_OBJECT_1: ::canopen::od::Entry<u32> = ::canopen::od::Entry::new(0x1A04, 1, ::canopen::od::DataType::Unsigned32);
+
+    /// SDO access to the sub-objects of TPDO5 mapping parameter.
+    #[derive(Debug, Clone)]
+    pub struct Client {
+        node: ::canopen::Node,
+    }
+
+    impl Client {
+        /// The sub-objects on `node`.
+        pub fn new(node: ::canopen::Node) -> Self {
+            Self { node }
+        }
+
+        /// TPDO5 mapping parameter.Number of mapped objects (`0x1A04:00`).
+        pub fn number_of_mapped_objects(&self) -> super::client::ReadWrite<u8> {
+            super::client::ReadWrite::new(self.node.clone(), NUMBER_OF_MAPPED_OBJECTS)
+        }
+
+        /// TPDO5 mapping parameter.Mapped object 1 (`0x1A04:01`).
+        pub fn mapped_object_1(&self) -> super::client::ReadWrite<u32> {
+            super::client::ReadWrite::new(self.node.clone(), MAPPED_OBJECT_1)
+        }
+    }
+}
+
 /// Valve open
 ///
 /// `0x2000` sub 0: BOOLEAN, ro, PDO-mappable; default `0`.
@@ -870,6 +1026,74 @@ impl ::canopen::pdo::TypedPdo for Rpdo1 {
 impl Rpdo1 {
     /// The data bytes of a RPDO1: 4.
     pub const DATA_LEN: usize = 4;
+
+    /// Decodes a received PDO frame's data (its length must be `DATA_LEN`; the identifier is not checked, see `cob_id`).
+    pub fn from_frame(frame: &::canopen::pdo::typed::CanFrame) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        <Self as ::canopen::pdo::TypedPdo>::from_frame(frame)
+    }
+
+    /// Decodes the data bytes of a PDO (exactly `DATA_LEN` of them).
+    pub fn from_data(data: &[u8]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        <Self as ::canopen::pdo::TypedPdo>::from_data(data)
+    }
+
+    /// Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.
+    pub fn from_pairs(pairs: &[(::canopen::pdo::ObjectAddress, ::canopen::pdo::Value)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        <Self as ::canopen::pdo::TypedPdo>::from_pairs(pairs)
+    }
+
+    /// Packs the fields into `out` (dummy bits zero); returns the number of data bytes.
+    pub fn pack(&self, out: &mut [u8; 8]) -> Result<usize, ::canopen::pdo::TypedPdoError> {
+        ::canopen::pdo::TypedPdo::pack(self, out)
+    }
+
+    /// A data frame with the packed fields on the default COB-ID of `node`.
+    pub fn to_frame(self, node: ::canopen::pdo::typed::NodeId) -> Result<::canopen::pdo::typed::CanFrame, ::canopen::pdo::TypedPdoError> {
+        ::canopen::pdo::TypedPdo::to_frame(&self, node)
+    }
+
+    /// The default COB-ID for `node` (`$NODEID` resolved), if the file gives one.
+    pub fn cob_id(node: ::canopen::pdo::typed::NodeId) -> Option<::canopen::pdo::PdoCobId> {
+        <Self as ::canopen::pdo::TypedPdo>::cob_id(node)
+    }
+}
+
+/// RPDO2 (receive PDO 2, mapping `0x1601`): the master sends it, the device receives it.
+///
+/// Default COB-ID `$NODEID+0x300 (predefined connection set)`; 2 data bytes.
+/// Layout, from bit 0 of data byte 0:
+/// - bits 0..16: `setpoint_1`
+#[allow(dead_code)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Rpdo2 {
+    /// Setpoints.Setpoint 1 (`0x2004:01`, INTEGER16, 16 bits from bit 0).
+    pub setpoint_1: i16,
+}
+
+impl ::canopen::pdo::TypedPdo for Rpdo2 {
+    const DIRECTION: ::canopen::pdo::Direction = ::canopen::pdo::Direction::Receive;
+    const NUMBER: u16 = 2;
+    const ENTRIES: &'static [(u32, ::canopen::pdo::ValueKind)] = &[
+        (0x20040110, ::canopen::pdo::ValueKind::Signed),
+    ];
+    const DEFAULT_COB_ID: Option<::canopen::pdo::DefaultCobId> = Some(::canopen::pdo::DefaultCobId { raw: 0x300, adds_node_id: true });
+    fn from_values(values: &[::canopen::pdo::Value]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        Ok(Self {
+            setpoint_1: ::canopen::pdo::typed::field(values, 0, 0x20040110)?,
+        })
+    }
+    fn value_at(&self, position: usize) -> Option<::canopen::pdo::Value> {
+        match position {
+            0 => Some(::canopen::pdo::PdoField::to_value(&self.setpoint_1)),
+            _ => None,
+        }
+    }
+}
+
+#[allow(dead_code)]
+impl Rpdo2 {
+    /// The data bytes of a RPDO2: 2.
+    pub const DATA_LEN: usize = 2;
 
     /// Decodes a received PDO frame's data (its length must be `DATA_LEN`; the identifier is not checked, see `cob_id`).
     pub fn from_frame(frame: &::canopen::pdo::typed::CanFrame) -> Result<Self, ::canopen::pdo::TypedPdoError> {
@@ -1066,6 +1290,70 @@ impl Tpdo2 {
     }
 }
 
+/// TPDO5 (transmit PDO 5, mapping `0x1A04`): the device sends it, the master receives it.
+///
+/// Default COB-ID `0x40000485`; 2 data bytes.
+/// Layout, from bit 0 of data byte 0:
+/// - bits 0..16: dummy UNSIGNED16
+#[allow(dead_code)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Tpdo5 {
+}
+
+impl ::canopen::pdo::TypedPdo for Tpdo5 {
+    const DIRECTION: ::canopen::pdo::Direction = ::canopen::pdo::Direction::Transmit;
+    const NUMBER: u16 = 5;
+    const ENTRIES: &'static [(u32, ::canopen::pdo::ValueKind)] = &[
+        (0x00060010, ::canopen::pdo::ValueKind::Unsigned),
+    ];
+    const DEFAULT_COB_ID: Option<::canopen::pdo::DefaultCobId> = Some(::canopen::pdo::DefaultCobId { raw: 0x40000485, adds_node_id: false });
+    fn from_values(values: &[::canopen::pdo::Value]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        let _ = values;
+        Ok(Self {
+        })
+    }
+    fn value_at(&self, position: usize) -> Option<::canopen::pdo::Value> {
+        let _ = position;
+        None
+    }
+}
+
+#[allow(dead_code)]
+impl Tpdo5 {
+    /// The data bytes of a TPDO5: 2.
+    pub const DATA_LEN: usize = 2;
+
+    /// Decodes a received PDO frame's data (its length must be `DATA_LEN`; the identifier is not checked, see `cob_id`).
+    pub fn from_frame(frame: &::canopen::pdo::typed::CanFrame) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        <Self as ::canopen::pdo::TypedPdo>::from_frame(frame)
+    }
+
+    /// Decodes the data bytes of a PDO (exactly `DATA_LEN` of them).
+    pub fn from_data(data: &[u8]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        <Self as ::canopen::pdo::TypedPdo>::from_data(data)
+    }
+
+    /// Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.
+    pub fn from_pairs(pairs: &[(::canopen::pdo::ObjectAddress, ::canopen::pdo::Value)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+        <Self as ::canopen::pdo::TypedPdo>::from_pairs(pairs)
+    }
+
+    /// Packs the fields into `out` (dummy bits zero); returns the number of data bytes.
+    pub fn pack(&self, out: &mut [u8; 8]) -> Result<usize, ::canopen::pdo::TypedPdoError> {
+        ::canopen::pdo::TypedPdo::pack(self, out)
+    }
+
+    /// A data frame with the packed fields on the default COB-ID of `node`.
+    pub fn to_frame(self, node: ::canopen::pdo::typed::NodeId) -> Result<::canopen::pdo::typed::CanFrame, ::canopen::pdo::TypedPdoError> {
+        ::canopen::pdo::TypedPdo::to_frame(&self, node)
+    }
+
+    /// The default COB-ID for `node` (`$NODEID` resolved), if the file gives one.
+    pub fn cob_id(node: ::canopen::pdo::typed::NodeId) -> Option<::canopen::pdo::PdoCobId> {
+        <Self as ::canopen::pdo::TypedPdo>::cob_id(node)
+    }
+}
+
 /// Typed SDO access to canopen-rs PDO test device: [`client::Device`] has one method per object.
 #[allow(dead_code)]
 pub mod client {
@@ -1198,6 +1486,11 @@ pub mod client {
             super::rpdo1_mapping_parameter::Client::new(self.node.clone())
         }
 
+        /// RPDO2 mapping parameter (`0x1601`): its sub-objects.
+        pub fn rpdo2_mapping_parameter(&self) -> super::rpdo2_mapping_parameter::Client {
+            super::rpdo2_mapping_parameter::Client::new(self.node.clone())
+        }
+
         /// TPDO1 communication parameter (`0x1800`): its sub-objects.
         pub fn tpdo1_communication_parameter(&self) -> super::tpdo1_communication_parameter::Client {
             super::tpdo1_communication_parameter::Client::new(self.node.clone())
@@ -1218,6 +1511,11 @@ pub mod client {
             super::tpdo4_communication_parameter::Client::new(self.node.clone())
         }
 
+        /// TPDO5 communication parameter (`0x1804`): its sub-objects.
+        pub fn tpdo5_communication_parameter(&self) -> super::tpdo5_communication_parameter::Client {
+            super::tpdo5_communication_parameter::Client::new(self.node.clone())
+        }
+
         /// TPDO1 mapping parameter (`0x1A00`): its sub-objects.
         pub fn tpdo1_mapping_parameter(&self) -> super::tpdo1_mapping_parameter::Client {
             super::tpdo1_mapping_parameter::Client::new(self.node.clone())
@@ -1236,6 +1534,11 @@ pub mod client {
         /// TPDO4 mapping parameter (`0x1A03`): its sub-objects.
         pub fn tpdo4_mapping_parameter(&self) -> super::tpdo4_mapping_parameter::Client {
             super::tpdo4_mapping_parameter::Client::new(self.node.clone())
+        }
+
+        /// TPDO5 mapping parameter (`0x1A04`): its sub-objects.
+        pub fn tpdo5_mapping_parameter(&self) -> super::tpdo5_mapping_parameter::Client {
+            super::tpdo5_mapping_parameter::Client::new(self.node.clone())
         }
 
         /// Valve open (`0x2000:00`).
