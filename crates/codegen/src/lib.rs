@@ -35,6 +35,35 @@
 //! let vendor: u32 = node.sdo().read_entry(&identity::VENDOR_ID)?;
 //! node.sdo().write_entry(&PRODUCER_HEARTBEAT_TIME, &1000)?;
 //! ```
+//!
+//! # PDO structs and the typed client
+//!
+//! [`Config::pdo_structs`] adds one struct per PDO the file maps by default (`Rpdo1` for
+//! 0x1600, `Tpdo1` for 0x1A00, ...) with a named field of the mapped object's Rust type per
+//! entry; dummy entries take their bits and no field, and 1-bit BOOLEANs or fields that do not
+//! start on a byte are packed and unpacked by `canopen-pdo` (the structs implement
+//! `canopen_pdo::TypedPdo`; the generated code holds no bit arithmetic). The default COB-ID
+//! keeps `$NODEID` as "add the node-ID", resolved when the node is known. Mappings the file
+//! leaves empty give no struct; an invalid one gives none and a note ([`Config::compile`] passes
+//! notes to cargo as warnings). [`Config::client`] adds `client::Device`, one method per object
+//! over the `canopen` facade. [`Config::for_canopen`] turns both on with paths into the
+//! facade, so an application needs only `canopen`:
+//!
+//! ```ignore
+//! // build.rs
+//! canopen_codegen::Config::for_canopen().compile("eds/my-device.eds").unwrap();
+//!
+//! // the application
+//! include!(concat!(env!("OUT_DIR"), "/my-device.rs"));
+//! let dev = client::Device::new(network.node(node_id));
+//! dev.producer_heartbeat_time().write(200)?; // UNSIGNED16: `200` is a u16
+//! let serial: u32 = dev.identity_object().serial_number().read()?;
+//! let tpdo1 = Tpdo1::from_frame(&frame)?; // one call, typed fields
+//! assert_eq!(Tpdo1::cob_id(node_id).map(|c| c.0), Some(0x180 + u32::from(node_id.get())));
+//! network.send(Rpdo1 { setpoint: 42, ..Default::default() }.to_frame(node_id)?)?;
+//! ```
+//!
+//! The workspace's `examples/codegen-app` is such an application, run on the in-memory bus.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
