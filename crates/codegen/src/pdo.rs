@@ -103,7 +103,12 @@ fn dummy_name(index: u16) -> String {
 fn default_cob_id(od: &ObjectDictionary, dir: Direction, n: u16) -> Option<(u32, bool, String)> {
     let comm = dir.comm_index(n);
     if let Some(sub) = od.sub(comm, 1) {
-        let field = sub.parameter_value().or(sub.default_value.as_ref())?;
+        // A DCF's configured value when it has one (`ParameterValue=` may be empty), else the
+        // default.
+        let field = sub
+            .parameter_value()
+            .filter(|f| f.value.is_some())
+            .or(sub.default_value.as_ref())?;
         let value = field.value.as_ref()?;
         let raw = match value.value {
             Value::Unsigned32(v) => v,
