@@ -74,6 +74,13 @@ pub(crate) enum EdsCommand {
         /// Also emit a static, allocation-free dictionary of every sub-object.
         #[arg(long)]
         static_dictionary: bool,
+        /// Also emit one struct per default PDO mapping (`Tpdo1`, `Rpdo1`, ...; needs canopen-pdo).
+        #[arg(long)]
+        pdo_structs: bool,
+        /// The preset for an application on the `canopen` crate: paths through `::canopen`,
+        /// PDO structs and the typed node client (`client::Device`).
+        #[arg(long)]
+        for_canopen: bool,
         /// Output file (default: stdout).
         #[arg(short, long)]
         output: Option<PathBuf>,
@@ -102,6 +109,8 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
         EdsCommand::Codegen {
             file,
             static_dictionary,
+            pdo_structs,
+            for_canopen,
             output,
             report,
         } => with_od(&file, report, |od| {
@@ -109,9 +118,19 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
                 || file.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
             );
-            let code = canopen_codegen::Config::new()
-                .static_dictionary(static_dictionary)
-                .generate(od, &name);
+            let mut config = if for_canopen {
+                canopen_codegen::Config::for_canopen()
+            } else {
+                canopen_codegen::Config::new()
+            };
+            config.static_dictionary(static_dictionary);
+            if pdo_structs {
+                config.pdo_structs(true);
+            }
+            let (code, notes) = config.generate_with_notes(od, &name);
+            for note in notes {
+                eprintln!("{}: warning: codegen: {note}", file.display());
+            }
             emit(output.as_deref(), &code)
         }),
     }

@@ -187,6 +187,27 @@ fn codegen_writes_typed_entries() {
 }
 
 #[test]
+fn codegen_for_canopen_adds_pdo_structs_and_the_client_and_warns_of_what_it_leaves_out() {
+    let eds = repo("crates/codegen/tests/data/pdo-device.eds");
+    let out = canopen(&["eds", "codegen", "--for-canopen", &eds]);
+    assert!(out.status.success());
+    let code = String::from_utf8_lossy(&out.stdout);
+    assert!(code.contains("pub struct Tpdo1 {"));
+    assert!(code.contains("impl ::canopen::pdo::TypedPdo for Tpdo1 {"));
+    assert!(code.contains("pub fn producer_heartbeat_time(&self) -> ReadWrite<u16>"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("pdo-device.eds: warning: codegen: no struct Tpdo4"),
+        "{stderr}"
+    );
+    // PDO structs alone refer to canopen-pdo and have no client.
+    let out = canopen(&["eds", "codegen", "--pdo-structs", &eds]);
+    let code = String::from_utf8_lossy(&out.stdout);
+    assert!(code.contains("impl ::canopen_pdo::TypedPdo for Tpdo1 {"));
+    assert!(!code.contains("pub mod client"));
+}
+
+#[test]
 fn lint_is_clean_for_the_burkert_eds_and_finds_faults_elsewhere() {
     let out = canopen(&["eds", "lint", &repo("eds/burkert-generic.eds")]);
     assert!(

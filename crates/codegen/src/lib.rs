@@ -35,6 +35,35 @@
 //! let vendor: u32 = node.sdo().read_entry(&identity::VENDOR_ID)?;
 //! node.sdo().write_entry(&PRODUCER_HEARTBEAT_TIME, &1000)?;
 //! ```
+//!
+//! # PDO structs and the typed client
+//!
+//! [`Config::pdo_structs`] adds one struct per PDO the file maps by default (`Rpdo1` for
+//! 0x1600, `Tpdo1` for 0x1A00, ...) with a named field of the mapped object's Rust type per
+//! entry; dummy entries take their bits and no field, and 1-bit BOOLEANs or fields that do not
+//! start on a byte are packed and unpacked by `canopen-pdo` (the structs implement
+//! `canopen_pdo::TypedPdo`; the generated code holds no bit arithmetic). The default COB-ID
+//! keeps `$NODEID` as "add the node-ID", resolved when the node is known. Mappings the file
+//! leaves empty give no struct; an invalid one gives none and a note ([`Config::compile`] passes
+//! notes to cargo as warnings). [`Config::client`] adds `client::Device`, one method per object
+//! over the `canopen` facade. [`Config::for_canopen`] turns both on with paths into the
+//! facade, so an application needs only `canopen`:
+//!
+//! ```ignore
+//! // build.rs
+//! canopen_codegen::Config::for_canopen().compile("eds/my-device.eds").unwrap();
+//!
+//! // the application
+//! include!(concat!(env!("OUT_DIR"), "/my-device.rs"));
+//! let dev = client::Device::new(network.node(node_id));
+//! dev.producer_heartbeat_time().write(200)?; // UNSIGNED16: `200` is a u16
+//! let serial: u32 = dev.identity_object().serial_number().read()?;
+//! let tpdo1 = Tpdo1::from_frame(&frame)?; // one call, typed fields
+//! assert_eq!(Tpdo1::cob_id(node_id).map(|c| c.0), Some(0x180 + u32::from(node_id.get())));
+//! network.send(Rpdo1 { setpoint: 42, ..Default::default() }.to_frame(node_id)?)?;
+//! ```
+//!
+//! The workspace's `examples/codegen-app` is such an application, run on the in-memory bus.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -43,7 +72,9 @@ use canopen_od::{
     DataType, Diagnostic, Object, ObjectCode, ObjectDictionary, ParseOptions, SubObject,
 };
 
+mod client;
 mod names;
+mod pdo;
 
 /// How entries of string and byte-string data types are typed.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -66,6 +97,10 @@ pub struct Config {
     out_dir: Option<PathBuf>,
     file_name: Option<String>,
     style_warnings: bool,
+    pdo_crate_path: String,
+    facade_path: String,
+    pdo_structs: bool,
+    client: bool,
 }
 
 /// What can go wrong generating code from a file.
@@ -114,7 +149,60 @@ impl Config {
             out_dir: None,
             file_name: None,
             style_warnings: true,
+            pdo_crate_path: "::canopen_pdo".to_owned(),
+            facade_path: "::canopen".to_owned(),
+            pdo_structs: false,
+            client: false,
         }
+    }
+
+    /// The preset for an application on the `canopen` facade, which then needs no other
+    /// dependency than `canopen`: entries through `::canopen::od`, PDO structs through
+    /// `::canopen::pdo` ([`Config::pdo_structs`]) and the typed node client
+    /// ([`Config::client`]).
+    pub fn for_canopen() -> Self {
+        let mut c = Self::new();
+        c.crate_path("::canopen::od")
+            .pdo_crate_path("::canopen::pdo")
+            .facade_path("::canopen")
+            .pdo_structs(true)
+            .client(true);
+        c
+    }
+
+    /// Also emit one struct per PDO the file maps by default (`Tpdo1` for mapping 0x1A00,
+    /// `Rpdo1` for 0x1600, ...): named fields of the mapped objects' Rust types, implementing
+    /// `canopen_pdo::TypedPdo`, so `Tpdo1::from_frame(&frame)` decodes a received PDO and
+    /// `to_frame(node)` builds one. Mappings the file leaves empty give no struct; one that is
+    /// not valid gives none either, with a warning (see [`Config::generate_with_notes`]). The
+    /// generated code then needs `canopen-pdo` (no allocator needed). Off by default.
+    pub fn pdo_structs(&mut self, on: bool) -> &mut Self {
+        self.pdo_structs = on;
+        self
+    }
+
+    /// The path generated PDO structs use for the `canopen-pdo` crate (default
+    /// `::canopen_pdo`).
+    pub fn pdo_crate_path(&mut self, path: impl Into<String>) -> &mut Self {
+        self.pdo_crate_path = path.into();
+        self
+    }
+
+    /// Also emit `client::Device`, a typed client of one node over the `canopen` facade: one
+    /// method per object, returning a handle whose `read()` and `write(value)` go through
+    /// `Sdo::read_entry` / `Sdo::write_entry`, e.g. `dev.producer_heartbeat_time().write(200)`.
+    /// Read-only objects have no `write`, write-only ones no `read`. ARRAY and RECORD objects
+    /// give a method returning their module's `Client` with one method per sub-object. Needs the
+    /// `canopen` crate (std). Off by default.
+    pub fn client(&mut self, on: bool) -> &mut Self {
+        self.client = on;
+        self
+    }
+
+    /// The path the client uses for the `canopen` facade crate (default `::canopen`).
+    pub fn facade_path(&mut self, path: impl Into<String>) -> &mut Self {
+        self.facade_path = path.into();
+        self
     }
 
     /// Whether [`Config::compile`] passes the EDS's form-only warnings (key case, lower-case hex,
@@ -156,11 +244,25 @@ impl Config {
 
     /// Generates Rust source for a dictionary. `source_name` names the input in the header.
     pub fn generate(&self, od: &ObjectDictionary, source_name: &str) -> String {
-        Generator {
+        self.generate_with_notes(od, source_name).0
+    }
+
+    /// Generates Rust source and says what of the file it left out and why (a default PDO
+    /// mapping that is not valid, say), one line per note. [`Config::compile`] passes the notes
+    /// to cargo as warnings.
+    pub fn generate_with_notes(
+        &self,
+        od: &ObjectDictionary,
+        source_name: &str,
+    ) -> (String, Vec<String>) {
+        let mut generator = Generator {
             cfg: self,
             out: String::new(),
-        }
-        .run(od, source_name)
+            notes: Vec::new(),
+            client_items: Vec::new(),
+        };
+        generator.run(od, source_name);
+        (generator.out, generator.notes)
     }
 
     /// Reads and parses `eds`, generates code and writes it into the output directory, only
@@ -196,7 +298,10 @@ impl Config {
         let source_name = eds
             .file_name()
             .map_or(display.clone(), |n| n.to_string_lossy().into_owned());
-        let code = self.generate(&od, &source_name);
+        let (code, notes) = self.generate_with_notes(&od, &source_name);
+        for note in &notes {
+            println!("cargo:warning={display}: codegen: {note}");
+        }
         let path = dir.join(name);
         write_if_changed(&path, &code)?;
         Ok(path)
@@ -238,6 +343,10 @@ fn write_if_changed(path: &Path, code: &str) -> Result<(), Error> {
 struct Generator<'a> {
     cfg: &'a Config,
     out: String,
+    /// What was left out and why.
+    notes: Vec<String>,
+    /// The objects the client gets a method for, in dictionary order.
+    client_items: Vec<client::Item>,
 }
 
 /// The Rust type of an entry's value: (always, with alloc, without alloc).
@@ -301,7 +410,7 @@ fn doc_line(text: &str) -> String {
 }
 
 impl Generator<'_> {
-    fn run(mut self, od: &ObjectDictionary, source_name: &str) -> String {
+    fn run(&mut self, od: &ObjectDictionary, source_name: &str) {
         let _ = writeln!(
             self.out,
             "// @generated by canopen-codegen {} from `{}`. Do not edit.",
@@ -323,6 +432,9 @@ impl Generator<'_> {
         let mut consts = names::Scope::default();
         let mut mods = names::Scope::default();
         consts.reserve("DICTIONARY");
+        if self.cfg.client {
+            mods.reserve("client");
+        }
         for obj in od.objects.values() {
             // DEFTYPE / DEFSTRUCT entries define data types, not values.
             if matches!(obj.object_code, ObjectCode::DefType | ObjectCode::DefStruct) {
@@ -335,6 +447,9 @@ impl Generator<'_> {
                         &format!("{:04X}", obj.index),
                     );
                     self.entry(obj, sub, &name, "");
+                    if let Some(item) = client::Item::var(self.cfg, obj, sub, &name) {
+                        self.client_items.push(item);
+                    }
                 }
             } else {
                 let name = mods.unique(
@@ -347,7 +462,12 @@ impl Generator<'_> {
         if self.cfg.static_dictionary {
             self.dictionary(od);
         }
-        self.out
+        if self.cfg.pdo_structs {
+            self.pdos(od);
+        }
+        if self.cfg.client {
+            self.client(od);
+        }
     }
 
     fn record(&mut self, obj: &Object, module: &str) {
@@ -366,12 +486,18 @@ impl Generator<'_> {
         let _ = writeln!(self.out, "    pub const INDEX: u16 = {:#06X};", obj.index);
         let mut scope = names::Scope::default();
         scope.reserve("INDEX");
+        let mut subs = Vec::new();
         for sub in obj.subs.values() {
             let name = scope.unique(
                 names::screaming(&sub.name, &format!("sub_{}", sub.sub_index)),
                 &sub.sub_index.to_string(),
             );
             self.entry(obj, sub, &name, "    ");
+            subs.extend(client::Item::var(self.cfg, obj, sub, &name));
+        }
+        if self.cfg.client {
+            self.record_client(obj, &subs);
+            self.client_items.push(client::Item::record(obj, module));
         }
         let _ = writeln!(self.out, "}}\n");
     }

@@ -1,7 +1,8 @@
 //! Generated code in the place users put it: a scratch binary crate whose `build.rs` calls
 //! `compile_eds` for the Bürkert profile (hundreds of entries, nearly all unused by the binary)
-//! and for a small EDS with warnings and names that start with digits. `cargo build` must
-//! succeed with no warning but the EDS's own, which the build script passes to cargo.
+//! and for a small EDS with warnings and names that start with digits, and with the facade
+//! preset (PDO structs and the typed client) for the PDO test device. `cargo build` must succeed
+//! with no warning but the EDS's own, which the build script passes to cargo.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -28,8 +29,9 @@ fn a_binary_crate_builds_without_warnings_and_sees_the_eds_warnings() {
         scratch.join("Cargo.toml"),
         format!(
             "[package]\nname = \"codegen-binary-check\"\nversion = \"0.0.0\"\nedition = \"2024\"\npublish = false\n\n[workspace]\n\n\
-             [dependencies]\ncanopen-od = {{ path = {:?} }}\n\n[build-dependencies]\ncanopen-codegen = {{ path = {:?} }}\n",
+             [dependencies]\ncanopen-od = {{ path = {:?} }}\ncanopen = {{ path = {:?} }}\n\n[build-dependencies]\ncanopen-codegen = {{ path = {:?} }}\n",
             path("crates/od"),
+            path("crates/canopen"),
             path("crates/codegen"),
         ),
     )
@@ -47,16 +49,18 @@ fn a_binary_crate_builds_without_warnings_and_sees_the_eds_warnings() {
     std::fs::write(
         scratch.join("build.rs"),
         format!(
-            "fn main() {{\n    canopen_codegen::compile_eds({:?}).unwrap();\n    canopen_codegen::compile_eds(\"quirky.eds\").unwrap();\n}}\n",
-            path("eds/burkert-generic.eds")
+            "fn main() {{\n    canopen_codegen::compile_eds({:?}).unwrap();\n    canopen_codegen::compile_eds(\"quirky.eds\").unwrap();\n    canopen_codegen::Config::for_canopen().compile({:?}).unwrap();\n}}\n",
+            path("eds/burkert-generic.eds"),
+            path("crates/codegen/tests/data/pdo-device.eds")
         ),
     )
     .unwrap();
     std::fs::write(
         scratch.join("src/main.rs"),
         "mod burkert {\n    include!(concat!(env!(\"OUT_DIR\"), \"/burkert-generic.rs\"));\n}\n\
-         mod quirky {\n    include!(concat!(env!(\"OUT_DIR\"), \"/quirky.rs\"));\n}\n\n\
-         fn main() {\n    println!(\"{} {}\", burkert::PRODUCER_HEARTBEAT_TIME, quirky::rpdo1_mapping::FIRST_MAPPED_OBJECT_IN_RX_PDO_1);\n    println!(\"{}\", quirky::OBJ_24V_SUPPLY);\n}\n",
+         mod quirky {\n    include!(concat!(env!(\"OUT_DIR\"), \"/quirky.rs\"));\n}\n\
+         mod device {\n    include!(concat!(env!(\"OUT_DIR\"), \"/pdo-device.rs\"));\n}\n\n\
+         fn main() {\n    println!(\"{:?}\", device::Tpdo1::from_data(&[0; 6]));\n    println!(\"{} {}\", burkert::PRODUCER_HEARTBEAT_TIME, quirky::rpdo1_mapping::FIRST_MAPPED_OBJECT_IN_RX_PDO_1);\n    println!(\"{}\", quirky::OBJ_24V_SUPPLY);\n}\n",
     )
     .unwrap();
 
@@ -92,9 +96,13 @@ fn a_binary_crate_builds_without_warnings_and_sees_the_eds_warnings() {
         eds_warnings.iter().any(|l| l.contains("`parametername`")),
         "{stderr}"
     );
+    // The generator's own note on the PDO test device's TPDO4, whose default mapping is invalid.
+    let note =
+        "pdo-device.eds: codegen: no struct Tpdo4: the default mapping at 0x1A03 is not valid";
+    assert!(warnings.iter().any(|l| l.contains(note)), "{stderr}");
     let others: Vec<&&str> = warnings
         .iter()
-        .filter(|l| !l.contains("codegen-binary-check@0.0.0: quirky.eds:"))
+        .filter(|l| !l.contains("codegen-binary-check@0.0.0: quirky.eds:") && !l.contains(note))
         .collect();
     assert!(others.is_empty(), "warnings besides the EDS's:\n{stderr}");
 

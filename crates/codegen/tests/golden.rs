@@ -77,3 +77,65 @@ fn errors_print_as_text_even_through_unwrap() {
     assert!(lines[1].contains("broken.eds:5: error: "), "{shown}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The facade preset on the PDO test device: PDO structs and the typed client.
+fn generate_pdo_device() -> (String, Vec<String>) {
+    let eds = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pdo-device.eds");
+    let parsed = canopen_od::parse(&std::fs::read(eds).unwrap()).expect("the test EDS parses");
+    Config::for_canopen().generate_with_notes(&parsed.od, "pdo-device.eds")
+}
+
+#[test]
+fn pdo_device_matches_golden_file() {
+    let (code, _) = generate_pdo_device();
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/pdo-device.rs");
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        std::fs::write(&golden, &code).unwrap();
+    }
+    let want =
+        std::fs::read_to_string(&golden).expect("golden file exists (UPDATE_GOLDEN=1 writes it)");
+    if code != want {
+        let first = code.lines().zip(want.lines()).position(|(a, b)| a != b);
+        panic!(
+            "generated code differs from {} (first differing line: {:?}); rerun with UPDATE_GOLDEN=1 after checking the change",
+            golden.display(),
+            first.map(|l| l + 1)
+        );
+    }
+}
+
+#[test]
+fn pdo_structs_follow_the_default_mappings() {
+    let (code, notes) = generate_pdo_device();
+    // TPDO1 and TPDO2 and RPDO1 are mapped; TPDO3's mapping is empty: no struct.
+    assert!(code.contains("pub struct Tpdo1 {"));
+    assert!(code.contains("pub struct Tpdo2 {"));
+    assert!(code.contains("pub struct Rpdo1 {"));
+    assert!(!code.contains("pub struct Tpdo3"));
+    // TPDO4 maps 0x1017, which is not PDO-mappable: no struct, and a note that says why.
+    assert!(!code.contains("pub struct Tpdo4"));
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].contains("Tpdo4") && notes[0].contains("0x1A03"),
+        "{notes:?}"
+    );
+    // Fields carry the objects' Rust types; dummies get no field.
+    assert!(code.contains("    pub valve_open: bool,\n"));
+    assert!(code.contains("    pub pressure: i32,\n"));
+    assert!(code.contains("    pub tag: [u8; 2],\n"));
+    assert!(code.contains("    pub setpoint_1: i16,\n"));
+    assert!(code.contains("/// - bits 1..2: dummy BOOLEAN"));
+    // `$NODEID+0x180` is kept as "add the node-ID".
+    assert!(code.contains("DefaultCobId { raw: 0x180, adds_node_id: true }"));
+    // The client: typed by access.
+    assert!(code.contains("pub fn producer_heartbeat_time(&self) -> ReadWrite<u16>"));
+    assert!(code.contains("pub fn vendor_id(&self) -> super::client::ReadOnly<u32>"));
+    // Nothing without a struct refers to canopen-pdo when PDO structs are off.
+    let parsed = canopen_od::parse(
+        &std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pdo-device.eds"))
+            .unwrap(),
+    )
+    .unwrap();
+    let plain = Config::new().generate(&parsed.od, "pdo-device.eds");
+    assert!(!plain.contains("canopen_pdo") && !plain.contains("pub mod client"));
+}

@@ -13,6 +13,8 @@
 //!   call order.
 //! - [`remote`] — the SDO writes that remap a node's PDO the CiA 301 way, as data.
 //! - [`mpdo`] — SAM/DAM multiplexed PDOs with object scanner and dispatcher lists.
+//! - [`typed`] — [`TypedPdo`]: PDOs as structs with named, typed fields (what
+//!   `canopen-codegen` generates from an EDS's default mappings), packed through [`fn@pack`].
 //!
 //! The crate is `#![no_std]` and needs no allocator; tables are `heapless`. The `alloc` feature
 //! adds [`MapStore`], a `BTreeMap` object store for simulators and tests; `std` (default) implies
@@ -65,6 +67,7 @@ pub mod mpdo;
 pub mod od;
 pub mod pack;
 pub mod remote;
+pub mod typed;
 
 pub use comm::{CommError, CommParams, Direction, PdoCobId, TransmissionType};
 #[cfg(feature = "alloc")]
@@ -81,3 +84,4 @@ pub use mpdo::{
 pub use od::{OdView, ValueSource};
 pub use pack::{PackError, Unpacked, Value, pack, unpack};
 pub use remote::{RemapError, RemapSteps, RemoteObjects, SdoWrite, remap};
+pub use typed::{DefaultCobId, PdoField, TypedPdo, TypedPdoError};
