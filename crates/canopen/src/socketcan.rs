@@ -54,12 +54,14 @@ const CAN_ERR_CRTL_TX_PASSIVE: u8 = 0x20;
 /// charges each queued classic frame with its buffer's true size: measured in the `tests/vcan`
 /// guest (Linux 6.1, x86-64), the usual default of 212,992 bytes held 278 frames, 766 bytes
 /// each, which is 13 ms of that traffic or 31 ms of 8-byte frames (9,000 frames/s). 1 MiB
-/// (2 MiB of accounting room) holds about 2,740 frames: 130 ms of 0-byte frames, 300 ms of
-/// 8-byte ones. Without `CAP_NET_ADMIN` the kernel grants at most `net.core.rmem_max`.
+/// (2 MiB of accounting room) held 2,731 frames: 128 ms of 0-byte frames, 300 ms of 8-byte
+/// ones. Without `CAP_NET_ADMIN` the kernel grants at most `net.core.rmem_max`.
 pub const DEFAULT_RECEIVE_BUFFER: usize = 1 << 20;
 
 /// Counters of one [`SocketCan`] transport, shared: a clone taken before the transport moves
-/// into a [`Network`](crate::Network) keeps counting.
+/// into a [`Network`](crate::Network) keeps counting. Frames the kernel drops before any socket
+/// sees them (its input backlog, counted in the interface's `rx_dropped` statistic) are not
+/// in these counts.
 #[derive(Debug, Clone, Default)]
 pub struct SocketCanStats {
     inner: Arc<StatsInner>,
@@ -182,7 +184,8 @@ impl SocketCan {
     /// [`DEFAULT_RECEIVE_BUFFER`] bytes, or what the kernel grants of it.
     pub fn open(iface: &str) -> Result<Self, TransportError> {
         let mut t = Self::open_default_buffer(iface)?;
-        t.set_receive_buffer(DEFAULT_RECEIVE_BUFFER)?;
+        // A kernel that refuses the size keeps its default; the transport works with it.
+        let _ = t.set_receive_buffer(DEFAULT_RECEIVE_BUFFER);
         Ok(t)
     }
 
