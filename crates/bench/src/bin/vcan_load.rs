@@ -441,9 +441,7 @@ impl Tally {
             _ => {}
         }
     }
-}
 
-impl Tally {
     /// Counts as gaps the counters after the last one received, up to the simulator's final
     /// counter: PDOs dropped at the end of the run leave no later PDO to show their gap.
     fn trailing(&mut self, nodes: u8, last_counter: u32) {
