@@ -5,7 +5,14 @@
 //! that counter arrives with each frame; when it grows, a [`BusEvent::RxOverflow`] is reported
 //! before the frame. Error frames become [`BusEvent`]s: bus-off, error-passive, restarted, and
 //! every error frame itself. `ENETDOWN` becomes [`BusEvent::InterfaceDown`], the next successful
-//! operation [`BusEvent::InterfaceUp`].
+//! send [`BusEvent::InterfaceUp`], or the next frame received once the interface's flags say it
+//! is up (frames queued before the link went down are still read while it is down).
+//!
+//! Receive buffer: [`SocketCan::open`] asks for [`DEFAULT_RECEIVE_BUFFER`] bytes
+//! (`SO_RCVBUFFORCE`, which needs `CAP_NET_ADMIN`, else `SO_RCVBUF`, which the kernel caps at
+//! `net.core.rmem_max`); [`SocketCan::set_receive_buffer`] sets another size and says what the
+//! kernel granted. [`SocketCan::stats`] gives a handle to the frame and drop counters that stays
+//! readable after the transport moved into a [`Network`](crate::Network).
 //!
 //! Waiting: [`Transport::recv_until`] blocks in `recvmsg` with the socket's receive timeout
 //! (`SO_RCVTIMEO`). That is the cheapest wait the kernel offers (measured in the QEMU guest of
@@ -24,10 +31,12 @@
 use std::collections::VecDeque;
 use std::io::IoSliceMut;
 use std::os::fd::AsRawFd;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use can_frame::time::MonotonicClock;
 use can_frame::{CanFrame, CanId, Instant};
-use nix::sys::socket::{ControlMessageOwned, MsgFlags, recvmsg, setsockopt, sockopt};
+use nix::sys::socket::{ControlMessageOwned, MsgFlags, getsockopt, recvmsg, setsockopt, sockopt};
 use socketcan::{EmbeddedFrame, Socket, SocketOptions};
 
 use crate::candump::{FD_LENGTHS, FdFrame};
@@ -44,9 +53,52 @@ const CAN_ERR_CRTL_TX_PASSIVE: u8 = 0x20;
 /// The size of a `struct canfd_frame`, what a read returns for a CAN FD frame.
 const CANFD_MTU: usize = 72;
 
+/// The receive buffer [`SocketCan::open`] asks for, in bytes (the `SO_RCVBUF` value; the kernel
+/// doubles it for its bookkeeping and reports the doubled value).
+///
+/// Sized for a stall of the reading thread of 100 ms at the densest traffic a 1 Mbit/s classic
+/// CAN bus carries (0-byte frames of 47 bits: 21,300 frames/s, so 2,130 frames). The kernel
+/// charges each queued classic frame with its buffer's true size: measured in the `tests/vcan`
+/// guest (Linux 6.1, x86-64), the usual default of 212,992 bytes held 278 frames, 766 bytes
+/// each, which is 13 ms of that traffic or 31 ms of 8-byte frames (9,000 frames/s). 1 MiB
+/// (2 MiB of accounting room) held 2,731 frames: 128 ms of 0-byte frames, 300 ms of 8-byte
+/// ones. Without `CAP_NET_ADMIN` the kernel grants at most `net.core.rmem_max`.
+pub const DEFAULT_RECEIVE_BUFFER: usize = 1 << 20;
+
+/// Counters of one [`SocketCan`] transport, shared: a clone taken before the transport moves
+/// into a [`Network`](crate::Network) keeps counting. Frames the kernel drops before any socket
+/// sees them (its input backlog, counted in the interface's `rx_dropped` statistic) are not
+/// in these counts.
+#[derive(Debug, Clone, Default)]
+pub struct SocketCanStats {
+    inner: Arc<StatsInner>,
+}
+
+#[derive(Debug, Default)]
+struct StatsInner {
+    frames: AtomicU64,
+    dropped: AtomicU64,
+}
+
+impl SocketCanStats {
+    /// Frames received (data and remote frames, not error frames).
+    pub fn frames_received(&self) -> u64 {
+        self.inner.frames.load(Ordering::Relaxed)
+    }
+
+    /// Frames the kernel dropped because the socket's receive queue was full, as far as
+    /// reported so far (`SO_RXQ_OVFL` arrives with the next frame received after the drops;
+    /// each report is also a [`BusEvent::RxOverflow`]).
+    pub fn rx_dropped(&self) -> u64 {
+        self.inner.dropped.load(Ordering::Relaxed)
+    }
+}
+
 /// A CAN interface opened through SocketCAN.
 pub struct SocketCan {
     socket: socketcan::CanSocket,
+    iface: String,
+    stats: SocketCanStats,
     clock: MonotonicClock,
     last_drops: u32,
     down: bool,
@@ -143,13 +195,32 @@ pub(crate) fn reuse_timeout(set: std::time::Duration, wanted: std::time::Duratio
     set <= wanted + wanted / 16 && set >= wanted / 2
 }
 
+/// Whether `iface` is up (`IFF_UP` in `/sys/class/net/IFACE/flags`); true when that file
+/// cannot be read.
+fn link_is_up(iface: &str) -> bool {
+    std::fs::read_to_string(format!("/sys/class/net/{iface}/flags"))
+        .ok()
+        .and_then(|s| u32::from_str_radix(s.trim().trim_start_matches("0x"), 16).ok())
+        .is_none_or(|flags| flags & 1 != 0)
+}
+
 fn is_down(e: &std::io::Error) -> bool {
     matches!(e.raw_os_error(), Some(libc_enetdown) if libc_enetdown == nix::errno::Errno::ENETDOWN as i32)
 }
 
 impl SocketCan {
-    /// Opens `iface` (e.g. `can0`, `vcan0`).
+    /// Opens `iface` (e.g. `can0`, `vcan0`) with a receive buffer of
+    /// [`DEFAULT_RECEIVE_BUFFER`] bytes, or what the kernel grants of it.
     pub fn open(iface: &str) -> Result<Self, TransportError> {
+        let mut t = Self::open_default_buffer(iface)?;
+        // A kernel that refuses the size keeps its default; the transport works with it.
+        let _ = t.set_receive_buffer(DEFAULT_RECEIVE_BUFFER);
+        Ok(t)
+    }
+
+    /// Opens `iface` and leaves the socket's receive buffer at the kernel's default
+    /// (`net.core.rmem_default`).
+    pub fn open_default_buffer(iface: &str) -> Result<Self, TransportError> {
         let socket = socketcan::CanSocket::open(iface)?;
         socket.set_error_filter_accept_all()?;
         // Ask for the drop counter with every received frame; not every kernel offers it, and
@@ -157,6 +228,8 @@ impl SocketCan {
         let _ = setsockopt(socket.as_raw_socket(), sockopt::RxqOvfl, &1);
         Ok(Self {
             socket,
+            iface: iface.to_owned(),
+            stats: SocketCanStats::default(),
             clock: MonotonicClock::new(),
             last_drops: 0,
             down: false,
@@ -173,6 +246,29 @@ impl SocketCan {
         t.socket
             .set_socket_option_int(nix::libc::SOL_CAN_RAW, nix::libc::CAN_RAW_FD_FRAMES, 1)?;
         Ok(t)
+    }
+
+    /// Asks for a receive buffer of `bytes` (the `SO_RCVBUF` value) and returns what the kernel
+    /// then reports (`getsockopt(SO_RCVBUF)`: twice the value granted). `SO_RCVBUFFORCE` is
+    /// tried first: it needs `CAP_NET_ADMIN` and ignores `net.core.rmem_max`; without the
+    /// capability `SO_RCVBUF` is used, which the kernel caps at `rmem_max`.
+    pub fn set_receive_buffer(&mut self, bytes: usize) -> Result<usize, TransportError> {
+        let fd = self.socket.as_raw_socket();
+        if setsockopt(fd, sockopt::RcvBufForce, &bytes).is_err() {
+            setsockopt(fd, sockopt::RcvBuf, &bytes).map_err(std::io::Error::from)?;
+        }
+        self.receive_buffer()
+    }
+
+    /// The receive buffer as the kernel reports it (`getsockopt(SO_RCVBUF)`), in bytes.
+    pub fn receive_buffer(&self) -> Result<usize, TransportError> {
+        Ok(getsockopt(self.socket.as_raw_socket(), sockopt::RcvBuf)
+            .map_err(std::io::Error::from)?)
+    }
+
+    /// A handle to this transport's counters (frames received, frames the kernel dropped).
+    pub fn stats(&self) -> SocketCanStats {
+        self.stats.clone()
     }
 
     fn came_up(&mut self) {
@@ -233,12 +329,18 @@ impl SocketCan {
             }
             (msg.bytes, drops)
         };
-        self.came_up();
+        if self.down && link_is_up(&self.iface) {
+            self.came_up();
+        }
         if let Some(d) = drops
             && d != self.last_drops
         {
             let dropped = u64::from(d.wrapping_sub(self.last_drops));
             self.last_drops = d;
+            self.stats
+                .inner
+                .dropped
+                .fetch_add(dropped, Ordering::Relaxed);
             self.events
                 .push_back(Received::Event(BusEvent::RxOverflow { dropped }));
         }
@@ -252,7 +354,10 @@ impl SocketCan {
             return Ok(true);
         }
         match buf.get(..n).and_then(decode_raw) {
-            Some(RawFrame::Frame(frame)) => self.events.push_back(Received::Frame { frame, at }),
+            Some(RawFrame::Frame(frame)) => {
+                self.stats.inner.frames.fetch_add(1, Ordering::Relaxed);
+                self.events.push_back(Received::Frame { frame, at });
+            }
             Some(RawFrame::Error { class, data }) => {
                 for e in error_events(class, data) {
                     self.events.push_back(Received::Event(e));

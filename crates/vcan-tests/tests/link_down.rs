@@ -2,6 +2,8 @@
 //! - at the transport: sending fails with `TransportError::InterfaceDown`, the receive side
 //!   reports `BusEvent::InterfaceDown`, and after `up` traffic flows again and
 //!   `BusEvent::InterfaceUp` is reported;
+//! - frames queued before the link went down are read while it is down, after the
+//!   `InterfaceDown` event, and are no `InterfaceUp`;
 //! - during an SDO block upload from the simulator: the transfer ends with a clear error, the
 //!   network reports the bus event, and after `up` the next transfers succeed.
 //!
@@ -113,6 +115,54 @@ fn interface_down_is_reported_and_traffic_recovers() {
             None => panic!("no frame from the peer after the link returned"),
         }
     }
+}
+
+#[test]
+#[ignore = "needs vcan0 and root: run by tests/vcan/run-all"]
+fn frames_queued_before_the_link_went_down_are_read_without_a_false_interface_up() {
+    let _guard = LinkGuard;
+    let mut t = SocketCan::open(&interface()).expect("open the transport");
+    let peer = vcan_tests::open().expect("open the peer socket");
+    let id = socketcan::StandardId::new(0x642).expect("id");
+    for i in 0..5u8 {
+        let f = socketcan::CanFrame::new(id, &[i]).expect("frame");
+        peer.write_frame(&f).expect("peer sends");
+    }
+    // Not read yet: the five frames wait in the transport's receive queue.
+    set_link(false);
+    let mut seen = Vec::new();
+    let deadline = t.now() + Duration::from_secs(5);
+    while seen.len() < 6 {
+        match t.recv_until(deadline).expect("recv") {
+            Some(Received::Event(e)) => seen.push(format!("{e}")),
+            Some(Received::Frame { frame, .. }) if frame.id().as_standard() == Some(0x642) => {
+                seen.push(format!("frame {}", frame.data()[0]));
+            }
+            Some(_) => {}
+            None => break,
+        }
+    }
+    // The kernel reports ENETDOWN first, then hands out what it had queued; none of those
+    // frames means the link is back.
+    assert_eq!(
+        seen,
+        [
+            "interface is down",
+            "frame 0",
+            "frame 1",
+            "frame 2",
+            "frame 3",
+            "frame 4"
+        ]
+    );
+    assert!(
+        t.try_recv().expect("recv").is_none(),
+        "nothing else while down"
+    );
+    set_link(true);
+    t.send(&frame(0x643, &[9]))
+        .expect("send after the link returned");
+    expect_event(&mut t, &BusEvent::InterfaceUp);
 }
 
 #[test]
