@@ -239,6 +239,23 @@ LSS_SEQ = [
 ]
 
 
+BUS_TOML = [
+    b'[[slave]]\nnode_id = 5\ndcf = "valve.dcf"\nmandatory = true\n',
+    b'[master]\nnode_id = 1\nsdo_timeout_ms = 100\nboot_timeout_ms = 300\nstart_all = true\n\n'
+    b'[[slave]]\nnode_id = 5\ndcf = "valve.dcf"\nmandatory = true\n[slave.identity]\n'
+    b'vendor_id = 0x39\nproduct_code = 0x1234\n\n[[slave]]\nnode_id = 7\neds = "valve.dcf"\n'
+    b'[slave.values]\n"0x2000" = 321\n"0x1017" = 50\n',
+    b'[[slave]]\nnode_id = 6\ndcf = "valve-boot.dcf"\nkeep_alive = true\n[slave.software]\n'
+    b'date = "2026-03-01"\ntime = "10:00:00.000"\nupdate = true\nprogram = "valve-v2.bin"\n',
+    b'master_dcf = "master.dcf"\n',
+]
+
+
+def repo_file(*parts):
+    with open(os.path.join(REPO, *parts), "rb") as f:
+        return f.read()
+
+
 def eds_heads():
     """The first kilobytes of this repository's own EDS files."""
     out = []
@@ -278,12 +295,21 @@ TARGETS = {
     "sdo_server_sequence": ARBITRARY + CLIENT_REQUESTS,
     "nmt_monitor_sequence": ARBITRARY + NMT_FRAMES,
     "canopen_network_sequence": ARBITRARY,
+    "manager_bus_toml": BUS_TOML,
+    "manager_master_dcf": None,  # the manager's test DCFs
+    # Head byte (low nibble: length, high nibble: TPDO number, bit 7: remote) then data.
+    "pdo_typed": [bytes([0x18]) + bytes(range(8)), bytes([0x24, 1, 2, 3, 4]),
+                  bytes([0x02, 0xFF, 0x7F]), bytes([0x80])],
 }
 
 
 def main():
     targets = {os.path.splitext(n)[0] for n in os.listdir(os.path.join(ROOT, "fuzz_targets"))}
     TARGETS["od_eds_parser"] = eds_heads()
+    TARGETS["manager_master_dcf"] = [
+        repo_file("crates", "manager", "tests", "data", n)
+        for n in ("valve.dcf", "valve-boot.dcf", "valve-nostamp.dcf")
+    ]
     for t in sorted(targets):
         seeds = TARGETS.get(t, ARBITRARY)
         folder = os.path.join(SEEDS, t)

@@ -23,6 +23,9 @@
 
 pub use crate::{
     AbortCode, BusEvent, CanFrame, CanId, DataType, DeviceState, Duration, Error, Identity,
-    Instant, MemoryBus, Network, NetworkEvent, NmtState, Node, NodeId, ObjectAddress,
-    ObjectDictionary, SdoError, SdoErrorKind, SimDevice, Transport, TransportError, Value,
+    Instant, MappedVariable, MemoryBus, Network, NetworkEvent, NmtState, Node, NodeId,
+    ObjectAddress, ObjectDictionary, PdoParameters, PdoSet, RpdoSender, SdoError, SdoErrorKind,
+    SimDevice, Transmission, Transport, TransportError, Value,
 };
+#[cfg(feature = "tokio")]
+pub use crate::{EventStream, Lagged};
