@@ -165,6 +165,10 @@ pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCo
                 }
                 SuperviseEvent::Lost(n) => outln(&format!("node {n}: lost")),
                 SuperviseEvent::Boot(_) => {}
+                SuperviseEvent::NotListed { node, code } => outln(&format!(
+                    "node {node}: boot-up from a device not in the network (error {code}: {})",
+                    code.meaning()
+                )),
             }
         });
     }

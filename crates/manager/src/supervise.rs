@@ -1,12 +1,15 @@
 //! After the boot: the CiA 302-2 reactions to what the slaves do later. A boot-up message from a
 //! described slave (an optional slave that appears late, or one that reset and lost its
 //! configuration) boots that slave again; a slave whose error control reports it lost and that
-//! is marked `restart_on_loss` gets NMT reset communication, and its boot-up then boots it.
+//! is marked `restart_on_loss` gets NMT reset communication, and its boot-up then boots it. A
+//! boot-up from a device the description does not list is the boot slave process's error A
+//! (not in the slave assignment 0x1F81): reported, and the device is left alone.
 
 use canopen::nmt::GuardingEvent;
 use canopen::{Duration, HeartbeatEvent, Instant, Network, NetworkEvent, NodeId};
 
 use crate::boot::{BootEvent, BootReport, SlaveStatus, boot_with};
+use crate::codes::BootErrorCode;
 use crate::config::{NetworkConfig, StartPolicy};
 
 /// What the supervision did.
@@ -20,6 +23,14 @@ pub enum SuperviseEvent {
     Lost(NodeId),
     /// A step of a re-boot.
     Boot(BootEvent),
+    /// A device that is not a slave of this network sent boot-up: it is not booted (CiA 302-2
+    /// boot slave error `code`, always [`BootErrorCode::A`]).
+    NotListed {
+        /// The device's node-ID.
+        node: NodeId,
+        /// The boot slave error code.
+        code: BootErrorCode,
+    },
 }
 
 /// Supervises the network until `until` on its clock, keeping `report` current (a re-booted
@@ -68,6 +79,10 @@ pub fn supervise(
         booted.dedup();
         for node in booted {
             let Some(slave) = config.slave(node) else {
+                on_event(&SuperviseEvent::NotListed {
+                    node,
+                    code: BootErrorCode::A,
+                });
                 continue;
             };
             on_event(&SuperviseEvent::Rebooting(node));

@@ -431,9 +431,14 @@ fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
     let mut report = boot(&net, &config);
     assert_eq!(report.slaves[2].status, SlaveStatus::Absent);
 
-    // Node 7 is switched on late; node 6 drops off the bus.
+    // Node 7 is switched on late; node 6 drops off the bus; node 40, which the description
+    // does not list, boots.
     bus.attach(SimDevice::new(
         node(7),
+        factory_dictionary(&config.slaves[2].dictionary),
+    ));
+    bus.attach(SimDevice::new(
+        node(40),
         factory_dictionary(&config.slaves[2].dictionary),
     ));
     bus.detach(stations[1].1).unwrap();
@@ -452,6 +457,16 @@ fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
     assert_eq!(u32_at(&net, 7, 0x2000, 0), 321);
     assert!(seen.contains(&SuperviseEvent::Reset(node(6))), "{seen:?}");
     assert_eq!(report.slaves[1].status, SlaveStatus::Absent);
+    // The unlisted device: error A, not booted, not in the report.
+    assert!(
+        seen.contains(&SuperviseEvent::NotListed {
+            node: node(40),
+            code: canopen_manager::BootErrorCode::A,
+        }),
+        "{seen:?}"
+    );
+    assert!(!seen.contains(&SuperviseEvent::Rebooting(node(40))));
+    assert!(report.slaves.iter().all(|r| r.node_id != node(40)));
     // The reset went over the bus: NMT reset communication (0x82) to node 6.
     let mut reset = false;
     while let Ok(Some(r)) = tap.recv_until(bus.now()) {
