@@ -30,6 +30,8 @@
 //!   and its line ends blanks (canopend writes the raw bytes), so that every reply is one line of
 //!   text.
 //! * An empty or comment-only line gets no reply, as in Lely (canopend answers an empty line).
+//!   A request without `[seq]` is served and answered without one (canopend answers it with a
+//!   syntax error; Lely reads a leading number as the sequence number even without brackets).
 //! * A line longer than [`Config::max_line`] is refused with 600, running out of memory, the
 //!   code Lely gives for the command size service (CANopenNode streams long values through a
 //!   fixed buffer and answers a token over its 20-byte limit with 101).

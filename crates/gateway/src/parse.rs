@@ -226,7 +226,9 @@ fn all_nodes(i: &str) -> Res<'_, Option<AllNodes>> {
     let Some(timeout_ms) = timeout else {
         return Ok((i, None));
     };
-    let (i, assign) = opt((arg(127), bit)).parse(i)?;
+    // The first node-ID is 1..=127, as CANopenNode takes it.
+    let node_start = nom::combinator::verify(arg(127), |&n| n >= 1);
+    let (i, assign) = opt((node_start, bit)).parse(i)?;
     let Some((node_start, store)) = assign else {
         return Ok((
             i,
@@ -564,6 +566,10 @@ mod tests {
         assert_eq!(
             p("[10] lss_inquire_addr 0x5D").command,
             Command::LssInquireAddr(Some(3))
+        );
+        assert_eq!(
+            parse_line("[11] lss_allnodes 25 0 1"),
+            Err(ParseError::Syntax { seq: Some(11) })
         );
         assert_eq!(
             parse_line("[10] lss_inquire_addr 4"),

@@ -74,10 +74,7 @@ fn all_nodes_gives_each_device_a_node_id() {
     // CANopenNode's report: one comment line per slave, a summary, then OK.
     let mut lines: Vec<String> = (0..5).map(|_| c.line()).collect();
     assert_eq!(lines.pop().unwrap(), "[1] OK\r\n");
-    assert_eq!(
-        lines.pop().unwrap(),
-        "# Found 3 nodes, search finished.\n"
-    );
+    assert_eq!(lines.pop().unwrap(), "# Found 3 nodes, search finished.\n");
     lines.sort();
     assert_eq!(
         lines,
