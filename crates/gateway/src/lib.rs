@@ -16,11 +16,14 @@
 //! exchanges byte for byte. Where they differ from each other or from this gateway:
 //! * Replies as CANopenNode writes them: `ERROR:<code>` and `ERROR:0x<abort>` (Lely writes
 //!   `ERROR: <code> (<text>)`; canopend's default build appends ` #<text>`, a comment), `u8` to
-//!   `u64` in decimal with `x8` to `x64` for hex (Lely prints unsigned values in hex), a
-//!   multi-line reply's inner lines ending in LF and its last in CR LF.
+//!   `u64` in decimal with `x8` to `x64` for hex (Lely, and port GmbH's gateway by its manual,
+//!   print unsigned values in hex), a multi-line reply's inner lines ending in LF and its last
+//!   in CR LF (CANopenNode's maintainer: the standard ends a command with CR LF, the LF alone
+//!   tells lines of help apart from the end).
 //! * Event lines and `info version` as Lely writes them (CANopenNode has neither): `<net>
 //!   <node> BOOT_UP`, `<net> <node> ERROR <code> (<text>)`, `<net> <node> EMCY <code> <reg>
-//!   <5 bytes>`; `<vendor> <product> <rev>.<rev> <serial> <class> <309-1 version> <version>`.
+//!   <5 bytes>`; `<vendor> <product> <rev>.<rev> <serial> <class> <309-1 version> <version>`
+//!   (the field order port GmbH's and Nanotec's manuals show too).
 //! * `lss_get_node` in decimal, as Lely (CANopenNode writes `0x%02X`); `lss_inquire_addr`
 //!   takes CANopenNode's part 0..3 and Lely's command specifier 0x5A..0x5D.
 //! * A read without a type shows the node's dictionary type when the gateway knows the

@@ -1,12 +1,12 @@
-//! Transcripts, byte for byte, of exchanges that the two independent CiA 309-3 gateways document:
+//! Transcripts, byte for byte, of exchanges that independent CiA 309-3 gateways document:
 //! CANopenNode's `canopend` (its tutorials and tests in the CANopenDemo repository, and the reply
-//! formats in `309/CO_gateway_ascii.c` of the CANopenNode repository) and Lely's gateway
-//! (`src/co/gw_txt.c` of lely-core). Each test names its source; the requests and replies are the
-//! documented ones, with the line ends CANopenNode writes (`\r\n` after a response, `\n` between
-//! the lines of a multi-line one).
+//! formats in `309/CO_gateway_ascii.c` of the CANopenNode repository), Lely's gateway
+//! (`src/co/gw_txt.c` of lely-core), and the manuals of port GmbH's and Nanotec's gateways. Each
+//! test names its source; the requests and replies are the documented ones, with the line ends
+//! CANopenNode writes (`\r\n` after a response, `\n` between the lines of a multi-line one).
 //!
-//! No copy of the CiA 309-3 text itself was available, so none of these is the standard's own
-//! example. Where this gateway answers differently from the documented one, the test says so and
+//! Of the CiA 309-3 text itself only the front matter of version 1.1 (2006) was reachable, so
+//! none of these is the standard's own example. Where this gateway answers differently from the documented one, the test says so and
 //! why (search for "differs").
 //!
 //! The device is a simulated stand-in for CANopenNode's demoDevice with the objects and values
@@ -467,5 +467,22 @@ fn canopend_lss_tutorial() {
     assert_eq!(
         c.ask("[2] lss_allnodes 25 7 0 2 0x428 1 0 1 0 0 0\r\n", 1),
         "[2] ERROR:100\r\n"
+    );
+}
+
+/// Two further CiA 309-3 gateways whose manuals show sessions: port GmbH's CANopen Gateway
+/// Server DS309-3 user manual (cover page: `[16] 0 stop` answered `[16] OK`) and Nanotec's
+/// ZK-USB-CAN-1 operating instructions (§4.1.6: `set node 127` without a sequence number,
+/// answered `OK`). Their line ends are not shown; these use CR LF like the others.
+#[test]
+fn other_gateways_sessions() {
+    let (gw, _bus) = demo_gateway();
+    let mut c = Client::connect(&gw);
+    transcript(
+        &mut c,
+        &[
+            ("[16] 0 stop\r\n", "[16] OK\r\n"),
+            ("set node 127\r\n", "OK\r\n"),
+        ],
     );
 }
