@@ -5,7 +5,8 @@
 //! `[seq] [net] command args` (network-level: `set`, LSS) or `[seq] command` (gateway-level:
 //! `help`, `info version`). The formatter writes the canonical spelling (`read`, `write`,
 //! `preoperational`, `reset communication`, indices as `0x` and four hex digits); the parser
-//! also takes the abbreviations. Responses and events end with CR LF.
+//! also takes the abbreviations and any letter case. Responses and events end with CR LF
+//! (the inner lines of a multi-line reply with LF alone).
 
 use core::fmt;
 
@@ -300,22 +301,22 @@ macro_rules! error_codes {
 }
 
 error_codes! {
-    REQUEST_NOT_SUPPORTED = 100, "request not supported";
-    SYNTAX = 101, "syntax error";
-    INTERNAL_STATE = 102, "request not processed due to internal state";
-    TIMEOUT = 103, "time-out";
-    NO_DEFAULT_NET = 104, "no default net set";
-    NO_DEFAULT_NODE = 105, "no default node set";
-    UNSUPPORTED_NET = 106, "unsupported net";
-    UNSUPPORTED_NODE = 107, "unsupported node";
-    LOST_GUARDING = 200, "lost guarding message";
-    LOST_CONNECTION = 201, "lost connection";
-    HEARTBEAT_STARTED = 202, "heartbeat started";
-    HEARTBEAT_LOST = 203, "heartbeat lost";
-    WRONG_NMT_STATE = 204, "wrong NMT state";
-    BOOT_UP = 205, "boot-up";
-    ERROR_PASSIVE = 300, "error passive";
-    BUS_OFF = 301, "bus off";
+    REQUEST_NOT_SUPPORTED = 100, "Request not supported";
+    SYNTAX = 101, "Syntax error";
+    INTERNAL_STATE = 102, "Request not processed due to internal state";
+    TIMEOUT = 103, "Time-out";
+    NO_DEFAULT_NET = 104, "No default net set";
+    NO_DEFAULT_NODE = 105, "No default node set";
+    UNSUPPORTED_NET = 106, "Unsupported net";
+    UNSUPPORTED_NODE = 107, "Unsupported node";
+    LOST_GUARDING = 200, "Lost guarding message";
+    LOST_CONNECTION = 201, "Lost connection";
+    HEARTBEAT_STARTED = 202, "Heartbeat started";
+    HEARTBEAT_LOST = 203, "Heartbeat lost";
+    WRONG_NMT_STATE = 204, "Wrong NMT state";
+    BOOT_UP = 205, "Boot-up";
+    ERROR_PASSIVE = 300, "Error passive";
+    BUS_OFF = 301, "Bus off";
     CAN_BUFFER_OVERFLOW = 303, "CAN buffer overflow";
     CAN_INIT = 304, "CAN init";
     CAN_ACTIVE = 305, "CAN active (at init or start-up)";
@@ -326,7 +327,7 @@ error_codes! {
     LSS_BIT_RATE_NOT_SUPPORTED = 503, "LSS bit-rate not supported";
     LSS_STORE_FAILED = 504, "LSS parameter storing failed";
     LSS_MEDIA_ERROR = 505, "LSS command failed because of media error";
-    OUT_OF_MEMORY = 600, "running out of memory";
+    OUT_OF_MEMORY = 600, "Running out of memory";
 }
 
 impl fmt::Display for ErrorCode {
@@ -346,7 +347,9 @@ pub enum Reply {
     Abort(u32),
     /// `ERROR:<code>`: a gateway error code.
     Error(ErrorCode),
-    /// Lines of text (help), then `OK`.
+    /// Lines of text (help, the `lss_allnodes` report), then `OK`. Each of these lines ends in
+    /// LF alone and the `OK` line in CR LF, so the whole reply is one response ending in CR
+    /// LF, as CANopenNode's gateway writes its multi-line replies.
     Lines(Vec<String>),
 }
 
@@ -371,7 +374,7 @@ impl Response {
         if let Reply::Lines(lines) = &self.reply {
             for l in lines {
                 out.push_str(l);
-                out.push_str("\r\n");
+                out.push('\n');
             }
         }
         prefix(out);
@@ -397,8 +400,8 @@ impl Response {
 pub enum EventKind {
     /// `BOOT_UP`: the node sent its boot-up message.
     BootUp,
-    /// `ERROR <code>`: an error control event (heartbeat lost 203, heartbeat started 202,
-    /// guarding lost 200, ...).
+    /// `ERROR <code> (<text>)`: an error control event (heartbeat lost 203, heartbeat
+    /// started 202, guarding lost 200, ...), with the code's text as Lely's gateway writes it.
     Error(ErrorCode),
     /// `EMCY <code> <register> <5 bytes>`: an emergency message.
     Emcy {
@@ -428,7 +431,13 @@ impl fmt::Display for Event {
         write!(f, "{} {} ", self.net, self.node)?;
         match self.kind {
             EventKind::BootUp => f.write_str("BOOT_UP"),
-            EventKind::Error(code) => write!(f, "ERROR {code}"),
+            EventKind::Error(code) => {
+                write!(f, "ERROR {code}")?;
+                match code.description() {
+                    Some(text) => write!(f, " ({text})"),
+                    None => Ok(()),
+                }
+            }
             EventKind::Emcy {
                 code,
                 register,

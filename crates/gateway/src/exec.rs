@@ -245,7 +245,8 @@ pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
         },
         Command::LssFastscan(timeout) => {
             let mut cfg = FastscanConfig::default();
-            if let Some(ms) = timeout {
+            // 0: the default, as in CANopenNode.
+            if let Some(ms) = timeout.filter(|&ms| ms != 0) {
                 cfg.response_timeout = Duration::from_millis(ms.into());
             }
             match net.lss().fastscan(cfg) {
@@ -260,13 +261,18 @@ pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
 }
 
 /// `lss_allnodes`: every unconfigured slave gets the next free node-ID from `node_start` on.
-/// Lines `<vendor> <product> <revision> <serial> <node-ID>` for each, then `OK`.
+/// The report is CANopenNode's: a comment line `# Node-ID <n> assigned to: <vendor> <product>
+/// <revision> <serial>` for each slave, then `# Found <count> nodes, search finished.` (or
+/// `# Not all nodes scanned!` when the node-IDs ran out), then `OK`.
 fn all_nodes(net: &Network, args: Option<AllNodes>) -> Reply {
     let mut start = 2u8;
     let mut cfg = AssignConfig::with_pool(NodeIdPool::all());
     cfg.store = true;
     if let Some(a) = args {
-        cfg.fastscan.response_timeout = Duration::from_millis(a.timeout_ms.into());
+        // 0: the default, as in CANopenNode.
+        if a.timeout_ms != 0 {
+            cfg.fastscan.response_timeout = Duration::from_millis(a.timeout_ms.into());
+        }
         if let Some(asg) = a.assign {
             start = asg.node_start;
             cfg.store = asg.store;
@@ -290,14 +296,17 @@ fn all_nodes(net: &Network, args: Option<AllNodes>) -> Reply {
     cfg.pool = NodeIdPool::range(first, last);
     match net.lss().assign_all(cfg) {
         Ok(report) => {
-            let lines = report
+            let mut lines: Vec<String> = report
                 .assigned()
-                .map(|(a, n)| format!("{} {}", address_text(&a), n.get()))
+                .map(|(a, n)| format!("# Node-ID {} assigned to: {}", n.get(), address_text(&a)))
                 .collect();
+            let count = lines.len();
             match report.stopped {
-                Some(e) if report.assigned().next().is_none() => Reply::Error(lss_error(&e)),
-                _ => Reply::Lines(lines),
+                Some(LssError::NoFreeNodeId) => lines.push("# Not all nodes scanned!".into()),
+                Some(e) if count == 0 => return Reply::Error(lss_error(&e)),
+                _ => lines.push(format!("# Found {count} nodes, search finished.")),
             }
+            Reply::Lines(lines)
         }
         Err(e) => error_reply(&e),
     }

@@ -8,6 +8,39 @@
 //! * [`server`]: the [`Gateway`]: connections over TCP, a Unix socket, stdio or any byte
 //!   stream in front of one `canopen::Network`, with one request queue per node.
 //!
+//! # Compatibility
+//!
+//! No copy of the CiA 309-3 text was at hand; the forms follow the two independent gateways that
+//! document theirs, CANopenNode's `canopend` (`309/CO_gateway_ascii.c`, the CANopenDemo
+//! tutorials) and Lely's (`src/co/gw_txt.c`), and `tests/peers.rs` replays their documented
+//! exchanges byte for byte. Where they differ from each other or from this gateway:
+//! * Replies as CANopenNode writes them: `ERROR:<code>` and `ERROR:0x<abort>` (Lely writes
+//!   `ERROR: <code> (<text>)`; canopend's default build appends ` #<text>`, a comment), `u8` to
+//!   `u64` in decimal with `x8` to `x64` for hex (Lely, and port GmbH's gateway by its manual,
+//!   print unsigned values in hex), a multi-line reply's inner lines ending in LF and its last
+//!   in CR LF (CANopenNode's maintainer: the standard ends a command with CR LF, the LF alone
+//!   tells lines of help apart from the end).
+//! * Event lines and `info version` as Lely writes them (CANopenNode has neither): `<net>
+//!   <node> BOOT_UP`, `<net> <node> ERROR <code> (<text>)`, `<net> <node> EMCY <code> <reg>
+//!   <5 bytes>`; `<vendor> <product> <rev>.<rev> <serial> <class> <309-1 version> <version>`
+//!   (the field order port GmbH's and Nanotec's manuals show too).
+//! * `lss_get_node` in decimal, as Lely (CANopenNode writes `0x%02X`); `lss_inquire_addr`
+//!   takes CANopenNode's part 0..3 and Lely's command specifier 0x5A..0x5D.
+//! * A read without a type shows the node's dictionary type when the gateway knows the
+//!   dictionary, else hex as canopend (Lely needs a type).
+//! * Reals in the shortest form that reads back to the same value (canopend prints `%g`, six
+//!   digits, which loses precision); a visible string's bytes that are not UTF-8 become U+FFFD
+//!   and its line ends blanks (canopend writes the raw bytes), so that every reply is one line of
+//!   text.
+//! * An empty or comment-only line gets no reply, as in Lely (canopend answers an empty line).
+//!   A request without `[seq]` is served and answered without one (canopend answers it with a
+//!   syntax error; Lely reads a leading number as the sequence number even without brackets).
+//! * A line longer than [`Config::max_line`] is refused with 600, running out of memory, the
+//!   code Lely gives for the command size service (CANopenNode streams long values through a
+//!   fixed buffer and answers a token over its 20-byte limit with 101).
+//! * `lss_allnodes` scan type 1 (ignore a part) and a known part after a scanned one answer 100:
+//!   the Fastscan here takes known values for a leading run of parts only.
+//!
 //! ```
 //! use canopen_gateway::{Command, parse_line};
 //!

@@ -51,13 +51,22 @@ pub enum ParseError {
         /// The sequence number, when the line started with a readable one.
         seq: Option<u32>,
     },
+    /// A node-ID above 127 before a node-level command (gateway error 107, as CANopenNode
+    /// answers it).
+    #[error("unsupported node")]
+    UnsupportedNode {
+        /// The sequence number.
+        seq: Option<u32>,
+    },
 }
 
 impl ParseError {
     /// The sequence number to echo.
     pub fn seq(&self) -> Option<u32> {
         match *self {
-            Self::Syntax { seq } | Self::NotSupported { seq } => seq,
+            Self::Syntax { seq } | Self::NotSupported { seq } | Self::UnsupportedNode { seq } => {
+                seq
+            }
         }
     }
 }
@@ -197,11 +206,12 @@ fn read_args(i: &str) -> Res<'_, Command> {
     ))
 }
 
-fn keyword<'a>(words: &'static [&'static str]) -> impl Fn(&'a str) -> Res<'a, &'a str> {
+/// One of `words`, in any letter case; returns the word as listed.
+fn keyword<'a>(words: &'static [&'static str]) -> impl Fn(&'a str) -> Res<'a, &'static str> {
     move |i| {
         let (rest, w) = preceded(space1, word).parse(i)?;
-        if words.contains(&w) {
-            Ok((rest, w))
+        if let Some(k) = words.iter().find(|k| k.eq_ignore_ascii_case(w)) {
+            Ok((rest, k))
         } else {
             Err(nom::Err::Error(nom::error::Error::new(
                 i,
@@ -216,7 +226,9 @@ fn all_nodes(i: &str) -> Res<'_, Option<AllNodes>> {
     let Some(timeout_ms) = timeout else {
         return Ok((i, None));
     };
-    let (i, assign) = opt((arg(127), bit)).parse(i)?;
+    // The first node-ID is 1..=127, as CANopenNode takes it.
+    let node_start = nom::combinator::verify(arg(127), |&n| n >= 1);
+    let (i, assign) = opt((node_start, bit)).parse(i)?;
     let Some((node_start, store)) = assign else {
         return Ok((
             i,
@@ -303,9 +315,16 @@ fn command_args<'a>(w: &str, i: &'a str) -> Result<Option<(&'a str, Command)>, (
             arg(0xFFFF)(i).map(|(r, v)| (r, Command::LssActivateBitrate(v as u16)))
         }
         "lss_store" => Ok((i, Command::LssStore)),
-        "lss_inquire_addr" => opt(arg(3))
-            .parse(i)
-            .map(|(r, v)| (r, Command::LssInquireAddr(v.map(|v| v as u8)))),
+        // The part as CANopenNode numbers it (0..3) or as the LSS command specifier of the
+        // inquire service, as Lely takes it (0x5A..0x5D).
+        "lss_inquire_addr" => match opt(arg(0x5D)).parse(i) {
+            Ok((r, None)) => Ok((r, Command::LssInquireAddr(None))),
+            Ok((r, Some(v @ 0..=3))) => Ok((r, Command::LssInquireAddr(Some(v as u8)))),
+            Ok((r, Some(v @ 0x5A..=0x5D))) => {
+                Ok((r, Command::LssInquireAddr(Some((v - 0x5A) as u8))))
+            }
+            _ => return Err(()),
+        },
         "lss_get_node" => Ok((i, Command::LssGetNode)),
         "_lss_fastscan" => opt(arg(0xFFFF))
             .parse(i)
@@ -367,7 +386,8 @@ pub fn parse_line(line: &str) -> Result<Option<Request>, ParseError> {
     if after.is_ok_and(|(_, junk)| !junk.is_empty()) {
         return Err(syntax(seq));
     }
-    let (i, command) = match command_args(w, i) {
+    // Command words in any letter case, as both CANopenNode and Lely take them.
+    let (i, command) = match command_args(&w.to_ascii_lowercase(), i) {
         Ok(Some(v)) => v,
         Ok(None) => return Err(ParseError::NotSupported { seq }),
         Err(()) => return Err(syntax(seq)),
@@ -384,8 +404,8 @@ pub fn parse_line(line: &str) -> Result<Option<Request>, ParseError> {
         (Level::Node, Some(net), Some(node)) => (Some(net), Some(node)),
         (Level::Node, node, None) => (None, node),
     };
-    if node.is_some_and(|n| n > 0xFF) {
-        return Err(syntax(seq));
+    if node.is_some_and(|n| n > 127) {
+        return Err(ParseError::UnsupportedNode { seq });
     }
     Ok(Some(Request {
         seq,
@@ -511,7 +531,6 @@ mod tests {
             "[7] 1 2 set node 3",
             "[7] 3 help",
             "[7] 4 start now",
-            "[7] 300 start",
             "[7] set sdo_block 2",
             "[7]",
             "[7] 4 read 0x1000 0 u8 extra",
@@ -522,6 +541,40 @@ mod tests {
                 "{bad}"
             );
         }
+        // A node-ID above 127: unsupported node, as CANopenNode answers.
+        for bad in ["[7] 300 start", "[7] 128 r 0x1000 0", "[7] 1 200 stop"] {
+            assert_eq!(
+                parse_line(bad),
+                Err(ParseError::UnsupportedNode { seq: Some(7) }),
+                "{bad}"
+            );
+        }
+        // Any letter case, as both CANopenNode and Lely take it.
+        assert_eq!(
+            p("[8] 4 READ 0x1017 0 U16").command,
+            Command::Read {
+                index: 0x1017,
+                sub: 0,
+                data_type: Some(DataType::U16)
+            }
+        );
+        assert_eq!(
+            p("[9] 4 Reset Comm").command,
+            Command::Nmt(NmtService::ResetCommunication)
+        );
+        // lss_inquire_addr takes the part (CANopenNode) or its command specifier (Lely).
+        assert_eq!(
+            p("[10] lss_inquire_addr 0x5D").command,
+            Command::LssInquireAddr(Some(3))
+        );
+        assert_eq!(
+            parse_line("[11] lss_allnodes 25 0 1"),
+            Err(ParseError::Syntax { seq: Some(11) })
+        );
+        assert_eq!(
+            parse_line("[10] lss_inquire_addr 4"),
+            Err(ParseError::Syntax { seq: Some(10) })
+        );
         assert_eq!(
             parse_line("[x] start"),
             Err(ParseError::Syntax { seq: None })

@@ -49,7 +49,10 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 /// What `info version` reports: `<vendor-ID> <product code> <revision major>.<minor> <serial>
-/// <gateway class> <protocol major>.<minor> <implementation major>.<minor>`.
+/// <gateway class> <protocol major>.<minor> <implementation major>.<minor>` (the fields and
+/// their order as Lely's gateway prints them: the identity of the gateway's own device, gateway
+/// class 3 for a gateway that is the NMT master, the CiA 309-1 version, then the
+/// implementation's version).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Version {
     /// Vendor-ID of the gateway (0: none assigned).
@@ -60,9 +63,9 @@ pub struct Version {
     pub revision: u32,
     /// Serial number.
     pub serial: u32,
-    /// Gateway class.
+    /// Gateway class (3: the gateway is the NMT master, as this one is; 1: not).
     pub class: u8,
-    /// CiA 309-3 protocol version (major, minor).
+    /// The version of CiA 309-1 implemented (major, minor).
     pub protocol: (u8, u8),
     /// Implementation version (major, minor).
     pub implementation: (u8, u8),
@@ -78,8 +81,8 @@ impl Default for Version {
             product_code: 0,
             revision: (u32::from(major) << 16) | u32::from(minor),
             serial: 0,
-            class: 1,
-            protocol: (3, 0),
+            class: 3,
+            protocol: (2, 0),
             implementation: (major, minor),
         }
     }
@@ -518,6 +521,7 @@ impl Gateway {
                 let code = match e {
                     ParseError::Syntax { .. } => ErrorCode::SYNTAX,
                     ParseError::NotSupported { .. } => ErrorCode::REQUEST_NOT_SUPPORTED,
+                    ParseError::UnsupportedNode { .. } => ErrorCode::UNSUPPORTED_NODE,
                 };
                 client.reply(error_text(e.seq(), code));
                 return;

@@ -5,7 +5,8 @@
 //! digits, `b` as `0`/`1`, reals in the shortest form that reads back to the same value, `vs`
 //! between double quotes with an inner quote doubled (input also a single unquoted word),
 //! `os`/`us`/`d` in base64 (RFC 2045 alphabet, padded, one line), `t`/`td` as two decimal
-//! numbers `<days> <ms>`, and `hex` (non-standard, CANopenNode) as byte pairs separated by spaces.
+//! numbers `<days> <ms>` (as Lely's gateway reads and prints them), and `hex` (non-standard,
+//! CANopenNode) as byte pairs separated by spaces. Type names are taken in any letter case.
 //! Parsing never panics: bad text is a [`ValueError`].
 
 use core::fmt;
@@ -116,7 +117,9 @@ impl DataType {
 
     /// The type for a name on the line.
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|t| t.name() == name)
+        Self::ALL
+            .into_iter()
+            .find(|t| t.name().eq_ignore_ascii_case(name))
     }
 
     /// The size in bytes of a fixed-size type.
@@ -547,15 +550,20 @@ fn parse_vs(text: &str) -> Option<String> {
     }
 }
 
+/// Hex bytes as CANopenNode reads them: blank-separated groups of digits, each group read two
+/// digits to a byte from the left, a last single digit a byte of its own (`01 2 30 456789`:
+/// 01 02 30 45 67 89).
 fn parse_hex(text: &str) -> Option<Vec<u8>> {
-    let digits: Vec<u8> = text.bytes().filter(|b| *b != b' ').collect();
-    if !digits.len().is_multiple_of(2) || !digits.iter().all(u8::is_ascii_hexdigit) {
-        return None;
+    let mut out = Vec::with_capacity(text.len() / 2);
+    for group in text.split([' ', '\t']).filter(|g| !g.is_empty()) {
+        if !group.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return None;
+        }
+        for pair in group.as_bytes().chunks(2) {
+            out.push(u8::from_str_radix(core::str::from_utf8(pair).ok()?, 16).ok()?);
+        }
     }
-    digits
-        .chunks(2)
-        .map(|p| u8::from_str_radix(core::str::from_utf8(p).ok()?, 16).ok())
-        .collect()
+    Some(out)
 }
 
 const B64: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -648,6 +656,12 @@ mod tests {
         );
         assert_eq!(p(DataType::R32, "0.1"), "0.1");
         assert_eq!(p(DataType::Hex, "0102 ff"), "01 02 FF");
+        // CANopenNode's grouping (its SDO tutorial writes ten bytes this way).
+        assert_eq!(
+            p(DataType::Hex, "01 2 30 456789 0A b0 0 ff"),
+            "01 02 30 45 67 89 0A B0 00 FF"
+        );
+        assert!(Value::parse(DataType::Hex, "0g").is_err());
         assert_eq!(p(DataType::TimeOfDay, "14000 3600000"), "14000 3600000");
         assert!(Value::parse(DataType::U8, "256").is_err());
         assert!(Value::parse(DataType::I8, "-129").is_err());

@@ -1,6 +1,7 @@
 //! Many connections at once: every request answered with its own sequence number, a connection
 //! that stops reading or vanishes costs the others nothing, over-long lines are refused, and
-//! SDO requests to different nodes run in parallel.
+//! SDO requests to different nodes run in parallel, and a connection flooding a node delays
+//! another connection's request to it by a bounded number of requests.
 
 mod common;
 
@@ -216,4 +217,128 @@ fn connections_beyond_the_limit_are_refused_over_tcp() {
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
     assert!(served);
+}
+
+/// Records, in bus order, every SDO upload the devices serve: (node, index).
+struct ServedLog {
+    node: u8,
+    log: std::sync::Arc<std::sync::Mutex<Vec<(u8, u16)>>>,
+}
+
+impl canopen::DeviceHook for ServedLog {
+    fn on_read(
+        &mut self,
+        _now: can_frame::Instant,
+        _values: &canopen::Values,
+        index: u16,
+        _sub: u8,
+    ) -> Option<Result<Vec<u8>, canopen::AbortCode>> {
+        self.log.lock().unwrap().push((self.node, index));
+        None
+    }
+}
+
+/// Fairness through the TCP server: one connection floods node 5 with reads of 0x1017; another
+/// connection's single read of node 5 (0x1018) is served after at most two of the flood's
+/// reads (the one under way and the one the round-robin turn had already chosen), and its
+/// single read of node 6 (another queue) is not held behind the flood. The order comes from
+/// the devices' log of served uploads, not from any clock. The bus runs in real time at
+/// 125 kbit/s, so that the flood lasts long enough for the other connection to join it.
+#[test]
+fn a_flooding_connection_delays_another_by_a_bounded_number_of_requests() {
+    use std::io::{BufRead, BufReader, Write};
+    use std::sync::{Arc, Mutex};
+
+    const FLOOD: usize = 300;
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let bus = canopen::MemoryBus::with_config(canopen::BusConfig {
+        clock: canopen::ClockMode::RealTime,
+        bitrate: Some(125_000),
+        ..canopen::BusConfig::default()
+    });
+    let od = canopen_od::parse(common::EDS).unwrap().od;
+    for node in [5u8, 6] {
+        let dev = canopen::SimDevice::new(can_frame::NodeId::new(node).unwrap(), od.clone())
+            .with_hook(ServedLog {
+                node,
+                log: log.clone(),
+            });
+        bus.attach(dev);
+    }
+    let gw =
+        canopen_gateway::Gateway::new(canopen::Network::new(bus.endpoint()), Config::default());
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    gw.serve_tcp(listener);
+    let connect = || {
+        let s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(std::time::Duration::from_secs(60)))
+            .unwrap();
+        (s.try_clone().unwrap(), BufReader::new(s))
+    };
+    let line = |r: &mut BufReader<std::net::TcpStream>| {
+        let mut l = String::new();
+        r.read_line(&mut l).unwrap();
+        l
+    };
+
+    let (mut flood_w, mut flood_r) = connect();
+    let flood: String = (0..FLOOD)
+        .map(|i| format!("[{i}] 5 r 0x1017 0 u16\n"))
+        .collect();
+    let writer = std::thread::spawn(move || flood_w.write_all(flood.as_bytes()).unwrap());
+    // The flood is under way once its first reply is in.
+    assert_eq!(line(&mut flood_r), "[0] 500\r\n");
+    let reader = std::thread::spawn(move || {
+        for _ in 1..FLOOD {
+            assert!(line(&mut flood_r).ends_with(" 500\r\n"));
+        }
+    });
+
+    let (mut w, mut r) = connect();
+    let flood_reads = |log: &[(u8, u16)]| log.iter().filter(|e| **e == (5, 0x1017)).count();
+    // Each queued request is followed by one the reader answers itself: when that reply is
+    // in, the queued one is in its queue, and the flood reads served so far are a lower bound
+    // of those served before it was queued.
+    w.write_all(b"[1] 5 r 0x1018 1 u32\n[2] set sdo_timeout 500\n")
+        .unwrap();
+    let mut replies = vec![line(&mut r)];
+    let before_5 = flood_reads(&log.lock().unwrap());
+    w.write_all(b"[3] 6 r 0x1018 1 u32\n[4] set sdo_timeout 500\n")
+        .unwrap();
+    replies.push(line(&mut r));
+    let before_6 = flood_reads(&log.lock().unwrap());
+    replies.push(line(&mut r));
+    replies.push(line(&mut r));
+    replies.sort();
+    assert_eq!(
+        replies,
+        ["[1] 57\r\n", "[2] OK\r\n", "[3] 57\r\n", "[4] OK\r\n"]
+    );
+    writer.join().unwrap();
+    reader.join().unwrap();
+
+    let log = log.lock().unwrap();
+    assert_eq!(flood_reads(&log), FLOOD);
+    let served_at = |entry: (u8, u16)| {
+        let at = log.iter().position(|e| *e == entry).unwrap();
+        flood_reads(&log[..at])
+    };
+    let between_5 = served_at((5, 0x1018)).saturating_sub(before_5);
+    let between_6 = served_at((6, 0x1018)).saturating_sub(before_6);
+    // Node 5's queue: the read under way and the one already chosen, no more, while most of
+    // the flood still waited (a queue that served a connection's waiting requests first would
+    // have served the whole flood in between: the connection keeps its queue full).
+    let after_5 = FLOOD - served_at((5, 0x1018));
+    assert!(
+        between_5 <= 2 && after_5 > 100,
+        "{between_5} flood reads in between, {after_5} after"
+    );
+    // Node 6's queue runs beside node 5's: what is served meanwhile only reflects how the two
+    // workers share the bus, far below the backlog a shared queue would put first.
+    let after_6 = FLOOD - served_at((6, 0x1018));
+    assert!(
+        between_6 <= 8 && after_6 > 100,
+        "{between_6} flood reads in between, {after_6} after"
+    );
 }

@@ -71,15 +71,17 @@ fn all_nodes_gives_each_device_a_node_id() {
     let (gw, _bus) = bus_with_unconfigured(&[0x10, 0x20, 0x30]);
     let mut c = Client::connect(&gw);
     c.send("[1] lss_allnodes 25 20 1\n");
-    let mut lines: Vec<String> = (0..4).map(|_| c.line()).collect();
+    // CANopenNode's report: one comment line per slave, a summary, then OK.
+    let mut lines: Vec<String> = (0..5).map(|_| c.line()).collect();
     assert_eq!(lines.pop().unwrap(), "[1] OK\r\n");
+    assert_eq!(lines.pop().unwrap(), "# Found 3 nodes, search finished.\n");
     lines.sort();
     assert_eq!(
         lines,
         [
-            "0x00000039 0x00001234 0x00010002 0x00000010 20\r\n",
-            "0x00000039 0x00001234 0x00010002 0x00000020 21\r\n",
-            "0x00000039 0x00001234 0x00010002 0x00000030 22\r\n",
+            "# Node-ID 20 assigned to: 0x00000039 0x00001234 0x00010002 0x00000010\n",
+            "# Node-ID 21 assigned to: 0x00000039 0x00001234 0x00010002 0x00000020\n",
+            "# Node-ID 22 assigned to: 0x00000039 0x00001234 0x00010002 0x00000030\n",
         ]
     );
     // Each answers SDO at its new node-ID.

@@ -137,7 +137,8 @@ fn request() -> impl Strategy<Value = Request> {
     prop_oneof![
         (
             seq.clone(),
-            proptest::option::of((proptest::option::of(any::<u16>()), any::<u8>())),
+            // Node-IDs 0..=127 (0: all nodes); a larger one is refused with error 107.
+            proptest::option::of((proptest::option::of(any::<u16>()), 0u8..=127)),
             node_command()
         )
             .prop_map(|(seq, target, command)| {

@@ -84,7 +84,8 @@ fn defaults_nmt_and_errors() {
                 "# a comment line gets no reply\r\n[19] 4 r 0x1017 0 u16 # trailing comment\r\n",
                 "[19] 500\r\n",
             ),
-            ("\r\n[20] info version\r\n", "[20] 0 0 0.1 0 1 3.0 0.1\r\n"),
+            // Lely's field order; class 3: the gateway is the NMT master.
+            ("\r\n[20] info version\r\n", "[20] 0 0 0.1 0 3 2.0 0.1\r\n"),
             ("garbage without a sequence number\n", "ERROR:100\r\n"),
             ("[21\n", "ERROR:101\r\n"),
         ],
@@ -106,10 +107,11 @@ fn help_ends_with_ok() {
         }
     }
     assert!(lines.len() > 3, "{lines:?}");
+    // Inner lines end in LF alone, the reply in CR LF (as CANopenNode writes its help).
     assert!(
         lines[..lines.len() - 1]
             .iter()
-            .all(|l| l.starts_with('#') && l.ends_with("\r\n"))
+            .all(|l| l.starts_with('#') && l.ends_with('\n') && !l.ends_with("\r\n"))
     );
     assert_eq!(
         c.ask("[2] help datatype\n", 6).lines().last(),
@@ -141,7 +143,7 @@ fn boot_up_and_heartbeat_events_for_clients_that_ask() {
     loop {
         let l = listening.line();
         seen.push(l.clone());
-        if l == "1 4 ERROR 203\r\n" {
+        if l == "1 4 ERROR 203 (Heartbeat lost)\r\n" {
             break;
         }
         assert!(seen.len() < 10, "{seen:?}");
