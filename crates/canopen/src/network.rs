@@ -612,21 +612,33 @@ fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) 
                 std::thread::sleep(STEP_ASIDE);
                 continue;
             }
-            let text = match e {
-                Error::Transport(t) => t.to_string(),
-                other => other.to_string(),
-            };
-            *relock(error.lock()) = Some(text.clone());
-            stop.store(true, Ordering::SeqCst);
-            net.core()
-                .publish(NetworkEvent::TransportFailed { error: text });
-            net.notify();
+            net.driver_failed(&e, error, stop);
             return;
         }
     }
 }
 
 impl Network {
+    /// A background driver's end on a transport failure: the error kept for `stop_driver`, the
+    /// driver told to stop, and [`NetworkEvent::TransportFailed`] published (thread and task
+    /// drivers alike).
+    pub(crate) fn driver_failed(
+        &self,
+        e: &Error,
+        error: &Mutex<Option<String>>,
+        stop: &AtomicBool,
+    ) {
+        let text = match e {
+            Error::Transport(t) => t.to_string(),
+            other => other.to_string(),
+        };
+        *relock(error.lock()) = Some(text.clone());
+        stop.store(true, Ordering::SeqCst);
+        self.core()
+            .publish(NetworkEvent::TransportFailed { error: text });
+        self.notify();
+    }
+
     /// Whether a thread waiting for a request drives now or did a moment ago.
     fn waiter_drives(&self) -> bool {
         if self.inner.driving_waiters.load(Ordering::SeqCst) > 0 {

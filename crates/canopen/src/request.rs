@@ -290,16 +290,9 @@ impl Sdo {
         self,
         entry: &canopen_od::Entry<T>,
     ) -> Result<T, Error> {
-        let (node, at) = (
-            self.node,
-            ObjectAddress::new(entry.index(), entry.sub_index()),
-        );
-        let bytes = self.read(at)?;
-        entry.decode(&bytes).map_err(|e| Error::Value {
-            node,
-            entry: at,
-            message: e.to_string(),
-        })
+        let at = ObjectAddress::new(entry.index(), entry.sub_index());
+        let node = self.node;
+        decode_entry(node, entry, &self.read(at)?)
     }
 
     /// Writes a typed entry (from generated code: `canopen_od::Entry<T>`).
@@ -308,16 +301,8 @@ impl Sdo {
         entry: &canopen_od::Entry<T>,
         value: &T,
     ) -> Result<(), Error> {
-        let at = ObjectAddress::new(entry.index(), entry.sub_index());
-        // Large enough for every fixed-size type; strings and domains are written as bytes.
-        let mut buf = vec![0u8; 4096];
-        let n = entry.encode(value, &mut buf).map_err(|e| Error::Value {
-            node: self.node,
-            entry: at,
-            message: e.to_string(),
-        })?;
-        buf.truncate(n);
-        self.write(at, buf)
+        let (at, bytes) = encode_entry(self.node, entry, value)?;
+        self.write(at, bytes)
     }
 
     /// Writes an object (SDO download).
@@ -358,4 +343,35 @@ impl Sdo {
             })
             .wait()?)
     }
+}
+
+/// A typed entry's bytes decoded, the error naming node and object (blocking and async reads).
+pub(crate) fn decode_entry<T: canopen_od::EntryValue>(
+    node: NodeId,
+    entry: &canopen_od::Entry<T>,
+    bytes: &[u8],
+) -> Result<T, Error> {
+    entry.decode(bytes).map_err(|e| Error::Value {
+        node,
+        entry: ObjectAddress::new(entry.index(), entry.sub_index()),
+        message: e.to_string(),
+    })
+}
+
+/// A typed entry's address and encoded value (blocking and async writes).
+pub(crate) fn encode_entry<T: canopen_od::EntryValue>(
+    node: NodeId,
+    entry: &canopen_od::Entry<T>,
+    value: &T,
+) -> Result<(ObjectAddress, Vec<u8>), Error> {
+    let at = ObjectAddress::new(entry.index(), entry.sub_index());
+    // Large enough for every fixed-size type; strings and domains are written as bytes.
+    let mut buf = vec![0u8; 4096];
+    let n = entry.encode(value, &mut buf).map_err(|e| Error::Value {
+        node,
+        entry: at,
+        message: e.to_string(),
+    })?;
+    buf.truncate(n);
+    Ok((at, buf))
 }

@@ -1,10 +1,13 @@
 //! A transport that fails intermittently: a wrapper around an in-memory bus endpoint whose
 //! every Nth send or receive returns an error while the calls in between work. The outcomes,
 //! each checked exactly:
-//! - blocking SDO requests (every method) while every 7th send fails with `TxQueueFull`: each
-//!   request returns the correct value, or ends with `SdoErrorKind::Transport` carrying the
-//!   transport's words; one failed send ends exactly one request (the one being waited on),
-//!   and the next request works. Never wrong data, never a hang.
+//! - blocking SDO requests (every method) while every 7th send fails with `TxQueueFull` (the
+//!   kernel's `ENOBUFS`): back-pressure, the frame is sent again a moment later, so every
+//!   request returns the correct value.
+//! - the same with every 7th send failing with an operating-system error: each request returns
+//!   the correct value, or ends with `SdoErrorKind::Transport` carrying the transport's words;
+//!   one failed send ends exactly one request (the one being waited on), and the next request
+//!   works. Never wrong data, never a hang.
 //! - the same with every 11th receive failing with an operating-system error.
 //! - the background driver: transient send errors (`TxQueueFull`) keep it driving (heartbeat
 //!   events keep arriving); an operating-system error on receive ends it with
@@ -35,6 +38,8 @@ struct Plan {
     /// Whether a failing receive is an operating-system error (else `TxQueueFull`-like
     /// transient errors are only injected on send).
     recv_io: bool,
+    /// Whether a failing send is an operating-system error (else `TxQueueFull`).
+    send_io: bool,
 }
 
 /// Counts of what the wrapper did.
@@ -70,11 +75,15 @@ impl Flaky {
 
 impl Transport for Flaky {
     fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
-        let every = self.plan.lock().unwrap().send_every;
+        let plan = *self.plan.lock().unwrap();
         self.sends += 1;
-        if every > 0 && self.sends.is_multiple_of(every) {
+        if plan.send_every > 0 && self.sends.is_multiple_of(plan.send_every) {
             self.counts.send_failures.fetch_add(1, Ordering::SeqCst);
-            return Err(TransportError::TxQueueFull);
+            return Err(if plan.send_io {
+                TransportError::Io(std::io::Error::other("injected send failure"))
+            } else {
+                TransportError::TxQueueFull
+            });
         }
         self.ep.send(frame)
     }
@@ -180,13 +189,31 @@ fn requests_over(plan: Plan, transport_text: &str) -> (Outcome, Arc<Counts>) {
 }
 
 #[test]
-fn every_seventh_send_failing_ends_one_request_each_with_the_transport_error() {
+fn every_seventh_send_refused_for_a_full_queue_is_sent_again_and_every_request_works() {
     let (out, counts) = requests_over(
         Plan {
             send_every: 7,
             ..Plan::default()
         },
         "the transmit queue is full",
+    );
+    let failures = counts.send_failures.load(Ordering::SeqCst);
+    eprintln!("{out:?}, {failures} sends refused");
+    assert!(failures > 20, "{failures}");
+    assert_eq!(out.ok, 240, "back-pressure loses no request: {out:?}");
+    assert_eq!(out.transport_errors, 0, "{out:?}");
+    assert!(out.other_errors.is_empty(), "{:?}", out.other_errors);
+}
+
+#[test]
+fn every_seventh_send_failing_ends_one_request_each_with_the_transport_error() {
+    let (out, counts) = requests_over(
+        Plan {
+            send_every: 7,
+            send_io: true,
+            ..Plan::default()
+        },
+        "CAN I/O error: injected send failure",
     );
     let failures = counts.send_failures.load(Ordering::SeqCst);
     eprintln!("{out:?}, {failures} sends failed");

@@ -23,7 +23,7 @@ use std::sync::{Arc, Mutex, Weak};
 
 use can_frame::{Duration, Instant};
 
-use crate::core::{Core, NetworkEvent};
+use crate::core::Core;
 use crate::error::Error;
 use crate::network::{Inner, Network};
 use crate::transport::TransportError;
@@ -297,15 +297,7 @@ pub(crate) fn spawn_virtual_driver(
                     | TransportError::TxQueueFull,
                 )) => Some(slice_end),
                 Err(e) => {
-                    let text = match e {
-                        Error::Transport(t) => t.to_string(),
-                        other => other.to_string(),
-                    };
-                    *error.lock().unwrap_or_else(|p| p.into_inner()) = Some(text.clone());
-                    stop.store(true, Ordering::SeqCst);
-                    net.core()
-                        .publish(NetworkEvent::TransportFailed { error: text });
-                    net.notify();
+                    net.driver_failed(&e, &error, &stop);
                     return;
                 }
             };

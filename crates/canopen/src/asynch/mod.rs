@@ -339,16 +339,9 @@ impl Sdo {
         self,
         entry: &canopen_od::Entry<T>,
     ) -> Result<T, Error> {
-        let (node, at) = (
-            self.node,
-            ObjectAddress::new(entry.index(), entry.sub_index()),
-        );
-        let bytes = self.read_async(at).await?;
-        entry.decode(&bytes).map_err(|e| Error::Value {
-            node,
-            entry: at,
-            message: e.to_string(),
-        })
+        let at = ObjectAddress::new(entry.index(), entry.sub_index());
+        let node = self.node;
+        crate::request::decode_entry(node, entry, &self.read_async(at).await?)
     }
 
     /// Writes a typed entry from generated code (async [`write_entry`](Self::write_entry)).
@@ -357,15 +350,8 @@ impl Sdo {
         entry: &canopen_od::Entry<T>,
         value: &T,
     ) -> Result<(), Error> {
-        let at = ObjectAddress::new(entry.index(), entry.sub_index());
-        let mut buf = vec![0u8; 4096];
-        let n = entry.encode(value, &mut buf).map_err(|e| Error::Value {
-            node: self.node,
-            entry: at,
-            message: e.to_string(),
-        })?;
-        buf.truncate(n);
-        self.write_async(at, buf).await
+        let (at, bytes) = crate::request::encode_entry(self.node, entry, value)?;
+        self.write_async(at, bytes).await
     }
 }
 
