@@ -23,7 +23,7 @@
 //! One cohesive machine: the routing, the request table and the per-node machines it feeds
 //! belong together, so the file stays whole.
 
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::io::Write;
 use std::sync::Arc;
 use std::sync::mpsc;
@@ -343,6 +343,10 @@ pub(crate) struct Core {
     /// No node's PDO engine has a deadline before this (a lower bound: a deadline that moved
     /// later is found out when this one passes, so a received PDO costs no scan of all nodes).
     pdo_next: Option<Instant>,
+    /// The SDO channels that may have a timer: a request queued or running since the channel
+    /// was last found idle. The timer scans walk this set, not every node's channels, so a
+    /// step costs the same with 2 nodes as with 127 when only PDOs flow.
+    sdo_busy: BTreeSet<(NodeId, usize)>,
 }
 
 impl Core {
@@ -372,6 +376,7 @@ impl Core {
             sdo_routes: HashMap::new(),
             pdo_routes: HashMap::new(),
             pdo_next: None,
+            sdo_busy: BTreeSet::new(),
         }
     }
 
@@ -791,6 +796,7 @@ impl Core {
             .and_then(|s| s.channels.get_mut(ch))
         {
             c.queue.push_back(id);
+            self.sdo_busy.insert((node, ch));
         }
         self.pump_channel(node, ch);
         id
@@ -1190,15 +1196,18 @@ impl Core {
             }
             self.pdo_next = next;
         }
-        let due: Vec<(NodeId, usize)> = self
-            .nodes
-            .iter()
-            .flat_map(|(n, s)| s.channels.iter().enumerate().map(move |(i, c)| (*n, i, c)))
-            .filter(|(_, _, c)| {
-                is_due(c.client.poll_timeout(), now) || (c.has_waiting() && c.ready_at <= now)
-            })
-            .map(|(n, i, _)| (n, i))
-            .collect();
+        let mut due = Vec::new();
+        self.sdo_busy.retain(|&(node, ch)| {
+            let Some(c) = self.nodes.get(&node).and_then(|s| s.channels.get(ch)) else {
+                return false;
+            };
+            let timer = c.client.poll_timeout();
+            if is_due(timer, now) || (c.has_waiting() && c.ready_at <= now) {
+                due.push((node, ch));
+            }
+            // Idle: nothing queued or running, no timer. It comes back with its next request.
+            timer.is_some() || c.active.is_some() || !c.queue.is_empty() || !c.client.is_idle()
+        });
         for (node, ch) in due {
             if let Some(c) = self
                 .nodes
@@ -1224,7 +1233,11 @@ impl Core {
         consider(self.guarding.poll_timeout());
         consider(self.lss.as_ref().and_then(|j| j.poll_timeout()));
         consider(self.pdo_next);
-        for c in self.nodes.values().flat_map(|s| &s.channels) {
+        let busy = self
+            .sdo_busy
+            .iter()
+            .filter_map(|(n, ch)| self.nodes.get(n).and_then(|s| s.channels.get(*ch)));
+        for c in busy {
             consider(c.client.poll_timeout());
             if c.has_waiting() {
                 consider(Some(c.ready_at));

@@ -53,6 +53,11 @@ const DRIVE_SLICE: Duration = Duration::from_millis(2);
 /// frames at 1 Mbit/s: room comes back as frames leave the wire).
 const TX_RETRY: Duration = Duration::from_micros(250);
 
+/// Most frames one driving step takes from the transport (those already waiting after the
+/// first): enough to spread the step's fixed cost, few enough that the core's timers and the
+/// transmit queue are served at least every batch.
+const RECEIVE_BATCH: usize = 32;
+
 pub(crate) struct Inner {
     core: Mutex<Core>,
     cond: Condvar,
@@ -411,6 +416,7 @@ impl Network {
         limit: Option<Instant>,
     ) -> Result<bool, Error> {
         let now = io.now();
+        let start = now;
         let (frames, next) = {
             let mut c = self.core();
             c.handle_timeout(now);
@@ -424,26 +430,36 @@ impl Network {
         if let Some(l) = limit {
             deadline = deadline.min(l);
         }
-        let got = io.recv_until(deadline.max(now));
+        let mut got = io.recv_until(deadline.max(now));
         let received = matches!(got, Ok(Some(_)));
-        // A frame's reception time is the time now, give or take the decoding; only otherwise
-        // ask the clock.
-        let now = match &got {
-            Ok(Some(Received::Frame { at, .. })) => *at,
-            _ => io.now(),
-        };
         let more = {
             let mut c = self.core();
-            match got {
-                Ok(Some(Received::Frame { frame, at })) => c.handle_frame(at, &frame),
-                Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
-                Ok(None) => {}
-                Err(e) => {
-                    drop(c);
-                    self.notify();
-                    return Err(e.into());
+            // The first frame, then whatever else is waiting already (up to a batch), under one
+            // lock and with one timer pass and one wake-up for all of them.
+            let mut now = None;
+            for taken in 1..=RECEIVE_BATCH {
+                match got {
+                    Ok(Some(Received::Frame { frame, at })) => {
+                        c.handle_frame(at, &frame);
+                        now = Some(at);
+                    }
+                    Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
+                    Ok(None) => break,
+                    Err(e) => {
+                        drop(c);
+                        self.notify();
+                        return Err(e.into());
+                    }
                 }
+                if taken == RECEIVE_BATCH {
+                    break;
+                }
+                // A deadline not after the last reception: take only what has arrived.
+                got = io.recv_until(now.unwrap_or(start));
             }
+            // A frame's reception time is the time now, give or take the decoding; only
+            // otherwise ask the clock.
+            let now = now.unwrap_or_else(|| io.now());
             c.handle_timeout(now);
             c.take_transmit()
         };

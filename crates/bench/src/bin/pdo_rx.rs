@@ -131,7 +131,11 @@ impl Checker {
         };
         assert!(ok, "node {node} TPDO{number}: wrong value {second:?}");
         let slot = &mut self.last[usize::from(node.get()) * 2 + usize::from(*number) - 2];
-        assert_eq!(c, *slot + 1, "node {node} TPDO{number}: counter out of order");
+        assert_eq!(
+            c,
+            *slot + 1,
+            "node {node} TPDO{number}: counter out of order"
+        );
         *slot = c;
         self.seen += 1;
     }
