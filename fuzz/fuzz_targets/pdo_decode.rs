@@ -7,7 +7,7 @@
 use can_frame::{CanFrame, CanId, Instant, NodeId};
 use canopen_pdo::{
     CommParams, DispatcherEntry, Engine, Mapping, MpdoConsumer, NullStore, PdoConfig,
-    TransmissionType, Value, pack, unpack,
+    TransmissionType, RawValue, pack, unpack,
 };
 use libfuzzer_sys::fuzz_target;
 
@@ -77,7 +77,7 @@ fuzz_target!(|data: &[u8]| {
         if let Some(m) = &mapping
             && let Ok(u) = unpack(m, payload)
         {
-            let values: Vec<Value> = u.iter().map(|(_, v)| v).collect();
+            let values: Vec<RawValue> = u.iter().map(|(_, v)| v).collect();
             let mut out = [0u8; 8];
             let packed = pack(m, &values, &mut out);
             assert!(

@@ -8,7 +8,7 @@
 use can_frame::{CanFrame, CanId};
 use canopen_pdo::typed::{PdoField, field};
 use canopen_pdo::{
-    DefaultCobId, Direction, ObjectAddress, TypedPdo, TypedPdoError, Value, ValueKind,
+    DefaultCobId, Direction, ObjectAddress, TypedPdo, TypedPdoError, RawValue, ValueKind,
 };
 use libfuzzer_sys::fuzz_target;
 
@@ -35,7 +35,7 @@ impl TypedPdo for Sample {
         raw: 0x180,
         adds_node_id: true,
     });
-    fn from_values(values: &[Value]) -> Result<Self, TypedPdoError> {
+    fn from_values(values: &[RawValue]) -> Result<Self, TypedPdoError> {
         Ok(Self {
             flag: field(values, 0, 0x2000_0101)?,
             level: field(values, 2, 0x2001_0018)?,
@@ -43,7 +43,7 @@ impl TypedPdo for Sample {
             tag: field(values, 5, 0x2003_0008)?,
         })
     }
-    fn value_at(&self, position: usize) -> Option<Value> {
+    fn value_at(&self, position: usize) -> Option<RawValue> {
         match position {
             0 => Some(self.flag.to_value()),
             2 => Some(self.level.to_value()),
@@ -54,14 +54,14 @@ impl TypedPdo for Sample {
     }
 }
 
-fn value(kind: u8, raw: u64) -> Value {
+fn value(kind: u8, raw: u64) -> RawValue {
     match kind % 6 {
-        0 => Value::Bool(raw & 1 == 1),
-        1 => Value::Unsigned(raw),
-        2 => Value::Signed(raw as i64),
-        3 => Value::Real32(f32::from_bits(raw as u32)),
-        4 => Value::Real64(f64::from_bits(raw)),
-        _ => Value::from_raw(ValueKind::Bytes, raw, (kind / 6 % 9) * 8),
+        0 => RawValue::Bool(raw & 1 == 1),
+        1 => RawValue::Unsigned(raw),
+        2 => RawValue::Signed(raw as i64),
+        3 => RawValue::Real32(f32::from_bits(raw as u32)),
+        4 => RawValue::Real64(f64::from_bits(raw)),
+        _ => RawValue::from_raw(ValueKind::Bytes, raw, (kind / 6 % 9) * 8),
     }
 }
 
@@ -89,7 +89,7 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     // Random (address, value) pairs, nine bytes each: index low byte, kind, seven value bytes.
-    let pairs: Vec<(ObjectAddress, Value)> = rest
+    let pairs: Vec<(ObjectAddress, RawValue)> = rest
         .chunks_exact(9)
         .map(|c| {
             let raw = u64::from_le_bytes([c[2], c[3], c[4], c[5], c[6], c[7], c[8], 0]);

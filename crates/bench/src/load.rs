@@ -21,10 +21,9 @@ use std::sync::mpsc::Receiver;
 
 use can_frame::{CanFrame, Duration, Instant, NodeId};
 use canopen::mem::{StationId, frame_bits};
-use canopen::pdo::Value as PdoValue;
 use canopen::{
     BusConfig, ClockMode, MemoryBus, Method, Network, NetworkEvent, ObjectDictionary, Pending,
-    SimDevice, Station, Transport,
+    SimDevice, Station, Transport, Value,
 };
 
 use crate::thread_cpu_seconds;
@@ -539,15 +538,15 @@ impl Tracker {
             return;
         };
         report.frames += 1;
-        let (Some((_, PdoValue::Unsigned(c))), Some((_, second))) = (values.first(), values.get(1))
+        let (Some((_, Value::Unsigned32(c))), Some((_, second))) = (values.first(), values.get(1))
         else {
             report.bad_values += 1;
             return;
         };
-        let c = *c as u32;
+        let c = *c;
         let ok = match (number, second) {
-            (1, PdoValue::Signed(v)) => *v == i64::from(expected_i32(node.get(), c)),
-            (2, PdoValue::Real32(v)) => *v == expected_real(c),
+            (1, Value::Integer32(v)) => *v == expected_i32(node.get(), c),
+            (2, Value::Real32(v)) => *v == expected_real(c),
             _ => false,
         };
         if !ok {

@@ -13,7 +13,7 @@ use can_frame::{CanFrame, Duration, Instant};
 use canopen::mem::{MemoryBus, StationId};
 use canopen::transport::{Received, Transport};
 use canopen::{Endpoint, Network, NetworkEvent};
-use canopen_pdo::Value as PdoValue;
+use canopen_od::Value as OdValue;
 use scenarios::{Device, Master, add_node, node_id as n};
 
 /// The simulated device attached to the in-memory bus (stepped by the bus's own loop).
@@ -297,9 +297,9 @@ fn sub_objects_a_device_lacks_are_none_and_integer_sensors_follow_the_eds() {
     assert!(!got.is_empty());
     for values in &got {
         assert_eq!(values[0].sensor, 1);
-        assert_eq!(values[0].value, PdoValue::Signed(32), "31.6 rounded");
+        assert_eq!(values[0].value, OdValue::Integer16(32), "31.6 rounded");
         assert_eq!(values[1].sensor, 0);
-        assert!(matches!(values[1].value, PdoValue::Real32(_)));
+        assert!(matches!(values[1].value, OdValue::Real32(_)));
     }
     assert_eq!(
         node.read_sensor_value(1).unwrap(),

@@ -34,7 +34,7 @@ use canopen_nmt::{
     CommandSpecifier, EmcyConsumer, EmcyEvent, GuardingEvent, GuardingMaster, HeartbeatConsumer,
     HeartbeatEvent, NmtCommand, NmtState, NmtTarget, SyncConfig, SyncProducer,
 };
-use canopen_od::{ObjectAddress, ObjectDictionary};
+use canopen_od::{ObjectAddress, ObjectDictionary, Value};
 use canopen_sdo::{
     AbortCode, Client, ClientConfig, Event as SdoEvent, Method, Multiplexer, SdoCobIds,
 };
@@ -107,8 +107,9 @@ pub enum NetworkEvent {
         node: NodeId,
         /// TPDO number 1..=4.
         number: u8,
-        /// The mapped objects and their values, in mapping order.
-        values: Vec<(ObjectAddress, canopen_pdo::Value)>,
+        /// The mapped objects and their values as the node's dictionary types them
+        /// (`Value::Unsigned16` for an UNSIGNED16), in mapping order.
+        values: Vec<(ObjectAddress, Value)>,
         /// Reception time.
         at: Instant,
     },
@@ -598,7 +599,7 @@ impl Core {
             return;
         };
         let pdos = slot.pdo.get_or_insert_with(crate::pdo_glue::NodePdos::new);
-        pdos.mirror_tpdo(number, config);
+        pdos.mirror_tpdo(number, config, slot.od.as_deref());
         Self::pdo_touched(pdos, &mut self.pdo_next);
         self.route_pdos();
     }
@@ -1096,9 +1097,7 @@ impl Core {
                 match ev {
                     canopen_pdo::Event::Received { pdo, .. } => {
                         number = number.or_else(|| pdos.tpdo_number(pdo));
-                        if let Some(values) = pdos.engine.received(pdo) {
-                            let values: Vec<_> =
-                                values.iter().map(|(obj, v)| (obj.addr(), v)).collect();
+                        if let Some(values) = pdos.received_values(pdo) {
                             decoded.push(values);
                         }
                     }

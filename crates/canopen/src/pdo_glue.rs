@@ -5,7 +5,7 @@
 //! side produces the node's RPDOs from the master's process image (see [`NodePdos`]).
 
 use can_frame::{CanId, Instant};
-use canopen_od::ObjectDictionary;
+use canopen_od::{DataType, ObjectDictionary, Value};
 use canopen_pdo::{
     CommParams, Dictionary, Direction, Engine, MapStore, Mapping, ObjectAddress, ObjectStore,
     OdView, PdoConfig, RpdoId, StoreError, TpdoId,
@@ -22,6 +22,10 @@ pub(crate) struct NodePdos {
     pub(crate) engine: Box<PdoEngine>,
     /// (TPDO number of the node, the engine's receive PDO), in the engine's order.
     pub(crate) tpdos: Vec<(u8, RpdoId)>,
+    /// Per mirrored receive PDO, the data type of each mapped object (its type in the node's
+    /// dictionary where that agrees with the mapping), in mapping order: received values are
+    /// delivered as the dictionary types them.
+    types: Vec<(RpdoId, Vec<DataType>)>,
     /// (RPDO number of the node, the engine's transmit PDO) of the RPDOs being transmitted.
     pub(crate) rpdos: Vec<(u16, TpdoId)>,
     /// Transmit PDOs of the engine no RPDO uses any more (stopped), for reuse.
@@ -42,6 +46,7 @@ impl NodePdos {
         Self {
             engine,
             tpdos: Vec::new(),
+            types: Vec::new(),
             rpdos: Vec::new(),
             idle: Vec::new(),
             image: MapStore::new(),
@@ -49,30 +54,85 @@ impl NodePdos {
         }
     }
 
-    /// Decodes the node's TPDO `number` with `config` from now on (mirrored event-driven).
+    /// Decodes the node's TPDO `number` with `config` from now on (mirrored event-driven),
+    /// typing its values by `od` (the node's dictionary, if it has one).
     /// With four mirrored already, the slot of one that is not valid is taken over.
-    pub(crate) fn mirror_tpdo(&mut self, number: u8, config: PdoConfig) {
+    pub(crate) fn mirror_tpdo(
+        &mut self,
+        number: u8,
+        config: PdoConfig,
+        od: Option<&ObjectDictionary>,
+    ) {
+        let types: Vec<DataType> = config
+            .mapping
+            .objects()
+            .iter()
+            .map(|o| {
+                let declared = od
+                    .filter(|_| !o.is_dummy())
+                    .and_then(|od| od.sub(o.entry.index(), o.entry.subindex()))
+                    .map(|s| s.data_type);
+                o.value_type(declared)
+            })
+            .collect();
         let config = mirrored(config);
-        if let Some((_, id)) = self.tpdos.iter().find(|(n, _)| *n == number) {
+        let id = if let Some((_, id)) = self.tpdos.iter().find(|(n, _)| *n == number) {
             let _ = self.engine.set_rpdo(*id, config);
-            return;
-        }
-        match self.engine.add_rpdo(config.clone()) {
-            Ok(id) => self.tpdos.push((number, id)),
-            Err(_) => {
-                let engine = &self.engine;
-                let unused = self.tpdos.iter_mut().find(|(_, id)| {
-                    engine
-                        .rpdo(*id)
-                        .is_none_or(|c| !c.comm.cob_id.is_valid() || c.mapping.is_empty())
-                });
-                if let Some(slot) = unused
-                    && self.engine.set_rpdo(slot.1, config).is_ok()
-                {
-                    slot.0 = number;
+            Some(*id)
+        } else {
+            match self.engine.add_rpdo(config.clone()) {
+                Ok(id) => {
+                    self.tpdos.push((number, id));
+                    Some(id)
+                }
+                Err(_) => {
+                    let engine = &self.engine;
+                    let unused = self.tpdos.iter_mut().find(|(_, id)| {
+                        engine
+                            .rpdo(*id)
+                            .is_none_or(|c| !c.comm.cob_id.is_valid() || c.mapping.is_empty())
+                    });
+                    match unused {
+                        Some(slot) if self.engine.set_rpdo(slot.1, config).is_ok() => {
+                            slot.0 = number;
+                            Some(slot.1)
+                        }
+                        _ => None,
+                    }
                 }
             }
+        };
+        if let Some(id) = id {
+            self.types.retain(|(r, _)| *r != id);
+            self.types.push((id, types));
         }
+    }
+
+    /// The values of receive PDO `id`'s last reception, typed by the node's dictionary, with
+    /// their addresses, in mapping order (dummy entries included).
+    pub(crate) fn received_values(&self, id: RpdoId) -> Option<Vec<(ObjectAddress, Value)>> {
+        let unpacked = self.engine.received(id)?;
+        let types = self
+            .types
+            .iter()
+            .find(|(r, _)| *r == id)
+            .map_or(&[][..], |(_, t)| t.as_slice());
+        Some(
+            unpacked
+                .iter()
+                .enumerate()
+                .map(|(i, (obj, raw))| {
+                    let ty = types.get(i).copied().unwrap_or_else(|| obj.data_type());
+                    // The type was chosen to agree with the mapping, so this always converts;
+                    // the fallback keeps a value should a dictionary say otherwise.
+                    let value = raw
+                        .to_value(ty)
+                        .or_else(|_| raw.to_value(obj.data_type()))
+                        .unwrap_or(Value::Unsigned64(0));
+                    (obj.addr(), value)
+                })
+                .collect(),
+        )
     }
 
     /// The node's TPDO number of the engine's receive PDO `id`.
@@ -194,7 +254,7 @@ impl NodePdos {
         let view = OdView::new(od, node.get());
         for n in 0..4u16 {
             if let Some(c) = read_pdo(&view, Direction::Transmit, n) {
-                self.mirror_tpdo(n as u8 + 1, c);
+                self.mirror_tpdo(n as u8 + 1, c, Some(od));
             }
         }
     }

@@ -546,7 +546,7 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     r.net.run_for(Duration::from_millis(600)).unwrap();
     let seen = drain(&events).into_iter().any(|e| {
         matches!(&e, NetworkEvent::PdoValues { number: 1, values, .. }
-            if values.first().map(|v| v.1) == Some(canopen_pdo::Value::Real32(12.5)))
+            if values.first().map(|v| &v.1) == Some(&canopen::Value::Real32(12.5)))
     });
     assert!(seen);
 
@@ -725,7 +725,7 @@ fn transfer_gap_is_settable() {
 #[test]
 fn boolean_tpdo_with_one_bit_and_with_eight_bits() {
     use canopen_od::{AccessType, DataType, EdsValue, Object, SubObject, Value as OdValue};
-    use canopen_pdo::{CommParams, Direction, Mapping, Value};
+    use canopen_pdo::{CommParams, Direction, Mapping};
     let mut dictionary = od();
     dictionary.insert(Object::var(
         0x2100,
@@ -770,10 +770,10 @@ fn boolean_tpdo_with_one_bit_and_with_eight_bits() {
         let last = decoded.last().expect("TPDO3 arrived");
         assert_eq!(
             last[0].1,
-            Value::Bool(true),
+            OdValue::Boolean(true),
             "{bits}-bit BOOLEAN: {decoded:?}"
         );
-        assert_eq!(decoded.first().unwrap()[0].1, Value::Bool(false));
+        assert_eq!(decoded.first().unwrap()[0].1, OdValue::Boolean(false));
     }
 }
 

@@ -7,8 +7,9 @@
 use std::sync::mpsc::Receiver;
 
 use can_frame::{CanFrame, CanId, Duration, Instant, NodeId};
+use canopen::Value;
 use canopen::mem::{BusConfig, ClockMode, Endpoint, MemoryBus, StationId};
-use canopen::pdo::{Direction, PdoCobId, TransmissionType, Value};
+use canopen::pdo::{Direction, PdoCobId, TransmissionType};
 use canopen::transport::{Received, Transport};
 use canopen::{Network, NetworkEvent, ObjectAddress, SimDevice, Transmission};
 

@@ -20,7 +20,8 @@ use std::sync::mpsc;
 use std::time::Duration as StdDuration;
 
 use can_frame::{CanId, Duration, NodeId};
-use canopen::pdo::{PdoCobId, TransmissionType, Value};
+use canopen::Value;
+use canopen::pdo::{PdoCobId, TransmissionType};
 use canopen::udp::UdpMulticast;
 use canopen::{Network, NetworkEvent, ObjectAddress, Transmission};
 
@@ -144,7 +145,7 @@ fn pdos_with_python_canopen_as_the_device() {
     assert_eq!(
         values,
         [
-            (ObjectAddress::new(0x2004, 1), Value::Unsigned(3)),
+            (ObjectAddress::new(0x2004, 1), Value::Unsigned8(3)),
             (ObjectAddress::new(0x2500, 1), Value::Real32(21.5)),
         ]
     );

@@ -297,7 +297,7 @@ impl Generator<'_> {
         }
         let _ = writeln!(
             out,
-            "    fn from_values(values: &[{pdo}::Value]) -> Result<Self, {pdo}::TypedPdoError> {{"
+            "    fn from_values(values: &[{pdo}::RawValue]) -> Result<Self, {pdo}::TypedPdoError> {{"
         );
         if fields.is_empty() {
             let _ = writeln!(out, "        let _ = values;");
@@ -313,7 +313,7 @@ impl Generator<'_> {
         let _ = writeln!(out, "        }})\n    }}");
         let _ = writeln!(
             out,
-            "    fn value_at(&self, position: usize) -> Option<{pdo}::Value> {{"
+            "    fn value_at(&self, position: usize) -> Option<{pdo}::RawValue> {{"
         );
         if fields.is_empty() {
             let _ = writeln!(out, "        let _ = position;\n        None");
@@ -355,7 +355,7 @@ impl Generator<'_> {
             (
                 "Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.",
                 format!(
-                    "pub fn from_pairs(pairs: &[({pdo}::ObjectAddress, {pdo}::Value)]) -> Result<Self, {err}>"
+                    "pub fn from_pairs<V: {pdo}::PairValue>(pairs: &[({pdo}::ObjectAddress, V)]) -> Result<Self, {err}>"
                 ),
                 format!("{trait_}::from_pairs(pairs)"),
             ),

@@ -8,7 +8,7 @@
 use std::hint::black_box;
 
 use can_frame::{CanFrame, CanId, Instant};
-use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, Value, unpack};
+use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue, unpack};
 use criterion::{Criterion, Throughput, criterion_main};
 
 fn engine() -> Engine<4, 0> {
@@ -40,8 +40,8 @@ fn bench(c: &mut Criterion) {
         let mut i = 0usize;
         let mut sum = 0u64;
         // The application's callback: gets the PDO's typed values.
-        let mut callback = |v: Value| {
-            if let Value::Unsigned(x) = v {
+        let mut callback = |v: RawValue| {
+            if let RawValue::Unsigned(x) = v {
                 sum = sum.wrapping_add(x);
             }
         };

@@ -13,7 +13,7 @@
 use std::hint::black_box;
 
 use can_frame::{CanFrame, CanId, Instant};
-use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, Value};
+use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue};
 
 fn main() {
     let frames_to_run: u64 = std::env::args()
@@ -37,8 +37,8 @@ fn main() {
     ];
     let mut store = NullStore;
     let mut sum = 0u64;
-    let mut callback = |v: Value| {
-        if let Value::Unsigned(x) = v {
+    let mut callback = |v: RawValue| {
+        if let RawValue::Unsigned(x) = v {
             sum = sum.wrapping_add(x);
         }
     };

@@ -6,7 +6,7 @@
 //! - [`mapping`] — mapping parameters (0x1600.., 0x1A00..): up to 64 entries and 64 bits,
 //!   dummy entries, validation against an object dictionary through [`Catalog`].
 //! - [`mod@pack`] — bit-level [`fn@pack`] and [`unpack`] into typed
-//!   [`Value`]s (unaligned fields, 1-bit booleans, 24/40/48/56-bit integers, sign extension).
+//!   [`RawValue`]s (unaligned fields, 1-bit booleans, 24/40/48/56-bit integers, sign extension).
 //! - [`engine`] — the sans-IO [`Engine`] a master and a device simulator both run: consumes
 //!   receive PDOs into an [`ObjectStore`] and produces transmit PDOs from it, by transmission
 //!   type, with inhibit time, event timer, SYNC counter and receive deadlines. Its docs give the
@@ -25,7 +25,7 @@
 //!
 //! ```
 //! use can_frame::{CanFrame, CanId, Instant};
-//! use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, Value};
+//! use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue};
 //!
 //! // One engine per node: up to 4 PDOs each way. The device's TPDO1 (0x185, four UNSIGNED16)
 //! // is a receive PDO of the master.
@@ -39,8 +39,8 @@
 //! while let Some(event) = engine.poll_event() {
 //!     if let Event::Received { pdo, changed } = event {
 //!         assert_eq!((pdo, changed), (tpdo1, 0b1111));
-//!         let values: Vec<Value> = engine.received(pdo).unwrap().iter().map(|(_, v)| v).collect();
-//!         assert_eq!(values, [1, 2, 3, 4].map(Value::Unsigned));
+//!         let values: Vec<RawValue> = engine.received(pdo).unwrap().iter().map(|(_, v)| v).collect();
+//!         assert_eq!(values, [1, 2, 3, 4].map(RawValue::Unsigned));
 //!     }
 //! }
 //! while let Some(frame) = engine.poll_transmit() { /* send it */ let _ = frame; }
@@ -82,6 +82,6 @@ pub use mpdo::{
 };
 #[cfg(feature = "od")]
 pub use od::{OdView, ValueSource};
-pub use pack::{PackError, Unpacked, Value, pack, unpack};
+pub use pack::{PackError, RawValue, Unpacked, pack, unpack};
 pub use remote::{RemapError, RemapSteps, RemoteObjects, SdoWrite, remap};
-pub use typed::{DefaultCobId, PdoField, TypedPdo, TypedPdoError};
+pub use typed::{DefaultCobId, PairValue, PdoField, TypedPdo, TypedPdoError};

@@ -12,9 +12,116 @@
 //! entry's length decides how the value is packed. Fixed-size types have their size; strings and
 //! domains the length of their (current, else default) value, at most 64 bits.
 
-use canopen_od::{DataType, ObjectDictionary};
+use canopen_od::{BytesError, DataType, ObjectDictionary, Value};
 
 use crate::dictionary::{Catalog, Dictionary, ObjectAddress, ObjectInfo, ReadError};
+use crate::mapping::{MappedObject, ValueKind};
+use crate::pack::RawValue;
+
+impl RawValue {
+    /// The value as the object dictionary types it: [`canopen_od::Value`], the one value type
+    /// of the workspace's applications, for an object of `data_type` (the mapped object's type
+    /// in the node's dictionary, or [`MappedObject::data_type`] without one). Integers take the
+    /// type's width (a 12-bit field of an UNSIGNED16 is an `Unsigned16`); byte-typed fields
+    /// decode as the type's bytes. An error when the value cannot be of that type (a REAL32
+    /// field for an UNSIGNED16, a BOOLEAN other than 0 or 1, a time type of other than 6 bytes).
+    pub fn to_value(&self, data_type: DataType) -> Result<Value, BytesError> {
+        let unsupported = || BytesError::Unsupported(data_type);
+        match (*self, data_type) {
+            (Self::Bool(b), DataType::Boolean) => Ok(Value::Boolean(b)),
+            (Self::Real32(f), DataType::Real32) => Ok(Value::Real32(f)),
+            (Self::Real64(f), DataType::Real64) => Ok(Value::Real64(f)),
+            (Self::Bytes(b), _) => Value::from_le_bytes(data_type, b.as_slice()),
+            // A BOOLEAN mapped as unsigned bits (a mapping built from raw entries).
+            (Self::Unsigned(v), DataType::Boolean) if v <= 1 => Ok(Value::Boolean(v == 1)),
+            (Self::Unsigned(v), _) if data_type.integer_bits().is_some() => {
+                Value::from_i128_wrapping(data_type, i128::from(v)).ok_or_else(unsupported)
+            }
+            (Self::Signed(v), _) if data_type.integer_bits().is_some() => {
+                Value::from_i128_wrapping(data_type, i128::from(v)).ok_or_else(unsupported)
+            }
+            _ => Err(unsupported()),
+        }
+    }
+}
+
+impl RawValue {
+    /// The field value of an object of `kind` holding `value` (the reverse of
+    /// [`to_value`](Self::to_value)); `None` when `value` cannot be such a field (a string for
+    /// an unsigned field, more than eight bytes).
+    pub fn from_value(value: &Value, kind: ValueKind) -> Option<Self> {
+        Some(match (kind, value) {
+            (ValueKind::Boolean, Value::Boolean(b)) => Self::Bool(*b),
+            (ValueKind::Boolean, v) => match v.as_i128()? {
+                0 => Self::Bool(false),
+                1 => Self::Bool(true),
+                _ => return None,
+            },
+            (ValueKind::Real32, Value::Real32(f)) => Self::Real32(*f),
+            (ValueKind::Real64, Value::Real64(f)) => Self::Real64(*f),
+            (ValueKind::Unsigned, v) => Self::Unsigned(u64::try_from(v.as_i128()?).ok()?),
+            (ValueKind::Signed, v) => Self::Signed(i64::try_from(v.as_i128()?).ok()?),
+            (ValueKind::Bytes, v) => Self::Bytes(crate::pack::Bytes::new(&v.to_le_bytes())?),
+            _ => return None,
+        })
+    }
+}
+
+impl crate::typed::PairValue for Value {
+    fn to_raw_value(&self, kind: ValueKind) -> Option<RawValue> {
+        RawValue::from_value(self, kind)
+    }
+}
+
+impl MappedObject {
+    /// The data type a value of this object has when no dictionary tells: from its kind and
+    /// mapped length (BOOLEAN; the UNSIGNEDn or INTEGERn as wide as its bytes; REAL32, REAL64;
+    /// OCTET_STRING for byte-typed fields).
+    pub fn data_type(&self) -> DataType {
+        let bytes = self.bits().div_ceil(8);
+        match self.kind {
+            ValueKind::Boolean => DataType::Boolean,
+            ValueKind::Real32 => DataType::Real32,
+            ValueKind::Real64 => DataType::Real64,
+            ValueKind::Bytes => DataType::OctetString,
+            ValueKind::Unsigned => match bytes {
+                0 | 1 => DataType::Unsigned8,
+                2 => DataType::Unsigned16,
+                3 => DataType::Unsigned24,
+                4 => DataType::Unsigned32,
+                5 => DataType::Unsigned40,
+                6 => DataType::Unsigned48,
+                7 => DataType::Unsigned56,
+                _ => DataType::Unsigned64,
+            },
+            ValueKind::Signed => match bytes {
+                0 | 1 => DataType::Integer8,
+                2 => DataType::Integer16,
+                3 => DataType::Integer24,
+                4 => DataType::Integer32,
+                5 => DataType::Integer40,
+                6 => DataType::Integer48,
+                7 => DataType::Integer56,
+                _ => DataType::Integer64,
+            },
+        }
+    }
+
+    /// The data type to type this object's values with: `declared` (its type in a dictionary)
+    /// when that agrees with how the mapping decodes it, else [`data_type`](Self::data_type).
+    pub fn value_type(&self, declared: Option<DataType>) -> DataType {
+        match declared {
+            Some(t)
+                if ValueKind::from_data_type(t.code()) == self.kind
+                    && (self.kind != ValueKind::Bytes
+                        || t.size().is_none_or(|n| n * 8 == usize::from(self.bits()))) =>
+            {
+                t
+            }
+            _ => self.data_type(),
+        }
+    }
+}
 
 /// Current object values as little-endian bytes (CiA 301 §7.1), for a view over a running
 /// device rather than a file's defaults.

@@ -6,14 +6,18 @@
 //! signed types are sign-extended from their mapped length.
 //!
 //! [`unpack`] does not copy the frame beyond that single 64-bit load and returns a view
-//! ([`Unpacked`]) whose iterator yields typed [`Value`]s on demand. Both directions are total:
+//! ([`Unpacked`]) whose iterator yields typed [`RawValue`]s on demand. Both directions are total:
 //! bytes and values either fit or give a typed error, never a panic.
 
 use crate::mapping::{MappedObject, Mapping, ValueKind, field_mask};
 
-/// A typed value of a mapped object.
+/// A mapped object's value as the PDO data carries it: one variant per way of reading the bits
+/// (a [`ValueKind`]), up to 64 bits, no allocation — the form the engine works in, on devices
+/// without a heap too. Applications see values as the dictionary types them, as
+/// `canopen_od::Value` (`Unsigned16`, `VisibleString`, ...): [`RawValue::to_value`] (feature
+/// `od`) converts, and the `canopen` facade delivers received PDOs that way.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Value {
+pub enum RawValue {
     /// BOOLEAN.
     Bool(bool),
     /// Any UNSIGNEDn (and objects of unknown type).
@@ -122,7 +126,7 @@ pub const fn sign_extend(raw: u64, bits: u8) -> i64 {
     }
 }
 
-impl core::fmt::Display for Value {
+impl core::fmt::Display for RawValue {
     /// The value as CANopen tools show it: `true`, `42`, `-7`, `24.58`, and byte-typed objects
     /// (strings, octet strings, time types) as their bytes in hex (`01 02 0a`).
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -137,7 +141,7 @@ impl core::fmt::Display for Value {
     }
 }
 
-impl Value {
+impl RawValue {
     /// Interprets the raw bits of a field of `bits` bits as `kind`.
     #[inline]
     pub fn from_raw(kind: ValueKind, raw: u64, bits: u8) -> Self {
@@ -259,26 +263,26 @@ impl<'a> Unpacked<'a> {
     }
 
     /// The value of the `i`-th mapped object.
-    pub fn get(&self, i: usize) -> Option<Value> {
+    pub fn get(&self, i: usize) -> Option<RawValue> {
         self.mapping
             .objects()
             .get(i)
-            .map(|o| Value::from_raw(o.kind, field(self.word, o), o.bits()))
+            .map(|o| RawValue::from_raw(o.kind, field(self.word, o), o.bits()))
     }
 
     /// Every mapped object with its value, in PDO order (dummy entries included).
-    pub fn iter(&self) -> impl Iterator<Item = (&'a MappedObject, Value)> + 'a {
+    pub fn iter(&self) -> impl Iterator<Item = (&'a MappedObject, RawValue)> + 'a {
         let word = self.word;
         self.mapping
             .objects()
             .iter()
-            .map(move |o| (o, Value::from_raw(o.kind, field(word, o), o.bits())))
+            .map(move |o| (o, RawValue::from_raw(o.kind, field(word, o), o.bits())))
     }
 }
 
 /// Packs `values` (one per mapped object, dummies included: pass any value of the dummy's kind
 /// or zero) into `out`; returns the number of data bytes.
-pub fn pack(mapping: &Mapping, values: &[Value], out: &mut [u8; 8]) -> Result<usize, PackError> {
+pub fn pack(mapping: &Mapping, values: &[RawValue], out: &mut [u8; 8]) -> Result<usize, PackError> {
     if values.len() != mapping.len() {
         return Err(PackError::ValueCount {
             expected: mapping.len(),
@@ -327,14 +331,14 @@ mod tests {
         ]);
         let data = [0x34, 0x12, 0x78, 0x56, 0xBC, 0x9A, 0xF0, 0xDE];
         let u = unpack(&map, &data).unwrap();
-        let vals: Vec<Value> = u.iter().map(|(_, v)| v).collect();
+        let vals: Vec<RawValue> = u.iter().map(|(_, v)| v).collect();
         assert_eq!(
             vals,
             [
-                Value::Unsigned(0x1234),
-                Value::Unsigned(0x5678),
-                Value::Unsigned(0x9ABC),
-                Value::Unsigned(0xDEF0)
+                RawValue::Unsigned(0x1234),
+                RawValue::Unsigned(0x5678),
+                RawValue::Unsigned(0x9ABC),
+                RawValue::Unsigned(0xDEF0)
             ]
         );
         let mut out = [0; 8];
@@ -355,12 +359,12 @@ mod tests {
             (0x2000_0608, ValueKind::Unsigned),
         ]);
         let vals = [
-            Value::Bool(true),
-            Value::Bool(false),
-            Value::Unsigned(0xB),
-            Value::Signed(-2),
-            Value::Signed(-0x12_3456),
-            Value::Unsigned(0xA5),
+            RawValue::Bool(true),
+            RawValue::Bool(false),
+            RawValue::Unsigned(0xB),
+            RawValue::Signed(-2),
+            RawValue::Signed(-0x12_3456),
+            RawValue::Unsigned(0xA5),
         ];
         let mut out = [0; 8];
         assert_eq!(pack(&map, &vals, &mut out), Ok(6));
@@ -368,7 +372,7 @@ mod tests {
         // byte 1: the other 8 bits of the 10-bit -2 (all ones) -> 0xFF
         // bytes 2..5: -0x123456 in 24 bits = 0xEDCBAA, little-endian AA CB ED; byte 5 = A5.
         assert_eq!(out, [0xAD, 0xFF, 0xAA, 0xCB, 0xED, 0xA5, 0, 0]);
-        let back: Vec<Value> = unpack(&map, &out[..6])
+        let back: Vec<RawValue> = unpack(&map, &out[..6])
             .unwrap()
             .iter()
             .map(|(_, v)| v)
@@ -384,8 +388,8 @@ mod tests {
         ]);
         let data = [0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x56, 0x34, 0x12];
         let u = unpack(&map, &data).unwrap();
-        assert_eq!(u.get(0), Some(Value::Signed(-1)));
-        assert_eq!(u.get(1), Some(Value::Unsigned(0x12_3456)));
+        assert_eq!(u.get(0), Some(RawValue::Signed(-1)));
+        assert_eq!(u.get(1), Some(RawValue::Unsigned(0x12_3456)));
         let map = m(&[
             (0x2000_0138, ValueKind::Signed),
             (0x2000_0208, ValueKind::Unsigned),
@@ -393,12 +397,12 @@ mod tests {
         let data = [0, 0, 0, 0, 0, 0, 0x80, 7];
         assert_eq!(
             unpack(&map, &data).unwrap().get(0),
-            Some(Value::Signed(-(1 << 55)))
+            Some(RawValue::Signed(-(1 << 55)))
         );
         let map = m(&[(0x2000_0130, ValueKind::Unsigned)]);
         assert_eq!(
             unpack(&map, &[1, 2, 3, 4, 5, 6]).unwrap().get(0),
-            Some(Value::Unsigned(0x0605_0403_0201))
+            Some(RawValue::Unsigned(0x0605_0403_0201))
         );
     }
 
@@ -409,13 +413,13 @@ mod tests {
             (0x2001_0020, ValueKind::Bytes),
         ]);
         let vals = [
-            Value::Real32(1.5),
-            Value::Bytes(Bytes::new(b"ABCD").unwrap()),
+            RawValue::Real32(1.5),
+            RawValue::Bytes(Bytes::new(b"ABCD").unwrap()),
         ];
         let mut out = [0; 8];
         pack(&map, &vals, &mut out).unwrap();
         assert_eq!(out, [0x00, 0x00, 0xC0, 0x3F, b'A', b'B', b'C', b'D']);
-        let back: Vec<Value> = unpack(&map, &out).unwrap().iter().map(|(_, v)| v).collect();
+        let back: Vec<RawValue> = unpack(&map, &out).unwrap().iter().map(|(_, v)| v).collect();
         assert_eq!(back, vals);
     }
 
@@ -434,25 +438,37 @@ mod tests {
         );
         let mut out = [0; 8];
         assert_eq!(
-            pack(&map, &[Value::Unsigned(256), Value::Signed(0)], &mut out),
+            pack(
+                &map,
+                &[RawValue::Unsigned(256), RawValue::Signed(0)],
+                &mut out
+            ),
             Err(PackError::OutOfRange {
                 position: 0,
                 bits: 8
             })
         );
         assert_eq!(
-            pack(&map, &[Value::Unsigned(1), Value::Signed(128)], &mut out),
+            pack(
+                &map,
+                &[RawValue::Unsigned(1), RawValue::Signed(128)],
+                &mut out
+            ),
             Err(PackError::OutOfRange {
                 position: 1,
                 bits: 8
             })
         );
         assert_eq!(
-            pack(&map, &[Value::Unsigned(1), Value::Bool(true)], &mut out),
+            pack(
+                &map,
+                &[RawValue::Unsigned(1), RawValue::Bool(true)],
+                &mut out
+            ),
             Err(PackError::WrongKind { position: 1 })
         );
         assert_eq!(
-            pack(&map, &[Value::Unsigned(1)], &mut out),
+            pack(&map, &[RawValue::Unsigned(1)], &mut out),
             Err(PackError::ValueCount {
                 expected: 2,
                 actual: 1
@@ -474,7 +490,7 @@ mod tests {
     }
 
     /// A random mapping of at most 64 bits and a random value for each object.
-    fn arb_mapping_and_values() -> impl Strategy<Value = (Mapping, Vec<Value>)> {
+    fn arb_mapping_and_values() -> impl Strategy<Value = (Mapping, Vec<RawValue>)> {
         proptest::collection::vec(arb_object(), 1..=MAX_ENTRIES)
             .prop_flat_map(|objs| {
                 let mut map = Mapping::new();
@@ -496,7 +512,7 @@ mod tests {
                     .zip(seeds)
                     .map(|(o, s)| {
                         let raw = s & field_mask(o.bits());
-                        Value::from_raw(o.kind, raw, o.bits())
+                        RawValue::from_raw(o.kind, raw, o.bits())
                     })
                     .collect();
                 (map, vals)
@@ -504,10 +520,10 @@ mod tests {
             .prop_filter("mapping is not empty", |(m, _)| !m.is_empty())
     }
 
-    fn same(a: &Value, b: &Value) -> bool {
+    fn same(a: &RawValue, b: &RawValue) -> bool {
         match (a, b) {
-            (Value::Real32(x), Value::Real32(y)) => x.to_bits() == y.to_bits(),
-            (Value::Real64(x), Value::Real64(y)) => x.to_bits() == y.to_bits(),
+            (RawValue::Real32(x), RawValue::Real32(y)) => x.to_bits() == y.to_bits(),
+            (RawValue::Real64(x), RawValue::Real64(y)) => x.to_bits() == y.to_bits(),
             _ => a == b,
         }
     }
@@ -520,7 +536,7 @@ mod tests {
             let mut out = [0u8; 8];
             let n = pack(&map, &vals, &mut out).unwrap();
             prop_assert_eq!(n, map.byte_len());
-            let back: Vec<Value> = unpack(&map, &out[..n]).unwrap().iter().map(|(_, v)| v).collect();
+            let back: Vec<RawValue> = unpack(&map, &out[..n]).unwrap().iter().map(|(_, v)| v).collect();
             prop_assert_eq!(back.len(), vals.len());
             for (a, b) in back.iter().zip(&vals) {
                 prop_assert!(same(a, b), "{:?} != {:?}", a, b);
@@ -530,7 +546,7 @@ mod tests {
         #[test]
         fn unpack_then_pack_is_identity((map, _vals) in arb_mapping_and_values(), data in any::<[u8; 8]>()) {
             let n = map.byte_len();
-            let vals: Vec<Value> = unpack(&map, &data[..n]).unwrap().iter().map(|(_, v)| v).collect();
+            let vals: Vec<RawValue> = unpack(&map, &data[..n]).unwrap().iter().map(|(_, v)| v).collect();
             let mut out = [0u8; 8];
             pack(&map, &vals, &mut out).unwrap();
             // Only the mapped bits survive; bits past the mapping are zero.

@@ -4,10 +4,10 @@
 //!
 //! [`TypedPdo`] is what a generated struct implements: its direction and number, its mapping
 //! entries with their [`ValueKind`]s, its default COB-ID (`$NODEID` resolved when the node-ID is
-//! known), and the conversion between its fields and the [`Value`]s of [`fn@pack`] and
+//! known), and the conversion between its fields and the [`RawValue`]s of [`fn@pack`] and
 //! [`unpack`]. The provided methods do the rest through this crate's packer, so generated code
 //! holds no bit arithmetic: `Tpdo1::from_frame(&frame)` decodes a received PDO, `to_frame(node)`
-//! builds one. [`PdoField`] converts each Rust field type to and from a [`Value`].
+//! builds one. [`PdoField`] converts each Rust field type to and from a [`RawValue`].
 //!
 //! Decoding is strict about the length: a PDO whose data length is not the mapping's is an
 //! error ([`TypedPdoError::Length`]), since it means the device's mapping is not the one the
@@ -15,7 +15,7 @@
 
 use crate::comm::{Direction, PdoCobId};
 use crate::mapping::{MAX_ENTRIES, Mapping, MappingEntry, MappingError, ValueKind};
-use crate::pack::{PackError, Value, pack, unpack};
+use crate::pack::{PackError, RawValue, pack, unpack};
 use can_frame::CanId;
 pub use can_frame::{CanFrame, NodeId};
 use canopen_od::ObjectAddress;
@@ -23,20 +23,20 @@ use canopen_od::ObjectAddress;
 /// A Rust type that carries the value of one mapped object.
 pub trait PdoField: Sized {
     /// The value of a mapped object of this type.
-    fn to_value(&self) -> Value;
+    fn to_value(&self) -> RawValue;
     /// The field from a decoded value; `None` if the value has another kind or does not fit.
-    fn from_value(value: Value) -> Option<Self>;
+    fn from_value(value: RawValue) -> Option<Self>;
 }
 
 macro_rules! unsigned_field {
     ($($t:ty),*) => {$(
         impl PdoField for $t {
-            fn to_value(&self) -> Value {
-                Value::Unsigned(u64::from(*self))
+            fn to_value(&self) -> RawValue {
+                RawValue::Unsigned(u64::from(*self))
             }
-            fn from_value(value: Value) -> Option<Self> {
+            fn from_value(value: RawValue) -> Option<Self> {
                 match value {
-                    Value::Unsigned(v) => <$t>::try_from(v).ok(),
+                    RawValue::Unsigned(v) => <$t>::try_from(v).ok(),
                     _ => None,
                 }
             }
@@ -46,12 +46,12 @@ macro_rules! unsigned_field {
 macro_rules! signed_field {
     ($($t:ty),*) => {$(
         impl PdoField for $t {
-            fn to_value(&self) -> Value {
-                Value::Signed(i64::from(*self))
+            fn to_value(&self) -> RawValue {
+                RawValue::Signed(i64::from(*self))
             }
-            fn from_value(value: Value) -> Option<Self> {
+            fn from_value(value: RawValue) -> Option<Self> {
                 match value {
-                    Value::Signed(v) => <$t>::try_from(v).ok(),
+                    RawValue::Signed(v) => <$t>::try_from(v).ok(),
                     _ => None,
                 }
             }
@@ -62,36 +62,36 @@ unsigned_field!(u8, u16, u32, u64);
 signed_field!(i8, i16, i32, i64);
 
 impl PdoField for bool {
-    fn to_value(&self) -> Value {
-        Value::Bool(*self)
+    fn to_value(&self) -> RawValue {
+        RawValue::Bool(*self)
     }
-    fn from_value(value: Value) -> Option<Self> {
+    fn from_value(value: RawValue) -> Option<Self> {
         match value {
-            Value::Bool(b) => Some(b),
+            RawValue::Bool(b) => Some(b),
             _ => None,
         }
     }
 }
 
 impl PdoField for f32 {
-    fn to_value(&self) -> Value {
-        Value::Real32(*self)
+    fn to_value(&self) -> RawValue {
+        RawValue::Real32(*self)
     }
-    fn from_value(value: Value) -> Option<Self> {
+    fn from_value(value: RawValue) -> Option<Self> {
         match value {
-            Value::Real32(v) => Some(v),
+            RawValue::Real32(v) => Some(v),
             _ => None,
         }
     }
 }
 
 impl PdoField for f64 {
-    fn to_value(&self) -> Value {
-        Value::Real64(*self)
+    fn to_value(&self) -> RawValue {
+        RawValue::Real64(*self)
     }
-    fn from_value(value: Value) -> Option<Self> {
+    fn from_value(value: RawValue) -> Option<Self> {
         match value {
-            Value::Real64(v) => Some(v),
+            RawValue::Real64(v) => Some(v),
             _ => None,
         }
     }
@@ -99,7 +99,7 @@ impl PdoField for f64 {
 
 /// Byte-typed objects (strings, OCTET_STRING, TIME_OF_DAY, ...) mapped with `8 * N` bits.
 impl<const N: usize> PdoField for [u8; N] {
-    fn to_value(&self) -> Value {
+    fn to_value(&self) -> RawValue {
         // More than eight bytes cannot be mapped: the value keeps eight and the packer reports
         // it as not fitting its mapped length.
         let n = N.min(8);
@@ -107,11 +107,11 @@ impl<const N: usize> PdoField for [u8; N] {
             .iter()
             .rev()
             .fold(0u64, |acc, &b| acc << 8 | u64::from(b));
-        Value::from_raw(ValueKind::Bytes, raw, (n * 8) as u8)
+        RawValue::from_raw(ValueKind::Bytes, raw, (n * 8) as u8)
     }
-    fn from_value(value: Value) -> Option<Self> {
+    fn from_value(value: RawValue) -> Option<Self> {
         match value {
-            Value::Bytes(b) => b.as_slice().try_into().ok(),
+            RawValue::Bytes(b) => b.as_slice().try_into().ok(),
             _ => None,
         }
     }
@@ -189,7 +189,11 @@ impl From<PackError> for TypedPdoError {
 
 /// The field at `position` of positional `values` (PDO order, dummies included), converted to
 /// its Rust type. Generated `from_values` bodies are one call of this per field.
-pub fn field<T: PdoField>(values: &[Value], position: usize, raw: u32) -> Result<T, TypedPdoError> {
+pub fn field<T: PdoField>(
+    values: &[RawValue],
+    position: usize,
+    raw: u32,
+) -> Result<T, TypedPdoError> {
     let address = MappingEntry(raw).addr();
     let value = values
         .get(position)
@@ -198,13 +202,26 @@ pub fn field<T: PdoField>(values: &[Value], position: usize, raw: u32) -> Result
     T::from_value(value).ok_or(TypedPdoError::Field { position, address })
 }
 
+/// A value of an `(address, value)` pair that [`TypedPdo::from_pairs`] takes: a [`RawValue`],
+/// or (feature `od`) a `canopen_od::Value` as the `canopen` master publishes received PDOs.
+pub trait PairValue {
+    /// The value as a field of `kind`; `None` when it cannot be one.
+    fn to_raw_value(&self, kind: ValueKind) -> Option<RawValue>;
+}
+
+impl PairValue for RawValue {
+    fn to_raw_value(&self, _kind: ValueKind) -> Option<RawValue> {
+        Some(*self)
+    }
+}
+
 /// Decoded values in PDO order, dummies included.
-pub type Values = heapless::Vec<Value, MAX_ENTRIES>;
+pub type Values = heapless::Vec<RawValue, MAX_ENTRIES>;
 
 /// A PDO with a fixed mapping and named, typed fields (implemented by generated code).
 ///
 /// Required: the constants and the two conversions between the struct and positional
-/// [`Value`]s. Provided: decoding from data bytes, frames and `(address, value)` lists, and
+/// [`RawValue`]s. Provided: decoding from data bytes, frames and `(address, value)` lists, and
 /// encoding to data bytes and frames, all through [`fn@pack`] and [`unpack`].
 pub trait TypedPdo: Sized {
     /// Receive or transmit PDO, seen from the device.
@@ -217,10 +234,10 @@ pub trait TypedPdo: Sized {
     const DEFAULT_COB_ID: Option<DefaultCobId>;
 
     /// The struct from decoded values in PDO order (dummies included).
-    fn from_values(values: &[Value]) -> Result<Self, TypedPdoError>;
+    fn from_values(values: &[RawValue]) -> Result<Self, TypedPdoError>;
 
     /// The value of the mapped object at `position`; `None` for dummy entries (sent as zero).
-    fn value_at(&self, position: usize) -> Option<Value>;
+    fn value_at(&self, position: usize) -> Option<RawValue>;
 
     /// The mapping as the packer takes it.
     fn mapping() -> Result<Mapping, TypedPdoError> {
@@ -266,18 +283,21 @@ pub trait TypedPdo: Sized {
 
     /// Decodes `(address, value)` pairs as the master publishes them for a node's TPDO, taking
     /// each mapped object by its address.
-    fn from_pairs(pairs: &[(ObjectAddress, Value)]) -> Result<Self, TypedPdoError> {
+    fn from_pairs<V: PairValue>(pairs: &[(ObjectAddress, V)]) -> Result<Self, TypedPdoError> {
         let mut values = Values::new();
-        for &(raw, kind) in Self::ENTRIES {
+        for (position, &(raw, kind)) in Self::ENTRIES.iter().enumerate() {
             let entry = MappingEntry(raw);
             let value = if entry.is_dummy() {
-                Value::from_raw(kind, 0, entry.bits())
+                RawValue::from_raw(kind, 0, entry.bits())
             } else {
+                let address = entry.addr();
                 pairs
                     .iter()
-                    .find(|(a, _)| *a == entry.addr())
-                    .map(|(_, v)| *v)
-                    .ok_or(TypedPdoError::Missing(entry.addr()))?
+                    .find(|(a, _)| *a == address)
+                    .ok_or(TypedPdoError::Missing(address))?
+                    .1
+                    .to_raw_value(kind)
+                    .ok_or(TypedPdoError::Field { position, address })?
             };
             // ENTRIES holds at most what a Mapping holds when `mapping()` succeeds.
             values.push(value).map_err(|_| {
@@ -294,7 +314,7 @@ pub trait TypedPdo: Sized {
         for (position, object) in mapping.objects().iter().enumerate() {
             let value = match self.value_at(position) {
                 Some(v) if !object.is_dummy() => v,
-                _ => Value::from_raw(object.kind, 0, object.bits()),
+                _ => RawValue::from_raw(object.kind, 0, object.bits()),
             };
             values.push(value).map_err(|_| {
                 TypedPdoError::Mapping(MappingError::TooManyEntries(MAX_ENTRIES + 1))
@@ -348,14 +368,14 @@ mod tests {
             raw: 0x280,
             adds_node_id: true,
         });
-        fn from_values(values: &[Value]) -> Result<Self, TypedPdoError> {
+        fn from_values(values: &[RawValue]) -> Result<Self, TypedPdoError> {
             Ok(Self {
                 flag: field(values, 0, 0x2000_0101)?,
                 level: field(values, 2, 0x2001_0018)?,
                 tag: field(values, 4, 0x2002_0010)?,
             })
         }
-        fn value_at(&self, position: usize) -> Option<Value> {
+        fn value_at(&self, position: usize) -> Option<RawValue> {
             match position {
                 0 => Some(self.flag.to_value()),
                 2 => Some(self.level.to_value()),
@@ -425,7 +445,7 @@ mod tests {
             }))
         );
         assert_eq!(
-            Sample::from_pairs(&[(ObjectAddress::new(0x2000, 1), Value::Bool(true))]),
+            Sample::from_pairs(&[(ObjectAddress::new(0x2000, 1), RawValue::Bool(true))]),
             Err(TypedPdoError::Missing(ObjectAddress::new(0x2001, 0)))
         );
     }
@@ -434,8 +454,8 @@ mod tests {
     fn from_pairs_takes_objects_by_address() {
         let pairs = [
             (ObjectAddress::new(0x2002, 0), b"AB".to_value()),
-            (ObjectAddress::new(0x2001, 0), Value::Signed(7)),
-            (ObjectAddress::new(0x2000, 1), Value::Bool(false)),
+            (ObjectAddress::new(0x2001, 0), RawValue::Signed(7)),
+            (ObjectAddress::new(0x2000, 1), RawValue::Bool(false)),
         ];
         assert_eq!(
             Sample::from_pairs(&pairs),
@@ -448,8 +468,8 @@ mod tests {
         // A value of the wrong kind for its field is an error naming the object.
         let wrong = [
             (ObjectAddress::new(0x2002, 0), b"AB".to_value()),
-            (ObjectAddress::new(0x2001, 0), Value::Unsigned(7)),
-            (ObjectAddress::new(0x2000, 1), Value::Bool(false)),
+            (ObjectAddress::new(0x2001, 0), RawValue::Unsigned(7)),
+            (ObjectAddress::new(0x2000, 1), RawValue::Bool(false)),
         ];
         assert_eq!(
             Sample::from_pairs(&wrong),
@@ -462,18 +482,18 @@ mod tests {
 
     #[test]
     fn fields_convert_both_ways() {
-        assert_eq!(u8::from_value(Value::Unsigned(256)), None);
-        assert_eq!(u16::from_value(Value::Unsigned(65535)), Some(65535));
-        assert_eq!(i8::from_value(Value::Signed(-129)), None);
-        assert_eq!(i64::from_value(Value::Signed(i64::MIN)), Some(i64::MIN));
+        assert_eq!(u8::from_value(RawValue::Unsigned(256)), None);
+        assert_eq!(u16::from_value(RawValue::Unsigned(65535)), Some(65535));
+        assert_eq!(i8::from_value(RawValue::Signed(-129)), None);
+        assert_eq!(i64::from_value(RawValue::Signed(i64::MIN)), Some(i64::MIN));
         assert_eq!(f32::from_value(1.5f32.to_value()), Some(1.5));
-        assert_eq!(f64::from_value(Value::Real32(1.5)), None);
+        assert_eq!(f64::from_value(RawValue::Real32(1.5)), None);
         assert_eq!(<[u8; 3]>::from_value(b"ab".to_value()), None);
         assert_eq!(
             <[u8; 6]>::from_value([1, 2, 3, 4, 5, 6].to_value()),
             Some([1, 2, 3, 4, 5, 6])
         );
-        assert_eq!(bool::from_value(Value::Unsigned(1)), None);
+        assert_eq!(bool::from_value(RawValue::Unsigned(1)), None);
         let c = DefaultCobId {
             raw: 0x8000_0180,
             adds_node_id: true,

@@ -6,8 +6,8 @@
 
 use can_frame::{CanFrame, CanId, Duration, Instant};
 use canopen_pdo::{
-    CommParams, Engine, Event, MapStore, Mapping, ObjectAddress, PdoCobId, PdoConfig,
-    TransmissionType, Value,
+    CommParams, Engine, Event, MapStore, Mapping, ObjectAddress, PdoCobId, PdoConfig, RawValue,
+    TransmissionType,
 };
 use proptest::prelude::*;
 
@@ -74,10 +74,10 @@ fn receive_async_decodes_writes_and_reports_changes() {
         }]
     );
     assert_eq!(store.get(a(0x6401, 3)), Some(&[3, 0][..]));
-    let vals: Vec<Value> = e.received(pdo).unwrap().iter().map(|(_, v)| v).collect();
+    let vals: Vec<RawValue> = e.received(pdo).unwrap().iter().map(|(_, v)| v).collect();
     assert_eq!(
         vals,
-        [1, 2, 3, 4].map(Value::Unsigned),
+        [1, 2, 3, 4].map(RawValue::Unsigned),
         "typed values of the last reception"
     );
     // Only the third value changes.
@@ -448,7 +448,7 @@ fn master_and_simulated_device() {
     );
     assert_eq!(
         master.received(m_rx).unwrap().get(1),
-        Some(Value::Unsigned(0x1234))
+        Some(RawValue::Unsigned(0x1234))
     );
     assert_eq!(image.get(a(0x6401, 2)), Some(&[0x34, 0x12][..]));
 
@@ -487,7 +487,7 @@ fn master_requests_rtr_pdo() {
     }
     assert_eq!(
         master.received(rx).unwrap().get(0),
-        Some(Value::Unsigned(42))
+        Some(RawValue::Unsigned(42))
     );
 }
 

@@ -16,7 +16,7 @@ use can_frame::{CanFrame, CanId, Duration};
 use canopen::socketcan::SocketCan;
 use canopen::{Network, NetworkEvent, ObjectAddress};
 use canopen_nmt::{HeartbeatEvent, NmtState};
-use canopen_pdo::Value as PdoValue;
+use canopen_od::Value;
 use canopen_sdo::{AbortCode, Method};
 use common::{EDS, RunningSim, device, events_during, node, wait_event};
 
@@ -182,7 +182,7 @@ fn boot_up_nmt_start_heartbeat_loss_and_recovery() {
     );
 }
 
-fn tpdo1_values(e: &NetworkEvent, id: u8) -> Option<Vec<(ObjectAddress, PdoValue)>> {
+fn tpdo1_values(e: &NetworkEvent, id: u8) -> Option<Vec<(ObjectAddress, Value)>> {
     match e {
         NetworkEvent::PdoValues {
             node: n,
@@ -239,7 +239,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         tpdo1_values(&first, ID).unwrap(),
         [(
             ObjectAddress::new(0x2000, 0),
-            PdoValue::Unsigned(0x1234_5678)
+            Value::Unsigned32(0x1234_5678)
         )]
     );
     // Raw PDO events come with the decoded ones: 0x2000 as four bytes, little-endian.
@@ -266,7 +266,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
             tpdo1_values(e, ID)
                 == Some(vec![(
                     ObjectAddress::new(0x2000, 0),
-                    PdoValue::Unsigned(0xCAFE_BABE),
+                    Value::Unsigned32(0xCAFE_BABE),
                 )])
         },
     );
@@ -281,13 +281,13 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
     )
     .unwrap();
     assert_eq!(n.sdo().read((0x1A00, 0)).unwrap(), [2]);
-    let two = |v: i64| {
+    let two = |v: i16| {
         vec![
             (
                 ObjectAddress::new(0x2000, 0),
-                PdoValue::Unsigned(0xCAFE_BABE),
+                Value::Unsigned32(0xCAFE_BABE),
             ),
-            (ObjectAddress::new(0x2002, 2), PdoValue::Signed(v)),
+            (ObjectAddress::new(0x2002, 2), Value::Integer16(v)),
         ]
     };
     wait_event(

@@ -28,9 +28,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::Receiver;
 
 use canopen::frame::time::MonotonicClock;
-use canopen::pdo::{Mapping, MappingEntry, Value as PdoValue, ValueKind, unpack};
+use canopen::pdo::{Mapping, MappingEntry, RawValue, ValueKind, unpack};
 use canopen::{
     CanFrame, CanId, Instant, Network, NetworkEvent, NodeId, Received, Transport, TransportError,
+    Value,
 };
 use canopen_bench::load::{expected_i32, expected_real, master_dictionary};
 
@@ -119,14 +120,14 @@ impl Checker {
         else {
             return;
         };
-        let (Some((_, PdoValue::Unsigned(c))), Some((_, second))) = (values.first(), values.get(1))
+        let (Some((_, Value::Unsigned32(c))), Some((_, second))) = (values.first(), values.get(1))
         else {
             panic!("node {node} TPDO{number}: not the mapped types: {values:?}");
         };
-        let c = *c as u32;
+        let c = *c;
         let ok = match (number, second) {
-            (1, PdoValue::Signed(v)) => *v == i64::from(expected_i32(node.get(), c)),
-            (2, PdoValue::Real32(v)) => *v == expected_real(c),
+            (1, Value::Integer32(v)) => *v == expected_i32(node.get(), c),
+            (2, Value::Real32(v)) => *v == expected_real(c),
             _ => false,
         };
         assert!(ok, "node {node} TPDO{number}: wrong value {second:?}");
@@ -200,7 +201,7 @@ fn decode_alone(nodes: u8, frames: &[CanFrame]) -> f64 {
         let m = if f.id().as_raw() < 0x280 { &m1 } else { &m2 };
         let u = unpack(m, f.data()).expect("8 bytes");
         for (_, v) in u.iter() {
-            if let PdoValue::Unsigned(c) = v {
+            if let RawValue::Unsigned(c) = v {
                 sum = sum.wrapping_add(c);
             }
         }

@@ -51,10 +51,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant as StdInstant;
 
 use can_frame::{CanFrame, CanId, Duration, NodeId};
-use canopen::pdo::Value as PdoValue;
 use canopen::socketcan::{SocketCan, SocketCanStats};
 use canopen::{
-    BusEvent, CommandSpecifier, Network, NetworkEvent, Received, Station, Transport, TransportError,
+    BusEvent, CommandSpecifier, Network, NetworkEvent, Received, Station, Transport,
+    TransportError, Value,
 };
 use canopen_bench::load::{self, LoadNode, expected_i32, expected_real};
 
@@ -407,16 +407,16 @@ impl Tally {
                 ..
             } if node.get() <= nodes => {
                 self.received += 1;
-                let (Some((_, PdoValue::Unsigned(c))), Some((_, second))) =
+                let (Some((_, Value::Unsigned32(c))), Some((_, second))) =
                     (values.first(), values.get(1))
                 else {
                     self.bad_values += 1;
                     return;
                 };
-                let c = *c as u32;
+                let c = *c;
                 let ok = match (number, second) {
-                    (1, PdoValue::Signed(v)) => *v == i64::from(expected_i32(node.get(), c)),
-                    (2, PdoValue::Real32(v)) => *v == expected_real(c),
+                    (1, Value::Integer32(v)) => *v == expected_i32(node.get(), c),
+                    (2, Value::Real32(v)) => *v == expected_real(c),
                     _ => false,
                 };
                 if !ok {

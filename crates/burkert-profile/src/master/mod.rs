@@ -26,7 +26,7 @@ use std::sync::{Arc, Mutex};
 use can_frame::{CanFrame, CanId, NodeId};
 use canopen::{Error, NetworkEvent, Node, SdoError, SdoErrorKind, TransferProgress};
 use canopen_od::{DataType, Entry, EntryValue, ObjectAddress, ObjectDictionary};
-use canopen_pdo::{CommParams, Direction, Mapping, MappingEntry, Value as PdoValue, ValueKind};
+use canopen_pdo::{CommParams, Direction, Mapping, MappingEntry, RawValue as PdoValue, ValueKind};
 use canopen_sdo::{AbortCode, ErrorKind};
 
 use crate::colour::LedColour;
@@ -593,12 +593,12 @@ impl BurkertNode {
         })
     }
 
-    /// Sends one RPDO with a value per control (typed as the mapping says, e.g.
-    /// [`PdoValue::Real32`] for the generic device). The device applies it while Operational.
+    /// Sends one RPDO with a value per control (of the control objects' types, e.g.
+    /// `Value::Real32` for the generic device). The device applies it while Operational.
     pub fn send_control_values(
         &self,
         rpdo: &ControlRpdo,
-        values: &[PdoValue],
+        values: &[canopen_od::Value],
     ) -> Result<(), Error> {
         let frame = rpdo.encode(values)?;
         self.node.network().send(frame)

@@ -4,12 +4,12 @@
 use super::*;
 
 /// A sensor value received in a TPDO.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SensorReading {
     /// Sensor number: the object is `0x2500 + sensor`.
     pub sensor: u8,
-    /// The value, typed by the object's data type.
-    pub value: PdoValue,
+    /// The value, typed by the object's data type (`Value::Real32` for the generic device).
+    pub value: canopen_od::Value,
 }
 
 /// A TPDO of the device configured by [`BurkertNode::map_sensor_values_to_tpdo`].
@@ -50,12 +50,18 @@ impl SensorTpdo {
             entry: ObjectAddress::new(0x1800 + u16::from(self.number) - 1, 1),
             message: format!("TPDO{} data: {e}", self.number),
         })?;
-        Ok(self
-            .sensors
+        self.sensors
             .iter()
             .zip(unpacked.iter())
-            .map(|(&sensor, (_, value))| SensorReading { sensor, value })
-            .collect())
+            .map(|(&sensor, (obj, raw))| {
+                let value = raw.to_value(obj.data_type()).map_err(|e| Error::Value {
+                    node: self.node,
+                    entry: obj.addr(),
+                    message: format!("TPDO{} data: {e}", self.number),
+                })?;
+                Ok(SensorReading { sensor, value })
+            })
+            .collect()
     }
 
     /// The sensor values in a network event, if it is this TPDO of this node.
@@ -106,14 +112,34 @@ impl ControlRpdo {
     }
 
     /// Packs one value per control into the RPDO frame.
-    pub fn encode(&self, values: &[PdoValue]) -> Result<CanFrame, Error> {
+    pub fn encode(&self, values: &[canopen_od::Value]) -> Result<CanFrame, Error> {
         let err = |message: String| Error::Value {
             node: self.node,
             entry: ObjectAddress::new(0x1400 + u16::from(self.number) - 1, 1),
             message,
         };
+        let objects = self.mapping.objects();
+        if values.len() != objects.len() {
+            return Err(err(format!(
+                "RPDO{}: {} values for {} mapped objects",
+                self.number,
+                values.len(),
+                objects.len()
+            )));
+        }
+        let raw = objects
+            .iter()
+            .zip(values)
+            .map(|(o, v)| {
+                PdoValue::from_value(v, o.kind).ok_or_else(|| Error::Value {
+                    node: self.node,
+                    entry: o.addr(),
+                    message: format!("{v} does not fit the mapped {:?} field", o.kind),
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         let mut buf = [0u8; 8];
-        let n = canopen_pdo::pack(&self.mapping, values, &mut buf)
+        let n = canopen_pdo::pack(&self.mapping, &raw, &mut buf)
             .map_err(|e| err(format!("RPDO{} data: {e}", self.number)))?;
         let id = CanId::standard((self.cob_id & 0x7FF) as u16).map_err(|_| {
             err(format!(

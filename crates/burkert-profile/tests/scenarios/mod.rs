@@ -26,7 +26,7 @@ use canopen::{Error, Network, NetworkEvent};
 use canopen_lss::{BitTiming, LssError, Procedure, ResponseError, Service};
 use canopen_nmt::{DeviceState, HeartbeatEvent, NmtState};
 use canopen_od::Value as OdValue;
-use canopen_pdo::{CommParams, TransmissionType, Value as PdoValue, ValueKind};
+use canopen_pdo::{CommParams, TransmissionType, ValueKind};
 use canopen_sdo::AbortCode;
 
 /// Node-ID `id` (1..=127).
@@ -740,7 +740,7 @@ pub(crate) fn assert_mapped(dev: &impl Device, index: u16, entries: &[u32], bit_
 }
 
 /// The typed sensor readings of `tpdo` among `events`, in arrival order.
-pub(crate) fn readings(tpdo: &SensorTpdo, events: &[NetworkEvent]) -> Vec<Vec<(u8, PdoValue)>> {
+pub(crate) fn readings(tpdo: &SensorTpdo, events: &[NetworkEvent]) -> Vec<Vec<(u8, OdValue)>> {
     events
         .iter()
         .filter_map(|e| tpdo.from_event(e))
@@ -802,9 +802,9 @@ pub(crate) fn sensor_values_in_tpdos(m: &mut Master, dev: &impl Device) -> usize
     let t2 = readings(&tpdo2, &got);
     assert!(t1.len() >= 3, "TPDO1: {t1:?}");
     for values in &t1 {
-        assert_eq!(values[0], (2, PdoValue::Real32(42.5)), "{values:?}");
+        assert_eq!(values[0], (2, OdValue::Real32(42.5)), "{values:?}");
         assert_eq!(values[1].0, 3);
-        let PdoValue::Real32(v) = values[1].1 else {
+        let OdValue::Real32(v) = values[1].1 else {
             panic!("{values:?}")
         };
         assert!((45.0..=55.0).contains(&v), "sensor 3: {v}");
@@ -812,7 +812,7 @@ pub(crate) fn sensor_values_in_tpdos(m: &mut Master, dev: &impl Device) -> usize
     assert_ne!(t1[0][1], t1[t1.len() - 1][1], "sensor 3 changes over time");
     assert!(t2.len() >= 5, "TPDO2 (SYNC): {t2:?}");
     for values in &t2 {
-        let [(0, PdoValue::Real32(v))] = values.as_slice() else {
+        let [(0, OdValue::Real32(v))] = values.as_slice() else {
             panic!("{values:?}")
         };
         assert!((15.0..=25.0).contains(v), "sensor 0: {v}");
@@ -826,14 +826,14 @@ pub(crate) fn sensor_values_in_tpdos(m: &mut Master, dev: &impl Device) -> usize
     let later = m.collect_for(Duration::from_millis(2_500));
     let later = readings(&tpdo1, &later);
     assert_eq!(
-        later.last().map(|v| v[0]),
-        Some((2, PdoValue::Real32(-7.75))),
+        later.last().map(|v| v[0].clone()),
+        Some((2, OdValue::Real32(-7.75))),
         "{later:?}"
     );
     assert_eq!(m.node.read_sensor_value(2).unwrap(), OdValue::Real32(-7.75));
     // And the last sensor 3 value sent is the device's (it changes every 100 ms, so compare
     // with what the device holds as of the SDO read within one sine step).
-    let PdoValue::Real32(sent) = later.last().unwrap()[1].1 else {
+    let OdValue::Real32(sent) = later.last().unwrap()[1].1 else {
         panic!("{later:?}")
     };
     let OdValue::Real32(now) = m.node.read_sensor_value(3).unwrap() else {
@@ -877,7 +877,7 @@ pub(crate) fn control_values_by_rpdo(m: &mut Master, dev: &impl Device) {
     // A mapping the device cannot carry is refused by the device.
     non_mappable_refused(m, 0x1A03);
 
-    let values = [PdoValue::Real32(-3.25), PdoValue::Real32(1.5)];
+    let values = [OdValue::Real32(-3.25), OdValue::Real32(1.5)];
     let frame = rpdo.encode(&values).unwrap();
     assert_eq!(frame.data().len(), 8);
 
@@ -892,7 +892,7 @@ pub(crate) fn control_values_by_rpdo(m: &mut Master, dev: &impl Device) {
     m.wait_state(id, NmtState::Operational);
     m.node.send_control_values(&rpdo, &values).unwrap();
     m.node
-        .send_control_values(&rpdo2, &[PdoValue::Real32(99.5)])
+        .send_control_values(&rpdo2, &[OdValue::Real32(99.5)])
         .unwrap();
     assert_eq!(
         m.node.read_control_value(1).unwrap(),
@@ -907,7 +907,7 @@ pub(crate) fn control_values_by_rpdo(m: &mut Master, dev: &impl Device) {
     // A wrong value type is a local error; nothing is sent.
     let e = m
         .node
-        .send_control_values(&rpdo, &[PdoValue::Bool(true)])
+        .send_control_values(&rpdo, &[OdValue::Boolean(true)])
         .unwrap_err();
     assert!(matches!(e, Error::Value { .. }), "{e}");
     assert_eq!(dev.with(|d| d.control_value(1)), Some(-3.25));

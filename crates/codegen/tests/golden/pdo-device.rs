@@ -1007,13 +1007,13 @@ impl ::canopen::pdo::TypedPdo for Rpdo1 {
         (0x20040210, ::canopen::pdo::ValueKind::Signed),
     ];
     const DEFAULT_COB_ID: Option<::canopen::pdo::DefaultCobId> = Some(::canopen::pdo::DefaultCobId { raw: 0x200, adds_node_id: true });
-    fn from_values(values: &[::canopen::pdo::Value]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    fn from_values(values: &[::canopen::pdo::RawValue]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         Ok(Self {
             setpoint_1: ::canopen::pdo::typed::field(values, 0, 0x20040110)?,
             setpoint_2: ::canopen::pdo::typed::field(values, 1, 0x20040210)?,
         })
     }
-    fn value_at(&self, position: usize) -> Option<::canopen::pdo::Value> {
+    fn value_at(&self, position: usize) -> Option<::canopen::pdo::RawValue> {
         match position {
             0 => Some(::canopen::pdo::PdoField::to_value(&self.setpoint_1)),
             1 => Some(::canopen::pdo::PdoField::to_value(&self.setpoint_2)),
@@ -1038,7 +1038,7 @@ impl Rpdo1 {
     }
 
     /// Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.
-    pub fn from_pairs(pairs: &[(::canopen::pdo::ObjectAddress, ::canopen::pdo::Value)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    pub fn from_pairs<V: ::canopen::pdo::PairValue>(pairs: &[(::canopen::pdo::ObjectAddress, V)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         <Self as ::canopen::pdo::TypedPdo>::from_pairs(pairs)
     }
 
@@ -1077,12 +1077,12 @@ impl ::canopen::pdo::TypedPdo for Rpdo2 {
         (0x20040110, ::canopen::pdo::ValueKind::Signed),
     ];
     const DEFAULT_COB_ID: Option<::canopen::pdo::DefaultCobId> = Some(::canopen::pdo::DefaultCobId { raw: 0x300, adds_node_id: true });
-    fn from_values(values: &[::canopen::pdo::Value]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    fn from_values(values: &[::canopen::pdo::RawValue]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         Ok(Self {
             setpoint_1: ::canopen::pdo::typed::field(values, 0, 0x20040110)?,
         })
     }
-    fn value_at(&self, position: usize) -> Option<::canopen::pdo::Value> {
+    fn value_at(&self, position: usize) -> Option<::canopen::pdo::RawValue> {
         match position {
             0 => Some(::canopen::pdo::PdoField::to_value(&self.setpoint_1)),
             _ => None,
@@ -1106,7 +1106,7 @@ impl Rpdo2 {
     }
 
     /// Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.
-    pub fn from_pairs(pairs: &[(::canopen::pdo::ObjectAddress, ::canopen::pdo::Value)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    pub fn from_pairs<V: ::canopen::pdo::PairValue>(pairs: &[(::canopen::pdo::ObjectAddress, V)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         <Self as ::canopen::pdo::TypedPdo>::from_pairs(pairs)
     }
 
@@ -1161,7 +1161,7 @@ impl ::canopen::pdo::TypedPdo for Tpdo1 {
         (0x20020008, ::canopen::pdo::ValueKind::Unsigned),
     ];
     const DEFAULT_COB_ID: Option<::canopen::pdo::DefaultCobId> = Some(::canopen::pdo::DefaultCobId { raw: 0x180, adds_node_id: true });
-    fn from_values(values: &[::canopen::pdo::Value]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    fn from_values(values: &[::canopen::pdo::RawValue]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         Ok(Self {
             valve_open: ::canopen::pdo::typed::field(values, 0, 0x20000001)?,
             alarm: ::canopen::pdo::typed::field(values, 2, 0x20060001)?,
@@ -1169,7 +1169,7 @@ impl ::canopen::pdo::TypedPdo for Tpdo1 {
             status_code: ::canopen::pdo::typed::field(values, 5, 0x20020008)?,
         })
     }
-    fn value_at(&self, position: usize) -> Option<::canopen::pdo::Value> {
+    fn value_at(&self, position: usize) -> Option<::canopen::pdo::RawValue> {
         match position {
             0 => Some(::canopen::pdo::PdoField::to_value(&self.valve_open)),
             2 => Some(::canopen::pdo::PdoField::to_value(&self.alarm)),
@@ -1196,7 +1196,7 @@ impl Tpdo1 {
     }
 
     /// Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.
-    pub fn from_pairs(pairs: &[(::canopen::pdo::ObjectAddress, ::canopen::pdo::Value)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    pub fn from_pairs<V: ::canopen::pdo::PairValue>(pairs: &[(::canopen::pdo::ObjectAddress, V)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         <Self as ::canopen::pdo::TypedPdo>::from_pairs(pairs)
     }
 
@@ -1239,13 +1239,13 @@ impl ::canopen::pdo::TypedPdo for Tpdo2 {
         (0x20050010, ::canopen::pdo::ValueKind::Bytes),
     ];
     const DEFAULT_COB_ID: Option<::canopen::pdo::DefaultCobId> = Some(::canopen::pdo::DefaultCobId { raw: 0x280, adds_node_id: true });
-    fn from_values(values: &[::canopen::pdo::Value]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    fn from_values(values: &[::canopen::pdo::RawValue]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         Ok(Self {
             temperature: ::canopen::pdo::typed::field(values, 0, 0x20030020)?,
             tag: ::canopen::pdo::typed::field(values, 1, 0x20050010)?,
         })
     }
-    fn value_at(&self, position: usize) -> Option<::canopen::pdo::Value> {
+    fn value_at(&self, position: usize) -> Option<::canopen::pdo::RawValue> {
         match position {
             0 => Some(::canopen::pdo::PdoField::to_value(&self.temperature)),
             1 => Some(::canopen::pdo::PdoField::to_value(&self.tag)),
@@ -1270,7 +1270,7 @@ impl Tpdo2 {
     }
 
     /// Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.
-    pub fn from_pairs(pairs: &[(::canopen::pdo::ObjectAddress, ::canopen::pdo::Value)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    pub fn from_pairs<V: ::canopen::pdo::PairValue>(pairs: &[(::canopen::pdo::ObjectAddress, V)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         <Self as ::canopen::pdo::TypedPdo>::from_pairs(pairs)
     }
 
@@ -1307,12 +1307,12 @@ impl ::canopen::pdo::TypedPdo for Tpdo5 {
         (0x00060010, ::canopen::pdo::ValueKind::Unsigned),
     ];
     const DEFAULT_COB_ID: Option<::canopen::pdo::DefaultCobId> = Some(::canopen::pdo::DefaultCobId { raw: 0x40000485, adds_node_id: false });
-    fn from_values(values: &[::canopen::pdo::Value]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    fn from_values(values: &[::canopen::pdo::RawValue]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         let _ = values;
         Ok(Self {
         })
     }
-    fn value_at(&self, position: usize) -> Option<::canopen::pdo::Value> {
+    fn value_at(&self, position: usize) -> Option<::canopen::pdo::RawValue> {
         let _ = position;
         None
     }
@@ -1334,7 +1334,7 @@ impl Tpdo5 {
     }
 
     /// Takes the fields by address from decoded `(address, value)` pairs, as the master publishes a TPDO.
-    pub fn from_pairs(pairs: &[(::canopen::pdo::ObjectAddress, ::canopen::pdo::Value)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
+    pub fn from_pairs<V: ::canopen::pdo::PairValue>(pairs: &[(::canopen::pdo::ObjectAddress, V)]) -> Result<Self, ::canopen::pdo::TypedPdoError> {
         <Self as ::canopen::pdo::TypedPdo>::from_pairs(pairs)
     }
 
