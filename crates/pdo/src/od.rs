@@ -424,4 +424,81 @@ mod tests {
             })
         );
     }
+
+    /// Every fixed-size type: a value as the dictionary types it goes into a field of the
+    /// type's kind and width and comes back the same; the field's natural type is the type.
+    #[test]
+    fn values_round_trip_through_raw_fields() {
+        use proptest::prelude::*;
+        use proptest::test_runner::TestRunner;
+        let types = [
+            DataType::Boolean,
+            DataType::Integer8,
+            DataType::Integer16,
+            DataType::Integer24,
+            DataType::Integer32,
+            DataType::Integer40,
+            DataType::Integer48,
+            DataType::Integer56,
+            DataType::Integer64,
+            DataType::Unsigned8,
+            DataType::Unsigned16,
+            DataType::Unsigned24,
+            DataType::Unsigned32,
+            DataType::Unsigned40,
+            DataType::Unsigned48,
+            DataType::Unsigned56,
+            DataType::Unsigned64,
+        ];
+        let mut runner = TestRunner::default();
+        for ty in types {
+            let bits = u8::try_from(ty.size().unwrap() * 8).unwrap();
+            let bits = if ty == DataType::Boolean { 1 } else { bits };
+            let kind = ValueKind::from_data_type(ty.code());
+            let object = crate::mapping::Mapping::new()
+                .with(crate::MappingEntry::new(0x2000, 1, bits), kind)
+                .unwrap()
+                .objects()[0];
+            assert_eq!(object.data_type(), ty);
+            assert_eq!(object.value_type(Some(ty)), ty);
+            runner
+                .run(&any::<i128>(), |x| {
+                    let Some(v) = Value::from_i128_wrapping(ty, x) else {
+                        return Ok(());
+                    };
+                    let v = if ty == DataType::Boolean {
+                        Value::Boolean(x & 1 == 1)
+                    } else {
+                        v
+                    };
+                    let raw = RawValue::from_value(&v, kind).expect("fits its own field");
+                    prop_assert_eq!(raw.to_value(ty).unwrap(), v);
+                    Ok(())
+                })
+                .unwrap();
+        }
+        let f = Value::Real32(-2.5);
+        let raw = RawValue::from_value(&f, ValueKind::Real32).unwrap();
+        assert_eq!(raw.to_value(DataType::Real32).unwrap(), f);
+        let s = Value::VisibleString(b"ab".to_vec());
+        let raw = RawValue::from_value(&s, ValueKind::Bytes).unwrap();
+        assert_eq!(raw.to_value(DataType::VisibleString).unwrap(), s);
+        // Kinds and types that do not agree are errors, not guesses.
+        assert!(
+            RawValue::Real32(1.0)
+                .to_value(DataType::Unsigned16)
+                .is_err()
+        );
+        assert!(RawValue::from_value(&s, ValueKind::Unsigned).is_none());
+        assert!(RawValue::from_value(&Value::Unsigned8(2), ValueKind::Boolean).is_none());
+        // A declared type of another kind gives way to the field's own.
+        let u16_field = crate::mapping::Mapping::new()
+            .with(crate::MappingEntry::new(0x2000, 1, 16), ValueKind::Unsigned)
+            .unwrap()
+            .objects()[0];
+        assert_eq!(
+            u16_field.value_type(Some(DataType::Real32)),
+            DataType::Unsigned16
+        );
+    }
 }
