@@ -31,7 +31,8 @@
 //! smallest value among *all* unconfigured slaves, and the slaves with that value may all have
 //! another value in the known part. When the known part's confirmation goes unanswered, the
 //! scan goes on as a successor search above the value found so far (see below), limited to the
-//! searched parts before the known one.
+//! searched parts before the known one. Each group of slaves turned away so costs about one
+//! more scan, so a known part is cheapest where it leads.
 //!
 //! A scan costs 1 + 4 × 33 = 133 exchanges; a known part costs 1 instead of 33, a skipped one
 //! none. Every silent exchange costs one response timeout; under
