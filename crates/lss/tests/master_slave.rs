@@ -1427,6 +1427,56 @@ fn slaves_differing_only_in_a_skipped_part_are_one_to_fastscan() {
     }
 }
 
+/// Side-by-side figures: Fastscan requests to discover and to commission 20 wanted real
+/// slaves (vendor-ID 0x78, product code 0x42) among 10 of other products, per scan type mix.
+#[test]
+fn scan_type_figure() {
+    let mut rng = Rng::new(5);
+    let mut addrs = random_addresses(&mut rng, 30);
+    for (i, a) in addrs.iter_mut().enumerate() {
+        a.vendor_id = 0x78;
+        a.product_code = if i < 20 { 0x42 } else { 0x40 + (i as u32 % 3) };
+    }
+    println!(
+        "20 wanted of 30 real slaves\nvendor  product  revision  serial   discover  assign  (Fastscan requests)"
+    );
+    let k = |v| Part::Known(v);
+    for parts in [
+        [Part::Scan, Part::Scan, Part::Scan, Part::Scan],
+        [k(0x78), k(0x42), Part::Scan, Part::Scan],
+        [Part::Scan, k(0x42), Part::Scan, Part::Scan],
+        [k(0x78), k(0x42), Part::Skip, Part::Scan],
+        [Part::Scan, k(0x42), Part::Skip, Part::Scan],
+    ] {
+        let config = scan_config(parts);
+        let want = expected(&addrs, parts);
+        let mut bus = Bus::with_real(Delivery::Merged, &addrs);
+        let mut m = DiscoverAll::new(config);
+        m.start(bus.now).unwrap();
+        assert_eq!(bus.run(&mut m).0.unwrap().as_slice(), want.as_slice());
+        let discover = bus.fastscans();
+        let mut bus = Bus::with_real(Delivery::Merged, &addrs);
+        let mut assign = AssignConfig::with_pool(NodeIdPool::all());
+        assign.fastscan = config;
+        let mut m = AssignAll::new(assign);
+        m.start(bus.now).unwrap();
+        assert_eq!(bus.run(&mut m).0.unwrap().assigned().count(), want.len());
+        let name = |p: Part| match p {
+            Part::Scan => "search",
+            Part::Known(_) => "known",
+            Part::Skip => "skip",
+        };
+        println!(
+            "{:<7} {:<8} {:<9} {:<8} {discover:>8} {:>7}",
+            name(parts[0]),
+            name(parts[1]),
+            name(parts[2]),
+            name(parts[3]),
+            bus.fastscans()
+        );
+    }
+}
+
 #[test]
 fn scans_that_cannot_select_a_slave_are_refused() {
     for parts in [
