@@ -462,9 +462,9 @@ fn canopend_lss_tutorial() {
         )],
     );
     // The tutorial's extended form: vendor-ID 0x428 only, product code and revision ignored
-    // (they read 0), serial numbers searched, node-IDs from 7 on, not stored. The tutorial
-    // shows its older one-line reply ("OK, found 2 nodes starting at node ID 7."); this is the
-    // report form of the newer gateway above.
+    // (they read 0 in the report, as Fastscan never learns them), serial numbers searched,
+    // node-IDs from 7 on, not stored. The tutorial shows no reply for it; this is the report
+    // form above, for the two devices of vendor 0x428 (the third has another vendor-ID).
     bus.attach(unconfigured([0x428, 0x432, 2, 0x6C81_413C]));
     bus.attach(unconfigured([0x428, 0x433, 1, 0x0000_0005]));
     bus.attach(unconfigured([0x429, 0x432, 2, 0x0000_0001]));

@@ -464,7 +464,8 @@ impl ScanCore {
 
 /// Finds one unconfigured slave by Fastscan and leaves it in configuration state.
 ///
-/// Output: `Some(address)`, or `None` when no unconfigured slave answered the bit check.
+/// Output: `Some(address)` (the smallest with the known values; skipped parts 0), or `None`
+/// when no unconfigured slave answered the bit check or none has the known values.
 #[derive(Debug, Clone)]
 pub struct Fastscan {
     io: Io<Option<LssAddress>>,
