@@ -262,8 +262,10 @@ pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
 
 /// `lss_allnodes`: every unconfigured slave gets the next free node-ID from `node_start` on.
 /// The report is CANopenNode's: a comment line `# Node-ID <n> assigned to: <vendor> <product>
-/// <revision> <serial>` for each slave, then `# Found <count> nodes, search finished.` (or
-/// `# Not all nodes scanned!` when the node-IDs ran out), then `OK`.
+/// <revision> <serial>` for each slave (a part that scan type 1 ignores reads 0, as Fastscan
+/// never learns it), then `# Found <count> nodes, search finished.` (or `# Not all nodes
+/// scanned!` when the node-IDs ran out), then `OK`. Scan types that leave no Fastscan (the
+/// vendor-ID ignored, or all three parts after it) answer 101.
 fn all_nodes(net: &Network, args: Option<AllNodes>) -> Reply {
     let mut start = 2u8;
     let mut cfg = AssignConfig::with_pool(NodeIdPool::all());
@@ -277,15 +279,17 @@ fn all_nodes(net: &Network, args: Option<AllNodes>) -> Reply {
             start = asg.node_start;
             cfg.store = asg.store;
             if let Some(scan) = asg.scan {
-                // Fastscan takes known values for a leading run of parts; a part to ignore
-                // or a known part after a scanned one is not supported.
-                let mut scanning = false;
                 for (i, (t, v)) in scan.iter().enumerate() {
                     match t {
-                        ScanType::Match if !scanning => cfg.fastscan.known[i] = Some(*v),
-                        ScanType::Scan => scanning = true,
-                        _ => return Reply::Error(ErrorCode::REQUEST_NOT_SUPPORTED),
+                        ScanType::Scan => {}
+                        ScanType::Ignore => cfg.fastscan.skip[i] = true,
+                        ScanType::Match => cfg.fastscan.known[i] = Some(*v),
                     }
+                }
+                // Fastscan cannot skip the vendor-ID, nor every part after it
+                // (CANopenNode's master refuses these as illegal arguments too).
+                if cfg.fastscan.validate().is_err() {
+                    return Reply::Error(ErrorCode::SYNTAX);
                 }
             }
         }

@@ -38,8 +38,10 @@
 //! * A line longer than [`Config::max_line`] is refused with 600, running out of memory, the
 //!   code Lely gives for the command size service (CANopenNode streams long values through a
 //!   fixed buffer and answers a token over its 20-byte limit with 101).
-//! * `lss_allnodes` scan type 1 (ignore a part) and a known part after a scanned one answer 100:
-//!   the Fastscan here takes known values for a leading run of parts only.
+//! * `lss_allnodes` takes CANopenNode's scan types per part (0 search, 1 ignore, 2 match the
+//!   value given) in any mix; a form that leaves no Fastscan (the vendor-ID ignored, or the
+//!   three parts after it) is a syntax error, 101 (CANopenNode's master refuses it as an illegal
+//!   argument). An ignored part reads 0 in the report, as in CANopenNode.
 //!
 //! ```
 //! use canopen_gateway::{Command, parse_line};

@@ -908,7 +908,7 @@ const HELP_LSS: &str = "\
 # lss_set_node <node> | lss_conf_bitrate <table> <index> | lss_activate_bitrate <delay_ms>
 # lss_store | lss_inquire_addr [0..3] | lss_get_node | _lss_fastscan [<timeout_ms>]
 # lss_allnodes [<timeout_ms> [<node_start> <store 0|1> [<scan type> <value>]x4]]
-#   scan type 0: find by Fastscan, 2: match the value (a leading run only)";
+#   scan type 0: find by Fastscan, 1: ignore (not the vendor-ID), 2: match the value";
 
 #[cfg(test)]
 mod tests {

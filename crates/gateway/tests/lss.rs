@@ -1,12 +1,13 @@
 //! The LSS commands (CiA 305) through the gateway against unconfigured simulated devices on the
 //! in-memory bus: Fastscan, switch selective, configure and inquire node-ID, inquire the
-//! address, store, switch global, and the all-nodes workflow.
+//! address, store, switch global, and the all-nodes workflow (with parts searched, ignored and
+//! matched).
 
 mod common;
 
 use canopen::{MemoryBus, Network, SimDevice};
 use canopen_gateway::{Config, Gateway};
-use canopen_lss::LssAddress;
+use canopen_lss::{LssAddress, SlaveConfig};
 use common::Client;
 
 fn address(serial: u32) -> LssAddress {
@@ -91,4 +92,127 @@ fn all_nodes_gives_each_device_a_node_id() {
             format!("[2] {serial}\r\n")
         );
     }
+}
+
+/// Devices that, as real slaves do, answer Fastscan in configuration state too.
+fn bus_with_real(addresses: &[LssAddress]) -> (Gateway, MemoryBus) {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let od = canopen_od::parse(common::EDS).unwrap().od;
+    for a in addresses {
+        bus.attach(SimDevice::unconfigured_with(
+            od.clone(),
+            SlaveConfig::unconfigured_real(*a),
+        ));
+    }
+    (Gateway::new(net, Config::default()), bus)
+}
+
+/// Reads the report of `lss_allnodes`: its lines up to and including the final `OK`.
+fn report(c: &mut Client) -> Vec<String> {
+    let mut lines = Vec::new();
+    loop {
+        let l = c.line();
+        let end = l.ends_with("\r\n");
+        lines.push(l);
+        if end {
+            return lines;
+        }
+    }
+}
+
+#[test]
+fn all_nodes_ignoring_the_revision() {
+    // Vendor-ID 0x39 matched, product code and serial number searched, revision ignored: the
+    // devices differ in revision and serial number; one has another vendor-ID.
+    let mut a = address(0x10);
+    let mut b = address(0x20);
+    let other = LssAddress::new(0x40, 0x1234, 1, 0x05);
+    a.revision_number = 7;
+    b.revision_number = 0x0009_0000;
+    let (gw, _bus) = bus_with_real(&[b, other, a]);
+    let mut c = Client::connect(&gw);
+    c.send("[1] lss_allnodes 25 20 1 2 0x39 0 0 1 0 0 0\n");
+    assert_eq!(
+        report(&mut c),
+        [
+            "# Node-ID 20 assigned to: 0x00000039 0x00001234 0x00000000 0x00000010\n",
+            "# Node-ID 21 assigned to: 0x00000039 0x00001234 0x00000000 0x00000020\n",
+            "# Found 2 nodes, search finished.\n",
+            "[1] OK\r\n",
+        ]
+    );
+    // Each answers SDO at its new node-ID, with the revision the scan ignored.
+    for (node, revision) in [(20, 7), (21, 0x0009_0000)] {
+        assert_eq!(
+            c.ask(&format!("[2] {node} r 0x1018 3 u32\n"), 1),
+            format!("[2] {revision}\r\n")
+        );
+    }
+    // The other vendor's device is still unconfigured: it is the one Fastscan finds now.
+    assert_eq!(
+        c.ask("[3] _lss_fastscan 25\n", 1),
+        "[3] 0x00000040 0x00001234 0x00000001 0x00000005\r\n"
+    );
+}
+
+#[test]
+fn all_nodes_matching_a_product_code_after_the_searched_vendor_id() {
+    // Vendor-ID searched, product code 0x1234 matched, revision and serial number searched.
+    // The smallest vendor-ID belongs to a device of another product, so the search first
+    // follows it and the product code turns it away; another differs from a wanted one only
+    // in the product code.
+    let unwanted = LssAddress::new(0x10, 0x9999, 1, 1);
+    let twin = LssAddress::new(0x39, 0x1235, 0x0001_0002, 0x10);
+    let late = LssAddress::new(0x50, 0x1234, 3, 3);
+    let (gw, _bus) = bus_with_real(&[late, address(0x20), twin, unwanted, address(0x10)]);
+    let mut c = Client::connect(&gw);
+    c.send("[1] lss_allnodes 25 30 0 0 0 2 0x1234 0 0 0 0\n");
+    assert_eq!(
+        report(&mut c),
+        [
+            "# Node-ID 30 assigned to: 0x00000039 0x00001234 0x00010002 0x00000010\n",
+            "# Node-ID 31 assigned to: 0x00000039 0x00001234 0x00010002 0x00000020\n",
+            "# Node-ID 32 assigned to: 0x00000050 0x00001234 0x00000003 0x00000003\n",
+            "# Found 3 nodes, search finished.\n",
+            "[1] OK\r\n",
+        ]
+    );
+    for (node, serial) in [(30, 0x10), (31, 0x20), (32, 3)] {
+        assert_eq!(
+            c.ask(&format!("[2] {node} r 0x1018 4 u32\n"), 1),
+            format!("[2] {serial}\r\n")
+        );
+    }
+    // The two other products' devices are left unconfigured.
+    c.send("[3] lss_allnodes 25 40 0\n");
+    assert_eq!(
+        report(&mut c),
+        [
+            "# Node-ID 40 assigned to: 0x00000010 0x00009999 0x00000001 0x00000001\n",
+            "# Node-ID 41 assigned to: 0x00000039 0x00001235 0x00010002 0x00000010\n",
+            "# Found 2 nodes, search finished.\n",
+            "[3] OK\r\n",
+        ]
+    );
+}
+
+#[test]
+fn all_nodes_forms_without_a_fastscan_are_refused() {
+    let (gw, _bus) = bus_with_unconfigured(&[0x10]);
+    let mut c = Client::connect(&gw);
+    // The vendor-ID ignored; every part after it ignored.
+    assert_eq!(
+        c.ask("[1] lss_allnodes 25 7 0 1 0 0 0 0 0 0 0\n", 1),
+        "[1] ERROR:101\r\n"
+    );
+    assert_eq!(
+        c.ask("[2] lss_allnodes 25 7 0 2 0x39 1 0 1 0 1 0\n", 1),
+        "[2] ERROR:101\r\n"
+    );
+    // Nothing was sent: the device is still there to be found.
+    assert_eq!(
+        c.ask("[3] _lss_fastscan 25\n", 1),
+        "[3] 0x00000039 0x00001234 0x00010002 0x00000010\r\n"
+    );
 }

@@ -461,12 +461,22 @@ fn canopend_lss_tutorial() {
              [1] OK\r\n",
         )],
     );
-    // The tutorial's extended form ignores the product code and revision: this gateway
-    // differs, it answers "request not supported" (its Fastscan takes known values for a
-    // leading run of parts only and cannot skip a part).
-    assert_eq!(
-        c.ask("[2] lss_allnodes 25 7 0 2 0x428 1 0 1 0 0 0\r\n", 1),
-        "[2] ERROR:100\r\n"
+    // The tutorial's extended form: vendor-ID 0x428 only, product code and revision ignored
+    // (they read 0 in the report, as Fastscan never learns them), serial numbers searched,
+    // node-IDs from 7 on, not stored. The tutorial shows no reply for it; this is the report
+    // form above, for the two devices of vendor 0x428 (the third has another vendor-ID).
+    bus.attach(unconfigured([0x428, 0x432, 2, 0x6C81_413C]));
+    bus.attach(unconfigured([0x428, 0x433, 1, 0x0000_0005]));
+    bus.attach(unconfigured([0x429, 0x432, 2, 0x0000_0001]));
+    transcript(
+        &mut c,
+        &[(
+            "[2] lss_allnodes 25 7 0 2 0x428 1 0 1 0 0 0\r\n",
+            "# Node-ID 7 assigned to: 0x00000428 0x00000000 0x00000000 0x00000005\n\
+             # Node-ID 8 assigned to: 0x00000428 0x00000000 0x00000000 0x6C81413C\n\
+             # Found 2 nodes, search finished.\n\
+             [2] OK\r\n",
+        )],
     );
 }
 

@@ -6,8 +6,9 @@
 //! 1. Switch mode global (waiting), so that no slave an earlier session left in configuration
 //!    state takes the node-ID meant for another one.
 //! 2. Fastscan: the slave it finds enters configuration state, the only one in that state.
-//! 3. Configure node-ID: from the table keyed by LSS address if the address is listed,
-//!    otherwise the lowest free node-ID of the pool.
+//! 3. Configure node-ID: from the table keyed by LSS address if the address is listed (as
+//!    Fastscan reports it: parts the scan skips read 0), otherwise the lowest free node-ID of
+//!    the pool.
 //! 4. Store configuration (if asked).
 //! 5. Switch mode global (waiting): the slave makes its new node-ID active (it had none) and
 //!    resets its communication. Having a node-ID, it no longer answers Fastscan, so the next
@@ -228,12 +229,14 @@ impl AssignAll {
     }
 
     /// Starts the workflow. Fails with [`LssError::Busy`] while it runs, and with
-    /// [`LssError::InvalidConfig`] when the table gives one node-ID or one address twice or
-    /// when there is no node-ID to give at all (empty pool and empty table).
+    /// [`LssError::InvalidConfig`] when the table gives one node-ID or one address twice, when
+    /// there is no node-ID to give at all (empty pool and empty table), or when the parts to
+    /// skip leave no scan ([`FastscanConfig::validate`]).
     pub fn start(&mut self, now: Instant) -> Result<(), LssError> {
         if !matches!(self.phase, Phase::Idle) {
             return Err(LssError::Busy);
         }
+        self.config.fastscan.validate()?;
         let table = &self.config.table;
         for (i, (a, id)) in table.iter().enumerate() {
             if table[i + 1..].iter().any(|(b, jd)| a == b || id == jd) {

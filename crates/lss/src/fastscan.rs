@@ -10,13 +10,33 @@
 //!    this follows the numerically smallest remaining address.)
 //! 3. Confirm the part with `BitChecked` = 0 and `LSSNext` = the next part; the matching slaves
 //!    move on to that part, the others drop out of this scan. Confirming the serial number with
-//!    `LSSNext` = 0 puts the one remaining slave into configuration state.
+//!    `LSSNext` = 0 (a part lower than `LSSSub`) puts the one remaining slave into
+//!    configuration state.
 //!
-//! Parts the master already knows ([`FastscanConfig::known`], say the vendor-ID) are confirmed
-//! with one request each instead of being searched.
+//! Each part can be searched, known or skipped ([`FastscanConfig::known`],
+//! [`FastscanConfig::skip`]; CiA 309-3's scan types 0, 2 and 1 of `lss_allnodes`):
+//! - A *known* part (say the vendor-ID of the devices the master commissions) is confirmed
+//!   with one request instead of being searched: only slaves with that value are found.
+//! - A *skipped* part is never named: the confirmation before it gives the part after it as
+//!   `LSSNext`, so the slaves jump over it, and the confirmation of the last part named gives
+//!   `LSSNext` = vendor-ID, which selects the slave. Slaves compare only the part named by
+//!   `LSSSub`, so a skipped part's value plays no part: slaves that differ only in skipped
+//!   parts are one slave to Fastscan, are selected together and must not be on the bus at the
+//!   same time if each is to get its own node-ID. A skipped part reads 0 in the address found.
+//!   After the bit check every slave compares the vendor-ID first, so the vendor-ID cannot be
+//!   skipped, and one part after it must be named to select the slave
+//!   ([`FastscanConfig::validate`]).
 //!
-//! A scan costs 1 + 4 × 33 = 133 exchanges (34 fewer per known part). Every silent exchange costs one response timeout;
-//! under [`ResponsePolicy::WholeWindow`] answered ones do too.
+//! A known part after a searched one cannot steer the search before it: the search follows the
+//! smallest value among *all* unconfigured slaves, and the slaves with that value may all have
+//! another value in the known part. When the known part's confirmation goes unanswered, the
+//! scan goes on as a successor search above the value found so far (see below), limited to the
+//! searched parts before the known one. Each group of slaves turned away so costs about one
+//! more scan, so a known part is cheapest where it leads.
+//!
+//! A scan costs 1 + 4 × 33 = 133 exchanges; a known part costs 1 instead of 33, a skipped one
+//! none. Every silent exchange costs one response timeout; under
+//! [`ResponsePolicy::WholeWindow`] answered ones do too.
 //!
 //! A found slave is still unconfigured, and real slaves answer Fastscan in configuration state
 //! too (CiA 305 ties Fastscan to the slave having no node-ID, and stacks such as CANopenNode
@@ -24,13 +44,15 @@
 //! configuration state. [`DiscoverAll`] therefore releases each found slave with switch mode
 //! global (waiting) and runs the next scan as a *successor search*: the smallest unconfigured
 //! address above the last one found. That search confirms the last address's parts up to the
-//! serial number, then asks, from bit 0 upwards, whether a slave shares the last address's
+//! last searched part, then asks, from bit 0 upwards, whether a slave shares the last address's
 //! higher bits and has a 1 where it has a 0; the first bit with an answer is where the next
 //! address first exceeds the last, and the ordinary search for the smallest finishes the
-//! address from there. When no bit of a part has an answer, the search moves one part up (a
-//! new bit check, confirming one part less). Slaves that share the serial number's neighbourhood
-//! cost a few exchanges; the worst case is about twice an ordinary scan. Discovery ends when a
-//! successor search finds nobody, and finally sends switch mode global (waiting).
+//! address from there. When no bit of a part has an answer, the search moves to the searched
+//! part before it (a new bit check, confirming less); known parts are never exceeded and
+//! skipped ones are not compared, so both are passed over. Slaves that share the serial
+//! number's neighbourhood cost a few exchanges; the worst case is about twice an ordinary
+//! scan. Discovery ends when a successor search finds nobody, and finally sends switch mode
+//! global (waiting).
 
 use can_frame::{Duration, Instant};
 use heapless::Vec;
@@ -43,7 +65,7 @@ use crate::wire::{BIT_CHECK_CONFIRM, Mode, Request, cs};
 /// The most slaves a scan result list holds: one per node-ID.
 pub const MAX_SLAVES: usize = 127;
 
-/// Timing of Fastscan.
+/// Timing of Fastscan, and which address parts it searches.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FastscanConfig {
     /// How long to wait for identify slave after each Fastscan request.
@@ -51,17 +73,94 @@ pub struct FastscanConfig {
     /// When to move on after an answer.
     pub policy: ResponsePolicy,
     /// Address parts the master already knows (e.g. the vendor-ID of the devices it commissions),
-    /// indexed by [`AddressPart::index`]. Only the leading run of known parts is used (vendor-ID;
-    /// vendor-ID and product code; ...): each is confirmed with one request instead of being
+    /// indexed by [`AddressPart::index`]: each is confirmed with one request instead of being
     /// searched bit by bit, saving 32 exchanges per part, and only slaves with these values are
     /// found.
     pub known: [Option<u32>; 4],
+    /// Address parts the scan skips, indexed by [`AddressPart::index`]: never named, so their
+    /// values do not matter and read 0 in the address found (see the module docs). Not the
+    /// vendor-ID, not all three others, and not a known part.
+    pub skip: [bool; 4],
 }
 
 impl FastscanConfig {
     /// The default response timeout: 25 ms, generous for slaves that answer from a main loop
     /// on a busy bus.
     pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(25);
+
+    /// Checks that the parts to skip leave a scan that selects a slave: the vendor-ID is
+    /// named (every slave compares it first after the bit check), so is one part after it
+    /// (its confirmation selects the slave), and no part is both known and skipped. Fails with
+    /// [`LssError::InvalidConfig`].
+    pub fn validate(&self) -> Result<(), LssError> {
+        if self.skip[0] {
+            return Err(LssError::InvalidConfig(
+                "Fastscan cannot skip the vendor-ID: every slave compares it first",
+            ));
+        }
+        if self.skip[1..].iter().all(|s| *s) {
+            return Err(LssError::InvalidConfig(
+                "Fastscan must name a part after the vendor-ID to select a slave",
+            ));
+        }
+        if self
+            .skip
+            .iter()
+            .zip(&self.known)
+            .any(|(s, k)| *s && k.is_some())
+        {
+            return Err(LssError::InvalidConfig(
+                "an address part cannot be both known and skipped",
+            ));
+        }
+        Ok(())
+    }
+
+    fn known_value(&self, part: AddressPart) -> Option<u32> {
+        self.known[usize::from(part.index())]
+    }
+
+    fn named(&self, part: AddressPart) -> bool {
+        !self.skip[usize::from(part.index())]
+    }
+
+    fn searched(&self, part: AddressPart) -> bool {
+        self.named(part) && self.known_value(part).is_none()
+    }
+
+    /// The first part after `part` that the scan names; `None` after the last one.
+    fn next_named(&self, part: AddressPart) -> Option<AddressPart> {
+        AddressPart::ALL[usize::from(part.index()) + 1..]
+            .iter()
+            .copied()
+            .find(|p| self.named(*p))
+    }
+
+    /// `LSSNext` of the confirmation of `part`: the next part named, or the vendor-ID after
+    /// the last one (which selects the slave).
+    fn lss_next(&self, part: AddressPart) -> AddressPart {
+        self.next_named(part).unwrap_or(AddressPart::Vendor)
+    }
+
+    /// The last searched part before `part`.
+    fn searched_before(&self, part: AddressPart) -> Option<AddressPart> {
+        AddressPart::ALL[..usize::from(part.index())]
+            .iter()
+            .rev()
+            .copied()
+            .find(|p| self.searched(*p))
+    }
+
+    /// Where a successor search compares first: the last searched part (the vendor-ID when
+    /// every part is known or skipped, where it finds nobody above).
+    fn last_searched(&self) -> AddressPart {
+        AddressPart::ALL
+            .iter()
+            .rev()
+            .copied()
+            .find(|p| self.searched(*p))
+            .unwrap_or(AddressPart::Vendor)
+    }
 }
 
 impl Default for FastscanConfig {
@@ -70,6 +169,7 @@ impl Default for FastscanConfig {
             response_timeout: Self::DEFAULT_TIMEOUT,
             policy: ResponsePolicy::WholeWindow,
             known: [None; 4],
+            skip: [false; 4],
         }
     }
 }
@@ -107,7 +207,8 @@ pub(crate) enum ScanStep {
     Lost(AddressPart),
 }
 
-/// One Fastscan search, driven by an owning machine over its [`Exchange`].
+/// One Fastscan search, driven by an owning machine over its [`Exchange`]. The owner checks
+/// the configuration with [`FastscanConfig::validate`] first.
 #[derive(Debug, Clone)]
 pub(crate) struct ScanCore {
     state: ScanState,
@@ -115,7 +216,7 @@ pub(crate) struct ScanCore {
     config: FastscanConfig,
     /// Successor search: find the smallest address above this one.
     above: Option<LssAddress>,
-    /// Successor search: the part in which the found address first exceeds `above`.
+    /// Successor search: the searched part in which the found address first exceeds `above`.
     seek: AddressPart,
 }
 
@@ -147,7 +248,7 @@ impl ScanCore {
             address: LssAddress::default(),
             config,
             above,
-            seek: AddressPart::Serial,
+            seek: config.last_searched(),
         };
         core.check(ex, now);
         core
@@ -165,16 +266,8 @@ impl ScanCore {
         );
     }
 
-    /// Whether `part` belongs to the leading run of known parts.
-    fn leading_known(&self, part: AddressPart) -> bool {
-        AddressPart::ALL
-            .iter()
-            .take_while(|p| p.index() <= part.index())
-            .all(|p| self.config.known[usize::from(p.index())].is_some())
-    }
-
-    /// Successor search: moves the slaves that share the bound's parts before `seek` on to
-    /// `seek`, confirming from `part` on.
+    /// Successor search: moves the slaves that share the bound's named parts before `seek`
+    /// on to `seek`, confirming from `part` (a named part) on.
     fn position(
         &mut self,
         ex: &mut Exchange,
@@ -186,7 +279,8 @@ impl ScanCore {
             return self.above_from(ex, now, bound, part, 0);
         }
         self.state = ScanState::Position { part };
-        self.ask(ex, now, bound.get(part), 0, part, part.next());
+        let next = self.config.lss_next(part);
+        self.ask(ex, now, bound.get(part), 0, part, next);
         ScanStep::Continue
     }
 
@@ -199,11 +293,11 @@ impl ScanCore {
         part: AddressPart,
         from: u8,
     ) -> ScanStep {
-        let value = bound.get(part);
-        if self.leading_known(part) {
-            // A known part is never exceeded: nobody above the bound.
-            return ScanStep::NoneLeft;
+        if !self.config.searched(part) {
+            // A known part is never exceeded: look in the searched part before it.
+            return self.seek_up(ex, now, part);
         }
+        let value = bound.get(part);
         match (from..32).find(|b| value & (1u32 << b) == 0) {
             Some(bit) => {
                 self.state = ScanState::Above { part, bit };
@@ -215,14 +309,10 @@ impl ScanCore {
         }
     }
 
-    /// Successor search: nobody exceeds the bound in `part`; try the part before it, from a
-    /// new bit check (the slaves' scan positions have moved past it).
+    /// Successor search: nobody exceeds the bound in `part`; try the searched part before
+    /// it, from a new bit check (the slaves' scan positions have moved past it).
     fn seek_up(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart) -> ScanStep {
-        match part
-            .index()
-            .checked_sub(1)
-            .and_then(AddressPart::from_index)
-        {
+        match self.config.searched_before(part) {
             Some(before) => {
                 self.seek = before;
                 self.check(ex, now);
@@ -257,15 +347,15 @@ impl ScanCore {
         );
     }
 
-    /// Starts on `part`: confirms a known value at once, or searches from bit 31.
+    /// Starts on `part` (a named part): confirms a known value at once, or searches from
+    /// bit 31.
     fn begin_part(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart) {
-        match self.config.known[usize::from(part.index())] {
-            Some(value) if self.leading_known(part) => {
+        match self.config.known_value(part) {
+            Some(value) => {
                 self.address.set(part, value);
-                self.state = ScanState::Confirm { part, known: true };
-                self.ask(ex, now, value, 0, part, part.next());
+                self.confirm(ex, now, part, true);
             }
-            _ => self.ask_bit(ex, now, part, 31),
+            None => self.ask_bit(ex, now, part, 31),
         }
     }
 
@@ -273,6 +363,15 @@ impl ScanCore {
         self.state = ScanState::Bit { part, bit };
         let value = self.address.get(part);
         self.ask(ex, now, value, bit, part, part);
+    }
+
+    /// Confirms the value of `part` found so far, moving the matching slaves on to the next
+    /// part named (or selecting them after the last).
+    fn confirm(&mut self, ex: &mut Exchange, now: Instant, part: AddressPart, known: bool) {
+        self.state = ScanState::Confirm { part, known };
+        let value = self.address.get(part);
+        let next = self.config.lss_next(part);
+        self.ask(ex, now, value, 0, part, next);
     }
 
     /// Advances on the reply to the last request.
@@ -298,7 +397,8 @@ impl ScanCore {
                     self.seek = part;
                     return self.above_from(ex, now, bound, part, 0);
                 }
-                return self.position(ex, now, bound, part.next());
+                let next = self.config.lss_next(part);
+                return self.position(ex, now, bound, next);
             }
             ScanState::Above { part, bit } => {
                 let Some(bound) = self.above else {
@@ -318,8 +418,7 @@ impl ScanCore {
                 let value = (bound.get(part) & (u32::MAX << bit)) | (1u32 << bit);
                 self.address.set(part, value);
                 if bit == 0 {
-                    self.state = ScanState::Confirm { part, known: false };
-                    self.ask(ex, now, value, 0, part, part.next());
+                    self.confirm(ex, now, part, false);
                 } else {
                     self.ask_bit(ex, now, part, bit - 1);
                 }
@@ -331,27 +430,32 @@ impl ScanCore {
                     self.address.set(part, value);
                 }
                 if bit == 0 {
-                    self.state = ScanState::Confirm { part, known: false };
-                    let value = self.address.get(part);
-                    self.ask(ex, now, value, 0, part, part.next());
+                    self.confirm(ex, now, part, false);
                 } else {
                     self.ask_bit(ex, now, part, bit - 1);
                 }
             }
             ScanState::Confirm { part, known } => {
                 if !answered {
-                    // No unconfigured slave has the known prefix; a searched value that nobody
-                    // confirms means the slave went away.
-                    return if known {
-                        ScanStep::NoneLeft
-                    } else {
-                        ScanStep::Lost(part)
+                    if !known {
+                        // A searched value that nobody confirms: the slave went away.
+                        return ScanStep::Lost(part);
+                    }
+                    // No slave with the value found so far has the known value: every
+                    // wanted slave lies above it in a searched part before this one.
+                    let Some(before) = self.config.searched_before(part) else {
+                        return ScanStep::NoneLeft;
                     };
+                    self.above = Some(self.address);
+                    self.seek = before;
+                    self.address = LssAddress::default();
+                    self.check(ex, now);
+                    return ScanStep::Continue;
                 }
-                if part == AddressPart::Serial {
-                    return ScanStep::Found(self.address);
+                match self.config.next_named(part) {
+                    Some(next) => self.begin_part(ex, now, next),
+                    None => return ScanStep::Found(self.address),
                 }
-                self.begin_part(ex, now, part.next());
             }
         }
         ScanStep::Continue
@@ -360,7 +464,8 @@ impl ScanCore {
 
 /// Finds one unconfigured slave by Fastscan and leaves it in configuration state.
 ///
-/// Output: `Some(address)`, or `None` when no unconfigured slave answered the bit check.
+/// Output: `Some(address)` (the smallest with the known values; skipped parts 0), or `None`
+/// when no unconfigured slave answered the bit check or none has the known values.
 #[derive(Debug, Clone)]
 pub struct Fastscan {
     io: Io<Option<LssAddress>>,
@@ -378,11 +483,14 @@ impl Fastscan {
         }
     }
 
-    /// Starts a scan. Fails with [`LssError::Busy`] while one runs.
+    /// Starts a scan. Fails with [`LssError::Busy`] while one runs, and with
+    /// [`LssError::InvalidConfig`] for parts to skip that leave no scan
+    /// ([`FastscanConfig::validate`]).
     pub fn start(&mut self, now: Instant) -> Result<(), LssError> {
         if self.core.is_some() {
             return Err(LssError::Busy);
         }
+        self.config.validate()?;
         self.io.ex.clear();
         self.io.events.clear();
         self.io.finished = false;
@@ -457,11 +565,14 @@ impl DiscoverAll {
         }
     }
 
-    /// Starts discovery. Fails with [`LssError::Busy`] while one runs.
+    /// Starts discovery. Fails with [`LssError::Busy`] while one runs, and with
+    /// [`LssError::InvalidConfig`] for parts to skip that leave no scan
+    /// ([`FastscanConfig::validate`]).
     pub fn start(&mut self, now: Instant) -> Result<(), LssError> {
         if self.core.is_some() {
             return Err(LssError::Busy);
         }
+        self.config.validate()?;
         self.io.ex.clear();
         self.found.clear();
         self.io.events.clear();

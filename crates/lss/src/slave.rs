@@ -707,6 +707,46 @@ mod tests {
     }
 
     #[test]
+    fn fastscan_lss_next_jumps_over_parts() {
+        let mut s = slave();
+        let fs = |id, bit, sub, next| Request::Fastscan {
+            id_number: id,
+            bit_check: bit,
+            lss_sub: sub,
+            lss_next: next,
+        };
+        assert_eq!(
+            send(&mut s, fs(0, 0x80, 0, 0)),
+            Some(Response::IdentifySlave)
+        );
+        // The vendor-ID's confirmation names the revision number: the product code is never
+        // compared, whatever is sent for it.
+        assert_eq!(
+            send(&mut s, fs(0x78, 0, 0, 2)),
+            Some(Response::IdentifySlave)
+        );
+        assert_eq!(send(&mut s, fs(0x1234, 0, 1, 2)), None);
+        assert_eq!(send(&mut s, fs(0, 31, 1, 1)), None);
+        // The revision number is compared from its highest bits down.
+        assert_eq!(send(&mut s, fs(3, 1, 2, 2)), Some(Response::IdentifySlave));
+        assert_eq!(send(&mut s, fs(3, 0, 2, 2)), None);
+        // Confirming it with LSSNext = vendor-ID (below LSSSub) selects the slave: the serial
+        // number is skipped too.
+        assert_eq!(s.state(), SlaveState::Waiting);
+        assert_eq!(send(&mut s, fs(2, 0, 2, 0)), Some(Response::IdentifySlave));
+        assert_eq!(s.state(), SlaveState::Configuration);
+        // A confirmation with LSSNext above LSSSub never selects.
+        let mut s = slave();
+        let _ = send(&mut s, fs(0, 0x80, 0, 0));
+        let _ = send(&mut s, fs(0x78, 0, 0, 3));
+        assert_eq!(
+            send(&mut s, fs(0xCAFE, 0, 3, 3)),
+            Some(Response::IdentifySlave)
+        );
+        assert_eq!(s.state(), SlaveState::Waiting);
+    }
+
+    #[test]
     fn real_slave_answers_fastscan_in_configuration_until_configured() {
         let mut s = LssSlave::new(SlaveConfig::unconfigured_real(ADDR));
         let confirm = Request::Fastscan {

@@ -29,6 +29,7 @@ fn fast(policy: ResponsePolicy) -> FastscanConfig {
         response_timeout: Duration::from_millis(10),
         policy,
         known: [None; 4],
+        skip: [false; 4],
     }
 }
 
@@ -1018,6 +1019,7 @@ fn fastscan_timing_figure() {
             response_timeout: Duration::from_millis(timeout_ms),
             policy,
             known: [known_vendor.then_some(0x78), None, None, None],
+            skip: [false; 4],
         };
         let mut bus = Bus::with_real(Delivery::Merged, &addrs);
         let mut m = DiscoverAll::new(config);
@@ -1107,6 +1109,76 @@ mod props {
         }
     }
 
+    /// A scan of each part that selects a slave: the vendor-ID searched or known, the other
+    /// parts searched, known (from the same few values as the addresses) or skipped, not all
+    /// skipped.
+    fn parts() -> impl Strategy<Value = [Part; 4]> {
+        let value = prop_oneof![Just(0u32), Just(1), Just(0x8000_0000), Just(u32::MAX)];
+        let vendor = prop_oneof![
+            2 => Just(Part::Scan),
+            1 => value.clone().prop_map(Part::Known)
+        ];
+        let other = prop_oneof![
+            2 => Just(Part::Scan),
+            1 => Just(Part::Skip),
+            1 => value.prop_map(Part::Known)
+        ];
+        (vendor, other.clone(), other.clone(), other)
+            .prop_map(|(v, p, r, s)| [v, p, r, s])
+            .prop_filter("one part after the vendor-ID named", |p| {
+                p[1..].iter().any(|x| *x != Part::Skip)
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        /// With any mix of searched, known and skipped parts, discover-all finds each slave
+        /// with the known values once, as Fastscan tells them apart (skipped parts 0), in
+        /// ascending order; assign-all gives each such slave a node-ID and no other slave one
+        /// (slaves that differ only in skipped parts, selected together, share theirs).
+        #[test]
+        fn scans_with_known_and_skipped_parts(
+            addrs in proptest::collection::btree_set(address(), 1..7),
+            parts in parts(),
+            merged in any::<bool>(),
+            real in any::<bool>(),
+            first_answer in any::<bool>(),
+        ) {
+            let delivery = if merged { DELIVERIES[0] } else { DELIVERIES[1] };
+            let addrs: Vec<LssAddress> = addrs.into_iter().collect();
+            let want = expected(&addrs, parts);
+            let mut config = scan_config(parts);
+            // Moving on at the first answer is only safe where simultaneous answers merge
+            // (a late duplicate would be taken for the next request's answer).
+            if first_answer && merged {
+                config.policy = ResponsePolicy::FirstAnswer;
+            }
+            let mut bus = Bus::with_slaves(delivery, &addrs, real);
+            let mut m = DiscoverAll::new(config);
+            m.start(bus.now).unwrap();
+            let found = bus.run(&mut m).0.unwrap();
+            prop_assert_eq!(found.as_slice(), want.as_slice());
+
+            let mut assign = AssignConfig::with_pool(NodeIdPool::range(id(1), id(99)));
+            assign.fastscan = config;
+            let mut m = AssignAll::new(assign);
+            m.start(bus.now).unwrap();
+            let report = bus.run(&mut m).0.unwrap();
+            prop_assert_eq!(report.stopped, None);
+            let got: Vec<LssAddress> = report.assigned().map(|(a, _)| a).collect();
+            prop_assert_eq!(got.as_slice(), want.as_slice());
+            for s in &bus.slaves {
+                let seen = expected(&[s.address()], parts);
+                let node = report
+                    .assigned()
+                    .find(|(a, _)| seen.first() == Some(a))
+                    .map_or(0xFF, |(_, n)| n.get());
+                prop_assert_eq!(s.active_node_id(), node);
+            }
+        }
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(256))]
 
@@ -1154,14 +1226,289 @@ fn known_vendor_and_product_are_confirmed_not_searched() {
             assert!(lss_sub >= 2 || bit_check == 0 || bit_check == 0x80, "{r}");
         }
     }
-    // A known part after an unknown one is not used.
-    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs[..1]);
-    let mut config = fast(ResponsePolicy::WholeWindow);
-    config.known = [None, Some(0x42), None, None];
-    let mut m = Fastscan::new(config);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Known parts after searched ones, skipped parts
+
+/// Per part: searched, known (this value) or skipped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Part {
+    Scan,
+    Known(u32),
+    Skip,
+}
+
+fn scan_config(parts: [Part; 4]) -> FastscanConfig {
+    let mut c = fast(ResponsePolicy::WholeWindow);
+    for (i, p) in parts.iter().enumerate() {
+        match *p {
+            Part::Scan => {}
+            Part::Known(v) => c.known[i] = Some(v),
+            Part::Skip => c.skip[i] = true,
+        }
+    }
+    c
+}
+
+/// What a scan with `parts` finds of `addrs`: the slaves with the known values, with their
+/// skipped parts 0, in ascending order, each once.
+fn expected(addrs: &[LssAddress], parts: [Part; 4]) -> Vec<LssAddress> {
+    let mut want: BTreeSet<LssAddress> = BTreeSet::new();
+    'slave: for a in addrs {
+        let mut p = *a;
+        for (part, mode) in AddressPart::ALL.iter().zip(parts) {
+            match mode {
+                Part::Scan => {}
+                Part::Known(v) if a.get(*part) == v => {}
+                Part::Known(_) => continue 'slave,
+                Part::Skip => p.set(*part, 0),
+            }
+        }
+        want.insert(p);
+    }
+    want.into_iter().collect()
+}
+
+/// The Fastscan requests' (`LSSSub`, `BitChecked`, `LSSNext`), bit checks left out.
+fn fastscan_fields(bus: &Bus) -> Vec<(u8, u8, u8)> {
+    bus.sent
+        .iter()
+        .filter_map(|(_, r)| match *r {
+            Request::Fastscan {
+                bit_check,
+                lss_sub,
+                lss_next,
+                ..
+            } if bit_check != 0x80 => Some((lss_sub, bit_check, lss_next)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn known_part_after_a_searched_one_is_confirmed_not_searched() {
+    let a = LssAddress::new(0x78, 0x42, 7, 0xCAFE);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    let parts = [Part::Scan, Part::Known(0x42), Part::Scan, Part::Scan];
+    let mut m = Fastscan::new(scan_config(parts));
     m.start(bus.now).unwrap();
-    assert_eq!(bus.run(&mut m).0, Ok(Some(addrs[0])));
-    assert_eq!(bus.sent.len(), 133);
+    assert_eq!(bus.run(&mut m).0, Ok(Some(a)));
+    // 133 less the product code's 32 bits.
+    assert_eq!(bus.sent.len(), 101);
+    let product: Vec<_> = fastscan_fields(&bus)
+        .into_iter()
+        .filter(|f| f.0 == 1)
+        .collect();
+    assert_eq!(product, vec![(1, 0, 2)]);
+    assert_eq!(bus.slave(a).state(), SlaveState::Configuration);
+}
+
+#[test]
+fn known_part_after_a_searched_one_finds_only_the_wanted_slaves() {
+    // The smallest vendor-IDs belong to slaves of other products, so the search first follows
+    // slaves that the known product code then turns away. Some addresses differ only in the
+    // known part.
+    let addrs = [
+        LssAddress::new(0x10, 0x41, 1, 5),
+        LssAddress::new(0x10, 0x43, 1, 5),
+        LssAddress::new(0x20, 0x42, 1, 5),
+        LssAddress::new(0x20, 0x41, 1, 5),
+        LssAddress::new(0x20, 0x42, 2, 5),
+        LssAddress::new(0x30, 0x44, 9, 9),
+        LssAddress::new(0x40, 0x42, 0, 0),
+        LssAddress::new(0x40, 0x43, 0, 0),
+    ];
+    let parts = [Part::Scan, Part::Known(0x42), Part::Scan, Part::Scan];
+    let want = expected(&addrs, parts);
+    assert_eq!(want.len(), 3);
+    for delivery in DELIVERIES {
+        for real in [false, true] {
+            let mut bus = Bus::with_slaves(delivery, &addrs, real);
+            let mut m = DiscoverAll::new(scan_config(parts));
+            m.start(bus.now).unwrap();
+            let found = bus.run(&mut m).0.unwrap();
+            assert_eq!(
+                found.as_slice(),
+                want.as_slice(),
+                "{delivery:?} real {real}"
+            );
+            // The product code is only ever confirmed.
+            assert!(fastscan_fields(&bus).iter().all(|f| f.0 != 1 || f.1 == 0));
+
+            let mut config = AssignConfig::with_pool(NodeIdPool::range(id(2), id(127)));
+            config.fastscan = scan_config(parts);
+            let mut m = AssignAll::new(config);
+            m.start(bus.now).unwrap();
+            let report = bus.run(&mut m).0.unwrap();
+            assert_eq!(report.stopped, None);
+            let got: Vec<(LssAddress, u8)> = report.assigned().map(|(a, n)| (a, n.get())).collect();
+            assert_eq!(got, vec![(want[0], 2), (want[1], 3), (want[2], 4)]);
+            for s in &bus.slaves {
+                let wanted = want.iter().position(|w| *w == s.address());
+                let node = wanted.map_or(0xFF, |i| 2 + i as u8);
+                assert_eq!(s.active_node_id(), node, "{}", s.address());
+            }
+        }
+    }
+}
+
+#[test]
+fn skipped_part_is_never_named() {
+    let a = LssAddress::new(0x78, 0x42, 7, 0xCAFE);
+    for (skipped, next_after) in [
+        (AddressPart::Product, (0, 2)),
+        (AddressPart::Revision, (1, 3)),
+    ] {
+        let mut parts = [Part::Scan; 4];
+        parts[usize::from(skipped.index())] = Part::Skip;
+        let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+        let mut m = Fastscan::new(scan_config(parts));
+        m.start(bus.now).unwrap();
+        let mut want = a;
+        want.set(skipped, 0);
+        assert_eq!(bus.run(&mut m).0, Ok(Some(want)));
+        assert_eq!(bus.sent.len(), 1 + 3 * 33);
+        let fields = fastscan_fields(&bus);
+        assert!(
+            fields
+                .iter()
+                .all(|f| f.0 != skipped.index() && f.2 != skipped.index())
+        );
+        // The confirmation before the skipped part names the part after it.
+        let confirms: Vec<(u8, u8)> = fields
+            .iter()
+            .filter(|f| f.1 == 0 && f.0 != f.2)
+            .map(|f| (f.0, f.2))
+            .collect();
+        assert!(confirms.contains(&next_after), "{confirms:?}");
+        assert_eq!(confirms.last(), Some(&(3, 0)));
+        assert_eq!(bus.slave(a).state(), SlaveState::Configuration);
+    }
+    // Serial number skipped: confirming the revision number with LSSNext = vendor-ID selects.
+    let parts = [Part::Known(0x78), Part::Scan, Part::Scan, Part::Skip];
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
+    let mut m = Fastscan::new(scan_config(parts));
+    m.start(bus.now).unwrap();
+    assert_eq!(
+        bus.run(&mut m).0,
+        Ok(Some(LssAddress::new(0x78, 0x42, 7, 0)))
+    );
+    assert_eq!(bus.sent.len(), 1 + 1 + 2 * 33);
+    assert_eq!(fastscan_fields(&bus).last(), Some(&(2, 0, 0)));
+    assert_eq!(bus.slave(a).state(), SlaveState::Configuration);
+}
+
+#[test]
+fn slaves_differing_only_in_a_skipped_part_are_one_to_fastscan() {
+    // What real slaves do: they compare only the parts named, so the scan selects both.
+    let a = LssAddress::new(0x78, 0x42, 1, 0xCAFE);
+    let b = LssAddress::new(0x78, 0x42, 2, 0xCAFE);
+    let c = LssAddress::new(0x78, 0x42, 2, 0xCAFF);
+    let parts = [Part::Scan, Part::Scan, Part::Skip, Part::Scan];
+    for real in [false, true] {
+        let mut bus = Bus::with_slaves(Delivery::Merged, &[a, b, c], real);
+        let mut m = Fastscan::new(scan_config(parts));
+        m.start(bus.now).unwrap();
+        assert_eq!(
+            bus.run(&mut m).0,
+            Ok(Some(LssAddress::new(0x78, 0x42, 0, 0xCAFE)))
+        );
+        assert_eq!(bus.slave(a).state(), SlaveState::Configuration);
+        assert_eq!(bus.slave(b).state(), SlaveState::Configuration);
+        assert_eq!(bus.slave(c).state(), SlaveState::Waiting);
+
+        let mut bus = Bus::with_slaves(Delivery::Merged, &[a, b, c], real);
+        let mut m = DiscoverAll::new(scan_config(parts));
+        m.start(bus.now).unwrap();
+        let found = bus.run(&mut m).0.unwrap();
+        assert_eq!(found.as_slice(), expected(&[a, b, c], parts).as_slice());
+        assert_eq!(found.len(), 2);
+    }
+}
+
+/// Side-by-side figures: Fastscan requests to discover and to commission 20 wanted real
+/// slaves (vendor-ID 0x78, product code 0x42) among 10 of other products, per scan type mix.
+#[test]
+fn scan_type_figure() {
+    let mut rng = Rng::new(5);
+    let mut addrs = random_addresses(&mut rng, 30);
+    for (i, a) in addrs.iter_mut().enumerate() {
+        a.vendor_id = 0x78;
+        a.product_code = if i < 20 { 0x42 } else { 0x40 + (i as u32 % 3) };
+    }
+    println!(
+        "20 wanted of 30 real slaves\nvendor  product  revision  serial   discover  assign  (Fastscan requests)"
+    );
+    let k = |v| Part::Known(v);
+    for parts in [
+        [Part::Scan, Part::Scan, Part::Scan, Part::Scan],
+        [k(0x78), k(0x42), Part::Scan, Part::Scan],
+        [Part::Scan, k(0x42), Part::Scan, Part::Scan],
+        [k(0x78), k(0x42), Part::Skip, Part::Scan],
+        [Part::Scan, k(0x42), Part::Skip, Part::Scan],
+    ] {
+        let config = scan_config(parts);
+        let want = expected(&addrs, parts);
+        let mut bus = Bus::with_real(Delivery::Merged, &addrs);
+        let mut m = DiscoverAll::new(config);
+        m.start(bus.now).unwrap();
+        assert_eq!(bus.run(&mut m).0.unwrap().as_slice(), want.as_slice());
+        let discover = bus.fastscans();
+        let mut bus = Bus::with_real(Delivery::Merged, &addrs);
+        let mut assign = AssignConfig::with_pool(NodeIdPool::all());
+        assign.fastscan = config;
+        let mut m = AssignAll::new(assign);
+        m.start(bus.now).unwrap();
+        assert_eq!(bus.run(&mut m).0.unwrap().assigned().count(), want.len());
+        let name = |p: Part| match p {
+            Part::Scan => "search",
+            Part::Known(_) => "known",
+            Part::Skip => "skip",
+        };
+        println!(
+            "{:<7} {:<8} {:<9} {:<8} {discover:>8} {:>7}",
+            name(parts[0]),
+            name(parts[1]),
+            name(parts[2]),
+            name(parts[3]),
+            bus.fastscans()
+        );
+    }
+}
+
+#[test]
+fn scans_that_cannot_select_a_slave_are_refused() {
+    for parts in [
+        [Part::Skip, Part::Scan, Part::Scan, Part::Scan],
+        [Part::Scan, Part::Skip, Part::Skip, Part::Skip],
+        [Part::Known(1), Part::Skip, Part::Skip, Part::Skip],
+    ] {
+        let config = scan_config(parts);
+        assert!(matches!(config.validate(), Err(LssError::InvalidConfig(_))));
+        assert!(matches!(
+            Fastscan::new(config).start(Instant::ZERO),
+            Err(LssError::InvalidConfig(_))
+        ));
+        assert!(matches!(
+            DiscoverAll::new(config).start(Instant::ZERO),
+            Err(LssError::InvalidConfig(_))
+        ));
+        let mut assign = AssignConfig::with_pool(NodeIdPool::all());
+        assign.fastscan = config;
+        assert!(matches!(
+            AssignAll::new(assign).start(Instant::ZERO),
+            Err(LssError::InvalidConfig(_))
+        ));
+    }
+    let mut both = fast(ResponsePolicy::WholeWindow);
+    both.known[2] = Some(1);
+    both.skip[2] = true;
+    assert!(matches!(both.validate(), Err(LssError::InvalidConfig(_))));
+    assert_eq!(
+        scan_config([Part::Scan, Part::Skip, Part::Skip, Part::Known(3)]).validate(),
+        Ok(())
+    );
 }
 
 /// Fastscan for one slave as a frame transcript with timestamps: answered exchanges take the

@@ -49,6 +49,7 @@ fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
         response_timeout: Duration::from_millis(150),
         policy: ResponsePolicy::WholeWindow,
         known: [Some(0x0ABC), Some(0x42), Some(0x0001_0002), None],
+        skip: [false; 4],
     };
     let found: BTreeSet<LssAddress> = net
         .lss()
