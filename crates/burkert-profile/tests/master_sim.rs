@@ -12,7 +12,7 @@ use burkert_profile::{BitRate, BurkertDevice, BurkertNode, CanOperationStatus, N
 use can_frame::{CanFrame, Duration, Instant};
 use canopen::mem::{MemoryBus, StationId};
 use canopen::transport::{Received, Transport};
-use canopen::{Endpoint, Network, NetworkEvent};
+use canopen::{Endpoint, Network};
 use canopen_od::Value as OdValue;
 use scenarios::{Device, Master, add_node, node_id as n};
 
@@ -234,10 +234,8 @@ fn ne107_status_is_pdo_mappable_and_sent_on_change() {
     r.run(600);
     let tpdo2: Vec<Vec<u8>> = events
         .try_iter()
-        .filter_map(|ev| match ev {
-            NetworkEvent::Pdo {
-                number: 2, data, ..
-            } => Some(data),
+        .filter_map(|ev| match ev.pdo_data() {
+            Some((_, 2, data)) => Some(data.to_vec()),
             _ => None,
         })
         .collect();

@@ -31,6 +31,7 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
             number,
             values,
             at,
+            ..
         } = ev
         {
             let text: Vec<String> = values.iter().map(|(a, v)| format!("{a} = {v}")).collect();

@@ -82,14 +82,18 @@ pub enum NetworkEvent {
     Guarding(GuardingEvent),
     /// An emergency message.
     Emcy(EmcyEvent),
-    /// A transmit PDO from a node.
+    /// A transmit PDO from a node that the master does not decode: a node without a
+    /// dictionary, a TPDO outside its mapping, or data of another length than the mapping's.
+    /// A decoded TPDO comes as [`PdoValues`](Self::PdoValues) instead (one event per frame
+    /// either way; [`pdo_data`](Self::pdo_data) reads the bytes of both).
     Pdo {
-        /// The producer (from the predefined connection set).
+        /// The producer (from the predefined connection set, or the node configured with the
+        /// COB-ID).
         node: NodeId,
-        /// TPDO number 1..=4.
+        /// TPDO number 1..=512 as the node numbers it (1..=4 in the predefined set).
         number: u8,
         /// The PDO data.
-        data: Vec<u8>,
+        data: PdoData,
         /// Reception time.
         at: Instant,
     },
@@ -107,6 +111,8 @@ pub enum NetworkEvent {
         node: NodeId,
         /// TPDO number 1..=4.
         number: u8,
+        /// The PDO data the values were decoded from.
+        data: PdoData,
         /// The mapped objects and their values as the node's dictionary types them
         /// (`Value::Unsigned16` for an UNSIGNED16), in mapping order.
         values: Vec<(ObjectAddress, Value)>,
@@ -121,6 +127,79 @@ pub enum NetworkEvent {
         /// The transport's error.
         error: String,
     },
+}
+
+impl NetworkEvent {
+    /// The producer, TPDO number and data bytes of a received PDO, decoded or not.
+    pub fn pdo_data(&self) -> Option<(NodeId, u8, &[u8])> {
+        match self {
+            Self::Pdo {
+                node, number, data, ..
+            }
+            | Self::PdoValues {
+                node, number, data, ..
+            } => Some((*node, *number, data)),
+            _ => None,
+        }
+    }
+}
+
+/// The data bytes of a received PDO: up to eight, kept in place (no allocation per frame).
+/// Reads as a byte slice.
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+pub struct PdoData {
+    buf: [u8; 8],
+    len: u8,
+}
+
+impl PdoData {
+    /// The data of a classic CAN frame (at most eight bytes; more are cut off).
+    pub fn new(data: &[u8]) -> Self {
+        let len = data.len().min(8);
+        let mut buf = [0; 8];
+        buf[..len].copy_from_slice(&data[..len]);
+        Self {
+            buf,
+            len: len as u8,
+        }
+    }
+}
+
+impl core::ops::Deref for PdoData {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        &self.buf[..usize::from(self.len)]
+    }
+}
+
+impl AsRef<[u8]> for PdoData {
+    fn as_ref(&self) -> &[u8] {
+        self
+    }
+}
+
+impl core::fmt::Debug for PdoData {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Debug::fmt(&**self, f)
+    }
+}
+
+impl PartialEq<[u8]> for PdoData {
+    fn eq(&self, other: &[u8]) -> bool {
+        **self == *other
+    }
+}
+
+impl<const N: usize> PartialEq<[u8; N]> for PdoData {
+    fn eq(&self, other: &[u8; N]) -> bool {
+        **self == other[..]
+    }
+}
+
+impl PartialEq<Vec<u8>> for PdoData {
+    fn eq(&self, other: &Vec<u8>) -> bool {
+        **self == other[..]
+    }
 }
 
 /// A subscriber other than an mpsc channel (the async API's event streams): it takes each
@@ -447,8 +526,25 @@ impl Core {
     }
 
     pub(crate) fn publish(&mut self, ev: NetworkEvent) {
-        self.sinks.retain(|s| s.deliver(&ev));
-        self.subscribers.retain(|s| s.send(ev.clone()).is_ok());
+        Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
+    }
+
+    /// Hands `ev` to every subscriber (the last one gets it without a copy) and forgets those
+    /// that are gone.
+    fn deliver(
+        sinks: &mut Vec<Box<dyn EventSink>>,
+        subscribers: &mut Vec<mpsc::Sender<NetworkEvent>>,
+        ev: NetworkEvent,
+    ) {
+        sinks.retain(|s| s.deliver(&ev));
+        let n = subscribers.len();
+        let mut ev = Some(ev);
+        let mut seen = 0;
+        subscribers.retain(|s| {
+            seen += 1;
+            let e = if seen == n { ev.take() } else { ev.clone() };
+            e.is_none_or(|e| s.send(e).is_ok())
+        });
     }
 
     pub(crate) fn last_state(&self, node: NodeId) -> Option<NmtState> {
@@ -1083,8 +1179,9 @@ impl Core {
         predefined: Option<u8>,
         frame: &CanFrame,
     ) {
-        let mut decoded = Vec::new();
+        let data = PdoData::new(frame.data());
         let mut number = None;
+        let mut decoded = false;
         if let Some(slot) = self.nodes.get_mut(&node)
             && let Some(pdos) = &mut slot.pdo
             && pdos
@@ -1096,9 +1193,21 @@ impl Core {
             while let Some(ev) = pdos.engine.poll_event() {
                 match ev {
                     canopen_pdo::Event::Received { pdo, .. } => {
-                        number = number.or_else(|| pdos.tpdo_number(pdo));
+                        let Some(n) = number.or_else(|| pdos.tpdo_number(pdo)).or(predefined)
+                        else {
+                            continue;
+                        };
+                        number = Some(n);
                         if let Some(values) = pdos.received_values(pdo) {
-                            decoded.push(values);
+                            decoded = true;
+                            let ev = NetworkEvent::PdoValues {
+                                node,
+                                number: n,
+                                data,
+                                values,
+                                at: now,
+                            };
+                            Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
                         }
                     }
                     canopen_pdo::Event::LengthError { pdo, .. }
@@ -1109,23 +1218,18 @@ impl Core {
                 }
             }
         }
+        if decoded {
+            return;
+        }
         let Some(number) = number.or(predefined) else {
             return;
         };
         self.publish(NetworkEvent::Pdo {
             node,
             number,
-            data: frame.data().to_vec(),
+            data,
             at: now,
         });
-        for values in decoded {
-            self.publish(NetworkEvent::PdoValues {
-                node,
-                number,
-                values,
-                at: now,
-            });
-        }
     }
 
     /// A response on an SDO channel's server → client identifier.

@@ -505,9 +505,7 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     let events = r.net.subscribe();
     r.net.run_for(Duration::from_secs(2)).unwrap();
     assert!(
-        !drain(&events)
-            .iter()
-            .any(|e| matches!(e, NetworkEvent::Pdo { .. })),
+        !drain(&events).iter().any(|e| e.pdo_data().is_some()),
         "no PDOs in Pre-operational"
     );
     r.net.node(n(5)).nmt().start().unwrap();

@@ -269,8 +269,15 @@ fn read_makes_the_master_decode_a_tpdo_configured_elsewhere() {
     let events = drain(&events);
     let got = decoded(&events, 2);
     assert!(got.len() >= 4, "{events:?}");
-    assert!(events.iter().any(|e| matches!(e,
-        NetworkEvent::Pdo { node, number: 2, .. } if *node == n(5))));
+    // One event per frame: decoded, with the frame's data.
+    assert!(
+        !events
+            .iter()
+            .any(|e| matches!(e, NetworkEvent::Pdo { node, number: 2, .. } if *node == n(5))),
+        "{events:?}"
+    );
+    assert!(events.iter().any(|e| matches!(e.pdo_data(),
+        Some((node, 2, data)) if node == n(5) && !data.is_empty())));
 }
 
 #[test]

@@ -197,6 +197,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
             number,
             values,
             at,
+            ..
         } = ev
             && shown < 10
         {

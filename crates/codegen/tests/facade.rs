@@ -81,7 +81,7 @@ fn tpdos_from_the_simulator_decode_into_the_structs() {
     let (mut from_data, mut from_pairs) = (Vec::new(), Vec::new());
     for ev in events.try_iter() {
         match ev {
-            NetworkEvent::Pdo {
+            NetworkEvent::PdoValues {
                 number: 1, data, ..
             } => from_data.push(Tpdo1::from_data(&data).unwrap()),
             NetworkEvent::PdoValues {

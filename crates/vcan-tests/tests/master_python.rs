@@ -24,7 +24,7 @@ fn pdo_from(e: &NetworkEvent, id: u8) -> Option<Vec<u8>> {
             number: 1,
             data,
             ..
-        } if *n == node(id) => Some(data.clone()),
+        } if *n == node(id) => Some(data.to_vec()),
         _ => None,
     }
 }

@@ -242,15 +242,15 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
             Value::Unsigned32(0x1234_5678)
         )]
     );
-    // Raw PDO events come with the decoded ones: 0x2000 as four bytes, little-endian.
+    // A decoded PDO carries its raw data too: 0x2000 as four bytes, little-endian.
     let raw = wait_event(
         &net,
         &events,
         Duration::from_secs(10),
         "raw TPDO1",
-        |e| matches!(e, NetworkEvent::Pdo { node: x, number: 1, .. } if *x == node(ID)),
+        |e| matches!(e.pdo_data(), Some((x, 1, _)) if x == node(ID)),
     );
-    let NetworkEvent::Pdo { data, .. } = raw else {
+    let Some((_, _, data)) = raw.pdo_data() else {
         unreachable!("matched above")
     };
     assert_eq!(data, 0x1234_5678u32.to_le_bytes());

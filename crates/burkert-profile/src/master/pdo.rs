@@ -66,10 +66,10 @@ impl SensorTpdo {
 
     /// The sensor values in a network event, if it is this TPDO of this node.
     pub fn from_event(&self, event: &NetworkEvent) -> Option<Result<Vec<SensorReading>, Error>> {
-        match event {
-            NetworkEvent::Pdo {
-                node, number, data, ..
-            } if *node == self.node && *number == self.number => Some(self.decode(data)),
+        match event.pdo_data() {
+            Some((node, number, data)) if node == self.node && number == self.number => {
+                Some(self.decode(data))
+            }
             _ => None,
         }
     }
