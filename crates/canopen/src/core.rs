@@ -144,6 +144,30 @@ impl NetworkEvent {
     }
 }
 
+/// A received PDO as a callback sees it (see [`Network::on_pdo`](crate::Network::on_pdo)):
+/// borrowed for the duration of the call, nothing copied or allocated for it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub struct PdoReceived<'a> {
+    /// The producer.
+    pub node: NodeId,
+    /// TPDO number as the node numbers it.
+    pub number: u8,
+    /// The PDO data.
+    pub data: &'a [u8],
+    /// The mapped objects and their values as the node's dictionary types them, in mapping
+    /// order; empty when the master does not decode this PDO (see [`NetworkEvent::Pdo`]).
+    pub values: &'a [(ObjectAddress, Value)],
+    /// Reception time.
+    pub at: Instant,
+}
+
+/// Identifies a PDO callback for [`Network::remove_pdo_callback`](crate::Network::remove_pdo_callback).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct PdoCallbackId(u64);
+
+type PdoCallback = Box<dyn FnMut(&PdoReceived<'_>) + Send>;
+
 /// The data bytes of a received PDO: up to eight, kept in place (no allocation per frame).
 /// Reads as a byte slice.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
@@ -427,6 +451,11 @@ pub(crate) struct Core {
     /// was last found idle. The timer scans walk this set, not every node's channels, so a
     /// step costs the same with 2 nodes as with 127 when only PDOs flow.
     sdo_busy: BTreeSet<(NodeId, usize)>,
+    pdo_callbacks: Vec<(PdoCallbackId, PdoCallback)>,
+    next_callback: u64,
+    /// The values of the PDO being received (kept, so a reception that only callbacks see
+    /// allocates nothing).
+    pdo_scratch: Vec<(ObjectAddress, Value)>,
 }
 
 impl Core {
@@ -457,6 +486,9 @@ impl Core {
             pdo_routes: HashMap::new(),
             pdo_next: None,
             sdo_busy: BTreeSet::new(),
+            pdo_callbacks: Vec::new(),
+            next_callback: 0,
+            pdo_scratch: Vec::new(),
         }
     }
 
@@ -517,6 +549,19 @@ impl Core {
         let (tx, rx) = mpsc::channel();
         self.subscribers.push(tx);
         rx
+    }
+
+    pub(crate) fn add_pdo_callback(&mut self, f: PdoCallback) -> PdoCallbackId {
+        let id = PdoCallbackId(self.next_callback);
+        self.next_callback += 1;
+        self.pdo_callbacks.push((id, f));
+        id
+    }
+
+    pub(crate) fn remove_pdo_callback(&mut self, id: PdoCallbackId) -> bool {
+        let before = self.pdo_callbacks.len();
+        self.pdo_callbacks.retain(|(i, _)| *i != id);
+        self.pdo_callbacks.len() != before
     }
 
     /// Adds a subscriber that takes events by reference (see [`EventSink`]).
@@ -1198,16 +1243,28 @@ impl Core {
                             continue;
                         };
                         number = Some(n);
-                        if let Some(values) = pdos.received_values(pdo) {
+                        if pdos.received_values(pdo, &mut self.pdo_scratch) {
                             decoded = true;
-                            let ev = NetworkEvent::PdoValues {
+                            let seen = PdoReceived {
                                 node,
                                 number: n,
-                                data,
-                                values,
+                                data: &data,
+                                values: &self.pdo_scratch,
                                 at: now,
                             };
-                            Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
+                            for (_, f) in &mut self.pdo_callbacks {
+                                f(&seen);
+                            }
+                            if !self.subscribers.is_empty() || !self.sinks.is_empty() {
+                                let ev = NetworkEvent::PdoValues {
+                                    node,
+                                    number: n,
+                                    data,
+                                    values: self.pdo_scratch.clone(),
+                                    at: now,
+                                };
+                                Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
+                            }
                         }
                     }
                     canopen_pdo::Event::LengthError { pdo, .. }
@@ -1224,6 +1281,16 @@ impl Core {
         let Some(number) = number.or(predefined) else {
             return;
         };
+        let seen = PdoReceived {
+            node,
+            number,
+            data: &data,
+            values: &[],
+            at: now,
+        };
+        for (_, f) in &mut self.pdo_callbacks {
+            f(&seen);
+        }
         self.publish(NetworkEvent::Pdo {
             node,
             number,

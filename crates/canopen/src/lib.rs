@@ -68,7 +68,8 @@ pub use canopen_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canopen_sdo::{AbortCode, Method, SdoCobIds};
 
 pub use crate::core::{
-    CANCEL_ABORT, NetworkEvent, Occupancy, PdoData, ProgressFn, RequestId, TransferProgress,
+    CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
+    RequestId, TransferProgress,
 };
 #[cfg(feature = "tokio")]
 pub use asynch::{EventStream, Lagged};

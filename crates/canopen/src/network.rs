@@ -279,6 +279,27 @@ impl Network {
         self.core().subscribe()
     }
 
+    /// Calls `f` for every PDO received from a node, decoded or not — python-canopen's PDO
+    /// callback, without its copies: `f` borrows the data and the typed values, and a
+    /// reception that only callbacks see allocates nothing. The events of
+    /// [`subscribe`](Self::subscribe) carry the same PDOs.
+    ///
+    /// `f` runs on the thread that drives the network (the driver, or the caller of a
+    /// blocking call), with the network locked: it must not call this network (that would
+    /// wait for itself) and should be short. Hand longer work to another thread, e.g. through
+    /// a channel.
+    pub fn on_pdo(
+        &self,
+        f: impl FnMut(&crate::PdoReceived<'_>) + Send + 'static,
+    ) -> crate::PdoCallbackId {
+        self.core().add_pdo_callback(Box::new(f))
+    }
+
+    /// Removes a callback added by [`on_pdo`](Self::on_pdo); `false` when it was not there.
+    pub fn remove_pdo_callback(&self, id: crate::PdoCallbackId) -> bool {
+        self.core().remove_pdo_callback(id)
+    }
+
     /// Watches a node's heartbeat: a `Lost` event when none arrives within `timeout`.
     pub fn monitor_heartbeat(&self, id: NodeId, timeout: impl Into<Duration>) -> bool {
         let timeout: Duration = timeout.into();

@@ -109,30 +109,33 @@ impl NodePdos {
     }
 
     /// The values of receive PDO `id`'s last reception, typed by the node's dictionary, with
-    /// their addresses, in mapping order (dummy entries included).
-    pub(crate) fn received_values(&self, id: RpdoId) -> Option<Vec<(ObjectAddress, Value)>> {
-        let unpacked = self.engine.received(id)?;
+    /// their addresses, in mapping order (dummy entries included), into `out` (cleared first);
+    /// `false` when it has none.
+    pub(crate) fn received_values(
+        &self,
+        id: RpdoId,
+        out: &mut Vec<(ObjectAddress, Value)>,
+    ) -> bool {
+        out.clear();
+        let Some(unpacked) = self.engine.received(id) else {
+            return false;
+        };
         let types = self
             .types
             .iter()
             .find(|(r, _)| *r == id)
             .map_or(&[][..], |(_, t)| t.as_slice());
-        Some(
-            unpacked
-                .iter()
-                .enumerate()
-                .map(|(i, (obj, raw))| {
-                    let ty = types.get(i).copied().unwrap_or_else(|| obj.data_type());
-                    // The type was chosen to agree with the mapping, so this always converts;
-                    // the fallback keeps a value should a dictionary say otherwise.
-                    let value = raw
-                        .to_value(ty)
-                        .or_else(|_| raw.to_value(obj.data_type()))
-                        .unwrap_or(Value::Unsigned64(0));
-                    (obj.addr(), value)
-                })
-                .collect(),
-        )
+        out.extend(unpacked.iter().enumerate().map(|(i, (obj, raw))| {
+            let ty = types.get(i).copied().unwrap_or_else(|| obj.data_type());
+            // The type was chosen to agree with the mapping, so this always converts; the
+            // fallback keeps a value should a dictionary say otherwise.
+            let value = raw
+                .to_value(ty)
+                .or_else(|_| raw.to_value(obj.data_type()))
+                .unwrap_or(Value::Unsigned64(0));
+            (obj.addr(), value)
+        }));
+        true
     }
 
     /// The node's TPDO number of the engine's receive PDO `id`.

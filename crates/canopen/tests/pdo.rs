@@ -586,3 +586,57 @@ fn rpdo_cyclic_with_the_background_driver() {
         "cyclic frames while the application slept: {count}"
     );
 }
+
+/// `Network::on_pdo`: a callback sees every TPDO with the same typed values the events carry,
+/// raw data alone for a node without a dictionary, and nothing once removed.
+#[test]
+fn pdo_callbacks_see_what_the_events_carry() {
+    use std::sync::{Arc, Mutex};
+    for with_dictionary in [true, false] {
+        let r = rig(with_dictionary);
+        let events = r.net.subscribe();
+        type Seen = Vec<(NodeId, u8, Vec<u8>, Vec<(ObjectAddress, Value)>)>;
+        let seen: Arc<Mutex<Seen>> = Arc::default();
+        let sink = seen.clone();
+        let id = r.net.on_pdo(move |p| {
+            sink.lock()
+                .unwrap()
+                .push((p.node, p.number, p.data.to_vec(), p.values.to_vec()));
+        });
+        r.net.node(n(5)).nmt().start().unwrap();
+        r.net.run_for(Duration::from_millis(20)).unwrap();
+        let now = r.bus.now();
+        r.bus
+            .with_station(r.device, |d| {
+                d.set_value(now, 0x2500, 1, 21.5f32.to_le_bytes())
+            })
+            .unwrap();
+        r.net.run_for(Duration::from_millis(1200)).unwrap();
+        let from_events: Seen = drain(&events)
+            .iter()
+            .filter_map(|e| {
+                let (node, number, data) = e.pdo_data()?;
+                let values = match e {
+                    NetworkEvent::PdoValues { values, .. } => values.clone(),
+                    _ => Vec::new(),
+                };
+                Some((node, number, data.to_vec(), values))
+            })
+            .collect();
+        let got = std::mem::take(&mut *seen.lock().unwrap());
+        assert!(!got.is_empty());
+        assert_eq!(got, from_events);
+        let tpdo1 = got.iter().rfind(|p| p.1 == 1).expect("TPDO1");
+        assert_eq!(&tpdo1.2[..4], 21.5f32.to_le_bytes());
+        if with_dictionary {
+            assert_eq!(tpdo1.3[0], (a(0x2500, 1), Value::Real32(21.5)));
+        } else {
+            assert!(got.iter().all(|p| p.3.is_empty()), "nothing to decode with");
+        }
+        assert!(r.net.remove_pdo_callback(id));
+        assert!(!r.net.remove_pdo_callback(id));
+        r.net.run_for(Duration::from_millis(1200)).unwrap();
+        assert!(seen.lock().unwrap().is_empty());
+        assert!(drain(&events).iter().any(|e| e.pdo_data().is_some()));
+    }
+}

@@ -28,6 +28,14 @@ impl RawValue {
     pub fn to_value(&self, data_type: DataType) -> Result<Value, BytesError> {
         let unsupported = || BytesError::Unsupported(data_type);
         match (*self, data_type) {
+            // The usual process data first, without the detour through i128 (the receive hot
+            // path; the casts truncate as `from_i128_wrapping` does).
+            (Self::Unsigned(v), DataType::Unsigned8) => Ok(Value::Unsigned8(v as u8)),
+            (Self::Unsigned(v), DataType::Unsigned16) => Ok(Value::Unsigned16(v as u16)),
+            (Self::Unsigned(v), DataType::Unsigned32) => Ok(Value::Unsigned32(v as u32)),
+            (Self::Signed(v), DataType::Integer8) => Ok(Value::Integer8(v as i8)),
+            (Self::Signed(v), DataType::Integer16) => Ok(Value::Integer16(v as i16)),
+            (Self::Signed(v), DataType::Integer32) => Ok(Value::Integer32(v as i32)),
             (Self::Bool(b), DataType::Boolean) => Ok(Value::Boolean(b)),
             (Self::Real32(f), DataType::Real32) => Ok(Value::Real32(f)),
             (Self::Real64(f), DataType::Real64) => Ok(Value::Real64(f)),

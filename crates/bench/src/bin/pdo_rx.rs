@@ -13,12 +13,14 @@
 //!   the floor;
 //! * `Network, stepping, subscriber on the same thread`: the calling thread drives
 //!   (`run_until(now)`) and drains the subscriber;
+//! * `Network, stepping, PDO callback (on_pdo)`: the same checks in a callback given to
+//!   `Network::on_pdo` (borrowed values, no event, no channel);
 //! * `Network, driver thread, subscriber on another`: `Network::start_driver`, the subscriber
 //!   blocks in `recv` on the main thread (the CPU of both threads counts).
 //!
 //! ```text
 //! cargo run --release -p canopen-bench --bin pdo_rx [-- --nodes 64 --syncs 2000]
-//!     [--only stepping|driver]
+//!     [--only stepping|driver|callback]
 //! ```
 //! `--only` runs one row once (for a profiler).
 //! python-canopen needs about 3.3 µs per frame with a callback (MACHINE-FACTS).
@@ -30,8 +32,8 @@ use std::sync::mpsc::Receiver;
 use canopen::frame::time::MonotonicClock;
 use canopen::pdo::{Mapping, MappingEntry, RawValue, ValueKind, unpack};
 use canopen::{
-    CanFrame, CanId, Instant, Network, NetworkEvent, NodeId, Received, Transport, TransportError,
-    Value,
+    CanFrame, CanId, Instant, Network, NetworkEvent, NodeId, ObjectAddress, Received, Transport,
+    TransportError, Value,
 };
 use canopen_bench::load::{expected_i32, expected_real, master_dictionary};
 
@@ -120,6 +122,10 @@ impl Checker {
         else {
             return;
         };
+        self.check(*node, *number, values);
+    }
+
+    fn check(&mut self, node: NodeId, number: u8, values: &[(ObjectAddress, Value)]) {
         let (Some((_, Value::Unsigned32(c))), Some((_, second))) = (values.first(), values.get(1))
         else {
             panic!("node {node} TPDO{number}: not the mapped types: {values:?}");
@@ -131,7 +137,7 @@ impl Checker {
             _ => false,
         };
         assert!(ok, "node {node} TPDO{number}: wrong value {second:?}");
-        let slot = &mut self.last[usize::from(node.get()) * 2 + usize::from(*number) - 2];
+        let slot = &mut self.last[usize::from(node.get()) * 2 + usize::from(number) - 2];
         assert_eq!(
             c,
             *slot + 1,
@@ -166,6 +172,23 @@ fn stepping(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
         for e in rx.try_iter() {
             check.take(&e);
         }
+    }
+    (process_cpu_ns() - t0) / frames.len() as f64
+}
+
+fn callback(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
+    let (net, rx) = network(nodes, frames);
+    drop(rx); // no event subscriber: the callback alone
+    let seen = Arc::new(AtomicUsize::new(0));
+    let mut check = Checker::new(nodes);
+    let count = seen.clone();
+    net.on_pdo(move |p| {
+        check.check(p.node, p.number, p.values);
+        count.store(check.seen, Ordering::Relaxed);
+    });
+    let t0 = process_cpu_ns();
+    while seen.load(Ordering::Relaxed) < frames.len() {
+        net.run_until(net.now()).expect("replay never fails");
     }
     (process_cpu_ns() - t0) / frames.len() as f64
 }
@@ -226,9 +249,13 @@ fn main() {
         match (a.as_str(), n) {
             ("--nodes", Some(n)) if (1..=127).contains(&n) => nodes = n as u8,
             ("--syncs", Some(n)) if n > 0 => syncs = n,
-            ("--only", _) if matches!(v.as_deref(), Some("stepping" | "driver")) => only = v,
+            ("--only", _) if matches!(v.as_deref(), Some("stepping" | "driver" | "callback")) => {
+                only = v
+            }
             _ => {
-                eprintln!("usage: pdo_rx [--nodes 1..=127] [--syncs N] [--only stepping|driver]");
+                eprintln!(
+                    "usage: pdo_rx [--nodes 1..=127] [--syncs N] [--only stepping|driver|callback]"
+                );
                 std::process::exit(2);
             }
         }
@@ -238,6 +265,7 @@ fn main() {
     match only.as_deref() {
         Some("stepping") => return println!("stepping: {:.0} ns", stepping(nodes, &frames)),
         Some("driver") => return println!("driver: {:.0} ns", driver(nodes, &frames)),
+        Some("callback") => return println!("callback: {:.0} ns", callback(nodes, &frames)),
         _ => {}
     }
     println!(
@@ -251,6 +279,10 @@ fn main() {
         (
             "Network, stepping, subscriber on the same thread",
             best(|| stepping(nodes, &frames)),
+        ),
+        (
+            "Network, stepping, PDO callback (on_pdo)",
+            best(|| callback(nodes, &frames)),
         ),
         (
             "Network, driver thread, subscriber on another",
