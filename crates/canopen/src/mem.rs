@@ -813,6 +813,13 @@ impl Transport for Endpoint {
         !self.bus.shared.real_time
     }
 
+    fn has_pending(&self) -> bool {
+        let st = self.bus.lock();
+        st.endpoints
+            .get(self.index)
+            .is_some_and(|e| e.lost > 0 || !e.queue.is_empty())
+    }
+
     fn next_event(&self) -> Option<Instant> {
         let st = self.bus.lock();
         if !matches!(st.clock, Clock::Virtual(_)) {

@@ -54,7 +54,7 @@ const DRIVE_SLICE: Duration = Duration::from_millis(2);
 const TX_RETRY: Duration = Duration::from_micros(250);
 
 /// Most frames one driving step takes from the transport (those already waiting after the
-/// first): enough to spread the step's fixed cost, few enough that the core's timers and the
+/// first, see [`Transport::has_pending`]): enough to spread the step's fixed cost, few enough that the core's timers and the
 /// transmit queue are served at least every batch.
 const RECEIVE_BATCH: usize = 32;
 
@@ -472,7 +472,7 @@ impl Network {
                         return Err(e.into());
                     }
                 }
-                if taken == RECEIVE_BATCH {
+                if taken == RECEIVE_BATCH || !io.has_pending() {
                     break;
                 }
                 // A deadline not after the last reception: take only what has arrived.

@@ -417,6 +417,10 @@ impl Transport for SocketCan {
     fn now(&self) -> Instant {
         self.clock.now()
     }
+
+    fn has_pending(&self) -> bool {
+        !self.events.is_empty()
+    }
 }
 
 #[cfg(test)]

@@ -138,6 +138,14 @@ pub trait Transport: Send {
         self.recv_until(now)
     }
 
+    /// Whether a frame or event is waiting that [`recv_until`](Self::recv_until) returns at
+    /// once, known without asking the operating system (queued inside the transport). A
+    /// driving step takes such frames together, under one lock; `false` (the default) makes
+    /// it take one frame per step, so a quiet socket costs no extra system call.
+    fn has_pending(&self) -> bool {
+        false
+    }
+
     /// Whether the clock is virtual: it stands still until [`recv_until`](Self::recv_until)
     /// waits, and then jumps to the next event or the deadline at once (no real time passes).
     /// The async API ties such a clock to tokio's (see `canopen::asynch`). Default: `false`.
@@ -165,6 +173,9 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn is_virtual(&self) -> bool {
         (**self).is_virtual()
+    }
+    fn has_pending(&self) -> bool {
+        (**self).has_pending()
     }
     fn next_event(&self) -> Option<Instant> {
         (**self).next_event()

@@ -95,6 +95,9 @@ impl Transport for Replay {
     fn now(&self) -> Instant {
         self.clock.now()
     }
+    fn has_pending(&self) -> bool {
+        self.next.load(Ordering::Relaxed) < self.frames.len()
+    }
 }
 
 /// Checks each decoded TPDO: counter in order per node and TPDO, the second value typed and
