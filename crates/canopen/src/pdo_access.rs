@@ -377,18 +377,16 @@ impl Tpdos {
     /// dictionary TPDO1..4, those that exist). The master decodes each valid TPDO from its
     /// COB-ID and with its mapping from now on.
     pub fn read(&self) -> Result<PdoSet, Error> {
-        let set = read_set(&self.node, Direction::Transmit)?;
-        for p in &set.pdos {
-            follow(&self.node, p);
-        }
-        Ok(set)
+        let port = Port::Blocking(&self.node);
+        port.run(read_set(port, Direction::Transmit))
     }
 
     /// Writes the TPDOs changed since they were read (see the module docs for the sequence);
     /// the master's decoding follows. Stops at the first failure (the PDOs saved before it
     /// stay saved, the failed one is left invalid on the node as the sequence leaves it).
     pub fn save(&self, set: &mut PdoSet) -> Result<(), Error> {
-        save_set(&self.node, Direction::Transmit, set)
+        let port = Port::Blocking(&self.node);
+        port.run(save_set(port, Direction::Transmit, set))
     }
 }
 
@@ -403,17 +401,15 @@ impl Rpdos {
     /// dictionary RPDO1..4, those that exist). RPDOs the master transmits follow the COB-ID
     /// and mapping read.
     pub fn read(&self) -> Result<PdoSet, Error> {
-        let set = read_set(&self.node, Direction::Receive)?;
-        for p in &set.pdos {
-            follow(&self.node, p);
-        }
-        Ok(set)
+        let port = Port::Blocking(&self.node);
+        port.run(read_set(port, Direction::Receive))
     }
 
     /// Writes the RPDOs changed since they were read (as [`Tpdos::save`]); RPDOs the master
     /// transmits follow the new COB-ID and mapping.
     pub fn save(&self, set: &mut PdoSet) -> Result<(), Error> {
-        save_set(&self.node, Direction::Receive, set)
+        let port = Port::Blocking(&self.node);
+        port.run(save_set(port, Direction::Receive, set))
     }
 
     /// Transmits the node's RPDO `pdo` (its COB-ID and mapping, from [`read`](Self::read))
@@ -422,6 +418,14 @@ impl Rpdos {
     /// replaces its transmission parameters. The master's engine holds four transmitted RPDOs
     /// per node.
     pub fn start(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
+        let sender = self.engage(pdo, how)?;
+        self.node.net.flush()?;
+        Ok(sender)
+    }
+
+    /// [`start`](Self::start) without sending: the RPDO is in the master's engine, its first
+    /// frame queued.
+    fn engage(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
         if pdo.direction != Direction::Receive {
             return Err(pdo.error("the master transmits a node's RPDOs, not its TPDOs".into()));
         }
@@ -446,8 +450,6 @@ impl Rpdos {
         core.set_now(now);
         core.start_rpdo(self.node.id, pdo.number, PdoConfig::new(comm, mapping))
             .map_err(|e| pdo.error(e.to_string()))?;
-        drop(core);
-        self.node.net.flush()?;
         Ok(RpdoSender {
             node: self.node.clone(),
             number: pdo.number,
@@ -563,6 +565,17 @@ impl RpdoSender {
         K: Into<ObjectKey<'k>>,
         V: Into<WriteValue>,
     {
+        self.stage(values)?;
+        self.node.net.flush()
+    }
+
+    /// Gives the engine the new values of [`set_many`](Self::set_many); the frames they cause
+    /// are queued, not sent.
+    fn stage<'k, K, V>(&self, values: impl IntoIterator<Item = (K, V)>) -> Result<(), Error>
+    where
+        K: Into<ObjectKey<'k>>,
+        V: Into<WriteValue>,
+    {
         let od = self.node.dictionary();
         let mut encoded = Vec::new();
         for (key, value) in values {
@@ -597,22 +610,25 @@ impl RpdoSender {
         let mut core = self.node.net.core();
         core.set_now(now);
         core.set_rpdo_values(self.node.id, &encoded);
-        drop(core);
-        self.node.net.flush()
+        Ok(())
     }
 
     /// Sends the RPDO now (event-driven: after its inhibit time; type 0: at the next SYNC),
     /// changed or not.
     pub fn trigger(&self) -> Result<(), Error> {
+        self.queue_trigger()?;
+        self.node.net.flush()
+    }
+
+    fn queue_trigger(&self) -> Result<(), Error> {
         let now = self.node.net.now();
         let mut core = self.node.net.core();
         core.set_now(now);
-        let running = core.trigger_rpdo(self.node.id, self.number);
-        drop(core);
-        if !running {
-            return Err(self.stopped());
+        if core.trigger_rpdo(self.node.id, self.number) {
+            Ok(())
+        } else {
+            Err(self.stopped())
         }
-        self.node.net.flush()
     }
 
     /// Stops transmitting the RPDO.
@@ -708,6 +724,165 @@ fn follow(node: &Node, p: &PdoParameters) {
     }
 }
 
+/// How the PDO services reach a node's objects: by the blocking SDO calls, or by their async
+/// twins. The services are written once, as async functions over a port; with the blocking
+/// port every await is ready at once, so [`Port::run`] completes them in one poll.
+#[derive(Clone, Copy)]
+enum Port<'a> {
+    Blocking(&'a Node),
+    #[cfg(feature = "tokio")]
+    Async(&'a Node),
+}
+
+impl Port<'_> {
+    fn node(&self) -> &Node {
+        match self {
+            Port::Blocking(node) => node,
+            #[cfg(feature = "tokio")]
+            Port::Async(node) => node,
+        }
+    }
+
+    async fn read(&self, addr: ObjectAddress) -> Result<Vec<u8>, Error> {
+        match self {
+            Port::Blocking(node) => node.sdo().read(addr),
+            #[cfg(feature = "tokio")]
+            Port::Async(node) => node.sdo().read_async(addr).await,
+        }
+    }
+
+    async fn write(&self, addr: ObjectAddress, bytes: &[u8]) -> Result<(), Error> {
+        match self {
+            Port::Blocking(node) => node.sdo().write(addr, bytes),
+            #[cfg(feature = "tokio")]
+            Port::Async(node) => node.sdo().write_async(addr, bytes).await,
+        }
+    }
+
+    async fn read_u32(&self, index: u16, sub: u8) -> Result<u32, Error> {
+        self.read(ObjectAddress::new(index, sub))
+            .await
+            .map(|b| le_u32(&b))
+    }
+
+    /// An optional sub-index: per the dictionary when there is one, else as the node answers.
+    async fn read_optional(
+        &self,
+        od: Option<&ObjectDictionary>,
+        index: u16,
+        sub: u8,
+    ) -> Result<Option<u32>, Error> {
+        if let Some(od) = od
+            && od.sub(index, sub).is_none()
+        {
+            return Ok(None);
+        }
+        match self.read_u32(index, sub).await {
+            Ok(v) => Ok(Some(v)),
+            Err(e) if absent(&e) => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Completes a service on the blocking port: one poll, every SDO call in it has blocked
+    /// until done.
+    fn run<T>(self, service: impl Future<Output = Result<T, Error>>) -> Result<T, Error> {
+        let mut service = std::pin::pin!(service);
+        let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+        match service.as_mut().poll(&mut cx) {
+            std::task::Poll::Ready(r) => r,
+            // Only the async port's calls can be pending, and `run` is for the blocking one.
+            std::task::Poll::Pending => Err(Error::Driver(
+                "a PDO service on the blocking port did not complete".into(),
+            )),
+        }
+    }
+}
+
+/// The async twins of the PDO services (`tokio` feature; see [`crate::asynch`]). Dropping one
+/// of these futures cancels the SDO transfer it is in; a `save` dropped half-way leaves the PDO
+/// as far as the sequence got (invalid on the node until saved again).
+#[cfg(feature = "tokio")]
+mod asynch_twins {
+    use super::{
+        Direction, Error, ObjectKey, PdoParameters, PdoSet, Port, RpdoSender, Rpdos, Tpdos,
+        Transmission, WriteValue, read_set, save_set,
+    };
+    use crate::asynch::drive;
+
+    impl Tpdos {
+        /// Reads every TPDO's parameters (async [`read`](Tpdos::read)).
+        pub async fn read_async(&self) -> Result<PdoSet, Error> {
+            drive::catch_up(&self.node.net)?;
+            read_set(Port::Async(&self.node), Direction::Transmit).await
+        }
+
+        /// Writes the TPDOs changed since they were read (async [`save`](Tpdos::save)).
+        pub async fn save_async(&self, set: &mut PdoSet) -> Result<(), Error> {
+            drive::catch_up(&self.node.net)?;
+            save_set(Port::Async(&self.node), Direction::Transmit, set).await
+        }
+    }
+
+    impl Rpdos {
+        /// Reads every RPDO's parameters (async [`read`](Rpdos::read)).
+        pub async fn read_async(&self) -> Result<PdoSet, Error> {
+            drive::catch_up(&self.node.net)?;
+            read_set(Port::Async(&self.node), Direction::Receive).await
+        }
+
+        /// Writes the RPDOs changed since they were read (async [`save`](Rpdos::save)).
+        pub async fn save_async(&self, set: &mut PdoSet) -> Result<(), Error> {
+            drive::catch_up(&self.node.net)?;
+            save_set(Port::Async(&self.node), Direction::Receive, set).await
+        }
+
+        /// Transmits the node's RPDO `pdo` from the master (async [`start`](Rpdos::start)).
+        pub async fn start_async(
+            &self,
+            pdo: &PdoParameters,
+            how: Transmission,
+        ) -> Result<RpdoSender, Error> {
+            drive::catch_up(&self.node.net)?;
+            let sender = self.engage(pdo, how)?;
+            drive::flush(&self.node.net).await?;
+            Ok(sender)
+        }
+    }
+
+    impl RpdoSender {
+        /// Sets one mapped value (async [`set`](RpdoSender::set)).
+        pub async fn set_async<'k>(
+            &self,
+            key: impl Into<ObjectKey<'k>>,
+            value: impl Into<WriteValue>,
+        ) -> Result<(), Error> {
+            self.set_many_async([(key, value)]).await
+        }
+
+        /// Sets several mapped values at once (async [`set_many`](RpdoSender::set_many)).
+        pub async fn set_many_async<'k, K, V>(
+            &self,
+            values: impl IntoIterator<Item = (K, V)>,
+        ) -> Result<(), Error>
+        where
+            K: Into<ObjectKey<'k>>,
+            V: Into<WriteValue>,
+        {
+            drive::catch_up(&self.node.net)?;
+            self.stage(values)?;
+            drive::flush(&self.node.net).await
+        }
+
+        /// Sends the RPDO now (async [`trigger`](RpdoSender::trigger)).
+        pub async fn trigger_async(&self) -> Result<(), Error> {
+            drive::catch_up(&self.node.net)?;
+            self.queue_trigger()?;
+            drive::flush(&self.node.net).await
+        }
+    }
+}
+
 /// Whether an SDO error says the object or sub-index is not there.
 fn absent(e: &Error) -> bool {
     matches!(
@@ -723,7 +898,8 @@ fn le_u32(bytes: &[u8]) -> u32 {
     u32::from_le_bytes(b)
 }
 
-fn read_set(node: &Node, direction: Direction) -> Result<PdoSet, Error> {
+async fn read_set(port: Port<'_>, direction: Direction) -> Result<PdoSet, Error> {
+    let node = port.node();
     let od = node.dictionary();
     let numbers: Vec<u16> = match od.as_deref() {
         Some(od) => (0..canopen_pdo::comm::MAX_PDOS_PER_DIRECTION)
@@ -736,49 +912,40 @@ fn read_set(node: &Node, direction: Direction) -> Result<PdoSet, Error> {
     };
     let mut pdos = Vec::new();
     for n in numbers {
-        if let Some(p) = read_pdo(node, od.clone(), direction, n)? {
+        if let Some(p) = read_pdo(port, od.clone(), direction, n).await? {
             pdos.push(p);
         }
+    }
+    for p in &pdos {
+        follow(node, p);
     }
     Ok(PdoSet { direction, pdos })
 }
 
 /// Reads PDO `n` (0-based); `None` when the node does not have it.
-fn read_pdo(
-    node: &Node,
+async fn read_pdo(
+    port: Port<'_>,
     od: Option<Arc<ObjectDictionary>>,
     direction: Direction,
     n: u16,
 ) -> Result<Option<PdoParameters>, Error> {
     let (ci, mi) = (direction.comm_index(n), direction.mapping_index(n));
-    let read = |index: u16, sub: u8| node.sdo().read((index, sub)).map(|b| le_u32(&b));
-    let cob_id = match read(ci, 1) {
+    let cob_id = match port.read_u32(ci, 1).await {
         Ok(v) => PdoCobId(v),
         Err(e) if od.is_none() && absent(&e) => return Ok(None),
         Err(e) => return Err(e),
     };
-    let transmission_type = TransmissionType::from_code(read(ci, 2)? as u8);
-    // An optional sub-index: per the dictionary when there is one, else as the node answers.
-    let optional = |sub: u8| -> Result<Option<u32>, Error> {
-        if let Some(od) = od.as_deref()
-            && od.sub(ci, sub).is_none()
-        {
-            return Ok(None);
-        }
-        match read(ci, sub) {
-            Ok(v) => Ok(Some(v)),
-            Err(e) if absent(&e) => Ok(None),
-            Err(e) => Err(e),
-        }
-    };
-    let (inhibit, event, sync) = (optional(3)?, optional(5)?, optional(6)?);
-    let count = read(mi, 0)?;
+    let transmission_type = TransmissionType::from_code(port.read_u32(ci, 2).await? as u8);
+    let inhibit = port.read_optional(od.as_deref(), ci, 3).await?;
+    let event = port.read_optional(od.as_deref(), ci, 5).await?;
+    let sync = port.read_optional(od.as_deref(), ci, 6).await?;
+    let count = port.read_u32(mi, 0).await?;
     let mut entries = Vec::new();
     let mpdo = if count > 64 {
         Some(count as u8)
     } else {
         for sub in 1..=count as u8 {
-            entries.push(read(mi, sub)?);
+            entries.push(port.read_u32(mi, sub).await?);
         }
         None
     };
@@ -817,12 +984,13 @@ fn read_pdo(
         },
         mpdo,
         saved: (comm, entries),
-        node: node.id,
+        node: port.node().id,
         od,
     }))
 }
 
-fn save_set(node: &Node, direction: Direction, set: &mut PdoSet) -> Result<(), Error> {
+async fn save_set(port: Port<'_>, direction: Direction, set: &mut PdoSet) -> Result<(), Error> {
+    let node = port.node();
     if set.direction != direction {
         return Err(Error::InvalidRequest(format!(
             "a set of {}s cannot be saved as {}s",
@@ -854,7 +1022,7 @@ fn save_set(node: &Node, direction: Direction, set: &mut PdoSet) -> Result<(), E
             has_event_timer: p.present.event_timer,
             has_sync_start: p.present.sync_start,
         };
-        configure(node, direction, p.number - 1, &p.comm, mapping, &remote)?;
+        configure_with(port, direction, p.number - 1, &p.comm, mapping, &remote).await?;
         p.saved = (p.comm, p.raw_entries().collect());
     }
     Ok(())
@@ -872,6 +1040,25 @@ pub(crate) fn configure(
     mapping: Mapping,
     remote: &RemoteObjects<'_>,
 ) -> Result<(), Error> {
+    Port::Blocking(node).run(configure_with(
+        Port::Blocking(node),
+        direction,
+        n,
+        comm,
+        mapping,
+        remote,
+    ))
+}
+
+async fn configure_with(
+    port: Port<'_>,
+    direction: Direction,
+    n: u16,
+    comm: &CommParams,
+    mapping: Mapping,
+    remote: &RemoteObjects<'_>,
+) -> Result<(), Error> {
+    let node = port.node();
     let steps =
         canopen_pdo::remap(direction, n, comm, &mapping, remote).map_err(|e| Error::Value {
             node: node.id,
@@ -879,8 +1066,8 @@ pub(crate) fn configure(
             message: e.to_string(),
         })?;
     for step in &steps {
-        node.sdo()
-            .write((step.index, step.subindex), step.value())?;
+        port.write(ObjectAddress::new(step.index, step.subindex), step.value())
+            .await?;
     }
     let mapping = match node.dictionary() {
         Some(od) => crate::pdo_glue::typed_mapping(&od, node.id, direction, mapping),

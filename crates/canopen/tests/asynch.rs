@@ -646,3 +646,68 @@ async fn waiting_futures_on_a_virtual_bus_in_real_time_sleep_rather_than_spin() 
     let calls = calls.load(std::sync::atomic::Ordering::Relaxed);
     assert!(calls < 5_000, "{calls} receive calls");
 }
+
+/// The PDO services' async twins, each in a spawned task (so their futures are `Send`): TPDO1
+/// read, changed and saved (the device then sends it from the new COB-ID and the master decodes
+/// it), RPDO1 read, started and set; the device takes the value.
+#[tokio::test(start_paused = true)]
+async fn pdo_services_async() {
+    use canopen::{CanId, NetworkEvent, Transmission, Value};
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let od = canopen::od::parse(EDS).unwrap().od;
+    let device = bus.attach(SimDevice::new(n(5), od.clone()));
+    let node = net.add_node_with_dictionary(n(5), od);
+    node.sdo().write_async((0x1017, 0), 0u16).await.unwrap();
+    let events = net.subscribe();
+
+    let tpdo = node.tpdo();
+    let saved = tokio::spawn(async move {
+        let mut set = tpdo.read_async().await?;
+        let t1 = set.get_mut(1).expect("TPDO1");
+        t1.set_can_id(CanId::standard(0x1F0).unwrap());
+        t1.set_event_timer(Duration::from_millis(20))?;
+        tpdo.save_async(&mut set).await?;
+        Ok::<_, canopen::Error>(set)
+    })
+    .await
+    .unwrap()
+    .unwrap();
+    assert!(!saved.get(1).unwrap().is_changed());
+    assert_eq!(node.tpdo().read_async().await.unwrap(), saved);
+    assert_eq!(
+        node.sdo().read_async((0x1800, 1)).await.unwrap(),
+        0x1F0u32.to_le_bytes()
+    );
+
+    let rpdo = node.rpdo();
+    let tx = tokio::spawn(async move {
+        let set = rpdo.read_async().await?;
+        let tx = rpdo
+            .start_async(set.get(1).expect("RPDO1"), Transmission::on_change())
+            .await?;
+        tx.set_async("Control Value 1.Value", 12.5f32).await?;
+        Ok::<_, canopen::Error>(tx)
+    })
+    .await
+    .unwrap()
+    .unwrap();
+    node.nmt().start_async().await.unwrap();
+    tx.trigger_async().await.unwrap();
+    net.run_for_async(Duration::from_millis(50)).await.unwrap();
+    let held = bus
+        .with_station(device, |d| d.values().get(0x2540, 1).map(<[u8]>::to_vec))
+        .unwrap();
+    assert_eq!(held.as_deref(), Some(&12.5f32.to_le_bytes()[..]));
+    assert!(
+        tx.set_async((0x2500, 1), 1.0f32).await.is_err(),
+        "not mapped"
+    );
+
+    // The device sends TPDO1 from 0x1F0 now: decoded only because the master followed.
+    let decoded = events.try_iter().any(|e| {
+        matches!(&e, NetworkEvent::PdoValues { node, number: 1, values, .. }
+            if *node == n(5) && values.iter().any(|(_, v)| matches!(v, Value::Real32(_))))
+    });
+    assert!(decoded, "TPDO1 decoded from its new COB-ID");
+}

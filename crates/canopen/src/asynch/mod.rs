@@ -16,6 +16,8 @@
 //! | [`Network::scan`] | [`Network::scan_async`] |
 //! | [`Lss::procedure`] (switch, configure, inquire, store), [`Lss::procedure_with`] | [`Lss::procedure_async`], [`Lss::procedure_with_async`] |
 //! | [`Lss::fastscan`], [`Lss::discover_all`], [`Lss::assign_all`] | [`Lss::fastscan_async`], [`Lss::discover_all_async`], [`Lss::assign_all_async`] |
+//! | [`Tpdos::read`](crate::Tpdos::read), [`Tpdos::save`](crate::Tpdos::save), [`Rpdos::read`](crate::Rpdos::read), [`Rpdos::save`](crate::Rpdos::save) | [`Tpdos::read_async`](crate::Tpdos::read_async), [`Tpdos::save_async`](crate::Tpdos::save_async), [`Rpdos::read_async`](crate::Rpdos::read_async), [`Rpdos::save_async`](crate::Rpdos::save_async) |
+//! | [`Rpdos::start`](crate::Rpdos::start), [`RpdoSender::set`](crate::RpdoSender::set), `set_many`, `trigger` | [`Rpdos::start_async`](crate::Rpdos::start_async), [`RpdoSender::set_async`](crate::RpdoSender::set_async), `set_many_async`, `trigger_async` |
 //! | [`Network::subscribe`] (mpsc) | [`Network::events`] ([`EventStream`]) |
 //!
 //! There is one core and no second protocol implementation: a future submits its request to
@@ -82,11 +84,8 @@
 //!     Ok(())
 //! }
 //! ```
-//!
-//! PDO transmit from the master has no async twin yet: the facade has no blocking RPDO
-//! transmit API to mirror.
 
-mod drive;
+pub(crate) mod drive;
 pub mod events;
 
 pub(crate) use drive::{Reactor, spawn_virtual_driver};
