@@ -233,14 +233,14 @@ pub(crate) fn run_audit(args: AuditArgs, opts: &BusOpts, global: Global) -> Exit
                 let actual = d
                     .actual
                     .as_ref()
-                    .map_or_else(|| format!("{:02X?}", d.actual_bytes), value);
+                    .map_or_else(|| hex_bytes(&d.actual_bytes), value);
                 let fixed = match &d.fixed {
                     Some(Ok(())) => " (fixed)".to_owned(),
                     Some(Err(e)) => format!(" (fix failed: {e})"),
                     None => String::new(),
                 };
                 outln(&format!(
-                    "  {} {:?} {:?}: expected {}, actual {actual}{fixed}",
+                    "  {} \"{}\" {}: expected {}, actual {actual}{fixed}",
                     d.object,
                     d.name,
                     d.data_type,
@@ -249,7 +249,7 @@ pub(crate) fn run_audit(args: AuditArgs, opts: &BusOpts, global: Global) -> Exit
             }
             for u in &s.unreadable {
                 outln(&format!(
-                    "  {} {:?}: cannot read: {}",
+                    "  {} \"{}\": cannot read: {}",
                     u.object, u.name, u.error
                 ));
             }
@@ -270,4 +270,13 @@ pub(crate) fn run_audit(args: AuditArgs, opts: &BusOpts, global: Global) -> Exit
     } else {
         ExitCode::FAILURE
     }
+}
+
+/// Bytes as CANopen tools write them: `01 02 0A`.
+fn hex_bytes(bytes: &[u8]) -> String {
+    bytes
+        .iter()
+        .map(|b| format!("{b:02X}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }

@@ -333,11 +333,11 @@ fn show(od: &ObjectDictionary, global: Global) -> ExitCode {
         if !obj.is_simple() {
             let _ = writeln!(
                 out,
-                "{:04X}   {:<4} {:<40} [{:?}]",
+                "{:04X}   {:<4} {:<40} [{}]",
                 obj.index,
                 "",
                 truncate(&obj.name, 40),
-                obj.object_code
+                obj.object_code.name()
             );
         }
         for s in obj.subs.values() {

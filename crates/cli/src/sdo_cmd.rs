@@ -237,9 +237,9 @@ fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
             .map_err(|e| format!("`{text}`: {e}"))?;
             let v = if neg { -mag } else { mag };
             let value = Value::from_i128_wrapping(dt, v)
-                .ok_or_else(|| format!("cannot write `{text}` as {dt:?}"))?;
+                .ok_or_else(|| format!("cannot write `{text}` as {dt}"))?;
             if value.as_i128() != Some(v) {
-                return Err(format!("`{text}` is out of range for {dt:?}"));
+                return Err(format!("`{text}` is out of range for {dt}"));
             }
             Ok(value.to_le_bytes())
         }

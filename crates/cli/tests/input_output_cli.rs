@@ -299,12 +299,12 @@ fn audit_values_follow_the_hex_switch() {
     };
     let text = audit(false);
     assert!(
-        text.contains("\"Close Delay\" Unsigned32: expected 4102, actual 77"),
+        text.contains("\"Close Delay\" UNSIGNED32: expected 4102, actual 77"),
         "{text}"
     );
     let text = audit(true);
     assert!(
-        text.contains("\"Close Delay\" Unsigned32: expected 0x00001006, actual 0x0000004D"),
+        text.contains("\"Close Delay\" UNSIGNED32: expected 0x00001006, actual 0x0000004D"),
         "{text}"
     );
     let _ = sim.kill();
