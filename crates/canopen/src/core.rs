@@ -23,7 +23,7 @@
 //! One cohesive machine: the routing, the request table and the per-node machines it feeds
 //! belong together, so the file stays whole.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::io::Write;
 use std::sync::Arc;
 use std::sync::mpsc;
@@ -450,7 +450,7 @@ pub(crate) struct Core {
     /// The SDO channels that may have a timer: a request queued or running since the channel
     /// was last found idle. The timer scans walk this set, not every node's channels, so a
     /// step costs the same with 2 nodes as with 127 when only PDOs flow.
-    sdo_busy: BTreeSet<(NodeId, usize)>,
+    sdo_busy: Vec<(NodeId, usize)>,
     pdo_callbacks: Vec<(PdoCallbackId, PdoCallback)>,
     next_callback: u64,
     /// The values of the PDO being received (kept, so a reception that only callbacks see
@@ -485,7 +485,7 @@ impl Core {
             sdo_routes: HashMap::new(),
             pdo_routes: HashMap::new(),
             pdo_next: None,
-            sdo_busy: BTreeSet::new(),
+            sdo_busy: Vec::new(),
             pdo_callbacks: Vec::new(),
             next_callback: 0,
             pdo_scratch: Vec::new(),
@@ -494,7 +494,9 @@ impl Core {
 
     /// The index of `node`'s channel on `ids`, opened (and routed) on first use.
     fn channel_index(&mut self, node: NodeId, ids: SdoCobIds) -> usize {
-        self.add_node(node, None);
+        if !self.nodes.contains_key(&node) {
+            self.add_node(node, None);
+        }
         let Some(slot) = self.nodes.get_mut(&node) else {
             return 0;
         };
@@ -938,7 +940,9 @@ impl Core {
             .and_then(|s| s.channels.get_mut(ch))
         {
             c.queue.push_back(id);
-            self.sdo_busy.insert((node, ch));
+            if !self.sdo_busy.contains(&(node, ch)) {
+                self.sdo_busy.push((node, ch));
+            }
         }
         self.pump_channel(node, ch);
         id

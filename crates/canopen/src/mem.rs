@@ -546,6 +546,7 @@ impl MemoryBus {
         Endpoint {
             bus: self.clone(),
             index: st.endpoints.len() - 1,
+            more: false,
         }
     }
 
@@ -724,6 +725,9 @@ impl MemoryBus {
 pub struct Endpoint {
     bus: MemoryBus,
     index: usize,
+    /// More was queued for this endpoint when it last received (for `has_pending`, which so
+    /// takes no lock; frames queued since are found by the next receive).
+    more: bool,
 }
 
 impl core::fmt::Debug for Endpoint {
@@ -777,8 +781,13 @@ impl Transport for Endpoint {
             let now = st.now();
             st.advance(now);
             if let Some(r) = st.pop(self.index) {
+                self.more = st
+                    .endpoints
+                    .get(self.index)
+                    .is_some_and(|e| e.lost > 0 || !e.queue.is_empty());
                 return Ok(Some(r));
             }
+            self.more = false;
             if now >= deadline {
                 return Ok(None);
             }
@@ -814,10 +823,7 @@ impl Transport for Endpoint {
     }
 
     fn has_pending(&self) -> bool {
-        let st = self.bus.lock();
-        st.endpoints
-            .get(self.index)
-            .is_some_and(|e| e.lost > 0 || !e.queue.is_empty())
+        self.more
     }
 
     fn next_event(&self) -> Option<Instant> {

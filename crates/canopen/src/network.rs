@@ -436,10 +436,26 @@ impl Network {
         io: &mut Box<dyn Transport>,
         limit: Option<Instant>,
     ) -> Result<bool, Error> {
+        let (received, _) = self.step_checking(io, limit, &mut |_| None::<()>)?;
+        Ok(received)
+    }
+
+    /// [`step`](Self::step) for a waiter: `check` looks at the core under the step's own locks
+    /// (before anything is done, and after the frames are handled), so waiting costs no lock
+    /// of its own. A value from the first look ends the step at once.
+    fn step_checking<T>(
+        &self,
+        io: &mut Box<dyn Transport>,
+        limit: Option<Instant>,
+        check: &mut impl FnMut(&mut Core) -> Option<T>,
+    ) -> Result<(bool, Option<T>), Error> {
         let now = io.now();
         let start = now;
         let (frames, next) = {
             let mut c = self.core();
+            if let Some(r) = check(&mut c) {
+                return Ok((false, Some(r)));
+            }
             c.handle_timeout(now);
             (c.take_transmit(), c.poll_timeout())
         };
@@ -478,15 +494,19 @@ impl Network {
                 // A deadline not after the last reception: take only what has arrived.
                 got = io.recv_until(now.unwrap_or(start));
             }
-            // A frame's reception time is the time now, give or take the decoding; only
-            // otherwise ask the clock.
-            let now = now.unwrap_or_else(|| io.now());
-            c.handle_timeout(now);
-            c.take_transmit()
+            // Nothing received: the wait ended at a deadline, so fire what is due now. After
+            // frames, the timers wait for the next step's start: the wait ended before any
+            // core deadline (it was one of the wait's bounds), and a timer is not worth a
+            // second pass over the core per frame.
+            if now.is_none() {
+                c.handle_timeout(io.now());
+            }
+            (c.take_transmit(), check(&mut c))
         };
+        let (more, done) = more;
         self.send_queued(io, more)?;
         self.notify();
-        Ok(received)
+        Ok((received, done))
     }
 
     /// Hands queued frames to the transport in order. A full transmit queue is back-pressure,
@@ -586,12 +606,11 @@ impl Network {
 
     fn wait_loop<T>(&self, mut done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
         loop {
-            if let Some(r) = done(&mut self.core()) {
-                return Ok(r);
-            }
             match self.inner.io.try_lock() {
                 Ok(mut io) => {
-                    self.step(&mut io, None)?;
+                    if let (_, Some(r)) = self.step_checking(&mut io, None, &mut done)? {
+                        return Ok(r);
+                    }
                 }
                 Err(_) => {
                     let mut c = self.core();
