@@ -401,6 +401,123 @@ impl NodeSlot {
     }
 }
 
+/// The nodes by node-ID, indexed directly (node-IDs are 1..=127): a frame's node is found
+/// without a search. Iterates in node-ID order.
+struct NodeTable {
+    slots: Vec<Option<Box<NodeSlot>>>,
+    len: usize,
+}
+
+impl NodeTable {
+    fn new() -> Self {
+        Self {
+            slots: (0..=127).map(|_| None).collect(),
+            len: 0,
+        }
+    }
+
+    fn get(&self, node: &NodeId) -> Option<&NodeSlot> {
+        self.slots.get(usize::from(node.get()))?.as_deref()
+    }
+
+    fn get_mut(&mut self, node: &NodeId) -> Option<&mut NodeSlot> {
+        self.slots.get_mut(usize::from(node.get()))?.as_deref_mut()
+    }
+
+    fn contains_key(&self, node: &NodeId) -> bool {
+        self.get(node).is_some()
+    }
+
+    fn insert(&mut self, node: NodeId, slot: NodeSlot) {
+        if let Some(s) = self.slots.get_mut(usize::from(node.get())) {
+            self.len += usize::from(s.is_none());
+            *s = Some(Box::new(slot));
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.len
+    }
+
+    fn iter(&self) -> impl Iterator<Item = (NodeId, &NodeSlot)> {
+        self.slots.iter().enumerate().filter_map(|(i, s)| {
+            let node = NodeId::new(u8::try_from(i).ok()?).ok()?;
+            Some((node, s.as_deref()?))
+        })
+    }
+
+    fn values(&self) -> impl Iterator<Item = &NodeSlot> {
+        self.slots.iter().filter_map(|s| s.as_deref())
+    }
+
+    fn values_mut(&mut self) -> impl Iterator<Item = &mut NodeSlot> {
+        self.slots.iter_mut().filter_map(|s| s.as_deref_mut())
+    }
+}
+
+/// The request table: entries in id order (ids only grow, so a new one goes at the back), and
+/// most leave from the front, as requests run in submission order per channel. A few entries
+/// live in it at a time, so a binary search over a ring buffer beats a tree, which allocates a
+/// node whenever the table goes from empty to one entry — once per blocking request.
+struct RequestTable {
+    entries: VecDeque<(RequestId, ReqState)>,
+}
+
+impl RequestTable {
+    fn new() -> Self {
+        Self {
+            entries: VecDeque::new(),
+        }
+    }
+
+    fn position(&self, id: RequestId) -> Option<usize> {
+        // Mostly one of the oldest: look at those before searching.
+        if let Some(i) = self.entries.iter().take(4).position(|(i, _)| *i == id) {
+            return Some(i);
+        }
+        self.entries.binary_search_by_key(&id, |(i, _)| *i).ok()
+    }
+
+    fn get(&self, id: &RequestId) -> Option<&ReqState> {
+        let i = self.position(*id)?;
+        self.entries.get(i).map(|(_, s)| s)
+    }
+
+    fn get_mut(&mut self, id: &RequestId) -> Option<&mut ReqState> {
+        let i = self.position(*id)?;
+        self.entries.get_mut(i).map(|(_, s)| s)
+    }
+
+    /// Adds a request with an id above every id in the table.
+    fn push(&mut self, id: RequestId, state: ReqState) {
+        debug_assert!(self.entries.back().is_none_or(|(last, _)| *last < id));
+        self.entries.push_back((id, state));
+    }
+
+    fn remove(&mut self, id: &RequestId) -> Option<ReqState> {
+        let i = self.position(*id)?;
+        self.entries.remove(i).map(|(_, s)| s)
+    }
+
+    /// Removes a finished request's entry and hands its result over.
+    fn take_result(&mut self, id: RequestId) -> Taken {
+        let Some(i) = self.position(id) else {
+            return Taken::Unknown;
+        };
+        if !matches!(self.entries.get(i), Some((_, ReqState::Done(_)))) {
+            return Taken::Running;
+        }
+        match self.entries.remove(i) {
+            Some((_, ReqState::Done(r))) => Taken::Done(r),
+            _ => Taken::Unknown,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.entries.len()
+    }
+}
+
 /// What [`Core::take_result`] found for a request.
 pub(crate) enum Taken {
     /// Still queued or running.
@@ -418,9 +535,8 @@ pub const CANCEL_ABORT: AbortCode = AbortCode(0x0800_0000);
 /// The master's protocol state. See the module docs for the call order.
 pub(crate) struct Core {
     now: Instant,
-    nodes: BTreeMap<NodeId, NodeSlot>,
-    /// By id; ids only grow, so a B-tree (no hashing) stays small and fast.
-    requests: BTreeMap<RequestId, ReqState>,
+    nodes: NodeTable,
+    requests: RequestTable,
     next_request: u64,
     /// Frames not yet handed to the transport (a full transmit queue keeps them here).
     tx: VecDeque<Outgoing>,
@@ -462,8 +578,8 @@ impl Core {
     pub(crate) fn new() -> Self {
         Self {
             now: Instant::ZERO,
-            nodes: BTreeMap::new(),
-            requests: BTreeMap::new(),
+            nodes: NodeTable::new(),
+            requests: RequestTable::new(),
             next_request: 1,
             tx: VecDeque::new(),
             heartbeat: {
@@ -750,7 +866,7 @@ impl Core {
     /// Rebuilds the COB-ID routes of TPDOs outside the predefined connection set.
     fn route_pdos(&mut self) {
         self.pdo_routes.clear();
-        for (node, slot) in &self.nodes {
+        for (node, slot) in self.nodes.iter() {
             let Some(pdos) = &slot.pdo else {
                 continue;
             };
@@ -768,10 +884,10 @@ impl Core {
                     .as_standard()
                     .and_then(CobId::classify)
                     .is_some_and(|c| {
-                        matches!(c.function, FunctionCode::Tpdo(_)) && c.node == Some(*node)
+                        matches!(c.function, FunctionCode::Tpdo(_)) && c.node == Some(node)
                     });
                 if !predefined {
-                    self.pdo_routes.insert(can_id, *node);
+                    self.pdo_routes.insert(can_id, node);
                 }
             }
         }
@@ -933,7 +1049,7 @@ impl Core {
         self.next_request += 1;
         let node = req.node;
         let ch = self.channel_index(node, req.channel);
-        self.requests.insert(id, ReqState::Queued(req));
+        self.requests.push(id, ReqState::Queued(req));
         if let Some(c) = self
             .nodes
             .get_mut(&node)
@@ -955,14 +1071,7 @@ impl Core {
 
     /// Takes a finished request's result. `None` while it runs.
     pub(crate) fn take_result(&mut self, id: RequestId) -> Taken {
-        match self.requests.get(&id) {
-            Some(ReqState::Done(_)) => match self.requests.remove(&id) {
-                Some(ReqState::Done(r)) => Taken::Done(r),
-                _ => Taken::Unknown,
-            },
-            Some(_) => Taken::Running,
-            None => Taken::Unknown,
-        }
+        self.requests.take_result(id)
     }
 
     /// Cancels a request: a queued one is dropped, a running one is aborted on the bus (the
@@ -1071,7 +1180,8 @@ impl Core {
                 }
                 // A cancelled request is no longer in the table: its result is dropped here.
                 if let Some(id) = finished
-                    && let Some(ReqState::Active { entry, .. }) = self.requests.get(&id)
+                    && let Some(state) = self.requests.get_mut(&id)
+                    && let ReqState::Active { entry, .. } = state
                 {
                     let entry = *entry;
                     let result = result.map_err(|kind| SdoError {
@@ -1080,7 +1190,7 @@ impl Core {
                         name: None,
                         kind,
                     });
-                    self.requests.insert(id, ReqState::Done(result));
+                    *state = ReqState::Done(result);
                 }
                 continue;
             }
@@ -1434,15 +1544,15 @@ impl Core {
         }
     }
 
-    /// Every frame waiting to be sent, in order.
-    pub(crate) fn take_transmit(&mut self) -> Vec<Outgoing> {
-        self.tx.drain(..).collect()
+    /// Moves every frame waiting to be sent, in order, to the end of `out`.
+    pub(crate) fn take_transmit(&mut self, out: &mut Vec<Outgoing>) {
+        out.extend(self.tx.drain(..));
     }
 
     /// Puts back frames the transport did not take (its transmit queue was full), ahead of
     /// anything queued since, so the order on the bus stays the order queued.
-    pub(crate) fn unsend(&mut self, rest: Vec<Outgoing>) {
-        for o in rest.into_iter().rev() {
+    pub(crate) fn unsend(&mut self, rest: impl DoubleEndedIterator<Item = Outgoing>) {
+        for o in rest.rev() {
             self.tx.push_front(o);
         }
     }

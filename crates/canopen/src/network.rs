@@ -64,7 +64,7 @@ pub(crate) struct Inner {
     /// Threads waiting on `cond`: a notification costs a system call, so it is only sent when
     /// one waits.
     waiting: AtomicUsize,
-    pub(crate) io: Mutex<Box<dyn Transport>>,
+    pub(crate) io: Mutex<Io>,
     /// The async API's wake-ups and its tie between a virtual clock and tokio's.
     #[cfg(feature = "tokio")]
     pub(crate) reactor: crate::asynch::Reactor,
@@ -76,6 +76,27 @@ pub(crate) struct Inner {
     driver: Mutex<DriverSlot>,
     /// Whether a background driver was started (and not stopped).
     driven: AtomicBool,
+}
+
+/// The transport, and what the driving thread needs along with it.
+pub(crate) struct Io {
+    transport: Box<dyn Transport>,
+    /// The frames taken from the core for sending: kept between steps so that a step
+    /// allocates nothing for them.
+    out: Vec<crate::core::Outgoing>,
+}
+
+impl core::ops::Deref for Io {
+    type Target = dyn Transport;
+    fn deref(&self) -> &Self::Target {
+        &*self.transport
+    }
+}
+
+impl core::ops::DerefMut for Io {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut *self.transport
+    }
 }
 
 /// The background driver of a network, if one was started.
@@ -135,7 +156,10 @@ impl Network {
                 core: Mutex::new(core),
                 cond: Condvar::new(),
                 waiting: AtomicUsize::new(0),
-                io: Mutex::new(Box::new(transport)),
+                io: Mutex::new(Io {
+                    transport: Box::new(transport),
+                    out: Vec::new(),
+                }),
                 #[cfg(feature = "tokio")]
                 reactor,
                 driving_waiters: AtomicUsize::new(0),
@@ -407,12 +431,12 @@ impl Network {
     pub fn flush(&self) -> Result<(), Error> {
         let mut io = relock(self.inner.io.lock());
         let now = io.now();
-        let frames = {
+        {
             let mut c = self.core();
             c.handle_timeout(now);
-            c.take_transmit()
-        };
-        self.send_queued(&mut io, frames)?;
+            c.take_transmit(&mut io.out);
+        }
+        self.send_queued(&mut io)?;
         drop(io);
         self.notify();
         Ok(())
@@ -431,11 +455,7 @@ impl Network {
 
     /// One driving step: flush, receive until the next deadline (bounded by `limit` and the
     /// drive slice), feed the core. Returns whether a frame or bus event was received.
-    pub(crate) fn step(
-        &self,
-        io: &mut Box<dyn Transport>,
-        limit: Option<Instant>,
-    ) -> Result<bool, Error> {
+    pub(crate) fn step(&self, io: &mut Io, limit: Option<Instant>) -> Result<bool, Error> {
         let (received, _) = self.step_checking(io, limit, &mut |_| None::<()>)?;
         Ok(received)
     }
@@ -445,21 +465,22 @@ impl Network {
     /// of its own. A value from the first look ends the step at once.
     fn step_checking<T>(
         &self,
-        io: &mut Box<dyn Transport>,
+        io: &mut Io,
         limit: Option<Instant>,
         check: &mut impl FnMut(&mut Core) -> Option<T>,
     ) -> Result<(bool, Option<T>), Error> {
         let now = io.now();
         let start = now;
-        let (frames, next) = {
+        let next = {
             let mut c = self.core();
             if let Some(r) = check(&mut c) {
                 return Ok((false, Some(r)));
             }
             c.handle_timeout(now);
-            (c.take_transmit(), c.poll_timeout())
+            c.take_transmit(&mut io.out);
+            c.poll_timeout()
         };
-        let backlog = self.send_queued(io, frames)?;
+        let backlog = self.send_queued(io)?;
         let mut deadline = now + if backlog { TX_RETRY } else { DRIVE_SLICE };
         if let Some(t) = next {
             deadline = deadline.min(t);
@@ -469,7 +490,7 @@ impl Network {
         }
         let mut got = io.recv_until(deadline.max(now));
         let received = matches!(got, Ok(Some(_)));
-        let more = {
+        let done = {
             let mut c = self.core();
             // The first frame, then whatever else is waiting already (up to a batch), under one
             // lock and with one timer pass and one wake-up for all of them.
@@ -501,10 +522,10 @@ impl Network {
             if now.is_none() {
                 c.handle_timeout(io.now());
             }
-            (c.take_transmit(), check(&mut c))
+            c.take_transmit(&mut io.out);
+            check(&mut c)
         };
-        let (more, done) = more;
-        self.send_queued(io, more)?;
+        self.send_queued(io)?;
         self.notify();
         Ok((received, done))
     }
@@ -513,22 +534,23 @@ impl Network {
     /// not a failure: the frames it did not take go back to the front of the core's queue for
     /// the next step (where a failed SDO transfer's frames can still be withdrawn). Returns
     /// whether frames stayed behind.
-    fn send_queued(
-        &self,
-        io: &mut Box<dyn Transport>,
-        mut frames: Vec<crate::core::Outgoing>,
-    ) -> Result<bool, Error> {
-        for i in 0..frames.len() {
-            match io.send(&frames[i].frame) {
+    fn send_queued(&self, io: &mut Io) -> Result<bool, Error> {
+        let Io { transport, out } = io;
+        for i in 0..out.len() {
+            match transport.send(&out[i].frame) {
                 Ok(()) => {}
                 Err(TransportError::TxQueueFull) => {
-                    let rest = frames.split_off(i);
-                    self.core().unsend(rest);
+                    self.core().unsend(out.drain(i..));
+                    out.clear();
                     return Ok(true);
                 }
-                Err(e) => return Err(e.into()),
+                Err(e) => {
+                    out.clear();
+                    return Err(e.into());
+                }
             }
         }
+        out.clear();
         Ok(false)
     }
 
@@ -543,8 +565,8 @@ impl Network {
         self.wake();
         // Put the abort on the bus now if nobody is driving.
         if let Ok(mut io) = self.inner.io.try_lock() {
-            let frames = self.core().take_transmit();
-            let _ = self.send_queued(&mut io, frames);
+            self.core().take_transmit(&mut io.out);
+            let _ = self.send_queued(&mut io);
         }
     }
 
