@@ -532,6 +532,47 @@ pub(crate) enum Taken {
 /// has no dedicated code for a client giving up).
 pub const CANCEL_ABORT: AbortCode = AbortCode(0x0800_0000);
 
+/// The event subscribers: channels and sinks.
+#[derive(Default)]
+struct Subscribers {
+    channels: Vec<mpsc::Sender<NetworkEvent>>,
+    sinks: Vec<Box<dyn EventSink>>,
+    /// Events for the channels held back while a batch of received frames is handled (see
+    /// [`Core::hold_events`]); the buffer is kept between batches.
+    held: Vec<NetworkEvent>,
+    holding: bool,
+}
+
+impl Subscribers {
+    fn is_empty(&self) -> bool {
+        self.channels.is_empty() && self.sinks.is_empty()
+    }
+
+    /// Hands `ev` to every subscriber (or holds it for the channels) and forgets the sinks
+    /// that are gone.
+    fn deliver(&mut self, ev: NetworkEvent) {
+        self.sinks.retain(|s| s.deliver(&ev));
+        if self.holding && !self.channels.is_empty() {
+            self.held.push(ev);
+        } else {
+            Self::send_to(&mut self.channels, ev);
+        }
+    }
+
+    /// Sends `ev` to every channel (the last one gets it without a copy) and forgets those
+    /// that are gone.
+    fn send_to(channels: &mut Vec<mpsc::Sender<NetworkEvent>>, ev: NetworkEvent) {
+        let n = channels.len();
+        let mut ev = Some(ev);
+        let mut seen = 0;
+        channels.retain(|s| {
+            seen += 1;
+            let e = if seen == n { ev.take() } else { ev.clone() };
+            e.is_none_or(|e| s.send(e).is_ok())
+        });
+    }
+}
+
 /// The master's protocol state. See the module docs for the call order.
 pub(crate) struct Core {
     now: Instant,
@@ -547,8 +588,7 @@ pub(crate) struct Core {
     /// Boot-up messages received per node: a waiter compares counts, so a boot-up stays seen
     /// even when a heartbeat follows it in the same step.
     boots: BTreeMap<NodeId, u64>,
-    subscribers: Vec<mpsc::Sender<NetworkEvent>>,
-    sinks: Vec<Box<dyn EventSink>>,
+    subs: Subscribers,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
     /// than the next transfer.
@@ -593,8 +633,7 @@ impl Core {
             emcy: EmcyConsumer::new(),
             sync: None,
             boots: BTreeMap::new(),
-            subscribers: Vec::new(),
-            sinks: Vec::new(),
+            subs: Subscribers::default(),
             settle: Duration::from_millis(1),
             lss: None,
             lss_result: None,
@@ -665,7 +704,7 @@ impl Core {
 
     pub(crate) fn subscribe(&mut self) -> mpsc::Receiver<NetworkEvent> {
         let (tx, rx) = mpsc::channel();
-        self.subscribers.push(tx);
+        self.subs.channels.push(tx);
         rx
     }
 
@@ -685,29 +724,27 @@ impl Core {
     /// Adds a subscriber that takes events by reference (see [`EventSink`]).
     #[cfg(feature = "tokio")]
     pub(crate) fn add_sink(&mut self, sink: Box<dyn EventSink>) {
-        self.sinks.push(sink);
+        self.subs.sinks.push(sink);
     }
 
     pub(crate) fn publish(&mut self, ev: NetworkEvent) {
-        Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
+        self.subs.deliver(ev);
     }
 
-    /// Hands `ev` to every subscriber (the last one gets it without a copy) and forgets those
-    /// that are gone.
-    fn deliver(
-        sinks: &mut Vec<Box<dyn EventSink>>,
-        subscribers: &mut Vec<mpsc::Sender<NetworkEvent>>,
-        ev: NetworkEvent,
-    ) {
-        sinks.retain(|s| s.deliver(&ev));
-        let n = subscribers.len();
-        let mut ev = Some(ev);
-        let mut seen = 0;
-        subscribers.retain(|s| {
-            seen += 1;
-            let e = if seen == n { ev.take() } else { ev.clone() };
-            e.is_none_or(|e| s.send(e).is_ok())
-        });
+    /// Holds the channel subscribers' events back until [`release_events`](Self::release_events):
+    /// a receiver blocked on its channel then wakes once for a batch of frames, not once per
+    /// frame (the wake-up, not the event, is the cost on another thread).
+    pub(crate) fn hold_events(&mut self) {
+        self.subs.holding = true;
+    }
+
+    /// Sends the events held back since [`hold_events`](Self::hold_events), in order.
+    pub(crate) fn release_events(&mut self) {
+        let subs = &mut self.subs;
+        subs.holding = false;
+        for ev in subs.held.drain(..) {
+            Subscribers::send_to(&mut subs.channels, ev);
+        }
     }
 
     pub(crate) fn last_state(&self, node: NodeId) -> Option<NmtState> {
@@ -1369,15 +1406,22 @@ impl Core {
                             for (_, f) in &mut self.pdo_callbacks {
                                 f(&seen);
                             }
-                            if !self.subscribers.is_empty() || !self.sinks.is_empty() {
+                            if !self.subs.is_empty() {
+                                // The event takes the values as they are (no copy of each
+                                // value); the scratch starts again with room for as many.
+                                let room = self.pdo_scratch.len();
+                                let values = core::mem::replace(
+                                    &mut self.pdo_scratch,
+                                    Vec::with_capacity(room),
+                                );
                                 let ev = NetworkEvent::PdoValues {
                                     node,
                                     number: n,
                                     data,
-                                    values: self.pdo_scratch.clone(),
+                                    values,
                                     at: now,
                                 };
-                                Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
+                                self.subs.deliver(ev);
                             }
                         }
                     }
@@ -1540,7 +1584,7 @@ impl Core {
             queued_requests: channels().map(|c| c.queue.len()).sum(),
             unsent_frames: self.tx.len(),
             boot_counts: self.boots.len(),
-            subscribers: self.subscribers.len(),
+            subscribers: self.subs.channels.len(),
         }
     }
 

@@ -495,6 +495,7 @@ impl Network {
             // The first frame, then whatever else is waiting already (up to a batch), under one
             // lock and with one timer pass and one wake-up for all of them.
             let mut now = None;
+            c.hold_events();
             for taken in 1..=RECEIVE_BATCH {
                 match got {
                     Ok(Some(Received::Frame { frame, at })) => {
@@ -504,6 +505,7 @@ impl Network {
                     Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
                     Ok(None) => break,
                     Err(e) => {
+                        c.release_events();
                         drop(c);
                         self.notify();
                         return Err(e.into());
@@ -515,6 +517,7 @@ impl Network {
                 // A deadline not after the last reception: take only what has arrived.
                 got = io.recv_until(now.unwrap_or(start));
             }
+            c.release_events();
             // Nothing received: the wait ended at a deadline, so fire what is due now. After
             // frames, the timers wait for the next step's start: the wait ended before any
             // core deadline (it was one of the wait's bounds), and a timer is not worth a
