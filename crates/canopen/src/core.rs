@@ -735,13 +735,15 @@ impl Core {
     /// a receiver blocked on its channel then wakes once for a batch of frames, not once per
     /// frame (the wake-up, not the event, is the cost on another thread).
     pub(crate) fn hold_events(&mut self) {
-        self.subs.holding = true;
+        self.subs.holding = !self.subs.channels.is_empty();
     }
 
     /// Sends the events held back since [`hold_events`](Self::hold_events), in order.
     pub(crate) fn release_events(&mut self) {
         let subs = &mut self.subs;
-        subs.holding = false;
+        if !core::mem::take(&mut subs.holding) {
+            return;
+        }
         for ev in subs.held.drain(..) {
             Subscribers::send_to(&mut subs.channels, ev);
         }
