@@ -23,7 +23,7 @@
 //! One cohesive machine: the routing, the request table and the per-node machines it feeds
 //! belong together, so the file stays whole.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::io::Write;
 use std::sync::Arc;
 use std::sync::mpsc;
@@ -401,6 +401,123 @@ impl NodeSlot {
     }
 }
 
+/// The nodes by node-ID, indexed directly (node-IDs are 1..=127): a frame's node is found
+/// without a search. Iterates in node-ID order.
+struct NodeTable {
+    slots: Vec<Option<Box<NodeSlot>>>,
+    len: usize,
+}
+
+impl NodeTable {
+    fn new() -> Self {
+        Self {
+            slots: (0..=127).map(|_| None).collect(),
+            len: 0,
+        }
+    }
+
+    fn get(&self, node: &NodeId) -> Option<&NodeSlot> {
+        self.slots.get(usize::from(node.get()))?.as_deref()
+    }
+
+    fn get_mut(&mut self, node: &NodeId) -> Option<&mut NodeSlot> {
+        self.slots.get_mut(usize::from(node.get()))?.as_deref_mut()
+    }
+
+    fn contains_key(&self, node: &NodeId) -> bool {
+        self.get(node).is_some()
+    }
+
+    fn insert(&mut self, node: NodeId, slot: NodeSlot) {
+        if let Some(s) = self.slots.get_mut(usize::from(node.get())) {
+            self.len += usize::from(s.is_none());
+            *s = Some(Box::new(slot));
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.len
+    }
+
+    fn iter(&self) -> impl Iterator<Item = (NodeId, &NodeSlot)> {
+        self.slots.iter().enumerate().filter_map(|(i, s)| {
+            let node = NodeId::new(u8::try_from(i).ok()?).ok()?;
+            Some((node, s.as_deref()?))
+        })
+    }
+
+    fn values(&self) -> impl Iterator<Item = &NodeSlot> {
+        self.slots.iter().filter_map(|s| s.as_deref())
+    }
+
+    fn values_mut(&mut self) -> impl Iterator<Item = &mut NodeSlot> {
+        self.slots.iter_mut().filter_map(|s| s.as_deref_mut())
+    }
+}
+
+/// The request table: entries in id order (ids only grow, so a new one goes at the back), and
+/// most leave from the front, as requests run in submission order per channel. A few entries
+/// live in it at a time, so a binary search over a ring buffer beats a tree, which allocates a
+/// node whenever the table goes from empty to one entry — once per blocking request.
+struct RequestTable {
+    entries: VecDeque<(RequestId, ReqState)>,
+}
+
+impl RequestTable {
+    fn new() -> Self {
+        Self {
+            entries: VecDeque::new(),
+        }
+    }
+
+    fn position(&self, id: RequestId) -> Option<usize> {
+        // Mostly one of the oldest: look at those before searching.
+        if let Some(i) = self.entries.iter().take(4).position(|(i, _)| *i == id) {
+            return Some(i);
+        }
+        self.entries.binary_search_by_key(&id, |(i, _)| *i).ok()
+    }
+
+    fn get(&self, id: &RequestId) -> Option<&ReqState> {
+        let i = self.position(*id)?;
+        self.entries.get(i).map(|(_, s)| s)
+    }
+
+    fn get_mut(&mut self, id: &RequestId) -> Option<&mut ReqState> {
+        let i = self.position(*id)?;
+        self.entries.get_mut(i).map(|(_, s)| s)
+    }
+
+    /// Adds a request with an id above every id in the table.
+    fn push(&mut self, id: RequestId, state: ReqState) {
+        debug_assert!(self.entries.back().is_none_or(|(last, _)| *last < id));
+        self.entries.push_back((id, state));
+    }
+
+    fn remove(&mut self, id: &RequestId) -> Option<ReqState> {
+        let i = self.position(*id)?;
+        self.entries.remove(i).map(|(_, s)| s)
+    }
+
+    /// Removes a finished request's entry and hands its result over.
+    fn take_result(&mut self, id: RequestId) -> Taken {
+        let Some(i) = self.position(id) else {
+            return Taken::Unknown;
+        };
+        if !matches!(self.entries.get(i), Some((_, ReqState::Done(_)))) {
+            return Taken::Running;
+        }
+        match self.entries.remove(i) {
+            Some((_, ReqState::Done(r))) => Taken::Done(r),
+            _ => Taken::Unknown,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.entries.len()
+    }
+}
+
 /// What [`Core::take_result`] found for a request.
 pub(crate) enum Taken {
     /// Still queued or running.
@@ -415,12 +532,52 @@ pub(crate) enum Taken {
 /// has no dedicated code for a client giving up).
 pub const CANCEL_ABORT: AbortCode = AbortCode(0x0800_0000);
 
+/// The event subscribers: channels and sinks.
+#[derive(Default)]
+struct Subscribers {
+    channels: Vec<mpsc::Sender<NetworkEvent>>,
+    sinks: Vec<Box<dyn EventSink>>,
+    /// Events for the channels held back while a batch of received frames is handled (see
+    /// [`Core::hold_events`]); the buffer is kept between batches.
+    held: Vec<NetworkEvent>,
+    holding: bool,
+}
+
+impl Subscribers {
+    fn is_empty(&self) -> bool {
+        self.channels.is_empty() && self.sinks.is_empty()
+    }
+
+    /// Hands `ev` to every subscriber (or holds it for the channels) and forgets the sinks
+    /// that are gone.
+    fn deliver(&mut self, ev: NetworkEvent) {
+        self.sinks.retain(|s| s.deliver(&ev));
+        if self.holding && !self.channels.is_empty() {
+            self.held.push(ev);
+        } else {
+            Self::send_to(&mut self.channels, ev);
+        }
+    }
+
+    /// Sends `ev` to every channel (the last one gets it without a copy) and forgets those
+    /// that are gone.
+    fn send_to(channels: &mut Vec<mpsc::Sender<NetworkEvent>>, ev: NetworkEvent) {
+        let n = channels.len();
+        let mut ev = Some(ev);
+        let mut seen = 0;
+        channels.retain(|s| {
+            seen += 1;
+            let e = if seen == n { ev.take() } else { ev.clone() };
+            e.is_none_or(|e| s.send(e).is_ok())
+        });
+    }
+}
+
 /// The master's protocol state. See the module docs for the call order.
 pub(crate) struct Core {
     now: Instant,
-    nodes: BTreeMap<NodeId, NodeSlot>,
-    /// By id; ids only grow, so a B-tree (no hashing) stays small and fast.
-    requests: BTreeMap<RequestId, ReqState>,
+    nodes: NodeTable,
+    requests: RequestTable,
     next_request: u64,
     /// Frames not yet handed to the transport (a full transmit queue keeps them here).
     tx: VecDeque<Outgoing>,
@@ -431,8 +588,7 @@ pub(crate) struct Core {
     /// Boot-up messages received per node: a waiter compares counts, so a boot-up stays seen
     /// even when a heartbeat follows it in the same step.
     boots: BTreeMap<NodeId, u64>,
-    subscribers: Vec<mpsc::Sender<NetworkEvent>>,
-    sinks: Vec<Box<dyn EventSink>>,
+    subs: Subscribers,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
     /// than the next transfer.
@@ -450,7 +606,7 @@ pub(crate) struct Core {
     /// The SDO channels that may have a timer: a request queued or running since the channel
     /// was last found idle. The timer scans walk this set, not every node's channels, so a
     /// step costs the same with 2 nodes as with 127 when only PDOs flow.
-    sdo_busy: BTreeSet<(NodeId, usize)>,
+    sdo_busy: Vec<(NodeId, usize)>,
     pdo_callbacks: Vec<(PdoCallbackId, PdoCallback)>,
     next_callback: u64,
     /// The values of the PDO being received (kept, so a reception that only callbacks see
@@ -462,8 +618,8 @@ impl Core {
     pub(crate) fn new() -> Self {
         Self {
             now: Instant::ZERO,
-            nodes: BTreeMap::new(),
-            requests: BTreeMap::new(),
+            nodes: NodeTable::new(),
+            requests: RequestTable::new(),
             next_request: 1,
             tx: VecDeque::new(),
             heartbeat: {
@@ -477,15 +633,14 @@ impl Core {
             emcy: EmcyConsumer::new(),
             sync: None,
             boots: BTreeMap::new(),
-            subscribers: Vec::new(),
-            sinks: Vec::new(),
+            subs: Subscribers::default(),
             settle: Duration::from_millis(1),
             lss: None,
             lss_result: None,
             sdo_routes: HashMap::new(),
             pdo_routes: HashMap::new(),
             pdo_next: None,
-            sdo_busy: BTreeSet::new(),
+            sdo_busy: Vec::new(),
             pdo_callbacks: Vec::new(),
             next_callback: 0,
             pdo_scratch: Vec::new(),
@@ -494,7 +649,9 @@ impl Core {
 
     /// The index of `node`'s channel on `ids`, opened (and routed) on first use.
     fn channel_index(&mut self, node: NodeId, ids: SdoCobIds) -> usize {
-        self.add_node(node, None);
+        if !self.nodes.contains_key(&node) {
+            self.add_node(node, None);
+        }
         let Some(slot) = self.nodes.get_mut(&node) else {
             return 0;
         };
@@ -547,7 +704,7 @@ impl Core {
 
     pub(crate) fn subscribe(&mut self) -> mpsc::Receiver<NetworkEvent> {
         let (tx, rx) = mpsc::channel();
-        self.subscribers.push(tx);
+        self.subs.channels.push(tx);
         rx
     }
 
@@ -567,29 +724,29 @@ impl Core {
     /// Adds a subscriber that takes events by reference (see [`EventSink`]).
     #[cfg(feature = "tokio")]
     pub(crate) fn add_sink(&mut self, sink: Box<dyn EventSink>) {
-        self.sinks.push(sink);
+        self.subs.sinks.push(sink);
     }
 
     pub(crate) fn publish(&mut self, ev: NetworkEvent) {
-        Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
+        self.subs.deliver(ev);
     }
 
-    /// Hands `ev` to every subscriber (the last one gets it without a copy) and forgets those
-    /// that are gone.
-    fn deliver(
-        sinks: &mut Vec<Box<dyn EventSink>>,
-        subscribers: &mut Vec<mpsc::Sender<NetworkEvent>>,
-        ev: NetworkEvent,
-    ) {
-        sinks.retain(|s| s.deliver(&ev));
-        let n = subscribers.len();
-        let mut ev = Some(ev);
-        let mut seen = 0;
-        subscribers.retain(|s| {
-            seen += 1;
-            let e = if seen == n { ev.take() } else { ev.clone() };
-            e.is_none_or(|e| s.send(e).is_ok())
-        });
+    /// Holds the channel subscribers' events back until [`release_events`](Self::release_events):
+    /// a receiver blocked on its channel then wakes once for a batch of frames, not once per
+    /// frame (the wake-up, not the event, is the cost on another thread).
+    pub(crate) fn hold_events(&mut self) {
+        self.subs.holding = !self.subs.channels.is_empty();
+    }
+
+    /// Sends the events held back since [`hold_events`](Self::hold_events), in order.
+    pub(crate) fn release_events(&mut self) {
+        let subs = &mut self.subs;
+        if !core::mem::take(&mut subs.holding) {
+            return;
+        }
+        for ev in subs.held.drain(..) {
+            Subscribers::send_to(&mut subs.channels, ev);
+        }
     }
 
     pub(crate) fn last_state(&self, node: NodeId) -> Option<NmtState> {
@@ -748,7 +905,7 @@ impl Core {
     /// Rebuilds the COB-ID routes of TPDOs outside the predefined connection set.
     fn route_pdos(&mut self) {
         self.pdo_routes.clear();
-        for (node, slot) in &self.nodes {
+        for (node, slot) in self.nodes.iter() {
             let Some(pdos) = &slot.pdo else {
                 continue;
             };
@@ -766,10 +923,10 @@ impl Core {
                     .as_standard()
                     .and_then(CobId::classify)
                     .is_some_and(|c| {
-                        matches!(c.function, FunctionCode::Tpdo(_)) && c.node == Some(*node)
+                        matches!(c.function, FunctionCode::Tpdo(_)) && c.node == Some(node)
                     });
                 if !predefined {
-                    self.pdo_routes.insert(can_id, *node);
+                    self.pdo_routes.insert(can_id, node);
                 }
             }
         }
@@ -931,14 +1088,16 @@ impl Core {
         self.next_request += 1;
         let node = req.node;
         let ch = self.channel_index(node, req.channel);
-        self.requests.insert(id, ReqState::Queued(req));
+        self.requests.push(id, ReqState::Queued(req));
         if let Some(c) = self
             .nodes
             .get_mut(&node)
             .and_then(|s| s.channels.get_mut(ch))
         {
             c.queue.push_back(id);
-            self.sdo_busy.insert((node, ch));
+            if !self.sdo_busy.contains(&(node, ch)) {
+                self.sdo_busy.push((node, ch));
+            }
         }
         self.pump_channel(node, ch);
         id
@@ -951,14 +1110,7 @@ impl Core {
 
     /// Takes a finished request's result. `None` while it runs.
     pub(crate) fn take_result(&mut self, id: RequestId) -> Taken {
-        match self.requests.get(&id) {
-            Some(ReqState::Done(_)) => match self.requests.remove(&id) {
-                Some(ReqState::Done(r)) => Taken::Done(r),
-                _ => Taken::Unknown,
-            },
-            Some(_) => Taken::Running,
-            None => Taken::Unknown,
-        }
+        self.requests.take_result(id)
     }
 
     /// Cancels a request: a queued one is dropped, a running one is aborted on the bus (the
@@ -1067,7 +1219,8 @@ impl Core {
                 }
                 // A cancelled request is no longer in the table: its result is dropped here.
                 if let Some(id) = finished
-                    && let Some(ReqState::Active { entry, .. }) = self.requests.get(&id)
+                    && let Some(state) = self.requests.get_mut(&id)
+                    && let ReqState::Active { entry, .. } = state
                 {
                     let entry = *entry;
                     let result = result.map_err(|kind| SdoError {
@@ -1076,7 +1229,7 @@ impl Core {
                         name: None,
                         kind,
                     });
-                    self.requests.insert(id, ReqState::Done(result));
+                    *state = ReqState::Done(result);
                 }
                 continue;
             }
@@ -1255,15 +1408,22 @@ impl Core {
                             for (_, f) in &mut self.pdo_callbacks {
                                 f(&seen);
                             }
-                            if !self.subscribers.is_empty() || !self.sinks.is_empty() {
+                            if !self.subs.is_empty() {
+                                // The event takes the values as they are (no copy of each
+                                // value); the scratch starts again with room for as many.
+                                let room = self.pdo_scratch.len();
+                                let values = core::mem::replace(
+                                    &mut self.pdo_scratch,
+                                    Vec::with_capacity(room),
+                                );
                                 let ev = NetworkEvent::PdoValues {
                                     node,
                                     number: n,
                                     data,
-                                    values: self.pdo_scratch.clone(),
+                                    values,
                                     at: now,
                                 };
-                                Self::deliver(&mut self.sinks, &mut self.subscribers, ev);
+                                self.subs.deliver(ev);
                             }
                         }
                     }
@@ -1426,19 +1586,19 @@ impl Core {
             queued_requests: channels().map(|c| c.queue.len()).sum(),
             unsent_frames: self.tx.len(),
             boot_counts: self.boots.len(),
-            subscribers: self.subscribers.len(),
+            subscribers: self.subs.channels.len(),
         }
     }
 
-    /// Every frame waiting to be sent, in order.
-    pub(crate) fn take_transmit(&mut self) -> Vec<Outgoing> {
-        self.tx.drain(..).collect()
+    /// Moves every frame waiting to be sent, in order, to the end of `out`.
+    pub(crate) fn take_transmit(&mut self, out: &mut Vec<Outgoing>) {
+        out.extend(self.tx.drain(..));
     }
 
     /// Puts back frames the transport did not take (its transmit queue was full), ahead of
     /// anything queued since, so the order on the bus stays the order queued.
-    pub(crate) fn unsend(&mut self, rest: Vec<Outgoing>) {
-        for o in rest.into_iter().rev() {
+    pub(crate) fn unsend(&mut self, rest: impl DoubleEndedIterator<Item = Outgoing>) {
+        for o in rest.rev() {
             self.tx.push_front(o);
         }
     }

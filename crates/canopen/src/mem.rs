@@ -267,6 +267,11 @@ struct State {
     seq: u64,
     stats: BusStats,
     service_thread: bool,
+    /// Endpoint threads blocked on the condition variable (real clock only).
+    sleepers: usize,
+    /// When the service thread's current wait ends; `None` while it is not waiting (it then
+    /// looks at the bus again before it waits).
+    service_until: Option<Instant>,
 }
 
 struct Shared {
@@ -278,8 +283,18 @@ struct Shared {
 }
 
 impl Shared {
-    fn notify(&self) {
-        if self.real_time {
+    /// Unlocks the bus after a change, waking the blocked threads only when one needs it: an
+    /// endpoint waits for frames, or the service thread sleeps past the bus's next event. (A
+    /// notification costs a system call, and a needless wake-up of the service thread a
+    /// context switch and a fight for the lock, on every frame sent.)
+    fn release(&self, st: MutexGuard<'_, State>) {
+        let wake = self.real_time
+            && (st.sleepers > 0
+                || st
+                    .service_until
+                    .is_some_and(|until| st.next_event().is_some_and(|t| t < until)));
+        drop(st);
+        if wake {
             self.cond.notify_all();
         }
     }
@@ -517,6 +532,8 @@ impl MemoryBus {
             seq: 0,
             stats: BusStats::default(),
             service_thread: false,
+            sleepers: 0,
+            service_until: None,
         };
         Self {
             shared: Arc::new(Shared {
@@ -546,6 +563,7 @@ impl MemoryBus {
         Endpoint {
             bus: self.clone(),
             index: st.endpoints.len() - 1,
+            more: false,
         }
     }
 
@@ -569,8 +587,7 @@ impl MemoryBus {
         if needs_thread {
             st.service_thread = true;
         }
-        drop(st);
-        self.shared.notify();
+        self.shared.release(st);
         if needs_thread {
             self.spawn_service_thread();
         }
@@ -602,8 +619,7 @@ impl MemoryBus {
         let now = st.now();
         st.drain_station(pos, now);
         st.advance(now);
-        drop(st);
-        self.shared.notify();
+        self.shared.release(st);
         Some(r)
     }
 
@@ -624,8 +640,7 @@ impl MemoryBus {
             a.station.handle_bus_event(now, &event);
             a.next = a.station.poll_timeout();
         }
-        drop(st);
-        self.shared.notify();
+        self.shared.release(st);
     }
 
     /// Changes the fault injection (the generator keeps its state unless the seed changed).
@@ -661,17 +676,18 @@ impl MemoryBus {
                 Clock::Real(_) => {
                     st.advance(now);
                     let wait = until - now;
-                    let (g, _) = self
+                    st.sleepers += 1;
+                    let (mut g, _) = self
                         .shared
                         .cond
                         .wait_timeout(st, wait.into())
                         .unwrap_or_else(|p| p.into_inner());
+                    g.sleepers -= 1;
                     st = g;
                 }
             }
         }
-        drop(st);
-        self.shared.notify();
+        self.shared.release(st);
     }
 
     /// Lets `d` pass (see [`run_until`](Self::run_until)).
@@ -698,8 +714,7 @@ impl MemoryBus {
             .spawn(move || {
                 loop {
                     let Some(shared) = weak.upgrade() else { return };
-                    let st = shared.state.lock().unwrap_or_else(|p| p.into_inner());
-                    let mut st = st;
+                    let mut st = shared.state.lock().unwrap_or_else(|p| p.into_inner());
                     let now = st.now();
                     st.advance(now);
                     let next = st.next_event();
@@ -708,12 +723,17 @@ impl MemoryBus {
                         Some(_) => Duration::ZERO,
                         None => Duration::from_millis(100),
                     };
-                    let (st, _) = shared
+                    // What it advanced may be frames for a blocked endpoint.
+                    if st.sleepers > 0 {
+                        shared.cond.notify_all();
+                    }
+                    st.service_until = Some(now + wait);
+                    let (mut st, _) = shared
                         .cond
                         .wait_timeout(st, wait.into())
                         .unwrap_or_else(|p| p.into_inner());
+                    st.service_until = None;
                     drop(st);
-                    shared.notify();
                 }
             })
             .ok();
@@ -724,6 +744,9 @@ impl MemoryBus {
 pub struct Endpoint {
     bus: MemoryBus,
     index: usize,
+    /// More was queued for this endpoint when it last received (for `has_pending`, which so
+    /// takes no lock; frames queued since are found by the next receive).
+    more: bool,
 }
 
 impl core::fmt::Debug for Endpoint {
@@ -766,8 +789,7 @@ impl Transport for Endpoint {
         }
         st.submit(me, *frame, now);
         st.advance(now);
-        drop(st);
-        self.bus.shared.notify();
+        self.bus.shared.release(st);
         Ok(())
     }
 
@@ -777,8 +799,13 @@ impl Transport for Endpoint {
             let now = st.now();
             st.advance(now);
             if let Some(r) = st.pop(self.index) {
+                self.more = st
+                    .endpoints
+                    .get(self.index)
+                    .is_some_and(|e| e.lost > 0 || !e.queue.is_empty());
                 return Ok(Some(r));
             }
+            self.more = false;
             if now >= deadline {
                 return Ok(None);
             }
@@ -793,12 +820,14 @@ impl Transport for Endpoint {
                 }
                 Clock::Real(_) => {
                     let wait = next.saturating_duration_since(now);
-                    let (g, _) = self
+                    st.sleepers += 1;
+                    let (mut g, _) = self
                         .bus
                         .shared
                         .cond
                         .wait_timeout(st, wait.into())
                         .unwrap_or_else(|p| p.into_inner());
+                    g.sleepers -= 1;
                     st = g;
                 }
             }
@@ -814,10 +843,7 @@ impl Transport for Endpoint {
     }
 
     fn has_pending(&self) -> bool {
-        let st = self.bus.lock();
-        st.endpoints
-            .get(self.index)
-            .is_some_and(|e| e.lost > 0 || !e.queue.is_empty())
+        self.more
     }
 
     fn next_event(&self) -> Option<Instant> {

@@ -64,7 +64,7 @@ pub(crate) struct Inner {
     /// Threads waiting on `cond`: a notification costs a system call, so it is only sent when
     /// one waits.
     waiting: AtomicUsize,
-    pub(crate) io: Mutex<Box<dyn Transport>>,
+    pub(crate) io: Mutex<Io>,
     /// The async API's wake-ups and its tie between a virtual clock and tokio's.
     #[cfg(feature = "tokio")]
     pub(crate) reactor: crate::asynch::Reactor,
@@ -76,6 +76,27 @@ pub(crate) struct Inner {
     driver: Mutex<DriverSlot>,
     /// Whether a background driver was started (and not stopped).
     driven: AtomicBool,
+}
+
+/// The transport, and what the driving thread needs along with it.
+pub(crate) struct Io {
+    transport: Box<dyn Transport>,
+    /// The frames taken from the core for sending: kept between steps so that a step
+    /// allocates nothing for them.
+    out: Vec<crate::core::Outgoing>,
+}
+
+impl core::ops::Deref for Io {
+    type Target = dyn Transport;
+    fn deref(&self) -> &Self::Target {
+        &*self.transport
+    }
+}
+
+impl core::ops::DerefMut for Io {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut *self.transport
+    }
 }
 
 /// The background driver of a network, if one was started.
@@ -135,7 +156,10 @@ impl Network {
                 core: Mutex::new(core),
                 cond: Condvar::new(),
                 waiting: AtomicUsize::new(0),
-                io: Mutex::new(Box::new(transport)),
+                io: Mutex::new(Io {
+                    transport: Box::new(transport),
+                    out: Vec::new(),
+                }),
                 #[cfg(feature = "tokio")]
                 reactor,
                 driving_waiters: AtomicUsize::new(0),
@@ -407,12 +431,12 @@ impl Network {
     pub fn flush(&self) -> Result<(), Error> {
         let mut io = relock(self.inner.io.lock());
         let now = io.now();
-        let frames = {
+        {
             let mut c = self.core();
             c.handle_timeout(now);
-            c.take_transmit()
-        };
-        self.send_queued(&mut io, frames)?;
+            c.take_transmit(&mut io.out);
+        }
+        self.send_queued(&mut io)?;
         drop(io);
         self.notify();
         Ok(())
@@ -431,19 +455,32 @@ impl Network {
 
     /// One driving step: flush, receive until the next deadline (bounded by `limit` and the
     /// drive slice), feed the core. Returns whether a frame or bus event was received.
-    pub(crate) fn step(
+    pub(crate) fn step(&self, io: &mut Io, limit: Option<Instant>) -> Result<bool, Error> {
+        let (received, _) = self.step_checking(io, limit, &mut |_| None::<()>)?;
+        Ok(received)
+    }
+
+    /// [`step`](Self::step) for a waiter: `check` looks at the core under the step's own locks
+    /// (before anything is done, and after the frames are handled), so waiting costs no lock
+    /// of its own. A value from the first look ends the step at once.
+    fn step_checking<T>(
         &self,
-        io: &mut Box<dyn Transport>,
+        io: &mut Io,
         limit: Option<Instant>,
-    ) -> Result<bool, Error> {
+        check: &mut impl FnMut(&mut Core) -> Option<T>,
+    ) -> Result<(bool, Option<T>), Error> {
         let now = io.now();
         let start = now;
-        let (frames, next) = {
+        let next = {
             let mut c = self.core();
+            if let Some(r) = check(&mut c) {
+                return Ok((false, Some(r)));
+            }
             c.handle_timeout(now);
-            (c.take_transmit(), c.poll_timeout())
+            c.take_transmit(&mut io.out);
+            c.poll_timeout()
         };
-        let backlog = self.send_queued(io, frames)?;
+        let backlog = self.send_queued(io)?;
         let mut deadline = now + if backlog { TX_RETRY } else { DRIVE_SLICE };
         if let Some(t) = next {
             deadline = deadline.min(t);
@@ -453,11 +490,12 @@ impl Network {
         }
         let mut got = io.recv_until(deadline.max(now));
         let received = matches!(got, Ok(Some(_)));
-        let more = {
+        let done = {
             let mut c = self.core();
             // The first frame, then whatever else is waiting already (up to a batch), under one
             // lock and with one timer pass and one wake-up for all of them.
             let mut now = None;
+            c.hold_events();
             for taken in 1..=RECEIVE_BATCH {
                 match got {
                     Ok(Some(Received::Frame { frame, at })) => {
@@ -467,6 +505,7 @@ impl Network {
                     Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
                     Ok(None) => break,
                     Err(e) => {
+                        c.release_events();
                         drop(c);
                         self.notify();
                         return Err(e.into());
@@ -478,37 +517,43 @@ impl Network {
                 // A deadline not after the last reception: take only what has arrived.
                 got = io.recv_until(now.unwrap_or(start));
             }
-            // A frame's reception time is the time now, give or take the decoding; only
-            // otherwise ask the clock.
-            let now = now.unwrap_or_else(|| io.now());
-            c.handle_timeout(now);
-            c.take_transmit()
+            c.release_events();
+            // Nothing received: the wait ended at a deadline, so fire what is due now. After
+            // frames, the timers wait for the next step's start: the wait ended before any
+            // core deadline (it was one of the wait's bounds), and a timer is not worth a
+            // second pass over the core per frame.
+            if now.is_none() {
+                c.handle_timeout(io.now());
+            }
+            c.take_transmit(&mut io.out);
+            check(&mut c)
         };
-        self.send_queued(io, more)?;
+        self.send_queued(io)?;
         self.notify();
-        Ok(received)
+        Ok((received, done))
     }
 
     /// Hands queued frames to the transport in order. A full transmit queue is back-pressure,
     /// not a failure: the frames it did not take go back to the front of the core's queue for
     /// the next step (where a failed SDO transfer's frames can still be withdrawn). Returns
     /// whether frames stayed behind.
-    fn send_queued(
-        &self,
-        io: &mut Box<dyn Transport>,
-        mut frames: Vec<crate::core::Outgoing>,
-    ) -> Result<bool, Error> {
-        for i in 0..frames.len() {
-            match io.send(&frames[i].frame) {
+    fn send_queued(&self, io: &mut Io) -> Result<bool, Error> {
+        let Io { transport, out } = io;
+        for i in 0..out.len() {
+            match transport.send(&out[i].frame) {
                 Ok(()) => {}
                 Err(TransportError::TxQueueFull) => {
-                    let rest = frames.split_off(i);
-                    self.core().unsend(rest);
+                    self.core().unsend(out.drain(i..));
+                    out.clear();
                     return Ok(true);
                 }
-                Err(e) => return Err(e.into()),
+                Err(e) => {
+                    out.clear();
+                    return Err(e.into());
+                }
             }
         }
+        out.clear();
         Ok(false)
     }
 
@@ -523,8 +568,8 @@ impl Network {
         self.wake();
         // Put the abort on the bus now if nobody is driving.
         if let Ok(mut io) = self.inner.io.try_lock() {
-            let frames = self.core().take_transmit();
-            let _ = self.send_queued(&mut io, frames);
+            self.core().take_transmit(&mut io.out);
+            let _ = self.send_queued(&mut io);
         }
     }
 
@@ -586,12 +631,11 @@ impl Network {
 
     fn wait_loop<T>(&self, mut done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
         loop {
-            if let Some(r) = done(&mut self.core()) {
-                return Ok(r);
-            }
             match self.inner.io.try_lock() {
                 Ok(mut io) => {
-                    self.step(&mut io, None)?;
+                    if let (_, Some(r)) = self.step_checking(&mut io, None, &mut done)? {
+                        return Ok(r);
+                    }
                 }
                 Err(_) => {
                     let mut c = self.core();

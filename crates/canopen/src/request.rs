@@ -230,9 +230,9 @@ impl Sdo {
 
     /// Starts an upload into memory without waiting.
     pub fn submit_read(self, entry: impl Into<ObjectAddress>) -> Pending<Vec<u8>> {
-        self.request(entry.into(), Op::Upload(UpSink::Mem(Vec::new())), |c| {
-            c.data
-        })
+        // Room for an expedited value: the common read allocates once.
+        let sink = UpSink::Mem(Vec::with_capacity(4));
+        self.request(entry.into(), Op::Upload(sink), |c| c.data)
     }
 
     /// Starts a download without waiting.
