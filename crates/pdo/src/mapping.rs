@@ -56,7 +56,7 @@ impl MappingEntry {
     }
 }
 
-/// How the bits of a mapped object are turned into a [`crate::Value`].
+/// How the bits of a mapped object are turned into a [`crate::RawValue`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ValueKind {
     /// BOOLEAN.
