@@ -51,6 +51,13 @@ pub struct HookActions {
     pub reset_communication: bool,
 }
 
+impl HookActions {
+    /// Nothing asked for.
+    fn is_empty(&self) -> bool {
+        self.emcy.is_empty() && !self.reset_node && !self.reset_communication
+    }
+}
+
 /// Device-specific behaviour. Every method has a default that does nothing.
 pub trait DeviceHook: Send {
     /// An SDO download of `value` to `entry` completed; return `Err(code)` to refuse it (the
@@ -292,6 +299,10 @@ pub struct SimDevice {
     lss: LssSlave,
     pdo: Box<crate::pdo_glue::PdoEngine>,
     last_state: DeviceState,
+    /// The earliest deadline of the protocol machines (hooks are asked each time), kept
+    /// current by every input: the bus asks for it after every frame, and a scan over all
+    /// machines costs more than the SDO request that changed one of them.
+    timers: Option<Instant>,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
 }
@@ -340,8 +351,27 @@ impl SimDevice {
             lss: LssSlave::new(lss_config),
             pdo: Box::new(crate::pdo_glue::PdoEngine::new()),
             last_state: DeviceState::Initialising,
+            timers: None,
             sdo_requests: 0,
         }
+    }
+
+    /// The earliest deadline of the protocol machines, looked up.
+    fn machine_timers(&self) -> Option<Instant> {
+        [
+            self.nmt.poll_timeout(),
+            self.emcy.poll_timeout(),
+            self.lss.poll_timeout(),
+            self.pdo.poll_timeout(),
+        ]
+        .into_iter()
+        .chain(self.sdo.iter().map(|c| c.server.poll_timeout()))
+        .flatten()
+        .min()
+    }
+
+    fn refresh_timers(&mut self) {
+        self.timers = self.machine_timers();
     }
 
     /// A device without a node-ID (CiA 305 "unconfigured", 0xFF) whose LSS address is `address`
@@ -441,6 +471,7 @@ impl SimDevice {
             self.pdo
                 .update(now, &mut crate::pdo_glue::Store(&mut self.values));
             self.collect();
+            self.refresh_timers();
         }
     }
 
@@ -462,6 +493,7 @@ impl SimDevice {
         if self.nmt.allows(Service::Emcy) {
             let _ = self.emcy.signal(now, emcy);
             self.collect();
+            self.refresh_timers();
         }
     }
 
@@ -551,7 +583,8 @@ impl SimDevice {
     }
 
     /// Runs one step of SDO channel `ch`'s server over the device's objects, then applies what
-    /// the hooks asked for and what the writes changed.
+    /// the hooks asked for and what the writes changed. Keeps [`timers`](Self::timers)
+    /// current.
     fn serve_sdo(
         &mut self,
         now: Instant,
@@ -569,8 +602,22 @@ impl SimDevice {
             written: &mut written,
             now,
         };
+        let before = self.sdo[ch].server.poll_timeout();
         step(&mut self.sdo[ch].server, now, &mut objs);
-        self.apply(now, actions, &written);
+        if written.is_empty() && actions.is_empty() {
+            // Only this server had input (every machine's output is collected after each of
+            // its inputs): only it can have frames, and only its timer can have moved.
+            let c = &mut self.sdo[ch];
+            while let Some(data) = c.server.poll_transmit() {
+                self.out.push_back(c.ids.response_frame(data));
+            }
+            if c.server.poll_timeout() != before {
+                self.refresh_timers();
+            }
+        } else {
+            self.apply(now, actions, &written);
+            self.refresh_timers();
+        }
     }
 
     /// Takes new SDO server parameters (0x1200..=0x127F written): channels whose COB-IDs are
@@ -622,6 +669,7 @@ impl Station for SimDevice {
         if cob == can_frame::cob::LSS_MASTER_TO_SLAVE {
             self.lss.handle_frame(now, frame);
             self.after_lss(now);
+            self.refresh_timers();
             return;
         }
         if !self.configured {
@@ -639,14 +687,13 @@ impl Station for SimDevice {
         }
         if self.nmt.handle_frame(now, frame).unwrap_or(false) {
             self.after_nmt(now);
-            return;
-        }
-        if self
+        } else if self
             .pdo
             .handle_frame(now, frame, &mut crate::pdo_glue::Store(&mut self.values))
         {
             self.collect();
         }
+        self.refresh_timers();
     }
 
     fn handle_timeout(&mut self, now: Instant) {
@@ -687,6 +734,7 @@ impl Station for SimDevice {
             }
         }
         self.apply(now, actions, &[]);
+        self.refresh_timers();
     }
 
     fn poll_transmit(&mut self) -> Option<CanFrame> {
@@ -697,16 +745,11 @@ impl Station for SimDevice {
         if !self.booted {
             return Some(Instant::ZERO);
         }
-        [
-            self.nmt.poll_timeout(),
-            self.emcy.poll_timeout(),
-            self.lss.poll_timeout(),
-            self.pdo.poll_timeout(),
-        ]
-        .into_iter()
-        .chain(self.sdo.iter().map(|c| c.server.poll_timeout()))
-        .chain(self.hooks.iter().map(|h| h.poll_timeout()))
-        .flatten()
-        .min()
+        debug_assert_eq!(self.timers, self.machine_timers(), "stale device timers");
+        self.hooks
+            .iter()
+            .filter_map(|h| h.poll_timeout())
+            .chain(self.timers)
+            .min()
     }
 }
