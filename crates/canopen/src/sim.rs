@@ -105,20 +105,40 @@ pub trait DeviceHook: Send {
 }
 
 /// The device's current object values (little-endian bytes, CiA 301 §7.1).
-#[derive(Debug, Clone, Default)]
+#[derive(Clone, Default)]
 pub struct Values {
-    map: BTreeMap<(u16, u8), Vec<u8>>,
+    /// By [`key`]: one integer comparison per tree level rather than a tuple's two (an SDO
+    /// request looks a value up twice), in the same order.
+    map: BTreeMap<u32, Vec<u8>>,
+}
+
+/// The key of `index:sub` in [`Values`], ordered as `(index, sub)`.
+fn key(index: u16, sub: u8) -> u32 {
+    (u32::from(index) << 8) | u32::from(sub)
+}
+
+impl core::fmt::Debug for Values {
+    /// As the `(index, sub)` map it stands for.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_map()
+            .entries(
+                self.map
+                    .iter()
+                    .map(|(k, v)| (((k >> 8) as u16, *k as u8), v)),
+            )
+            .finish()
+    }
 }
 
 impl Values {
     /// The value of `index:sub`.
     pub fn get(&self, index: u16, sub: u8) -> Option<&[u8]> {
-        self.map.get(&(index, sub)).map(Vec::as_slice)
+        self.map.get(&key(index, sub)).map(Vec::as_slice)
     }
 
     /// Sets the value of `index:sub`.
     pub fn set(&mut self, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
-        self.map.insert((index, sub), value.into());
+        self.map.insert(key(index, sub), value.into());
     }
 
     /// An unsigned value of up to 8 bytes.
@@ -137,7 +157,7 @@ impl Values {
                 .effective_value(node.get())
                 .map(|v| v.to_le_bytes())
                 .unwrap_or_else(|| vec![0; sub.data_type.size().unwrap_or(0)]);
-            map.insert((index, sub.sub_index), bytes);
+            map.insert(key(index, sub.sub_index), bytes);
         }
         Self { map }
     }
