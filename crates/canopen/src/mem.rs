@@ -82,6 +82,11 @@ impl Faults {
     pub fn none() -> Self {
         Self::default()
     }
+
+    /// Whether any fault can happen.
+    fn any(&self) -> bool {
+        self.drop > 0.0 || self.corrupt > 0.0 || self.delay > 0.0 || self.duplicate > 0.0
+    }
 }
 
 /// Configuration of an in-memory bus.
@@ -223,6 +228,8 @@ struct Ep {
     open: bool,
     queue: VecDeque<Received>,
     lost: u64,
+    /// Its frames in `State::pending` (for the transmit queue bound, without a scan per send).
+    sending: usize,
 }
 
 /// A station with its concrete type erased but recoverable.
@@ -341,6 +348,11 @@ impl State {
     /// Puts a frame on the way to the wire, applying the fault injection.
     fn submit(&mut self, from: Participant, frame: CanFrame, now: Instant) {
         let f = self.config.faults;
+        if !f.any() {
+            // Without faults the generator is not asked at all (`chance(0.0)` does not draw).
+            self.push_pending(from, frame, now);
+            return;
+        }
         if self.rng.chance(f.drop) {
             self.stats.dropped += 1;
             return;
@@ -370,13 +382,22 @@ impl State {
             1
         };
         for _ in 0..copies {
-            self.seq += 1;
-            self.pending.push(Pending {
-                seq: self.seq,
-                from,
-                frame,
-                ready,
-            });
+            self.push_pending(from, frame, ready);
+        }
+    }
+
+    fn push_pending(&mut self, from: Participant, frame: CanFrame, ready: Instant) {
+        self.seq += 1;
+        self.pending.push(Pending {
+            seq: self.seq,
+            from,
+            frame,
+            ready,
+        });
+        if let Participant::Endpoint(i) = from
+            && let Some(ep) = self.endpoints.get_mut(i)
+        {
+            ep.sending += 1;
         }
     }
 
@@ -436,6 +457,11 @@ impl State {
             return;
         };
         let p = self.pending.swap_remove(pos);
+        if let Participant::Endpoint(i) = p.from
+            && let Some(ep) = self.endpoints.get_mut(i)
+        {
+            ep.sending -= 1;
+        }
         match self.config.bitrate {
             Some(rate) => {
                 let d = frame_time(&p.frame, rate, self.config.worst_case_stuffing);
@@ -559,6 +585,7 @@ impl MemoryBus {
             open: true,
             queue: VecDeque::new(),
             lost: 0,
+            sending: 0,
         });
         Endpoint {
             bus: self.clone(),
@@ -783,7 +810,7 @@ impl Transport for Endpoint {
         let now = st.now();
         st.advance(now);
         let me = Participant::Endpoint(self.index);
-        let waiting = st.pending.iter().filter(|p| p.from == me).count();
+        let waiting = st.endpoints.get(self.index).map_or(0, |e| e.sending);
         if waiting >= st.config.tx_queue_capacity {
             return Err(TransportError::TxQueueFull);
         }
