@@ -507,7 +507,13 @@ impl RequestTable {
         if !matches!(self.entries.get(i), Some((_, ReqState::Done(_)))) {
             return Taken::Running;
         }
-        match self.entries.remove(i) {
+        // Mostly the oldest entry: a pop is cheaper than a general removal.
+        let entry = if i == 0 {
+            self.entries.pop_front()
+        } else {
+            self.entries.remove(i)
+        };
+        match entry {
             Some((_, ReqState::Done(r))) => Taken::Done(r),
             _ => Taken::Unknown,
         }
@@ -1088,17 +1094,30 @@ impl Core {
         self.next_request += 1;
         let node = req.node;
         let ch = self.channel_index(node, req.channel);
-        self.requests.push(id, ReqState::Queued(req));
-        if let Some(c) = self
+        let now = self.now;
+        let Some(c) = self
             .nodes
             .get_mut(&node)
             .and_then(|s| s.channels.get_mut(ch))
-        {
-            c.queue.push_back(id);
-            if !self.sdo_busy.contains(&(node, ch)) {
-                self.sdo_busy.push((node, ch));
-            }
+        else {
+            self.requests.push(id, ReqState::Queued(req));
+            return id;
+        };
+        if !self.sdo_busy.contains(&(node, ch)) {
+            self.sdo_busy.push((node, ch));
         }
+        // A free channel starts the request at once, as `pump_channel` would from the queue.
+        let state = if c.queue.is_empty()
+            && c.active.is_none()
+            && c.client.is_idle()
+            && c.ready_at <= now
+        {
+            Self::start(c, now, id, req, ch)
+        } else {
+            c.queue.push_back(id);
+            ReqState::Queued(req)
+        };
+        self.requests.push(id, state);
         self.pump_channel(node, ch);
         id
     }
@@ -1250,43 +1269,53 @@ impl Core {
                     continue;
                 }
             };
-            let SdoRequest {
-                entry,
-                op,
-                method,
-                timeout,
+            *slot = Self::start(c, self.now, next, req, ch);
+        }
+    }
+
+    /// Starts request `id` on channel `ch` (free and ready); its new state.
+    fn start(
+        c: &mut SdoChannel,
+        now: Instant,
+        id: RequestId,
+        req: SdoRequest,
+        ch: usize,
+    ) -> ReqState {
+        let SdoRequest {
+            node,
+            entry,
+            op,
+            method,
+            timeout,
+            progress,
+            ..
+        } = req;
+        c.transfer += 1;
+        c.queued = 0;
+        c.answered = false;
+        c.boot_seen = false;
+        let cfg = c.client.config().with_timeout(timeout);
+        c.client.set_config(cfg);
+        let mux = Multiplexer::new(entry.index, entry.sub_index);
+        let started = match op {
+            Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
+            Op::Download(src) => c.client.start_download(now, mux, src, method).is_ok(),
+        };
+        if started {
+            c.active = Some(id);
+            ReqState::Active {
                 progress,
-                ..
-            } = req;
-            c.transfer += 1;
-            c.queued = 0;
-            c.answered = false;
-            c.boot_seen = false;
-            let cfg = c.client.config().with_timeout(timeout);
-            c.client.set_config(cfg);
-            let mux = Multiplexer::new(entry.index, entry.sub_index);
-            let now = self.now;
-            let started = match op {
-                Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
-                Op::Download(src) => c.client.start_download(now, mux, src, method).is_ok(),
-            };
-            let state = if started {
-                c.active = Some(next);
-                ReqState::Active {
-                    progress,
-                    entry,
-                    node,
-                    channel: ch,
-                }
-            } else {
-                ReqState::Done(Err(SdoError {
-                    node,
-                    entry,
-                    name: None,
-                    kind: SdoErrorKind::Busy,
-                }))
-            };
-            *slot = state;
+                entry,
+                node,
+                channel: ch,
+            }
+        } else {
+            ReqState::Done(Err(SdoError {
+                node,
+                entry,
+                name: None,
+                kind: SdoErrorKind::Busy,
+            }))
         }
     }
 
