@@ -23,7 +23,8 @@
 //!
 //! Communication objects with side effects handled here: 0x1017 producer heartbeat time.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{HashMap, VecDeque};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use can_frame::cob::FunctionCode;
 use can_frame::{CanFrame, Instant, NodeId, is_due};
@@ -107,23 +108,55 @@ pub trait DeviceHook: Send {
 /// The device's current object values (little-endian bytes, CiA 301 §7.1).
 #[derive(Clone, Default)]
 pub struct Values {
-    /// By [`key`]: one integer comparison per tree level rather than a tuple's two (an SDO
-    /// request looks a value up twice), in the same order.
-    map: BTreeMap<u32, Vec<u8>>,
+    /// By [`key`], hashed: an SDO request looks a value up twice, and a tree of a few hundred
+    /// entries costs several times a hash lookup.
+    map: KeyMap<Vec<u8>>,
 }
 
-/// The key of `index:sub` in [`Values`], ordered as `(index, sub)`.
+/// The key of `index:sub` (ordered as `(index, sub)`).
 fn key(index: u16, sub: u8) -> u32 {
     (u32::from(index) << 8) | u32::from(sub)
 }
 
+/// A map by [`key`].
+type KeyMap<V> = HashMap<u32, V, BuildHasherDefault<KeyHasher>>;
+
+/// A multiplicative hash for the [`key`]s (the device's own entries, no untrusted input): the
+/// default SipHash would cost more than the tree lookup it replaces.
+#[derive(Default, Clone, Copy)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(self.0.rotate_left(8) ^ u64::from(*b));
+        }
+    }
+
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(u64::from(x));
+    }
+
+    fn write_u64(&mut self, x: u64) {
+        // The high bits mixed into the low ones, which pick the bucket.
+        let h = x.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        self.0 = h ^ (h >> 32);
+    }
+}
+
 impl core::fmt::Debug for Values {
-    /// As the `(index, sub)` map it stands for.
+    /// As the `(index, sub)` map it stands for, in that order.
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let mut entries: Vec<_> = self.map.iter().collect();
+        entries.sort_unstable_by_key(|(k, _)| **k);
         f.debug_map()
             .entries(
-                self.map
-                    .iter()
+                entries
+                    .into_iter()
                     .map(|(k, v)| (((k >> 8) as u16, *k as u8), v)),
             )
             .finish()
@@ -151,7 +184,7 @@ impl Values {
     }
 
     fn defaults(od: &ObjectDictionary, node: NodeId) -> Self {
-        let mut map = BTreeMap::new();
+        let mut map = KeyMap::default();
         for (index, sub) in od.entries() {
             let bytes = sub
                 .effective_value(node.get())
@@ -169,9 +202,35 @@ impl canopen_pdo::ValueSource for Values {
     }
 }
 
+/// What the SDO server asks the dictionary about a sub-object at every request.
+#[derive(Debug, Clone, Copy)]
+struct SubMeta {
+    access: Access,
+    /// The size of a fixed-size type.
+    fixed: Option<u32>,
+}
+
+/// Every sub-object's [`SubMeta`], by [`key`] (the dictionary never changes).
+fn sub_meta(od: &ObjectDictionary) -> KeyMap<SubMeta> {
+    od.entries()
+        .map(|(index, s)| {
+            let fixed = match s.data_type.size() {
+                Some(n) if !s.data_type.is_variable_size() => Some(n as u32),
+                _ => None,
+            };
+            let meta = SubMeta {
+                access: access(s.access),
+                fixed,
+            };
+            (key(index, s.sub_index), meta)
+        })
+        .collect()
+}
+
 /// The objects as the SDO server sees them: dictionary metadata plus current values.
 struct Objects<'a> {
     od: &'a ObjectDictionary,
+    meta: &'a KeyMap<SubMeta>,
     values: &'a mut Values,
     staging: &'a mut Vec<u8>,
     hooks: &'a mut Vec<Box<dyn DeviceHook>>,
@@ -192,11 +251,12 @@ fn access(a: AccessType) -> Access {
 impl ObjectAccess for Objects<'_> {
     fn info(&mut self, mux: Multiplexer) -> Result<ObjectInfo, AbortCode> {
         let (index, sub) = (mux.index, mux.subindex);
-        let Some(obj) = self.od.get(index) else {
-            return Err(AbortCode::OBJECT_DOES_NOT_EXIST);
-        };
-        let Some(s) = obj.sub(sub) else {
-            return Err(AbortCode::SUBINDEX_DOES_NOT_EXIST);
+        let Some(&meta) = self.meta.get(&key(index, sub)) else {
+            return Err(if self.od.get(index).is_none() {
+                AbortCode::OBJECT_DOES_NOT_EXIST
+            } else {
+                AbortCode::SUBINDEX_DOES_NOT_EXIST
+            });
         };
         // A hook may serve the value: its length counts.
         for h in self.hooks.iter_mut() {
@@ -207,14 +267,14 @@ impl ObjectAccess for Objects<'_> {
             }
         }
         let len = self.values.get(index, sub).map_or(0, |v| v.len()) as u32;
-        let acc = access(s.access);
-        Ok(match s.data_type.size() {
-            Some(n) if !s.data_type.is_variable_size() => ObjectInfo {
+        let acc = meta.access;
+        Ok(match meta.fixed {
+            Some(n) => ObjectInfo {
                 access: acc,
                 len,
-                accepts: LengthRule::Exact(n as u32),
+                accepts: LengthRule::Exact(n),
             },
-            _ => ObjectInfo::variable(acc, len, MAX_VARIABLE_SIZE),
+            None => ObjectInfo::variable(acc, len, MAX_VARIABLE_SIZE),
         })
     }
 
@@ -306,6 +366,8 @@ fn sdo_channels(od: &ObjectDictionary, values: &Values, node: NodeId) -> Vec<Sdo
 pub struct SimDevice {
     node: NodeId,
     od: ObjectDictionary,
+    /// What the SDO server asks `od` at each request, found by one hash lookup.
+    meta: KeyMap<SubMeta>,
     values: Values,
     staging: Vec<u8>,
     nmt: NmtSlave,
@@ -358,6 +420,7 @@ impl SimDevice {
         let sdo = sdo_channels(&od, &values, node);
         Self {
             node,
+            meta: sub_meta(&od),
             od,
             values,
             staging: Vec::new(),
@@ -615,6 +678,7 @@ impl SimDevice {
         let mut written = Vec::new();
         let mut objs = Objects {
             od: &self.od,
+            meta: &self.meta,
             values: &mut self.values,
             staging: &mut self.staging,
             hooks: &mut self.hooks,
