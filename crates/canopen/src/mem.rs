@@ -426,7 +426,21 @@ impl State {
     }
 
     /// Processes everything that happens up to and including `now`, in time order.
+    #[inline]
     fn advance(&mut self, now: Instant) {
+        // Mostly nothing is due (asked before and after every send and receive): an idle wire,
+        // no frame waiting and no station timer passed are found out cheaper than by a pass of
+        // the event loop.
+        if self.wire.is_none()
+            && self.pending.is_empty()
+            && self.next_station_event().is_none_or(|t| t > now)
+        {
+            return;
+        }
+        self.run_events(now);
+    }
+
+    fn run_events(&mut self, now: Instant) {
         for _ in 0..MAX_EVENTS_PER_STEP {
             let wire = self.next_wire_event().filter(|t| *t <= now);
             let station = self.next_station_event().filter(|t| *t <= now);
