@@ -351,6 +351,9 @@ struct SdoChannel {
     queued: usize,
     /// The server has answered the running transfer at least once.
     answered: bool,
+    /// The running transfer's request has a progress callback (else the request table is not
+    /// searched for one at every turn).
+    reports_progress: bool,
     /// The node sent a boot-up while the transfer ran, before the server answered it: if the
     /// response timeout ends the transfer, the error is [`SdoErrorKind::NodeRebooted`].
     boot_seen: bool,
@@ -370,6 +373,7 @@ impl SdoChannel {
             transfer: 0,
             queued: 0,
             answered: false,
+            reports_progress: false,
             boot_seen: false,
             rebooted: false,
         }
@@ -471,7 +475,10 @@ impl RequestTable {
     }
 
     fn position(&self, id: RequestId) -> Option<usize> {
-        // Mostly one of the oldest: look at those before searching.
+        // Mostly the oldest, else one of the next: look at those before searching.
+        if self.entries.front().is_some_and(|(i, _)| *i == id) {
+            return Some(0);
+        }
         if let Some(i) = self.entries.iter().take(4).position(|(i, _)| *i == id) {
             return Some(i);
         }
@@ -1180,7 +1187,8 @@ impl Core {
                     transfer: Some((node, ch, c.transfer)),
                 });
             }
-            if let (Some(active), Some(p)) = (c.active, c.client.progress())
+            if c.reports_progress
+                && let (Some(active), Some(p)) = (c.active, c.client.progress())
                 && let Some(ReqState::Active {
                     progress: Some(cb),
                     entry,
@@ -1293,6 +1301,7 @@ impl Core {
         c.transfer += 1;
         c.queued = 0;
         c.answered = false;
+        c.reports_progress = progress.is_some();
         c.boot_seen = false;
         let cfg = c.client.config().with_timeout(timeout);
         c.client.set_config(cfg);
