@@ -27,6 +27,7 @@
 
 use std::any::Any;
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
 
 use can_frame::time::MonotonicClock;
@@ -291,9 +292,17 @@ struct Shared {
     /// for the time several times per request, and the lock is contended with the bus's
     /// service thread.
     real_clock: Option<MonotonicClock>,
+    /// A virtual clock's time in microseconds (a copy of the state's, set under its lock), for
+    /// the same reason.
+    virtual_now: AtomicU64,
 }
 
 impl Shared {
+    /// Publishes a virtual clock's new time (with the state locked).
+    fn set_virtual_now(&self, t: Instant) {
+        self.virtual_now.store(t.as_micros(), Ordering::Release);
+    }
+
     /// Unlocks the bus after a change, waking the blocked threads only when one needs it: an
     /// endpoint waits for frames, or the service thread sleeps past the bus's next event. (A
     /// notification costs a system call, and a needless wake-up of the service thread a
@@ -584,6 +593,7 @@ impl MemoryBus {
             shared: Arc::new(Shared {
                 real_time: matches!(config_clock, ClockMode::RealTime),
                 real_clock,
+                virtual_now: AtomicU64::new(0),
                 state: Mutex::new(state),
                 cond: Condvar::new(),
             }),
@@ -703,7 +713,7 @@ impl MemoryBus {
     pub fn now(&self) -> Instant {
         match &self.shared.real_clock {
             Some(c) => c.now(),
-            None => self.lock().now(),
+            None => Instant::from_micros(self.shared.virtual_now.load(Ordering::Acquire)),
         }
     }
 
@@ -722,6 +732,7 @@ impl MemoryBus {
                     let next = st.next_event().filter(|t| *t < until).unwrap_or(until);
                     st.advance(next);
                     st.clock = Clock::Virtual(next.max(now));
+                    self.shared.set_virtual_now(next.max(now));
                 }
                 Clock::Real(_) => {
                     st.advance(now);
@@ -867,6 +878,7 @@ impl Transport for Endpoint {
                 Clock::Virtual(_) => {
                     st.advance(next);
                     st.clock = Clock::Virtual(next.max(now));
+                    self.bus.shared.set_virtual_now(next.max(now));
                 }
                 Clock::Real(_) => {
                     let wait = next.saturating_duration_since(now);
