@@ -351,6 +351,9 @@ struct SdoChannel {
     queued: usize,
     /// The server has answered the running transfer at least once.
     answered: bool,
+    /// The running transfer's request has a progress callback (else the request table is not
+    /// searched for one at every turn).
+    reports_progress: bool,
     /// The node sent a boot-up while the transfer ran, before the server answered it: if the
     /// response timeout ends the transfer, the error is [`SdoErrorKind::NodeRebooted`].
     boot_seen: bool,
@@ -370,6 +373,7 @@ impl SdoChannel {
             transfer: 0,
             queued: 0,
             answered: false,
+            reports_progress: false,
             boot_seen: false,
             rebooted: false,
         }
@@ -471,7 +475,10 @@ impl RequestTable {
     }
 
     fn position(&self, id: RequestId) -> Option<usize> {
-        // Mostly one of the oldest: look at those before searching.
+        // Mostly the oldest, else one of the next: look at those before searching.
+        if self.entries.front().is_some_and(|(i, _)| *i == id) {
+            return Some(0);
+        }
         if let Some(i) = self.entries.iter().take(4).position(|(i, _)| *i == id) {
             return Some(i);
         }
@@ -507,7 +514,13 @@ impl RequestTable {
         if !matches!(self.entries.get(i), Some((_, ReqState::Done(_)))) {
             return Taken::Running;
         }
-        match self.entries.remove(i) {
+        // Mostly the oldest entry: a pop is cheaper than a general removal.
+        let entry = if i == 0 {
+            self.entries.pop_front()
+        } else {
+            self.entries.remove(i)
+        };
+        match entry {
             Some((_, ReqState::Done(r))) => Taken::Done(r),
             _ => Taken::Unknown,
         }
@@ -1088,17 +1101,30 @@ impl Core {
         self.next_request += 1;
         let node = req.node;
         let ch = self.channel_index(node, req.channel);
-        self.requests.push(id, ReqState::Queued(req));
-        if let Some(c) = self
+        let now = self.now;
+        let Some(c) = self
             .nodes
             .get_mut(&node)
             .and_then(|s| s.channels.get_mut(ch))
-        {
-            c.queue.push_back(id);
-            if !self.sdo_busy.contains(&(node, ch)) {
-                self.sdo_busy.push((node, ch));
-            }
+        else {
+            self.requests.push(id, ReqState::Queued(req));
+            return id;
+        };
+        if !self.sdo_busy.contains(&(node, ch)) {
+            self.sdo_busy.push((node, ch));
         }
+        // A free channel starts the request at once, as `pump_channel` would from the queue.
+        let state = if c.queue.is_empty()
+            && c.active.is_none()
+            && c.client.is_idle()
+            && c.ready_at <= now
+        {
+            Self::start(c, now, id, req, ch)
+        } else {
+            c.queue.push_back(id);
+            ReqState::Queued(req)
+        };
+        self.requests.push(id, state);
         self.pump_channel(node, ch);
         id
     }
@@ -1161,7 +1187,8 @@ impl Core {
                     transfer: Some((node, ch, c.transfer)),
                 });
             }
-            if let (Some(active), Some(p)) = (c.active, c.client.progress())
+            if c.reports_progress
+                && let (Some(active), Some(p)) = (c.active, c.client.progress())
                 && let Some(ReqState::Active {
                     progress: Some(cb),
                     entry,
@@ -1250,43 +1277,54 @@ impl Core {
                     continue;
                 }
             };
-            let SdoRequest {
-                entry,
-                op,
-                method,
-                timeout,
+            *slot = Self::start(c, self.now, next, req, ch);
+        }
+    }
+
+    /// Starts request `id` on channel `ch` (free and ready); its new state.
+    fn start(
+        c: &mut SdoChannel,
+        now: Instant,
+        id: RequestId,
+        req: SdoRequest,
+        ch: usize,
+    ) -> ReqState {
+        let SdoRequest {
+            node,
+            entry,
+            op,
+            method,
+            timeout,
+            progress,
+            ..
+        } = req;
+        c.transfer += 1;
+        c.queued = 0;
+        c.answered = false;
+        c.reports_progress = progress.is_some();
+        c.boot_seen = false;
+        let cfg = c.client.config().with_timeout(timeout);
+        c.client.set_config(cfg);
+        let mux = Multiplexer::new(entry.index, entry.sub_index);
+        let started = match op {
+            Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
+            Op::Download(src) => c.client.start_download(now, mux, src, method).is_ok(),
+        };
+        if started {
+            c.active = Some(id);
+            ReqState::Active {
                 progress,
-                ..
-            } = req;
-            c.transfer += 1;
-            c.queued = 0;
-            c.answered = false;
-            c.boot_seen = false;
-            let cfg = c.client.config().with_timeout(timeout);
-            c.client.set_config(cfg);
-            let mux = Multiplexer::new(entry.index, entry.sub_index);
-            let now = self.now;
-            let started = match op {
-                Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
-                Op::Download(src) => c.client.start_download(now, mux, src, method).is_ok(),
-            };
-            let state = if started {
-                c.active = Some(next);
-                ReqState::Active {
-                    progress,
-                    entry,
-                    node,
-                    channel: ch,
-                }
-            } else {
-                ReqState::Done(Err(SdoError {
-                    node,
-                    entry,
-                    name: None,
-                    kind: SdoErrorKind::Busy,
-                }))
-            };
-            *slot = state;
+                entry,
+                node,
+                channel: ch,
+            }
+        } else {
+            ReqState::Done(Err(SdoError {
+                node,
+                entry,
+                name: None,
+                kind: SdoErrorKind::Busy,
+            }))
         }
     }
 
@@ -1527,17 +1565,32 @@ impl Core {
             self.pdo_next = next;
         }
         let mut due = Vec::new();
-        self.sdo_busy.retain(|&(node, ch)| {
-            let Some(c) = self.nodes.get(&node).and_then(|s| s.channels.get(ch)) else {
-                return false;
-            };
-            let timer = c.client.poll_timeout();
-            if is_due(timer, now) || (c.has_waiting() && c.ready_at <= now) {
-                due.push((node, ch));
+        // A retain by hand: `Vec::retain` costs several times this loop over the one or two
+        // busy channels there mostly are.
+        let mut i = 0;
+        while let Some(&(node, ch)) = self.sdo_busy.get(i) {
+            let keep = self
+                .nodes
+                .get(&node)
+                .and_then(|s| s.channels.get(ch))
+                .is_some_and(|c| {
+                    let timer = c.client.poll_timeout();
+                    if is_due(timer, now) || (c.has_waiting() && c.ready_at <= now) {
+                        due.push((node, ch));
+                    }
+                    // Idle: nothing queued or running, no timer. It comes back with its next
+                    // request.
+                    timer.is_some()
+                        || c.active.is_some()
+                        || !c.queue.is_empty()
+                        || !c.client.is_idle()
+                });
+            if keep {
+                i += 1;
+            } else {
+                self.sdo_busy.remove(i);
             }
-            // Idle: nothing queued or running, no timer. It comes back with its next request.
-            timer.is_some() || c.active.is_some() || !c.queue.is_empty() || !c.client.is_idle()
-        });
+        }
         for (node, ch) in due {
             if let Some(c) = self
                 .nodes
@@ -1592,7 +1645,10 @@ impl Core {
 
     /// Moves every frame waiting to be sent, in order, to the end of `out`.
     pub(crate) fn take_transmit(&mut self, out: &mut Vec<Outgoing>) {
-        out.extend(self.tx.drain(..));
+        // Mostly empty (asked twice a step): a drain of nothing is not free.
+        if !self.tx.is_empty() {
+            out.extend(self.tx.drain(..));
+        }
     }
 
     /// Puts back frames the transport did not take (its transmit queue was full), ahead of

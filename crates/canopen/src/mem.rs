@@ -27,6 +27,7 @@
 
 use std::any::Any;
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
 
 use can_frame::time::MonotonicClock;
@@ -81,6 +82,11 @@ impl Faults {
     /// No faults.
     pub fn none() -> Self {
         Self::default()
+    }
+
+    /// Whether any fault can happen.
+    fn any(&self) -> bool {
+        self.drop > 0.0 || self.corrupt > 0.0 || self.delay > 0.0 || self.duplicate > 0.0
     }
 }
 
@@ -223,6 +229,8 @@ struct Ep {
     open: bool,
     queue: VecDeque<Received>,
     lost: u64,
+    /// Its frames in `State::pending` (for the transmit queue bound, without a scan per send).
+    sending: usize,
 }
 
 /// A station with its concrete type erased but recoverable.
@@ -280,9 +288,21 @@ struct Shared {
     /// Whether anyone can wait on `cond`: only real-time waits block, and a notification costs
     /// a system call even with nobody waiting.
     real_time: bool,
+    /// The real-time clock (the same as the state's), read without the lock: the master asks
+    /// for the time several times per request, and the lock is contended with the bus's
+    /// service thread.
+    real_clock: Option<MonotonicClock>,
+    /// A virtual clock's time in microseconds (a copy of the state's, set under its lock), for
+    /// the same reason.
+    virtual_now: AtomicU64,
 }
 
 impl Shared {
+    /// Publishes a virtual clock's new time (with the state locked).
+    fn set_virtual_now(&self, t: Instant) {
+        self.virtual_now.store(t.as_micros(), Ordering::Release);
+    }
+
     /// Unlocks the bus after a change, waking the blocked threads only when one needs it: an
     /// endpoint waits for frames, or the service thread sleeps past the bus's next event. (A
     /// notification costs a system call, and a needless wake-up of the service thread a
@@ -341,6 +361,11 @@ impl State {
     /// Puts a frame on the way to the wire, applying the fault injection.
     fn submit(&mut self, from: Participant, frame: CanFrame, now: Instant) {
         let f = self.config.faults;
+        if !f.any() {
+            // Without faults the generator is not asked at all (`chance(0.0)` does not draw).
+            self.push_pending(from, frame, now);
+            return;
+        }
         if self.rng.chance(f.drop) {
             self.stats.dropped += 1;
             return;
@@ -370,13 +395,22 @@ impl State {
             1
         };
         for _ in 0..copies {
-            self.seq += 1;
-            self.pending.push(Pending {
-                seq: self.seq,
-                from,
-                frame,
-                ready,
-            });
+            self.push_pending(from, frame, ready);
+        }
+    }
+
+    fn push_pending(&mut self, from: Participant, frame: CanFrame, ready: Instant) {
+        self.seq += 1;
+        self.pending.push(Pending {
+            seq: self.seq,
+            from,
+            frame,
+            ready,
+        });
+        if let Participant::Endpoint(i) = from
+            && let Some(ep) = self.endpoints.get_mut(i)
+        {
+            ep.sending += 1;
         }
     }
 
@@ -401,7 +435,21 @@ impl State {
     }
 
     /// Processes everything that happens up to and including `now`, in time order.
+    #[inline]
     fn advance(&mut self, now: Instant) {
+        // Mostly nothing is due (asked before and after every send and receive): an idle wire,
+        // no frame waiting and no station timer passed are found out cheaper than by a pass of
+        // the event loop.
+        if self.wire.is_none()
+            && self.pending.is_empty()
+            && self.next_station_event().is_none_or(|t| t > now)
+        {
+            return;
+        }
+        self.run_events(now);
+    }
+
+    fn run_events(&mut self, now: Instant) {
         for _ in 0..MAX_EVENTS_PER_STEP {
             let wire = self.next_wire_event().filter(|t| *t <= now);
             let station = self.next_station_event().filter(|t| *t <= now);
@@ -436,6 +484,11 @@ impl State {
             return;
         };
         let p = self.pending.swap_remove(pos);
+        if let Participant::Endpoint(i) = p.from
+            && let Some(ep) = self.endpoints.get_mut(i)
+        {
+            ep.sending -= 1;
+        }
         match self.config.bitrate {
             Some(rate) => {
                 let d = frame_time(&p.frame, rate, self.config.worst_case_stuffing);
@@ -514,9 +567,10 @@ impl MemoryBus {
     /// A bus with the given configuration.
     pub fn with_config(config: BusConfig) -> Self {
         let config_clock = config.clock;
-        let clock = match config.clock {
-            ClockMode::Virtual => Clock::Virtual(Instant::ZERO),
-            ClockMode::RealTime => Clock::Real(MonotonicClock::new()),
+        let real_clock = matches!(config.clock, ClockMode::RealTime).then(MonotonicClock::new);
+        let clock = match real_clock {
+            None => Clock::Virtual(Instant::ZERO),
+            Some(c) => Clock::Real(c),
         };
         let state = State {
             clock,
@@ -538,6 +592,8 @@ impl MemoryBus {
         Self {
             shared: Arc::new(Shared {
                 real_time: matches!(config_clock, ClockMode::RealTime),
+                real_clock,
+                virtual_now: AtomicU64::new(0),
                 state: Mutex::new(state),
                 cond: Condvar::new(),
             }),
@@ -559,6 +615,7 @@ impl MemoryBus {
             open: true,
             queue: VecDeque::new(),
             lost: 0,
+            sending: 0,
         });
         Endpoint {
             bus: self.clone(),
@@ -654,7 +711,10 @@ impl MemoryBus {
 
     /// The bus clock.
     pub fn now(&self) -> Instant {
-        self.lock().now()
+        match &self.shared.real_clock {
+            Some(c) => c.now(),
+            None => Instant::from_micros(self.shared.virtual_now.load(Ordering::Acquire)),
+        }
     }
 
     /// Lets time pass until `until`, stepping attached stations and the wire. With a virtual
@@ -672,6 +732,7 @@ impl MemoryBus {
                     let next = st.next_event().filter(|t| *t < until).unwrap_or(until);
                     st.advance(next);
                     st.clock = Clock::Virtual(next.max(now));
+                    self.shared.set_virtual_now(next.max(now));
                 }
                 Clock::Real(_) => {
                     st.advance(now);
@@ -783,7 +844,7 @@ impl Transport for Endpoint {
         let now = st.now();
         st.advance(now);
         let me = Participant::Endpoint(self.index);
-        let waiting = st.pending.iter().filter(|p| p.from == me).count();
+        let waiting = st.endpoints.get(self.index).map_or(0, |e| e.sending);
         if waiting >= st.config.tx_queue_capacity {
             return Err(TransportError::TxQueueFull);
         }
@@ -817,6 +878,7 @@ impl Transport for Endpoint {
                 Clock::Virtual(_) => {
                     st.advance(next);
                     st.clock = Clock::Virtual(next.max(now));
+                    self.bus.shared.set_virtual_now(next.max(now));
                 }
                 Clock::Real(_) => {
                     let wait = next.saturating_duration_since(now);

@@ -537,7 +537,16 @@ impl Network {
     /// not a failure: the frames it did not take go back to the front of the core's queue for
     /// the next step (where a failed SDO transfer's frames can still be withdrawn). Returns
     /// whether frames stayed behind.
+    #[inline]
     fn send_queued(&self, io: &mut Io) -> Result<bool, Error> {
+        // Mostly nothing to send (a step asks twice).
+        if io.out.is_empty() {
+            return Ok(false);
+        }
+        self.send_all(io)
+    }
+
+    fn send_all(&self, io: &mut Io) -> Result<bool, Error> {
         let Io { transport, out } = io;
         for i in 0..out.len() {
             match transport.send(&out[i].frame) {

@@ -23,7 +23,8 @@
 //!
 //! Communication objects with side effects handled here: 0x1017 producer heartbeat time.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::{HashMap, VecDeque};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use can_frame::cob::FunctionCode;
 use can_frame::{CanFrame, Instant, NodeId, is_due};
@@ -49,6 +50,13 @@ pub struct HookActions {
     pub reset_node: bool,
     /// Reset communication.
     pub reset_communication: bool,
+}
+
+impl HookActions {
+    /// Nothing asked for.
+    fn is_empty(&self) -> bool {
+        self.emcy.is_empty() && !self.reset_node && !self.reset_communication
+    }
 }
 
 /// Device-specific behaviour. Every method has a default that does nothing.
@@ -98,20 +106,72 @@ pub trait DeviceHook: Send {
 }
 
 /// The device's current object values (little-endian bytes, CiA 301 §7.1).
-#[derive(Debug, Clone, Default)]
+#[derive(Clone, Default)]
 pub struct Values {
-    map: BTreeMap<(u16, u8), Vec<u8>>,
+    /// By [`key`], hashed: an SDO request looks a value up twice, and a tree of a few hundred
+    /// entries costs several times a hash lookup.
+    map: KeyMap<Vec<u8>>,
+}
+
+/// The key of `index:sub` (ordered as `(index, sub)`).
+fn key(index: u16, sub: u8) -> u32 {
+    (u32::from(index) << 8) | u32::from(sub)
+}
+
+/// A map by [`key`].
+type KeyMap<V> = HashMap<u32, V, BuildHasherDefault<KeyHasher>>;
+
+/// A multiplicative hash for the [`key`]s (the device's own entries, no untrusted input): the
+/// default SipHash would cost more than the tree lookup it replaces.
+#[derive(Default, Clone, Copy)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(self.0.rotate_left(8) ^ u64::from(*b));
+        }
+    }
+
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(u64::from(x));
+    }
+
+    fn write_u64(&mut self, x: u64) {
+        // The high bits mixed into the low ones, which pick the bucket.
+        let h = x.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        self.0 = h ^ (h >> 32);
+    }
+}
+
+impl core::fmt::Debug for Values {
+    /// As the `(index, sub)` map it stands for, in that order.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let mut entries: Vec<_> = self.map.iter().collect();
+        entries.sort_unstable_by_key(|(k, _)| **k);
+        f.debug_map()
+            .entries(
+                entries
+                    .into_iter()
+                    .map(|(k, v)| (((k >> 8) as u16, *k as u8), v)),
+            )
+            .finish()
+    }
 }
 
 impl Values {
     /// The value of `index:sub`.
     pub fn get(&self, index: u16, sub: u8) -> Option<&[u8]> {
-        self.map.get(&(index, sub)).map(Vec::as_slice)
+        self.map.get(&key(index, sub)).map(Vec::as_slice)
     }
 
     /// Sets the value of `index:sub`.
     pub fn set(&mut self, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
-        self.map.insert((index, sub), value.into());
+        self.map.insert(key(index, sub), value.into());
     }
 
     /// An unsigned value of up to 8 bytes.
@@ -124,13 +184,13 @@ impl Values {
     }
 
     fn defaults(od: &ObjectDictionary, node: NodeId) -> Self {
-        let mut map = BTreeMap::new();
+        let mut map = KeyMap::default();
         for (index, sub) in od.entries() {
             let bytes = sub
                 .effective_value(node.get())
                 .map(|v| v.to_le_bytes())
                 .unwrap_or_else(|| vec![0; sub.data_type.size().unwrap_or(0)]);
-            map.insert((index, sub.sub_index), bytes);
+            map.insert(key(index, sub.sub_index), bytes);
         }
         Self { map }
     }
@@ -142,9 +202,35 @@ impl canopen_pdo::ValueSource for Values {
     }
 }
 
+/// What the SDO server asks the dictionary about a sub-object at every request.
+#[derive(Debug, Clone, Copy)]
+struct SubMeta {
+    access: Access,
+    /// The size of a fixed-size type.
+    fixed: Option<u32>,
+}
+
+/// Every sub-object's [`SubMeta`], by [`key`] (the dictionary never changes).
+fn sub_meta(od: &ObjectDictionary) -> KeyMap<SubMeta> {
+    od.entries()
+        .map(|(index, s)| {
+            let fixed = match s.data_type.size() {
+                Some(n) if !s.data_type.is_variable_size() => Some(n as u32),
+                _ => None,
+            };
+            let meta = SubMeta {
+                access: access(s.access),
+                fixed,
+            };
+            (key(index, s.sub_index), meta)
+        })
+        .collect()
+}
+
 /// The objects as the SDO server sees them: dictionary metadata plus current values.
 struct Objects<'a> {
     od: &'a ObjectDictionary,
+    meta: &'a KeyMap<SubMeta>,
     values: &'a mut Values,
     staging: &'a mut Vec<u8>,
     hooks: &'a mut Vec<Box<dyn DeviceHook>>,
@@ -165,11 +251,12 @@ fn access(a: AccessType) -> Access {
 impl ObjectAccess for Objects<'_> {
     fn info(&mut self, mux: Multiplexer) -> Result<ObjectInfo, AbortCode> {
         let (index, sub) = (mux.index, mux.subindex);
-        let Some(obj) = self.od.get(index) else {
-            return Err(AbortCode::OBJECT_DOES_NOT_EXIST);
-        };
-        let Some(s) = obj.sub(sub) else {
-            return Err(AbortCode::SUBINDEX_DOES_NOT_EXIST);
+        let Some(&meta) = self.meta.get(&key(index, sub)) else {
+            return Err(if self.od.get(index).is_none() {
+                AbortCode::OBJECT_DOES_NOT_EXIST
+            } else {
+                AbortCode::SUBINDEX_DOES_NOT_EXIST
+            });
         };
         // A hook may serve the value: its length counts.
         for h in self.hooks.iter_mut() {
@@ -180,14 +267,14 @@ impl ObjectAccess for Objects<'_> {
             }
         }
         let len = self.values.get(index, sub).map_or(0, |v| v.len()) as u32;
-        let acc = access(s.access);
-        Ok(match s.data_type.size() {
-            Some(n) if !s.data_type.is_variable_size() => ObjectInfo {
+        let acc = meta.access;
+        Ok(match meta.fixed {
+            Some(n) => ObjectInfo {
                 access: acc,
                 len,
-                accepts: LengthRule::Exact(n as u32),
+                accepts: LengthRule::Exact(n),
             },
-            _ => ObjectInfo::variable(acc, len, MAX_VARIABLE_SIZE),
+            None => ObjectInfo::variable(acc, len, MAX_VARIABLE_SIZE),
         })
     }
 
@@ -279,6 +366,8 @@ fn sdo_channels(od: &ObjectDictionary, values: &Values, node: NodeId) -> Vec<Sdo
 pub struct SimDevice {
     node: NodeId,
     od: ObjectDictionary,
+    /// What the SDO server asks `od` at each request, found by one hash lookup.
+    meta: KeyMap<SubMeta>,
     values: Values,
     staging: Vec<u8>,
     nmt: NmtSlave,
@@ -292,6 +381,10 @@ pub struct SimDevice {
     lss: LssSlave,
     pdo: Box<crate::pdo_glue::PdoEngine>,
     last_state: DeviceState,
+    /// The earliest deadline of the protocol machines (hooks are asked each time), kept
+    /// current by every input: the bus asks for it after every frame, and a scan over all
+    /// machines costs more than the SDO request that changed one of them.
+    timers: Option<Instant>,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
 }
@@ -327,6 +420,7 @@ impl SimDevice {
         let sdo = sdo_channels(&od, &values, node);
         Self {
             node,
+            meta: sub_meta(&od),
             od,
             values,
             staging: Vec::new(),
@@ -340,8 +434,27 @@ impl SimDevice {
             lss: LssSlave::new(lss_config),
             pdo: Box::new(crate::pdo_glue::PdoEngine::new()),
             last_state: DeviceState::Initialising,
+            timers: None,
             sdo_requests: 0,
         }
+    }
+
+    /// The earliest deadline of the protocol machines, looked up.
+    fn machine_timers(&self) -> Option<Instant> {
+        [
+            self.nmt.poll_timeout(),
+            self.emcy.poll_timeout(),
+            self.lss.poll_timeout(),
+            self.pdo.poll_timeout(),
+        ]
+        .into_iter()
+        .chain(self.sdo.iter().map(|c| c.server.poll_timeout()))
+        .flatten()
+        .min()
+    }
+
+    fn refresh_timers(&mut self) {
+        self.timers = self.machine_timers();
     }
 
     /// A device without a node-ID (CiA 305 "unconfigured", 0xFF) whose LSS address is `address`
@@ -441,6 +554,7 @@ impl SimDevice {
             self.pdo
                 .update(now, &mut crate::pdo_glue::Store(&mut self.values));
             self.collect();
+            self.refresh_timers();
         }
     }
 
@@ -462,6 +576,7 @@ impl SimDevice {
         if self.nmt.allows(Service::Emcy) {
             let _ = self.emcy.signal(now, emcy);
             self.collect();
+            self.refresh_timers();
         }
     }
 
@@ -551,7 +666,8 @@ impl SimDevice {
     }
 
     /// Runs one step of SDO channel `ch`'s server over the device's objects, then applies what
-    /// the hooks asked for and what the writes changed.
+    /// the hooks asked for and what the writes changed. Keeps [`timers`](Self::timers)
+    /// current.
     fn serve_sdo(
         &mut self,
         now: Instant,
@@ -562,6 +678,7 @@ impl SimDevice {
         let mut written = Vec::new();
         let mut objs = Objects {
             od: &self.od,
+            meta: &self.meta,
             values: &mut self.values,
             staging: &mut self.staging,
             hooks: &mut self.hooks,
@@ -569,8 +686,22 @@ impl SimDevice {
             written: &mut written,
             now,
         };
+        let before = self.sdo[ch].server.poll_timeout();
         step(&mut self.sdo[ch].server, now, &mut objs);
-        self.apply(now, actions, &written);
+        if written.is_empty() && actions.is_empty() {
+            // Only this server had input (every machine's output is collected after each of
+            // its inputs): only it can have frames, and only its timer can have moved.
+            let c = &mut self.sdo[ch];
+            while let Some(data) = c.server.poll_transmit() {
+                self.out.push_back(c.ids.response_frame(data));
+            }
+            if c.server.poll_timeout() != before {
+                self.refresh_timers();
+            }
+        } else {
+            self.apply(now, actions, &written);
+            self.refresh_timers();
+        }
     }
 
     /// Takes new SDO server parameters (0x1200..=0x127F written): channels whose COB-IDs are
@@ -622,6 +753,7 @@ impl Station for SimDevice {
         if cob == can_frame::cob::LSS_MASTER_TO_SLAVE {
             self.lss.handle_frame(now, frame);
             self.after_lss(now);
+            self.refresh_timers();
             return;
         }
         if !self.configured {
@@ -639,14 +771,13 @@ impl Station for SimDevice {
         }
         if self.nmt.handle_frame(now, frame).unwrap_or(false) {
             self.after_nmt(now);
-            return;
-        }
-        if self
+        } else if self
             .pdo
             .handle_frame(now, frame, &mut crate::pdo_glue::Store(&mut self.values))
         {
             self.collect();
         }
+        self.refresh_timers();
     }
 
     fn handle_timeout(&mut self, now: Instant) {
@@ -687,6 +818,7 @@ impl Station for SimDevice {
             }
         }
         self.apply(now, actions, &[]);
+        self.refresh_timers();
     }
 
     fn poll_transmit(&mut self) -> Option<CanFrame> {
@@ -697,16 +829,11 @@ impl Station for SimDevice {
         if !self.booted {
             return Some(Instant::ZERO);
         }
-        [
-            self.nmt.poll_timeout(),
-            self.emcy.poll_timeout(),
-            self.lss.poll_timeout(),
-            self.pdo.poll_timeout(),
-        ]
-        .into_iter()
-        .chain(self.sdo.iter().map(|c| c.server.poll_timeout()))
-        .chain(self.hooks.iter().map(|h| h.poll_timeout()))
-        .flatten()
-        .min()
+        debug_assert_eq!(self.timers, self.machine_timers(), "stale device timers");
+        self.hooks
+            .iter()
+            .filter_map(|h| h.poll_timeout())
+            .chain(self.timers)
+            .min()
     }
 }
