@@ -257,15 +257,64 @@ def repo_file(*parts):
 
 
 def eds_heads():
-    """The first kilobytes of this repository's own EDS files."""
+    """The first two kilobytes of this repository's own EDS files (the target's -max_len)."""
     out = []
     for folder in ("eds", os.path.join("tests", "vcan")):
         path = os.path.join(REPO, folder)
         for name in sorted(os.listdir(path)):
             if name.lower().endswith((".eds", ".dcf")):
                 with open(os.path.join(path, name), "rb") as f:
-                    out.append(f.read(4096))
+                    out.append(f.read(2048))
     return out
+
+
+def dcf_var(index, name, data_type, value, sub=None, default="0"):
+    """One VAR section of a DCF (a sub-object section when `sub` is given)."""
+    head = f"[{index:04X}]" if sub is None else f"[{index:04X}sub{sub:X}]"
+    text = f"{head}\nParameterName={name}\nObjectType=0x7\nDataType=0x{data_type:04X}\nAccessType=rw\n"
+    if default is not None:
+        text += f"DefaultValue={default}\n"
+    if value is not None:
+        text += f"ParameterValue={value}\n"
+    return text
+
+
+def dcf_array(index, name, data_type, values):
+    """A CiA 302 master array with only the sub-objects of the nodes in `values`."""
+    text = f"[{index:04X}]\nParameterName={name}\nObjectType=0x8\nSubNumber={len(values) + 1}\n"
+    text += f"[{index:04X}sub0]\nParameterName=Number of Entries\nObjectType=0x7\n" \
+        "DataType=0x0005\nAccessType=ro\nDefaultValue=127\n"
+    default = None if data_type == 0x000F else "0"
+    for node, value in values.items():
+        text += dcf_var(index, f"Node {node}", data_type, value, sub=node, default=default)
+    return text
+
+
+def concise(*entries):
+    """A concise DCF: the entry count, then index, sub-index, size and data of each."""
+    out = u32(len(entries))
+    for index, sub, data in entries:
+        out += u16(index) + bytes([sub]) + u32(len(data)) + data
+    return out.hex().upper()
+
+
+def master_dcfs():
+    """Short master DCFs: the CiA 302 objects for a few slaves, sub-objects of those nodes only
+    (a written master DCF lists all 127 and is far longer than the target's -max_len)."""
+    head = "[FileInfo]\nFileName=master.dcf\nEDSVersion=4.0\n[DeviceComissioning]\nNodeID=1\n"
+    full = head + dcf_var(0x1F80, "NMT Startup", 0x0007, "0x00000003") \
+        + dcf_var(0x1F89, "Boot Time", 0x0007, "0x0000012C") \
+        + dcf_array(0x1F81, "Slave Assignment", 0x0007,
+                    {5: "0x0000000D", 6: "0x00000075", 9: "0x00000005"}) \
+        + dcf_array(0x1F85, "Vendor Identification", 0x0007, {5: "0x00000039"}) \
+        + dcf_array(0x1F22, "Concise DCF", 0x000F,
+                    {9: concise((0x1017, 0, u16(100)), (0x2000, 1, u32(321)))}) \
+        + dcf_array(0x1F53, "Expected Application SW Date", 0x0007, {6: "0x00003C28"}) \
+        + dcf_array(0x1F58, "Program Data", 0x000F, {6: "0102FE"})
+    small = head + dcf_var(0x1F80, "NMT Startup", 0x0007, "0x00000009") \
+        + dcf_array(0x1F81, "Slave Assignment", 0x0007, {5: "0x00000005"}) \
+        + dcf_array(0x1F22, "Concise DCF", 0x000F, {5: concise((0x1017, 0, u16(50)))})
+    return [full.encode(), small.encode()]
 
 
 # Targets whose input is an `arbitrary` structure: short byte strings of varied shape, so the
@@ -306,9 +355,8 @@ TARGETS = {
 def main():
     targets = {os.path.splitext(n)[0] for n in os.listdir(os.path.join(ROOT, "fuzz_targets"))}
     TARGETS["od_eds_parser"] = eds_heads()
-    TARGETS["manager_master_dcf"] = [
-        repo_file("crates", "manager", "tests", "data", n)
-        for n in ("valve.dcf", "valve-boot.dcf", "valve-nostamp.dcf")
+    TARGETS["manager_master_dcf"] = master_dcfs() + [
+        repo_file("crates", "manager", "tests", "data", "valve.dcf")[:2048]
     ]
     for t in sorted(targets):
         seeds = TARGETS.get(t, ARBITRARY)

@@ -2,6 +2,11 @@
 //! (at most 25 diagnostics per severity and kind, plus one count of the rest, with no control
 //! characters), and whatever parses must survive write -> parse with an equal model, and lint
 //! without panicking.
+//!
+//! Run with `-max_len=2048` (fuzz/options/od_eds_parser.txt): a run parses its input twice
+//! (with and without style warnings) and the written model once more, so its time grows with
+//! the input, and two kilobytes already hold a dozen sections of every kind. The seeds are the
+//! heads of the repository's EDS files, cut to that length.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

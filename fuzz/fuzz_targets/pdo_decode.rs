@@ -6,8 +6,8 @@
 
 use can_frame::{CanFrame, CanId, Instant, NodeId};
 use canopen_pdo::{
-    CommParams, DispatcherEntry, Engine, Mapping, MpdoConsumer, NullStore, PdoConfig,
-    TransmissionType, RawValue, pack, unpack,
+    CommParams, DispatcherEntry, Engine, Mapping, MpdoConsumer, NullStore, PdoConfig, RawValue,
+    TransmissionType, pack, unpack,
 };
 use libfuzzer_sys::fuzz_target;
 

@@ -8,7 +8,7 @@
 use can_frame::{CanFrame, CanId};
 use canopen_pdo::typed::{PdoField, field};
 use canopen_pdo::{
-    DefaultCobId, Direction, ObjectAddress, TypedPdo, TypedPdoError, RawValue, ValueKind,
+    DefaultCobId, Direction, ObjectAddress, RawValue, TypedPdo, TypedPdoError, ValueKind,
 };
 use libfuzzer_sys::fuzz_target;
 
