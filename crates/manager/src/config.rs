@@ -142,7 +142,9 @@ impl SoftwareCheck {
     }
 }
 
-/// Days from 1984-01-01 (the CANopen TIME_OF_DAY epoch) to `year-month-day`.
+/// Days from 1984-01-01 (the CANopen TIME_OF_DAY epoch) to `year-month-day`; `None` for a
+/// date that does not exist or lies outside the years 1984..=9999 (a `YYYY-MM-DD` year, and
+/// far below the end of the UNSIGNED32 day count).
 pub fn days_since_1984(year: i32, month: u32, day: u32) -> Option<u32> {
     if !(1..=12).contains(&month) || day == 0 {
         return None;
@@ -162,7 +164,7 @@ pub fn days_since_1984(year: i32, month: u32, day: u32) -> Option<u32> {
         30,
         31,
     ];
-    if day > month_days[month as usize - 1] || year < 1984 {
+    if day > month_days[month as usize - 1] || !(1984..=9999).contains(&year) {
         return None;
     }
     let years: u32 = (1984..year).map(|y| if leap(y) { 366 } else { 365 }).sum();
@@ -713,6 +715,11 @@ mod tests {
         assert_eq!(days_since_1984(1984, 1, 1), Some(0));
         assert_eq!(days_since_1984(1985, 3, 1), Some(366 + 59));
         assert_eq!(days_since_1984(2023, 2, 29), None);
+        assert_eq!(days_since_1984(9999, 12, 31), Some(2_927_783));
+        // Found by the manager_bus_toml fuzz target: a nine-digit year overflowed the sum
+        // (and took 400 million steps to get there).
+        assert_eq!(days_since_1984(10_000, 1, 1), None);
+        assert_eq!(days_since_1984(405_030_021, 5, 3), None);
 
         let base = "[[slave]]\nnode_id = 5\ndcf = \"valve-boot.dcf\"\n[slave.software]\n";
         let e = error(&format!("{base}date = \"2026-13-01\"\n"));
