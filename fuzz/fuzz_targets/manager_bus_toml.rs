@@ -13,13 +13,16 @@
 //! pair.
 #![no_main]
 
-use std::collections::HashSet;
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, OnceLock};
+use std::sync::OnceLock;
 
 use canopen_manager::NetworkConfig;
 use canopen_manager::master_dcf::MasterObjects;
 use libfuzzer_sys::fuzz_target;
+
+#[path = "common/first_time.rs"]
+mod first_time;
+use first_time::first_time;
 
 const VALVE: &[u8] = include_bytes!("../../crates/manager/tests/data/valve.dcf");
 const VALVE_BOOT: &[u8] = include_bytes!("../../crates/manager/tests/data/valve-boot.dcf");
@@ -51,26 +54,6 @@ fn master_dcf() -> &'static [u8] {
     })
 }
 
-/// Master objects (with the master's node-ID) already written and parsed back, as `Debug`
-/// text; forgotten when it grows past a bound, so memory stays flat over a long run.
-static CHECKED: Mutex<Option<HashSet<String>>> = Mutex::new(None);
-const CHECKED_MAX: usize = 4096;
-
-/// Whether the round trip of `objects` still has to be checked (and records it as checked).
-fn first_time(objects: &MasterObjects, master: u8) -> bool {
-    let key = format!("{master} {objects:?}");
-    let mut checked = CHECKED.lock().unwrap_or_else(|e| e.into_inner());
-    let set = checked.get_or_insert_with(HashSet::new);
-    if set.contains(&key) {
-        return false;
-    }
-    if set.len() >= CHECKED_MAX {
-        set.clear();
-    }
-    set.insert(key);
-    true
-}
-
 /// The master objects with program paths left out (a master DCF names no file).
 fn comparable(mut o: MasterObjects) -> MasterObjects {
     for s in o.slaves.values_mut() {
@@ -94,7 +77,7 @@ fuzz_target!(|data: &[u8]| {
         }
         Ok(config) => {
             let objects = MasterObjects::from_config(&config);
-            if !first_time(&objects, config.master.node_id.get()) {
+            if !first_time(format!("{} {objects:?}", config.master.node_id.get())) {
                 return;
             }
             let dcf = MasterObjects::write_master_dcf(&config);

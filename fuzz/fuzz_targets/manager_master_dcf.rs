@@ -14,33 +14,15 @@
 //! distinct set of objects.
 #![no_main]
 
-use std::collections::HashSet;
 use std::path::Path;
-use std::sync::Mutex;
 
 use canopen_manager::NetworkConfig;
 use canopen_manager::master_dcf::{MasterObjects, dictionary_from_concise};
 use libfuzzer_sys::fuzz_target;
 
-/// Sets of master objects already written and read back (their `Debug` text); forgotten when
-/// it grows past a bound, so memory stays flat over a long run.
-static CHECKED: Mutex<Option<HashSet<String>>> = Mutex::new(None);
-const CHECKED_MAX: usize = 4096;
-
-/// Whether the round trip of `objects` still has to be checked (and records it as checked).
-fn first_time(objects: &MasterObjects) -> bool {
-    let key = format!("{objects:?}");
-    let mut checked = CHECKED.lock().unwrap_or_else(|e| e.into_inner());
-    let set = checked.get_or_insert_with(HashSet::new);
-    if set.contains(&key) {
-        return false;
-    }
-    if set.len() >= CHECKED_MAX {
-        set.clear();
-    }
-    set.insert(key);
-    true
-}
+#[path = "common/first_time.rs"]
+mod first_time;
+use first_time::first_time;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(parsed) = canopen_od::parse(data) else {
@@ -53,7 +35,7 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     let _ = objects.start_policy();
-    if first_time(&objects) {
+    if first_time(format!("{objects:?}")) {
         let again = MasterObjects::from_dictionary(&objects.to_dictionary());
         assert_eq!(again, objects);
     }
