@@ -193,6 +193,14 @@ fn parse_date(v: &toml::Value) -> Result<u32, String> {
         }
         other => Err(format!("a {} is no date", other.type_str())),
     }
+    .and_then(|days| match days {
+        // 0x1F53 keeps 0 for "not configured" (CiA 302-3): taken as a date it would fail the
+        // boot with error G instead of checking anything.
+        0 => {
+            Err("day 0 (1984-01-01) is 0x1F53's \"not configured\"; give the program's date".into())
+        }
+        days => Ok(days),
+    })
 }
 
 /// A time of day as `bus.toml` gives it: ms after midnight, or `"HH:MM[:SS[.mmm]]"`.
@@ -228,6 +236,12 @@ fn parse_time(v: &toml::Value) -> Result<u32, String> {
     };
     if ms >= DAY_MS {
         return Err(format!("{ms} ms is not within a day (< {DAY_MS})"));
+    }
+    if ms == 0 {
+        // As for the date: 0x1F54 keeps 0 for "not configured" (CiA 302-3).
+        return Err(
+            "0 ms (midnight) is 0x1F54's \"not configured\"; give the program's time".into(),
+        );
     }
     Ok(ms)
 }
@@ -734,6 +748,18 @@ mod tests {
         );
         let e = error(&format!("{base}time = 86400000\n"));
         assert!(e.message.contains("within a day"), "{e}");
+        // 0 is "not configured" in 0x1F53/0x1F54; a master DCF written from it read back as
+        // no check at all (found by the manager_bus_toml fuzz target).
+        let e = error(&format!(
+            "{base}date = \"2007-03-01\"\ntime = \"00:00:00.00\"\n"
+        ));
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(6), Some("slave[1].software.time"))
+        );
+        assert!(e.message.contains("not configured"), "{e}");
+        let e = error(&format!("{base}date = \"1984-01-01\"\n"));
+        assert_eq!(e.key.as_deref(), Some("slave[1].software.date"));
         let e = error(&format!("{base}program = \"missing.bin\"\n"));
         assert_eq!(
             (e.line, e.key.as_deref()),
