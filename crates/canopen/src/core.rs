@@ -40,6 +40,7 @@ use canopen_sdo::{
 };
 
 use crate::error::{SdoError, SdoErrorKind};
+use crate::pdo_subscriber::{PdoPublisher, PdoSubscriber, pdo_subscription};
 use crate::transport::BusEvent;
 
 /// Identifies one SDO request for its whole life.
@@ -625,6 +626,9 @@ pub(crate) struct Core {
     /// The values of the PDO being received (kept, so a reception that only callbacks see
     /// allocates nothing).
     pdo_scratch: Vec<(ObjectAddress, Value)>,
+    /// The batch subscribers' ends (see [`crate::PdoSubscriber`]), handed over at each
+    /// [`release_events`](Self::release_events).
+    pdo_subs: Vec<PdoPublisher>,
 }
 
 impl Core {
@@ -657,6 +661,7 @@ impl Core {
             pdo_callbacks: Vec::new(),
             next_callback: 0,
             pdo_scratch: Vec::new(),
+            pdo_subs: Vec::new(),
         }
     }
 
@@ -721,6 +726,12 @@ impl Core {
         rx
     }
 
+    pub(crate) fn subscribe_pdos(&mut self) -> PdoSubscriber {
+        let (publisher, subscriber) = pdo_subscription();
+        self.pdo_subs.push(publisher);
+        subscriber
+    }
+
     pub(crate) fn add_pdo_callback(&mut self, f: PdoCallback) -> PdoCallbackId {
         let id = PdoCallbackId(self.next_callback);
         self.next_callback += 1;
@@ -753,6 +764,9 @@ impl Core {
 
     /// Sends the events held back since [`hold_events`](Self::hold_events), in order.
     pub(crate) fn release_events(&mut self) {
+        if !self.pdo_subs.is_empty() {
+            self.pdo_subs.retain_mut(PdoPublisher::flush);
+        }
         let subs = &mut self.subs;
         if !core::mem::take(&mut subs.holding) {
             return;
@@ -1446,6 +1460,9 @@ impl Core {
                             for (_, f) in &mut self.pdo_callbacks {
                                 f(&seen);
                             }
+                            for s in &mut self.pdo_subs {
+                                s.push(&seen);
+                            }
                             if !self.subs.is_empty() {
                                 // The event takes the values as they are (no copy of each
                                 // value); the scratch starts again with room for as many.
@@ -1488,6 +1505,9 @@ impl Core {
         };
         for (_, f) in &mut self.pdo_callbacks {
             f(&seen);
+        }
+        for s in &mut self.pdo_subs {
+            s.push(&seen);
         }
         self.publish(NetworkEvent::Pdo {
             node,

@@ -42,6 +42,7 @@ pub mod network;
 mod node;
 mod pdo_access;
 mod pdo_glue;
+mod pdo_subscriber;
 pub mod prelude;
 mod request;
 pub mod scan;
@@ -81,6 +82,7 @@ pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
 pub use pdo_access::{
     MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
 };
+pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber};
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};

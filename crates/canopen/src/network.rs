@@ -303,6 +303,16 @@ impl Network {
         self.core().subscribe()
     }
 
+    /// Subscribes to the PDOs received from nodes, taken in batches: each
+    /// [`PdoSubscriber::try_recv`](crate::PdoSubscriber::try_recv) or `recv` returns every PDO
+    /// received since the previous one, read as the [`PdoReceived`](crate::PdoReceived) views
+    /// an [`on_pdo`](Self::on_pdo) callback gets — but on the subscriber's thread, and without
+    /// the allocation and channel message per frame of [`subscribe`](Self::subscribe)'s
+    /// events. The way to follow TPDOs at full bus load; a dropped subscriber unsubscribes.
+    pub fn subscribe_pdos(&self) -> crate::PdoSubscriber {
+        self.core().subscribe_pdos()
+    }
+
     /// Calls `f` for every PDO received from a node, decoded or not — python-canopen's PDO
     /// callback, without its copies: `f` borrows the data and the typed values, and a
     /// reception that only callbacks see allocates nothing. The events of

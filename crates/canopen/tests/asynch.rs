@@ -711,3 +711,46 @@ async fn pdo_services_async() {
     });
     assert!(decoded, "TPDO1 decoded from its new COB-ID");
 }
+
+/// `PdoSubscriber::recv_async`: with the driver on the runtime, a task awaiting PDO batches
+/// gets the device's TPDOs decoded, and the end when the network is gone.
+#[tokio::test(start_paused = true)]
+async fn pdo_batches_async() {
+    use canopen::Value;
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let od = canopen::od::parse(EDS).unwrap().od;
+    bus.attach(SimDevice::new(n(5), od.clone()));
+    let node = net.add_node_with_dictionary(n(5), od);
+    node.sdo().write_async((0x1017, 0), 0u16).await.unwrap();
+    let mut pdos = net.subscribe_pdos();
+    net.start_driver_on_runtime();
+    node.nmt().start_async().await.unwrap();
+    let reader = tokio::spawn(async move {
+        let mut decoded = Vec::new();
+        while let Ok(batch) = pdos.recv_async().await {
+            decoded.extend(
+                batch
+                    .iter()
+                    .filter(|p| p.node == n(5))
+                    .map(|p| (p.number, p.values.to_vec())),
+            );
+        }
+        decoded
+    });
+    tokio::time::sleep(std::time::Duration::from_millis(1500)).await;
+    drop(node);
+    drop(net);
+    let decoded = tokio::time::timeout(std::time::Duration::from_secs(5), reader)
+        .await
+        .expect("the subscription ends with the network")
+        .unwrap();
+    let tpdo1 = decoded
+        .iter()
+        .find(|(n, _)| *n == 1)
+        .expect("TPDO1 arrived");
+    assert!(
+        matches!(tpdo1.1.first(), Some((_, Value::Real32(_)))),
+        "{tpdo1:?}"
+    );
+}

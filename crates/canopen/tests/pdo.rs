@@ -640,3 +640,92 @@ fn pdo_callbacks_see_what_the_events_carry() {
         assert!(drain(&events).iter().any(|e| e.pdo_data().is_some()));
     }
 }
+
+/// `Network::subscribe_pdos`: the batches hold every PDO the callback sees, in order, with the
+/// same data and typed values (two subscribers each get all of them); blocking receives work
+/// with the background driver; a network that is gone ends the subscription.
+#[test]
+fn pdo_batches_carry_what_the_callback_sees() {
+    use std::sync::mpsc::{RecvTimeoutError, TryRecvError};
+    use std::sync::{Arc, Mutex};
+    type Seen1 = (NodeId, u8, Vec<u8>, Vec<(ObjectAddress, Value)>, Instant);
+    type Seen = Vec<Seen1>;
+    fn own(p: &canopen::PdoReceived<'_>) -> Seen1 {
+        (p.node, p.number, p.data.to_vec(), p.values.to_vec(), p.at)
+    }
+    for with_dictionary in [true, false] {
+        let r = rig(with_dictionary);
+        let seen: Arc<Mutex<Seen>> = Arc::default();
+        let sink = seen.clone();
+        r.net.on_pdo(move |p| sink.lock().unwrap().push(own(p)));
+        let mut first = r.net.subscribe_pdos();
+        let mut second = r.net.subscribe_pdos();
+        assert_eq!(first.try_recv().unwrap_err(), TryRecvError::Empty);
+        r.net.node(n(5)).nmt().start().unwrap();
+        let mut got: Seen = Vec::new();
+        for value in [21.5f32, -3.25, 1e6] {
+            let now = r.bus.now();
+            r.bus
+                .with_station(r.device, |d| {
+                    d.set_value(now, 0x2500, 1, value.to_le_bytes())
+                })
+                .unwrap();
+            r.net.run_for(Duration::from_millis(700)).unwrap();
+            // Several steps' PDOs in one batch, read as the callback's views.
+            let batch = first.try_recv().unwrap();
+            assert_eq!(batch.iter().len(), batch.len());
+            got.extend(batch.iter().map(|p| own(&p)));
+        }
+        let from_callback = std::mem::take(&mut *seen.lock().unwrap());
+        assert!(from_callback.len() >= 3, "{from_callback:?}");
+        assert_eq!(got, from_callback);
+        let second_got: Seen = second
+            .try_recv()
+            .unwrap()
+            .into_iter()
+            .map(|p| own(&p))
+            .collect();
+        assert_eq!(second_got, got);
+        let last = got.iter().rfind(|p| p.1 == 1).expect("TPDO1");
+        assert_eq!(&last.2[..4], 1e6f32.to_le_bytes());
+        if with_dictionary {
+            assert_eq!(last.3[0], (a(0x2500, 1), Value::Real32(1e6)));
+        } else {
+            assert!(got.iter().all(|p| p.3.is_empty()), "nothing to decode with");
+        }
+        assert_eq!(first.try_recv().unwrap_err(), TryRecvError::Empty);
+
+        // With the background driver, a blocking receive wakes for the next batch.
+        drop(second);
+        r.net.start_driver().unwrap();
+        let now = r.bus.now();
+        r.bus
+            .with_station(r.device, |d| {
+                d.set_value(now, 0x2500, 1, 7.5f32.to_le_bytes())
+            })
+            .unwrap();
+        let new_value =
+            |p: canopen::PdoReceived<'_>| p.number == 1 && p.data[..4] == 7.5f32.to_le_bytes();
+        let mut batches = 0;
+        while !first
+            .recv_timeout(std::time::Duration::from_secs(10))
+            .expect("TPDOs with the driver running")
+            .iter()
+            .any(new_value)
+        {
+            batches += 1;
+            assert!(batches < 1000, "the new value never came");
+        }
+        r.net.stop_driver().unwrap();
+        drop(r);
+        // The network is gone: what was left is still delivered, then the end.
+        while first.try_recv().is_ok() {}
+        assert_eq!(first.try_recv().unwrap_err(), TryRecvError::Disconnected);
+        assert_eq!(
+            first
+                .recv_timeout(std::time::Duration::from_secs(10))
+                .unwrap_err(),
+            RecvTimeoutError::Disconnected
+        );
+    }
+}

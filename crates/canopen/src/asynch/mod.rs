@@ -19,6 +19,7 @@
 //! | [`Tpdos::read`](crate::Tpdos::read), [`Tpdos::save`](crate::Tpdos::save), [`Rpdos::read`](crate::Rpdos::read), [`Rpdos::save`](crate::Rpdos::save) | [`Tpdos::read_async`](crate::Tpdos::read_async), [`Tpdos::save_async`](crate::Tpdos::save_async), [`Rpdos::read_async`](crate::Rpdos::read_async), [`Rpdos::save_async`](crate::Rpdos::save_async) |
 //! | [`Rpdos::start`](crate::Rpdos::start), [`RpdoSender::set`](crate::RpdoSender::set), `set_many`, `trigger` | [`Rpdos::start_async`](crate::Rpdos::start_async), [`RpdoSender::set_async`](crate::RpdoSender::set_async), `set_many_async`, `trigger_async` |
 //! | [`Network::subscribe`] (mpsc) | [`Network::events`] ([`EventStream`]) |
+//! | [`PdoSubscriber::recv`](crate::PdoSubscriber::recv) | [`PdoSubscriber::recv_async`](crate::PdoSubscriber::recv_async) |
 //!
 //! There is one core and no second protocol implementation: a future submits its request to
 //! the core as the blocking call does, then waits for it.
