@@ -15,12 +15,16 @@
 //!   (`run_until(now)`) and drains the subscriber;
 //! * `Network, stepping, PDO callback (on_pdo)`: the same checks in a callback given to
 //!   `Network::on_pdo` (borrowed values, no event, no channel);
+//! * `Network, stepping, batch subscriber (subscribe_pdos)`: the stepping row with the batch
+//!   subscriber drained between steps (same checks, borrowed values as the callback's);
 //! * `Network, driver thread, subscriber on another`: `Network::start_driver`, the subscriber
-//!   blocks in `recv` on the main thread (the CPU of both threads counts).
+//!   blocks in `recv` on the main thread (the CPU of both threads counts);
+//! * `Network, driver thread, batch subscriber on another`: the same with the batch
+//!   subscriber blocked in `recv_timeout`.
 //!
 //! ```text
 //! cargo run --release -p canopen-bench --bin pdo_rx [-- --nodes 64 --syncs 2000]
-//!     [--only stepping|driver|callback]
+//!     [--only stepping|driver|callback|batch|batch-driver]
 //! ```
 //! `--only` runs one row once (for a profiler).
 //! python-canopen needs about 3.3 µs per frame with a callback (MACHINE-FACTS).
@@ -196,6 +200,46 @@ fn callback(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
     (process_cpu_ns() - t0) / frames.len() as f64
 }
 
+/// The batch subscriber (`Network::subscribe_pdos`), drained on the stepping thread.
+fn batch_stepping(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
+    let (net, rx) = network(nodes, frames);
+    drop(rx);
+    let mut pdos = net.subscribe_pdos();
+    let mut check = Checker::new(nodes);
+    let t0 = process_cpu_ns();
+    while check.seen < frames.len() {
+        net.run_until(net.now()).expect("replay never fails");
+        if let Ok(batch) = pdos.try_recv() {
+            for p in batch {
+                check.check(p.node, p.number, p.values);
+            }
+        }
+    }
+    (process_cpu_ns() - t0) / frames.len() as f64
+}
+
+/// The batch subscriber blocked in `recv_timeout` on the main thread, the driver thread
+/// receiving.
+fn batch_driver(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
+    let (net, rx) = network(nodes, frames);
+    drop(rx);
+    let mut pdos = net.subscribe_pdos();
+    let mut check = Checker::new(nodes);
+    let t0 = process_cpu_ns();
+    net.start_driver().expect("driver thread");
+    while check.seen < frames.len() {
+        let batch = pdos
+            .recv_timeout(std::time::Duration::from_secs(10))
+            .expect("every frame arrives");
+        for p in batch {
+            check.check(p.node, p.number, p.values);
+        }
+    }
+    let ns = (process_cpu_ns() - t0) / frames.len() as f64;
+    net.stop_driver().expect("driver ended cleanly");
+    ns
+}
+
 fn driver(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
     let (net, rx) = network(nodes, frames);
     let mut check = Checker::new(nodes);
@@ -252,12 +296,17 @@ fn main() {
         match (a.as_str(), n) {
             ("--nodes", Some(n)) if (1..=127).contains(&n) => nodes = n as u8,
             ("--syncs", Some(n)) if n > 0 => syncs = n,
-            ("--only", _) if matches!(v.as_deref(), Some("stepping" | "driver" | "callback")) => {
+            ("--only", _)
+                if matches!(
+                    v.as_deref(),
+                    Some("stepping" | "driver" | "callback" | "batch" | "batch-driver")
+                ) =>
+            {
                 only = v
             }
             _ => {
                 eprintln!(
-                    "usage: pdo_rx [--nodes 1..=127] [--syncs N] [--only stepping|driver|callback]"
+                    "usage: pdo_rx [--nodes 1..=127] [--syncs N] [--only stepping|driver|callback|batch|batch-driver]"
                 );
                 std::process::exit(2);
             }
@@ -269,6 +318,10 @@ fn main() {
         Some("stepping") => return println!("stepping: {:.0} ns", stepping(nodes, &frames)),
         Some("driver") => return println!("driver: {:.0} ns", driver(nodes, &frames)),
         Some("callback") => return println!("callback: {:.0} ns", callback(nodes, &frames)),
+        Some("batch") => return println!("batch: {:.0} ns", batch_stepping(nodes, &frames)),
+        Some("batch-driver") => {
+            return println!("batch-driver: {:.0} ns", batch_driver(nodes, &frames));
+        }
         _ => {}
     }
     println!(
@@ -288,8 +341,16 @@ fn main() {
             best(|| callback(nodes, &frames)),
         ),
         (
+            "Network, stepping, batch subscriber (subscribe_pdos)",
+            best(|| batch_stepping(nodes, &frames)),
+        ),
+        (
             "Network, driver thread, subscriber on another",
             best(|| driver(nodes, &frames)),
+        ),
+        (
+            "Network, driver thread, batch subscriber on another",
+            best(|| batch_driver(nodes, &frames)),
         ),
     ];
     println!("{:<50} {:>10} {:>8}", "", "CPU ns", "x floor");
