@@ -189,7 +189,13 @@ mod with_std {
 
         /// The current instant.
         pub fn now(&self) -> Instant {
-            Instant(u64::try_from(self.start.elapsed().as_micros()).unwrap_or(u64::MAX))
+            // Seconds and microseconds apart: no 128-bit arithmetic on this per-frame path.
+            let d = self.start.elapsed();
+            Instant(
+                d.as_secs()
+                    .saturating_mul(1_000_000)
+                    .saturating_add(u64::from(d.subsec_micros())),
+            )
         }
 
         /// The OS instant corresponding to `at` (for sleeping until a deadline).

@@ -182,7 +182,11 @@ impl PdoData {
     pub fn new(data: &[u8]) -> Self {
         let len = data.len().min(8);
         let mut buf = [0; 8];
-        buf[..len].copy_from_slice(&data[..len]);
+        // Full frames (the usual PDO) as one 8-byte copy, not a copy of a run-time length.
+        match <[u8; 8]>::try_from(data) {
+            Ok(full) => buf = full,
+            Err(_) => buf[..len].copy_from_slice(&data[..len]),
+        }
         Self {
             buf,
             len: len as u8,
@@ -1460,8 +1464,17 @@ impl Core {
                             for (_, f) in &mut self.pdo_callbacks {
                                 f(&seen);
                             }
-                            for s in &mut self.pdo_subs {
-                                s.push(&seen);
+                            if let Some((last, others)) = self.pdo_subs.split_last_mut() {
+                                for s in others {
+                                    s.push(node, n, data, now, &self.pdo_scratch);
+                                }
+                                if self.subs.is_empty() {
+                                    // No event takes the values: the last subscriber does,
+                                    // without a copy of each (the scratch keeps its room).
+                                    last.push_moving(node, n, data, now, &mut self.pdo_scratch);
+                                    continue;
+                                }
+                                last.push(node, n, data, now, &self.pdo_scratch);
                             }
                             if !self.subs.is_empty() {
                                 // The event takes the values as they are (no copy of each
@@ -1507,7 +1520,7 @@ impl Core {
             f(&seen);
         }
         for s in &mut self.pdo_subs {
-            s.push(&seen);
+            s.push(node, number, data, now, &[]);
         }
         self.publish(NetworkEvent::Pdo {
             node,

@@ -77,13 +77,12 @@ impl PdoBatch {
         }
     }
 
-    fn push(&mut self, p: &PdoReceived<'_>) {
-        self.values.extend(p.values.iter().cloned());
+    fn push_record(&mut self, node: NodeId, number: u8, data: PdoData, at: Instant) {
         self.records.push(Record {
-            node: p.node,
-            number: p.number,
-            data: PdoData::new(p.data),
-            at: p.at,
+            node,
+            number,
+            data,
+            at,
             // A batch holds what a few driving steps receive; u32 is far from full.
             values_end: u32::try_from(self.values.len()).unwrap_or(u32::MAX),
         });
@@ -181,8 +180,30 @@ pub(crate) struct PdoPublisher {
 }
 
 impl PdoPublisher {
-    pub(crate) fn push(&mut self, p: &PdoReceived<'_>) {
-        self.pending.push(p);
+    /// A received PDO, its values copied.
+    pub(crate) fn push(
+        &mut self,
+        node: NodeId,
+        number: u8,
+        data: PdoData,
+        at: Instant,
+        values: &[(ObjectAddress, Value)],
+    ) {
+        self.pending.values.extend_from_slice(values);
+        self.pending.push_record(node, number, data, at);
+    }
+
+    /// A received PDO, its values moved out of `values` (left empty, with its capacity).
+    pub(crate) fn push_moving(
+        &mut self,
+        node: NodeId,
+        number: u8,
+        data: PdoData,
+        at: Instant,
+        values: &mut Vec<(ObjectAddress, Value)>,
+    ) {
+        self.pending.values.append(values);
+        self.pending.push_record(node, number, data, at);
     }
 
     /// Hands the pending PDOs to the subscriber; `false` when the subscriber is gone.
