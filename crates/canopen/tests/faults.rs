@@ -709,3 +709,72 @@ fn a_block_upload_whose_crc_does_not_match_aborts_with_0x05040004() {
     );
     assert_eq!(last_abort(&net, &requests), Some(0x0504_0004));
 }
+
+/// A device rebooted while a block download had a whole sub-block of segments on their way, with
+/// seven requests queued behind it (the shape the `canopen_network_sequence` fuzz target found).
+/// The segments reach the rebooted device, which answers them with aborts and, for one that
+/// parses as a block download initiate, enters a block download of its own; a later block
+/// upload's client and that server then took each other's acknowledgements for segments and
+/// acknowledged back forever, every frame rearming both timeouts. Every request must end within
+/// the timeouts of the requests before it, and the stack then reads the device again.
+#[test]
+fn a_reboot_under_a_block_download_with_requests_queued_behind_ends_every_one() {
+    const TIMEOUT: Duration = Duration::from_millis(50);
+    // The fuzz target's text: which stale segment parses as what depends on these bytes.
+    let text = |len: u16, salt: u8| -> Vec<u8> {
+        (0..len)
+            .map(|i| (i as u8).wrapping_mul(13).wrapping_add(salt) | 0x20)
+            .collect()
+    };
+    let bus = bus(Faults::none());
+    let net = Network::new(bus.endpoint());
+    let dev = bus.attach(SimDevice::from_eds(n(NODE), EDS).unwrap());
+    net.run_for(Duration::from_millis(2)).unwrap();
+    // Off and on again at once, as the fuzz target does.
+    let reboot = |dev| {
+        bus.detach(dev).unwrap();
+        bus.attach(SimDevice::from_eds(n(NODE), EDS).unwrap())
+    };
+    let dev = reboot(dev);
+    let sdo = || net.node(n(NODE)).sdo().timeout(TIMEOUT);
+    let first = sdo().method(Method::Block).submit_read((0x1018, 0));
+    let big = sdo().method(Method::Block).submit_write(BIG, text(415, 48));
+    net.run_for(Duration::from_micros(3014)).unwrap();
+    drop(first);
+    let mut reads = vec![sdo().method(Method::Block).submit_read((0x1017, 0))];
+    let small = sdo().method(Method::Block).submit_write(BIG, text(97, 105));
+    for method in [
+        Method::Block,
+        Method::Block,
+        Method::Block,
+        Method::Segmented,
+    ] {
+        reads.push(sdo().method(method).submit_read((0x1017, 0)));
+    }
+    let last = sdo().method(Method::Block).submit_read((0x1017, 0));
+    reboot(dev);
+    let start = net.now();
+    run_until_true(&net, || {
+        big.is_done() && small.is_done() && last.is_done() && reads.iter().all(|r| r.is_done())
+    });
+    // Seven requests queued behind the first, each allowed its timeout (and then some for the
+    // frames still in the transmit queue): far less than this, but never unbounded.
+    assert!(
+        net.now() - start < TIMEOUT.saturating_mul(8),
+        "took {:?}",
+        net.now() - start
+    );
+    assert!(
+        big.wait().is_err(),
+        "the download cannot have completed on a rebooted device"
+    );
+    drop(small);
+    drop(reads);
+    // 0x1017 is 100 ms in the rig's EDS.
+    assert_eq!(last.wait().unwrap(), 100u16.to_le_bytes());
+    assert_eq!(
+        sdo().read((0x1000, 0)).unwrap().len(),
+        4,
+        "the stack still reads the device"
+    );
+}

@@ -232,6 +232,9 @@ enum UpPhase {
         crc: bool,
         expected: u8,
         held: Option<[u8; 7]>,
+        /// Sub-blocks in a row that ended without one segment accepted (see
+        /// [`MAX_FRUITLESS_SUB_BLOCKS`](crate::MAX_FRUITLESS_SUB_BLOCKS)).
+        fruitless: u8,
     },
     /// Acknowledged the last segment; waiting for the end message.
     BlockEnd { crc: bool, held: [u8; 7] },

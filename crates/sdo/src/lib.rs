@@ -104,6 +104,17 @@ mod queue;
 pub mod server;
 pub mod wire;
 
+/// How many sub-blocks in a row may end without a single segment in sequence before the
+/// receiving side of a block transfer aborts it (0x05040003, invalid sequence number).
+///
+/// CiA 301 sets no limit: a receiver acknowledges the last good segment and the sender repeats
+/// from there, and each of those rounds rearms the receiver's timeout. A lost frame costs one
+/// round. But two block machines out of step (a block upload client fed a server's stale block
+/// download acknowledgements, which parse as segments, and the server taking the client's
+/// acknowledgements as segments in turn) can acknowledge each other forever without a timeout
+/// ever firing; this bound ends that after a few frames.
+pub const MAX_FRUITLESS_SUB_BLOCKS: u8 = 8;
+
 pub use abort::AbortCode;
 pub use buffer::{Full, Sink, SliceSink, Source};
 pub use client::{

@@ -145,6 +145,9 @@ enum State {
         size: Option<u32>,
         accepts: LengthRule,
         held: Option<[u8; 7]>,
+        /// Sub-blocks in a row that ended without one segment accepted (see
+        /// [`MAX_FRUITLESS_SUB_BLOCKS`](crate::MAX_FRUITLESS_SUB_BLOCKS)).
+        fruitless: u8,
     },
     /// Block upload initiated; waiting for the start command.
     BlockUploadStart {
@@ -645,6 +648,7 @@ impl Server {
                     size,
                     accepts: info.accepts,
                     held: None,
+                    fruitless: 0,
                 })
             }
             ClientRequest::BlockUploadInitiate {
@@ -741,6 +745,7 @@ impl Server {
             size,
             accepts,
             held: None,
+            mut fruitless,
         } = state
         else {
             return Ok(state);
@@ -764,6 +769,16 @@ impl Server {
             expected += 1;
         }
         if seg.last || seg.seqno == blksize {
+            if expected == 1 {
+                // As the client does in a block upload: an endless run of sub-blocks without
+                // a segment in sequence is a peer in another transfer, not a lossy bus.
+                fruitless += 1;
+                if fruitless > crate::MAX_FRUITLESS_SUB_BLOCKS {
+                    return Err(Fail(mux, AbortCode::INVALID_SEQUENCE_NUMBER));
+                }
+            } else {
+                fruitless = 0;
+            }
             self.send(ServerResponse::BlockDownloadAck {
                 ackseq: expected - 1,
                 blksize,
@@ -780,6 +795,7 @@ impl Server {
             size,
             accepts,
             held,
+            fruitless,
         })
     }
 }

@@ -1736,3 +1736,97 @@ fn second_server_channel_over_frame_adapters() {
         assert!(server_default.is_idle() && server_default.poll_transmit().is_none());
     }
 }
+
+/// Two block machines out of step: a block upload client fed a server's block download
+/// acknowledgements (`A2 00 7F`: to the client a last segment with sequence number 34), and a
+/// block download server fed the client's block upload acknowledgements (the same bytes). Each
+/// answers every such "sub-block" with an acknowledgement of nothing, which rearms its timeout;
+/// found by the `canopen_network_sequence` fuzz target, where the two acknowledged each other
+/// forever after a device rebooted in the middle of a block download. Each side now gives up
+/// after `MAX_FRUITLESS_SUB_BLOCKS` such rounds in a row (abort 0x05040003), while a lost
+/// segment, which costs one round, still recovers.
+#[test]
+fn crossed_block_machines_give_up() {
+    use canopen_sdo::MAX_FRUITLESS_SUB_BLOCKS;
+    let crossed = ServerResponse::BlockDownloadAck {
+        ackseq: 0,
+        blksize: 127,
+    }
+    .emit();
+    assert_eq!(
+        crossed,
+        ClientRequest::BlockUploadAck {
+            ackseq: 0,
+            blksize: 127
+        }
+        .emit()
+    );
+    let nothing = ClientRequest::BlockUploadAck {
+        ackseq: 0,
+        blksize: 127,
+    }
+    .emit();
+
+    // Client: fruitless rounds up to the bound, then progress resets the count.
+    let mut c = started_upload(Method::Block);
+    c.handle_response(
+        T0,
+        &ServerResponse::BlockUploadInitiate {
+            mux: DOMAIN,
+            crc: false,
+            size: None,
+        }
+        .emit(),
+    );
+    assert_eq!(drain(&mut c), [ClientRequest::BlockUploadStart.emit()]);
+    for _ in 0..MAX_FRUITLESS_SUB_BLOCKS {
+        c.handle_response(T0, &crossed);
+        assert_eq!(drain(&mut c), [nothing]);
+        assert!(c.poll_event().is_none());
+    }
+    let segment = |seqno| {
+        BlockSegment {
+            seqno,
+            last: false,
+            data: [seqno; 7],
+        }
+        .emit()
+    };
+    c.handle_response(T0, &segment(1));
+    c.handle_response(T0, &segment(2));
+    c.handle_response(T0, &segment(3));
+    c.handle_response(T0, &segment(127)); // out of sequence, ends the sub-block
+    assert_eq!(
+        drain(&mut c),
+        [ClientRequest::BlockUploadAck {
+            ackseq: 3,
+            blksize: 127
+        }
+        .emit()]
+    );
+    for _ in 0..MAX_FRUITLESS_SUB_BLOCKS {
+        c.handle_response(T0, &crossed);
+        assert_eq!(drain(&mut c), [nothing]);
+    }
+    violates(&mut c, crossed, Violation::SequenceNumber(0x22));
+
+    // Server: the same bound on a block download.
+    let mut s = Scripted::new();
+    s.send(ClientRequest::BlockDownloadInitiate {
+        mux: DOMAIN,
+        crc: false,
+        size: None,
+    });
+    for _ in 0..MAX_FRUITLESS_SUB_BLOCKS {
+        assert_eq!(
+            s.raw(crossed),
+            [ServerResponse::BlockDownloadAck {
+                ackseq: 0,
+                blksize: 127
+            }
+            .emit()]
+        );
+    }
+    let r = s.raw(crossed);
+    s.aborted(DOMAIN, AbortCode::INVALID_SEQUENCE_NUMBER, r);
+}

@@ -59,6 +59,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                     crc: crc && self.config.crc,
                     expected: 1,
                     held: None,
+                    fruitless: 0,
                 };
                 self.tx.push(ClientRequest::BlockUploadStart.emit());
                 Ok(Flow::Continue)
@@ -142,6 +143,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                     crc,
                     expected,
                     held,
+                    fruitless,
                 },
             total,
         } = &mut active.kind
@@ -170,6 +172,21 @@ impl<S: Sink, D: Source> Client<S, D> {
             *expected += 1;
         }
         if seg.last || seg.seqno == blksize {
+            if *expected == 1 {
+                // Nothing of this sub-block arrived in sequence. A lost segment costs one such
+                // round; an endless run of them is a peer in another transfer (stale frames of
+                // an earlier one, a server that rebooted into a block download of its own), whose
+                // "segments" would each rearm the timeout: give up instead.
+                *fruitless += 1;
+                if *fruitless > crate::MAX_FRUITLESS_SUB_BLOCKS {
+                    return Step::Finish(
+                        active,
+                        Err(protocol(Violation::SequenceNumber(seg.seqno))),
+                    );
+                }
+            } else {
+                *fruitless = 0;
+            }
             self.tx.push(
                 ClientRequest::BlockUploadAck {
                     ackseq: *expected - 1,
