@@ -1,5 +1,7 @@
 //! Receiving TPDOs as decoded values: the node is added with its EDS, so the master decodes its
-//! TPDOs through the mapping and publishes `NetworkEvent::PdoValues`.
+//! TPDOs through the mapping and publishes `NetworkEvent::PdoValues`. The same PDOs also come
+//! in batches from `Network::subscribe_pdos` — the receiver for full bus load: no allocation and
+//! no channel message per frame.
 //!
 //! `cargo run -p canopen --example pdo_receive`.
 
@@ -14,6 +16,7 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
     net.add_node_with_dictionary(id, canopen::od::parse(EDS)?.od);
     let device = bus.attach(SimDevice::from_eds(id, EDS)?);
     let events = net.subscribe();
+    let mut batches = net.subscribe_pdos();
     net.node(id).nmt().start()?; // TPDOs flow in Operational
     net.run_for(Duration::from_millis(100))?;
 
@@ -39,6 +42,23 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
             received += 1;
         }
     }
+
+    // Every PDO since the subscription (or the previous batch), as borrowed views.
+    let batch = batches.try_recv()?;
+    for p in batch.iter().filter(|p| !p.values.is_empty()) {
+        let text: Vec<String> = p.values.iter().map(|(a, v)| format!("{a} = {v}")).collect();
+        println!(
+            "{}  node {} TPDO{} (batch): {}",
+            p.at,
+            p.node,
+            p.number,
+            text.join(", ")
+        );
+    }
+    assert_eq!(
+        batch.iter().filter(|p| !p.values.is_empty()).count(),
+        received
+    );
     Ok(received)
 }
 

@@ -12,8 +12,9 @@
 //!   The blocking API ([`Node::sdo`], [`Node::nmt`], [`Network::lss`], [`Network::subscribe`])
 //!   and the async API ([`asynch`], `tokio` feature) are loops around that one core.
 //! * PDOs from the master: [`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO
-//!   parameters; TPDOs arrive decoded ([`NetworkEvent::PdoValues`]) from the COB-IDs the node
-//!   uses; [`Rpdos::start`] transmits its RPDOs through the `canopen-pdo` engine.
+//!   parameters; TPDOs arrive decoded ([`NetworkEvent::PdoValues`], or in batches from
+//!   [`Network::subscribe_pdos`], or to an [`Network::on_pdo`] callback) from the COB-IDs the
+//!   node uses; [`Rpdos::start`] transmits its RPDOs through the `canopen-pdo` engine.
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
 //! ```
