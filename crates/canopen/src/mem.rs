@@ -856,9 +856,19 @@ impl Transport for Endpoint {
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
         let mut st = self.bus.lock();
+        // A frame delivered already comes before anything that fell due since (that would be
+        // delivered after it), so it is handed over without reading the clock: on a real-time
+        // bus a clock reading costs a good part of an SDO round trip through the network.
+        let mut queued = true;
         loop {
-            let now = st.now();
-            st.advance(now);
+            let now = if queued {
+                queued = false;
+                None
+            } else {
+                let now = st.now();
+                st.advance(now);
+                Some(now)
+            };
             if let Some(r) = st.pop(self.index) {
                 self.more = st
                     .endpoints
@@ -867,6 +877,9 @@ impl Transport for Endpoint {
                 return Ok(Some(r));
             }
             self.more = false;
+            let Some(now) = now else {
+                continue;
+            };
             if now >= deadline {
                 return Ok(None);
             }

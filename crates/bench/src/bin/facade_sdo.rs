@@ -12,9 +12,9 @@
 //! * `Network, real clock, driver thread`: the same with `Network::start_driver` running.
 //!
 //! ```text
-//! cargo run --release -p canopen-bench --bin facade_sdo [-- --count 20000] [--only virtual]
+//! cargo run --release -p canopen-bench --bin facade_sdo [-- --count 20000] [--only virtual|real|driver]
 //! ```
-//! `--only virtual` runs the stepping row alone (for a profiler).
+//! `--only virtual|real|driver` runs one `Network` row alone, once (for a profiler).
 //! Prints wall-clock and process CPU nanoseconds per read (CPU time counts every thread of the
 //! process: the driver's and the real-time bus's service thread; on a loaded machine it is the
 //! steadier figure); judges nothing (the machine is shared).
@@ -192,16 +192,23 @@ fn main() {
         let v = args.next();
         match (a.as_str(), v.as_deref().and_then(|v| v.parse().ok())) {
             ("--count", Some(n)) if n > 0 => count = n,
-            ("--only", _) if v.as_deref() == Some("virtual") => {
-                let ns = network(count, ClockMode::Virtual, false);
+            ("--only", _) if matches!(v.as_deref(), Some("virtual" | "real" | "driver")) => {
+                let (clock, driver) = match v.as_deref() {
+                    Some("virtual") => (ClockMode::Virtual, false),
+                    Some("real") => (ClockMode::RealTime, false),
+                    _ => (ClockMode::RealTime, true),
+                };
+                let ns = network(count, clock, driver);
                 println!(
-                    "Network, virtual clock, stepping: {:.0} ns wall, {:.0} ns CPU per read",
-                    ns.wall, ns.cpu
+                    "Network, {}: {:.0} ns wall, {:.0} ns CPU per read",
+                    v.as_deref().unwrap_or_default(),
+                    ns.wall,
+                    ns.cpu
                 );
                 return;
             }
             _ => {
-                eprintln!("usage: facade_sdo [--count N] [--only virtual]");
+                eprintln!("usage: facade_sdo [--count N] [--only virtual|real|driver]");
                 std::process::exit(2);
             }
         }
