@@ -778,3 +778,34 @@ fn a_reboot_under_a_block_download_with_requests_queued_behind_ends_every_one() 
         "the stack still reads the device"
     );
 }
+
+/// A block upload cancelled in the middle of a sub-block: the device has the rest of the
+/// sub-block on its way already, and those segments reach the master after the abort, when the
+/// next requests have started. Each segment parses as some server command (one with zero
+/// bytes as an abort of 0000:00); they were taken as the next request's answer and failed it
+/// (`UnexpectedCommand`; found by the `canopen_network_sequence` fuzz target). Now leftovers
+/// are dropped until the next transfer is answered: the requests after the cancel succeed.
+#[test]
+fn the_requests_after_a_cancelled_block_upload_ignore_its_leftover_segments() {
+    let (_bus, net, _dev) = rig(Faults::none(), 1285);
+    let sdo = || net.node(n(NODE)).sdo().timeout(Duration::from_millis(50));
+    let upload = sdo().method(Method::Block).submit_read(BIG);
+    let queued = sdo().method(Method::Segmented).submit_read((0x1000, 0));
+    // About 40 segments into the first sub-block of 127 (111 µs a frame at 1 Mbit/s).
+    net.run_for(Duration::from_micros(5396)).unwrap();
+    assert!(!upload.is_done());
+    drop(upload);
+    assert_eq!(
+        queued.wait().unwrap().len(),
+        4,
+        "the queued read is answered"
+    );
+    for (i, method) in [Method::Segmented, Method::Normal, Method::Block]
+        .into_iter()
+        .enumerate()
+    {
+        let data = payload(377, i as u8);
+        sdo().method(method).write(BIG, data.clone()).unwrap();
+        assert_eq!(sdo().method(method).read(BIG).unwrap(), data);
+    }
+}

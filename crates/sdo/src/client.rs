@@ -305,6 +305,11 @@ pub struct Client<S, D> {
     active: Option<Active<S, D>>,
     tx: Ring<[u8; 8], 4>,
     event: Option<Event<S, D>>,
+    /// This client aborted the last transfer while the server may still have been sending (a
+    /// sub-block of a block upload goes out without waiting for the client): until the next
+    /// transfer's first valid response, frames that fit no command of it are that transfer's
+    /// leftovers, not a broken server, and are dropped (see [`Client::handle_response`]).
+    after_abort: bool,
 }
 
 enum Step<S, D> {
@@ -324,6 +329,7 @@ impl<S: Sink, D: Source> Client<S, D> {
             active: None,
             tx: Ring::new(),
             event: None,
+            after_abort: false,
         }
     }
 
@@ -462,6 +468,7 @@ impl<S: Sink, D: Source> Client<S, D> {
         match self.active.take() {
             Some(active) => {
                 self.tx.push(abort_frame(active.mux, code));
+                self.after_abort = true;
                 self.finish(active, Err(ErrorKind::Cancelled(code)));
                 true
             }
@@ -484,6 +491,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                 };
                 if let Some(code) = code {
                     self.tx.push(abort_frame(active.mux, code));
+                    self.after_abort = true;
                 }
                 self.finish(active, Err(kind));
             }
@@ -497,6 +505,7 @@ impl<S: Sink, D: Source> Client<S, D> {
         if let Some(active) = self.active.take() {
             if now >= active.deadline {
                 self.tx.push(abort_frame(active.mux, AbortCode::TIMEOUT));
+                self.after_abort = true;
                 self.finish(active, Err(ErrorKind::Timeout));
             } else {
                 self.active = Some(active);
@@ -631,15 +640,23 @@ impl<S: Sink, D: Source> Client<S, D> {
                 Err(_) => Step::Continue(active),
             };
         }
+        // Right after this client aborted a transfer, the server's frames still on their way
+        // (up to a sub-block of segments, each byte pattern a possible command) are dropped
+        // until this transfer is answered, rather than failing it: a segment parses as any
+        // command, and one with a zero index as an abort of "0000:00".
+        let leftovers = self.after_abort;
         let msg = match ServerResponse::parse(data) {
             Ok(msg) => msg,
+            Err(DecodeError::UnknownCommand(_)) if leftovers => return Step::Continue(active),
             Err(DecodeError::UnknownCommand(_)) => {
                 return Step::Finish(active, Err(protocol(Violation::UnexpectedCommand)));
             }
             Err(_) => return Step::Continue(active),
         };
         if let ServerResponse::Abort { mux, code } = msg {
-            return if mux == active.mux || mux == Multiplexer::default() {
+            // Some servers abort with index 0 when they cannot tell which object a request was
+            // for; taken as this transfer's, except among leftovers.
+            return if mux == active.mux || (mux == Multiplexer::default() && !leftovers) {
                 Step::Finish(active, Err(ErrorKind::ServerAbort(code)))
             } else {
                 Step::Continue(active)
@@ -652,11 +669,18 @@ impl<S: Sink, D: Source> Client<S, D> {
         };
         match result {
             Ok(Flow::Continue) => {
+                self.after_abort = false;
                 active.rearm(now, self.config.timeout);
                 Step::Continue(active)
             }
             Ok(Flow::Ignore) => Step::Continue(active),
-            Ok(Flow::Done) => Step::Finish(active, Ok(())),
+            Ok(Flow::Done) => {
+                self.after_abort = false;
+                Step::Finish(active, Ok(()))
+            }
+            Err(ErrorKind::Protocol(Violation::UnexpectedCommand)) if leftovers => {
+                Step::Continue(active)
+            }
             Err(kind) => Step::Finish(active, Err(kind)),
         }
     }

@@ -1830,3 +1830,60 @@ fn crossed_block_machines_give_up() {
     let r = s.raw(crossed);
     s.aborted(DOMAIN, AbortCode::INVALID_SEQUENCE_NUMBER, r);
 }
+
+/// After the client aborts a block upload in the middle of a sub-block, the server's segments
+/// still on their way reach the next transfer. Each parses as some command: `05 ..` as an upload
+/// segment response, `FF ..` as an unknown command, `81 00 00 00 ..` (a zero-padded last
+/// segment) as an abort of 0000:00. The next transfer drops them until its answer comes, then
+/// completes; a transfer not preceded by an abort still fails at once on the same frame.
+#[test]
+fn leftovers_of_an_aborted_block_upload_do_not_fail_the_next_transfer() {
+    let leftovers = [
+        [0x05, 1, 2, 3, 4, 5, 6, 7],
+        [0xFF, 1, 2, 3, 4, 5, 6, 7],
+        [0x81, 0, 0, 0, 0, 0, 0, 0],
+    ];
+    let mut c = started_upload(Method::Block);
+    c.handle_response(
+        T0,
+        &ServerResponse::BlockUploadInitiate {
+            mux: DOMAIN,
+            crc: false,
+            size: None,
+        }
+        .emit(),
+    );
+    drain(&mut c);
+    c.handle_response(
+        T0,
+        &BlockSegment {
+            seqno: 1,
+            last: false,
+            data: [1; 7],
+        }
+        .emit(),
+    );
+    assert!(c.abort(T0, AbortCode::GENERAL_ERROR));
+    assert!(matches!(c.poll_event(), Some(Event::Failed { .. })));
+    drain(&mut c);
+    c.start_download(T0, U16_RW, vec![0x10, 0x27], Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    for frame in leftovers {
+        c.handle_response(T0, &frame);
+        assert!(c.poll_event().is_none(), "{frame:02X?} taken as the answer");
+        assert!(drain(&mut c).is_empty());
+    }
+    c.handle_response(T0, &ServerResponse::InitiateDownload { mux: U16_RW }.emit());
+    downloaded(c.poll_event().expect("the download completes"));
+
+    // Answered once, the client is strict again: the same frame ends a transfer at once.
+    c.start_download(T0, U16_RW, vec![0x10, 0x27], Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    c.handle_response(T0, &leftovers[1]);
+    assert_eq!(
+        failed(c.poll_event()).kind,
+        ErrorKind::Protocol(Violation::UnexpectedCommand)
+    );
+}
