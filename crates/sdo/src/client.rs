@@ -305,10 +305,11 @@ pub struct Client<S, D> {
     active: Option<Active<S, D>>,
     tx: Ring<[u8; 8], 4>,
     event: Option<Event<S, D>>,
-    /// This client aborted the last transfer while the server may still have been sending (a
-    /// sub-block of a block upload goes out without waiting for the client): until the next
-    /// transfer's first valid response, frames that fit no command of it are that transfer's
-    /// leftovers, not a broken server, and are dropped (see [`Client::handle_response`]).
+    /// The last transfer ended while frames of it may still be on their way: this client
+    /// aborted it while the server may still have been sending (a sub-block of a block upload
+    /// goes out without waiting for the client), or the server aborted it for "0000:00", as it
+    /// answers frames it cannot place. Until the next transfer's first valid response, frames
+    /// that fit no command of it, and 0000:00 aborts, are leftovers, and are dropped.
     after_abort: bool,
 }
 
@@ -656,11 +657,18 @@ impl<S: Sink, D: Source> Client<S, D> {
         if let ServerResponse::Abort { mux, code } = msg {
             // Some servers abort with index 0 when they cannot tell which object a request was
             // for; taken as this transfer's, except among leftovers.
-            return if mux == active.mux || (mux == Multiplexer::default() && !leftovers) {
-                Step::Finish(active, Err(ErrorKind::ServerAbort(code)))
-            } else {
-                Step::Continue(active)
-            };
+            if mux == active.mux {
+                return Step::Finish(active, Err(ErrorKind::ServerAbort(code)));
+            }
+            if mux == Multiplexer::default() && !leftovers {
+                // A server that cannot tell which object a frame was for may be answering
+                // frames of another transfer (e.g. the rest of a block download reaching a
+                // server that rebooted): more such answers may follow, and are leftovers for
+                // the next transfer.
+                self.after_abort = true;
+                return Step::Finish(active, Err(ErrorKind::ServerAbort(code)));
+            }
+            return Step::Continue(active);
         }
         let result = if matches!(active.kind, Kind::Up { .. }) {
             self.on_upload(&mut active, msg)

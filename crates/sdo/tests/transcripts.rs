@@ -1887,3 +1887,34 @@ fn leftovers_of_an_aborted_block_upload_do_not_fail_the_next_transfer() {
         ErrorKind::Protocol(Violation::UnexpectedCommand)
     );
 }
+
+/// A server abort of 0000:00 (a server answering a frame it cannot place, e.g. the rest of a
+/// block download reaching it after a reboot) ends the transfer, and the same answers to the
+/// other leftover frames do not end the next one before it is answered.
+#[test]
+fn aborts_of_0000_00_after_one_are_leftovers_for_the_next_transfer() {
+    let unplaced = ServerResponse::Abort {
+        mux: Multiplexer::default(),
+        code: AbortCode(0x0504_0001),
+    }
+    .emit();
+    let mut c: TestClient = Client::new(ClientConfig::default());
+    c.start_download(T0, U16_RW, vec![1, 2], Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    c.handle_response(T0, &unplaced);
+    assert_eq!(
+        failed(c.poll_event()).kind,
+        ErrorKind::ServerAbort(AbortCode(0x0504_0001))
+    );
+    assert!(drain(&mut c).is_empty(), "no abort for a server abort");
+    c.start_download(T0, U16_RW, vec![3, 4], Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    for _ in 0..5 {
+        c.handle_response(T0, &unplaced);
+        assert!(c.poll_event().is_none());
+    }
+    c.handle_response(T0, &ServerResponse::InitiateDownload { mux: U16_RW }.emit());
+    downloaded(c.poll_event().expect("the download completes"));
+}
