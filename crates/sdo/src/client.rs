@@ -30,6 +30,13 @@
 //! - A response with the wrong command specifier, a toggle bit that did not alternate, an
 //!   invalid block size or sequence number, a CRC mismatch or a wrong amount of data ends the
 //!   transfer with an abort message to the server ([`ErrorKind::Protocol`]).
+//! - Leftovers: after the client aborted a transfer (cancel, timeout, protocol error) or the
+//!   server aborted one for 0000:00, frames of the old transfer may still be on their way (the
+//!   rest of a block upload's sub-block; the server's answers to the rest of a block download).
+//!   Until the next transfer's first valid response, frames with a command that fits none of
+//!   its steps, and 0000:00 aborts, are dropped instead of ending it.
+//! - A block transfer's receiving side aborts after [`crate::MAX_FRUITLESS_SUB_BLOCKS`]
+//!   sub-blocks in a row without a segment in sequence (0x05040003).
 //! - Frames that are not eight bytes long are ignored. Frames while idle are ignored.
 //! - The timeout is the time the server may take for each response (it restarts on every
 //!   step), so long domains do not need a long timeout; [`ClientConfig::transfer_timeout`]
