@@ -30,8 +30,8 @@
 //! - A response with the wrong command specifier, a toggle bit that did not alternate, an
 //!   invalid block size or sequence number, a CRC mismatch or a wrong amount of data ends the
 //!   transfer with an abort message to the server ([`ErrorKind::Protocol`]).
-//! - Leftovers: after the client aborted a transfer (cancel, timeout, protocol error) or the
-//!   server aborted one for 0000:00, frames of the old transfer may still be on their way (the
+//! - Leftovers: after the client aborted a transfer (cancel, timeout, protocol error), or the
+//!   server aborted one for 0000:00 or in the middle of a block download's sub-block, frames of the old transfer may still be on their way (the
 //!   rest of a block upload's sub-block; the server's answers to the rest of a block download).
 //!   Until the next transfer's first valid response, frames with a command that fits none of
 //!   its steps, and 0000:00 aborts, are dropped instead of ending it.
@@ -665,6 +665,15 @@ impl<S: Sink, D: Source> Client<S, D> {
             // Some servers abort with index 0 when they cannot tell which object a request was
             // for; taken as this transfer's, except among leftovers.
             if mux == active.mux {
+                // Aborted while this client was sending a sub-block: the server answers the
+                // segments still on their way as requests it cannot place.
+                self.after_abort |= matches!(
+                    active.kind,
+                    Kind::Down {
+                        phase: DownPhase::SubBlock { .. },
+                        ..
+                    }
+                );
                 return Step::Finish(active, Err(ErrorKind::ServerAbort(code)));
             }
             if mux == Multiplexer::default() && !leftovers {

@@ -1918,3 +1918,42 @@ fn aborts_of_0000_00_after_one_are_leftovers_for_the_next_transfer() {
     c.handle_response(T0, &ServerResponse::InitiateDownload { mux: U16_RW }.emit());
     downloaded(c.poll_event().expect("the download completes"));
 }
+
+/// A server that aborts a block download in the middle of a sub-block gets the segments still
+/// on their way as requests it cannot place, and answers them with aborts of 0000:00: those do
+/// not end the next transfer.
+#[test]
+fn a_block_download_aborted_mid_sub_block_leaves_leftovers() {
+    let mut c = started_download(pattern(100), Method::Block);
+    c.handle_response(
+        T0,
+        &ServerResponse::BlockDownloadInitiate {
+            mux: DOMAIN,
+            crc: false,
+            blksize: 127,
+        }
+        .emit(),
+    );
+    assert!(drain(&mut c).len() > 2, "the sub-block goes out");
+    c.handle_response(
+        T0,
+        &ServerResponse::Abort {
+            mux: DOMAIN,
+            code: AbortCode(0x0607_0010),
+        }
+        .emit(),
+    );
+    assert!(failed(c.poll_event()).is_server_abort());
+    c.start_download(T0, U16_RW, vec![3, 4], Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    let unplaced = ServerResponse::Abort {
+        mux: Multiplexer::default(),
+        code: AbortCode(0x0504_0001),
+    }
+    .emit();
+    c.handle_response(T0, &unplaced);
+    assert!(c.poll_event().is_none());
+    c.handle_response(T0, &ServerResponse::InitiateDownload { mux: U16_RW }.emit());
+    downloaded(c.poll_event().expect("the download completes"));
+}
