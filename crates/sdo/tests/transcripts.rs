@@ -1737,6 +1737,22 @@ fn second_server_channel_over_frame_adapters() {
     }
 }
 
+/// A client in a block upload of DOMAIN (no CRC, size not given), the start sent.
+fn in_first_upload_sub_block() -> TestClient {
+    let mut c = started_upload(Method::Block);
+    c.handle_response(
+        T0,
+        &ServerResponse::BlockUploadInitiate {
+            mux: DOMAIN,
+            crc: false,
+            size: None,
+        }
+        .emit(),
+    );
+    assert_eq!(drain(&mut c), [ClientRequest::BlockUploadStart.emit()]);
+    c
+}
+
 /// Two block machines out of step: a block upload client fed a server's block download
 /// acknowledgements (`A2 00 7F`: to the client a last segment with sequence number 34), and a
 /// block download server fed the client's block upload acknowledgements (the same bytes). Each
@@ -1768,17 +1784,7 @@ fn crossed_block_machines_give_up() {
     .emit();
 
     // Client: fruitless rounds up to the bound, then progress resets the count.
-    let mut c = started_upload(Method::Block);
-    c.handle_response(
-        T0,
-        &ServerResponse::BlockUploadInitiate {
-            mux: DOMAIN,
-            crc: false,
-            size: None,
-        }
-        .emit(),
-    );
-    assert_eq!(drain(&mut c), [ClientRequest::BlockUploadStart.emit()]);
+    let mut c = in_first_upload_sub_block();
     for _ in 0..MAX_FRUITLESS_SUB_BLOCKS {
         c.handle_response(T0, &crossed);
         assert_eq!(drain(&mut c), [nothing]);
@@ -1843,17 +1849,7 @@ fn leftovers_of_an_aborted_block_upload_do_not_fail_the_next_transfer() {
         [0xFF, 1, 2, 3, 4, 5, 6, 7],
         [0x81, 0, 0, 0, 0, 0, 0, 0],
     ];
-    let mut c = started_upload(Method::Block);
-    c.handle_response(
-        T0,
-        &ServerResponse::BlockUploadInitiate {
-            mux: DOMAIN,
-            crc: false,
-            size: None,
-        }
-        .emit(),
-    );
-    drain(&mut c);
+    let mut c = in_first_upload_sub_block();
     c.handle_response(
         T0,
         &BlockSegment {
