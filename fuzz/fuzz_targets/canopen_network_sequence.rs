@@ -6,8 +6,9 @@
 //!
 //! Checked: no panic anywhere; while nothing foreign has happened (no raw frame, no power cycle,
 //! no NMT command), a write followed by a read of the same object returns the bytes written;
-//! every request still pending at the end completes within its timeout; and after a final power
-//! cycle the stack still reads the device's type (0x1000), whatever came before.
+//! every request still pending at the end completes within its timeout and its bus time; and
+//! after a final power cycle the stack still reads the device's type (0x1000), whatever came
+//! before.
 //!
 //! Run with `-max_len=512` (fuzz/options/canopen_network_sequence.txt): a run takes at most 64
 //! operations, a few bytes each, so longer inputs only add unused tail or long injected frames
@@ -32,6 +33,12 @@ const TEXT: (u16, u8) = (0x2001, 0);
 /// Per-request timeout: short, so timeouts happen inside a run.
 const TIMEOUT: Duration = Duration::from_millis(50);
 const MAX_IN_FLIGHT: usize = 8;
+/// The bus time of the longest transfer's own frames: the text object's 2047 bytes in 293
+/// segments, each segment and its answer a frame of at most 135 bits (8 data bytes, worst-case
+/// stuffing) at 1 Mbit/s, plus initiate and end. The response timeout bounds each wait for an
+/// answer, not a whole transfer: eight segmented transfers of 2 KB take about 520 ms while
+/// every answer comes in time.
+const LONGEST_TRANSFER: Duration = Duration::from_micros((2047u64.div_ceil(7) + 2) * 2 * 135);
 /// How far the final wait for the requests in flight drives at a time.
 const SETTLE_SLICE: Duration = Duration::from_millis(5);
 
@@ -236,12 +243,14 @@ fuzz_target!(|ops: Vec<Op>| {
         }
     }
 
-    // Everything still in flight ends within its timeout (plus queueing behind the others).
+    // Everything still in flight ends within its timeout and its own bus time (plus queueing
+    // behind the others).
     // Driven in slices until the allowance is over or nothing is left to happen: every request
     // done, none queued or running in the master (dropped ones included), no frame waiting in
     // the master, on the bus or at the third station. The rest of the allowance would only
     // step an idle bus, so stopping there gives the verdict of running all of it.
-    let allowance = net.now() + TIMEOUT.saturating_mul(MAX_IN_FLIGHT as u64 + 2);
+    let allowance =
+        net.now() + (TIMEOUT + LONGEST_TRANSFER).saturating_mul(MAX_IN_FLIGHT as u64 + 2);
     loop {
         let _ = net.run_until((net.now() + SETTLE_SLICE).min(allowance));
         let o = net.occupancy();
