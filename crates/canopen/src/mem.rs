@@ -273,6 +273,9 @@ struct State {
     wire_free_at: Instant,
     down: bool,
     seq: u64,
+    /// The latest time the bus has processed (advanced to): a frame stamped with a clock
+    /// reading its sender took earlier is stamped this instead (see `Transport::send_at`).
+    floor: Instant,
     stats: BusStats,
     service_thread: bool,
     /// Endpoint threads blocked on the condition variable (real clock only).
@@ -437,6 +440,7 @@ impl State {
     /// Processes everything that happens up to and including `now`, in time order.
     #[inline]
     fn advance(&mut self, now: Instant) {
+        self.floor = self.floor.max(now);
         // Mostly nothing is due (asked before and after every send and receive): an idle wire,
         // no frame waiting and no station timer passed are found out cheaper than by a pass of
         // the event loop.
@@ -584,6 +588,7 @@ impl MemoryBus {
             wire_free_at: Instant::ZERO,
             down: false,
             seq: 0,
+            floor: Instant::ZERO,
             stats: BusStats::default(),
             service_thread: false,
             sleepers: 0,
@@ -823,6 +828,33 @@ impl Endpoint {
     pub fn bus(&self) -> &MemoryBus {
         &self.bus
     }
+
+    /// Sends `frame`, on a real clock stamped `given` (a reading the caller just took) when
+    /// there is one, never before what the bus has processed already.
+    fn send_stamped(
+        &mut self,
+        frame: &CanFrame,
+        given: Option<Instant>,
+    ) -> Result<(), TransportError> {
+        let mut st = self.bus.lock();
+        if st.down {
+            return Err(TransportError::InterfaceDown);
+        }
+        let now = match (&st.clock, given) {
+            (Clock::Real(_), Some(t)) => t.max(st.floor),
+            _ => st.now(),
+        };
+        st.advance(now);
+        let me = Participant::Endpoint(self.index);
+        let waiting = st.endpoints.get(self.index).map_or(0, |e| e.sending);
+        if waiting >= st.config.tx_queue_capacity {
+            return Err(TransportError::TxQueueFull);
+        }
+        st.submit(me, *frame, now);
+        st.advance(now);
+        self.bus.shared.release(st);
+        Ok(())
+    }
 }
 
 impl Drop for Endpoint {
@@ -837,21 +869,11 @@ impl Drop for Endpoint {
 
 impl Transport for Endpoint {
     fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
-        let mut st = self.bus.lock();
-        if st.down {
-            return Err(TransportError::InterfaceDown);
-        }
-        let now = st.now();
-        st.advance(now);
-        let me = Participant::Endpoint(self.index);
-        let waiting = st.endpoints.get(self.index).map_or(0, |e| e.sending);
-        if waiting >= st.config.tx_queue_capacity {
-            return Err(TransportError::TxQueueFull);
-        }
-        st.submit(me, *frame, now);
-        st.advance(now);
-        self.bus.shared.release(st);
-        Ok(())
+        self.send_stamped(frame, None)
+    }
+
+    fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
+        self.send_stamped(frame, Some(now))
     }
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
@@ -1234,5 +1256,26 @@ mod tests {
         stop.store(true, std::sync::atomic::Ordering::Relaxed);
         h.join().unwrap();
         assert!(echoed);
+    }
+
+    #[test]
+    fn send_at_stamps_with_the_callers_reading_but_never_before_the_bus() {
+        let bus = MemoryBus::with_config(BusConfig {
+            clock: ClockMode::RealTime,
+            ..BusConfig::default()
+        });
+        let (mut a, mut b, mut c) = (bus.endpoint(), bus.endpoint(), bus.endpoint());
+        let stamp = |c: &mut Endpoint| recv_frame(c, c.now() + Duration::from_secs(1)).unwrap().1;
+        // A fresh reading is the stamp: the bus does not read its clock again.
+        let t1 = a.now();
+        a.send_at(&frame(0x181, &[1]), t1).unwrap();
+        assert_eq!(stamp(&mut c), t1);
+        // A reading older than what the bus has processed since is not.
+        std::thread::sleep(std::time::Duration::from_millis(2));
+        b.send(&frame(0x182, &[2])).unwrap();
+        let t2 = stamp(&mut c);
+        assert!(t2 > t1 + Duration::from_millis(1), "{t2:?} after {t1:?}");
+        a.send_at(&frame(0x183, &[3]), t1).unwrap();
+        assert_eq!(stamp(&mut c), t2);
     }
 }

@@ -70,9 +70,10 @@ pub(crate) struct Inner {
     pub(crate) reactor: crate::asynch::Reactor,
     /// Threads inside [`Network::wait_for`]: the background driver steps aside while there are.
     driving_waiters: AtomicUsize,
-    /// When the last waiter left [`Network::wait_for`], in nanoseconds since `epoch`.
-    last_wait_end: AtomicU64,
-    epoch: std::time::Instant,
+    /// How many waits in [`Network::wait_for`] have ended while a background driver ran: the
+    /// driver sees from its change that a caller drove a moment ago (a counter, not a time:
+    /// a clock reading per request would cost more than the rest of the hand-over).
+    waits_ended: AtomicU64,
     driver: Mutex<DriverSlot>,
     /// Whether a background driver was started (and not stopped).
     driven: AtomicBool,
@@ -163,8 +164,7 @@ impl Network {
                 #[cfg(feature = "tokio")]
                 reactor,
                 driving_waiters: AtomicUsize::new(0),
-                last_wait_end: AtomicU64::new(0),
-                epoch: std::time::Instant::now(),
+                waits_ended: AtomicU64::new(0),
                 driver: Mutex::new(DriverSlot::default()),
                 driven: AtomicBool::new(false),
             }),
@@ -446,7 +446,7 @@ impl Network {
             c.handle_timeout(now);
             c.take_transmit(&mut io.out);
         }
-        self.send_queued(&mut io)?;
+        self.send_queued(&mut io, now)?;
         drop(io);
         self.notify();
         Ok(())
@@ -481,6 +481,8 @@ impl Network {
     ) -> Result<(bool, Option<T>), Error> {
         let now = io.now();
         let start = now;
+        // The latest clock reading, for stamping what the step sends last.
+        let latest;
         let next = {
             let mut c = self.core();
             if let Some(r) = check(&mut c) {
@@ -490,7 +492,7 @@ impl Network {
             c.take_transmit(&mut io.out);
             c.poll_timeout()
         };
-        let backlog = self.send_queued(io)?;
+        let backlog = self.send_queued(io, now)?;
         let mut deadline = now + if backlog { TX_RETRY } else { DRIVE_SLICE };
         if let Some(t) = next {
             deadline = deadline.min(t);
@@ -532,13 +534,17 @@ impl Network {
             // frames, the timers wait for the next step's start: the wait ended before any
             // core deadline (it was one of the wait's bounds), and a timer is not worth a
             // second pass over the core per frame.
-            if now.is_none() {
-                c.handle_timeout(io.now());
+            match now {
+                Some(at) => latest = at,
+                None => {
+                    latest = io.now();
+                    c.handle_timeout(latest);
+                }
             }
             c.take_transmit(&mut io.out);
             check(&mut c)
         };
-        self.send_queued(io)?;
+        self.send_queued(io, latest)?;
         self.notify();
         Ok((received, done))
     }
@@ -546,20 +552,21 @@ impl Network {
     /// Hands queued frames to the transport in order. A full transmit queue is back-pressure,
     /// not a failure: the frames it did not take go back to the front of the core's queue for
     /// the next step (where a failed SDO transfer's frames can still be withdrawn). Returns
-    /// whether frames stayed behind.
+    /// whether frames stayed behind. `now` is a reading of the transport's clock taken a moment
+    /// before (see [`Transport::send_at`]).
     #[inline]
-    fn send_queued(&self, io: &mut Io) -> Result<bool, Error> {
+    fn send_queued(&self, io: &mut Io, now: Instant) -> Result<bool, Error> {
         // Mostly nothing to send (a step asks twice).
         if io.out.is_empty() {
             return Ok(false);
         }
-        self.send_all(io)
+        self.send_all(io, now)
     }
 
-    fn send_all(&self, io: &mut Io) -> Result<bool, Error> {
+    fn send_all(&self, io: &mut Io, now: Instant) -> Result<bool, Error> {
         let Io { transport, out } = io;
         for i in 0..out.len() {
-            match transport.send(&out[i].frame) {
+            match transport.send_at(&out[i].frame, now) {
                 Ok(()) => {}
                 Err(TransportError::TxQueueFull) => {
                     self.core().unsend(out.drain(i..));
@@ -588,7 +595,8 @@ impl Network {
         // Put the abort on the bus now if nobody is driving.
         if let Ok(mut io) = self.inner.io.try_lock() {
             self.core().take_transmit(&mut io.out);
-            let _ = self.send_queued(&mut io);
+            let now = io.now();
+            let _ = self.send_queued(&mut io, now);
         }
     }
 
@@ -637,12 +645,9 @@ impl Network {
     pub(crate) fn wait_for<T>(&self, done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
         self.inner.driving_waiters.fetch_add(1, Ordering::SeqCst);
         let r = self.wait_loop(done);
-        // Only a background driver looks at the time (and reading the clock is not free).
+        // Only a background driver looks at the count.
         if self.inner.driven.load(Ordering::Relaxed) {
-            let since = self.inner.epoch.elapsed().as_nanos();
-            self.inner
-                .last_wait_end
-                .store(u64::try_from(since).unwrap_or(u64::MAX), Ordering::SeqCst);
+            self.inner.waits_ended.fetch_add(1, Ordering::SeqCst);
         }
         self.inner.driving_waiters.fetch_sub(1, Ordering::SeqCst);
         r
@@ -681,12 +686,13 @@ impl Network {
 /// The background driver's loop: one step whenever no waiting thread drives, until `stop` is
 /// set, the network is gone or the transport fails.
 fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) {
+    let mut waits_seen = 0;
     while !stop.load(Ordering::SeqCst) {
         let Some(inner) = inner.upgrade() else {
             return;
         };
         let net = Network { inner };
-        if net.waiter_drives() {
+        if net.waiter_drives(&mut waits_seen) {
             // Out of the way until the waiters are done. Not counted in `waiting`: waking this
             // thread at every step of a waiter would cost each request a context switch; the
             // timeout is soon enough, and `stop_driver` notifies.
@@ -739,14 +745,15 @@ impl Network {
         self.notify();
     }
 
-    /// Whether a thread waiting for a request drives now or did a moment ago.
-    fn waiter_drives(&self) -> bool {
+    /// Whether a thread waiting for a request drives now, or a wait ended since the driver
+    /// last looked (`seen`: the count of ended waits it saw then; the driver looks every
+    /// [`STEP_ASIDE`] while it steps aside, so a caller idle that long gets the driver back).
+    fn waiter_drives(&self, seen: &mut u64) -> bool {
         if self.inner.driving_waiters.load(Ordering::SeqCst) > 0 {
             return true;
         }
-        let last = self.inner.last_wait_end.load(Ordering::SeqCst);
-        let now = u64::try_from(self.inner.epoch.elapsed().as_nanos()).unwrap_or(u64::MAX);
-        last != 0 && now.saturating_sub(last) < STEP_ASIDE.as_nanos() as u64
+        let ended = self.inner.waits_ended.load(Ordering::SeqCst);
+        ended != core::mem::replace(seen, ended)
     }
 }
 

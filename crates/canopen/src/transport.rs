@@ -120,6 +120,16 @@ pub trait Transport: Send {
     /// Queues one frame for transmission.
     fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError>;
 
+    /// [`send`](Self::send) by a caller that read this transport's clock at `now` a moment
+    /// before: a transport that stamps frames with its clock may take `now` instead of reading
+    /// the clock again (on a real clock a reading costs tens of nanoseconds, a good part of an
+    /// SDO round trip on the in-memory bus). Stamps must still never go back in time.
+    /// Default: [`send`](Self::send).
+    fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
+        let _ = now;
+        self.send(frame)
+    }
+
     /// Waits until a frame or event arrives or the clock reaches `deadline`.
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError>;
 
@@ -164,6 +174,9 @@ pub trait Transport: Send {
 impl<T: Transport + ?Sized> Transport for Box<T> {
     fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
         (**self).send(frame)
+    }
+    fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
+        (**self).send_at(frame, now)
     }
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
         (**self).recv_until(deadline)
