@@ -273,6 +273,8 @@ struct State {
     wire_free_at: Instant,
     down: bool,
     seq: u64,
+    /// Whether the fault injection is on (`config.faults.any()`, kept: asked for every frame).
+    faulty: bool,
     /// The latest time the bus has processed (advanced to): a frame stamped with a clock
     /// reading its sender took earlier is stamped this instead (see `Transport::send_at`).
     floor: Instant,
@@ -363,12 +365,12 @@ impl State {
 
     /// Puts a frame on the way to the wire, applying the fault injection.
     fn submit(&mut self, from: Participant, frame: CanFrame, now: Instant) {
-        let f = self.config.faults;
-        if !f.any() {
+        if !self.faulty {
             // Without faults the generator is not asked at all (`chance(0.0)` does not draw).
             self.push_pending(from, frame, now);
             return;
         }
+        let f = self.config.faults;
         if self.rng.chance(f.drop) {
             self.stats.dropped += 1;
             return;
@@ -455,6 +457,19 @@ impl State {
 
     fn run_events(&mut self, now: Instant) {
         for _ in 0..MAX_EVENTS_PER_STEP {
+            // Without a timing model, one frame waiting and due, no station timer before it:
+            // delivered at once (what a request and its answer are), without the searches of
+            // the general case below, which does the same for it.
+            if self.wire.is_none() && self.config.bitrate.is_none() && self.pending.len() == 1 {
+                let ready = self.pending[0].ready;
+                if ready <= now && self.next_station_event().is_none_or(|s| s >= ready) {
+                    if let Some(p) = self.pending.pop() {
+                        self.leaves_queue(&p);
+                        self.deliver(p, ready);
+                    }
+                    continue;
+                }
+            }
             let wire = self.next_wire_event().filter(|t| *t <= now);
             let station = self.next_station_event().filter(|t| *t <= now);
             match (wire, station) {
@@ -488,11 +503,7 @@ impl State {
             return;
         };
         let p = self.pending.swap_remove(pos);
-        if let Participant::Endpoint(i) = p.from
-            && let Some(ep) = self.endpoints.get_mut(i)
-        {
-            ep.sending -= 1;
-        }
+        self.leaves_queue(&p);
         match self.config.bitrate {
             Some(rate) => {
                 let d = frame_time(&p.frame, rate, self.config.worst_case_stuffing);
@@ -500,6 +511,15 @@ impl State {
                 self.wire = Some((p, t + d));
             }
             None => self.deliver(p, t),
+        }
+    }
+
+    /// Counts a frame out of its sender's transmit queue.
+    fn leaves_queue(&mut self, p: &Pending) {
+        if let Participant::Endpoint(i) = p.from
+            && let Some(ep) = self.endpoints.get_mut(i)
+        {
+            ep.sending -= 1;
         }
     }
 
@@ -576,6 +596,7 @@ impl MemoryBus {
             None => Clock::Virtual(Instant::ZERO),
             Some(c) => Clock::Real(c),
         };
+        let faulty = config.faults.any();
         let state = State {
             clock,
             rng: Rng(config.faults.seed),
@@ -588,6 +609,7 @@ impl MemoryBus {
             wire_free_at: Instant::ZERO,
             down: false,
             seq: 0,
+            faulty,
             floor: Instant::ZERO,
             stats: BusStats::default(),
             service_thread: false,
@@ -712,6 +734,7 @@ impl MemoryBus {
             st.rng = Rng(faults.seed);
         }
         st.config.faults = faults;
+        st.faulty = faults.any();
     }
 
     /// The bus clock.
@@ -850,7 +873,20 @@ impl Endpoint {
         if waiting >= st.config.tx_queue_capacity {
             return Err(TransportError::TxQueueFull);
         }
-        st.submit(me, *frame, now);
+        if st.faulty || st.config.bitrate.is_some() || !st.pending.is_empty() || st.wire.is_some() {
+            st.submit(me, *frame, now);
+        } else {
+            // Nothing else waits for the wire and nothing is due (advanced above): the frame
+            // would go next and at once, so it goes now, past the queue.
+            st.seq += 1;
+            let p = Pending {
+                seq: st.seq,
+                from: me,
+                frame: *frame,
+                ready: now,
+            };
+            st.deliver(p, now);
+        }
         st.advance(now);
         self.bus.shared.release(st);
         Ok(())
