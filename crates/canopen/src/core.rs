@@ -1637,6 +1637,20 @@ impl Core {
         }
     }
 
+    /// [`handle_timeout`](Self::handle_timeout) then [`poll_timeout`](Self::poll_timeout): the
+    /// earliest instant a timer wants next. Mostly nothing is due, and one look at the
+    /// timers then does for both (everything `handle_timeout` fires is a deadline
+    /// `poll_timeout` reports).
+    pub(crate) fn handle_timeout_and_poll(&mut self, now: Instant) -> Option<Instant> {
+        self.set_now(now);
+        let next = self.poll_timeout();
+        if !is_due(next, now) {
+            return next;
+        }
+        self.handle_timeout(now);
+        self.poll_timeout()
+    }
+
     /// The earliest instant a timer wants [`handle_timeout`](Self::handle_timeout).
     pub(crate) fn poll_timeout(&self) -> Option<Instant> {
         let mut t = self.heartbeat.poll_timeout();
@@ -1677,9 +1691,16 @@ impl Core {
     }
 
     /// Moves every frame waiting to be sent, in order, to the end of `out`.
-    pub(crate) fn take_transmit(&mut self, out: &mut Vec<Outgoing>) {
+    pub(crate) fn take_transmit(&mut self, out: &mut VecDeque<Outgoing>) {
         // Mostly empty (asked twice a step): a drain of nothing is not free.
-        if !self.tx.is_empty() {
+        if self.tx.is_empty() {
+            return;
+        }
+        // `out` is mostly empty too: the two queues trade places (and capacities) instead
+        // of the frames moving one by one.
+        if out.is_empty() {
+            core::mem::swap(&mut self.tx, out);
+        } else {
             out.extend(self.tx.drain(..));
         }
     }

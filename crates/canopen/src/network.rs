@@ -84,7 +84,7 @@ pub(crate) struct Io {
     transport: Box<dyn Transport>,
     /// The frames taken from the core for sending: kept between steps so that a step
     /// allocates nothing for them.
-    out: Vec<crate::core::Outgoing>,
+    out: std::collections::VecDeque<crate::core::Outgoing>,
 }
 
 impl core::ops::Deref for Io {
@@ -159,7 +159,7 @@ impl Network {
                 waiting: AtomicUsize::new(0),
                 io: Mutex::new(Io {
                     transport: Box::new(transport),
-                    out: Vec::new(),
+                    out: std::collections::VecDeque::new(),
                 }),
                 #[cfg(feature = "tokio")]
                 reactor,
@@ -488,9 +488,9 @@ impl Network {
             if let Some(r) = check(&mut c) {
                 return Ok((false, Some(r)));
             }
-            c.handle_timeout(now);
+            let next = c.handle_timeout_and_poll(now);
             c.take_transmit(&mut io.out);
-            c.poll_timeout()
+            next
         };
         let backlog = self.send_queued(io, now)?;
         let mut deadline = now + if backlog { TX_RETRY } else { DRIVE_SLICE };
@@ -608,7 +608,18 @@ impl Network {
         node: NodeId,
         entry: ObjectAddress,
     ) -> Result<Completion, SdoError> {
-        let r = self.wait_for(|c| match c.take_result(id) {
+        let r = self.wait_for(|c| Self::finished(c, id, node, entry));
+        self.waited(r, Some(id), node, entry)
+    }
+
+    /// The result of request `id` if it has finished (see [`wait`](Self::wait)).
+    fn finished(
+        c: &mut Core,
+        id: RequestId,
+        node: NodeId,
+        entry: ObjectAddress,
+    ) -> Option<Result<Completion, SdoError>> {
+        match c.take_result(id) {
             Taken::Running => None,
             Taken::Done(r) => Some(r.map_err(|e| c.name_error(e))),
             Taken::Unknown => Some(Err(c.name_error(SdoError {
@@ -617,13 +628,25 @@ impl Network {
                 name: None,
                 kind: SdoErrorKind::Cancelled,
             }))),
-        });
+        }
+    }
+
+    /// A wait's end: its result, or the transport error that ended it, as the request's error.
+    fn waited(
+        &self,
+        r: Result<Result<Completion, SdoError>, Error>,
+        id: Option<RequestId>,
+        node: NodeId,
+        entry: ObjectAddress,
+    ) -> Result<Completion, SdoError> {
         match r {
             Ok(r) => r,
             Err(e) => {
                 // A transport failure ends the request: say which node and object it was for.
                 let mut core = self.core();
-                core.cancel(id);
+                if let Some(id) = id {
+                    core.cancel(id);
+                }
                 // The transport's own words ("the CAN interface is down"), without the
                 // "transport: " that `Error` puts in front: SdoErrorKind::Transport says it.
                 let text = match e {

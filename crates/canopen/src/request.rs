@@ -209,8 +209,21 @@ impl Sdo {
         output: fn(Completion) -> T,
     ) -> Pending<T> {
         let node = self.node;
-        let req = SdoRequest {
+        let (net, req) = self.into_request(entry, op);
+        let id = net.submit(req);
+        Pending {
+            net,
+            id: Some(id),
             node,
+            entry,
+            output,
+        }
+    }
+
+    /// The request for `op` on `entry` with this builder's settings, and the network.
+    fn into_request(self, entry: ObjectAddress, op: Op) -> (Network, SdoRequest) {
+        let req = SdoRequest {
+            node: self.node,
             channel: self.channel,
             entry,
             op,
@@ -218,14 +231,7 @@ impl Sdo {
             timeout: self.timeout,
             progress: self.progress,
         };
-        let id = self.net.submit(req);
-        Pending {
-            net: self.net,
-            id: Some(id),
-            node,
-            entry,
-            output,
-        }
+        (self.net, req)
     }
 
     /// Starts an upload into memory without waiting.
