@@ -309,8 +309,12 @@ enum ReqState {
         node: NodeId,
         channel: usize,
     },
-    Done(Result<Completion, SdoError>),
+    Done(Outcome),
 }
+
+/// A finished request's result as the core keeps and hands it over: the error boxed, so that
+/// the result moves through the waiting loop as a few words (an error is the rare case).
+pub(crate) type Outcome = Result<Completion, Box<SdoError>>;
 
 /// How many entries the master's tables hold at one moment, for soak tests (none may grow
 /// while the traffic stays the same) and diagnostics.
@@ -541,7 +545,7 @@ pub(crate) enum Taken {
     /// Still queued or running.
     Running,
     /// Finished; the result is handed over (and forgotten by the core).
-    Done(Result<Completion, SdoError>),
+    Done(Outcome),
     /// Not in the table: cancelled, or its result was taken already.
     Unknown,
 }
@@ -1268,11 +1272,13 @@ impl Core {
                     && let ReqState::Active { entry, .. } = state
                 {
                     let entry = *entry;
-                    let result = result.map_err(|kind| SdoError {
-                        node,
-                        entry,
-                        name: None,
-                        kind,
+                    let result = result.map_err(|kind| {
+                        Box::new(SdoError {
+                            node,
+                            entry,
+                            name: None,
+                            kind,
+                        })
                     });
                     *state = ReqState::Done(result);
                 }
@@ -1337,12 +1343,12 @@ impl Core {
                 channel: ch,
             }
         } else {
-            ReqState::Done(Err(SdoError {
+            ReqState::Done(Err(Box::new(SdoError {
                 node,
                 entry,
                 name: None,
                 kind: SdoErrorKind::Busy,
-            }))
+            })))
         }
     }
 

@@ -37,7 +37,7 @@ use can_frame::{CanFrame, Duration, Instant, NodeId};
 use canopen_nmt::{CommandSpecifier, NmtState, NmtTarget, SyncConfig};
 use canopen_od::ObjectDictionary;
 
-use crate::core::{Completion, Core, NetworkEvent, RequestId, SdoRequest, Taken};
+use crate::core::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequest, Taken};
 use crate::error::{Error, SdoError, SdoErrorKind};
 use crate::transport::{Received, Transport, TransportError};
 use canopen_od::ObjectAddress;
@@ -68,12 +68,11 @@ pub(crate) struct Inner {
     /// The async API's wake-ups and its tie between a virtual clock and tokio's.
     #[cfg(feature = "tokio")]
     pub(crate) reactor: crate::asynch::Reactor,
-    /// Threads inside [`Network::wait_for`]: the background driver steps aside while there are.
-    driving_waiters: AtomicUsize,
-    /// How many waits in [`Network::wait_for`] have ended while a background driver ran: the
-    /// driver sees from its change that a caller drove a moment ago (a counter, not a time:
-    /// a clock reading per request would cost more than the rest of the hand-over).
-    waits_ended: AtomicU64,
+    /// Driving steps taken by threads inside [`Network::wait_for`] while a background driver
+    /// runs: the driver steps aside while the count moves (a waiter drives) or a waiter is
+    /// blocked (`waiting`). Written only by the holder of `io`, so a plain store counts: the
+    /// fast path of a request pays no atomic read-modify-write and no clock reading for it.
+    waiter_steps: AtomicU64,
     driver: Mutex<DriverSlot>,
     /// Whether a background driver was started (and not stopped).
     driven: AtomicBool,
@@ -163,8 +162,7 @@ impl Network {
                 }),
                 #[cfg(feature = "tokio")]
                 reactor,
-                driving_waiters: AtomicUsize::new(0),
-                waits_ended: AtomicU64::new(0),
+                waiter_steps: AtomicU64::new(0),
                 driver: Mutex::new(DriverSlot::default()),
                 driven: AtomicBool::new(false),
             }),
@@ -609,7 +607,7 @@ impl Network {
         entry: ObjectAddress,
     ) -> Result<Completion, SdoError> {
         let r = self.wait_for(|c| Self::finished(c, id, node, entry));
-        self.waited(r, Some(id), node, entry)
+        self.waited(r, Some(id), node, entry).map_err(|e| *e)
     }
 
     /// The result of request `id` if it has finished (see [`wait`](Self::wait)).
@@ -618,27 +616,27 @@ impl Network {
         id: RequestId,
         node: NodeId,
         entry: ObjectAddress,
-    ) -> Option<Result<Completion, SdoError>> {
+    ) -> Option<Outcome> {
         match c.take_result(id) {
             Taken::Running => None,
-            Taken::Done(r) => Some(r.map_err(|e| c.name_error(e))),
-            Taken::Unknown => Some(Err(c.name_error(SdoError {
+            Taken::Done(r) => Some(r.map_err(|e| Box::new(c.name_error(*e)))),
+            Taken::Unknown => Some(Err(Box::new(c.name_error(SdoError {
                 node,
                 entry,
                 name: None,
                 kind: SdoErrorKind::Cancelled,
-            }))),
+            })))),
         }
     }
 
     /// A wait's end: its result, or the transport error that ended it, as the request's error.
     fn waited(
         &self,
-        r: Result<Result<Completion, SdoError>, Error>,
+        r: Result<Outcome, Error>,
         id: Option<RequestId>,
         node: NodeId,
         entry: ObjectAddress,
-    ) -> Result<Completion, SdoError> {
+    ) -> Outcome {
         match r {
             Ok(r) => r,
             Err(e) => {
@@ -653,12 +651,12 @@ impl Network {
                     Error::Transport(t) => t.to_string(),
                     other => other.to_string(),
                 };
-                Err(core.name_error(SdoError {
+                Err(Box::new(core.name_error(SdoError {
                     node,
                     entry,
                     name: None,
                     kind: SdoErrorKind::Transport(text),
-                }))
+                })))
             }
         }
     }
@@ -666,20 +664,20 @@ impl Network {
     /// Drives the network until `done` returns a value (whoever waits drives; see the module
     /// docs).
     pub(crate) fn wait_for<T>(&self, done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
-        self.inner.driving_waiters.fetch_add(1, Ordering::SeqCst);
-        let r = self.wait_loop(done);
-        // Only a background driver looks at the count.
-        if self.inner.driven.load(Ordering::Relaxed) {
-            self.inner.waits_ended.fetch_add(1, Ordering::SeqCst);
-        }
-        self.inner.driving_waiters.fetch_sub(1, Ordering::SeqCst);
-        r
+        self.wait_loop(done)
     }
 
     fn wait_loop<T>(&self, mut done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
         loop {
             match self.inner.io.try_lock() {
                 Ok(mut io) => {
+                    // Only a background driver looks at the count.
+                    if self.inner.driven.load(Ordering::Relaxed) {
+                        let n = self.inner.waiter_steps.load(Ordering::Relaxed);
+                        self.inner
+                            .waiter_steps
+                            .store(n.wrapping_add(1), Ordering::Release);
+                    }
                     if let (_, Some(r)) = self.step_checking(&mut io, None, &mut done)? {
                         return Ok(r);
                     }
@@ -709,13 +707,13 @@ impl Network {
 /// The background driver's loop: one step whenever no waiting thread drives, until `stop` is
 /// set, the network is gone or the transport fails.
 fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) {
-    let mut waits_seen = 0;
+    let mut steps_seen = 0;
     while !stop.load(Ordering::SeqCst) {
         let Some(inner) = inner.upgrade() else {
             return;
         };
         let net = Network { inner };
-        if net.waiter_drives(&mut waits_seen) {
+        if net.waiter_drives(&mut steps_seen) {
             // Out of the way until the waiters are done. Not counted in `waiting`: waking this
             // thread at every step of a waiter would cost each request a context switch; the
             // timeout is soon enough, and `stop_driver` notifies.
@@ -768,15 +766,17 @@ impl Network {
         self.notify();
     }
 
-    /// Whether a thread waiting for a request drives now, or a wait ended since the driver
-    /// last looked (`seen`: the count of ended waits it saw then; the driver looks every
-    /// [`STEP_ASIDE`] while it steps aside, so a caller idle that long gets the driver back).
+    /// Whether a waiting thread wants to drive (it is blocked for want of the transport) or
+    /// drove since the driver last looked (`seen`: the count of waiters' steps it saw then).
+    /// The driver looks every [`STEP_ASIDE`] while it steps aside, so a caller idle that long
+    /// gets the driver back; one whose step outlasts that (a slow answer) meets the driver at
+    /// its next step, finds the transport taken, blocks, and so has the driver step aside.
     fn waiter_drives(&self, seen: &mut u64) -> bool {
-        if self.inner.driving_waiters.load(Ordering::SeqCst) > 0 {
+        if self.inner.waiting.load(Ordering::SeqCst) > 0 {
             return true;
         }
-        let ended = self.inner.waits_ended.load(Ordering::SeqCst);
-        ended != core::mem::replace(seen, ended)
+        let steps = self.inner.waiter_steps.load(Ordering::Acquire);
+        steps != core::mem::replace(seen, steps)
     }
 }
 

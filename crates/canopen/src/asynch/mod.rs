@@ -165,7 +165,7 @@ async fn wait_requests(net: &Network, reqs: Vec<Req>) -> Vec<Result<Completion, 
             }
             let r = match c.take_result(req.id) {
                 Taken::Running => continue,
-                Taken::Done(r) => r.map_err(|e| c.name_error(e)),
+                Taken::Done(r) => r.map_err(|e| c.name_error(*e)),
                 Taken::Unknown => Err(c.name_error(SdoError {
                     node: req.node,
                     entry: req.entry,
