@@ -275,6 +275,9 @@ struct State {
     seq: u64,
     /// Whether the fault injection is on (`config.faults.any()`, kept: asked for every frame).
     faulty: bool,
+    /// A station's timer changed since [`Shared::release`] last looked (so the service
+    /// thread's wake-up time may be too late).
+    timers_moved: bool,
     /// The latest time the bus has processed (advanced to): a frame stamped with a clock
     /// reading its sender took earlier is stamped this instead (see `Transport::send_at`).
     floor: Instant,
@@ -312,12 +315,8 @@ impl Shared {
     /// endpoint waits for frames, or the service thread sleeps past the bus's next event. (A
     /// notification costs a system call, and a needless wake-up of the service thread a
     /// context switch and a fight for the lock, on every frame sent.)
-    fn release(&self, st: MutexGuard<'_, State>) {
-        let wake = self.real_time
-            && (st.sleepers > 0
-                || st
-                    .service_until
-                    .is_some_and(|until| st.next_event().is_some_and(|t| t < until)));
+    fn release(&self, mut st: MutexGuard<'_, State>) {
+        let wake = self.real_time && (st.sleepers > 0 || st.service_wakes_early());
         drop(st);
         if wake {
             self.cond.notify_all();
@@ -439,6 +438,19 @@ impl State {
         }
     }
 
+    /// Whether the service thread's current wait ends after the bus's next event: a frame
+    /// waiting for the wire, or a station timer (looked at only when one moved: the stations'
+    /// timers mostly stay as they were, e.g. through an SDO round trip).
+    fn service_wakes_early(&mut self) -> bool {
+        let Some(until) = self.service_until else {
+            return false;
+        };
+        let frames = !self.pending.is_empty() || self.wire.is_some();
+        let timers = core::mem::take(&mut self.timers_moved);
+        (frames && self.next_wire_event().is_some_and(|t| t < until))
+            || (timers && self.next_station_event().is_some_and(|t| t < until))
+    }
+
     /// Processes everything that happens up to and including `now`, in time order.
     #[inline]
     fn advance(&mut self, now: Instant) {
@@ -540,7 +552,9 @@ impl State {
                 self.submit(Participant::Station(id), frame, t);
             }
         }
-        self.stations[i].next = self.stations[i].station.poll_timeout();
+        let next = self.stations[i].station.poll_timeout();
+        self.timers_moved |= next != self.stations[i].next;
+        self.stations[i].next = next;
     }
 
     fn deliver(&mut self, p: Pending, at: Instant) {
@@ -610,6 +624,7 @@ impl MemoryBus {
             down: false,
             seq: 0,
             faulty,
+            timers_moved: false,
             floor: Instant::ZERO,
             stats: BusStats::default(),
             service_thread: false,
@@ -724,6 +739,7 @@ impl MemoryBus {
             a.station.handle_bus_event(now, &event);
             a.next = a.station.poll_timeout();
         }
+        st.timers_moved = true;
         self.shared.release(st);
     }
 
