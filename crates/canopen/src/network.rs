@@ -483,17 +483,19 @@ impl Network {
     /// One driving step: flush, receive until the next deadline (bounded by `limit` and the
     /// drive slice), feed the core. Returns whether a frame or bus event was received.
     pub(crate) fn step(&self, io: &mut Io, limit: Option<Instant>) -> Result<bool, Error> {
-        let (received, _) = self.step_checking(io, limit, &mut |_| None::<()>)?;
+        let (received, _) = self.step_checking(io, limit, None, &mut |_| None::<()>)?;
         Ok(received)
     }
 
     /// [`step`](Self::step) for a waiter: `check` looks at the core under the step's own locks
     /// (before anything is done, and after the frames are handled), so waiting costs no lock
-    /// of its own. A value from the first look ends the step at once.
+    /// of its own. A value from the first look ends the step at once. With `held` (the core,
+    /// locked by the caller) the step starts under that lock, without the first look.
     fn step_checking<T>(
         &self,
         io: &mut Io,
         limit: Option<Instant>,
+        held: Option<MutexGuard<'_, Core>>,
         check: &mut impl FnMut(&mut Core) -> Option<T>,
     ) -> Result<(bool, Option<T>), Error> {
         let now = match io.reading.take() {
@@ -510,10 +512,16 @@ impl Network {
         // The latest clock reading, for stamping what the step sends last.
         let latest;
         let next = {
-            let mut c = self.core();
-            if let Some(r) = check(&mut c) {
-                return Ok((false, Some(r)));
-            }
+            let mut c = match held {
+                Some(c) => c,
+                None => {
+                    let mut c = self.core();
+                    if let Some(r) = check(&mut c) {
+                        return Ok((false, Some(r)));
+                    }
+                    c
+                }
+            };
             let next = c.handle_timeout_and_poll(now);
             c.take_transmit(&mut io.out);
             next
@@ -643,6 +651,49 @@ impl Network {
         self.waited(r, Some(id), node, entry).map_err(|e| *e)
     }
 
+    /// Submits `req` and blocks until it finishes (the blocking calls' path): what
+    /// [`submit`](Self::submit) then [`wait`](Self::wait) do, but when the transport is free the
+    /// first driving step starts under the lock the submission took (one lock of the core
+    /// fewer, and no look for a result that cannot be there yet).
+    pub(crate) fn run(&self, req: SdoRequest) -> Result<Completion, SdoError> {
+        let (node, entry) = (req.node, req.entry);
+        let mut c = self.core();
+        let id = c.submit(req);
+        // The core is locked and a driving step takes the transport first: only a free
+        // transport is taken here (waiting for it could deadlock with that step).
+        let first = match self.inner.io.try_lock() {
+            Ok(mut io) => {
+                self.count_waiter_step();
+                self.step_checking(&mut io, None, Some(c), &mut |c| {
+                    Self::finished(c, id, node, entry)
+                })
+            }
+            Err(_) => {
+                drop(c);
+                self.wake();
+                Ok((false, None))
+            }
+        };
+        let r = match first {
+            Ok((_, Some(r))) => Ok(r),
+            Ok((_, None)) => self.wait_for(|c| Self::finished(c, id, node, entry)),
+            Err(e) => Err(e),
+        };
+        self.waited(r, Some(id), node, entry).map_err(|e| *e)
+    }
+
+    /// Counts a waiter's driving step for the background driver (see `Inner::waiter_steps`);
+    /// called with the transport locked.
+    fn count_waiter_step(&self) {
+        // Only a background driver looks at the count.
+        if self.inner.driven.load(Ordering::Relaxed) {
+            let n = self.inner.waiter_steps.load(Ordering::Relaxed);
+            self.inner
+                .waiter_steps
+                .store(n.wrapping_add(1), Ordering::Release);
+        }
+    }
+
     /// The result of request `id` if it has finished (see [`wait`](Self::wait)).
     fn finished(
         c: &mut Core,
@@ -704,14 +755,8 @@ impl Network {
         loop {
             match self.inner.io.try_lock() {
                 Ok(mut io) => {
-                    // Only a background driver looks at the count.
-                    if self.inner.driven.load(Ordering::Relaxed) {
-                        let n = self.inner.waiter_steps.load(Ordering::Relaxed);
-                        self.inner
-                            .waiter_steps
-                            .store(n.wrapping_add(1), Ordering::Release);
-                    }
-                    if let (_, Some(r)) = self.step_checking(&mut io, None, &mut done)? {
+                    self.count_waiter_step();
+                    if let (_, Some(r)) = self.step_checking(&mut io, None, None, &mut done)? {
                         return Ok(r);
                     }
                 }

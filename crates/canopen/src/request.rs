@@ -234,6 +234,18 @@ impl Sdo {
         (self.net, req)
     }
 
+    /// Runs a request to its end on this thread (see [`Network::run`]): what
+    /// [`request`](Self::request) then [`Pending::wait`] do, for the blocking calls.
+    fn run<T>(
+        self,
+        entry: ObjectAddress,
+        op: Op,
+        output: fn(Completion) -> T,
+    ) -> Result<T, SdoError> {
+        let (net, req) = self.into_request(entry, op);
+        net.run(req).map(output)
+    }
+
     /// Starts an upload into memory without waiting.
     pub fn submit_read(self, entry: impl Into<ObjectAddress>) -> Pending<Vec<u8>> {
         // Room for an expedited value: the common read allocates once.
@@ -253,7 +265,9 @@ impl Sdo {
 
     /// Reads an object's bytes (SDO upload).
     pub fn read(self, entry: impl Into<ObjectAddress>) -> Result<Vec<u8>, Error> {
-        Ok(self.submit_read(entry).wait()?)
+        // Room for an expedited value, as in `submit_read`.
+        let sink = UpSink::Mem(Vec::with_capacity(4));
+        Ok(self.run(entry.into(), Op::Upload(sink), |c| c.data)?)
     }
 
     /// Reads an object and decodes it with the type from the node's dictionary.
@@ -313,8 +327,8 @@ impl Sdo {
 
     /// Writes an object (SDO download).
     pub fn write(self, entry: impl Into<ObjectAddress>, value: impl SdoValue) -> Result<(), Error> {
-        self.submit_write(entry, value).wait()?;
-        Ok(())
+        let data = value.to_sdo_bytes();
+        Ok(self.run(entry.into(), Op::Download(DownSource(data)), |_| ())?)
     }
 
     /// Uploads an object into `writer`, streaming as segments arrive, and flushes it at the
