@@ -5,7 +5,7 @@
 //! (STYLE habit 8: the blocking and async APIs are loops around this one core). The core follows
 //! the sans-IO call order of the protocol crates: [`Core::handle_frame`] for every received frame,
 //! [`Core::handle_timeout`] when [`Core::poll_timeout`] has passed, then drain
-//! [`Core::poll_transmit`].
+//! [`Core::take_transmit`].
 //!
 //! Routing (CiA 301 predefined connection set, §7.3.5):
 //! * 0x581..=0x5FF SDO responses → the node's SDO client (`canopen-sdo`);

@@ -9,6 +9,12 @@
 //! several threads share one transport safely. Requests to different nodes progress together
 //! whichever of them is being waited on; requests to one node run in submission order.
 //!
+//! A step reads the transport's clock once, at its start, and stamps what it sends with that
+//! reading ([`Transport::send_at`]); on a real clock a short step (one frame handled) passes
+//! its last reading on to the next few (see `MAX_REUSED_READINGS`: a reading costs a good
+//! part of an SDO round trip on the in-memory bus). A blocking request is submitted under the
+//! core lock its first step takes (`Network::run`).
+//!
 //! The async API (`tokio` feature, `crate::asynch`) runs the same wait loop on tokio's
 //! blocking pool on a real clock, steps it from the task on a virtual clock (whose time then
 //! follows tokio's), and cancels the request when the future is dropped.

@@ -1,6 +1,6 @@
-//! A subscriber for received PDOs that takes them in batches: [`Network::subscribe_pdos`].
+//! A subscriber for received PDOs that takes them in batches: [`Network::subscribe_pdos`](crate::Network::subscribe_pdos).
 //!
-//! [`Network::subscribe`] hands out one [`NetworkEvent`](crate::NetworkEvent) per frame through
+//! [`Network::subscribe`](crate::Network::subscribe) hands out one [`NetworkEvent`](crate::NetworkEvent) per frame through
 //! a channel, each event owning its decoded values; at full bus load that allocation and the
 //! channel's per-message work cost more than decoding the frame. A [`PdoSubscriber`] instead
 //! takes everything received since its last call in one [`PdoBatch`], read as the same borrowed
