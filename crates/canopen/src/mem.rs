@@ -472,7 +472,7 @@ impl State {
             // Without a timing model, one frame waiting and due, no station timer before it:
             // delivered at once (what a request and its answer are), without the searches of
             // the general case below, which does the same for it.
-            if self.wire.is_none() && self.config.bitrate.is_none() && self.pending.len() == 1 {
+            if self.wire_is_instant() && self.pending.len() == 1 {
                 let ready = self.pending[0].ready;
                 if ready <= now && self.next_station_event().is_none_or(|s| s >= ready) {
                     if let Some(p) = self.pending.pop() {
@@ -524,6 +524,11 @@ impl State {
             }
             None => self.deliver(p, t),
         }
+    }
+
+    /// Whether a frame takes no time on the wire: no timing model (and so nothing on it).
+    fn wire_is_instant(&self) -> bool {
+        self.wire.is_none() && self.config.bitrate.is_none()
     }
 
     /// Counts a frame out of its sender's transmit queue.
@@ -889,7 +894,7 @@ impl Endpoint {
         if waiting >= st.config.tx_queue_capacity {
             return Err(TransportError::TxQueueFull);
         }
-        if st.faulty || st.config.bitrate.is_some() || !st.pending.is_empty() || st.wire.is_some() {
+        if st.faulty || !st.wire_is_instant() || !st.pending.is_empty() {
             st.submit(me, *frame, now);
         } else {
             // Nothing else waits for the wire and nothing is due (advanced above): the frame

@@ -654,7 +654,7 @@ impl Network {
         entry: ObjectAddress,
     ) -> Result<Completion, SdoError> {
         let r = self.wait_for(|c| Self::finished(c, id, node, entry));
-        self.waited(r, Some(id), node, entry).map_err(|e| *e)
+        self.waited(r, id, node, entry).map_err(|e| *e)
     }
 
     /// Submits `req` and blocks until it finishes (the blocking calls' path): what
@@ -685,7 +685,7 @@ impl Network {
             Ok((_, None)) => self.wait_for(|c| Self::finished(c, id, node, entry)),
             Err(e) => Err(e),
         };
-        self.waited(r, Some(id), node, entry).map_err(|e| *e)
+        self.waited(r, id, node, entry).map_err(|e| *e)
     }
 
     /// Counts a waiter's driving step for the background driver (see `Inner::waiter_steps`);
@@ -723,7 +723,7 @@ impl Network {
     fn waited(
         &self,
         r: Result<Outcome, Error>,
-        id: Option<RequestId>,
+        id: RequestId,
         node: NodeId,
         entry: ObjectAddress,
     ) -> Outcome {
@@ -732,9 +732,7 @@ impl Network {
             Err(e) => {
                 // A transport failure ends the request: say which node and object it was for.
                 let mut core = self.core();
-                if let Some(id) = id {
-                    core.cancel(id);
-                }
+                core.cancel(id);
                 // The transport's own words ("the CAN interface is down"), without the
                 // "transport: " that `Error` puts in front: SdoErrorKind::Transport says it.
                 let text = match e {
@@ -753,11 +751,10 @@ impl Network {
 
     /// Drives the network until `done` returns a value (whoever waits drives; see the module
     /// docs).
-    pub(crate) fn wait_for<T>(&self, done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
-        self.wait_loop(done)
-    }
-
-    fn wait_loop<T>(&self, mut done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
+    pub(crate) fn wait_for<T>(
+        &self,
+        mut done: impl FnMut(&mut Core) -> Option<T>,
+    ) -> Result<T, Error> {
         loop {
             match self.inner.io.try_lock() {
                 Ok(mut io) => {

@@ -158,6 +158,16 @@ impl core::fmt::Debug for Sdo {
     }
 }
 
+/// An upload into memory, with room for an expedited value: the common read allocates once.
+fn upload_to_memory() -> Op {
+    Op::Upload(UpSink::Mem(Vec::with_capacity(4)))
+}
+
+/// A download of `value`'s bytes.
+fn download(value: impl SdoValue) -> Op {
+    Op::Download(DownSource(value.to_sdo_bytes()))
+}
+
 impl Sdo {
     /// The node this client talks to.
     pub fn node_id(&self) -> NodeId {
@@ -248,9 +258,7 @@ impl Sdo {
 
     /// Starts an upload into memory without waiting.
     pub fn submit_read(self, entry: impl Into<ObjectAddress>) -> Pending<Vec<u8>> {
-        // Room for an expedited value: the common read allocates once.
-        let sink = UpSink::Mem(Vec::with_capacity(4));
-        self.request(entry.into(), Op::Upload(sink), |c| c.data)
+        self.request(entry.into(), upload_to_memory(), |c| c.data)
     }
 
     /// Starts a download without waiting.
@@ -259,15 +267,12 @@ impl Sdo {
         entry: impl Into<ObjectAddress>,
         value: impl SdoValue,
     ) -> Pending<()> {
-        let data = value.to_sdo_bytes();
-        self.request(entry.into(), Op::Download(DownSource(data)), |_| ())
+        self.request(entry.into(), download(value), |_| ())
     }
 
     /// Reads an object's bytes (SDO upload).
     pub fn read(self, entry: impl Into<ObjectAddress>) -> Result<Vec<u8>, Error> {
-        // Room for an expedited value, as in `submit_read`.
-        let sink = UpSink::Mem(Vec::with_capacity(4));
-        Ok(self.run(entry.into(), Op::Upload(sink), |c| c.data)?)
+        Ok(self.run(entry.into(), upload_to_memory(), |c| c.data)?)
     }
 
     /// Reads an object and decodes it with the type from the node's dictionary.
@@ -327,8 +332,7 @@ impl Sdo {
 
     /// Writes an object (SDO download).
     pub fn write(self, entry: impl Into<ObjectAddress>, value: impl SdoValue) -> Result<(), Error> {
-        let data = value.to_sdo_bytes();
-        Ok(self.run(entry.into(), Op::Download(DownSource(data)), |_| ())?)
+        Ok(self.run(entry.into(), download(value), |_| ())?)
     }
 
     /// Uploads an object into `writer`, streaming as segments arrive, and flushes it at the
