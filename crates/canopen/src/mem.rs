@@ -585,6 +585,13 @@ impl State {
         }
     }
 
+    /// Whether endpoint `ep` has a frame or an overflow report waiting.
+    fn has_queued(&self, ep: usize) -> bool {
+        self.endpoints
+            .get(ep)
+            .is_some_and(|e| e.lost > 0 || !e.queue.is_empty())
+    }
+
     fn pop(&mut self, ep: usize) -> Option<Received> {
         let e = self.endpoints.get_mut(ep)?;
         if e.lost > 0 {
@@ -854,8 +861,9 @@ impl MemoryBus {
 pub struct Endpoint {
     bus: MemoryBus,
     index: usize,
-    /// More was queued for this endpoint when it last received (for `has_pending`, which so
-    /// takes no lock; frames queued since are found by the next receive).
+    /// Something was queued for this endpoint when it last received or sent (for
+    /// `has_pending`, which so takes no lock; frames queued since are found by the next
+    /// receive). A send looks because stations answer while the frame is delivered.
     more: bool,
 }
 
@@ -909,6 +917,7 @@ impl Endpoint {
             st.deliver(p, now);
         }
         st.advance(now);
+        self.more = st.has_queued(self.index);
         self.bus.shared.release(st);
         Ok(())
     }
@@ -949,10 +958,7 @@ impl Transport for Endpoint {
                 Some(now)
             };
             if let Some(r) = st.pop(self.index) {
-                self.more = st
-                    .endpoints
-                    .get(self.index)
-                    .is_some_and(|e| e.lost > 0 || !e.queue.is_empty());
+                self.more = st.has_queued(self.index);
                 return Ok(Some(r));
             }
             self.more = false;

@@ -469,7 +469,7 @@ impl Network {
             c.handle_timeout(now);
             c.take_transmit(&mut io.out);
         }
-        self.send_queued(&mut io, now)?;
+        self.send_queued(&mut io, now, None)?;
         drop(io);
         self.notify();
         Ok(())
@@ -517,22 +517,21 @@ impl Network {
         let start = now;
         // The latest clock reading, for stamping what the step sends last.
         let latest;
-        let next = {
-            let mut c = match held {
-                Some(c) => c,
-                None => {
-                    let mut c = self.core();
-                    if let Some(r) = check(&mut c) {
-                        return Ok((false, Some(r)));
-                    }
-                    c
+        let mut c = match held {
+            Some(c) => c,
+            None => {
+                let mut c = self.core();
+                if let Some(r) = check(&mut c) {
+                    return Ok((false, Some(r)));
                 }
-            };
-            let next = c.handle_timeout_and_poll(now);
-            c.take_transmit(&mut io.out);
-            next
+                c
+            }
         };
-        let backlog = self.send_queued(io, now)?;
+        let next = c.handle_timeout_and_poll(now);
+        c.take_transmit(&mut io.out);
+        // Sent under the core's lock: a transport's send does not block (a full queue is
+        // back-pressure), and the answer may be there at once.
+        let backlog = self.send_queued(io, now, Some(&mut c))?;
         let mut deadline = now + if backlog { TX_RETRY } else { DRIVE_SLICE };
         if let Some(t) = next {
             deadline = deadline.min(t);
@@ -540,57 +539,66 @@ impl Network {
         if let Some(l) = limit {
             deadline = deadline.min(l);
         }
-        let mut got = io.recv_until(deadline.max(now));
-        let received = matches!(got, Ok(Some(_)));
-        let done = {
-            let mut c = self.core();
-            // The first frame, then whatever else is waiting already (up to a batch), under one
-            // lock and with one timer pass and one wake-up for all of them.
-            let mut now = None;
-            let mut frames = 0;
-            c.hold_events();
-            for taken in 1..=RECEIVE_BATCH {
-                match got {
-                    Ok(Some(Received::Frame { frame, at })) => {
-                        c.handle_frame(at, &frame);
-                        now = Some(at);
-                        frames += 1;
-                    }
-                    Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
-                    Ok(None) => break,
-                    Err(e) => {
-                        c.release_events();
-                        drop(c);
-                        self.notify();
-                        return Err(e.into());
-                    }
-                }
-                if taken == RECEIVE_BATCH || !io.has_pending() {
-                    break;
-                }
-                // A deadline not after the last reception: take only what has arrived.
-                got = io.recv_until(now.unwrap_or(start));
-            }
-            c.release_events();
-            // Nothing received: the wait ended at a deadline, so fire what is due now. After
-            // frames, the timers wait for the next step's start: the wait ended before any
-            // core deadline (it was one of the wait's bounds), and a timer is not worth a
-            // second pass over the core per frame.
-            match now {
-                Some(at) => latest = at,
-                None => {
-                    latest = io.now();
-                    c.handle_timeout(latest);
-                }
-            }
-            c.take_transmit(&mut io.out);
-            if frames <= 1 && !io.virtual_clock && io.reused < MAX_REUSED_READINGS {
-                io.reading = Some(latest);
-            }
-            check(&mut c)
+        // A transport that holds a frame already (the in-memory bus hands a request to its
+        // stations as it is sent, and their answers are queued) is read under the same lock;
+        // otherwise the lock is let go for the wait, so other threads can submit meanwhile.
+        let mut got = if io.has_pending() {
+            io.recv_until(now)
+        } else {
+            drop(c);
+            let got = io.recv_until(deadline.max(now));
+            c = self.core();
+            got
         };
-        self.send_queued(io, latest)?;
+        let received = matches!(got, Ok(Some(_)));
+        // The first frame, then whatever else is waiting already (up to a batch), under one
+        // lock and with one timer pass and one wake-up for all of them.
+        let mut at_last = None;
+        let mut frames = 0;
+        c.hold_events();
+        for taken in 1..=RECEIVE_BATCH {
+            match got {
+                Ok(Some(Received::Frame { frame, at })) => {
+                    c.handle_frame(at, &frame);
+                    at_last = Some(at);
+                    frames += 1;
+                }
+                Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
+                Ok(None) => break,
+                Err(e) => {
+                    c.release_events();
+                    drop(c);
+                    self.notify();
+                    return Err(e.into());
+                }
+            }
+            if taken == RECEIVE_BATCH || !io.has_pending() {
+                break;
+            }
+            // A deadline not after the last reception: take only what has arrived.
+            got = io.recv_until(at_last.unwrap_or(start));
+        }
+        c.release_events();
+        // Nothing received: the wait ended at a deadline, so fire what is due now. After
+        // frames, the timers wait for the next step's start: the wait ended before any core
+        // deadline (it was one of the wait's bounds), and a timer is not worth a second pass
+        // over the core per frame.
+        match at_last {
+            Some(at) => latest = at,
+            None => {
+                latest = io.now();
+                c.handle_timeout(latest);
+            }
+        }
+        c.take_transmit(&mut io.out);
+        if frames <= 1 && !io.virtual_clock && io.reused < MAX_REUSED_READINGS {
+            io.reading = Some(latest);
+        }
+        let done = check(&mut c);
+        let sent = self.send_queued(io, latest, Some(&mut c));
+        drop(c);
         self.notify();
+        sent?;
         Ok((received, done))
     }
 
@@ -598,23 +606,31 @@ impl Network {
     /// not a failure: the frames it did not take go back to the front of the core's queue for
     /// the next step (where a failed SDO transfer's frames can still be withdrawn). Returns
     /// whether frames stayed behind. `now` is a reading of the transport's clock taken a moment
-    /// before (see [`Transport::send_at`]).
+    /// before (see [`Transport::send_at`]); `core` is the core when the caller holds its lock.
     #[inline]
-    fn send_queued(&self, io: &mut Io, now: Instant) -> Result<bool, Error> {
+    fn send_queued(
+        &self,
+        io: &mut Io,
+        now: Instant,
+        core: Option<&mut Core>,
+    ) -> Result<bool, Error> {
         // Mostly nothing to send (a step asks twice).
         if io.out.is_empty() {
             return Ok(false);
         }
-        self.send_all(io, now)
+        self.send_all(io, now, core)
     }
 
-    fn send_all(&self, io: &mut Io, now: Instant) -> Result<bool, Error> {
+    fn send_all(&self, io: &mut Io, now: Instant, core: Option<&mut Core>) -> Result<bool, Error> {
         let Io { transport, out, .. } = io;
         for i in 0..out.len() {
             match transport.send_at(&out[i].frame, now) {
                 Ok(()) => {}
                 Err(TransportError::TxQueueFull) => {
-                    self.core().unsend(out.drain(i..));
+                    match core {
+                        Some(c) => c.unsend(out.drain(i..)),
+                        None => self.core().unsend(out.drain(i..)),
+                    }
                     out.clear();
                     return Ok(true);
                 }
@@ -641,7 +657,7 @@ impl Network {
         if let Ok(mut io) = self.inner.io.try_lock() {
             self.core().take_transmit(&mut io.out);
             let now = io.now();
-            let _ = self.send_queued(&mut io, now);
+            let _ = self.send_queued(&mut io, now, None);
         }
     }
 

@@ -12,9 +12,9 @@
 //! * `Network, real clock, driver thread`: the same with `Network::start_driver` running.
 //!
 //! ```text
-//! cargo run --release -p canopen-bench --bin facade_sdo [-- --count 20000] [--only virtual|real|driver]
+//! cargo run --release -p canopen-bench --bin facade_sdo [-- --count 20000] [--only machines|station|virtual|real|driver]
 //! ```
-//! `--only virtual|real|driver` runs one `Network` row alone, once (for a profiler).
+//! `--only ROW` runs one row alone, once (for a profiler).
 //! Prints wall-clock and process CPU nanoseconds per read (CPU time counts every thread of the
 //! process: the driver's and the real-time bus's service thread; on a loaded machine it is the
 //! steadier figure); judges nothing (the machine is shared).
@@ -185,6 +185,11 @@ fn best(mut f: impl FnMut() -> Cost) -> Cost {
         })
 }
 
+fn usage() -> ! {
+    eprintln!("usage: facade_sdo [--count N] [--only machines|station|virtual|real|driver]");
+    std::process::exit(2);
+}
+
 fn main() {
     let mut count = 20_000u32;
     let mut args = std::env::args().skip(1);
@@ -192,25 +197,24 @@ fn main() {
         let v = args.next();
         match (a.as_str(), v.as_deref().and_then(|v| v.parse().ok())) {
             ("--count", Some(n)) if n > 0 => count = n,
-            ("--only", _) if matches!(v.as_deref(), Some("virtual" | "real" | "driver")) => {
-                let (clock, driver) = match v.as_deref() {
-                    Some("virtual") => (ClockMode::Virtual, false),
-                    Some("real") => (ClockMode::RealTime, false),
-                    _ => (ClockMode::RealTime, true),
+            ("--only", _) => {
+                let ns = match v.as_deref() {
+                    Some("machines") => machines(count),
+                    Some("station") => station(count),
+                    Some("virtual") => network(count, ClockMode::Virtual, false),
+                    Some("real") => network(count, ClockMode::RealTime, false),
+                    Some("driver") => network(count, ClockMode::RealTime, true),
+                    _ => usage(),
                 };
-                let ns = network(count, clock, driver);
                 println!(
-                    "Network, {}: {:.0} ns wall, {:.0} ns CPU per read",
+                    "{}: {:.0} ns wall, {:.0} ns CPU per read",
                     v.as_deref().unwrap_or_default(),
                     ns.wall,
                     ns.cpu
                 );
                 return;
             }
-            _ => {
-                eprintln!("usage: facade_sdo [--count N] [--only virtual|real|driver]");
-                std::process::exit(2);
-            }
+            _ => usage(),
         }
     }
     println!("expedited SDO reads of 0x1018:01, {count} per run, best of 3 by CPU time");
