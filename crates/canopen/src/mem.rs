@@ -231,6 +231,9 @@ struct Ep {
     lost: u64,
     /// Its frames in `State::pending` (for the transmit queue bound, without a scan per send).
     sending: usize,
+    /// Frames moved to the endpoint's own inbox and not yet known to be taken from it: they
+    /// count against the receive queue's capacity (see `Endpoint::inbox`).
+    held: usize,
 }
 
 /// A station with its concrete type erased but recoverable.
@@ -569,7 +572,7 @@ impl State {
             if !ep.open || p.from == Participant::Endpoint(i) {
                 continue;
             }
-            if ep.queue.len() >= cap {
+            if ep.queue.len() + ep.held >= cap {
                 ep.lost += 1;
                 self.stats.overflowed += 1;
             } else {
@@ -670,11 +673,14 @@ impl MemoryBus {
             queue: VecDeque::new(),
             lost: 0,
             sending: 0,
+            held: 0,
         });
         Endpoint {
             bus: self.clone(),
             index: st.endpoints.len() - 1,
             more: false,
+            inbox: VecDeque::new(),
+            taken: 0,
         }
     }
 
@@ -865,6 +871,13 @@ pub struct Endpoint {
     /// `has_pending`, which so takes no lock; frames queued since are found by the next
     /// receive). A send looks because stations answer while the frame is delivered.
     more: bool,
+    /// Frames taken over from the endpoint's queue on the bus while a send held the bus's
+    /// lock (the stations' answers to what was sent), received from here without it. They
+    /// still count against the queue's capacity until a later call locks the bus and learns
+    /// how many were taken (`taken`): a frame received is freed at the endpoint's next call.
+    inbox: VecDeque<Received>,
+    /// Frames received from `inbox` since the bus last learnt of it.
+    taken: usize,
 }
 
 impl core::fmt::Debug for Endpoint {
@@ -876,6 +889,19 @@ impl core::fmt::Debug for Endpoint {
 }
 
 impl Endpoint {
+    /// Locks the bus, telling it how many frames endpoint `index` received from its inbox
+    /// meanwhile (`taken`). (Borrows the bus alone, so the endpoint's other fields stay free.)
+    fn lock_bus<'a>(bus: &'a MemoryBus, index: usize, taken: &mut usize) -> MutexGuard<'a, State> {
+        let mut st = bus.lock();
+        if *taken > 0 {
+            if let Some(ep) = st.endpoints.get_mut(index) {
+                ep.held -= *taken;
+            }
+            *taken = 0;
+        }
+        st
+    }
+
     /// The bus this endpoint belongs to.
     pub fn bus(&self) -> &MemoryBus {
         &self.bus
@@ -888,7 +914,7 @@ impl Endpoint {
         frame: &CanFrame,
         given: Option<Instant>,
     ) -> Result<(), TransportError> {
-        let mut st = self.bus.lock();
+        let mut st = Self::lock_bus(&self.bus, self.index, &mut self.taken);
         if st.down {
             return Err(TransportError::InterfaceDown);
         }
@@ -917,7 +943,22 @@ impl Endpoint {
             st.deliver(p, now);
         }
         st.advance(now);
-        self.more = st.has_queued(self.index);
+        // What the stations answered is queued for this endpoint now: moved to the inbox,
+        // it is received without locking the bus again. (Not with a loss to report: the
+        // report comes first, from the bus's queue.)
+        if let Some(ep) = st.endpoints.get_mut(self.index)
+            && ep.lost == 0
+            && !ep.queue.is_empty()
+        {
+            ep.held += ep.queue.len();
+            if self.inbox.is_empty() {
+                // The usual case, and no frame copied: the two queues trade buffers.
+                core::mem::swap(&mut self.inbox, &mut ep.queue);
+            } else {
+                self.inbox.extend(ep.queue.drain(..));
+            }
+        }
+        self.more = !self.inbox.is_empty() || st.has_queued(self.index);
         self.bus.shared.release(st);
         Ok(())
     }
@@ -925,7 +966,7 @@ impl Endpoint {
 
 impl Drop for Endpoint {
     fn drop(&mut self) {
-        let mut st = self.bus.lock();
+        let mut st = Self::lock_bus(&self.bus, self.index, &mut self.taken);
         if let Some(ep) = st.endpoints.get_mut(self.index) {
             ep.open = false;
             ep.queue.clear();
@@ -943,7 +984,13 @@ impl Transport for Endpoint {
     }
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
-        let mut st = self.bus.lock();
+        // Frames in the inbox were queued before anything now on the bus.
+        if let Some(r) = self.inbox.pop_front() {
+            self.taken += 1;
+            self.more = !self.inbox.is_empty();
+            return Ok(Some(r));
+        }
+        let mut st = Self::lock_bus(&self.bus, self.index, &mut self.taken);
         // A frame delivered already comes before anything that fell due since (that would be
         // delivered after it), so it is handed over without reading the clock: on a real-time
         // bus a clock reading costs a good part of an SDO round trip through the network.
@@ -1011,11 +1058,7 @@ impl Transport for Endpoint {
         if !matches!(st.clock, Clock::Virtual(_)) {
             return None;
         }
-        let waiting = st
-            .endpoints
-            .get(self.index)
-            .is_some_and(|e| e.lost > 0 || !e.queue.is_empty());
-        if waiting {
+        if !self.inbox.is_empty() || st.has_queued(self.index) {
             return Some(st.now());
         }
         st.next_event()
@@ -1205,6 +1248,41 @@ mod tests {
         ));
         assert_eq!(b.try_recv().unwrap(), None);
         assert_eq!(bus.stats().overflowed, 3);
+    }
+
+    #[test]
+    fn frames_taken_over_by_a_send_keep_their_order_and_count_against_the_queue() {
+        let bus = MemoryBus::with_config(BusConfig {
+            queue_capacity: 2,
+            ..BusConfig::default()
+        });
+        let mut a = bus.endpoint();
+        let mut b = bus.endpoint();
+        let data = |r: Option<Received>| match r {
+            Some(Received::Frame { frame, .. }) => frame.data()[0],
+            other => panic!("expected a frame, got {other:?}"),
+        };
+        a.send(&frame(0x200, &[1])).unwrap();
+        // b's send takes frame 1 over into b's inbox; it still fills a place in b's queue.
+        b.send(&frame(0x300, &[0])).unwrap();
+        assert!(b.has_pending());
+        a.send(&frame(0x200, &[2])).unwrap();
+        a.send(&frame(0x200, &[3])).unwrap();
+        assert_eq!(bus.stats().overflowed, 1, "capacity 2: frame 3 is lost");
+        assert_eq!(data(b.try_recv().unwrap()), 1);
+        // Received from the inbox without the bus's lock; the bus learns of it at b's next
+        // call, which reports the loss first (as a receive queue always does), then frame 2.
+        assert_eq!(
+            b.try_recv().unwrap(),
+            Some(Received::Event(BusEvent::RxOverflow { dropped: 1 }))
+        );
+        assert_eq!(data(b.try_recv().unwrap()), 2);
+        a.send(&frame(0x200, &[4])).unwrap();
+        a.send(&frame(0x200, &[5])).unwrap();
+        assert_eq!(bus.stats().overflowed, 1, "both places are free again");
+        assert_eq!(data(b.try_recv().unwrap()), 4);
+        assert_eq!(data(b.try_recv().unwrap()), 5);
+        assert_eq!(b.try_recv().unwrap(), None);
     }
 
     #[test]
