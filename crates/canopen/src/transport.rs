@@ -117,7 +117,9 @@ pub enum TransportError {
 /// the deadline passes without a frame or event; with a virtual clock, waiting is what makes
 /// time advance.
 pub trait Transport: Send {
-    /// Queues one frame for transmission.
+    /// Queues one frame for transmission. Does not wait for room: a full queue is
+    /// [`TransportError::TxQueueFull`] (the network sends with its protocol core locked, and
+    /// tries again later).
     fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError>;
 
     /// [`send`](Self::send) by a caller that read this transport's clock at `now` a moment
