@@ -86,6 +86,7 @@ impl CanFrame {
     }
 
     /// The data bytes (empty for a remote frame).
+    #[inline]
     pub fn data(&self) -> &[u8] {
         if self.rtr {
             &[]

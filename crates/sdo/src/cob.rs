@@ -47,6 +47,7 @@ impl SdoCobIds {
     }
 
     /// The default SDO channel of `node`: requests 0x600 + node, responses 0x580 + node.
+    #[inline]
     pub fn default_for(node: NodeId) -> Self {
         let id = |base: u16| {
             CanId::standard(base + u16::from(node.get())).unwrap_or_else(|_| unreachable!())
@@ -78,21 +79,25 @@ impl SdoCobIds {
     }
 
     /// A request frame (client side) carrying `data`.
+    #[inline]
     pub fn request_frame(&self, data: [u8; 8]) -> CanFrame {
         CanFrame::from_array(self.request, data)
     }
 
     /// A response frame (server side) carrying `data`.
+    #[inline]
     pub fn response_frame(&self, data: [u8; 8]) -> CanFrame {
         CanFrame::from_array(self.response, data)
     }
 
     /// Whether `frame` is a data frame on this channel's response identifier.
+    #[inline]
     pub fn is_response(&self, frame: &CanFrame) -> bool {
         frame.id() == self.response && !frame.is_remote()
     }
 
     /// Whether `frame` is a data frame on this channel's request identifier.
+    #[inline]
     pub fn is_request(&self, frame: &CanFrame) -> bool {
         frame.id() == self.request && !frame.is_remote()
     }

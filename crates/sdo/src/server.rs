@@ -356,6 +356,7 @@ impl Server {
 
     /// When [`handle_timeout`](Self::handle_timeout) must be called next, if a transfer runs.
     #[must_use]
+    #[inline]
     pub fn poll_timeout(&self) -> Option<Instant> {
         self.deadline
     }
