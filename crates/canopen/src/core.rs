@@ -1698,16 +1698,9 @@ impl Core {
 
     /// Moves every frame waiting to be sent, in order, to the end of `out`.
     pub(crate) fn take_transmit(&mut self, out: &mut VecDeque<Outgoing>) {
-        // Mostly empty (asked twice a step): a drain of nothing is not free.
-        if self.tx.is_empty() {
-            return;
-        }
-        // `out` is mostly empty too: the two queues trade places (and capacities) instead
-        // of the frames moving one by one.
-        if out.is_empty() {
-            core::mem::swap(&mut self.tx, out);
-        } else {
-            out.extend(self.tx.drain(..));
+        // Mostly empty (asked twice a step).
+        if !self.tx.is_empty() {
+            crate::move_all(&mut self.tx, out);
         }
     }
 

@@ -89,6 +89,21 @@ pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
 pub use typed::{ObjectKey, WriteValue};
 
+/// Moves every element of `from` to the back of `to`, in order. Mostly `to` is empty (the
+/// queues between the core, the network and the in-memory bus are drained at every step):
+/// then the two trade buffers, and no element is copied.
+#[inline]
+pub(crate) fn move_all<T>(
+    from: &mut std::collections::VecDeque<T>,
+    to: &mut std::collections::VecDeque<T>,
+) {
+    if to.is_empty() {
+        std::mem::swap(from, to);
+    } else {
+        to.extend(from.drain(..));
+    }
+}
+
 /// The README's code, compiled and run as doctests (its "Use as a library" program).
 #[cfg(doctest)]
 #[doc = include_str!("../../../README.md")]

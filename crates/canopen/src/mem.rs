@@ -951,12 +951,7 @@ impl Endpoint {
             && !ep.queue.is_empty()
         {
             ep.held += ep.queue.len();
-            if self.inbox.is_empty() {
-                // The usual case, and no frame copied: the two queues trade buffers.
-                core::mem::swap(&mut self.inbox, &mut ep.queue);
-            } else {
-                self.inbox.extend(ep.queue.drain(..));
-            }
+            crate::move_all(&mut ep.queue, &mut self.inbox);
         }
         self.more = !self.inbox.is_empty() || st.has_queued(self.index);
         self.bus.shared.release(st);

@@ -515,8 +515,6 @@ impl Network {
             }
         };
         let start = now;
-        // The latest clock reading, for stamping what the step sends last.
-        let latest;
         let mut c = match held {
             Some(c) => c,
             None => {
@@ -582,14 +580,15 @@ impl Network {
         // Nothing received: the wait ended at a deadline, so fire what is due now. After
         // frames, the timers wait for the next step's start: the wait ended before any core
         // deadline (it was one of the wait's bounds), and a timer is not worth a second pass
-        // over the core per frame.
-        match at_last {
-            Some(at) => latest = at,
+        // over the core per frame. `latest` stamps what the step sends last.
+        let latest = match at_last {
+            Some(at) => at,
             None => {
-                latest = io.now();
-                c.handle_timeout(latest);
+                let t = io.now();
+                c.handle_timeout(t);
+                t
             }
-        }
+        };
         c.take_transmit(&mut io.out);
         if frames <= 1 && !io.virtual_clock && io.reused < MAX_REUSED_READINGS {
             io.reading = Some(latest);
