@@ -241,7 +241,7 @@ fn main() {
     ];
     for (what, row) in rows {
         let c = best(|| row(count));
-        let paired = paired_ratio(count / 10, row);
+        let paired = paired_ratio((count / 10).max(1), row);
         println!(
             "{what:<40} {:>9.0} {:>12.0} {:>7.1} {:>8.1}",
             c.wall,
