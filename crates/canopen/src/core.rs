@@ -770,10 +770,11 @@ impl Core {
         self.subs.holding = !self.subs.channels.is_empty();
     }
 
-    /// Sends the events held back since [`hold_events`](Self::hold_events), in order.
-    pub(crate) fn release_events(&mut self) {
+    /// Sends the events held back since [`hold_events`](Self::hold_events), in order. `more`:
+    /// the transport holds more frames already (the batch subscribers may wait to be woken).
+    pub(crate) fn release_events(&mut self, more: bool) {
         if !self.pdo_subs.is_empty() {
-            self.pdo_subs.retain_mut(PdoPublisher::flush);
+            self.pdo_subs.retain_mut(|p| p.flush(more));
         }
         let subs = &mut self.subs;
         if !core::mem::take(&mut subs.holding) {

@@ -564,7 +564,7 @@ impl Network {
                 Ok(Some(Received::Event(ev))) => c.handle_bus_event(ev),
                 Ok(None) => break,
                 Err(e) => {
-                    c.release_events();
+                    c.release_events(false);
                     drop(c);
                     self.notify();
                     return Err(e.into());
@@ -576,7 +576,7 @@ impl Network {
             // A deadline not after the last reception: take only what has arrived.
             got = io.recv_until(at_last.unwrap_or(start));
         }
-        c.release_events();
+        c.release_events(frames == RECEIVE_BATCH && io.has_pending());
         // Nothing received: the wait ended at a deadline, so fire what is due now. After
         // frames, the timers wait for the next step's start: the wait ended before any core
         // deadline (it was one of the wait's bounds), and a timer is not worth a second pass
