@@ -321,7 +321,10 @@ impl Network {
     }
 
     /// Subscribes to heartbeat, EMCY, PDO, LSS and bus events. Events published after this
-    /// call arrive in order; a dropped receiver unsubscribes.
+    /// call arrive in order; a dropped receiver unsubscribes. Every received PDO is an event
+    /// of its own here, owning its values; at high PDO rates [`subscribe_pdos`](Self::subscribe_pdos)
+    /// (batches) or [`on_pdo`](Self::on_pdo) (a callback) take a fraction of the CPU
+    /// (`canopen-bench`'s `pdo_rx` compares them).
     pub fn subscribe(&self) -> mpsc::Receiver<NetworkEvent> {
         self.core().subscribe()
     }
