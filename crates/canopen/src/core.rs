@@ -771,7 +771,8 @@ impl Core {
     }
 
     /// Sends the events held back since [`hold_events`](Self::hold_events), in order. `more`:
-    /// the transport holds more frames already (the batch subscribers may wait to be woken).
+    /// a background driver steps again at once for frames the transport holds already (the
+    /// batch subscribers may wait to be woken, see [`PdoPublisher::flush`]).
     pub(crate) fn release_events(&mut self, more: bool) {
         if !self.pdo_subs.is_empty() {
             self.pdo_subs.retain_mut(|p| p.flush(more));
@@ -782,6 +783,14 @@ impl Core {
         }
         for ev in subs.held.drain(..) {
             Subscribers::send_to(&mut subs.channels, ev);
+        }
+    }
+
+    /// Wakes the waiting batch subscribers: a background driver that stops may have left PDOs
+    /// in their batches without waking them (see [`PdoPublisher::flush`]).
+    pub(crate) fn wake_pdo_subscribers(&self) {
+        for p in &self.pdo_subs {
+            p.wake();
         }
     }
 

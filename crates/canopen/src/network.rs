@@ -579,7 +579,12 @@ impl Network {
             // A deadline not after the last reception: take only what has arrived.
             got = io.recv_until(at_last.unwrap_or(start));
         }
-        c.release_events(frames == RECEIVE_BATCH && io.has_pending());
+        // A background driver steps again at once for frames already waiting: the batch
+        // subscribers are woken once the burst is over (any other caller may not step again).
+        let more = frames == RECEIVE_BATCH
+            && self.inner.driven.load(Ordering::Relaxed)
+            && io.has_pending();
+        c.release_events(more);
         // Nothing received: the wait ended at a deadline, so fire what is due now. After
         // frames, the timers wait for the next step's start: the wait ended before any core
         // deadline (it was one of the wait's bounds), and a timer is not worth a second pass
@@ -841,6 +846,9 @@ fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) 
             net.driver_failed(&e, error, stop);
             return;
         }
+    }
+    if let Some(inner) = inner.upgrade() {
+        Network { inner }.core().wake_pdo_subscribers();
     }
 }
 

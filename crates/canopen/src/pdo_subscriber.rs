@@ -10,10 +10,12 @@
 //! Three buffers rotate between the network and the subscriber (the network's pending one, the
 //! shared one, the subscriber's own), each keeping its capacity: once they have grown to a
 //! batch's size, receiving allocates nothing. The network fills its pending buffer without a
-//! lock and hands it over once per driving step (one lock). It wakes a waiting subscriber when
-//! a burst of frames has been handled (the transport holds no more) or [`WAKE_AT`] PDOs wait:
-//! waking a sleeping thread costs more CPU than decoding a few dozen frames, so in a burst the
-//! subscriber wakes once per few hundred PDOs, not once per step.
+//! lock and hands it over once per driving step (one lock). Under a background driver, it wakes
+//! a waiting subscriber when a burst of frames has been handled (the transport holds no more),
+//! when [`WAKE_AT`] PDOs wait, or when the driver stops: waking a sleeping thread costs more CPU
+//! than decoding a few dozen frames, so in a burst the subscriber wakes once per hundreds of
+//! PDOs, not once per step. Any other driving step (a stepping thread, a waiting call) wakes it
+//! at its end, as nothing says another step follows.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{RecvError, RecvTimeoutError, TryRecvError};
@@ -216,8 +218,9 @@ impl PdoPublisher {
     }
 
     /// Hands the pending PDOs to the subscriber; `false` when the subscriber is gone. `more`:
-    /// the transport holds more frames already, so a waiting subscriber is woken only once
-    /// [`WAKE_AT`] PDOs wait for it.
+    /// the transport holds more frames already and a background driver steps again at once,
+    /// so a waiting subscriber is woken only once [`WAKE_AT`] PDOs wait for it (the driver
+    /// wakes it when it stops, see [`wake`](Self::wake)).
     pub(crate) fn flush(&mut self, more: bool) -> bool {
         if Arc::strong_count(&self.queue) == 1 {
             return false;
@@ -237,15 +240,19 @@ impl PdoPublisher {
             }
             shared.batch.len()
         };
-        if more && waiting < WAKE_AT {
-            return true;
+        if !more || waiting >= WAKE_AT {
+            self.wake();
         }
+        true
+    }
+
+    /// Wakes the subscriber if it waits (blocked in `recv`, or awaiting `recv_async`).
+    pub(crate) fn wake(&self) {
         if self.queue.waiting.load(Ordering::SeqCst) > 0 {
             self.queue.ready.notify_all();
         }
         #[cfg(feature = "tokio")]
         self.queue.notify.notify_one();
-        true
     }
 }
 

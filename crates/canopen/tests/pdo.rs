@@ -729,3 +729,57 @@ fn pdo_batches_carry_what_the_callback_sees() {
         );
     }
 }
+
+/// Frames already waiting in the transport, as a socket with a full receive queue holds them.
+struct Backlog(std::collections::VecDeque<CanFrame>);
+
+impl Transport for Backlog {
+    fn send(&mut self, _: &CanFrame) -> Result<(), canopen::TransportError> {
+        Ok(())
+    }
+    fn recv_until(&mut self, _: Instant) -> Result<Option<Received>, canopen::TransportError> {
+        Ok(self.0.pop_front().map(|frame| Received::Frame {
+            frame,
+            at: Instant::ZERO,
+        }))
+    }
+    fn now(&self) -> Instant {
+        Instant::ZERO
+    }
+    fn has_pending(&self) -> bool {
+        !self.0.is_empty()
+    }
+}
+
+/// A subscriber blocked on another thread is woken at the end of a step that leaves frames in
+/// the transport when no background driver follows it up: the stepping thread may not step
+/// again soon (only a driver's wake-up waits for the burst's end).
+#[test]
+fn a_step_that_leaves_a_backlog_wakes_a_blocked_batch_subscriber() {
+    let frames = (0..100u8)
+        .map(|k| CanFrame::new(CanId::standard(0x185).unwrap(), &[k]).unwrap())
+        .collect();
+    let net = Network::new(Backlog(frames));
+    net.add_node(n(5));
+    let mut pdos = net.subscribe_pdos();
+    let (done, result) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        // Blocks for up to an hour: a missed wake-up shows as no result below.
+        let batch = pdos
+            .recv()
+            .map(|b| b.iter().map(|p| p.data[0]).collect::<Vec<_>>());
+        done.send(batch)
+    });
+    // Let the reader block first (were it late, it would find the batch without a wake-up).
+    std::thread::sleep(std::time::Duration::from_millis(100));
+    net.run_until(net.now()).unwrap();
+    let got = result
+        .recv_timeout(std::time::Duration::from_secs(20))
+        .expect("the blocked subscriber was woken")
+        .unwrap();
+    assert!(
+        !got.is_empty() && got.len() < 100,
+        "one step's PDOs: {got:?}"
+    );
+    assert_eq!(got, (0..got.len() as u8).collect::<Vec<_>>());
+}

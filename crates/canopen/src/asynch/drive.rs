@@ -315,5 +315,8 @@ pub(crate) fn spawn_virtual_driver(
                 return;
             }
         }
+        if let Some(inner) = inner.upgrade() {
+            Network { inner }.core().wake_pdo_subscribers();
+        }
     }));
 }
