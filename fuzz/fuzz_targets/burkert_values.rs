@@ -2,11 +2,11 @@
 //! accepted value encodes back to what was decoded.
 #![no_main]
 
-use burkert_profile::objects::{
+use canola_burkert::objects::{
     self, buerkert_device_description_object as desc, device_status_object as st,
     error_management_object,
 };
-use burkert_profile::{
+use canola_burkert::{
     BitRate, BusMode, CanOperationStatus, EdsVersion, Kelvin, LedColour, LedMode, LedState,
     Ne107Status, ResetCommand, Termination, TransMemStatus, ValveModeColours, ValvePosition,
 };

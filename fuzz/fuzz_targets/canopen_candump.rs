@@ -2,7 +2,7 @@
 //! line that parses formats back to text that parses to the same entry.
 #![no_main]
 
-use canopen::candump::{Reader, format_line, parse_line};
+use canola::candump::{Reader, format_line, parse_line};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

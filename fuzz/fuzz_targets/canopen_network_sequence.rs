@@ -19,8 +19,8 @@ use std::collections::VecDeque;
 use std::sync::OnceLock;
 
 use arbitrary::Arbitrary;
-use canopen::mem::StationId;
-use canopen::{
+use canola::mem::StationId;
+use canola::{
     BusConfig, CanFrame, CanId, Duration, Instant, MemoryBus, Method, Network, NodeId,
     ObjectDictionary, Pending, SimDevice, Station,
 };
@@ -84,7 +84,7 @@ impl Station for Injector {
 
 fn dictionary() -> &'static ObjectDictionary {
     static OD: OnceLock<ObjectDictionary> = OnceLock::new();
-    OD.get_or_init(|| canopen::od::parse(EDS).expect("the rig's EDS parses").od)
+    OD.get_or_init(|| canola::od::parse(EDS).expect("the rig's EDS parses").od)
 }
 
 fn node() -> NodeId {

@@ -3,7 +3,7 @@
 //! decodes to the same frame.
 #![no_main]
 
-use canopen::udp::{Message, decode, encode};
+use canola::udp::{Message, decode, encode};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -5,10 +5,10 @@
 
 use std::fmt::Write as _;
 
-use can_frame::{CanFrame, CanId};
-use devicenet::explicit::{ExplicitFrame, Request, Response};
-use devicenet::fragment::{FragmentByte, MessageBuf, Reassembler};
-use devicenet::{DuplicateMacCheck, Identity};
+use canola_devicenet::explicit::{ExplicitFrame, Request, Response};
+use canola_devicenet::fragment::{FragmentByte, MessageBuf, Reassembler};
+use canola_devicenet::{DuplicateMacCheck, Identity};
+use canola_frame::{CanFrame, CanId};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -22,7 +22,7 @@ fuzz_target!(|data: &[u8]| {
     let frame_data = &body[..body.len().min(8)];
     let frame = CanFrame::new(CanId::standard(id).unwrap(), frame_data).unwrap();
     let mut s = String::new();
-    let _ = write!(s, "{}", devicenet::decode(&frame));
+    let _ = write!(s, "{}", canola_devicenet::decode(&frame));
     assert!(!s.is_empty());
 
     if let Ok(f) = ExplicitFrame::parse(frame_data) {
@@ -57,7 +57,7 @@ fuzz_target!(|data: &[u8]| {
     for chunk in body.chunks(8) {
         let (&fb, d) = chunk.split_first().unwrap();
         if let Ok(Some(m)) = r.push(FragmentByte::from_u8(fb), d) {
-            assert!(m.len() <= devicenet::fragment::MAX_MESSAGE);
+            assert!(m.len() <= canola_devicenet::fragment::MAX_MESSAGE);
         }
     }
 });

@@ -2,10 +2,10 @@
 //! no panic and bounded output. Each 11-byte chunk is [selector, dt, dlc, data 0..8].
 #![no_main]
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
-use devicenet::{MacId, Predefined};
-use gemu_cpos::over_devicenet::{CposMaster, CposMasterConfig, SIM_DIAGNOSTIC_PATH};
-use gemu_cpos::params::ParamId;
+use canola_devicenet::{MacId, Predefined};
+use canola_frame::{CanFrame, CanId, Duration, Instant};
+use canola_gemu::over_devicenet::{CposMaster, CposMasterConfig, SIM_DIAGNOSTIC_PATH};
+use canola_gemu::params::ParamId;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -4,10 +4,10 @@
 //! identifiers the slave listens to (or any identifier), dt advances the clock in ms.
 #![no_main]
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
-use devicenet::{DnId, MacId, Predefined, Slave};
-use gemu_cpos::SimulatedCpos;
-use gemu_cpos::over_devicenet::{CposSlave, ImageSizes, cpos_slave_config};
+use canola_devicenet::{DnId, MacId, Predefined, Slave};
+use canola_frame::{CanFrame, CanId, Duration, Instant};
+use canola_gemu::SimulatedCpos;
+use canola_gemu::over_devicenet::{CposSlave, ImageSizes, cpos_slave_config};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

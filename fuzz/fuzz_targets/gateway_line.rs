@@ -2,7 +2,7 @@
 //! line that parses to the same request, and a value's bytes decode back to the same value.
 #![no_main]
 
-use canopen_gateway::{Command, Value, parse_line};
+use canola_gateway::{Command, Value, parse_line};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

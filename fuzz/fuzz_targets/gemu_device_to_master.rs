@@ -2,11 +2,11 @@
 //! channel and its typed answer, and the client consuming arbitrary device images.
 #![no_main]
 
-use can_frame::{Duration, Instant};
-use gemu_cpos::channel::{Answer, Channel};
-use gemu_cpos::client::{Client, ClientConfig};
-use gemu_cpos::image::DeviceImage;
-use gemu_cpos::{ActionRequest, action::RunFunction, params::ParamId};
+use canola_frame::{Duration, Instant};
+use canola_gemu::channel::{Answer, Channel};
+use canola_gemu::client::{Client, ClientConfig};
+use canola_gemu::image::DeviceImage;
+use canola_gemu::{ActionRequest, action::RunFunction, params::ParamId};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -1,10 +1,10 @@
-//! Every canopen-lss decoder on arbitrary bytes: no panic, whatever decodes re-encodes to a
+//! Every canola-lss decoder on arbitrary bytes: no panic, whatever decodes re-encodes to a
 //! value that decodes to the same thing (unknown command specifiers keep every byte), and its
 //! CiA 305 text (`Display`) is written without a panic.
 #![no_main]
 
-use can_frame::{CanFrame, CanId};
-use canopen_lss::{Request, Response};
+use canola_frame::{CanFrame, CanId};
+use canola_lss::{Request, Response};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -4,8 +4,8 @@
 //! 0xFF).
 #![no_main]
 
-use can_frame::{Duration, Instant, NodeId};
-use canopen_lss::{
+use canola_frame::{Duration, Instant, NodeId};
+use canola_lss::{
     AssignAll, AssignConfig, LssAddress, LssMachine, LssSlave, NodeIdPool, Request, Response,
     SlaveConfig,
 };

@@ -16,8 +16,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use canopen_manager::NetworkConfig;
-use canopen_manager::master_dcf::MasterObjects;
+use canola_manager::NetworkConfig;
+use canola_manager::master_dcf::MasterObjects;
 use libfuzzer_sys::fuzz_target;
 
 #[path = "common/first_time.rs"]
@@ -81,7 +81,7 @@ fuzz_target!(|data: &[u8]| {
                 return;
             }
             let dcf = MasterObjects::write_master_dcf(&config);
-            let od = canopen_od::parse(dcf.as_bytes())
+            let od = canola_od::parse(dcf.as_bytes())
                 .expect("the written master DCF parses")
                 .od;
             assert_eq!(

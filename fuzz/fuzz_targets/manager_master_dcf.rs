@@ -16,8 +16,8 @@
 
 use std::path::Path;
 
-use canopen_manager::NetworkConfig;
-use canopen_manager::master_dcf::{MasterObjects, dictionary_from_concise};
+use canola_manager::NetworkConfig;
+use canola_manager::master_dcf::{MasterObjects, dictionary_from_concise};
 use libfuzzer_sys::fuzz_target;
 
 #[path = "common/first_time.rs"]
@@ -25,7 +25,7 @@ mod first_time;
 use first_time::first_time;
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(parsed) = canopen_od::parse(data) else {
+    let Ok(parsed) = canola_od::parse(data) else {
         return;
     };
     let objects = MasterObjects::from_dictionary(&parsed.od);

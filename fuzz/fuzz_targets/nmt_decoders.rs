@@ -1,10 +1,10 @@
-//! Every canopen-nmt decoder on arbitrary bytes: no panic (in decoding or in the `Display`
+//! Every canola-nmt decoder on arbitrary bytes: no panic (in decoding or in the `Display`
 //! texts), and whatever decodes re-encodes to a
 //! value that decodes to the same thing.
 #![no_main]
 
-use can_frame::{CanFrame, CanId};
-use canopen_nmt::{
+use canola_frame::{CanFrame, CanId};
+use canola_nmt::{
     Emcy, ErrorControlFrame, ErrorControlMessage, GuardResponse, Heartbeat, NmtCommand,
     SyncMessage, TimeOfDay,
 };
@@ -55,7 +55,7 @@ fuzz_target!(|data: &[u8]| {
                     }
                     let _ = m.to_string();
                 }
-                if let Some(cob) = can_frame::CobId::classify(raw & 0x7FF) {
+                if let Some(cob) = canola_frame::CobId::classify(raw & 0x7FF) {
                     let _ = cob.to_string();
                 }
                 let _ = NmtCommand::from_frame(&f);

@@ -1,11 +1,11 @@
-//! Random frames, configuration changes and time steps into the canopen-nmt machines (heartbeat
+//! Random frames, configuration changes and time steps into the canola-nmt machines (heartbeat
 //! consumer, guarding master, EMCY consumer, NMT slave, SYNC producer). No panic, bounded output,
 //! and after `handle_timeout(now)` no machine reports a deadline at or before `now`.
 #![no_main]
 
 use arbitrary::Arbitrary;
-use can_frame::{CanFrame, CanId, Duration, Instant, NodeId};
-use canopen_nmt::{
+use canola_frame::{CanFrame, CanId, Duration, Instant, NodeId};
+use canola_nmt::{
     EmcyConsumer, GuardingMaster, HeartbeatConsumer, NmtSlave, SlaveConfig, SyncConfig,
     SyncProducer,
 };

@@ -15,7 +15,7 @@ use libfuzzer_sys::fuzz_target;
 const MAX_DIAGNOSTICS: usize = 2 * 13 * 26;
 
 fuzz_target!(|data: &[u8]| {
-    let parsed = canopen_od::parse(data);
+    let parsed = canola_od::parse(data);
     let diagnostics = match &parsed {
         Ok(p) => &p.diagnostics,
         Err(e) => &e.diagnostics,
@@ -28,19 +28,19 @@ fuzz_target!(|data: &[u8]| {
     for d in diagnostics {
         assert!(!d.message.chars().any(char::is_control), "{d}");
     }
-    let quiet = canopen_od::ParseOptions::new().style_warnings(false);
-    if let Ok(p) = canopen_od::parse_with(data, quiet) {
+    let quiet = canola_od::ParseOptions::new().style_warnings(false);
+    if let Ok(p) = canola_od::parse_with(data, quiet) {
         assert!(
             p.diagnostics
                 .iter()
-                .all(|d| d.kind != canopen_od::DiagnosticKind::Style)
+                .all(|d| d.kind != canola_od::DiagnosticKind::Style)
         );
     }
     if let Ok(p) = parsed {
-        let _ = canopen_od::lint(&p.od);
-        let text = canopen_od::write_eds(&p.od);
-        let again = canopen_od::parse(text.as_bytes()).expect("written EDS parses");
+        let _ = canola_od::lint(&p.od);
+        let text = canola_od::write_eds(&p.od);
+        let again = canola_od::parse(text.as_bytes()).expect("written EDS parses");
         assert_eq!(again.od, p.od, "round trip changed the model");
-        let _ = canopen_od::write_dcf(&p.od, 1, Some(125));
+        let _ = canola_od::write_dcf(&p.od, 1, Some(125));
     }
 });

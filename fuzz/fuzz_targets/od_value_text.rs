@@ -3,7 +3,7 @@
 //! no control characters.
 #![no_main]
 
-use canopen_od::{BASIC_DATA_TYPES, DataType, EdsValue, Value};
+use canola_od::{BASIC_DATA_TYPES, DataType, EdsValue, Value};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -4,8 +4,8 @@
 //! to the MPDO decoder and consumer. Nothing may panic; unpack-then-pack keeps the mapped bits.
 #![no_main]
 
-use can_frame::{CanFrame, CanId, Instant, NodeId};
-use canopen_pdo::{
+use canola_frame::{CanFrame, CanId, Instant, NodeId};
+use canola_pdo::{
     CommParams, DispatcherEntry, Engine, Mapping, MpdoConsumer, NullStore, PdoConfig, RawValue,
     TransmissionType, pack, unpack,
 };

@@ -1,13 +1,13 @@
-//! Typed PDOs (what `canopen-codegen` generates from an EDS) against random frames and values:
+//! Typed PDOs (what `canola-codegen` generates from an EDS) against random frames and values:
 //! a struct with a 1-bit BOOLEAN, a 1-bit dummy, an INTEGER24 at bit 2, an UNSIGNED8 dummy, a
 //! REAL32 field that straddles bytes and a 2-byte string decodes any frame, any `(address,
 //! value)` list and packs any field values without panicking; what decodes packs back to the
 //! same fields.
 #![no_main]
 
-use can_frame::{CanFrame, CanId};
-use canopen_pdo::typed::{PdoField, field};
-use canopen_pdo::{
+use canola_frame::{CanFrame, CanId};
+use canola_pdo::typed::{PdoField, field};
+use canola_pdo::{
     DefaultCobId, Direction, ObjectAddress, RawValue, TypedPdo, TypedPdoError, ValueKind,
 };
 use libfuzzer_sys::fuzz_target;
@@ -110,6 +110,6 @@ fuzz_target!(|data: &[u8]| {
         };
         let mut out = [0u8; 8];
         let _ = s.pack(&mut out);
-        let _ = s.to_frame(can_frame::NodeId::MIN);
+        let _ = s.to_frame(canola_frame::NodeId::MIN);
     }
 });

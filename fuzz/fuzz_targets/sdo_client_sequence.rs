@@ -4,8 +4,8 @@
 #![no_main]
 
 use arbitrary::Arbitrary;
-use can_frame::{Duration, Instant};
-use canopen_sdo::{AbortCode, Client, ClientConfig, Event, Method, Multiplexer, SliceSink};
+use canola_frame::{Duration, Instant};
+use canola_sdo::{AbortCode, Client, ClientConfig, Event, Method, Multiplexer, SliceSink};
 use libfuzzer_sys::fuzz_target;
 
 #[derive(Debug, Arbitrary)]
@@ -117,7 +117,7 @@ fuzz_target!(|input: Input| {
         if let Some(progress) = client.progress() {
             assert!(running);
             if let Some(total) = progress.total
-                && progress.direction == canopen_sdo::Direction::Download
+                && progress.direction == canola_sdo::Direction::Download
             {
                 assert!(progress.done <= total);
             }
@@ -134,7 +134,7 @@ fuzz_target!(|input: Input| {
                     sink_slot = Some(sink.into_inner().0);
                 }
                 Event::Failed {
-                    buffer: canopen_sdo::Buffer::Sink(sink),
+                    buffer: canola_sdo::Buffer::Sink(sink),
                     error,
                 } => {
                     let _ = error.to_string();

@@ -2,7 +2,7 @@
 //! segments): no panic (in decoding or in the `Display` text), and whatever decodes re-encodes to bytes that decode to the same value.
 #![no_main]
 
-use canopen_sdo::{BlockSegment, ClientRequest};
+use canola_sdo::{BlockSegment, ClientRequest};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

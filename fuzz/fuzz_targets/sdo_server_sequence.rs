@@ -4,8 +4,8 @@
 #![no_main]
 
 use arbitrary::Arbitrary;
-use can_frame::{Duration, Instant};
-use canopen_sdo::{AbortCode, Access, Multiplexer, ObjectAccess, ObjectInfo, Server, ServerConfig};
+use canola_frame::{Duration, Instant};
+use canola_sdo::{AbortCode, Access, Multiplexer, ObjectAccess, ObjectInfo, Server, ServerConfig};
 use libfuzzer_sys::fuzz_target;
 
 #[derive(Debug, Arbitrary)]

@@ -1,11 +1,11 @@
 //! SDO throughput on the in-memory bus with the bit-rate timing model, as a share of the CAN
 //! bus bound.
 //!
-//! `cargo bench -p canopen-bench --bench bus_bound` prints one table per timing model (1 Mbit/s
+//! `cargo bench -p canola-bench --bench bus_bound` prints one table per timing model (1 Mbit/s
 //! without stuff bits, then with the worst-case number of stuff bits): 1000 expedited reads, a
 //! 64 KiB segmented upload and a 64 KiB block upload from a simulated device to the master, timed
 //! on the bus's virtual clock. Two bounds per row:
-//! * "frames": the frames the transfer cannot do without (counted in `canopen_bench`, checked
+//! * "frames": the frames the transfer cannot do without (counted in `canola_bench`, checked
 //!   against the bus's frame counter) times the model's bits per frame — the exact bound for
 //!   this transfer;
 //! * "long": the asymptotic bound for long transfers (expedited 4 505/s, segmented 30.8 KiB/s,
@@ -17,12 +17,12 @@
 //! processing time to either side), the simulator's heartbeat switched off so that only SDO
 //! frames use the bus.
 
-use can_frame::NodeId;
-use canopen::{BusConfig, ClockMode};
-use canopen_bench::{
+use canola::{BusConfig, ClockMode};
+use canola_bench::{
     BOUNDS_1M, Bounds, EXPEDITED_FRAMES, LARGE_LEN, MAX_BLKSIZE, Measured, block_upload_frames,
     in_memory, kib_per_s, segmented_upload_frames,
 };
+use canola_frame::NodeId;
 
 const EXPEDITED: u64 = 1000;
 

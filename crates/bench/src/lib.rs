@@ -1,9 +1,9 @@
-//! SDO throughput benchmarks of the `canopen` master.
+//! SDO throughput benchmarks of the `canola` master.
 //!
 //! Two programs share the definitions of this library:
-//! * the bench `bus_bound` (`cargo bench -p canopen-bench --bench bus_bound`): expedited,
-//!   segmented and block uploads from a simulated device ([`canopen::SimDevice`]) to the master
-//!   ([`canopen::Network`]) on the in-memory bus with the 1 Mbit/s timing model, in bus time, as
+//! * the bench `bus_bound` (`cargo bench -p canola-bench --bench bus_bound`): expedited,
+//!   segmented and block uploads from a simulated device ([`canola::SimDevice`]) to the master
+//!   ([`canola::Network`]) on the in-memory bus with the 1 Mbit/s timing model, in bus time, as
 //!   a share of the CAN bus bound computed here ([`Bounds`]);
 //! * the binary `vcan_sdo` (run by `tests/vcan/run-all` in the QEMU guest): the same workload on
 //!   vcan0 by this master and by python-canopen's `RemoteNode` (`py/remote_sdo_bench.py`), both
@@ -17,8 +17,8 @@
 
 pub mod load;
 
-use can_frame::NodeId;
-use canopen::SimDevice;
+use canola::SimDevice;
+use canola_frame::NodeId;
 
 /// The EDS of the simulated device: the vcan rig's test device (`tests/vcan/test-device.eds`).
 pub const EDS: &[u8] = include_bytes!("../../../tests/vcan/test-device.eds");
@@ -59,7 +59,7 @@ pub fn kib_per_s(bytes: usize, secs: f64) -> f64 {
 
 /// Lower bounds of SDO transfers on a CAN bus: the frames a transfer cannot do without, each
 /// 8 data bytes long (CiA 301 §7.2.4.3 SDO frames always carry 8 bytes), times the bits of such a
-/// frame ([`frame_bits`](Self::frame_bits), from the timing model of [`canopen::mem`]), at a bit
+/// frame ([`frame_bits`](Self::frame_bits), from the timing model of [`canola::mem`]), at a bit
 /// rate. Bus idle time, processing time of either side and other traffic are zero here, so no
 /// implementation can be faster.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -85,12 +85,12 @@ impl Bounds {
     /// Bits of one 8-byte data frame with an 11-bit identifier, interframe space included
     /// (111 without stuffing, 135 with the worst case).
     pub fn frame_bits(&self) -> u32 {
-        let frame = can_frame::CanFrame::new(
-            can_frame::CanId::standard(0x581).expect("0x581 is an 11-bit identifier"),
+        let frame = canola_frame::CanFrame::new(
+            canola_frame::CanId::standard(0x581).expect("0x581 is an 11-bit identifier"),
             &[0; 8],
         )
         .expect("8 data bytes fit a classic frame");
-        canopen::mem::frame_bits(&frame, self.worst_case_stuffing)
+        canola::mem::frame_bits(&frame, self.worst_case_stuffing)
     }
 
     /// Seconds `frames` 8-byte frames occupy the bus.
@@ -156,7 +156,7 @@ pub struct Measured {
     /// Host time the measurement took, in seconds.
     pub host_seconds: f64,
     /// CPU time (user and system) of the calling thread during the measurement, in seconds.
-    /// The blocking API of [`canopen::Network`] does all of the master's work in the thread
+    /// The blocking API of [`canola::Network`] does all of the master's work in the thread
     /// that waits, so on a real bus this is the master's cost, apart from the waiting.
     pub cpu_seconds: f64,
     /// Context switches of the calling thread during the measurement (Linux; 0 elsewhere).
@@ -198,8 +198,8 @@ impl core::fmt::Display for BenchError {
 
 impl std::error::Error for BenchError {}
 
-impl From<canopen::Error> for BenchError {
-    fn from(e: canopen::Error) -> Self {
+impl From<canola::Error> for BenchError {
+    fn from(e: canola::Error) -> Self {
         Self(e.to_string())
     }
 }
@@ -212,7 +212,7 @@ impl From<canopen::Error> for BenchError {
 /// lets the bus go idle between the parts (the block transfer's last frame, the client's end
 /// response, leaves after the data is complete).
 pub fn run_workload(
-    node: &canopen::Node,
+    node: &canola::Node,
     expedited: u64,
     large_len: usize,
     stats: &dyn Fn() -> (u64, f64),
@@ -287,15 +287,15 @@ pub fn run_workload(
 /// rate for bus time), against a [`device`] with node-ID `node` whose heartbeat is switched off
 /// first (0x1017 = 0) so that only SDO frames use the bus.
 pub fn in_memory(
-    config: canopen::BusConfig,
+    config: canola::BusConfig,
     node: NodeId,
     expedited: u64,
     large_len: usize,
 ) -> Result<[Measured; 3], BenchError> {
-    let bus = canopen::MemoryBus::with_config(config);
-    let net = canopen::Network::new(bus.endpoint());
+    let bus = canola::MemoryBus::with_config(config);
+    let net = canola::Network::new(bus.endpoint());
     // A clean bus: no pause between transfers to one node (see Network::set_transfer_gap).
-    net.set_transfer_gap(can_frame::Duration::ZERO);
+    net.set_transfer_gap(canola_frame::Duration::ZERO);
     bus.attach(device(node, large_len));
     let n = net.node(node);
     n.sdo().write((0x1017, 0), 0u16)?;
@@ -303,7 +303,7 @@ pub fn in_memory(
         let s = bus.stats();
         (s.frames, s.busy.as_micros() as f64 / 1e6)
     };
-    let settle = || Ok(net.run_for(can_frame::Duration::from_millis(5))?);
+    let settle = || Ok(net.run_for(canola_frame::Duration::from_millis(5))?);
     run_workload(&n, expedited, large_len, &stats, &|| (0.0, 0), &settle)
 }
 
@@ -340,7 +340,7 @@ mod tests {
     /// share of the bound meaningful.
     #[test]
     fn in_memory_transfers_use_the_counted_frames() {
-        let config = canopen::BusConfig {
+        let config = canola::BusConfig {
             bitrate: Some(1_000_000),
             ..Default::default()
         };

@@ -19,12 +19,12 @@
 use std::collections::BTreeMap;
 use std::sync::mpsc::Receiver;
 
-use can_frame::{CanFrame, Duration, Instant, NodeId};
-use canopen::mem::{StationId, frame_bits};
-use canopen::{
+use canola::mem::{StationId, frame_bits};
+use canola::{
     BusConfig, ClockMode, MemoryBus, Method, Network, NetworkEvent, ObjectDictionary, Pending,
     SimDevice, Station, Transport, Value,
 };
+use canola_frame::{CanFrame, Duration, Instant, NodeId};
 
 use crate::thread_cpu_seconds;
 
@@ -154,7 +154,7 @@ pub fn master_dictionary() -> ObjectDictionary {
 }
 
 fn parse(text: &str) -> ObjectDictionary {
-    canopen::od::parse(text.as_bytes())
+    canola::od::parse(text.as_bytes())
         .expect("the load device's EDS parses")
         .od
 }
@@ -191,7 +191,7 @@ impl LoadNode {
 
 impl Station for LoadNode {
     fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
-        if frame.cob_id() == Some(0x080) && self.dev.state() == canopen::DeviceState::Operational {
+        if frame.cob_id() == Some(0x080) && self.dev.state() == canola::DeviceState::Operational {
             let c = self.counter.wrapping_add(1);
             self.counter = c;
             let node = self.dev.node().get();
@@ -220,7 +220,7 @@ impl Station for LoadNode {
 
 /// Bits on the wire per SYNC period: the SYNC (no data) and two 8-byte PDOs per node.
 pub fn bits_per_sync(nodes: u8, worst_case_stuffing: bool) -> u32 {
-    let id = |raw| can_frame::CanId::standard(raw).expect("valid identifier");
+    let id = |raw| canola_frame::CanId::standard(raw).expect("valid identifier");
     let sync = CanFrame::new(id(0x080), &[]).expect("valid frame");
     let pdo = CanFrame::new(id(0x181), &[0; 8]).expect("valid frame");
     frame_bits(&sync, worst_case_stuffing)
@@ -297,11 +297,11 @@ pub struct Sample {
 }
 
 /// Sizes of the tables a long run must keep bounded: the master's (see
-/// [`canopen::Occupancy`]), the bus's backlog and the subscriber's own.
+/// [`canola::Occupancy`]), the bus's backlog and the subscriber's own.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Tables {
     /// The master's table sizes.
-    pub master: canopen::Occupancy,
+    pub master: canola::Occupancy,
     /// Frames waiting for the wire on the in-memory bus.
     pub bus_backlog: usize,
     /// Entries of the subscriber's per-node, per-TPDO counter table.
@@ -466,7 +466,7 @@ fn new_read(net: &Network, node: NodeId, rng: &mut Rng, plan: &SdoPlan, expect: 
     SdoJob::Read(p, expect)
 }
 
-fn error_text(e: &canopen::SdoError) -> String {
+fn error_text(e: &canola::SdoError) -> String {
     // "node 5, object 0x2100 sub 0 ...: TEXT": keep the text.
     let s = e.to_string();
     match s.split_once(": ") {
@@ -591,7 +591,7 @@ fn rig(config: &LoadConfig) -> Rig {
 pub fn run(
     config: &LoadConfig,
     live_bytes: &dyn Fn() -> Option<u64>,
-) -> Result<LoadReport, canopen::Error> {
+) -> Result<LoadReport, canola::Error> {
     let mut report = LoadReport::default();
     let rig = rig(config);
     let net = Network::new(rig.bus.endpoint());
@@ -601,7 +601,7 @@ pub fn run(
         net.add_node_with_dictionary(node, od.clone());
     }
     let events: Receiver<NetworkEvent> = net.subscribe();
-    net.nmt_all(canopen::CommandSpecifier::Start)?;
+    net.nmt_all(canola::CommandSpecifier::Start)?;
     net.run_for(Duration::from_millis(10))?;
     let _ = events.try_iter().count();
 
@@ -684,15 +684,15 @@ pub fn run(
 /// The same devices and SYNC schedule with a bare endpoint in place of the master (it sends
 /// the SYNCs and drops every frame): the CPU time of bus and simulators alone, to tell the
 /// master's share. Returns (frames received, CPU seconds).
-pub fn baseline(config: &LoadConfig) -> Result<(u64, f64), canopen::TransportError> {
+pub fn baseline(config: &LoadConfig) -> Result<(u64, f64), canola::TransportError> {
     let rig = rig(config);
     let mut ep = rig.bus.endpoint();
-    let id = can_frame::CanId::standard(0x000).expect("valid identifier");
+    let id = canola_frame::CanId::standard(0x000).expect("valid identifier");
     ep.send(&CanFrame::new(id, &[0x01, 0x00]).expect("valid frame"))?;
     let mut until = ep.now() + Duration::from_millis(10);
     while ep.recv_until(until)?.is_some() {}
     let sync =
-        CanFrame::new(can_frame::CanId::standard(0x080).expect("valid"), &[]).expect("valid");
+        CanFrame::new(canola_frame::CanId::standard(0x080).expect("valid"), &[]).expect("valid");
     let start = ep.now();
     let end = start + config.bus_time;
     let cpu0 = thread_cpu_seconds();
@@ -703,7 +703,7 @@ pub fn baseline(config: &LoadConfig) -> Result<(u64, f64), canopen::TransportErr
         next_sync += config.sync_period;
         until = next_sync.min(end);
         while let Some(r) = ep.recv_until(until)? {
-            if matches!(r, canopen::Received::Frame { .. }) {
+            if matches!(r, canola::Received::Frame { .. }) {
                 frames += 1;
             }
         }
@@ -726,7 +726,7 @@ mod tests {
         let od = load_dictionary();
         assert_eq!(
             od.sub(0x1A00, 1).map(|s| s.data_type),
-            Some(canopen::DataType::Unsigned32)
+            Some(canola::DataType::Unsigned32)
         );
         assert!(od.sub(0x1801, 2).is_some());
         assert!(od.get(SDO_DOMAIN).is_some());

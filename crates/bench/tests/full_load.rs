@@ -4,8 +4,8 @@
 //! A short run of PDOs alone, and a two-minute run (bus time) with SDO traffic of random sizes
 //! to every node at once on top. Counts only (no wall-clock figure is asserted).
 
-use can_frame::Duration;
-use canopen_bench::load::{LoadConfig, Tables, run};
+use canola_bench::load::{LoadConfig, Tables, run};
+use canola_frame::Duration;
 
 #[test]
 fn sixty_four_nodes_at_full_load_lose_and_reorder_nothing() {
@@ -56,7 +56,7 @@ fn two_minutes_of_full_load_with_sdo_traffic_to_every_node() {
     // (the transmit queue; a block of segments per node; one request per node).
     let mid = r.samples.len() / 2;
     for (k, (name, _)) in Tables::default().named().iter().enumerate() {
-        let max = |part: &[canopen_bench::load::Sample]| {
+        let max = |part: &[canola_bench::load::Sample]| {
             part.iter().map(|s| s.tables.named()[k].1).max().unwrap()
         };
         let (first, second) = (max(&r.samples[1..mid]), max(&r.samples[mid..]));

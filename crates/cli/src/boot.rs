@@ -1,14 +1,14 @@
 //! `canopen boot bus.toml` and `canopen audit bus.toml`: the network manager
-//! (`canopen-manager`) from the command line. On SocketCAN (`--iface`) they drive the real
+//! (`canola-manager`) from the command line. On SocketCAN (`--iface`) they drive the real
 //! network; on the in-memory bus every slave of the description is simulated from its DCF/EDS,
 //! fresh from the factory, except those named by `--absent NODE`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use canopen::NodeId;
-use canopen_manager::boot::ConfigOutcome;
-use canopen_manager::{
+use canola::NodeId;
+use canola_manager::boot::ConfigOutcome;
+use canola_manager::{
     AuditOptions, BootEvent, NetworkConfig, SlaveReport, SlaveStatus, SuperviseEvent, json,
 };
 use clap::Args;
@@ -59,18 +59,18 @@ fn open(
     opts: &BusOpts,
     file: &PathBuf,
     absent: &[NodeId],
-) -> Result<(NetworkConfig, canopen::Network, Option<canopen::MemoryBus>), String> {
+) -> Result<(NetworkConfig, canola::Network, Option<canola::MemoryBus>), String> {
     let config = NetworkConfig::load(file).map_err(|e| e.to_string())?;
     let devices = if opts.iface.is_some() {
         Vec::new()
     } else {
-        canopen_manager::simulate::devices(&config, absent)
+        canola_manager::simulate::devices(&config, absent)
     };
     let (net, memory) = opts.open_with(devices)?.into_network();
     Ok((config, net, memory))
 }
 
-fn ms(d: canopen::Duration) -> String {
+fn ms(d: canola::Duration) -> String {
     format!("{:.1} ms", d.as_micros() as f64 / 1000.0)
 }
 
@@ -115,7 +115,7 @@ pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCo
             Ok(c) => c,
             Err(e) => return bus::fail(e),
         };
-        let text = canopen_manager::master_dcf::MasterObjects::write_master_dcf(&config);
+        let text = canola_manager::master_dcf::MasterObjects::write_master_dcf(&config);
         return match crate::outfile::write_whole(out, text.as_bytes()) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => bus::fail(e),
@@ -126,7 +126,7 @@ pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCo
         Err(e) => return bus::fail(e),
     };
     let verbose = args.verbose && !global.json;
-    let report = canopen_manager::boot_with(&net, &config, |ev| {
+    let report = canola_manager::boot_with(&net, &config, |ev| {
         if verbose {
             match ev {
                 BootEvent::StepStarted { node, step } => {
@@ -152,7 +152,7 @@ pub(crate) fn run_boot(args: BootArgs, opts: &BusOpts, global: Global) -> ExitCo
     if let Some(secs) = args.supervise {
         let until = net.now() + bus::seconds(secs);
         let quiet = global.json;
-        canopen_manager::supervise(&net, &config, &mut report, until, |ev| {
+        canola_manager::supervise(&net, &config, &mut report, until, |ev| {
             if quiet {
                 return;
             }
@@ -210,13 +210,13 @@ pub(crate) fn run_audit(args: AuditArgs, opts: &BusOpts, global: Global) -> Exit
         Err(e) => return bus::fail(e),
     };
     if memory.is_some() {
-        let _ = canopen_manager::boot(&net, &config);
+        let _ = canola_manager::boot(&net, &config);
     }
     let options = AuditOptions {
         read_only: args.read_only,
         fix: args.fix,
     };
-    let report = canopen_manager::audit(&net, &config, options);
+    let report = canola_manager::audit(&net, &config, options);
     if global.json {
         outln(&json::audit_json(&report).to_string());
     } else {
@@ -229,7 +229,7 @@ pub(crate) fn run_audit(args: AuditArgs, opts: &BusOpts, global: Global) -> Exit
                 s.unreadable.len()
             ));
             for d in &s.differences {
-                let value = |v: &canopen::Value| crate::sdo_cmd::format_value(v, global.hex);
+                let value = |v: &canola::Value| crate::sdo_cmd::format_value(v, global.hex);
                 let actual = d
                     .actual
                     .as_ref()

@@ -1,9 +1,9 @@
 //! `canopen burkert ...`: the Bürkert profile (SPEC-NOTES §1) of one node, through
-//! `burkert_profile::BurkertNode`.
+//! `canola_burkert::BurkertNode`.
 //!
 //! The bus is the one the global flags choose (`--iface IFACE` for SocketCAN, else the in-memory
 //! bus on a virtual clock). On the in-memory bus the node is simulated as a Bürkert device
-//! (`burkert_profile::BurkertDevice`: locating, maintenance, NE 107, logbook), from
+//! (`canola_burkert::BurkertDevice`: locating, maintenance, NE 107, logbook), from
 //! `--eds NODE=FILE` when given, else from the generic Bürkert EDS.
 
 use std::io::IsTerminal as _;
@@ -11,10 +11,10 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
-use burkert_profile::demo::{led_swatch, progress_bar};
-use burkert_profile::master::generic_od;
-use burkert_profile::{BurkertDevice, BurkertNode, DeviceReport, LedColour, LedMode, Ne107Status};
-use canopen::{BusDictionary, Error, NodeId, ObjectDictionary};
+use canola::{BusDictionary, Error, NodeId, ObjectDictionary};
+use canola_burkert::demo::{led_swatch, progress_bar};
+use canola_burkert::master::generic_od;
+use canola_burkert::{BurkertDevice, BurkertNode, DeviceReport, LedColour, LedMode, Ne107Status};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 

@@ -8,11 +8,11 @@
 
 use std::process::ExitCode;
 
-use burkert_profile::SimulatedDevice;
-use canopen::candump::FdFrame;
-use canopen::mem::MemoryBus;
-use canopen::transport::{BusEvent, Received, Transport};
-use canopen::{BusDictionary, CanFrame, Duration, Instant, Network, NodeId, ObjectDictionary};
+use canola::candump::FdFrame;
+use canola::mem::MemoryBus;
+use canola::transport::{BusEvent, Received, Transport};
+use canola::{BusDictionary, CanFrame, Duration, Instant, Network, NodeId, ObjectDictionary};
+use canola_burkert::SimulatedDevice;
 use clap::Args;
 
 /// Options of the bus commands (global: they may stand before or after the subcommand).
@@ -71,7 +71,7 @@ pub(crate) fn load_eds(spec: &str) -> Result<(NodeId, ObjectDictionary), String>
 /// Parses an EDS/DCF file; errors name the file (and the line, from the parser).
 pub(crate) fn read_dictionary(path: &std::path::Path) -> Result<ObjectDictionary, String> {
     let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    canopen::od::parse(&text)
+    canola::od::parse(&text)
         .map(|p| p.od)
         .map_err(|e| format!("{}: {e}", path.display()))
 }
@@ -246,7 +246,7 @@ pub(crate) enum Traffic<'a> {
 
 impl Traffic<'_> {
     /// The frame's identifier.
-    pub(crate) fn id(self) -> canopen::CanId {
+    pub(crate) fn id(self) -> canola::CanId {
         match self {
             Self::Can(f) => f.id(),
             Self::Fd(f) => f.id,
@@ -277,10 +277,10 @@ pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> 
 
 /// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`.
 fn open_transport_with(iface: &str, fd: bool) -> Result<Box<dyn Transport>, String> {
-    use canopen::socketcan::SocketCan;
-    if let Some(spec) = canopen::udp::parse_spec(iface) {
+    use canola::socketcan::SocketCan;
+    if let Some(spec) = canola::udp::parse_spec(iface) {
         let group = spec.map_err(|e| format!("--iface {iface}: {e}"))?;
-        return canopen::udp::UdpMulticast::open(group)
+        return canola::udp::UdpMulticast::open(group)
             .map(|t| Box::new(t) as Box<dyn Transport>)
             .map_err(|e| format!("{iface}: {e}"));
     }
@@ -375,8 +375,8 @@ pub(crate) fn fail_usage(e: impl std::fmt::Display) -> ExitCode {
 
 /// Reports a failed master operation: SDO failures carry node, object, abort code and its
 /// meaning as JSON fields, and a timeout a hint.
-pub(crate) fn fail_op(e: &canopen::Error) -> ExitCode {
-    use canopen::{Error, SdoErrorKind};
+pub(crate) fn fail_op(e: &canola::Error) -> ExitCode {
+    use canola::{Error, SdoErrorKind};
     use serde_json::json;
     let mut fields = serde_json::Map::new();
     let mut text = e.to_string();
@@ -396,7 +396,7 @@ pub(crate) fn fail_op(e: &canopen::Error) -> ExitCode {
         }
         if matches!(
             s.kind,
-            SdoErrorKind::Transfer(canopen::sdo::ErrorKind::Timeout)
+            SdoErrorKind::Transfer(canola::sdo::ErrorKind::Timeout)
         ) {
             let hint = format!(
                 "hint: nothing answered. Is node {} on this bus (`canopen scan` lists the nodes \

@@ -1,4 +1,4 @@
-//! `canopen cpos ...`: the GEMÜ 1436 cPos positioner (crate `gemu-cpos`).
+//! `canopen cpos ...`: the GEMÜ 1436 cPos positioner (crate `canola-gemu`).
 //!
 //! With `--iface` the commands drive a cPos over DeviceNet (its DeviceNet variant speaks the
 //! Predefined Master/Slave Connection Set on the same CAN interface as CANopen; `canopen cpos
@@ -6,21 +6,21 @@
 //! positioner on a virtual clock: every invocation starts a fresh, not yet initialised
 //! simulator. Either way the requests, answers, toggle bytes and timeouts are the real client's.
 
-use canopen::frame::is_due;
+use canola::frame::is_due;
 use std::process::ExitCode;
 
-use canopen::{Duration, Instant};
-use clap::{Args, Subcommand, ValueEnum};
-use gemu_cpos::action::{
+use canola::{Duration, Instant};
+use canola_gemu::action::{
     ActionId, ActionRequest, ErrorCode, FindFunctionFunction, GoFunction, NoInitFunction, Pwm,
     RunFunction,
 };
-use gemu_cpos::channel::ErrorEntry;
-use gemu_cpos::client::{
+use canola_gemu::channel::ErrorEntry;
+use canola_gemu::client::{
     ActionOutcome, Client, ClientConfig, Event, Failure, Refusal, Reply, RequestId,
 };
-use gemu_cpos::params::{self, PARAMETERS, ParamDef, ValueKind};
-use gemu_cpos::sim::{SimConfig, SimulatedCpos};
+use canola_gemu::params::{self, PARAMETERS, ParamDef, ValueKind};
+use canola_gemu::sim::{SimConfig, SimulatedCpos};
+use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value as Json, json};
 
 use crate::Global;
@@ -526,7 +526,7 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
         b.cycle();
         let waiting = b.events[before..].iter().find_map(|(_, e)| match e {
             Event::ActionProgress { status, .. } => match status.phase() {
-                gemu_cpos::action::Phase::WaitingForAcknowledge(c) => Some(c),
+                canola_gemu::action::Phase::WaitingForAcknowledge(c) => Some(c),
                 _ => None,
             },
             _ => None,
@@ -587,7 +587,7 @@ fn print_events(b: &Bench, global: Global, action: ActionId) -> ExitCode {
             Event::ActionEnded { action: a, outcome } if *a == action => {
                 let text = match outcome {
                     ActionOutcome::Ended(s) => {
-                        ok &= matches!(s.phase(), gemu_cpos::action::Phase::Ended);
+                        ok &= matches!(s.phase(), canola_gemu::action::Phase::Ended);
                         format!("ended: {s}")
                     }
                     ActionOutcome::Quit => "quit".to_owned(),

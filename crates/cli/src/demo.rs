@@ -3,11 +3,11 @@
 
 use std::process::ExitCode;
 
-use canopen::lss::{AssignConfig, LssAddress, NodeIdPool};
-use canopen::mem::MemoryBus;
-use canopen::pdo::{CommParams, Direction, Mapping};
-use canopen::transport::{Received, Transport};
-use canopen::{
+use canola::lss::{AssignConfig, LssAddress, NodeIdPool};
+use canola::mem::MemoryBus;
+use canola::pdo::{CommParams, Direction, Mapping};
+use canola::transport::{Received, Transport};
+use canola::{
     BusDictionary, CommandSpecifier, Duration, HeartbeatEvent, Monitor, Network, NetworkEvent,
     NodeId, SimDevice,
 };
@@ -21,7 +21,7 @@ fn step(title: &str) {
     outln(&format!("== {title}"));
 }
 
-fn show_traffic(tap: &mut canopen::Endpoint, monitor: &mut Monitor, max: usize) {
+fn show_traffic(tap: &mut canola::Endpoint, monitor: &mut Monitor, max: usize) {
     let mut shown = 0;
     let mut skipped = 0;
     while let Ok(Some(Received::Frame { frame, at })) = tap.try_recv() {
@@ -48,7 +48,7 @@ pub(crate) fn run() -> ExitCode {
 fn walk() -> Result<(), Box<dyn std::error::Error>> {
     let n5 = NodeId::new(5)?;
     let n6 = NodeId::new(6)?;
-    let od = canopen::od::parse(BURKERT_EDS)?.od;
+    let od = canola::od::parse(BURKERT_EDS)?.od;
     let n7 = NodeId::new(7)?;
     let mut monitor = Monitor::new(
         BusDictionary::new()
@@ -62,10 +62,10 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     outln("really went over it; times are bus time in seconds.");
 
     // 500 kbit/s with worst-case bit stuffing: transfers take their real on-wire time.
-    let bus = MemoryBus::with_config(canopen::BusConfig {
+    let bus = MemoryBus::with_config(canola::BusConfig {
         bitrate: Some(500_000),
         worst_case_stuffing: true,
-        ..canopen::BusConfig::default()
+        ..canola::BusConfig::default()
     });
     let mut tap = bus.endpoint();
     let net = Network::new(bus.endpoint());
@@ -88,9 +88,9 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         .values_mut()
         .set(0x2003, 4, log.as_bytes().to_vec());
     let dev5 = bus.attach(logbook_dev);
-    // Node 6 is the Bürkert-profile device (burkert-profile's simulator: NE 107 status,
+    // Node 6 is the Bürkert-profile device (canola-burkert's simulator: NE 107 status,
     // locating function, logbook) on top of the generic simulator.
-    let dev6 = bus.attach(burkert_profile::BurkertDevice::with_dictionary(
+    let dev6 = bus.attach(canola_burkert::BurkertDevice::with_dictionary(
         n6,
         od.clone(),
     ));
@@ -261,11 +261,11 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         "7b. Bürkert profile on node 6: NE 107 status (0x2004:01) and the locating function (0x2101:01)",
     );
     bus.with_station(dev6, |d| {
-        d.raise(burkert_profile::Ne107Status::MaintenanceRequired)
+        d.raise(canola_burkert::Ne107Status::MaintenanceRequired)
     });
     let status = net.node(n6).sdo().read((0x2004, 1))?;
     let raw = status.first().copied().unwrap_or(0);
-    let meaning = burkert_profile::Ne107Status::from_u8(raw & 0x0F).meaning_en();
+    let meaning = canola_burkert::Ne107Status::from_u8(raw & 0x0F).meaning_en();
     outln(&format!(
         "   the device raised an event; 0x2004:01 reads {raw} = {meaning}"
     ));
@@ -276,16 +276,16 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     ));
     net.node(n6).sdo().write((0x2101, 1), 0u8)?;
     show_traffic(&mut tap, &mut monitor, 4);
-    // The Bürkert view of the same device (burkert_profile::BurkertNode): the whole status in
+    // The Bürkert view of the same device (canola_burkert::BurkertNode): the whole status in
     // one batch of SDO reads with the LED drawn, a locate (honouring "0 before 1"), and the
     // logbook by block transfer with a progress bar.
     outln("   BurkertNode walkthrough:");
-    let options = burkert_profile::demo::Options {
+    let options = canola_burkert::demo::Options {
         ansi: std::io::IsTerminal::is_terminal(&std::io::stdout()),
         block: true,
     };
     let mut text = Vec::new();
-    let walk = burkert_profile::demo::run_with(&net, n6, &mut text, options);
+    let walk = canola_burkert::demo::run_with(&net, n6, &mut text, options);
     for line in String::from_utf8_lossy(&text).lines() {
         outln(&format!("   {line}"));
     }

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use canopen::od::{Diagnostic, ObjectDictionary, ParseOptions, Severity};
+use canola::od::{Diagnostic, ObjectDictionary, ParseOptions, Severity};
 use clap::{Args, Subcommand};
 use serde_json::{Value as Json, json};
 
@@ -67,20 +67,20 @@ pub(crate) enum EdsCommand {
         #[command(flatten)]
         report: Report,
     },
-    /// Generate typed Rust entries (what `canopen_codegen::compile_eds` writes in build.rs).
+    /// Generate typed Rust entries (what `canola_codegen::compile_eds` writes in build.rs).
     Codegen {
         /// EDS file.
         file: PathBuf,
         /// Also emit a static, allocation-free dictionary of every sub-object.
         #[arg(long)]
         static_dictionary: bool,
-        /// Also emit one struct per default PDO mapping (`Tpdo1`, `Rpdo1`, ...; needs canopen-pdo).
+        /// Also emit one struct per default PDO mapping (`Tpdo1`, `Rpdo1`, ...; needs canola-pdo).
         #[arg(long)]
         pdo_structs: bool,
-        /// The preset for an application on the `canopen` crate: paths through `::canopen`,
+        /// The preset for an application on the `canola` crate: paths through `::canola`,
         /// PDO structs and the typed node client (`client::Device`).
         #[arg(long)]
-        for_canopen: bool,
+        for_canola: bool,
         /// Output file (default: stdout).
         #[arg(short, long)]
         output: Option<PathBuf>,
@@ -103,14 +103,14 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
         } => with_od(&file, report, |od| {
             emit(
                 output.as_deref(),
-                &canopen::od::write_dcf(od, node_id, baudrate),
+                &canola::od::write_dcf(od, node_id, baudrate),
             )
         }),
         EdsCommand::Codegen {
             file,
             static_dictionary,
             pdo_structs,
-            for_canopen,
+            for_canola,
             output,
             report,
         } => with_od(&file, report, |od| {
@@ -118,10 +118,10 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
                 || file.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
             );
-            let mut config = if for_canopen {
-                canopen_codegen::Config::for_canopen()
+            let mut config = if for_canola {
+                canola_codegen::Config::for_canola()
             } else {
-                canopen_codegen::Config::new()
+                canola_codegen::Config::new()
             };
             config.static_dictionary(static_dictionary);
             if pdo_structs {
@@ -150,7 +150,7 @@ fn load(file: &Path, report: Report) -> Result<(ObjectDictionary, Vec<Diagnostic
         lines: vec![format!("{name}: error: {e}")],
         errors: 1,
     })?;
-    match canopen::od::parse_with(&bytes, report.options()) {
+    match canola::od::parse_with(&bytes, report.options()) {
         Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
         Err(e) => Err(Failed {
             lines: e
@@ -258,7 +258,7 @@ fn lint(file: &Path, global: Global) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let findings = match canopen::od::lint::lint_source(&bytes) {
+    let findings = match canola::od::lint::lint_source(&bytes) {
         Ok(f) => f,
         Err(e) => {
             for d in &e.diagnostics {
@@ -288,7 +288,7 @@ fn lint(file: &Path, global: Global) -> ExitCode {
     }
 }
 
-fn default_text(sub: &canopen::od::SubObject) -> Option<String> {
+fn default_text(sub: &canola::od::SubObject) -> Option<String> {
     sub.default_value.as_ref().map(|d| d.text.trim().to_owned())
 }
 

@@ -1,10 +1,10 @@
-//! `canopen gateway`: the CiA 309-3 ASCII gateway (`canopen-gateway`) on the bus the global
+//! `canopen gateway`: the CiA 309-3 ASCII gateway (`canola-gateway`) on the bus the global
 //! options open (`--iface`, or the in-memory bus with the `--eds` devices simulated), over TCP,
 //! Unix sockets and stdio at once.
 
 use std::process::ExitCode;
 
-use canopen_gateway::{Config, Gateway};
+use canola_gateway::{Config, Gateway};
 use clap::Args;
 
 use crate::bus::{BusOpts, open_network};
@@ -70,7 +70,7 @@ pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
         Err(e) => return crate::bus::fail(e),
     };
     let config = Config {
-        sdo_timeout: canopen::Duration::from_millis(args.sdo_timeout),
+        sdo_timeout: canola::Duration::from_millis(args.sdo_timeout),
         ..Config::default()
     };
     let gateway = Gateway::new(net, config);

@@ -6,17 +6,17 @@
 //! `--store-unsupported` makes them refuse store configuration (error 1), and `--record-bus FILE` writes
 //! every frame the bus carried to a candump log.
 
-use canopen::frame::is_due;
+use canola::frame::is_due;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
-use canopen::candump::{LogEntry, LogFrame, Writer};
-use canopen::lss::{
+use canola::candump::{LogEntry, LogFrame, Writer};
+use canola::lss::{
     AssignConfig, AssignOutcome, BitRate, BitTiming, FastscanConfig, LssAddress, Mode, NodeIdPool,
     Procedure, SlaveConfig, Step, StoreSupport,
 };
-use canopen::{CanFrame, Duration, Instant, NodeId};
-use canopen::{MemoryBus, SimDevice, Station};
+use canola::{CanFrame, Duration, Instant, NodeId};
+use canola::{MemoryBus, SimDevice, Station};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
@@ -183,7 +183,7 @@ fn addr_text(a: &LssAddress, g: Global) -> String {
 }
 
 /// One line of the assign-all report.
-fn entry_text(e: &canopen::lss::AssignEntry, g: Global) -> String {
+fn entry_text(e: &canola::lss::AssignEntry, g: Global) -> String {
     let what = match (e.node_id, e.outcome) {
         (Some(id), AssignOutcome::Assigned) => format!("node-ID {id}"),
         (Some(id), AssignOutcome::StoreFailed(err)) => {
@@ -259,7 +259,7 @@ fn devices(
     if count == 0 {
         return Ok(Vec::new());
     }
-    let od = canopen::od::parse(BURKERT_EDS)
+    let od = canola::od::parse(BURKERT_EDS)
         .map_err(|e| e.to_string())?
         .od;
     Ok((0..count)
@@ -331,7 +331,7 @@ fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
         }
     );
     let started = std::time::Instant::now();
-    match canopen::run_station(&mut transport, &mut devices, || {
+    match canola::run_station(&mut transport, &mut devices, || {
         limit.is_some_and(|l| started.elapsed() >= l)
     }) {
         Ok(()) => ExitCode::SUCCESS,
@@ -340,7 +340,7 @@ fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
 }
 
 fn command(
-    net: &canopen::Network,
+    net: &canola::Network,
     command: MasterCommand,
     step_timeout: u64,
     g: Global,

@@ -190,7 +190,7 @@ fn main() -> ExitCode {
             eds,
             node_id,
             duration,
-        } => match canopen::NodeId::new(node_id) {
+        } => match canola::NodeId::new(node_id) {
             Ok(n) => simulate::run(&cli.bus, &eds, n, duration, global),
             Err(e) => bus::fail(e),
         },

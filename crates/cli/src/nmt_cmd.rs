@@ -1,9 +1,9 @@
 //! `canopen nmt` (CiA 301 §7.2.8.3.1 module control) and `canopen scan` (the nodes that answer,
-//! with their identity object), through [`canopen::Nmt`] and [`canopen::Network::scan`].
+//! with their identity object), through [`canola::Nmt`] and [`canola::Network::scan`].
 
 use std::process::ExitCode;
 
-use canopen::{CommandSpecifier, Duration};
+use canola::{CommandSpecifier, Duration};
 use clap::ValueEnum;
 use serde_json::json;
 

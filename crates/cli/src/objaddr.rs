@@ -7,7 +7,7 @@
 //! `0x`: it is still read as decimal, but a note on stderr (under `--json` a JSON warning
 //! object) says what was read and what the user probably meant.
 
-use canopen::ObjectDictionary;
+use canola::ObjectDictionary;
 
 /// What an object argument resolved to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,5 +1,5 @@
 //! `canopen sdo read|write|upload|download`: SDO transfers (CiA 301 §7.2.4) through the
-//! library's [`canopen::Sdo`]; this module parses the arguments and the value text, and prints.
+//! library's [`canola::Sdo`]; this module parses the arguments and the value text, and prints.
 //!
 //! Values are typed by `--type`, else by the node's dictionary (`--eds NODE=FILE`); reads
 //! without either print the bytes in hex.
@@ -8,7 +8,7 @@ use std::io::{IsTerminal, Write as _};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use canopen::{DataType, Network, NodeId, ObjectAddress, Value};
+use canola::{DataType, Network, NodeId, ObjectAddress, Value};
 use clap::{Subcommand, ValueEnum};
 use serde_json::json;
 
@@ -286,7 +286,7 @@ impl Bar {
             on: std::io::stderr().is_terminal(),
         }
     }
-    fn callback(&self) -> impl FnMut(canopen::TransferProgress) + Send + 'static {
+    fn callback(&self) -> impl FnMut(canola::TransferProgress) + Send + 'static {
         let on = self.on;
         move |p| {
             if on {
@@ -320,7 +320,7 @@ pub(crate) fn run(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
 
 /// Why a command failed: the master's error (with its fields), or bad input.
 enum Failure {
-    Op(canopen::Error),
+    Op(canola::Error),
     Usage(String),
 }
 
@@ -330,8 +330,8 @@ impl From<String> for Failure {
     }
 }
 
-impl From<canopen::Error> for Failure {
-    fn from(e: canopen::Error) -> Self {
+impl From<canola::Error> for Failure {
+    fn from(e: canola::Error) -> Self {
         Self::Op(e)
     }
 }

@@ -1,4 +1,4 @@
-//! `canopen simulate EDS --node-id N`: a simulated device ([`burkert_profile::SimulatedDevice`]:
+//! `canopen simulate EDS --node-id N`: a simulated device ([`canola_burkert::SimulatedDevice`]:
 //! the Bürkert device for a file with the Bürkert profile, the generic simulator otherwise) on
 //! SocketCAN until stopped, or on the in-memory bus for `--duration` seconds of bus time,
 //! printing the traffic.
@@ -6,9 +6,9 @@
 use std::path::Path;
 use std::process::ExitCode;
 
-use burkert_profile::SimulatedDevice;
-use canopen::transport::{Received, Transport as _};
-use canopen::{BusDictionary, Monitor, NodeId, Station};
+use canola::transport::{Received, Transport as _};
+use canola::{BusDictionary, Monitor, NodeId, Station};
+use canola_burkert::SimulatedDevice;
 use serde_json::json;
 
 use crate::bus::{Bus, BusOpts, fail, read_dictionary, seconds};
@@ -73,7 +73,7 @@ pub(crate) fn run_station(
     let mut station = station;
     let started = std::time::Instant::now();
     let limit = duration.map(std::time::Duration::from_secs_f64);
-    let r = canopen::run_station(&mut bus.transport, &mut station, || {
+    let r = canola::run_station(&mut bus.transport, &mut station, || {
         limit.is_some_and(|l| started.elapsed() >= l)
     });
     match r {

@@ -1,11 +1,11 @@
 //! `canopen monitor`, `record` and `replay`: the bus's traffic decoded in CiA vocabulary
-//! ([`canopen::describe`]), written to a candump log, or sent again from one.
+//! ([`canola::describe`]), written to a candump log, or sent again from one.
 
 use std::path::Path;
 use std::process::ExitCode;
 
-use canopen::candump::{self, LogEntry, LogFrame};
-use canopen::{CanId, Duration, Monitor};
+use canola::candump::{self, LogEntry, LogFrame};
+use canola::{CanId, Duration, Monitor};
 use serde_json::json;
 
 use crate::bus::{BusOpts, Traffic, fail};
@@ -92,9 +92,10 @@ pub(crate) fn run_monitor(
             return;
         }
         let (shown, what) = match traffic {
-            Traffic::Can(frame) if devicenet => {
-                (frame.to_string(), devicenet::decode(frame).to_string())
-            }
+            Traffic::Can(frame) if devicenet => (
+                frame.to_string(),
+                canola_devicenet::decode(frame).to_string(),
+            ),
             Traffic::Can(frame) => (frame.to_string(), monitor.what(frame)),
             Traffic::Fd(frame) => (
                 candump::format_frame(&LogFrame::Fd(*frame)),

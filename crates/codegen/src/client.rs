@@ -1,12 +1,12 @@
 //! The typed node client ([`Config::client`]): `client::Device` with one method per object over
-//! the `canopen` facade's SDO client, and a `Client` in each ARRAY/RECORD module with one method
+//! the `canola` facade's SDO client, and a `Client` in each ARRAY/RECORD module with one method
 //! per sub-object. Each method returns a handle typed by the object's access: `ReadOnly<T>`
 //! (`ro`, `const`), `WriteOnly<T>` (`wo`) or `ReadWrite<T>`, so writing a read-only object does
 //! not compile.
 
 use std::fmt::Write as _;
 
-use canopen_od::{AccessType, Object, ObjectDictionary, SubObject};
+use canola_od::{AccessType, Object, ObjectDictionary, SubObject};
 
 use crate::{Config, Generator, RustType, StringTypes, doc_line, names, rust_type};
 

@@ -1,6 +1,6 @@
 //! Typed Rust from CiA 306 EDS/DCF files, the way `prost-build` turns `.proto` files into Rust.
 //!
-//! Every sub-object becomes a typed [`canopen_od::Entry`] constant that carries its index,
+//! Every sub-object becomes a typed [`canola_od::Entry`] constant that carries its index,
 //! sub-index and the Rust type of its value, so the producer heartbeat time is an
 //! `Entry<u16>` at 0x1017:00 and a master reads it as a `u16`. VAR objects become constants at the
 //! top level; ARRAY and RECORD objects become modules holding an `INDEX` and one constant per
@@ -15,7 +15,7 @@
 //!
 //! ```no_run
 //! // build.rs, in `fn main`: on error, FILE:LINE: error: ... for each error of the EDS
-//! if let Err(e) = canopen_codegen::compile_eds("eds/my-device.eds") {
+//! if let Err(e) = canola_codegen::compile_eds("eds/my-device.eds") {
 //!     panic!("{e}");
 //! }
 //! ```
@@ -25,7 +25,7 @@
 //! reported with `cargo:rerun-if-changed`; its warnings are passed to cargo as
 //! `cargo:warning=FILE:LINE: warning: ...` (see [`Config::style_warnings`] for the form-only ones).
 //!
-//! A master then reads and writes the entries with their Rust types, through the `canopen`
+//! A master then reads and writes the entries with their Rust types, through the `canola`
 //! facade's SDO client:
 //!
 //! ```ignore
@@ -41,17 +41,17 @@
 //! [`Config::pdo_structs`] adds one struct per PDO the file maps by default (`Rpdo1` for
 //! 0x1600, `Tpdo1` for 0x1A00, ...) with a named field of the mapped object's Rust type per
 //! entry; dummy entries take their bits and no field, and 1-bit BOOLEANs or fields that do not
-//! start on a byte are packed and unpacked by `canopen-pdo` (the structs implement
-//! `canopen_pdo::TypedPdo`; the generated code holds no bit arithmetic). The default COB-ID
+//! start on a byte are packed and unpacked by `canola-pdo` (the structs implement
+//! `canola_pdo::TypedPdo`; the generated code holds no bit arithmetic). The default COB-ID
 //! keeps `$NODEID` as "add the node-ID", resolved when the node is known. Mappings the file
 //! leaves empty give no struct; an invalid one gives none and a note ([`Config::compile`] passes
 //! notes to cargo as warnings). [`Config::client`] adds `client::Device`, one method per object
-//! over the `canopen` facade. [`Config::for_canopen`] turns both on with paths into the
-//! facade, so an application needs only `canopen`:
+//! over the `canola` facade. [`Config::for_canola`] turns both on with paths into the
+//! facade, so an application needs only `canola`:
 //!
 //! ```ignore
 //! // build.rs
-//! canopen_codegen::Config::for_canopen().compile("eds/my-device.eds").unwrap();
+//! canola_codegen::Config::for_canola().compile("eds/my-device.eds").unwrap();
 //!
 //! // the application
 //! include!(concat!(env!("OUT_DIR"), "/my-device.rs"));
@@ -68,7 +68,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use canopen_od::{
+use canola_od::{
     DataType, Diagnostic, Object, ObjectCode, ObjectDictionary, ParseOptions, SubObject,
 };
 
@@ -79,10 +79,10 @@ mod pdo;
 /// How entries of string and byte-string data types are typed.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub enum StringTypes {
-    /// `OwnedString` / `OwnedBytes` (needs `canopen-od`'s `alloc` feature).
+    /// `OwnedString` / `OwnedBytes` (needs `canola-od`'s `alloc` feature).
     #[default]
     Owned,
-    /// [`canopen_od::entry::Opaque`]: no allocator needed.
+    /// [`canola_od::entry::Opaque`]: no allocator needed.
     Opaque,
     /// Owned when the *generated-into* crate's feature of this name is on, opaque otherwise.
     Feature(String),
@@ -139,32 +139,32 @@ impl Default for Config {
 }
 
 impl Config {
-    /// Defaults: entries refer to `::canopen_od`, owned strings, no static dictionary, output into
+    /// Defaults: entries refer to `::canola_od`, owned strings, no static dictionary, output into
     /// `OUT_DIR` as `<eds file stem>.rs`.
     pub fn new() -> Self {
         Self {
-            crate_path: "::canopen_od".to_owned(),
+            crate_path: "::canola_od".to_owned(),
             strings: StringTypes::Owned,
             static_dictionary: false,
             out_dir: None,
             file_name: None,
             style_warnings: true,
-            pdo_crate_path: "::canopen_pdo".to_owned(),
-            facade_path: "::canopen".to_owned(),
+            pdo_crate_path: "::canola_pdo".to_owned(),
+            facade_path: "::canola".to_owned(),
             pdo_structs: false,
             client: false,
         }
     }
 
-    /// The preset for an application on the `canopen` facade, which then needs no other
-    /// dependency than `canopen`: entries through `::canopen::od`, PDO structs through
-    /// `::canopen::pdo` ([`Config::pdo_structs`]) and the typed node client
+    /// The preset for an application on the `canola` facade, which then needs no other
+    /// dependency than `canola`: entries through `::canola::od`, PDO structs through
+    /// `::canola::pdo` ([`Config::pdo_structs`]) and the typed node client
     /// ([`Config::client`]).
-    pub fn for_canopen() -> Self {
+    pub fn for_canola() -> Self {
         let mut c = Self::new();
-        c.crate_path("::canopen::od")
-            .pdo_crate_path("::canopen::pdo")
-            .facade_path("::canopen")
+        c.crate_path("::canola::od")
+            .pdo_crate_path("::canola::pdo")
+            .facade_path("::canola")
             .pdo_structs(true)
             .client(true);
         c
@@ -172,47 +172,47 @@ impl Config {
 
     /// Also emit one struct per PDO the file maps by default (`Tpdo1` for mapping 0x1A00,
     /// `Rpdo1` for 0x1600, ...): named fields of the mapped objects' Rust types, implementing
-    /// `canopen_pdo::TypedPdo`, so `Tpdo1::from_frame(&frame)` decodes a received PDO and
+    /// `canola_pdo::TypedPdo`, so `Tpdo1::from_frame(&frame)` decodes a received PDO and
     /// `to_frame(node)` builds one. Mappings the file leaves empty give no struct; one that is
     /// not valid gives none either, with a warning (see [`Config::generate_with_notes`]). The
-    /// generated code then needs `canopen-pdo` (no allocator needed). Off by default.
+    /// generated code then needs `canola-pdo` (no allocator needed). Off by default.
     pub fn pdo_structs(&mut self, on: bool) -> &mut Self {
         self.pdo_structs = on;
         self
     }
 
-    /// The path generated PDO structs use for the `canopen-pdo` crate (default
-    /// `::canopen_pdo`).
+    /// The path generated PDO structs use for the `canola-pdo` crate (default
+    /// `::canola_pdo`).
     pub fn pdo_crate_path(&mut self, path: impl Into<String>) -> &mut Self {
         self.pdo_crate_path = path.into();
         self
     }
 
-    /// Also emit `client::Device`, a typed client of one node over the `canopen` facade: one
+    /// Also emit `client::Device`, a typed client of one node over the `canola` facade: one
     /// method per object, returning a handle whose `read()` and `write(value)` go through
     /// `Sdo::read_entry` / `Sdo::write_entry`, e.g. `dev.producer_heartbeat_time().write(200)`.
     /// Read-only objects have no `write`, write-only ones no `read`. ARRAY and RECORD objects
     /// give a method returning their module's `Client` with one method per sub-object. Needs the
-    /// `canopen` crate (std). Off by default.
+    /// `canola` crate (std). Off by default.
     pub fn client(&mut self, on: bool) -> &mut Self {
         self.client = on;
         self
     }
 
-    /// The path the client uses for the `canopen` facade crate (default `::canopen`).
+    /// The path the client uses for the `canola` facade crate (default `::canola`).
     pub fn facade_path(&mut self, path: impl Into<String>) -> &mut Self {
         self.facade_path = path.into();
         self
     }
 
     /// Whether [`Config::compile`] passes the EDS's form-only warnings (key case, lower-case hex,
-    /// trailing blanks: [`canopen_od::DiagnosticKind::Style`]) to cargo. On by default.
+    /// trailing blanks: [`canola_od::DiagnosticKind::Style`]) to cargo. On by default.
     pub fn style_warnings(&mut self, on: bool) -> &mut Self {
         self.style_warnings = on;
         self
     }
 
-    /// The path generated code uses for the `canopen-od` crate (for crates that re-export it).
+    /// The path generated code uses for the `canola-od` crate (for crates that re-export it).
     pub fn crate_path(&mut self, path: impl Into<String>) -> &mut Self {
         self.crate_path = path.into();
         self
@@ -318,7 +318,7 @@ fn parse(
     file: &str,
     options: ParseOptions,
 ) -> Result<(ObjectDictionary, Vec<Diagnostic>), Error> {
-    match canopen_od::parse_with(bytes, options) {
+    match canola_od::parse_with(bytes, options) {
         Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
         Err(e) => {
             let mut msg = String::new();
@@ -413,7 +413,7 @@ impl Generator<'_> {
     fn run(&mut self, od: &ObjectDictionary, source_name: &str) {
         let _ = writeln!(
             self.out,
-            "// @generated by canopen-codegen {} from `{}`. Do not edit.",
+            "// @generated by canola-codegen {} from `{}`. Do not edit.",
             env!("CARGO_PKG_VERSION"),
             doc_line(source_name)
         );

@@ -1,10 +1,10 @@
 //! PDO structs from the file's default mappings ([`Config::pdo_structs`]): one struct per
 //! RPDO (0x1600..=0x17FF) and TPDO (0x1A00..=0x1BFF) whose default mapping has entries, with a
-//! named field per mapped object, implementing `canopen_pdo::TypedPdo`. A mapping with no entries,
+//! named field per mapped object, implementing `canola_pdo::TypedPdo`. A mapping with no entries,
 //! or without a value for its number of entries, gives no struct.
 //!
 //! The mapping is read and checked exactly as the master and the simulator read it
-//! (`canopen_pdo::Mapping::read_from` over `OdView`, CiA 301 §7.4.8): objects exist, are
+//! (`canola_pdo::Mapping::read_from` over `OdView`, CiA 301 §7.4.8): objects exist, are
 //! mappable, readable for a TPDO and writable for an RPDO, mapped with their size; dummy entries
 //! are of a supported type. A mapping that fails gives no struct and a note. The COB-ID is the
 //! communication parameter's sub 1 (`$NODEID` kept as "add the node-ID"), or the predefined
@@ -12,8 +12,8 @@
 
 use std::fmt::Write as _;
 
-use canopen_od::{DataType, ObjectDictionary, Value};
-use canopen_pdo::{Direction, Mapping, OdView, ValueKind};
+use canola_od::{DataType, ObjectDictionary, Value};
+use canola_pdo::{Direction, Mapping, OdView, ValueKind};
 
 use crate::{Generator, doc_line, names};
 
@@ -55,9 +55,9 @@ fn field_type(kind: ValueKind, data_type: Option<DataType>, bits: u8) -> String 
 /// A field's name: the object's name for a VAR, the sub-object's for an ARRAY or RECORD entry,
 /// with the object's name in front when another mapped object has a sub-object of the same name
 /// (`Sensor Value 1.Value` and `Sensor Value 2.Value` become `sensor_value_1_value`, ...).
-fn field_name(od: &ObjectDictionary, mapping: &Mapping, addr: canopen_od::ObjectAddress) -> String {
+fn field_name(od: &ObjectDictionary, mapping: &Mapping, addr: canola_od::ObjectAddress) -> String {
     let fallback = format!("obj_{:04x}_{}", addr.index, addr.sub_index);
-    let short = |a: canopen_od::ObjectAddress| {
+    let short = |a: canola_od::ObjectAddress| {
         let obj = od.get(a.index)?;
         if obj.is_simple() {
             return Some(names::snake(&obj.name, &fallback));

@@ -29,9 +29,9 @@ fn a_binary_crate_builds_without_warnings_and_sees_the_eds_warnings() {
         scratch.join("Cargo.toml"),
         format!(
             "[package]\nname = \"codegen-binary-check\"\nversion = \"0.0.0\"\nedition = \"2024\"\npublish = false\n\n[workspace]\n\n\
-             [dependencies]\ncanopen-od = {{ path = {:?} }}\ncanopen = {{ path = {:?} }}\n\n[build-dependencies]\ncanopen-codegen = {{ path = {:?} }}\n",
+             [dependencies]\ncanola-od = {{ path = {:?} }}\ncanola = {{ path = {:?} }}\n\n[build-dependencies]\ncanola-codegen = {{ path = {:?} }}\n",
             path("crates/od"),
-            path("crates/canopen"),
+            path("crates/canola"),
             path("crates/codegen"),
         ),
     )
@@ -49,7 +49,7 @@ fn a_binary_crate_builds_without_warnings_and_sees_the_eds_warnings() {
     std::fs::write(
         scratch.join("build.rs"),
         format!(
-            "fn main() {{\n    canopen_codegen::compile_eds({:?}).unwrap();\n    canopen_codegen::compile_eds(\"quirky.eds\").unwrap();\n    canopen_codegen::Config::for_canopen().compile({:?}).unwrap();\n}}\n",
+            "fn main() {{\n    canola_codegen::compile_eds({:?}).unwrap();\n    canola_codegen::compile_eds(\"quirky.eds\").unwrap();\n    canola_codegen::Config::for_canola().compile({:?}).unwrap();\n}}\n",
             path("eds/burkert-generic.eds"),
             path("crates/codegen/tests/data/pdo-device.eds")
         ),

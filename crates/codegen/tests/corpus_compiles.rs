@@ -1,13 +1,13 @@
 //! Generated code from every file of the EDS corpus (../shared/eds-corpus, beside the checkout)
 //! compiles: the test writes scratch crates with one module per file and runs `cargo check` on
 //! them: a `no_std` one with the entries, the static dictionary and the PDO structs, and one on
-//! the `canopen` facade with the PDO structs and the typed client ([`Config::for_canopen`]).
+//! the `canola` facade with the PDO structs and the typed client ([`Config::for_canola`]).
 //! Skips with a message when the corpus is absent, unless CANOPEN_REQUIRE_CORPUS=1.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use canopen_codegen::Config;
+use canola_codegen::Config;
 
 fn corpus_dir() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/eds-corpus");
@@ -55,7 +55,7 @@ fn every_corpus_file_generates_code_that_compiles() {
     for (i, path) in files.iter().enumerate() {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
         let bytes = std::fs::read(path).unwrap();
-        let Ok(parsed) = canopen_od::parse(&bytes) else {
+        let Ok(parsed) = canola_od::parse(&bytes) else {
             // kaco__401.eds is broken on purpose; the od crate's corpus test checks its errors.
             assert_eq!(name, "kaco__401.eds", "{name} must parse");
             continue;
@@ -64,7 +64,7 @@ fn every_corpus_file_generates_code_that_compiles() {
             .static_dictionary(true)
             .pdo_structs(true)
             .generate(&parsed.od, &name);
-        let (facade_code, notes) = Config::for_canopen().generate_with_notes(&parsed.od, &name);
+        let (facade_code, notes) = Config::for_canola().generate_with_notes(&parsed.od, &name);
         for note in &notes {
             eprintln!("{name}: {note}");
         }
@@ -92,7 +92,7 @@ fn every_corpus_file_generates_code_that_compiles() {
     std::fs::write(
         scratch.join("Cargo.toml"),
         format!(
-            "[package]\nname = \"codegen-corpus-check\"\nversion = \"0.0.0\"\nedition = \"2024\"\npublish = false\n\n[workspace]\n\n[dependencies]\ncanopen-od = {{ path = {:?}, default-features = false, features = [\"alloc\"] }}\ncanopen-pdo = {{ path = {:?}, default-features = false }}\n",
+            "[package]\nname = \"codegen-corpus-check\"\nversion = \"0.0.0\"\nedition = \"2024\"\npublish = false\n\n[workspace]\n\n[dependencies]\ncanola-od = {{ path = {:?}, default-features = false, features = [\"alloc\"] }}\ncanola-pdo = {{ path = {:?}, default-features = false }}\n",
             workspace.join("crates/od").display().to_string(),
             workspace.join("crates/pdo").display().to_string()
         ),
@@ -102,8 +102,8 @@ fn every_corpus_file_generates_code_that_compiles() {
     std::fs::write(
         facade.join("Cargo.toml"),
         format!(
-            "[package]\nname = \"codegen-corpus-facade\"\nversion = \"0.0.0\"\nedition = \"2024\"\npublish = false\n\n[workspace]\n\n[dependencies]\ncanopen = {{ path = {:?} }}\n",
-            workspace.join("crates/canopen").display().to_string()
+            "[package]\nname = \"codegen-corpus-facade\"\nversion = \"0.0.0\"\nedition = \"2024\"\npublish = false\n\n[workspace]\n\n[dependencies]\ncanola = {{ path = {:?} }}\n",
+            workspace.join("crates/canola").display().to_string()
         ),
     )
     .unwrap();

@@ -4,8 +4,8 @@
 //! decode from raw frames, from the master's PDO events and from its decoded values; the master
 //! sends an RPDO built by a struct, and the client reads what the device took from it.
 
-use canopen::transport::Transport;
-use canopen::{Duration, MemoryBus, Network, NetworkEvent, NodeId, SimDevice};
+use canola::transport::Transport;
+use canola::{Duration, MemoryBus, Network, NetworkEvent, NodeId, SimDevice};
 
 // The workspace warns on `pub` items a crate does not export; a test crate exports none.
 #[allow(unreachable_pub)]
@@ -26,7 +26,7 @@ fn tpdos_from_the_simulator_decode_into_the_structs() {
     let bus = MemoryBus::new();
     let mut raw = bus.endpoint();
     let net = Network::new(bus.endpoint());
-    net.add_node_with_dictionary(node(), canopen::od::parse(EDS).unwrap().od);
+    net.add_node_with_dictionary(node(), canola::od::parse(EDS).unwrap().od);
     let device = bus.attach(SimDevice::from_eds(node(), EDS).unwrap());
     let events = net.subscribe();
     net.node(node()).nmt().start().unwrap();
@@ -57,9 +57,9 @@ fn tpdos_from_the_simulator_decode_into_the_structs() {
     let tpdo2_id = Tpdo2::cob_id(node()).unwrap().can_id().unwrap();
     assert_eq!(tpdo1_id.as_raw(), 0x180 + 0x2A);
     let (mut seen1, mut seen2) = (None, None);
-    let mut last1 = canopen::CanFrame::new(tpdo1_id, &[]).unwrap();
+    let mut last1 = canola::CanFrame::new(tpdo1_id, &[]).unwrap();
     while let Some(received) = raw.try_recv().unwrap() {
-        let canopen::Received::Frame { frame, .. } = received else {
+        let canola::Received::Frame { frame, .. } = received else {
             continue;
         };
         if frame.id() == tpdo1_id {
@@ -147,12 +147,12 @@ fn the_client_reads_and_writes_typed_objects() {
     assert_eq!(timer.read().unwrap(), 250);
     assert_eq!(
         timer.entry().address(),
-        canopen::ObjectAddress::new(0x1800, 5)
+        canola::ObjectAddress::new(0x1800, 5)
     );
     // A node that does not answer: the facade's SDO error, naming node and object.
     let absent = Device::new(net.node(NodeId::new(9).unwrap()));
     let err = absent.producer_heartbeat_time().read().unwrap_err();
-    assert!(matches!(err, canopen::Error::Sdo(_)), "{err}");
+    assert!(matches!(err, canola::Error::Sdo(_)), "{err}");
 }
 
 #[test]

@@ -139,8 +139,8 @@ fn generated_structs(code: &str) -> Vec<Generated> {
 /// structs were compared.
 fn compare_layouts(eds: &Path, py: &PyView) -> usize {
     let name = eds.file_name().unwrap().to_string_lossy().into_owned();
-    let parsed = canopen_od::parse(&std::fs::read(eds).unwrap()).unwrap();
-    let (code, notes) = canopen_codegen::Config::new()
+    let parsed = canola_od::parse(&std::fs::read(eds).unwrap()).unwrap();
+    let (code, notes) = canola_codegen::Config::new()
         .pdo_structs(true)
         .generate_with_notes(&parsed.od, &name);
     let structs = generated_structs(&code);
@@ -261,7 +261,7 @@ fn corpus_pdo_layouts_match_python_canopen() {
     files.sort();
     let (mut compared, mut files_compared, mut python_rejects) = (0, 0, 0);
     for file in &files {
-        if canopen_od::parse(&std::fs::read(file).unwrap()).is_err() {
+        if canola_od::parse(&std::fs::read(file).unwrap()).is_err() {
             continue;
         }
         match run_python(&py, file, &[]) {

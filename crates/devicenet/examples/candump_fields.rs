@@ -8,8 +8,8 @@
 
 use std::io::{BufRead, BufReader, Read};
 
-use can_frame::{CanFrame, CanId};
-use devicenet::{Decoded, DnId};
+use canola_devicenet::{Decoded, DnId};
+use canola_frame::{CanFrame, CanId};
 
 fn parse_line(line: &str) -> Option<CanFrame> {
     let frame = line.split_whitespace().nth(2)?;
@@ -44,7 +44,7 @@ fn main() {
             DnId::Invalid(_) => ("", String::new(), String::new()),
         };
         let data: String = frame.data().iter().map(|b| format!("{b:02x}")).collect();
-        let decoded = devicenet::decode(&frame);
+        let decoded = canola_devicenet::decode(&frame);
         let dup = match decoded {
             Decoded::DuplicateMac { check: Ok(c), .. } => [
                 (c.response as u8).to_string(),

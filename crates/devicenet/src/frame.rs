@@ -7,7 +7,7 @@
 
 use core::fmt;
 
-use can_frame::CanFrame;
+use canola_frame::CanFrame;
 
 use crate::explicit::{ExplicitError, ExplicitFrame, Hex, Request, Response, is_response};
 use crate::id::{DnId, Predefined};
@@ -134,7 +134,7 @@ mod tests {
     extern crate std;
     use std::string::ToString;
 
-    use can_frame::CanId;
+    use canola_frame::CanId;
 
     use super::*;
 

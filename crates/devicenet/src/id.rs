@@ -15,7 +15,7 @@
 
 use core::fmt;
 
-use can_frame::{CanId, StandardId};
+use canola_frame::{CanId, StandardId};
 
 /// A DeviceNet MAC ID (node address), 0..=63.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -5,7 +5,7 @@
 //! The sender waits for each fragment's acknowledgement ([`Link::ack_timeout`]); a missing or
 //! negative acknowledgement abandons the message ([`LinkEvent::SendFailed`]).
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
+use canola_frame::{CanFrame, CanId, Duration, Instant};
 use heapless::Deque;
 
 use crate::explicit::{ExplicitFrame, Header};

@@ -29,7 +29,7 @@
 //! not offer (bit-strobe, multicast, COS/cyclic) `ResourceUnavailable` 0x02; allocating what is
 //! already allocated or releasing what is not `AlreadyInRequestedState`.
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
+use canola_frame::{CanFrame, CanId, Duration, Instant};
 use heapless::Deque;
 
 use crate::explicit::{

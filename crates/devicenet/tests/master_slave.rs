@@ -1,15 +1,15 @@
 //! The master machine against the slave machine on a virtual bus: every frame one sends reaches
 //! the other (and a third station, when there is one), time advances in 1 ms steps.
 
-use can_frame::{CanFrame, CanId, Duration, Instant, is_due};
-use devicenet::explicit::Path;
-use devicenet::fragment::MessageBuf;
-use devicenet::master::{ConnectError, ExplicitFailure};
-use devicenet::slave::{Connection, ConnectionState, NetworkState};
-use devicenet::{
+use canola_devicenet::explicit::Path;
+use canola_devicenet::fragment::MessageBuf;
+use canola_devicenet::master::{ConnectError, ExplicitFailure};
+use canola_devicenet::slave::{Connection, ConnectionState, NetworkState};
+use canola_devicenet::{
     Application, CipError, GeneralStatus, Identity, MacId, Master, MasterConfig, MasterEvent,
     MasterState, Slave, SlaveConfig, SlaveEvent,
 };
+use canola_frame::{CanFrame, CanId, Duration, Instant, is_due};
 
 #[derive(Debug, Default)]
 struct Echo {

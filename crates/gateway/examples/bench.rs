@@ -4,16 +4,16 @@
 //! time and the figures are the software's). Each load runs closed-loop (one request in flight
 //! per client) and pipelined (8 in flight per client).
 //!
-//! `cargo run --release -p canopen-gateway --example bench [-- --clients N --reads N]`
+//! `cargo run --release -p canola-gateway --example bench [-- --clients N --reads N]`
 
 use std::collections::{HashMap, VecDeque};
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
-use can_frame::NodeId;
-use canopen::{MemoryBus, Network, Pending, SimDevice};
-use canopen_gateway::{Config, Gateway};
+use canola::{MemoryBus, Network, Pending, SimDevice};
+use canola_frame::NodeId;
+use canola_gateway::{Config, Gateway};
 
 const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
 const NODES: u8 = 8;

@@ -5,9 +5,9 @@
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 
-use can_frame::{Duration, NodeId};
-use canopen::{Error, Network, SdoErrorKind};
-use canopen_lss::{
+use canola::{Error, Network, SdoErrorKind};
+use canola_frame::{Duration, NodeId};
+use canola_lss::{
     AddressPart, AssignConfig, BitTiming, FastscanConfig, LssAddress, LssError, Mode, NodeIdPool,
     Procedure, ResponseError, Service, Step,
 };
@@ -147,7 +147,7 @@ pub(crate) fn write(
 
 /// NMT module control; node 0 is every node.
 pub(crate) fn nmt(net: &Network, node: u8, service: NmtService) -> Reply {
-    use canopen_nmt::CommandSpecifier as Cs;
+    use canola_nmt::CommandSpecifier as Cs;
     let cs = match service {
         NmtService::Start => Cs::Start,
         NmtService::Stop => Cs::Stop,
@@ -181,7 +181,7 @@ fn address_text(a: &LssAddress) -> String {
     )
 }
 
-fn step(net: &Network, step: Step) -> Result<canopen_lss::ServiceReport, Reply> {
+fn step(net: &Network, step: Step) -> Result<canola_lss::ServiceReport, Reply> {
     net.lss()
         .procedure(Procedure::single(step))
         .map_err(|e| error_reply(&e))
@@ -189,7 +189,7 @@ fn step(net: &Network, step: Step) -> Result<canopen_lss::ServiceReport, Reply> 
 
 /// The LSS services (CiA 305); one runs at a time on a network.
 pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
-    let ok = |r: Result<canopen_lss::ServiceReport, Reply>| r.map_or_else(|e| e, |_| Reply::Ok);
+    let ok = |r: Result<canola_lss::ServiceReport, Reply>| r.map_or_else(|e| e, |_| Reply::Ok);
     match *command {
         Command::LssSwitchGlobal(config) => ok(step(
             net,

@@ -6,7 +6,7 @@
 //! * [`command`]: typed requests, responses and event lines, and the formatter back to text.
 //! * [`parse`]: the nom parser from a line to a [`Request`].
 //! * [`server`]: the [`Gateway`]: connections over TCP, a Unix socket, stdio or any byte
-//!   stream in front of one `canopen::Network`, with one request queue per node.
+//!   stream in front of one `canola::Network`, with one request queue per node.
 //!
 //! # Compatibility
 //!
@@ -44,7 +44,7 @@
 //!   argument). An ignored part reads 0 in the report, as in CANopenNode.
 //!
 //! ```
-//! use canopen_gateway::{Command, parse_line};
+//! use canola_gateway::{Command, parse_line};
 //!
 //! let req = parse_line("[1] 4 read 0x1017 0 u16\r\n").unwrap().unwrap();
 //! assert_eq!(req.node, Some(4));

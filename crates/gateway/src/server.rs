@@ -33,9 +33,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, mpsc};
 use std::thread::JoinHandle;
 
-use can_frame::{Duration, NodeId};
-use canopen::{Network, NetworkEvent};
-use canopen_nmt::{GuardingEvent, HeartbeatEvent};
+use canola::{Network, NetworkEvent};
+use canola_frame::{Duration, NodeId};
+use canola_nmt::{GuardingEvent, HeartbeatEvent};
 
 use crate::command::{
     Command, ErrorCode, Event, EventKind, HelpTopic, Level, Reply, Request, Response,
@@ -374,13 +374,13 @@ struct Session {
 /// The CiA 309-3 gateway in front of one [`Network`]. Cheap to clone.
 ///
 /// ```
-/// use canopen::{MemoryBus, Network, SimDevice};
-/// use canopen_gateway::{Config, Gateway};
+/// use canola::{MemoryBus, Network, SimDevice};
+/// use canola_gateway::{Config, Gateway};
 ///
 /// let bus = MemoryBus::new();
 /// let net = Network::new(bus.endpoint());
 /// let eds = include_bytes!("../../../eds/burkert-generic.eds");
-/// bus.attach(SimDevice::from_eds(can_frame::NodeId::new(5).unwrap(), eds).unwrap());
+/// bus.attach(SimDevice::from_eds(canola_frame::NodeId::new(5).unwrap(), eds).unwrap());
 /// let gateway = Gateway::new(net, Config::default());
 /// let mut out = Vec::new();
 /// gateway.serve_stream(&b"[1] 5 write 0x1017 0 u16 250\n[2] 5 read 0x1017 0 u16\n"[..], &mut out);

@@ -7,7 +7,7 @@ mod common;
 
 use std::collections::HashMap;
 
-use canopen_gateway::Config;
+use canola_gateway::Config;
 use common::{Client, gateway};
 
 /// Sends `n` pipelined reads spread over `nodes` (each node's 0x1017 holds 100 + node) and
@@ -30,7 +30,7 @@ fn pipelined_reads(c: &mut Client, first_seq: u32, n: u32, nodes: &[u8]) {
     assert!(want.is_empty());
 }
 
-fn set_heartbeat_times(gw: &canopen_gateway::Gateway, nodes: &[u8]) {
+fn set_heartbeat_times(gw: &canola_gateway::Gateway, nodes: &[u8]) {
     let mut c = Client::connect(gw);
     for &n in nodes {
         let line = format!("[{n}] {n} w 0x1017 0 u16 {}\n", 100 + u32::from(n));
@@ -120,8 +120,8 @@ fn over_long_lines_are_refused_and_the_connection_goes_on() {
 
 #[test]
 fn sdo_to_different_nodes_runs_in_parallel() {
-    use canopen::transport::{Received, Transport};
-    use canopen::{BusConfig, ClockMode, MemoryBus, Network};
+    use canola::transport::{Received, Transport};
+    use canola::{BusConfig, ClockMode, MemoryBus, Network};
 
     // Nobody answers at nodes 20..=27, so each read ends with the SDO timeout and its abort.
     // In parallel, all eight requests are on the bus before the first abort; one after another,
@@ -132,7 +132,7 @@ fn sdo_to_different_nodes_runs_in_parallel() {
         ..BusConfig::default()
     });
     let mut tap = bus.endpoint();
-    let gw = canopen_gateway::Gateway::new(Network::new(bus.endpoint()), Config::default());
+    let gw = canola_gateway::Gateway::new(Network::new(bus.endpoint()), Config::default());
     let mut c = Client::connect(&gw);
     assert_eq!(c.ask("[1] set sdo_timeout 400\n", 1), "[1] OK\r\n");
     let text: String = (20..28)
@@ -225,14 +225,14 @@ struct ServedLog {
     log: std::sync::Arc<std::sync::Mutex<Vec<(u8, u16)>>>,
 }
 
-impl canopen::DeviceHook for ServedLog {
+impl canola::DeviceHook for ServedLog {
     fn on_read(
         &mut self,
-        _now: can_frame::Instant,
-        _values: &canopen::Values,
+        _now: canola_frame::Instant,
+        _values: &canola::Values,
         index: u16,
         _sub: u8,
-    ) -> Option<Result<Vec<u8>, canopen::AbortCode>> {
+    ) -> Option<Result<Vec<u8>, canola::AbortCode>> {
         self.log.lock().unwrap().push((self.node, index));
         None
     }
@@ -251,22 +251,21 @@ fn a_flooding_connection_delays_another_by_a_bounded_number_of_requests() {
 
     const FLOOD: usize = 300;
     let log = Arc::new(Mutex::new(Vec::new()));
-    let bus = canopen::MemoryBus::with_config(canopen::BusConfig {
-        clock: canopen::ClockMode::RealTime,
+    let bus = canola::MemoryBus::with_config(canola::BusConfig {
+        clock: canola::ClockMode::RealTime,
         bitrate: Some(125_000),
-        ..canopen::BusConfig::default()
+        ..canola::BusConfig::default()
     });
-    let od = canopen_od::parse(common::EDS).unwrap().od;
+    let od = canola_od::parse(common::EDS).unwrap().od;
     for node in [5u8, 6] {
-        let dev = canopen::SimDevice::new(can_frame::NodeId::new(node).unwrap(), od.clone())
+        let dev = canola::SimDevice::new(canola_frame::NodeId::new(node).unwrap(), od.clone())
             .with_hook(ServedLog {
                 node,
                 log: log.clone(),
             });
         bus.attach(dev);
     }
-    let gw =
-        canopen_gateway::Gateway::new(canopen::Network::new(bus.endpoint()), Config::default());
+    let gw = canola_gateway::Gateway::new(canola::Network::new(bus.endpoint()), Config::default());
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let port = listener.local_addr().unwrap().port();
     gw.serve_tcp(listener);

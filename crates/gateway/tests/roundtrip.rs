@@ -1,9 +1,9 @@
 //! Property tests of the line grammar: formatting a generated request and parsing the text gives
 //! the request back (and the text again), and no line of arbitrary text makes the parser panic.
 
-use canopen_gateway::command::{AllNodes, AllNodesAssign, HelpTopic, ScanType};
-use canopen_gateway::value::{TIME_MS_MAX, Time};
-use canopen_gateway::{Command, DataType, NmtService, Request, Value, parse_line};
+use canola_gateway::command::{AllNodes, AllNodesAssign, HelpTopic, ScanType};
+use canola_gateway::value::{TIME_MS_MAX, Time};
+use canola_gateway::{Command, DataType, NmtService, Request, Value, parse_line};
 use proptest::prelude::*;
 
 fn bytes() -> impl Strategy<Value = Vec<u8>> {

@@ -4,7 +4,7 @@
 
 mod common;
 
-use canopen_gateway::Config;
+use canola_gateway::Config;
 use common::{Client, gateway};
 
 /// Runs `(request, expected reply)` pairs on one connection.
@@ -132,8 +132,8 @@ fn boot_up_and_heartbeat_events_for_clients_that_ask() {
     assert_eq!(quiet.ask("[2] 4 r 0x1017 0 u16\n", 1), "[2] 500\r\n");
     // Heartbeat monitoring: stopping the producer loses the heartbeat.
     gw.network().monitor_heartbeat(
-        can_frame::NodeId::new(4).unwrap(),
-        can_frame::Duration::from_millis(800),
+        canola_frame::NodeId::new(4).unwrap(),
+        canola_frame::Duration::from_millis(800),
     );
     // The consumer arms at the first heartbeat it sees (every 500 ms of bus time; the
     // gateway's driver keeps bus time close to real time).
@@ -152,15 +152,15 @@ fn boot_up_and_heartbeat_events_for_clients_that_ask() {
 
 #[test]
 fn emcy_event_line() {
-    use can_frame::NodeId;
-    use canopen::{MemoryBus, Network, SimDevice};
-    use canopen_nmt::{Emcy, EmcyCode, ErrorRegister};
+    use canola::{MemoryBus, Network, SimDevice};
+    use canola_frame::NodeId;
+    use canola_nmt::{Emcy, EmcyCode, ErrorRegister};
 
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     let id = NodeId::new(6).unwrap();
     let dev = bus.attach(SimDevice::from_eds(id, common::EDS).unwrap());
-    let gw = canopen_gateway::Gateway::new(net, Config::default());
+    let gw = canola_gateway::Gateway::new(net, Config::default());
     let mut c = Client::connect(&gw);
     assert_eq!(c.ask("[1] _events 1\n", 1), "[1] OK\r\n");
     let now = bus.now();

@@ -29,7 +29,7 @@
 //! store and answer error 1). Only a Fastscan that loses its slave, or more than [`MAX_SLAVES`]
 //! slaves, ends the workflow early; the reason is in [`AssignReport::stopped`].
 
-use can_frame::{Instant, NodeId};
+use canola_frame::{Instant, NodeId};
 use heapless::Vec;
 
 use crate::address::LssAddress;

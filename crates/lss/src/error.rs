@@ -4,7 +4,7 @@
 
 use core::fmt;
 
-use can_frame::Duration;
+use canola_frame::Duration;
 
 use crate::address::AddressPart;
 use crate::wire::ResponseError;

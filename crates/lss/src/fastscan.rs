@@ -54,7 +54,7 @@
 //! scan. Discovery ends when a successor search finds nobody, and finally sends switch mode
 //! global (waiting).
 
-use can_frame::{Duration, Instant};
+use canola_frame::{Duration, Instant};
 use heapless::Vec;
 
 use crate::address::{AddressPart, LssAddress};

@@ -20,10 +20,10 @@
 //!   [`SlaveConfig::fastscan_in_configuration`] makes it answer Fastscan in configuration state
 //!   too, as real slaves do, which the master machines are tested against.
 //!
-//! No sockets, threads or clocks: callers pass [`can_frame::Instant`]s in. The crate is
+//! No sockets, threads or clocks: callers pass [`canola_frame::Instant`]s in. The crate is
 //! `#![no_std]` without an allocator (fixed-size `heapless` lists, at most 127 slaves per
 //! result since that is how many node-IDs exist); the `std` feature (default) only adds
-//! `std::error::Error` through `can-frame`.
+//! `std::error::Error` through `canola-frame`.
 //!
 //! # Driving a machine
 //! Every master machine has the same loop (see [`machine`] for the details): put
@@ -33,8 +33,8 @@
 //! [`MasterEvent::Done`]. Here two simulated slaves stand in for the bus, on a virtual clock:
 //!
 //! ```
-//! use can_frame::{Instant, NodeId};
-//! use canopen_lss::{
+//! use canola_frame::{Instant, NodeId};
+//! use canola_lss::{
 //!     AssignAll, AssignConfig, LssAddress, LssMachine, LssSlave, MasterEvent, NodeIdPool,
 //!     SlaveConfig,
 //! };

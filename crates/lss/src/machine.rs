@@ -27,7 +27,7 @@
 
 use core::convert::Infallible;
 
-use can_frame::{CanFrame, Duration, Instant};
+use canola_frame::{CanFrame, Duration, Instant};
 use heapless::Deque;
 
 use crate::address::{BitTiming, LssAddress};

@@ -18,7 +18,7 @@
 //! not supported, common in real slaves): the procedure goes on and the report says
 //! [`ServiceReport::stored`] `Some(false)`.
 
-use can_frame::{Duration, Instant, NodeId};
+use canola_frame::{Duration, Instant, NodeId};
 use heapless::Vec;
 
 use crate::address::{AddressPart, BitTiming, LssAddress};

@@ -22,7 +22,7 @@
 //! (`BitChecked` 0) whose `LSSNext` is lower than `LSSSub` completes the address: the slave
 //! enters configuration state.
 
-use can_frame::{CanFrame, Instant, NodeId};
+use canola_frame::{CanFrame, Instant, NodeId};
 use heapless::Deque;
 
 use crate::address::{AddressPart, BitTiming, LssAddress};
@@ -344,7 +344,7 @@ impl LssSlave {
                 self.answer(Response::ConfigureBitTiming(status));
             }
             Request::ActivateBitTiming { delay_ms } if configuring => {
-                let delay = can_frame::Duration::from_millis(u64::from(delay_ms));
+                let delay = canola_frame::Duration::from_millis(u64::from(delay_ms));
                 self.activation = Some(Activation {
                     timing: self.pending_bit_timing,
                     switch_at: now + delay,

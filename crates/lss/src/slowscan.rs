@@ -13,7 +13,7 @@
 //! Cost: about 2 × 32 probes per slave plus shared prefixes; each probe costs one response
 //! timeout when silent, or always under [`ResponsePolicy::WholeWindow`].
 
-use can_frame::{Duration, Instant};
+use canola_frame::{Duration, Instant};
 use heapless::Vec;
 
 use crate::address::LssAddress;

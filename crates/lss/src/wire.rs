@@ -26,8 +26,8 @@
 
 use core::fmt;
 
-use can_frame::cob::{LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
-use can_frame::{CanFrame, CanId};
+use canola_frame::cob::{LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
+use canola_frame::{CanFrame, CanId};
 
 use crate::address::{AddressPart, BitTiming};
 

@@ -7,11 +7,11 @@ use std::collections::BTreeSet;
 use std::vec::Vec;
 
 use bus::{Bus, Delivery, Rng, random_addresses};
-use can_frame::{Duration, Instant, NodeId};
-use canopen_lss::assign::AssignOutcome;
-use canopen_lss::service::{IdentifyQuery, Range};
-use canopen_lss::slave::SlaveState;
-use canopen_lss::*;
+use canola_frame::{Duration, Instant, NodeId};
+use canola_lss::assign::AssignOutcome;
+use canola_lss::service::{IdentifyQuery, Range};
+use canola_lss::slave::SlaveState;
+use canola_lss::*;
 
 fn id(n: u8) -> NodeId {
     NodeId::new(n).unwrap()
@@ -910,7 +910,7 @@ fn busy_master_refuses_a_second_procedure() {
         Err(LssError::Busy)
     );
     let mut p = Procedure::new();
-    for _ in 0..canopen_lss::service::MAX_STEPS {
+    for _ in 0..canola_lss::service::MAX_STEPS {
         p = p.then(Step::InquireNodeId).unwrap();
     }
     assert!(matches!(

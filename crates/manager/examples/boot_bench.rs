@@ -4,12 +4,12 @@
 //! one after another (the way a serial configuration loop such as python-canopen's
 //! `load_configuration()` does it: a model on the same bus, python-canopen itself is not run).
 //!
-//! `cargo run --release -p canopen-manager --example boot_bench`
+//! `cargo run --release -p canola-manager --example boot_bench`
 
-use canopen::{BusConfig, MemoryBus, Network, SimDevice};
-use canopen_manager::config::{ErrorControl, NetworkConfig};
-use canopen_manager::simulate::factory_dictionary;
-use canopen_manager::{SlaveStatus, boot};
+use canola::{BusConfig, MemoryBus, Network, SimDevice};
+use canola_manager::config::{ErrorControl, NetworkConfig};
+use canola_manager::simulate::factory_dictionary;
+use canola_manager::{SlaveStatus, boot};
 
 const SLAVES: u8 = 64;
 const OBJECTS: u16 = 40;
@@ -27,25 +27,25 @@ fn description() -> NetworkConfig {
     // Pad every dictionary to OBJECTS configured entries (0x2000.. are three of them).
     for s in &mut config.slaves {
         s.error_control = ErrorControl::None;
-        let mut have = canopen_manager::boot::configured_values(s).len() as u16;
+        let mut have = canola_manager::boot::configured_values(s).len() as u16;
         let mut index = 0x2100;
         while have < OBJECTS {
-            let mut sub = canopen::od::SubObject::new(
+            let mut sub = canola::od::SubObject::new(
                 0,
                 format!("Parameter {index:#06x}"),
-                canopen::DataType::Unsigned32,
-                canopen::od::AccessType::Rw,
+                canola::DataType::Unsigned32,
+                canola::od::AccessType::Rw,
             );
             sub.default_value =
-                Some(canopen::od::FieldValue::from_text(canopen::DataType::Unsigned32, "0").0);
+                Some(canola::od::FieldValue::from_text(canola::DataType::Unsigned32, "0").0);
             sub.extras_mut().parameter_value = Some(
-                canopen::od::FieldValue::from_text(
-                    canopen::DataType::Unsigned32,
+                canola::od::FieldValue::from_text(
+                    canola::DataType::Unsigned32,
                     &format!("{}", index as u32 * 3),
                 )
                 .0,
             );
-            s.dictionary.insert(canopen::od::Object::var(index, sub));
+            s.dictionary.insert(canola::od::Object::var(index, sub));
             index += 1;
             have += 1;
         }
@@ -93,7 +93,7 @@ fn main() {
     for s in &config.slaves {
         b.attach(SimDevice::new(s.node_id, factory_dictionary(&s.dictionary)));
     }
-    let mut serial = canopen::Duration::ZERO;
+    let mut serial = canola::Duration::ZERO;
     for s in &config.slaves {
         let one = NetworkConfig {
             path: config.path.clone(),
@@ -105,7 +105,7 @@ fn main() {
         serial = serial + r.elapsed;
     }
 
-    let ms = |d: canopen::Duration| d.as_micros() as f64 / 1000.0;
+    let ms = |d: canola::Duration| d.as_micros() as f64 / 1000.0;
     println!(
         "boot of {SLAVES} slaves x {OBJECTS} objects, 1 Mbit/s bus model ({} frames)",
         stats.frames
@@ -118,7 +118,7 @@ fn main() {
     );
     println!(
         "{:<44} {:>7.1} ms  ({:.2}x the bound)",
-        "canopen-manager, every slave in parallel",
+        "canola-manager, every slave in parallel",
         ms(parallel),
         ms(parallel) / ms(stats.busy)
     );

@@ -5,7 +5,7 @@
 //! blocking pool (they drive the network, which blocks); their events come through a channel the
 //! caller awaits. There is no second implementation of either.
 
-use canopen::Network;
+use canola::Network;
 use tokio::sync::mpsc;
 use tokio::task::JoinHandle;
 

@@ -4,8 +4,8 @@
 //! them); write-only ones cannot be read. Every slave is audited at once, one request in flight
 //! per slave, all driven from the caller's thread.
 
-use canopen::od::AccessType;
-use canopen::{DataType, Duration, Network, NodeId, ObjectAddress, Pending, Value};
+use canola::od::AccessType;
+use canola::{DataType, Duration, Network, NodeId, ObjectAddress, Pending, Value};
 
 use crate::config::{NetworkConfig, SlaveConfig};
 
@@ -144,7 +144,7 @@ pub fn audit_with(
 /// One object the audit compares.
 struct Check<'a> {
     object: ObjectAddress,
-    sub: &'a canopen::od::SubObject,
+    sub: &'a canola::od::SubObject,
     expected: Value,
     read_only: bool,
 }
@@ -211,7 +211,7 @@ impl<'a> SlaveRun<'a> {
         }
     }
 
-    fn sdo(&self) -> canopen::Sdo {
+    fn sdo(&self) -> canola::Sdo {
         self.net.node(self.out.node_id).sdo().timeout(self.timeout)
     }
 

@@ -11,9 +11,9 @@
 
 use std::time::Instant as WallInstant;
 
-use canopen::nmt::GuardingEvent;
-use canopen::od::AccessType;
-use canopen::{
+use canola::nmt::GuardingEvent;
+use canola::od::AccessType;
+use canola::{
     CommandSpecifier, Duration, HeartbeatEvent, Instant, Network, NetworkEvent, NodeId,
     ObjectAddress, Pending, SdoError, SdoErrorKind, Value,
 };
@@ -454,7 +454,7 @@ impl<'a> SlaveBoot<'a> {
         this
     }
 
-    fn sdo(&self) -> canopen::Sdo {
+    fn sdo(&self) -> canola::Sdo {
         self.net
             .node(self.slave.node_id)
             .sdo()
@@ -866,7 +866,7 @@ impl<'a> SlaveBoot<'a> {
         on_event: &mut impl FnMut(&BootEvent),
     ) -> Result<Phase, Failure> {
         let node = self.slave.node_id;
-        if self.net.last_state(node) == Some(canopen::NmtState::Operational) {
+        if self.net.last_state(node) == Some(canola::NmtState::Operational) {
             self.initially_operational = true;
             self.step_done(BootStep::NodeState, Some(BootStep::ErrorControl), on_event);
             return Ok(self.error_control_phase());
@@ -1139,7 +1139,7 @@ impl<'a> SlaveBoot<'a> {
 fn is_timeout(e: &SdoError) -> bool {
     matches!(
         e.kind,
-        SdoErrorKind::Transfer(canopen::sdo::ErrorKind::Timeout)
+        SdoErrorKind::Transfer(canola::sdo::ErrorKind::Timeout)
     )
 }
 

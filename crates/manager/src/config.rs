@@ -12,8 +12,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use canopen::od::{AccessType, FieldValue, ObjectDictionary};
-use canopen::{Duration, NodeId};
+use canola::od::{AccessType, FieldValue, ObjectDictionary};
+use canola::{Duration, NodeId};
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -495,7 +495,7 @@ impl NetworkConfig {
                     format!("{}: {e}", source.display()),
                 )
             })?;
-            let mut dictionary = canopen::od::parse(&bytes)
+            let mut dictionary = canola::od::parse(&bytes)
                 .map_err(|e| {
                     err(
                         Some(file.span()),
@@ -590,7 +590,7 @@ impl NetworkConfig {
             let source = base.join(file.get_ref());
             let fail = |message: String| err(Some(file.span()), Some("master.dcf".into()), message);
             let bytes = read(&source).map_err(|e| fail(format!("{}: {e}", source.display())))?;
-            let od = canopen::od::parse(&bytes)
+            let od = canola::od::parse(&bytes)
                 .map_err(|e| fail(format!("{}: {e}", source.display())))?
                 .od;
             let objects = crate::master_dcf::MasterObjects::from_dictionary(&od);
@@ -637,7 +637,7 @@ fn set_value(od: &mut ObjectDictionary, key: &str, value: &toml::Value) -> Resul
     } else {
         format!("{key}:00")
     };
-    let addr: canopen::ObjectAddress = full
+    let addr: canola::ObjectAddress = full
         .parse()
         .map_err(|e| format!("`{key}` is not an object address (0xIIII:SS): {e}"))?;
     let sub = od

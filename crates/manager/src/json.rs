@@ -6,7 +6,7 @@ use serde_json::{Value as Json, json};
 use crate::audit::AuditReport;
 use crate::boot::{BootReport, ConfigOutcome, SlaveReport, SoftwareOutcome};
 
-fn micros(d: canopen::Duration) -> u64 {
+fn micros(d: canola::Duration) -> u64 {
     d.as_micros()
 }
 

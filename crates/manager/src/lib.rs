@@ -5,8 +5,8 @@
 //! against its DCF ([`mod@audit`]); [`mod@supervise`] boots slaves again that appear late or reset. [`simulate`] puts the described slaves on an in-memory bus.
 //!
 //! ```
-//! use canopen::{MemoryBus, Network};
-//! use canopen_manager::{NetworkConfig, SlaveStatus, boot, simulate};
+//! use canola::{MemoryBus, Network};
+//! use canola_manager::{NetworkConfig, SlaveStatus, boot, simulate};
 //!
 //! let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data");
 //! let config = NetworkConfig::load(format!("{dir}/three.toml")).unwrap();

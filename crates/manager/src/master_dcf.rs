@@ -7,9 +7,9 @@
 
 use std::collections::BTreeMap;
 
-use canopen::od::write::{ConciseSelection, concise_dcf, decode_concise};
-use canopen::od::{AccessType, FieldValue, Object, ObjectCode, ObjectDictionary, SubObject};
-use canopen::{DataType, NodeId};
+use canola::od::write::{ConciseSelection, concise_dcf, decode_concise};
+use canola::od::{AccessType, FieldValue, Object, ObjectCode, ObjectDictionary, SubObject};
+use canola::{DataType, NodeId};
 
 use crate::boot::configured_values;
 use crate::config::{IdentityCheck, NetworkConfig, Program, SoftwareCheck, StartPolicy};
@@ -152,7 +152,7 @@ impl MasterObjects {
     }
 
     /// The objects in a master dictionary (arrays with all 127 node sub-indices; write it with
-    /// `canopen::od::write_dcf`).
+    /// `canola::od::write_dcf`).
     pub fn to_dictionary(&self) -> ObjectDictionary {
         let mut od = ObjectDictionary::default();
         let u32_var = |index: u16, name: &str, v: u32| {
@@ -236,7 +236,7 @@ impl MasterObjects {
             }
             let id = |i: usize| Some(u32_at(IDENTITY[i].0, node)).filter(|&v| v != 0);
             let domain = |index: u16| match value(index, node) {
-                Some(canopen::Value::Domain(b)) if !b.is_empty() => Some(b),
+                Some(canola::Value::Domain(b)) if !b.is_empty() => Some(b),
                 _ => None,
             };
             let concise = domain(0x1F22);
@@ -278,7 +278,7 @@ impl MasterObjects {
         let mut od = Self::from_config(config).to_dictionary();
         od.file_info.file_name = Some("master.dcf".into());
         od.file_info.description = Some("CANopen manager objects (CiA 302)".into());
-        canopen::od::write_dcf(&od, config.master.node_id.get(), None)
+        canola::od::write_dcf(&od, config.master.node_id.get(), None)
     }
 }
 
@@ -379,7 +379,7 @@ mod tests {
         assert_eq!(objects.slaves[&5].assignment, 0x0D);
         assert_eq!(objects.slaves[&7].assignment, 0x05);
         let text = MasterObjects::write_master_dcf(&config);
-        let od = canopen::od::parse(text.as_bytes())
+        let od = canola::od::parse(text.as_bytes())
             .expect("the written DCF parses")
             .od;
         let back = MasterObjects::from_dictionary(&od);
@@ -421,7 +421,7 @@ mod tests {
         assert_eq!(objects.slaves[&6].assignment, 0x6D);
         assert_eq!(objects.slaves[&7].assignment, 0x25);
         let text = MasterObjects::write_master_dcf(&config);
-        let od = canopen::od::parse(text.as_bytes()).unwrap().od;
+        let od = canola::od::parse(text.as_bytes()).unwrap().od;
         let back = MasterObjects::from_dictionary(&od);
         assert_eq!(back, objects);
         assert!(back.slaves[&5].keep_alive());

@@ -11,9 +11,9 @@
 //! version of the program that runs. The simulated images carry their version in their last
 //! eight bytes (date, then time, each UNSIGNED32 little-endian): [`program_image`] makes one.
 
-use canopen::mem::StationId;
-use canopen::sdo::AbortCode;
-use canopen::{
+use canola::mem::StationId;
+use canola::sdo::AbortCode;
+use canola::{
     DeviceHook, HookActions, Instant, MemoryBus, NodeId, ObjectDictionary, SimDevice, Values,
 };
 

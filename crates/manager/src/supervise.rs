@@ -5,8 +5,8 @@
 //! boot-up from a device the description does not list is the boot slave process's error A
 //! (not in the slave assignment 0x1F81): reported, and the device is left alone.
 
-use canopen::nmt::GuardingEvent;
-use canopen::{Duration, HeartbeatEvent, Instant, Network, NetworkEvent, NodeId};
+use canola::nmt::GuardingEvent;
+use canola::{Duration, HeartbeatEvent, Instant, Network, NetworkEvent, NodeId};
 
 use crate::boot::{BootEvent, BootReport, SlaveStatus, boot_with};
 use crate::codes::BootErrorCode;

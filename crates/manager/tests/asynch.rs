@@ -3,10 +3,10 @@
 
 use std::path::Path;
 
-use canopen::{MemoryBus, Network, NodeId};
-use canopen_manager::asynch::{audit_async, spawn_audit, spawn_boot};
-use canopen_manager::simulate::attach_slaves;
-use canopen_manager::{AuditEvent, AuditOptions, BootEvent, BootStep, NetworkConfig, SlaveStatus};
+use canola::{MemoryBus, Network, NodeId};
+use canola_manager::asynch::{audit_async, spawn_audit, spawn_boot};
+use canola_manager::simulate::attach_slaves;
+use canola_manager::{AuditEvent, AuditOptions, BootEvent, BootStep, NetworkConfig, SlaveStatus};
 
 fn node(n: u8) -> NodeId {
     NodeId::new(n).unwrap()

@@ -4,11 +4,11 @@
 
 use std::path::Path;
 
-use canopen::od::AccessType;
-use canopen::{MemoryBus, Network, NmtState, NodeId, SimDevice};
-use canopen_manager::boot::ConfigOutcome;
-use canopen_manager::simulate::{attach_slaves, factory_dictionary};
-use canopen_manager::{
+use canola::od::AccessType;
+use canola::{MemoryBus, Network, NmtState, NodeId, SimDevice};
+use canola_manager::boot::ConfigOutcome;
+use canola_manager::simulate::{attach_slaves, factory_dictionary};
+use canola_manager::{
     AuditOptions, BootErrorCode, BootEvent, BootStep, NetworkConfig, SlaveStatus, audit, boot,
     boot_with,
 };
@@ -83,7 +83,7 @@ fn three_slaves_boot_configure_and_start() {
             );
         }
     }
-    net.run_for(canopen::Duration::from_millis(300)).unwrap();
+    net.run_for(canola::Duration::from_millis(300)).unwrap();
     for n in [5, 6, 7] {
         assert_eq!(net.last_state(node(n)), Some(NmtState::Operational));
     }
@@ -115,7 +115,7 @@ fn absent_mandatory_slave_stops_the_start() {
     // No start-all: the others booted but stay pre-operational.
     assert_eq!(report.slaves[0].status, SlaveStatus::PreOperational);
     assert_eq!(report.slaves[2].status, SlaveStatus::PreOperational);
-    net.run_for(canopen::Duration::from_millis(300)).unwrap();
+    net.run_for(canola::Duration::from_millis(300)).unwrap();
     assert_eq!(net.last_state(node(5)), Some(NmtState::PreOperational));
 }
 
@@ -131,7 +131,7 @@ fn absent_optional_slave_does_not_stop_the_others() {
     assert_eq!(report.slaves[2].error_code, Some(BootErrorCode::B));
     assert_eq!(report.slaves[0].status, SlaveStatus::Operational);
     assert_eq!(report.slaves[1].status, SlaveStatus::Operational);
-    net.run_for(canopen::Duration::from_millis(300)).unwrap();
+    net.run_for(canola::Duration::from_millis(300)).unwrap();
     assert_eq!(net.last_state(node(6)), Some(NmtState::Operational));
 }
 
@@ -328,7 +328,7 @@ fn boot_from_a_master_dcf_with_concise_dcfs() {
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(
         dir.join("master.dcf"),
-        canopen_manager::master_dcf::MasterObjects::write_master_dcf(&full),
+        canola_manager::master_dcf::MasterObjects::write_master_dcf(&full),
     )
     .unwrap();
     let text = format!(
@@ -394,13 +394,13 @@ fn boots_on_a_real_clock_too() {
     // The host's clock, as on SocketCAN: the boot loop drives the bus in real time. Generous
     // timeouts: a loaded machine must not make a present slave look absent.
     let mut config = load("three.toml");
-    config.master.sdo_timeout = canopen::Duration::from_millis(1000);
-    config.master.boot_timeout = canopen::Duration::from_millis(1000);
+    config.master.sdo_timeout = canola::Duration::from_millis(1000);
+    config.master.boot_timeout = canola::Duration::from_millis(1000);
     config.master.heartbeat_consumer_percent = 500;
-    let bus = MemoryBus::with_config(canopen::BusConfig {
-        clock: canopen::ClockMode::RealTime,
+    let bus = MemoryBus::with_config(canola::BusConfig {
+        clock: canola::ClockMode::RealTime,
         bitrate: Some(1_000_000),
-        ..canopen::BusConfig::default()
+        ..canola::BusConfig::default()
     });
     let net = Network::new(bus.endpoint());
     attach_slaves(&bus, &config, &[node(7)]);
@@ -420,8 +420,8 @@ fn boots_on_a_real_clock_too() {
 
 #[test]
 fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
-    use canopen::transport::{Received, Transport};
-    use canopen_manager::{SuperviseEvent, supervise};
+    use canola::transport::{Received, Transport};
+    use canola_manager::{SuperviseEvent, supervise};
     let mut config = load("three.toml");
     config.slaves[1].restart_on_loss = true;
     let bus = MemoryBus::new();
@@ -443,7 +443,7 @@ fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
     ));
     bus.detach(stations[1].1).unwrap();
     let mut seen = Vec::new();
-    let until = net.now() + canopen::Duration::from_millis(400);
+    let until = net.now() + canola::Duration::from_millis(400);
     supervise(&net, &config, &mut report, until, |e| seen.push(e.clone()));
     assert!(
         seen.contains(&SuperviseEvent::Rebooting(node(7))),
@@ -461,7 +461,7 @@ fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
     assert!(
         seen.contains(&SuperviseEvent::NotListed {
             node: node(40),
-            code: canopen_manager::BootErrorCode::A,
+            code: canola_manager::BootErrorCode::A,
         }),
         "{seen:?}"
     );
@@ -481,7 +481,7 @@ fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
         node(6),
         factory_dictionary(&config.slaves[1].dictionary),
     ));
-    let until = net.now() + canopen::Duration::from_millis(400);
+    let until = net.now() + canola::Duration::from_millis(400);
     supervise(&net, &config, &mut report, until, |_| {});
     assert_eq!(
         report.slaves[1].status,

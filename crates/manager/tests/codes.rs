@@ -6,11 +6,11 @@
 
 use std::path::Path;
 
-use canopen::transport::{Received, Transport};
-use canopen::{AbortCode, Duration, MemoryBus, Network, NmtState, NodeId, SimDevice};
-use canopen_manager::boot::{ConfigOutcome, SlaveReport};
-use canopen_manager::simulate::{BootLoader, attach_slaves, device, factory_dictionary};
-use canopen_manager::{
+use canola::transport::{Received, Transport};
+use canola::{AbortCode, Duration, MemoryBus, Network, NmtState, NodeId, SimDevice};
+use canola_manager::boot::{ConfigOutcome, SlaveReport};
+use canola_manager::simulate::{BootLoader, attach_slaves, device, factory_dictionary};
+use canola_manager::{
     BootErrorCode, BootEvent, BootStep, NetworkConfig, SlaveStatus, SoftwareOutcome, boot,
     boot_with, json,
 };
@@ -36,12 +36,12 @@ fn u32_at(net: &Network, n: u8, index: u16, sub: u8) -> u32 {
     u32::from_le_bytes(a)
 }
 
-fn by(report: &canopen_manager::BootReport, n: u8) -> &SlaveReport {
+fn by(report: &canola_manager::BootReport, n: u8) -> &SlaveReport {
     report.slaves.iter().find(|s| s.node_id == node(n)).unwrap()
 }
 
 /// The NMT commands (command, target) the master sent since the tap was opened.
-fn nmt_commands(bus: &MemoryBus, tap: &mut canopen::Endpoint) -> Vec<(u8, u8)> {
+fn nmt_commands(bus: &MemoryBus, tap: &mut canola::Endpoint) -> Vec<(u8, u8)> {
     let mut out = Vec::new();
     while let Ok(Some(r)) = tap.recv_until(bus.now()) {
         if let Received::Frame { frame, .. } = r

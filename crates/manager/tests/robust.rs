@@ -2,8 +2,8 @@
 
 use std::path::Path;
 
-use canopen_manager::NetworkConfig;
-use canopen_manager::master_dcf::dictionary_from_concise;
+use canola_manager::NetworkConfig;
+use canola_manager::master_dcf::dictionary_from_concise;
 use proptest::prelude::*;
 
 fn base() -> std::path::PathBuf {

@@ -4,13 +4,13 @@
 //! panics; unknown command specifiers and node bytes above 127 are kept, so a decode-encode round
 //! trip is lossless.
 
-use can_frame::{CanFrame, NodeId};
+use canola_frame::{CanFrame, NodeId};
 
 use crate::error::DecodeError;
 use crate::util::{data_frame, service_data};
 
 /// COB-ID of NMT module control.
-pub const NMT_COB_ID: u16 = can_frame::cob::NMT;
+pub const NMT_COB_ID: u16 = canola_frame::cob::NMT;
 
 /// The command specifier, byte 0 of an NMT module control frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -8,8 +8,8 @@
 
 use core::fmt;
 
-use can_frame::cob::FunctionCode;
-use can_frame::{CanFrame, Duration, Instant, NodeId};
+use canola_frame::cob::FunctionCode;
+use canola_frame::{CanFrame, Duration, Instant, NodeId};
 use heapless::Deque;
 
 use crate::error::{CapacityError, DecodeError};
@@ -282,7 +282,7 @@ impl fmt::Display for Emcy {
             write!(
                 f,
                 ", manufacturer-specific {}",
-                can_frame::HexBytes(&self.manufacturer)
+                canola_frame::HexBytes(&self.manufacturer)
             )?;
         }
         Ok(())

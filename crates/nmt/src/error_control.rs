@@ -12,8 +12,8 @@
 
 use core::fmt;
 
-use can_frame::cob::FunctionCode;
-use can_frame::{CanFrame, NodeId};
+use canola_frame::cob::FunctionCode;
+use canola_frame::{CanFrame, NodeId};
 
 use crate::error::DecodeError;
 use crate::state::NmtState;

@@ -8,7 +8,7 @@
 //! arrives within it, the master reports the node lost ("node guarding event"); if no request
 //! arrives within it, the device reports a "life guarding event".
 
-use can_frame::{CanFrame, Duration, Instant, NodeId, Periodic, earliest, is_due};
+use canola_frame::{CanFrame, Duration, Instant, NodeId, Periodic, earliest, is_due};
 use heapless::{Deque, Vec};
 
 use crate::error::{CapacityError, DecodeError};

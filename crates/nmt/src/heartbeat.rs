@@ -7,7 +7,7 @@
 //! configured); the next heartbeat re-arms it. A consumer time of 0 tracks states but never
 //! times out.
 
-use can_frame::{CanFrame, Duration, Instant, NodeId, Periodic, earliest, is_due};
+use canola_frame::{CanFrame, Duration, Instant, NodeId, Periodic, earliest, is_due};
 use heapless::{Deque, Vec};
 
 use crate::error::{CapacityError, DecodeError};

@@ -25,11 +25,11 @@
 //!    `poll_transmit_frame()` (frames to put on the bus) and `poll_event()` until they return
 //!    `None`, then sleep until the new `poll_timeout()` or the next frame.
 //!
-//! The producers' periods run on [`can_frame::Periodic`]; a driver tests a machine's deadline
-//! with [`can_frame::is_due`] and folds several with [`can_frame::earliest`].
+//! The producers' periods run on [`canola_frame::Periodic`]; a driver tests a machine's deadline
+//! with [`canola_frame::is_due`] and folds several with [`canola_frame::earliest`].
 //!
 //! ```
-//! use canopen_nmt::{Duration, Heartbeat, HeartbeatConsumer, HeartbeatEvent, Instant, NmtState, NodeId};
+//! use canola_nmt::{Duration, Heartbeat, HeartbeatConsumer, HeartbeatEvent, Instant, NmtState, NodeId};
 //!
 //! let node = NodeId::new(5).unwrap();
 //! let mut monitor = HeartbeatConsumer::<8>::new();
@@ -68,7 +68,7 @@ mod sync;
 mod time_stamp;
 mod util;
 
-pub use can_frame::{CanFrame, Duration, Instant, NodeId};
+pub use canola_frame::{CanFrame, Duration, Instant, NodeId};
 pub use command::{CommandSpecifier, NMT_COB_ID, NmtCommand, NmtTarget};
 pub use emcy::{
     EMCY_EVENT_CAPACITY, EMCY_QUEUE_CAPACITY, Emcy, EmcyCode, EmcyConsumer, EmcyEvent,

@@ -8,7 +8,7 @@
 //! (application and communication area, or communication area only), applies the restored
 //! configuration and calls [`NmtSlave::boot`] again, which sends the boot-up message.
 
-use can_frame::{CanFrame, Instant, NodeId, earliest};
+use canola_frame::{CanFrame, Instant, NodeId, earliest};
 use heapless::Deque;
 
 use crate::command::{CommandSpecifier, NMT_COB_ID, NmtCommand};

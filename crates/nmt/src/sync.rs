@@ -6,13 +6,13 @@
 //! after the one carrying the overflow value carries 1 again. It restarts at 1 whenever the
 //! producer is (re)started.
 
-use can_frame::{CanFrame, Duration, Instant, Periodic};
+use canola_frame::{CanFrame, Duration, Instant, Periodic};
 
 use crate::error::{ConfigError, DecodeError};
 use crate::util::{data_frame, service_data};
 
 /// The default SYNC COB-ID (0x1005 default).
-pub const SYNC_COB_ID: u16 = can_frame::cob::SYNC;
+pub const SYNC_COB_ID: u16 = canola_frame::cob::SYNC;
 
 /// A SYNC message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

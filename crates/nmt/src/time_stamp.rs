@@ -5,13 +5,13 @@
 //! 1984-01-01 as UNSIGNED16. 1984-01-01 is Unix day 5113 (14 years of 365 days plus the leap days
 //! of 1972, 1976 and 1980).
 
-use can_frame::{CanFrame, Duration, Instant, Periodic};
+use canola_frame::{CanFrame, Duration, Instant, Periodic};
 
 use crate::error::{ConfigError, DecodeError};
 use crate::util::{data_frame, service_data};
 
 /// The default TIME COB-ID.
-pub const TIME_COB_ID: u16 = can_frame::cob::TIME;
+pub const TIME_COB_ID: u16 = canola_frame::cob::TIME;
 
 /// 1984-01-01 as days since 1970-01-01.
 pub const EPOCH_1984_UNIX_DAYS: u64 = 5113;

@@ -1,7 +1,7 @@
 //! Small private helpers: frame building from already-valid identifiers, decoding a frame of
 //! a service on a known COB-ID, and the bounded queues that drop their oldest entry.
 
-use can_frame::{CanFrame, CanId};
+use canola_frame::{CanFrame, CanId};
 use heapless::Deque;
 
 use crate::error::DecodeError;

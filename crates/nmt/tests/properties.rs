@@ -2,7 +2,7 @@
 //! models, on random frame sequences and random time steps (including steps that skip several
 //! deadlines and `handle_timeout` calls at arbitrary instants, not only at `poll_timeout`).
 
-use canopen_nmt::*;
+use canola_nmt::*;
 use proptest::prelude::*;
 
 #[derive(Debug, Clone)]

@@ -1,7 +1,7 @@
 //! Transcript tests on a virtual clock: every monitor path of the master-side machines, and the
 //! device-side NMT slave talking to them.
 
-use canopen_nmt::*;
+use canola_nmt::*;
 
 fn node(n: u8) -> NodeId {
     NodeId::new(n).unwrap()

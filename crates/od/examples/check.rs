@@ -1,5 +1,5 @@
 //! Parses EDS/DCF files and prints the diagnostics, with `--lint` also the linter's findings
-//! (a development aid: `cargo run -p canopen-od --example check -- [--lint] FILE...`).
+//! (a development aid: `cargo run -p canola-od --example check -- [--lint] FILE...`).
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -15,13 +15,13 @@ fn main() -> ExitCode {
                 continue;
             }
         };
-        match canopen_od::parse(&bytes) {
+        match canola_od::parse(&bytes) {
             Ok(p) => {
                 for d in &p.diagnostics {
                     eprintln!("{}", d.render(&path));
                 }
                 if lint {
-                    for d in canopen_od::lint(&p.od) {
+                    for d in canola_od::lint(&p.od) {
                         eprintln!("{} [lint]", d.render(&path));
                     }
                 }

@@ -1,9 +1,9 @@
 //! Parse benchmark: this crate against python-canopen's `import_od`, as whole processes.
 //!
 //! ```text
-//! cargo run --release -p canopen-od --example parse_bench            # generate, run both, compare
-//! cargo run --release -p canopen-od --example parse_bench -- generate OUT.eds
-//! cargo run --release -p canopen-od --example parse_bench -- parse FILE   # one parse (child mode)
+//! cargo run --release -p canola-od --example parse_bench            # generate, run both, compare
+//! cargo run --release -p canola-od --example parse_bench -- generate OUT.eds
+//! cargo run --release -p canola-od --example parse_bench -- parse FILE   # one parse (child mode)
 //! ```
 //!
 //! The benchmark file is generated deterministically: 2000 manufacturer objects (a VAR / ARRAY /
@@ -99,8 +99,8 @@ fn generate() -> String {
     let mut s = String::with_capacity(3 << 20);
     s.push_str(
         "[FileInfo]\r\nFileName=bench.eds\r\nFileVersion=1\r\nFileRevision=0\r\nEDSVersion=4.0\r\n\
-Description=Generated parse benchmark\r\nCreationTime=12:00PM\r\nCreationDate=01-01-2026\r\nCreatedBy=canopen-od\r\n\
-ModificationTime=12:00PM\r\nModificationDate=01-01-2026\r\nModifiedBy=canopen-od\r\n\r\n\
+Description=Generated parse benchmark\r\nCreationTime=12:00PM\r\nCreationDate=01-01-2026\r\nCreatedBy=canola-od\r\n\
+ModificationTime=12:00PM\r\nModificationDate=01-01-2026\r\nModifiedBy=canola-od\r\n\r\n\
 [DeviceInfo]\r\nVendorName=Bench\r\nVendorNumber=0x12345678\r\nProductName=Bench device\r\nProductNumber=0x1\r\n\
 RevisionNumber=0x1\r\nOrderCode=B-1\r\nBaudRate_10=1\r\nBaudRate_20=1\r\nBaudRate_50=1\r\nBaudRate_125=1\r\n\
 BaudRate_250=1\r\nBaudRate_500=1\r\nBaudRate_800=0\r\nBaudRate_1000=1\r\nSimpleBootUpMaster=0\r\nSimpleBootUpSlave=1\r\n\
@@ -178,7 +178,7 @@ fn workspace_root() -> PathBuf {
 /// Runs `program` twice: once directly, timed (wall seconds and its stdout), and once under
 /// `/usr/bin/time` for peak RSS in KiB and CPU seconds (user + system). The wall time is taken
 /// without the wrapper so that it holds the child's process alone, not the extra fork and
-/// exec of `time` (about 1 ms here, an eighth of canopen-od's whole run).
+/// exec of `time` (about 1 ms here, an eighth of canola-od's whole run).
 fn measure(program: &Path, args: &[&str]) -> (f64, u64, f64, String) {
     let start = Instant::now();
     let direct = Command::new(program)
@@ -275,7 +275,7 @@ fn main() {
             let path = args.get(1).expect("parse FILE");
             let start = Instant::now();
             let bytes = std::fs::read(path).expect("read");
-            let p = canopen_od::parse(&bytes).expect("bench file parses");
+            let p = canola_od::parse(&bytes).expect("bench file parses");
             let entries = p.od.entries().count();
             println!("{entries} {:.6}", start.elapsed().as_secs_f64());
             // The process ends here: let the OS reclaim the model instead of freeing its
@@ -313,14 +313,14 @@ n = sum(len(o) if hasattr(o, 'subindices') else 1 for o in od.values())\nprint(n
     let r = series(runs, &me, &["parse", file_s]);
     let p = series(runs, &python, &["-c", py_code, file_s]);
     // Both sides must have read the same dictionary. python-canopen also adds one object per
-    // `DummyNNNN=1` of [DummyUsage] (the file enables six); canopen-od keeps those as flags.
+    // `DummyNNNN=1` of [DummyUsage] (the file enables six); canola-od keeps those as flags.
     let dummies = 6;
     assert_eq!(
         r.entries.parse::<usize>().ok().map(|n| n + dummies),
         p.entries.parse::<usize>().ok(),
         "entry counts differ"
     );
-    for (who, s) in [("canopen-od    ", &r), ("python-canopen", &p)] {
+    for (who, s) in [("canola-od    ", &r), ("python-canopen", &p)] {
         println!(
             "{who} : entries {:>6}, wall best {:8.1} ms (median {:8.1}), CPU best {:7.1} ms (median {:7.1}), in-process best {:7.1} ms, peak RSS {:>7} KiB",
             s.entries,
@@ -333,7 +333,7 @@ n = sum(len(o) if hasattr(o, 'subindices') else 1 for o in od.values())\nprint(n
         );
     }
     println!(
-        "ratio python-canopen / canopen-od (best of {runs} each): wall time {:.0}x, peak RSS {:.1}x, CPU time {:.0}x (medians: wall {:.0}x, CPU {:.0}x; CPU times are in 10 ms steps, coarse for canopen-od: use `perf stat -e task-clock` for a precise figure)",
+        "ratio python-canopen / canola-od (best of {runs} each): wall time {:.0}x, peak RSS {:.1}x, CPU time {:.0}x (medians: wall {:.0}x, CPU {:.0}x; CPU times are in 10 ms steps, coarse for canola-od: use `perf stat -e task-clock` for a precise figure)",
         p.wall.0 / r.wall.0,
         p.rss as f64 / r.rss.max(1) as f64,
         p.cpu.0 / r.cpu.0.max(0.005),

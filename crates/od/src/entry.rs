@@ -1,7 +1,7 @@
 //! Typed object dictionary entries: an index, a sub-index and the Rust type of the value together,
 //! so `sdo().read(PRODUCER_HEARTBEAT_TIME)` yields a `u16` and cannot be written with a string.
 //!
-//! Generated code (see the `canopen-codegen` crate) declares one `Entry` constant per sub-object.
+//! Generated code (see the `canola-codegen` crate) declares one `Entry` constant per sub-object.
 //! This module needs no allocator; `String` and `Vec<u8>` values come with the `alloc` feature.
 //!
 //! The byte codec is CiA 301 §7.1: little-endian, integers of 24..56 bits in their exact width

@@ -19,10 +19,10 @@
 //!
 //! ```
 //! let eds = "[1017]\nParameterName=Producer heartbeat time\nDataType=0x0006\nAccessType=rw\nDefaultValue=1000\n";
-//! let parsed = canopen_od::parse(eds.as_bytes()).expect("parses");
+//! let parsed = canola_od::parse(eds.as_bytes()).expect("parses");
 //! let hb = parsed.od.sub(0x1017, 0).expect("present");
-//! assert_eq!(hb.data_type, canopen_od::DataType::Unsigned16);
-//! assert_eq!(hb.effective_value(5), Some(canopen_od::Value::Unsigned16(1000)));
+//! assert_eq!(hb.data_type, canola_od::DataType::Unsigned16);
+//! assert_eq!(hb.effective_value(5), Some(canola_od::Value::Unsigned16(1000)));
 //! ```
 #![no_std]
 

@@ -4,8 +4,8 @@
 
 mod common;
 
-use canopen_od::write::{ConciseSelection, concise_dcf, decode_concise};
-use canopen_od::{ObjectDictionary, Severity, lint, parse, write_dcf, write_eds};
+use canola_od::write::{ConciseSelection, concise_dcf, decode_concise};
+use canola_od::{ObjectDictionary, Severity, lint, parse, write_dcf, write_eds};
 
 /// Names the first difference between two models, for a readable failure.
 fn first_difference(a: &ObjectDictionary, b: &ObjectDictionary) -> String {

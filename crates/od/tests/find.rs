@@ -1,7 +1,7 @@
 //! Finding objects by name: case-insensitive, `object.sub-object` for entries of records and
 //! arrays, names that contain dots.
 
-use canopen_od::{
+use canola_od::{
     AccessType, DataType, Object, ObjectAddress, ObjectCode, ObjectDictionary, SubObject,
 };
 
@@ -9,7 +9,7 @@ const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
 
 #[test]
 fn names_of_the_burkert_dictionary() {
-    let od = canopen_od::parse(EDS).unwrap().od;
+    let od = canola_od::parse(EDS).unwrap().od;
     assert_eq!(
         od.find("Producer Heartbeat Time"),
         Some(ObjectAddress::new(0x1017, 0))

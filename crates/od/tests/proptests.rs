@@ -1,8 +1,8 @@
 //! Property tests: value codecs round-trip for every data type (bytes and EDS text), and
 //! randomly generated dictionaries survive write -> parse unchanged.
 
-use canopen_od::model::{FieldValue, Object, ObjectDictionary, SubObject};
-use canopen_od::{
+use canola_od::model::{FieldValue, Object, ObjectDictionary, SubObject};
+use canola_od::{
     AccessType, BASIC_DATA_TYPES, DataType, EdsValue, ObjectCode, Value, parse, write_eds,
 };
 use proptest::prelude::*;

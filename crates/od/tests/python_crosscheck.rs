@@ -33,7 +33,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::process::Command;
 
-use canopen_od::{ObjectCode, parse};
+use canola_od::{ObjectCode, parse};
 
 type Row = (u16, u8, u16, String, bool);
 

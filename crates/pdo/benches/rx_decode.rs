@@ -3,12 +3,12 @@
 //! four-UNSIGNED16 mapping; the consumer takes the `Received` event and reads the four typed
 //! values in a callback. python-canopen's figure for the same job is 3.3 µs per frame.
 //!
-//! Run: `cargo bench -p canopen-pdo --bench rx_decode`.
+//! Run: `cargo bench -p canola-pdo --bench rx_decode`.
 
 use std::hint::black_box;
 
-use can_frame::{CanFrame, CanId, Instant};
-use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue, unpack};
+use canola_frame::{CanFrame, CanId, Instant};
+use canola_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue, unpack};
 use criterion::{Criterion, Throughput, criterion_main};
 
 fn engine() -> Engine<4, 0> {

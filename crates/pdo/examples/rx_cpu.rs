@@ -2,7 +2,7 @@
 //! tool on a busy machine (wall-clock benchmarks include time the thread spent preempted):
 //!
 //! ```text
-//! cargo build --release -p canopen-pdo --example rx_cpu
+//! cargo build --release -p canola-pdo --example rx_cpu
 //! perf stat -e task-clock target/release/examples/rx_cpu 20000000
 //! ```
 //!
@@ -12,8 +12,8 @@
 
 use std::hint::black_box;
 
-use can_frame::{CanFrame, CanId, Instant};
-use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue};
+use canola_frame::{CanFrame, CanId, Instant};
+use canola_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue};
 
 fn main() {
     let frames_to_run: u64 = std::env::args()

@@ -10,7 +10,7 @@
 //! | 5   | event timer           | UNSIGNED16 | ms; TPDO: maximum spacing, RPDO: deadline      |
 //! | 6   | SYNC start value      | UNSIGNED8  | TPDO only, cyclic types with a SYNC counter    |
 
-use can_frame::{CanId, Duration};
+use canola_frame::{CanId, Duration};
 
 /// First receive PDO communication parameter object.
 pub const RPDO_COMM_BASE: u16 = 0x1400;

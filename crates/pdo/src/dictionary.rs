@@ -14,8 +14,8 @@
 //! backed by a `BTreeMap`.
 
 /// An object dictionary entry: index and sub-index (the workspace's one address type, from
-/// `canopen-od`).
-pub use canopen_od::ObjectAddress;
+/// `canola-od`).
+pub use canola_od::ObjectAddress;
 
 /// What the dictionary says about one object, as far as PDO mapping cares.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -47,7 +47,7 @@
 //! One cohesive machine (its receive and transmit halves share the timers and the SYNC
 //! counter), so it stays in one file.
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
+use canola_frame::{CanFrame, CanId, Duration, Instant};
 use heapless::{Deque, Vec};
 
 use crate::comm::{CommError, CommParams, TransmissionType};
@@ -322,7 +322,7 @@ impl<const RX: usize, const TX: usize, const Q: usize> Engine<RX, TX, Q> {
             rx_keys: Vec::new(),
             rx: Vec::new(),
             tx: Vec::new(),
-            sync_key: can_frame::cob::SYNC as u32,
+            sync_key: canola_frame::cob::SYNC as u32,
             enabled: true,
             last_sync_counter: None,
             transmit: Deque::new(),

@@ -14,18 +14,18 @@
 //! - [`remote`] — the SDO writes that remap a node's PDO the CiA 301 way, as data.
 //! - [`mpdo`] — SAM/DAM multiplexed PDOs with object scanner and dispatcher lists.
 //! - [`typed`] — [`TypedPdo`]: PDOs as structs with named, typed fields (what
-//!   `canopen-codegen` generates from an EDS's default mappings), packed through [`fn@pack`].
+//!   `canola-codegen` generates from an EDS's default mappings), packed through [`fn@pack`].
 //!
 //! The crate is `#![no_std]` and needs no allocator; tables are `heapless`. The `alloc` feature
 //! adds [`MapStore`], a `BTreeMap` object store for simulators and tests; `std` (default) implies
-//! it. The `od` feature adapts the `canopen-od` model (EDS/DCF) to [`Catalog`] and [`Dictionary`]
+//! it. The `od` feature adapts the `canola-od` model (EDS/DCF) to [`Catalog`] and [`Dictionary`]
 //! (`od::OdView`).
 //!
 //! # A master consuming a device's TPDO1
 //!
 //! ```
-//! use can_frame::{CanFrame, CanId, Instant};
-//! use canopen_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue};
+//! use canola_frame::{CanFrame, CanId, Instant};
+//! use canola_pdo::{CommParams, Engine, Event, Mapping, NullStore, PdoConfig, RawValue};
 //!
 //! // One engine per node: up to 4 PDOs each way. The device's TPDO1 (0x185, four UNSIGNED16)
 //! // is a receive PDO of the master.

@@ -20,7 +20,7 @@
 //! A block covers `block size` consecutive sub-indices; this crate reads a block size of 0 as 1
 //! (the entry names its own object) and ignores entries whose index is 0 (unused).
 
-use can_frame::{CanFrame, CanId, NodeId};
+use canola_frame::{CanFrame, CanId, NodeId};
 use heapless::Vec;
 
 use crate::dictionary::{Dictionary, ObjectAddress, ObjectStore, ReadError, StoreError};

@@ -1,4 +1,4 @@
-//! The one adapter from the `canopen-od` object dictionary model (an EDS or DCF file) to this
+//! The one adapter from the `canola-od` object dictionary model (an EDS or DCF file) to this
 //! crate's [`Catalog`] and [`Dictionary`] (feature `od`).
 //!
 //! Every user of PDOs in the workspace goes through [`OdView`]: the master validates and types a
@@ -12,14 +12,14 @@
 //! entry's length decides how the value is packed. Fixed-size types have their size; strings and
 //! domains the length of their (current, else default) value, at most 64 bits.
 
-use canopen_od::{BytesError, DataType, ObjectDictionary, Value};
+use canola_od::{BytesError, DataType, ObjectDictionary, Value};
 
 use crate::dictionary::{Catalog, Dictionary, ObjectAddress, ObjectInfo, ReadError};
 use crate::mapping::{MappedObject, ValueKind};
 use crate::pack::RawValue;
 
 impl RawValue {
-    /// The value as the object dictionary types it: [`canopen_od::Value`], the one value type
+    /// The value as the object dictionary types it: [`canola_od::Value`], the one value type
     /// of the workspace's applications, for an object of `data_type` (the mapped object's type
     /// in the node's dictionary, or [`MappedObject::data_type`] without one). Integers take the
     /// type's width (a 12-bit field of an UNSIGNED16 is an `Unsigned16`); byte-typed fields
@@ -273,7 +273,7 @@ impl Dictionary for OdView<'_> {
 
 #[cfg(test)]
 mod tests {
-    use canopen_od::{AccessType, EdsValue, Object, ObjectCode, SubObject, Value as OdValue};
+    use canola_od::{AccessType, EdsValue, Object, ObjectCode, SubObject, Value as OdValue};
     use std::prelude::rust_2024::*;
 
     use super::*;

@@ -14,8 +14,8 @@ use crate::mapping::{MappedObject, Mapping, ValueKind, field_mask};
 /// A mapped object's value as the PDO data carries it: one variant per way of reading the bits
 /// (a [`ValueKind`]), up to 64 bits, no allocation — the form the engine works in, on devices
 /// without a heap too. Applications see values as the dictionary types them, as
-/// `canopen_od::Value` (`Unsigned16`, `VisibleString`, ...): [`RawValue::to_value`] (feature
-/// `od`) converts, and the `canopen` facade delivers received PDOs that way.
+/// `canola_od::Value` (`Unsigned16`, `VisibleString`, ...): [`RawValue::to_value`] (feature
+/// `od`) converts, and the `canola` facade delivers received PDOs that way.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum RawValue {
     /// BOOLEAN.
@@ -136,7 +136,7 @@ impl core::fmt::Display for RawValue {
             Self::Signed(v) => write!(f, "{v}"),
             Self::Real32(v) => write!(f, "{v}"),
             Self::Real64(v) => write!(f, "{v}"),
-            Self::Bytes(b) => write!(f, "{}", can_frame::HexBytes(b.as_slice())),
+            Self::Bytes(b) => write!(f, "{}", canola_frame::HexBytes(b.as_slice())),
         }
     }
 }

@@ -1,5 +1,5 @@
 //! PDOs with a layout fixed at compile time: Rust structs with one named field per mapped object
-//! (CiA 301 §7.2.2, mapping §7.4.8), as `canopen-codegen` generates them from an EDS's default
+//! (CiA 301 §7.2.2, mapping §7.4.8), as `canola-codegen` generates them from an EDS's default
 //! mappings.
 //!
 //! [`TypedPdo`] is what a generated struct implements: its direction and number, its mapping
@@ -16,9 +16,9 @@
 use crate::comm::{Direction, PdoCobId};
 use crate::mapping::{MAX_ENTRIES, Mapping, MappingEntry, MappingError, ValueKind};
 use crate::pack::{PackError, RawValue, pack, unpack};
-use can_frame::CanId;
-pub use can_frame::{CanFrame, NodeId};
-use canopen_od::ObjectAddress;
+use canola_frame::CanId;
+pub use canola_frame::{CanFrame, NodeId};
+use canola_od::ObjectAddress;
 
 /// A Rust type that carries the value of one mapped object.
 pub trait PdoField: Sized {
@@ -203,7 +203,7 @@ pub fn field<T: PdoField>(
 }
 
 /// A value of an `(address, value)` pair that [`TypedPdo::from_pairs`] takes: a [`RawValue`],
-/// or (feature `od`) a `canopen_od::Value` as the `canopen` master publishes received PDOs.
+/// or (feature `od`) a `canola_od::Value` as the `canola` master publishes received PDOs.
 pub trait PairValue {
     /// The value as a field of `kind`; `None` when it cannot be one.
     fn to_raw_value(&self, kind: ValueKind) -> Option<RawValue>;

@@ -4,8 +4,8 @@
 
 #![cfg(feature = "alloc")]
 
-use can_frame::{CanFrame, CanId, Duration, Instant};
-use canopen_pdo::{
+use canola_frame::{CanFrame, CanId, Duration, Instant};
+use canola_pdo::{
     CommParams, Engine, Event, MapStore, Mapping, ObjectAddress, PdoCobId, PdoConfig, RawValue,
     TransmissionType,
 };
@@ -569,14 +569,14 @@ proptest! {
 /// A store that refuses every write to 0x6200:1.
 struct Picky(MapStore);
 
-impl canopen_pdo::ObjectStore for Picky {
-    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), canopen_pdo::StoreError> {
+impl canola_pdo::ObjectStore for Picky {
+    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), canola_pdo::StoreError> {
         self.0.read(addr, out)
     }
 
-    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), canopen_pdo::StoreError> {
+    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), canola_pdo::StoreError> {
         if addr == a(0x6200, 1) {
-            return Err(canopen_pdo::StoreError::ValueRange);
+            return Err(canola_pdo::StoreError::ValueRange);
         }
         self.0.write(addr, data)
     }
@@ -584,7 +584,7 @@ impl canopen_pdo::ObjectStore for Picky {
 
 #[test]
 fn store_failures_are_events_without_retry_storms() {
-    use canopen_pdo::{PdoRef, StoreError};
+    use canola_pdo::{PdoRef, StoreError};
     // Transmit side: a mapped object the store does not have.
     let mut e: Engine<1, 1> = Engine::new();
     let t = e

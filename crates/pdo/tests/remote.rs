@@ -7,8 +7,8 @@
 
 use std::collections::BTreeMap;
 
-use can_frame::{CanFrame, CanId, Instant};
-use canopen_pdo::{
+use canola_frame::{CanFrame, CanId, Instant};
+use canola_pdo::{
     Catalog, CommParams, Dictionary, Direction, Engine, MapStore, Mapping, MappingError,
     ObjectAddress, ObjectInfo, PdoConfig, ReadError, RemoteObjects, SdoWrite, TransmissionType,
     remap,

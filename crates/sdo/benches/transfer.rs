@@ -1,15 +1,15 @@
 //! Client and server machines wired back to back in one thread: expedited round trips per
 //! second, and segmented and block transfer throughput in bytes per second.
 //!
-//! Run with `cargo bench -p canopen-sdo --bench transfer`.
+//! Run with `cargo bench -p canola-sdo --bench transfer`.
 
 // criterion_group! generates an undocumented public function.
 #![allow(missing_docs)]
 
 use std::hint::black_box;
 
-use can_frame::Instant;
-use canopen_sdo::{
+use canola_frame::Instant;
+use canola_sdo::{
     AbortCode, Access, Client, ClientConfig, Event, Method, Multiplexer, ObjectAccess, ObjectInfo,
     Server, ServerConfig,
 };

@@ -43,7 +43,7 @@
 //!   optionally bounds the whole transfer as well. On expiry the client sends abort
 //!   0x05040000 and reports [`ErrorKind::Timeout`].
 
-use can_frame::{CanFrame, Duration, Instant};
+use canola_frame::{CanFrame, Duration, Instant};
 
 use crate::abort::AbortCode;
 use crate::buffer::{Sink, Source};

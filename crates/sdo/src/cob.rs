@@ -17,7 +17,7 @@
 //! [`Client::poll_transmit_frame`](crate::Client::poll_transmit_frame) and their
 //! [`Server`](crate::Server) twins are the frame adapters over one `SdoCobIds`.
 
-use can_frame::{CanFrame, CanId, NodeId};
+use canola_frame::{CanFrame, CanId, NodeId};
 
 /// The pair of CAN identifiers one SDO channel uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -7,15 +7,15 @@
 //!   eight data bytes (totally: never a panic) and emit them again. [`AbortCode`] holds the
 //!   CiA 301 abort code table, [`crc16`] the CRC of block transfers.
 //! - [`client`] and [`server`]: sans-IO state machines. They take the current
-//!   [`Instant`](can_frame::Instant) and the received bytes, and give back bytes to send,
+//!   [`Instant`](canola_frame::Instant) and the received bytes, and give back bytes to send,
 //!   events and their next deadline; no clock, socket or thread inside. [`SdoCobIds`] turns
 //!   their bytes into CAN frames for a node.
 //!
 //! A client and a server wired back to back:
 //!
 //! ```
-//! use can_frame::Instant;
-//! use canopen_sdo::{
+//! use canola_frame::Instant;
+//! use canola_sdo::{
 //!     AbortCode, Access, Client, ClientConfig, Event, Method, Multiplexer, ObjectAccess,
 //!     ObjectInfo, Server, ServerConfig,
 //! };

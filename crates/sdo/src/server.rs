@@ -24,7 +24,7 @@
 //! A new initiate request while a transfer runs ends the old transfer (reported as
 //! [`ServerEvent::Superseded`]) and starts the new one: the client has given up on the old one.
 
-use can_frame::{CanFrame, Duration, Instant};
+use canola_frame::{CanFrame, Duration, Instant};
 
 use crate::abort::AbortCode;
 use crate::cob::SdoCobIds;

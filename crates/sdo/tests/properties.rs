@@ -4,8 +4,8 @@
 
 mod common;
 
-use can_frame::{Duration, Instant};
-use canopen_sdo::{
+use canola_frame::{Duration, Instant};
+use canola_sdo::{
     AbortCode, BlockSegment, ClientConfig, ClientRequest, Event, Initiate, Method, Multiplexer,
     Segment, ServerConfig, ServerResponse,
 };

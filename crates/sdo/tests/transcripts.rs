@@ -4,8 +4,8 @@
 
 mod common;
 
-use can_frame::{Duration, Instant};
-use canopen_sdo::{
+use canola_frame::{Duration, Instant};
+use canola_sdo::{
     AbortCode, BlockSegment, Buffer, Client, ClientConfig, ClientRequest, ErrorKind, Event,
     Initiate, Method, Multiplexer, Segment, Server, ServerConfig, ServerEvent, ServerResponse,
     TransferError, Violation, crc16,
@@ -1696,8 +1696,8 @@ fn transfer_timeout_bounds_the_whole_transfer() {
 /// transfer on the second channel runs there, and frames of the default channel are not its.
 #[test]
 fn second_server_channel_over_frame_adapters() {
-    use can_frame::{CanFrame, NodeId};
-    use canopen_sdo::SdoCobIds;
+    use canola_frame::{CanFrame, NodeId};
+    use canola_sdo::SdoCobIds;
 
     let default = SdoCobIds::default_for(NodeId::new(1).unwrap());
     let second = SdoCobIds::from_parameters(0x641, 0x5C1).unwrap();
@@ -1763,7 +1763,7 @@ fn in_first_upload_sub_block() -> TestClient {
 /// segment, which costs one round, still recovers.
 #[test]
 fn crossed_block_machines_give_up() {
-    use canopen_sdo::MAX_FRUITLESS_SUB_BLOCKS;
+    use canola_sdo::MAX_FRUITLESS_SUB_BLOCKS;
     let crossed = ServerResponse::BlockDownloadAck {
         ackseq: 0,
         blksize: 127,

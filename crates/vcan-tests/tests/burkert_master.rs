@@ -1,12 +1,12 @@
-//! The Bürkert profile's master side (`burkert_profile::BurkertNode` over `canopen::Network` on
+//! The Bürkert profile's master side (`canola_burkert::BurkertNode` over `canola::Network` on
 //! the SocketCAN transport) against the simulated Bürkert device
-//! (`burkert_profile::BurkertDevice`, served by `canopen::run_station` on a second socket) over
+//! (`canola_burkert::BurkertDevice`, served by `canola::run_station` on a second socket) over
 //! the real kernel CAN stack: every `BurkertNode` operation, checked on both sides — what the
 //! master decodes is compared with the device's own state, and what the master writes or sends
 //! is looked up in the device.
 //!
-//! The scenarios are the ones the in-memory bus runs (`cargo test -p burkert-profile --features
-//! master`), written once in `crates/burkert-profile/tests/scenarios/mod.rs`; this file adds the
+//! The scenarios are the ones the in-memory bus runs (`cargo test -p canola-burkert --features
+//! master`), written once in `crates/burkert/tests/scenarios/mod.rs`; this file adds the
 //! real-bus rig and what only it shows (locate running its time on the real clock).
 //!
 //! Ignored on the host; `tests/vcan/run-all` runs them in the QEMU guest with `--ignored
@@ -14,20 +14,20 @@
 //! the bus, so only one simulated device may be on `vcan0` at a time). Each test still uses its
 //! own node-IDs.
 
-#[path = "../../burkert-profile/tests/scenarios/mod.rs"]
+#[path = "../../burkert/tests/scenarios/mod.rs"]
 mod scenarios;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 
-use burkert_profile::BurkertDevice;
-use burkert_profile::sim::LOCATE_DURATION;
-use can_frame::{CanFrame, Instant};
-use canopen::socketcan::SocketCan;
-use canopen::transport::Station;
-use canopen::{Network, TransportError, run_station};
-use canopen_lss::Procedure;
+use canola::socketcan::SocketCan;
+use canola::transport::Station;
+use canola::{Network, TransportError, run_station};
+use canola_burkert::BurkertDevice;
+use canola_burkert::sim::LOCATE_DURATION;
+use canola_frame::{CanFrame, Instant};
+use canola_lss::Procedure;
 use scenarios::{Device, Master, node_id as node};
 
 /// The device behind a mutex, so the test can look into it (and raise NE 107 events, pin

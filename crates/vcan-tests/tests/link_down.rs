@@ -15,9 +15,9 @@ mod common;
 use std::process::Command;
 use std::time::Duration as StdDuration;
 
-use can_frame::{CanFrame, CanId, Duration};
-use canopen::socketcan::SocketCan;
-use canopen::{BusEvent, Network, NetworkEvent, Received, Transport, TransportError};
+use canola::socketcan::SocketCan;
+use canola::{BusEvent, Network, NetworkEvent, Received, Transport, TransportError};
+use canola_frame::{CanFrame, CanId, Duration};
 use common::{RunningSim, device, node};
 use socketcan::{CanFilter, EmbeddedFrame, Socket};
 use vcan_tests::{interface, open_filtered};

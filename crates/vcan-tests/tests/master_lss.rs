@@ -9,17 +9,17 @@ mod common;
 
 use std::collections::BTreeSet;
 
-use can_frame::Duration;
-use canopen::socketcan::SocketCan;
-use canopen::{Network, NetworkEvent, SimDevice};
-use canopen_lss::{AssignConfig, FastscanConfig, LssAddress, NodeIdPool, ResponsePolicy};
-use canopen_nmt::HeartbeatEvent;
+use canola::socketcan::SocketCan;
+use canola::{Network, NetworkEvent, SimDevice};
+use canola_frame::Duration;
+use canola_lss::{AssignConfig, FastscanConfig, LssAddress, NodeIdPool, ResponsePolicy};
+use canola_nmt::HeartbeatEvent;
 use common::{EDS, RunningSim, node};
 
 #[test]
 #[ignore = "needs vcan0: run by tests/vcan/run-all"]
 fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
-    let od = || canopen_od::parse(EDS).expect("the test EDS parses").od;
+    let od = || canola_od::parse(EDS).expect("the test EDS parses").od;
     let addresses: Vec<LssAddress> = [1001, 2002, 3003]
         .into_iter()
         .map(|serial| LssAddress::new(0x0ABC, 0x42, 0x0001_0002, serial))
@@ -63,7 +63,7 @@ fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
     let mut config = AssignConfig::with_pool(NodeIdPool::range(node(0x50), node(0x5F)));
     config.fastscan = scan;
     let report = net.lss().assign_all(config).expect("assign all");
-    let assigned: Vec<(LssAddress, can_frame::NodeId)> = report.assigned().collect();
+    let assigned: Vec<(LssAddress, canola_frame::NodeId)> = report.assigned().collect();
     assert_eq!(assigned.len(), 3, "{report:?}");
     let ids: BTreeSet<u8> = assigned.iter().map(|(_, id)| id.get()).collect();
     assert_eq!(ids.len(), 3, "node-IDs must differ: {assigned:?}");

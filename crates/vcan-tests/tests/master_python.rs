@@ -1,4 +1,4 @@
-//! Interop: the master (`canopen::Network` on the SocketCAN transport) against an independent
+//! Interop: the master (`canola::Network` on the SocketCAN transport) against an independent
 //! implementation, python-canopen's LocalNode built from `tests/vcan/test-device.eds`, in another
 //! process on the real kernel CAN stack: boot-up, expedited and segmented upload and download,
 //! the server's abort code, block upload answered by the protocol switch to a plain upload, a
@@ -10,11 +10,11 @@
 
 mod common;
 
-use can_frame::Duration;
-use canopen::socketcan::SocketCan;
-use canopen::{Network, NetworkEvent};
-use canopen_nmt::{HeartbeatEvent, NmtState};
-use canopen_sdo::AbortCode;
+use canola::socketcan::SocketCan;
+use canola::{Network, NetworkEvent};
+use canola_frame::Duration;
+use canola_nmt::{HeartbeatEvent, NmtState};
+use canola_sdo::AbortCode;
 use common::{PythonDevice, node, wait_event};
 
 fn pdo_from(e: &NetworkEvent, id: u8) -> Option<Vec<u8>> {

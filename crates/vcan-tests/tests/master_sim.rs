@@ -1,5 +1,5 @@
-//! The master (`canopen::Network` on the SocketCAN transport) against this project's device
-//! simulator (`canopen::SimDevice`, on a second socket) over the real kernel CAN stack: every SDO
+//! The master (`canola::Network` on the SocketCAN transport) against this project's device
+//! simulator (`canola::SimDevice`, on a second socket) over the real kernel CAN stack: every SDO
 //! method (expedited, segmented and block, both ways; forced segmented download; queued,
 //! streamed and reader-fed requests), every NMT command with its effect, heartbeat boot-up, loss
 //! when the simulator stops and recovery when it returns, PDO events (TPDO decoded through the
@@ -12,12 +12,12 @@ mod common;
 
 use std::sync::{Arc, Mutex};
 
-use can_frame::{CanFrame, CanId, Duration};
-use canopen::socketcan::SocketCan;
-use canopen::{Network, NetworkEvent, ObjectAddress};
-use canopen_nmt::{HeartbeatEvent, NmtState};
-use canopen_od::Value;
-use canopen_sdo::{AbortCode, Method};
+use canola::socketcan::SocketCan;
+use canola::{Network, NetworkEvent, ObjectAddress};
+use canola_frame::{CanFrame, CanId, Duration};
+use canola_nmt::{HeartbeatEvent, NmtState};
+use canola_od::Value;
+use canola_sdo::{AbortCode, Method};
 use common::{EDS, RunningSim, device, events_during, node, wait_event};
 
 fn network() -> Network {
@@ -205,11 +205,11 @@ fn state_changed(e: &NetworkEvent, id: u8, state: NmtState) -> bool {
 #[test]
 #[ignore = "needs vcan0: run by tests/vcan/run-all"]
 fn nmt_commands_and_pdo_events_against_the_simulator() {
-    use canopen_pdo::{CommParams, Direction, Mapping};
+    use canola_pdo::{CommParams, Direction, Mapping};
     const ID: u8 = 0x47;
     let net = network();
     let events = net.subscribe();
-    let od = canopen_od::parse(EDS).expect("the test EDS parses").od;
+    let od = canola_od::parse(EDS).expect("the test EDS parses").od;
     let n = net.add_node_with_dictionary(node(ID), od);
     net.monitor_heartbeat(node(ID), Duration::from_secs(2));
     let _sim = RunningSim::start(device(ID));

@@ -4,7 +4,7 @@
 //! - at the transport: the frames read plus the `BusEvent::RxOverflow` counts equal the frames
 //!   sent, the sequence gaps equal the drops, and `SocketCanStats::rx_dropped` agrees; a larger
 //!   receive buffer (`SocketCan::set_receive_buffer`) holds proportionally more frames;
-//! - through `canopen::Network` (no driver, nobody driving): after it is driven again its
+//! - through `canola::Network` (no driver, nobody driving): after it is driven again its
 //!   subscriber gets `NetworkEvent::Bus(RxOverflow)` whose counts equal the PDO counter gaps.
 //!
 //! The kernel attaches the drop counter to the next frame it queues, so each test sends one
@@ -15,9 +15,9 @@
 
 use std::time::Duration as StdDuration;
 
-use can_frame::{CanFrame, Duration};
-use canopen::socketcan::SocketCan;
-use canopen::{BusEvent, Network, NetworkEvent, NodeId, Received, Transport};
+use canola::socketcan::SocketCan;
+use canola::{BusEvent, Network, NetworkEvent, NodeId, Received, Transport};
+use canola_frame::{CanFrame, Duration};
 use socketcan::{EmbeddedFrame, Socket};
 use vcan_tests::{interface, open};
 
@@ -149,14 +149,14 @@ fn a_full_receive_queue_counts_every_drop_and_a_larger_buffer_holds_more() {
     eprintln!(
         "default of the transport ({} asked, {big} bytes reported): {} of {COUNT} frames \
          queued ({:.0} bytes each), {} dropped",
-        canopen::socketcan::DEFAULT_RECEIVE_BUFFER,
+        canola::socketcan::DEFAULT_RECEIVE_BUFFER,
         b.received,
         big as f64 / b.received.max(1) as f64,
         b.dropped
     );
     assert_eq!(
         big,
-        2 * canopen::socketcan::DEFAULT_RECEIVE_BUFFER,
+        2 * canola::socketcan::DEFAULT_RECEIVE_BUFFER,
         "not granted in full"
     );
     assert_eq!(

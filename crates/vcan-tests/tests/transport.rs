@@ -1,4 +1,4 @@
-//! The master's SocketCAN transport (`canopen::socketcan::SocketCan`) on the real kernel CAN
+//! The master's SocketCAN transport (`canola::socketcan::SocketCan`) on the real kernel CAN
 //! stack: frames both ways between it and an independent `socketcan` socket, with ids, data and
 //! RTR intact, and receive timestamps from the transport's clock.
 //!
@@ -7,9 +7,9 @@
 
 use std::time::Duration as StdDuration;
 
-use can_frame::{CanFrame, CanId, Duration};
-use canopen::socketcan::SocketCan;
-use canopen::{Received, Transport};
+use canola::socketcan::SocketCan;
+use canola::{Received, Transport};
+use canola_frame::{CanFrame, CanId, Duration};
 use socketcan::{CanFilter, EmbeddedFrame, Id, Socket, StandardId};
 use vcan_tests::{interface, open, open_filtered};
 
@@ -20,7 +20,7 @@ fn frame(id: u16, data: &[u8]) -> CanFrame {
 }
 
 /// The next frame (not event) the transport receives within 10 s whose id is `id`.
-fn next_frame_with_id(t: &mut SocketCan, id: u16) -> (CanFrame, can_frame::Instant) {
+fn next_frame_with_id(t: &mut SocketCan, id: u16) -> (CanFrame, canola_frame::Instant) {
     let deadline = t.now() + Duration::from_secs(10);
     loop {
         match t.recv_until(deadline).expect("recv") {

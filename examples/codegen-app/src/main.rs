@@ -1,11 +1,11 @@
 //! An application whose device code is generated from the device's EDS in `build.rs`
-//! (`canopen_codegen::Config::for_canopen`), on the in-memory bus with a simulated Bürkert
+//! (`canola_codegen::Config::for_canola`), on the in-memory bus with a simulated Bürkert
 //! device: typed SDO through the generated client, the device's TPDO1 decoded into its
 //! generated struct in one call, and an RPDO built from its struct.
 //!
 //! `cargo run -p codegen-app`. `cargo test -p codegen-app` runs it as a test (CI does).
 
-use canopen::{Duration, MemoryBus, Network, NetworkEvent, NodeId, SimDevice};
+use canola::{Duration, MemoryBus, Network, NetworkEvent, NodeId, SimDevice};
 use codegen_app::burkert::client::Device;
 use codegen_app::burkert::{Rpdo1, Tpdo1};
 

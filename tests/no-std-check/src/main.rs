@@ -3,15 +3,15 @@
 #![no_std]
 #![no_main]
 
-extern crate burkert_profile;
-extern crate can_frame;
-extern crate canopen_lss;
-extern crate canopen_nmt;
-extern crate canopen_od;
-extern crate canopen_pdo;
-extern crate canopen_sdo;
-extern crate devicenet;
-extern crate gemu_cpos;
+extern crate canola_burkert;
+extern crate canola_devicenet;
+extern crate canola_frame;
+extern crate canola_gemu;
+extern crate canola_lss;
+extern crate canola_nmt;
+extern crate canola_od;
+extern crate canola_pdo;
+extern crate canola_sdo;
 
 use core::panic::PanicInfo;
 
@@ -33,12 +33,12 @@ unsafe extern "C" {}
 #[unsafe(no_mangle)]
 pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
     // Touch one item so the crate is really used, not only declared.
-    let id = can_frame::NodeId::new(5);
-    let colour = burkert_profile::LedColour::from_u32(0x1000_0002);
-    let heartbeat = canopen_nmt::Heartbeat::parse(&[0x7F]);
-    let sdo = canopen_sdo::ClientRequest::parse(&[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
-    let mut server = canopen_sdo::Server::new(canopen_sdo::ServerConfig::default());
-    let dn = devicenet::DuplicateMacCheck::parse(&[0; 7]);
+    let id = canola_frame::NodeId::new(5);
+    let colour = canola_burkert::LedColour::from_u32(0x1000_0002);
+    let heartbeat = canola_nmt::Heartbeat::parse(&[0x7F]);
+    let sdo = canola_sdo::ClientRequest::parse(&[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
+    let mut server = canola_sdo::Server::new(canola_sdo::ServerConfig::default());
+    let dn = canola_devicenet::DuplicateMacCheck::parse(&[0; 7]);
     if id.is_ok()
         && colour.is_ok()
         && heartbeat.is_ok()

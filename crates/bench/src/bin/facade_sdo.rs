@@ -1,5 +1,5 @@
-//! Expedited SDO reads through `canopen::Network` on the in-memory bus, side by side with the
-//! SDO client and server machines of `canopen-sdo` wired back to back (the protocol's own
+//! Expedited SDO reads through `canola::Network` on the in-memory bus, side by side with the
+//! SDO client and server machines of `canola-sdo` wired back to back (the protocol's own
 //! cost, the floor for the facade).
 //!
 //! Rows, each the best of three runs of COUNT reads of 0x1018:01 (UNSIGNED32, expedited) from a
@@ -12,7 +12,7 @@
 //! * `Network, real clock, driver thread`: the same with `Network::start_driver` running.
 //!
 //! ```text
-//! cargo run --release -p canopen-bench --bin facade_sdo [-- --count 20000] [--only machines|station|virtual|real|driver]
+//! cargo run --release -p canola-bench --bin facade_sdo [-- --count 20000] [--only machines|station|virtual|real|driver]
 //! ```
 //! `--only ROW` runs one row alone, once (for a profiler).
 //! Prints wall-clock and process CPU nanoseconds per read (CPU time counts every thread of the
@@ -51,12 +51,12 @@ impl Span {
     }
 }
 
-use canopen::mem::{BusConfig, ClockMode};
-use canopen::sdo::{
+use canola::mem::{BusConfig, ClockMode};
+use canola::sdo::{
     AbortCode, Access, Client, ClientConfig, Event, Method, Multiplexer, ObjectAccess, ObjectInfo,
     Server, ServerConfig,
 };
-use canopen::{CanFrame, CanId, Duration, Instant, MemoryBus, Network, NodeId, SimDevice, Station};
+use canola::{CanFrame, CanId, Duration, Instant, MemoryBus, Network, NodeId, SimDevice, Station};
 
 const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 const VENDOR_ID: Multiplexer = Multiplexer::new(0x1018, 1);
@@ -227,7 +227,7 @@ fn main() {
     );
     let floor = best(|| machines(count));
     let rows: [(&str, &dyn Fn(u32) -> Cost); 5] = [
-        ("machines back to back (canopen-sdo)", &machines),
+        ("machines back to back (canola-sdo)", &machines),
         ("SimDevice as a station, back to back", &station),
         ("Network, virtual clock, stepping", &|n| {
             network(n, ClockMode::Virtual, false)

@@ -1,7 +1,7 @@
-//! TPDOs received through `canopen::Network` and delivered to a subscriber as decoded, typed
+//! TPDOs received through `canola::Network` and delivered to a subscriber as decoded, typed
 //! values: the master's CPU cost per frame, 64 nodes, side by side with the decode alone.
 //!
-//! The frames are those of the full-load test (`canopen_bench::load`): per SYNC, every node
+//! The frames are those of the full-load test (`canola_bench::load`): per SYNC, every node
 //! sends TPDO1 (sequence counter UNSIGNED32, INTEGER32) and TPDO2 (counter, REAL32). They are
 //! built up front and handed to the master by a replay transport, as a socket with a full
 //! receive queue would hand them over, so the figure is the master's own work: receive, route
@@ -9,7 +9,7 @@
 //! the typed values (every counter and value is checked; a wrong or missing one fails the run).
 //!
 //! Rows (process CPU time per frame, best of three runs after a warm-up):
-//! * `decode alone (canopen-pdo unpack)`: the mapping applied to the frame bytes, nothing else —
+//! * `decode alone (canola-pdo unpack)`: the mapping applied to the frame bytes, nothing else —
 //!   the floor;
 //! * `Network, stepping, subscriber on the same thread`: the calling thread drives
 //!   (`run_until(now)`) and drains the subscriber;
@@ -23,7 +23,7 @@
 //!   subscriber blocked in `recv_timeout`.
 //!
 //! ```text
-//! cargo run --release -p canopen-bench --bin pdo_rx [-- --nodes 64 --syncs 2000]
+//! cargo run --release -p canola-bench --bin pdo_rx [-- --nodes 64 --syncs 2000]
 //!     [--only stepping|driver|callback|batch|batch-driver]
 //! ```
 //! `--only` runs one row once (for a profiler).
@@ -33,13 +33,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::Receiver;
 
-use canopen::frame::time::MonotonicClock;
-use canopen::pdo::{Mapping, MappingEntry, RawValue, ValueKind, unpack};
-use canopen::{
+use canola::frame::time::MonotonicClock;
+use canola::pdo::{Mapping, MappingEntry, RawValue, ValueKind, unpack};
+use canola::{
     CanFrame, CanId, Instant, Network, NetworkEvent, NodeId, ObjectAddress, Received, Transport,
     TransportError, Value,
 };
-use canopen_bench::load::{expected_i32, expected_real, master_dictionary};
+use canola_bench::load::{expected_i32, expected_real, master_dictionary};
 
 fn process_cpu_ns() -> f64 {
     nix::time::clock_gettime(nix::time::ClockId::CLOCK_PROCESS_CPUTIME_ID)
@@ -331,7 +331,7 @@ fn main() {
     );
     let floor = best(|| decode_alone(nodes, &frames));
     let rows = [
-        ("decode alone (canopen-pdo unpack)", floor),
+        ("decode alone (canola-pdo unpack)", floor),
         (
             "Network, stepping, subscriber on the same thread",
             best(|| stepping(nodes, &frames)),

@@ -1,11 +1,11 @@
 //! Full bus load and soak on the in-memory bus (bus time on the virtual clock, 1 Mbit/s timing
 //! model): `--nodes N` simulated nodes (default 64), each sending two 8-byte synchronous TPDOs
 //! with a sequence counter per SYNC, at the SYNC period that loads the bus to `--load` (default
-//! 0.95); the master (`canopen::Network`) decodes them through each node's dictionary and its
-//! subscriber checks every counter. See `canopen_bench::load`.
+//! 0.95); the master (`canola::Network`) decodes them through each node's dictionary and its
+//! subscriber checks every counter. See `canola_bench::load`.
 //!
 //! ```text
-//! cargo run --release -p canopen-bench --bin soak -- --nodes 64 --seconds 60 [--sdo]
+//! cargo run --release -p canola-bench --bin soak -- --nodes 64 --seconds 60 [--sdo]
 //!     [--sdo-max BYTES] [--sdo-timeout-ms MS] [--load SHARE] [--stuffing] [--seed N] [--sample-ms MS]
 //! ```
 //!
@@ -27,14 +27,14 @@
 //! `soak: frames F, lost L, reordered R, rss_start S KiB, rss_end E KiB, cpu_per_frame C ns`;
 //! exits 1 when a PDO was lost, reordered or decoded wrongly, an upload returned wrong data, or
 //! a table with an entry per node, channel, request or subscriber (the master's, see
-//! `canopen::Occupancy`, and the subscriber's counters) reached a larger size in the second half
+//! `canola::Occupancy`, and the subscriber's counters) reached a larger size in the second half
 //! of the run than in the first.
 
 use std::alloc::System;
 use std::process::ExitCode;
 
-use can_frame::Duration;
-use canopen_bench::load::{self, LoadConfig, peak_rss_kib, slope};
+use canola_bench::load::{self, LoadConfig, peak_rss_kib, slope};
+use canola_frame::Duration;
 use stats_alloc::{INSTRUMENTED_SYSTEM, StatsAlloc};
 
 #[global_allocator]

@@ -1,8 +1,8 @@
 //! Full bus load on a real SocketCAN bus (vcan0 in the QEMU guest of `tests/vcan`): `--nodes N`
-//! simulated nodes (default 64, [`canopen_bench::load::LoadNode`]) in a child process of their
+//! simulated nodes (default 64, [`canola_bench::load::LoadNode`]) in a child process of their
 //! own (this binary run with `--simulate`, one socket), each sending two 8-byte synchronous
-//! TPDOs with a sequence counter on every SYNC; the master (`canopen::Network` over
-//! `canopen::socketcan::SocketCan`, background driver) produces the SYNC every `--period-us`
+//! TPDOs with a sequence counter on every SYNC; the master (`canola::Network` over
+//! `canola::socketcan::SocketCan`, background driver) produces the SYNC every `--period-us`
 //! and its subscriber decodes the typed values and checks every counter.
 //!
 //! Every frame is accounted for. The simulator counts the PDOs it sent and the sends that
@@ -32,7 +32,7 @@
 //!           [--sweep US,US,...] [--sim-cpu N]
 //! ```
 //! `--rcvbuf` asks for that receive buffer instead of the transport's default
-//! (`canopen::socketcan::DEFAULT_RECEIVE_BUFFER`); `--kernel-rcvbuf` leaves the kernel's.
+//! (`canola::socketcan::DEFAULT_RECEIVE_BUFFER`); `--kernel-rcvbuf` leaves the kernel's.
 //! `--flap-at S` takes the interface down S seconds into the run (`ip link set dev IFACE down`,
 //! root) and up again `--flap-ms` later: the master must report `InterfaceDown` then
 //! `InterfaceUp`, keep its driver running, and receive PDOs again after the link returned.
@@ -50,13 +50,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant as StdInstant;
 
-use can_frame::{CanFrame, CanId, Duration, NodeId};
-use canopen::socketcan::{SocketCan, SocketCanStats};
-use canopen::{
+use canola::socketcan::{SocketCan, SocketCanStats};
+use canola::{
     BusEvent, CommandSpecifier, Network, NetworkEvent, Received, Station, Transport,
     TransportError, Value,
 };
-use canopen_bench::load::{self, LoadNode, expected_i32, expected_real};
+use canola_bench::load::{self, LoadNode, expected_i32, expected_real};
+use canola_frame::{CanFrame, CanId, Duration, NodeId};
 
 /// The node whose TPDO1 marks the end of the simulator's traffic (not one of the load nodes).
 const MARKER_NODE: u8 = 127;
@@ -198,7 +198,7 @@ fn simulate(args: &Args) -> Result<(), String> {
     while !stop.load(Ordering::SeqCst) {
         let now = t.now();
         for n in &mut nodes {
-            if can_frame::is_due(n.poll_timeout(), now) {
+            if canola_frame::is_due(n.poll_timeout(), now) {
                 n.handle_timeout(now);
             }
         }
@@ -474,7 +474,7 @@ fn run(args: &Args, period_us: u64) -> Result<Outcome, String> {
     if !args.kernel_rcvbuf {
         let ask = args
             .rcvbuf
-            .unwrap_or(canopen::socketcan::DEFAULT_RECEIVE_BUFFER);
+            .unwrap_or(canola::socketcan::DEFAULT_RECEIVE_BUFFER);
         let got = t.set_receive_buffer(ask).map_err(|e| e.to_string())?;
         println!(
             "receive buffer: asked for {ask} bytes, the kernel reports {got} \

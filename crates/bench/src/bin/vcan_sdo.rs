@@ -1,8 +1,8 @@
 //! Side-by-side SDO benchmark on a real SocketCAN bus (vcan0 in the QEMU guest of `tests/vcan`):
-//! this master (`canopen::Network` over `canopen::socketcan::SocketCan`) and python-canopen's
+//! this master (`canola::Network` over `canola::socketcan::SocketCan`) and python-canopen's
 //! `RemoteNode` (`crates/bench/py/remote_sdo_bench.py`, another process) run the same workload
-//! one after the other against one simulated device (`canopen::SimDevice` from the rig's test
-//! EDS, served by `canopen::run_station` on its own socket in a child process, this binary run
+//! one after the other against one simulated device (`canola::SimDevice` from the rig's test
+//! EDS, served by `canola::run_station` on its own socket in a child process, this binary run
 //! with `--serve`): COUNT expedited reads of 0x1000, a segmented and a block upload of SIZE
 //! bytes from 0x2001. Prints the times and the ratios, then where a request/response round trip
 //! goes (client CPU, simulator CPU, rest) for this master, python-canopen and a raw-socket
@@ -43,10 +43,10 @@ use std::process::{Command, ExitCode, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-use can_frame::{Duration, NodeId};
-use canopen::socketcan::SocketCan;
-use canopen::{Network, Received, Transport, TransportError, run_station};
-use canopen_bench::{BenchError, Measured, context_switches, device, kib_per_s, run_workload};
+use canola::socketcan::SocketCan;
+use canola::{Network, Received, Transport, TransportError, run_station};
+use canola_bench::{BenchError, Measured, context_switches, device, kib_per_s, run_workload};
+use canola_frame::{Duration, NodeId};
 
 struct Args {
     python: Option<String>,
@@ -67,7 +67,7 @@ fn parse_args() -> Result<Args, String> {
         python: std::env::var("CANOPEN_PYTHON").ok(),
         iface: std::env::var("CANOPEN_VCAN_IFACE").unwrap_or_else(|_| "vcan0".into()),
         count: 1000,
-        size: canopen_bench::LARGE_LEN,
+        size: canola_bench::LARGE_LEN,
         node: 0x5C,
         pin_cpu: None,
         serve: false,
@@ -128,14 +128,14 @@ struct Counting<T> {
 }
 
 impl<T: Transport> Transport for Counting<T> {
-    fn send(&mut self, frame: &can_frame::CanFrame) -> Result<(), TransportError> {
+    fn send(&mut self, frame: &canola_frame::CanFrame) -> Result<(), TransportError> {
         self.calls.sends.fetch_add(1, Ordering::Relaxed);
         self.inner.send(frame)
     }
 
     fn recv_until(
         &mut self,
-        deadline: can_frame::Instant,
+        deadline: canola_frame::Instant,
     ) -> Result<Option<Received>, TransportError> {
         self.calls.recvs.fetch_add(1, Ordering::Relaxed);
         let r = self.inner.recv_until(deadline);
@@ -145,7 +145,7 @@ impl<T: Transport> Transport for Counting<T> {
         r
     }
 
-    fn now(&self) -> can_frame::Instant {
+    fn now(&self) -> canola_frame::Instant {
         self.inner.now()
     }
 }
@@ -476,12 +476,12 @@ fn raw_client(args: &Args, node: u8, sim: &Sim) -> Result<[Part; 2], BenchError>
         let switches0 = context_switches(own);
         let (t0, cpu0) = (
             std::time::Instant::now(),
-            canopen_bench::thread_cpu_seconds(),
+            canola_bench::thread_cpu_seconds(),
         );
         f()?;
         let (seconds, cpu) = (
             t0.elapsed().as_secs_f64(),
-            canopen_bench::thread_cpu_seconds() - cpu0,
+            canola_bench::thread_cpu_seconds() - cpu0,
         );
         let switches = context_switches(own) - switches0;
         let (sim_cpu1, sim_switches1) = sim.usage();
@@ -495,16 +495,16 @@ fn raw_client(args: &Args, node: u8, sim: &Sim) -> Result<[Part; 2], BenchError>
     };
     let expedited = measure(&mut || {
         for _ in 0..args.count {
-            let r = upload_initiate(canopen_bench::EXPEDITED_ENTRY)?;
-            if r[0] & 0xE3 != 0x43 || r[4..] != canopen_bench::EXPEDITED_VALUE.to_le_bytes() {
+            let r = upload_initiate(canola_bench::EXPEDITED_ENTRY)?;
+            if r[0] & 0xE3 != 0x43 || r[4..] != canola_bench::EXPEDITED_VALUE.to_le_bytes() {
                 return Err(BenchError(format!("raw client: expedited answer {r:02x?}")));
             }
         }
         Ok(())
     })?;
-    let want = canopen_bench::payload(args.size);
+    let want = canola_bench::payload(args.size);
     let segmented = measure(&mut || {
-        let r = upload_initiate(canopen_bench::LARGE_ENTRY)?;
+        let r = upload_initiate(canola_bench::LARGE_ENTRY)?;
         if r[0] != 0x41 || u32::from_le_bytes([r[4], r[5], r[6], r[7]]) as usize != want.len() {
             return Err(BenchError(format!("raw client: initiate answer {r:02x?}")));
         }

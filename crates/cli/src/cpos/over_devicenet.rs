@@ -2,19 +2,19 @@
 //! on a CAN transport, and `canopen cpos simulate` (the simulated cPos behind a DeviceNet
 //! slave).
 
-use canopen::frame::is_due;
+use canola::frame::is_due;
 use std::process::ExitCode;
 
-use canopen::mem::MemoryBus;
-use canopen::transport::{Received, Station, Transport};
-use canopen::{CanFrame, Duration, Instant};
-use clap::Args;
-use devicenet::explicit::Path;
-use devicenet::{MacId, Slave, SlaveEvent};
-use gemu_cpos::client::{Client, Event};
-use gemu_cpos::over_devicenet::{
+use canola::mem::MemoryBus;
+use canola::transport::{Received, Station, Transport};
+use canola::{CanFrame, Duration, Instant};
+use canola_devicenet::explicit::Path;
+use canola_devicenet::{MacId, Slave, SlaveEvent};
+use canola_gemu::client::{Client, Event};
+use canola_gemu::over_devicenet::{
     CposEvent, CposMaster, CposMasterConfig, CposSlave, ImageSizes, cpos_slave_config,
 };
+use clap::Args;
 use serde_json::json;
 
 use super::SimArgs;
@@ -127,7 +127,7 @@ impl Link {
         });
         let diag = opts
             .diagnostic_attribute
-            .or(Some(gemu_cpos::over_devicenet::SIM_DIAGNOSTIC_PATH));
+            .or(Some(canola_gemu::over_devicenet::SIM_DIAGNOSTIC_PATH));
         Self::connect_on(opts, Box::new(endpoint), Some(bus), diag)
     }
 
@@ -344,7 +344,7 @@ pub(crate) fn simulate(
             // Runs until killed, or for --duration.
             let started = std::time::Instant::now();
             let limit = duration.map(std::time::Duration::from_secs_f64);
-            let r = canopen::transport::run_station(&mut *transport, &mut station, || {
+            let r = canola::transport::run_station(&mut *transport, &mut station, || {
                 limit.is_some_and(|l| started.elapsed() >= l)
             });
             match r {

@@ -1,4 +1,4 @@
-"""python-canopen's view of an EDS's default PDO mappings, for canopen-codegen's cross-check.
+"""python-canopen's view of an EDS's default PDO mappings, for canola-codegen's cross-check.
 
 Usage: pdo_layout.py EDS NODE_ID [tN:HEX ...]
 

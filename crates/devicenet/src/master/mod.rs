@@ -26,7 +26,7 @@
 //!    [`MasterConfig::reconnect_delay`]. A refused step of the connect sequence is a
 //!    [`MasterEvent::ConnectFailed`] with the slave's CIP status, retried the same way.
 
-use can_frame::{CanFrame, Duration, Instant};
+use canola_frame::{CanFrame, Duration, Instant};
 use heapless::Deque;
 
 use crate::explicit::{

@@ -11,8 +11,8 @@
 
 use std::vec::Vec;
 
-use can_frame::{CanFrame, Duration, Instant};
-use canopen_lss::{
+use canola_frame::{CanFrame, Duration, Instant};
+use canola_lss::{
     LssAddress, LssError, LssMachine, LssSlave, MasterEvent, Request, Response, SlaveConfig,
 };
 

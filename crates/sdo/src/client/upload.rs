@@ -5,7 +5,7 @@ use super::{Active, Client, Flow, Kind, Step, UpPhase, protocol};
 use crate::buffer::{Sink, Source};
 use crate::error::{ErrorKind, Violation};
 use crate::wire::{BlockSegment, ClientRequest, Initiate, ServerResponse};
-use can_frame::Instant;
+use canola_frame::Instant;
 
 impl<S: Sink, D: Source> Client<S, D> {
     pub(super) fn on_upload(

@@ -4,7 +4,7 @@
 
 use core::fmt;
 
-use can_frame::HexBytes;
+use canola_frame::HexBytes;
 
 use super::{BlockSegment, ClientRequest, Initiate, Multiplexer, Segment, ServerResponse};
 use crate::abort::AbortCode;

@@ -4,8 +4,8 @@
 
 use std::collections::BTreeMap;
 
-use can_frame::{Duration, Instant};
-use canopen_sdo::{
+use canola_frame::{Duration, Instant};
+use canola_sdo::{
     AbortCode, Access, Client, ClientConfig, Event, LengthRule, Multiplexer, ObjectAccess,
     ObjectInfo, Server, ServerConfig,
 };

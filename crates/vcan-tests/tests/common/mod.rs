@@ -8,9 +8,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
 use std::thread::JoinHandle;
 
-use can_frame::{Duration, NodeId};
-use canopen::socketcan::SocketCan;
-use canopen::{Network, NetworkEvent, SimDevice, TransportError, run_station};
+use canola::socketcan::SocketCan;
+use canola::{Network, NetworkEvent, SimDevice, TransportError, run_station};
+use canola_frame::{Duration, NodeId};
 
 /// The rig's test EDS (`tests/vcan/test-device.eds`).
 pub const EDS: &[u8] = include_bytes!("../../../../tests/vcan/test-device.eds");

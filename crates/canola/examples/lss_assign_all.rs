@@ -1,0 +1,43 @@
+//! LSS (CiA 305): three unconfigured devices on the bus get node-IDs from a pool with one call
+//! (Fastscan finds each, assigns, stores); then each boots and answers SDO.
+//!
+//! `cargo run -p canola --example lss_assign_all`.
+
+use canola::lss::{AssignConfig, LssAddress, NodeIdPool};
+use canola::{Duration, MemoryBus, Network, NodeId, SimDevice};
+
+const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+
+fn run() -> Result<usize, Box<dyn std::error::Error>> {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let od = canola::od::parse(EDS)?.od;
+    for serial in [1001, 2002, 3003] {
+        let address = LssAddress::new(0x39, 0x0100_0001, 1, serial);
+        bus.attach(SimDevice::unconfigured(od.clone(), address));
+    }
+    let pool = NodeIdPool::range(NodeId::new(20)?, NodeId::new(30)?);
+    let report = net.lss().assign_all(AssignConfig::with_pool(pool))?;
+    net.run_for(Duration::from_millis(10))?; // the boot-ups
+    let mut count = 0;
+    for (address, id) in report.assigned() {
+        let serial = net.node(id).sdo().read((0x1018, 4))?;
+        println!(
+            "serial {} -> node {id} (reads back serial {:?})",
+            address.serial_number, serial
+        );
+        count += 1;
+    }
+    Ok(count)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    run()?;
+    Ok(())
+}
+
+#[cfg(test)]
+#[test]
+fn runs() {
+    assert_eq!(run().unwrap(), 3);
+}

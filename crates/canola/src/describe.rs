@@ -1,0 +1,490 @@
+//! One line of CiA vocabulary for any frame on a CANopen bus: what `canopen monitor`, the demo
+//! and logs print.
+//!
+//! Each wire type of the protocol crates implements `Display` (the SDO messages of CiA 301
+//! §7.2.4.3, NMT, heartbeat and node guarding, EMCY, SYNC, TIME, the LSS requests and responses
+//! of CiA 305); [`describe`] picks the decoder by COB-ID (CiA 301 predefined connection set,
+//! §7.3.5) and adds what a [`BusDictionary`] knows: object names for SDO requests and the
+//! mapped values of PDOs, read from each node's dictionary (its mapping parameters 0x1600..,
+//! 0x1A00.. and COB-IDs 0x1400.., 0x1800..).
+//!
+//! A frame that does not decode still gets a line: the decoder's error beside its bytes.
+
+use core::fmt;
+use std::collections::HashMap;
+
+use canola_frame::cob::{FunctionCode, LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
+use canola_frame::{CanFrame, CanId, CobId, HexBytes, NodeId};
+use canola_nmt::{Emcy, ErrorControlMessage, NmtCommand, SyncMessage, TimeOfDay};
+use canola_od::ObjectDictionary;
+use canola_pdo::{CommParams, Direction, Mapping, OdView};
+use canola_sdo::{ClientRequest, Multiplexer, ServerResponse};
+
+/// What [`describe`] knows about the nodes on a bus: their dictionaries (for object names) and
+/// the PDOs those dictionaries configure (for decoded values).
+#[derive(Debug, Default, Clone)]
+pub struct BusDictionary {
+    nodes: HashMap<NodeId, ObjectDictionary>,
+    pdos: HashMap<u16, PdoLayout>,
+}
+
+/// One configured PDO: its label (`TPDO1 node 5`), mapping and the mapped objects' names.
+#[derive(Debug, Clone)]
+struct PdoLayout {
+    label: String,
+    mapping: Mapping,
+    names: Vec<String>,
+}
+
+/// The name of `index:sub` in `od`: `Object / Sub-object` for records and arrays.
+pub(crate) fn object_name(od: &ObjectDictionary, index: u16, sub: u8) -> Option<String> {
+    let obj = od.get(index)?;
+    match obj.sub(sub) {
+        Some(s) if !obj.is_simple() => Some(format!("{} / {}", obj.name, s.name)),
+        _ => Some(obj.name.to_string()),
+    }
+}
+
+impl BusDictionary {
+    /// Knows nothing: frames are described by their protocol alone.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds (or replaces) `node`'s dictionary, with the PDOs it configures: every TPDO and RPDO
+    /// whose COB-ID is valid and 11-bit and whose mapping is not empty.
+    pub fn with_node(mut self, node: NodeId, od: ObjectDictionary) -> Self {
+        self.add_node(node, od);
+        self
+    }
+
+    /// [`with_node`](Self::with_node) in place.
+    pub fn add_node(&mut self, node: NodeId, od: ObjectDictionary) {
+        let view = OdView::new(&od, node.get());
+        for (kind, direction) in [("TPDO", Direction::Transmit), ("RPDO", Direction::Receive)] {
+            for n in 0..512u16 {
+                let (Ok(comm), Ok(mapping)) = (
+                    CommParams::read_from(&view, direction.comm_index(n)),
+                    Mapping::read_from(&view, direction, direction.mapping_index(n)),
+                ) else {
+                    continue;
+                };
+                let Ok(CanId::Standard(id)) = comm.cob_id.can_id() else {
+                    continue;
+                };
+                if !comm.cob_id.is_valid() || mapping.is_empty() {
+                    continue;
+                }
+                let names = mapping
+                    .objects()
+                    .iter()
+                    .map(|o| {
+                        let (i, s) = (o.entry.index(), o.entry.subindex());
+                        object_name(&od, i, s).unwrap_or_else(|| format!("{i:#06x}:{s:02x}"))
+                    })
+                    .collect();
+                self.pdos.insert(
+                    id.as_raw(),
+                    PdoLayout {
+                        label: format!("{kind}{} node {node}", n + 1),
+                        mapping,
+                        names,
+                    },
+                );
+            }
+        }
+        self.nodes.insert(node, od);
+    }
+
+    /// The dictionary of `node`, if known.
+    pub fn dictionary(&self, node: NodeId) -> Option<&ObjectDictionary> {
+        self.nodes.get(&node)
+    }
+}
+
+/// A frame described for people: `Display` gives the frame (identifier, length, bytes) and
+/// what it is, e.g. `605   [8]  40 18 10 01 00 00 00 00   node 5: SDO initiate upload request
+/// 0x1018:01 (Identity object / Vendor-ID)`. [`what`](Self::what) gives the second part alone.
+#[derive(Debug, Clone, Copy)]
+pub struct Description<'a> {
+    frame: &'a CanFrame,
+    dictionary: &'a BusDictionary,
+}
+
+/// Describes `frame` with what `dictionary` knows about the nodes on the bus.
+pub fn describe<'a>(frame: &'a CanFrame, dictionary: &'a BusDictionary) -> Description<'a> {
+    Description { frame, dictionary }
+}
+
+impl<'a> Description<'a> {
+    /// What the frame is, without the frame itself.
+    pub fn what(&self) -> What<'a> {
+        What(*self)
+    }
+}
+
+impl fmt::Display for Description<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let frame = self.frame.to_string();
+        write!(f, "{frame:<28} {}", self.what())
+    }
+}
+
+/// Describes a stream of frames as [`describe`] does, and also follows each node's SDO block
+/// transfers (CiA 301 §7.2.4.3.9..14), so a block segment reads as one. A block segment and a
+/// segment of a segmented transfer share their first byte's layout; only the transfer's state
+/// tells them apart, which a single frame does not carry.
+#[derive(Debug, Default, Clone)]
+pub struct Monitor {
+    dictionary: BusDictionary,
+    blocks: HashMap<NodeId, Block>,
+}
+
+/// A block transfer in progress on a node's default SDO channel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Block {
+    /// Server → client segments; `ended` once the segment with c = 1 went by (the next server
+    /// frame is the end message).
+    Upload { ended: bool },
+    /// Client → server segments, likewise.
+    Download { ended: bool },
+}
+
+impl Monitor {
+    /// A monitor that names objects and decodes PDOs with `dictionary`.
+    pub fn new(dictionary: BusDictionary) -> Self {
+        Self {
+            dictionary,
+            blocks: HashMap::new(),
+        }
+    }
+
+    /// The line for the next frame on the bus: the frame, then [`what`](Self::what) it is
+    /// (as [`Description`] shows it).
+    pub fn describe(&mut self, frame: &CanFrame) -> String {
+        let shown = frame.to_string();
+        format!("{shown:<28} {}", self.what(frame))
+    }
+
+    /// What the next frame on the bus is, without the frame itself.
+    pub fn what(&mut self, frame: &CanFrame) -> String {
+        if let Some(text) = self.block_segment(frame) {
+            return text;
+        }
+        self.follow(frame);
+        describe(frame, &self.dictionary).what().to_string()
+    }
+
+    /// The text of `frame` when it is a segment of a block transfer in progress.
+    fn block_segment(&mut self, frame: &CanFrame) -> Option<String> {
+        let cob = CobId::classify(frame.cob_id()?)?;
+        let node = cob.node?;
+        let block = self.blocks.get_mut(&node)?;
+        match (cob.function, *block) {
+            (FunctionCode::SdoTx, Block::Upload { ended: false })
+            | (FunctionCode::SdoRx, Block::Download { ended: false }) => {}
+            _ => return None,
+        }
+        let segment = canola_sdo::BlockSegment::parse(frame.data()).ok()?;
+        if segment.last {
+            *block = match block {
+                Block::Upload { .. } => Block::Upload { ended: true },
+                Block::Download { .. } => Block::Download { ended: true },
+            };
+        }
+        Some(format!("node {node}: {segment}"))
+    }
+
+    /// Starts or ends a node's block transfer by the messages that do.
+    fn follow(&mut self, frame: &CanFrame) {
+        let Some(cob) = frame.cob_id().and_then(CobId::classify) else {
+            return;
+        };
+        let Some(node) = cob.node else { return };
+        let data = frame.data();
+        match cob.function {
+            FunctionCode::SdoRx => match ClientRequest::parse(data) {
+                Ok(ClientRequest::BlockUploadStart) => {
+                    self.blocks.insert(node, Block::Upload { ended: false });
+                }
+                Ok(ClientRequest::BlockUploadAck { .. }) => {}
+                Ok(ClientRequest::BlockDownloadEnd { .. } | ClientRequest::Abort { .. }) => {
+                    self.blocks.remove(&node);
+                }
+                _ => {}
+            },
+            FunctionCode::SdoTx => match ServerResponse::parse(data) {
+                Ok(ServerResponse::BlockDownloadInitiate { .. }) => {
+                    self.blocks.insert(node, Block::Download { ended: false });
+                }
+                Ok(ServerResponse::BlockDownloadAck { .. }) => {}
+                Ok(ServerResponse::BlockUploadEnd { .. } | ServerResponse::Abort { .. }) => {
+                    self.blocks.remove(&node);
+                }
+                _ => {}
+            },
+            _ => {}
+        }
+    }
+}
+
+/// The protocol part of a [`Description`].
+#[derive(Debug, Clone, Copy)]
+pub struct What<'a>(Description<'a>);
+
+/// `(Object / Sub-object)` after an SDO message about `mux`, when the node's dictionary names it.
+fn name_suffix(
+    f: &mut fmt::Formatter<'_>,
+    dictionary: &BusDictionary,
+    node: NodeId,
+    mux: Option<Multiplexer>,
+) -> fmt::Result {
+    let name = mux.and_then(|m| {
+        dictionary
+            .dictionary(node)
+            .and_then(|od| object_name(od, m.index, m.subindex))
+    });
+    match name {
+        Some(n) => write!(f, " ({n})"),
+        None => Ok(()),
+    }
+}
+
+impl fmt::Display for What<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Description { frame, dictionary } = self.0;
+        let data = frame.data();
+        let Some(raw) = frame.cob_id() else {
+            return write!(f, "extended identifier {}", HexBytes(data));
+        };
+        if !frame.is_remote()
+            && let Some(pdo) = dictionary.pdos.get(&raw)
+        {
+            return describe_pdo(f, pdo, data);
+        }
+        match raw {
+            LSS_MASTER_TO_SLAVE => {
+                return match canola_lss::Request::from_frame(frame) {
+                    Ok(r) => write!(f, "{r}"),
+                    Err(e) => write!(f, "LSS request, undecodable ({e}): {}", HexBytes(data)),
+                };
+            }
+            LSS_SLAVE_TO_MASTER => {
+                return match canola_lss::Response::from_frame(frame) {
+                    Ok(r) => write!(f, "{r}"),
+                    Err(e) => write!(f, "LSS response, undecodable ({e}): {}", HexBytes(data)),
+                };
+            }
+            _ => {}
+        }
+        let Some(cob) = CobId::classify(raw) else {
+            return write!(f, "{}", HexBytes(data));
+        };
+        match (cob.function, cob.node) {
+            (FunctionCode::Nmt, _) => match NmtCommand::from_frame(frame) {
+                Ok(cmd) => write!(f, "{cmd}"),
+                Err(e) => write!(f, "NMT, undecodable ({e}): {}", HexBytes(data)),
+            },
+            (FunctionCode::Sync, _) => match SyncMessage::from_frame(frame, raw) {
+                Ok(m) => write!(f, "{m}"),
+                Err(e) => write!(f, "SYNC, undecodable ({e}): {}", HexBytes(data)),
+            },
+            (FunctionCode::Time, _) => match TimeOfDay::from_frame(frame, raw) {
+                Ok(t) => write!(f, "{t}"),
+                Err(e) => write!(f, "TIME, undecodable ({e}): {}", HexBytes(data)),
+            },
+            (FunctionCode::Emcy, Some(n)) => match Emcy::parse(data) {
+                Ok(e) => write!(f, "node {n}: {e}"),
+                Err(e) => write!(f, "node {n}: EMCY, undecodable ({e}): {}", HexBytes(data)),
+            },
+            (FunctionCode::Tpdo(p), Some(n)) => {
+                write!(f, "TPDO{} node {n}: {}", p.get(), HexBytes(data))
+            }
+            (FunctionCode::Rpdo(p), Some(n)) => {
+                write!(f, "RPDO{} node {n}: {}", p.get(), HexBytes(data))
+            }
+            (FunctionCode::SdoRx, Some(n)) => match ClientRequest::parse(data) {
+                Ok(r) => {
+                    write!(f, "node {n}: {r}")?;
+                    name_suffix(f, dictionary, n, request_mux(&r))
+                }
+                Err(e) => write!(
+                    f,
+                    "node {n}: SDO request, undecodable ({e}): {}",
+                    HexBytes(data)
+                ),
+            },
+            (FunctionCode::SdoTx, Some(n)) => match ServerResponse::parse(data) {
+                Ok(r) => {
+                    write!(f, "node {n}: {r}")?;
+                    name_suffix(f, dictionary, n, response_mux(&r))
+                }
+                Err(e) => write!(
+                    f,
+                    "node {n}: SDO response, undecodable ({e}): {}",
+                    HexBytes(data)
+                ),
+            },
+            (FunctionCode::NmtErrorControl, Some(_)) => {
+                match ErrorControlMessage::from_frame(frame) {
+                    Ok(m) => write!(f, "{m}"),
+                    Err(e) => write!(f, "error control, undecodable ({e}): {}", HexBytes(data)),
+                }
+            }
+            _ => write!(f, "{}", HexBytes(data)),
+        }
+    }
+}
+
+/// The object an SDO request is about, for the messages that carry it.
+fn request_mux(r: &ClientRequest) -> Option<Multiplexer> {
+    match *r {
+        ClientRequest::InitiateDownload { mux, .. }
+        | ClientRequest::InitiateUpload { mux }
+        | ClientRequest::Abort { mux, .. }
+        | ClientRequest::BlockDownloadInitiate { mux, .. }
+        | ClientRequest::BlockUploadInitiate { mux, .. } => Some(mux),
+        _ => None,
+    }
+}
+
+/// The object an SDO response is about, for the messages that carry it.
+fn response_mux(r: &ServerResponse) -> Option<Multiplexer> {
+    match *r {
+        ServerResponse::InitiateUpload { mux, .. }
+        | ServerResponse::InitiateDownload { mux }
+        | ServerResponse::Abort { mux, .. }
+        | ServerResponse::BlockDownloadInitiate { mux, .. }
+        | ServerResponse::BlockUploadInitiate { mux, .. } => Some(mux),
+        _ => None,
+    }
+}
+
+fn describe_pdo(f: &mut fmt::Formatter<'_>, pdo: &PdoLayout, data: &[u8]) -> fmt::Result {
+    let values = match canola_pdo::unpack(&pdo.mapping, data) {
+        Ok(v) => v,
+        Err(e) => {
+            return write!(
+                f,
+                "{}: {} (does not fit its mapping: {e})",
+                pdo.label,
+                HexBytes(data)
+            );
+        }
+    };
+    write!(f, "{}: ", pdo.label)?;
+    for (i, ((_, value), name)) in values.iter().zip(&pdo.names).enumerate() {
+        if i > 0 {
+            f.write_str(", ")?;
+        }
+        write!(f, "{name} = {value}")?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_monitor_tells_block_segments_from_segmented_ones() {
+        let mut m = Monitor::new(BusDictionary::new());
+        let f = |id, d: &[u8]| frame(id, d);
+        // The same bytes are an upload segment outside a block transfer...
+        let seg = [0x01, 1, 2, 3, 4, 5, 6, 7];
+        assert!(
+            m.describe(&f(0x585, &seg))
+                .contains("SDO upload segment response")
+        );
+        // ...and block segment 1 inside one (after the client's start block upload).
+        m.describe(&f(0x605, &[0xA3, 0, 0, 0, 0, 0, 0, 0]));
+        assert!(m.describe(&f(0x585, &seg)).contains("SDO block segment 1"));
+        let last = [0x82, 8, 9, 10, 11, 12, 13, 14];
+        assert!(
+            m.describe(&f(0x585, &last))
+                .contains("SDO block segment 2, 08 09 0a 0b 0c 0d 0e, last")
+        );
+        m.describe(&f(0x605, &[0xA2, 2, 127, 0, 0, 0, 0, 0]));
+        // After the last segment the server's end message: 0xC1 | unused << 2.
+        let end = m.describe(&f(0x585, &[0xC5, 0x34, 0x12, 0, 0, 0, 0, 0]));
+        assert!(end.contains("SDO end block upload"), "{end}");
+        assert!(
+            m.describe(&f(0x585, &seg))
+                .contains("SDO upload segment response")
+        );
+    }
+
+    fn burkert(node: u8) -> BusDictionary {
+        let eds = include_bytes!("../../../eds/burkert-generic.eds");
+        BusDictionary::new().with_node(
+            NodeId::new(node).unwrap(),
+            canola_od::parse(eds).unwrap().od,
+        )
+    }
+
+    fn frame(id: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(CanId::standard(id).unwrap(), data).unwrap()
+    }
+
+    fn what(d: &BusDictionary, id: u16, data: &[u8]) -> String {
+        describe(&frame(id, data), d).what().to_string()
+    }
+
+    #[test]
+    fn pdos_decode_through_the_dictionary_mapping() {
+        let d = burkert(5);
+        // TPDO1 of node 5 (0x185) maps sensor values 1 and 2, both REAL32.
+        let mut data = [0u8; 8];
+        data[..4].copy_from_slice(&1.5f32.to_le_bytes());
+        data[4..].copy_from_slice(&(-2.25f32).to_le_bytes());
+        assert_eq!(
+            what(&d, 0x185, &data),
+            "TPDO1 node 5: Sensor Value 1 / Value = 1.5, Sensor Value 2 / Value = -2.25"
+        );
+        // TPDO3 (0x385) carries the NE 107 status byte.
+        assert_eq!(
+            what(&d, 0x385, &[2]),
+            "TPDO3 node 5: Device Status Object / Device Status NamurNe107 = 2"
+        );
+        assert!(what(&d, 0x205, &data).starts_with("RPDO1 node 5: Control Value 1 / Value = 1.5"));
+        // A frame too short for its mapping is reported, not decoded.
+        assert!(what(&d, 0x185, &[1, 2]).contains("does not fit its mapping"));
+        // A node without a dictionary: the PDO's bytes.
+        assert_eq!(what(&d, 0x186, &[1]), "TPDO1 node 6: 01");
+    }
+
+    #[test]
+    fn every_protocol_in_cia_words() {
+        let d = burkert(5);
+        let none = BusDictionary::new();
+        assert_eq!(
+            what(&d, 0x605, &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]),
+            "node 5: SDO initiate upload request 0x1018:01 (Identity Object / Vendor ID)"
+        );
+        assert_eq!(
+            what(&none, 0x605, &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]),
+            "node 5: SDO initiate upload request 0x1018:01"
+        );
+        let abort = what(&none, 0x585, &[0x80, 0x00, 0x60, 0x01, 0, 0, 2, 6]);
+        assert!(
+            abort.starts_with("node 5: SDO abort transfer 0x6000:01: 0x06020000"),
+            "{abort}"
+        );
+        assert_eq!(abort.matches("does not exist").count(), 1, "{abort}");
+        assert_eq!(
+            what(&none, 0x000, &[1, 0]),
+            "NMT Start remote node, all nodes"
+        );
+        assert_eq!(what(&none, 0x080, &[]), "SYNC");
+        assert_eq!(what(&none, 0x705, &[0]), "boot-up node 5");
+        assert_eq!(what(&none, 0x705, &[5]), "heartbeat node 5 Operational");
+        let emcy = what(&none, 0x085, &[0x00, 0x50, 0x01, 0, 0, 0, 0, 0]);
+        assert!(emcy.starts_with("node 5: EMCY 0x5000"), "{emcy}");
+        assert_eq!(emcy.matches("device hardware").count(), 1, "{emcy}");
+        let lss = what(&none, 0x7E5, &[0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+        assert!(lss.starts_with("LSS switch state global"), "{lss}");
+        assert!(!lss.contains('{') && !emcy.contains('{') && !abort.contains("Some("));
+        // Undecodable frames still get a line.
+        assert!(what(&none, 0x000, &[1]).starts_with("NMT, undecodable"));
+    }
+}

@@ -1,0 +1,154 @@
+//! The master's errors: which node, which object (with its dictionary name when known), and
+//! what went wrong — the server's abort code with its CiA 301 meaning kept apart from local
+//! failures (timeout, cancel, I/O).
+
+use canola_frame::NodeId;
+use canola_sdo::{AbortCode, ErrorKind};
+
+use crate::transport::TransportError;
+use canola_od::ObjectAddress;
+
+/// What ended an SDO request unsuccessfully.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum SdoErrorKind {
+    /// The SDO client reported a failure: the server's abort, a timeout, a protocol violation.
+    Transfer(ErrorKind),
+    /// The request was cancelled before it finished.
+    Cancelled,
+    /// The node's client refused to start (should not happen: requests queue).
+    Busy,
+    /// Writing an upload into the caller's writer (or reading a download) failed.
+    Io(String),
+    /// The transport failed while the request ran.
+    Transport(String),
+    /// The node sent a boot-up message (it was reset or power-cycled) while the transfer ran:
+    /// its SDO server forgot the transfer. A transfer the server had answered ends at once; one
+    /// not answered yet ends when its response timeout passes without an answer. No abort is
+    /// sent. Nothing of a download is known to be stored; the next request goes to the
+    /// rebooted node.
+    NodeRebooted,
+}
+
+/// An SDO request failed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SdoError {
+    /// The node.
+    pub node: NodeId,
+    /// The object.
+    pub entry: ObjectAddress,
+    /// The object's name from the node's dictionary, if it has one.
+    pub name: Option<String>,
+    /// What went wrong.
+    pub kind: SdoErrorKind,
+}
+
+impl SdoError {
+    /// The abort code the server sent, when the server refused.
+    pub fn server_abort(&self) -> Option<AbortCode> {
+        match self.kind {
+            SdoErrorKind::Transfer(ErrorKind::ServerAbort(code)) => Some(code),
+            _ => None,
+        }
+    }
+
+    /// The abort code that went over the bus in either direction, if any.
+    pub fn abort_code(&self) -> Option<AbortCode> {
+        match self.kind {
+            SdoErrorKind::Transfer(k) => Some(k.abort_code()),
+            _ => None,
+        }
+    }
+}
+
+impl core::fmt::Display for SdoError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "node {}, object {:#06x} sub {}",
+            self.node, self.entry.index, self.entry.sub_index
+        )?;
+        if let Some(name) = &self.name {
+            write!(f, " \"{name}\"")?;
+        }
+        f.write_str(": ")?;
+        match &self.kind {
+            SdoErrorKind::Transfer(ErrorKind::ServerAbort(code)) => {
+                write!(f, "SDO abort {code}")
+            }
+            SdoErrorKind::Transfer(ErrorKind::Timeout) => {
+                f.write_str("no response from the node (SDO timeout; sent abort 0x05040000)")
+            }
+            SdoErrorKind::Transfer(k) => write!(f, "{k}"),
+            SdoErrorKind::Cancelled => f.write_str("request cancelled"),
+            SdoErrorKind::Busy => f.write_str("the node's SDO client is busy"),
+            SdoErrorKind::Io(e) => write!(f, "local I/O error: {e}"),
+            SdoErrorKind::Transport(e) => write!(f, "transport failed: {e}"),
+            SdoErrorKind::NodeRebooted => write!(
+                f,
+                "node {} rebooted (boot-up message received) during the transfer; the \
+                 transfer ended without an abort, the device has forgotten it",
+                self.node
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SdoError {}
+
+/// Errors of the master API.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// An SDO request failed.
+    #[error("{0}")]
+    Sdo(#[from] SdoError),
+    /// The transport failed.
+    #[error("transport: {0}")]
+    Transport(#[from] TransportError),
+    /// A value did not match the object's type, or could not be converted.
+    #[error("node {node}, object {entry}: {message}")]
+    Value {
+        /// The node.
+        node: NodeId,
+        /// The object.
+        entry: ObjectAddress,
+        /// What is wrong.
+        message: String,
+    },
+    /// No answer within the time allowed (for services without their own timeout).
+    #[error("timed out: {0}")]
+    Timeout(String),
+    /// An LSS service failed (CiA 305).
+    #[error("LSS: {0}")]
+    Lss(canola_lss::LssError),
+    /// A local I/O error (file, writer, reader).
+    #[error("I/O: {0}")]
+    Io(#[from] std::io::Error),
+    /// A name the node's dictionary does not resolve to one value.
+    #[error("node {node}, object {name:?}: {reason}")]
+    UnknownObject {
+        /// The node.
+        node: NodeId,
+        /// The name asked for (empty when the node has no dictionary at all).
+        name: String,
+        /// Why it does not resolve.
+        reason: String,
+    },
+    /// A request the API cannot serve as asked (the message says why).
+    #[error("{0}")]
+    InvalidRequest(String),
+    /// The background driver ended because the transport failed (the transport's words).
+    #[error("the network's driver stopped: {0}")]
+    Driver(String),
+}
+
+impl Error {
+    /// The SDO abort code the server sent, if this is a server abort.
+    pub fn server_abort(&self) -> Option<AbortCode> {
+        match self {
+            Self::Sdo(e) => e.server_abort(),
+            _ => None,
+        }
+    }
+}

@@ -1,0 +1,110 @@
+//! CANopen master facade: the layer that turns the sans-IO protocol crates into a library an
+//! application uses, plus the transports and the device simulator.
+//!
+//! Layers, bottom up:
+//! * [`transport`]: one small [`Transport`] trait (blocking send and receive-until-deadline, the
+//!   transport's clock, bus-state [`BusEvent`]s); implementations are the in-memory bus
+//!   ([`mem`]) and SocketCAN (`socketcan` feature, Linux).
+//! * [`candump`]: the can-utils log format for recording and replaying traffic.
+//! * [`Network`] ([`network`]): owns one transport and its clock, routes received frames by
+//!   COB-ID to per-node machines of the protocol crates (SDO clients, heartbeat consumer, EMCY
+//!   consumer, SYNC producer, LSS master) held in one sans-IO core, and drives their deadlines.
+//!   The blocking API ([`Node::sdo`], [`Node::nmt`], [`Network::lss`], [`Network::subscribe`])
+//!   and the async API ([`asynch`], `tokio` feature) are loops around that one core.
+//! * PDOs from the master: [`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO
+//!   parameters; TPDOs arrive decoded ([`NetworkEvent::PdoValues`], or in batches from
+//!   [`Network::subscribe_pdos`], or to an [`Network::on_pdo`] callback) from the COB-IDs the
+//!   node uses; [`Rpdos::start`] transmits its RPDOs through the `canola-pdo` engine.
+//! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
+//!
+//! ```
+//! use canola::{MemoryBus, Network, NodeId, SimDevice};
+//!
+//! let eds = include_bytes!("../../../eds/burkert-generic.eds");
+//! let node = NodeId::new(5).unwrap();
+//! let bus = MemoryBus::new(); // virtual clock: deterministic
+//! let net = Network::new(bus.endpoint());
+//! bus.attach(SimDevice::from_eds(node, eds).unwrap());
+//! net.node(node).sdo().write((0x1017, 0), 100u16).unwrap();
+//! assert_eq!(net.node(node).sdo().read((0x1017, 0)).unwrap(), 100u16.to_le_bytes());
+//! net.node(node).nmt().start().unwrap();
+//! ```
+#![cfg_attr(docsrs, feature(doc_cfg))]
+
+#[cfg(feature = "tokio")]
+pub mod asynch;
+pub mod candump;
+mod core;
+pub mod describe;
+pub mod error;
+pub mod lss;
+pub mod mem;
+pub mod network;
+mod node;
+mod pdo_access;
+mod pdo_glue;
+mod pdo_subscriber;
+pub mod prelude;
+mod request;
+pub mod scan;
+pub mod sim;
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod socketcan;
+pub mod transport;
+pub mod typed;
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod udp;
+
+// The protocol crates, for what the facade does not wrap: applications and the CLI need no
+// other dependency than this crate.
+pub use canola_frame as frame;
+pub use canola_nmt as nmt;
+pub use canola_od as od;
+pub use canola_pdo as pdo;
+pub use canola_sdo as sdo;
+
+// The names common work needs.
+pub use canola_frame::{CanFrame, CanId, Duration, Instant, NodeId};
+pub use canola_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
+pub use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
+pub use canola_sdo::{AbortCode, Method, SdoCobIds};
+
+pub use crate::core::{
+    CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
+    RequestId, TransferProgress,
+};
+#[cfg(feature = "tokio")]
+pub use asynch::{EventStream, Lagged};
+pub use describe::{BusDictionary, Description, Monitor, describe};
+pub use error::{Error, SdoError, SdoErrorKind};
+pub use lss::{Lss, LssOutcome};
+pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
+pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
+pub use pdo_access::{
+    MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
+};
+pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber};
+pub use scan::{Identity, ScannedNode};
+pub use sim::{DeviceHook, HookActions, SimDevice, Values};
+pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
+pub use typed::{ObjectKey, WriteValue};
+
+/// Moves every element of `from` to the back of `to`, in order. Mostly `to` is empty (the
+/// queues between the core, the network and the in-memory bus are drained at every step):
+/// then the two trade buffers, and no element is copied.
+#[inline]
+pub(crate) fn move_all<T>(
+    from: &mut std::collections::VecDeque<T>,
+    to: &mut std::collections::VecDeque<T>,
+) {
+    if to.is_empty() {
+        std::mem::swap(from, to);
+    } else {
+        to.extend(from.drain(..));
+    }
+}
+
+/// The README's code, compiled and run as doctests (its "Use as a library" program).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+mod readme {}

@@ -1,0 +1,222 @@
+//! [`Node`]: one node of a [`Network`]: its SDO client, its NMT control and state, PDO
+//! remapping; and [`Nmt`], NMT module control (CiA 301 §7.2.8.3.1) and a node's NMT state.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use canola_frame::{Duration, NodeId};
+use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
+use canola_od::ObjectDictionary;
+use canola_sdo::{Method, SdoCobIds};
+
+use crate::error::Error;
+use crate::network::*;
+
+/// A node on the network.
+#[derive(Clone, Debug)]
+pub struct Node {
+    pub(crate) net: Network,
+    pub(crate) id: NodeId,
+}
+
+impl Node {
+    /// The node-ID.
+    pub fn id(&self) -> NodeId {
+        self.id
+    }
+
+    /// The network.
+    pub fn network(&self) -> &Network {
+        &self.net
+    }
+
+    /// The node's SDO client with default settings (normal transfer, 1 s response timeout).
+    pub fn sdo(&self) -> Sdo {
+        Sdo {
+            net: self.net.clone(),
+            node: self.id,
+            channel: SdoCobIds::default_for(self.id),
+            method: Method::Normal,
+            timeout: DEFAULT_SDO_TIMEOUT,
+            progress: None,
+        }
+    }
+
+    /// NMT commands to this node, and its state (see [`Nmt::state`]).
+    pub fn nmt(&self) -> Nmt {
+        Nmt::new(&self.net, NmtTarget::Node(self.id))
+    }
+
+    /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
+    /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
+    /// from `canola_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
+    /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
+    /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
+    pub fn remap_pdo(
+        &self,
+        direction: canola_pdo::Direction,
+        number: u16,
+        comm: canola_pdo::CommParams,
+        mapping: canola_pdo::Mapping,
+    ) -> Result<(), Error> {
+        let n = number.saturating_sub(1);
+        let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
+        // With a dictionary, write only the sub-indices the node has.
+        if let Some(od) = self.dictionary() {
+            let ci = direction.comm_index(n);
+            let has = |sub| od.sub(ci, sub).is_some();
+            remote.has_inhibit_time = has(3);
+            remote.has_event_timer = has(5);
+            remote.has_sync_start = has(6);
+            // Dynamic mapping (CiA 301 §7.4.8.3): sub 0 of the mapping object is writable.
+            remote.mapping_writable = od
+                .sub(direction.mapping_index(n), 0)
+                .is_none_or(|s| s.access.is_writable());
+        }
+        crate::pdo_access::configure(self, direction, n, &comm, mapping, &remote)
+    }
+
+    /// The node's dictionary, if it was added with one.
+    pub fn dictionary(&self) -> Option<Arc<ObjectDictionary>> {
+        self.net.core().dictionary(self.id)
+    }
+}
+
+/// NMT module control (CiA 301 §7.2.8.3.1) for one node or all, and a node's NMT state as its
+/// heartbeats, boot-up and guarding answers report it.
+///
+/// Boot-ups are counted, not sampled: [`wait_for_bootup`](Self::wait_for_bootup) returns for a
+/// boot-up received since this handle was made or since its last command, even if a heartbeat
+/// with the next state followed at once (or the background driver received both before the
+/// wait began). So `nmt.reset_node()` then `nmt.wait_for_bootup(t)` cannot miss the boot-up.
+#[derive(Debug)]
+pub struct Nmt {
+    pub(crate) net: Network,
+    pub(crate) target: NmtTarget,
+    /// The node's boot-up count when this handle was made or last sent a command.
+    pub(crate) boots_seen: AtomicU64,
+}
+
+impl Clone for Nmt {
+    fn clone(&self) -> Self {
+        Self {
+            net: self.net.clone(),
+            target: self.target,
+            boots_seen: AtomicU64::new(self.boots_seen.load(Ordering::SeqCst)),
+        }
+    }
+}
+
+impl Nmt {
+    fn new(net: &Network, target: NmtTarget) -> Self {
+        let boots = match target {
+            NmtTarget::Node(id) => net.core().boot_count(id),
+            _ => 0,
+        };
+        Self {
+            net: net.clone(),
+            target,
+            boots_seen: AtomicU64::new(boots),
+        }
+    }
+
+    /// NMT commands to all nodes (node-ID 0).
+    pub fn all(net: &Network) -> Self {
+        Self::new(net, NmtTarget::All)
+    }
+
+    fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
+        let mut core = self.net.core();
+        if let NmtTarget::Node(id) = self.target {
+            self.boots_seen.store(core.boot_count(id), Ordering::SeqCst);
+        }
+        core.nmt(cmd, self.target);
+        drop(core);
+        self.net.flush()
+    }
+
+    fn node(&self) -> Result<NodeId, Error> {
+        match self.target {
+            NmtTarget::Node(id) => Ok(id),
+            _ => Err(Error::InvalidRequest(
+                "node states are per node: use node.nmt(), not Nmt::all".into(),
+            )),
+        }
+    }
+
+    /// The node's last reported NMT state (`None` before anything was heard from it; `BootUp`
+    /// between its boot-up message and its first heartbeat). `None` for [`Nmt::all`].
+    pub fn state(&self) -> Option<NmtState> {
+        match self.target {
+            NmtTarget::Node(id) => self.net.last_state(id),
+            _ => None,
+        }
+    }
+
+    /// Waits (driving the network) for a boot-up of the node received since this handle was
+    /// made or sent its last command. Times out after `timeout` on the network's clock.
+    pub fn wait_for_bootup(&self, timeout: impl Into<Duration>) -> Result<(), Error> {
+        let timeout: Duration = timeout.into();
+        let node = self.node()?;
+        let seen = self.boots_seen.load(Ordering::SeqCst);
+        let deadline = self.net.now() + timeout;
+        let r = self.net.wait_for(|c| {
+            let boots = c.boot_count(node);
+            if boots > seen {
+                Some(Ok(boots))
+            } else if c.now() >= deadline {
+                Some(Err(Error::Timeout(format!(
+                    "no boot-up from node {node} within {timeout}"
+                ))))
+            } else {
+                None
+            }
+        })??;
+        self.boots_seen.store(r, Ordering::SeqCst);
+        Ok(())
+    }
+
+    /// Waits (driving the network) until the node reports `state`; returns at once if it is in
+    /// it already. Times out after `timeout` on the network's clock.
+    pub fn wait_for_state(
+        &self,
+        state: NmtState,
+        timeout: impl Into<Duration>,
+    ) -> Result<(), Error> {
+        let timeout: Duration = timeout.into();
+        let node = self.node()?;
+        let deadline = self.net.now() + timeout;
+        self.net.wait_for(|c| {
+            if c.last_state(node) == Some(state) {
+                Some(Ok(()))
+            } else if c.now() >= deadline {
+                Some(Err(Error::Timeout(format!(
+                    "node {node} not {state} within {timeout}"
+                ))))
+            } else {
+                None
+            }
+        })?
+    }
+
+    /// Start remote node (to Operational).
+    pub fn start(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::Start)
+    }
+    /// Stop remote node (to Stopped).
+    pub fn stop(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::Stop)
+    }
+    /// Enter Pre-Operational.
+    pub fn enter_preoperational(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::EnterPreOperational)
+    }
+    /// Reset node (application reset).
+    pub fn reset_node(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::ResetNode)
+    }
+    /// Reset communication.
+    pub fn reset_communication(&self) -> Result<(), Error> {
+        self.send(CommandSpecifier::ResetCommunication)
+    }
+}

@@ -1,0 +1,401 @@
+//! [`Sdo`], a node's SDO client as a builder (CiA 301 §7.2.4), the [`Pending`] request it
+//! submits, typed by what it produces, and [`SdoValue`], what can be written.
+
+use std::io::{Read, Write};
+
+use canola_frame::{Duration, NodeId};
+use canola_od::{DataType, Value};
+use canola_sdo::{Method, SdoCobIds};
+
+use crate::core::{
+    Completion, DownSource, Op, ProgressFn, RequestId, SdoRequest, TransferProgress, UpSink,
+};
+use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::network::*;
+use canola_od::ObjectAddress;
+
+/// A request in flight, typed by what it produces: `Pending<Vec<u8>>` for an upload into
+/// memory, `Pending<()>` for a download, `Pending<u64>` (bytes) for a streamed upload. Waiting
+/// drives the network; dropping it cancels the request (a running transfer is aborted on the bus
+/// with 0x08000000).
+#[must_use = "dropping a pending request cancels it"]
+pub struct Pending<T = Vec<u8>> {
+    pub(crate) net: Network,
+    pub(crate) id: Option<RequestId>,
+    pub(crate) node: NodeId,
+    pub(crate) entry: ObjectAddress,
+    /// What this kind of request takes from its completion.
+    pub(crate) output: fn(Completion) -> T,
+}
+
+impl<T> core::fmt::Debug for Pending<T> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Pending")
+            .field("node", &self.node)
+            .field("entry", &self.entry)
+            .field("running", &self.id.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<T> Pending<T> {
+    /// Blocks until the request finishes.
+    pub fn wait(mut self) -> Result<T, SdoError> {
+        let output = self.output;
+        match self.id.take() {
+            Some(id) => self.net.wait(id, self.node, self.entry).map(output),
+            None => Err(self.cancelled()),
+        }
+    }
+
+    /// The node the request is for.
+    pub fn node(&self) -> NodeId {
+        self.node
+    }
+
+    /// The object the request is for.
+    pub fn entry(&self) -> ObjectAddress {
+        self.entry
+    }
+
+    /// Whether the request has finished (its result is ready for [`wait`](Self::wait)).
+    pub fn is_done(&self) -> bool {
+        self.id.is_none_or(|id| self.net.core().is_done(id))
+    }
+
+    /// Cancels the request (same as dropping it).
+    pub fn cancel(mut self) {
+        if let Some(id) = self.id.take() {
+            self.net.cancel(id);
+        }
+    }
+
+    /// The error of a request that no longer runs.
+    pub(crate) fn cancelled(&self) -> SdoError {
+        SdoError {
+            node: self.node,
+            entry: self.entry,
+            name: None,
+            kind: SdoErrorKind::Cancelled,
+        }
+    }
+}
+
+impl<T> Drop for Pending<T> {
+    fn drop(&mut self) {
+        if let Some(id) = self.id.take() {
+            self.net.cancel(id);
+        }
+    }
+}
+
+/// A value that can be written by SDO (little-endian bytes, CiA 301 §7.1).
+pub trait SdoValue {
+    /// The bytes to download.
+    fn to_sdo_bytes(&self) -> Vec<u8>;
+}
+
+macro_rules! le_value {
+    ($($t:ty),*) => {$(
+        impl SdoValue for $t {
+            fn to_sdo_bytes(&self) -> Vec<u8> {
+                self.to_le_bytes().to_vec()
+            }
+        }
+    )*};
+}
+le_value!(u8, u16, u32, u64, i8, i16, i32, i64, f32, f64);
+
+impl SdoValue for [u8] {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.to_vec()
+    }
+}
+impl<const N: usize> SdoValue for [u8; N] {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.to_vec()
+    }
+}
+impl SdoValue for Vec<u8> {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.clone()
+    }
+}
+impl SdoValue for str {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.as_bytes().to_vec()
+    }
+}
+impl SdoValue for Value {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        self.to_le_bytes()
+    }
+}
+impl<T: SdoValue + ?Sized> SdoValue for &T {
+    fn to_sdo_bytes(&self) -> Vec<u8> {
+        (**self).to_sdo_bytes()
+    }
+}
+
+/// A node's SDO client (CiA 301 §7.2.4) as a builder: settings, then one operation.
+pub struct Sdo {
+    pub(crate) net: Network,
+    pub(crate) node: NodeId,
+    pub(crate) channel: SdoCobIds,
+    pub(crate) method: Method,
+    pub(crate) timeout: Duration,
+    pub(crate) progress: Option<ProgressFn>,
+}
+
+impl core::fmt::Debug for Sdo {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Sdo")
+            .field("node", &self.node)
+            .field("channel", &self.channel)
+            .field("method", &self.method)
+            .field("timeout", &self.timeout)
+            .finish_non_exhaustive()
+    }
+}
+
+/// An upload into memory, with room for an expedited value: the common read allocates once.
+fn upload_to_memory() -> Op {
+    Op::Upload(UpSink::Mem(Vec::with_capacity(4)))
+}
+
+/// A download of `value`'s bytes.
+fn download(value: impl SdoValue) -> Op {
+    Op::Download(DownSource(value.to_sdo_bytes()))
+}
+
+impl Sdo {
+    /// The node this client talks to.
+    pub fn node_id(&self) -> NodeId {
+        self.node
+    }
+
+    /// The network.
+    pub fn network(&self) -> &Network {
+        &self.net
+    }
+
+    /// Talks to the node's SDO server on another channel than its default one (0x600/0x580 +
+    /// node-ID): a further server channel (0x1201..=0x127F) or a changed 0x1200. Requests on
+    /// one channel run one at a time; different channels run in parallel.
+    pub fn channel(mut self, ids: SdoCobIds) -> Self {
+        self.channel = ids;
+        self
+    }
+
+    /// Uses block transfer (CiA 301 §7.2.4.3.9) when `on`.
+    pub fn block(mut self, on: bool) -> Self {
+        self.method = if on { Method::Block } else { Method::Normal };
+        self
+    }
+
+    /// Chooses the transfer method.
+    pub fn method(mut self, method: Method) -> Self {
+        self.method = method;
+        self
+    }
+
+    /// Sets the response timeout (per server response).
+    pub fn timeout(mut self, timeout: impl Into<Duration>) -> Self {
+        let timeout: Duration = timeout.into();
+        self.timeout = timeout;
+        self
+    }
+
+    /// Calls `f` as the transfer progresses.
+    pub fn on_progress(mut self, f: impl FnMut(TransferProgress) + Send + 'static) -> Self {
+        self.progress = Some(Box::new(f));
+        self
+    }
+
+    pub(crate) fn request<T>(
+        self,
+        entry: ObjectAddress,
+        op: Op,
+        output: fn(Completion) -> T,
+    ) -> Pending<T> {
+        let node = self.node;
+        let (net, req) = self.into_request(entry, op);
+        let id = net.submit(req);
+        Pending {
+            net,
+            id: Some(id),
+            node,
+            entry,
+            output,
+        }
+    }
+
+    /// The request for `op` on `entry` with this builder's settings, and the network.
+    fn into_request(self, entry: ObjectAddress, op: Op) -> (Network, SdoRequest) {
+        let req = SdoRequest {
+            node: self.node,
+            channel: self.channel,
+            entry,
+            op,
+            method: self.method,
+            timeout: self.timeout,
+            progress: self.progress,
+        };
+        (self.net, req)
+    }
+
+    /// Runs a request to its end on this thread (see [`Network::run`]): what
+    /// [`request`](Self::request) then [`Pending::wait`] do, for the blocking calls.
+    fn run<T>(
+        self,
+        entry: ObjectAddress,
+        op: Op,
+        output: fn(Completion) -> T,
+    ) -> Result<T, SdoError> {
+        let (net, req) = self.into_request(entry, op);
+        net.run(req).map(output)
+    }
+
+    /// Starts an upload into memory without waiting.
+    pub fn submit_read(self, entry: impl Into<ObjectAddress>) -> Pending<Vec<u8>> {
+        self.request(entry.into(), upload_to_memory(), |c| c.data)
+    }
+
+    /// Starts a download without waiting.
+    pub fn submit_write(
+        self,
+        entry: impl Into<ObjectAddress>,
+        value: impl SdoValue,
+    ) -> Pending<()> {
+        self.request(entry.into(), download(value), |_| ())
+    }
+
+    /// Reads an object's bytes (SDO upload).
+    pub fn read(self, entry: impl Into<ObjectAddress>) -> Result<Vec<u8>, Error> {
+        Ok(self.run(entry.into(), upload_to_memory(), |c| c.data)?)
+    }
+
+    /// Reads an object and decodes it with the type from the node's dictionary.
+    pub fn read_value(self, entry: impl Into<ObjectAddress>) -> Result<Value, Error> {
+        let entry = entry.into();
+        let node = self.node;
+        let data_type = self
+            .net
+            .core()
+            .dictionary(node)
+            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type));
+        match data_type {
+            Some(t) => self.read_as(entry, t),
+            None => Err(Error::Value {
+                node,
+                entry,
+                message: "the node's dictionary does not describe this object".into(),
+            }),
+        }
+    }
+
+    /// Reads an object and decodes it as `data_type` (whatever the dictionary says).
+    pub fn read_as(
+        self,
+        entry: impl Into<ObjectAddress>,
+        data_type: DataType,
+    ) -> Result<Value, Error> {
+        let entry = entry.into();
+        let node = self.node;
+        let bytes = self.read(entry)?;
+        Value::from_le_bytes(data_type, &bytes).map_err(|e| Error::Value {
+            node,
+            entry,
+            message: e.to_string(),
+        })
+    }
+
+    /// Reads a typed entry (from generated code: `canola_od::Entry<T>`) and decodes it.
+    pub fn read_entry<T: canola_od::EntryValue>(
+        self,
+        entry: &canola_od::Entry<T>,
+    ) -> Result<T, Error> {
+        let at = ObjectAddress::new(entry.index(), entry.sub_index());
+        let node = self.node;
+        decode_entry(node, entry, &self.read(at)?)
+    }
+
+    /// Writes a typed entry (from generated code: `canola_od::Entry<T>`).
+    pub fn write_entry<T: canola_od::EntryValue>(
+        self,
+        entry: &canola_od::Entry<T>,
+        value: &T,
+    ) -> Result<(), Error> {
+        let (at, bytes) = encode_entry(self.node, entry, value)?;
+        self.write(at, bytes)
+    }
+
+    /// Writes an object (SDO download).
+    pub fn write(self, entry: impl Into<ObjectAddress>, value: impl SdoValue) -> Result<(), Error> {
+        Ok(self.run(entry.into(), download(value), |_| ())?)
+    }
+
+    /// Uploads an object into `writer`, streaming as segments arrive, and flushes it at the
+    /// end. Returns the byte count; a write or the final flush failing is an error
+    /// ([`SdoErrorKind::Io`]), so no data is lost silently.
+    pub fn upload_to(
+        self,
+        entry: impl Into<ObjectAddress>,
+        writer: impl Write + Send + 'static,
+    ) -> Result<u64, Error> {
+        let sink = UpSink::Stream {
+            w: Box::new(writer),
+            written: 0,
+            error: None,
+        };
+        Ok(self
+            .request(entry.into(), Op::Upload(sink), |c| c.transferred)
+            .wait()?)
+    }
+
+    /// Downloads the whole content of `reader` into an object. Returns the byte count.
+    pub fn download_from(
+        self,
+        entry: impl Into<ObjectAddress>,
+        mut reader: impl Read,
+    ) -> Result<u64, Error> {
+        let mut data = Vec::new();
+        reader.read_to_end(&mut data)?;
+        Ok(self
+            .request(entry.into(), Op::Download(DownSource(data)), |c| {
+                c.transferred
+            })
+            .wait()?)
+    }
+}
+
+/// A typed entry's bytes decoded, the error naming node and object (blocking and async reads).
+pub(crate) fn decode_entry<T: canola_od::EntryValue>(
+    node: NodeId,
+    entry: &canola_od::Entry<T>,
+    bytes: &[u8],
+) -> Result<T, Error> {
+    entry.decode(bytes).map_err(|e| Error::Value {
+        node,
+        entry: ObjectAddress::new(entry.index(), entry.sub_index()),
+        message: e.to_string(),
+    })
+}
+
+/// A typed entry's address and encoded value (blocking and async writes).
+pub(crate) fn encode_entry<T: canola_od::EntryValue>(
+    node: NodeId,
+    entry: &canola_od::Entry<T>,
+    value: &T,
+) -> Result<(ObjectAddress, Vec<u8>), Error> {
+    let at = ObjectAddress::new(entry.index(), entry.sub_index());
+    // Large enough for every fixed-size type; strings and domains are written as bytes.
+    let mut buf = vec![0u8; 4096];
+    let n = entry.encode(value, &mut buf).map_err(|e| Error::Value {
+        node,
+        entry: at,
+        message: e.to_string(),
+    })?;
+    buf.truncate(n);
+    Ok((at, buf))
+}

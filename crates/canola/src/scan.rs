@@ -1,0 +1,84 @@
+//! Finding the nodes on a bus: an SDO upload of the identity object (0x1018, CiA 301 §7.5.2.13)
+//! from every node-ID at once; the nodes that answer are there.
+//!
+//! All 127 first reads are submitted together (different nodes run in parallel), so a scan
+//! takes about one response timeout, not 127 of them.
+
+use canola_frame::{Duration, NodeId};
+
+use crate::network::Network;
+
+/// The identity object (0x1018) of a node: sub-index 1 (vendor-ID) is mandatory, the others
+/// are `None` when the node does not implement them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Identity {
+    /// 0x1018:01.
+    pub vendor_id: u32,
+    /// 0x1018:02.
+    pub product_code: Option<u32>,
+    /// 0x1018:03.
+    pub revision: Option<u32>,
+    /// 0x1018:04.
+    pub serial: Option<u32>,
+}
+
+/// A node that answered a scan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ScannedNode {
+    /// Its node-ID.
+    pub node: NodeId,
+    /// Its identity object.
+    pub identity: Identity,
+}
+
+fn u32_of(bytes: &[u8]) -> Option<u32> {
+    bytes
+        .get(..4)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+}
+
+impl Network {
+    /// The nodes that answer an SDO read of 0x1018:01 within `timeout`, in node-ID order, with
+    /// their identity (sub-indices 2..=4 read from each node found).
+    pub fn scan(&self, timeout: impl Into<Duration>) -> Vec<ScannedNode> {
+        let timeout: Duration = timeout.into();
+        let pending: Vec<_> = NodeId::all()
+            .map(|n| {
+                (
+                    n,
+                    self.node(n).sdo().timeout(timeout).submit_read((0x1018, 1)),
+                )
+            })
+            .collect();
+        let found: Vec<_> = pending
+            .into_iter()
+            .filter_map(|(n, p)| Some((n, p.wait().ok().as_deref().and_then(u32_of)?)))
+            .collect();
+        found
+            .into_iter()
+            .map(|(node, vendor_id)| {
+                let rest: Vec<_> = (2..=4u8)
+                    .map(|s| {
+                        self.node(node)
+                            .sdo()
+                            .timeout(timeout)
+                            .submit_read((0x1018, s))
+                    })
+                    .collect();
+                let mut rest = rest
+                    .into_iter()
+                    .map(|p| p.wait().ok().as_deref().and_then(u32_of));
+                let mut next = || rest.next().flatten();
+                ScannedNode {
+                    node,
+                    identity: Identity {
+                        vendor_id,
+                        product_code: next(),
+                        revision: next(),
+                        serial: next(),
+                    },
+                }
+            })
+            .collect()
+    }
+}

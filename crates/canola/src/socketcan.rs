@@ -1,0 +1,522 @@
+//! SocketCAN transport (Linux, `socketcan` feature).
+//!
+//! Opens a raw CAN socket with the `socketcan` crate, accepts all CAN error frames, and asks the
+//! kernel for the receive-queue drop counter (`SO_RXQ_OVFL`). Frames are read with `recvmsg` so
+//! that counter arrives with each frame; when it grows, a [`BusEvent::RxOverflow`] is reported
+//! before the frame. Error frames become [`BusEvent`]s: bus-off, error-passive, restarted, and
+//! every error frame itself. `ENETDOWN` becomes [`BusEvent::InterfaceDown`], the next successful
+//! send [`BusEvent::InterfaceUp`], or the next frame received once the interface's flags say it
+//! is up (frames queued before the link went down are still read while it is down).
+//!
+//! Receive buffer: [`SocketCan::open`] asks for [`DEFAULT_RECEIVE_BUFFER`] bytes
+//! (`SO_RCVBUFFORCE`, which needs `CAP_NET_ADMIN`, else `SO_RCVBUF`, which the kernel caps at
+//! `net.core.rmem_max`); [`SocketCan::set_receive_buffer`] sets another size and says what the
+//! kernel granted. [`SocketCan::stats`] gives a handle to the frame and drop counters that stays
+//! readable after the transport moved into a [`Network`](crate::Network).
+//!
+//! Waiting: [`Transport::recv_until`] blocks in `recvmsg` with the socket's receive timeout
+//! (`SO_RCVTIMEO`). That is the cheapest wait the kernel offers (measured in the QEMU guest of
+//! `tests/vcan`: a request/response round trip took about 30 µs longer with `ppoll`, whose
+//! high-resolution timer is costlier than the timer-wheel timeout of a blocking read). The kernel
+//! rounds that timeout up to its timer tick (1 to 10 ms depending on `CONFIG_HZ`), so a wait
+//! may end up to a tick after its deadline, never before it. A timeout already set is reused
+//! while it lies between half and 17/16 of the wait needed, which saves a `setsockopt` per call
+//! when the deadlines keep the same distance (the master's drive slice, the simulator's loop).
+//! A deadline that has passed is a non-blocking read (`MSG_DONTWAIT`).
+//!
+//! CAN FD: [`SocketCan::open_fd`] also asks for CAN FD frames (`CAN_RAW_FD_FRAMES`, what
+//! `socketcan::CanFdSocket` sets). The master's protocols run on classic frames, so an FD frame
+//! is reported as [`BusEvent::FdFrame`] (for `canopen record` and `monitor`), not as a frame.
+
+use std::collections::VecDeque;
+use std::io::IoSliceMut;
+use std::os::fd::AsRawFd;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use canola_frame::time::MonotonicClock;
+use canola_frame::{CanFrame, CanId, Instant};
+use nix::sys::socket::{ControlMessageOwned, MsgFlags, getsockopt, recvmsg, setsockopt, sockopt};
+use socketcan::{EmbeddedFrame, Socket, SocketOptions};
+
+use crate::candump::{FD_LENGTHS, FdFrame};
+use crate::transport::{BusEvent, Received, Transport, TransportError};
+
+const CAN_EFF_FLAG: u32 = 0x8000_0000;
+const CAN_RTR_FLAG: u32 = 0x4000_0000;
+const CAN_ERR_FLAG: u32 = 0x2000_0000;
+const CAN_ERR_CRTL: u32 = 0x0000_0004;
+const CAN_ERR_BUSOFF: u32 = 0x0000_0040;
+const CAN_ERR_RESTARTED: u32 = 0x0000_0100;
+const CAN_ERR_CRTL_RX_PASSIVE: u8 = 0x10;
+const CAN_ERR_CRTL_TX_PASSIVE: u8 = 0x20;
+/// The size of a `struct canfd_frame`, what a read returns for a CAN FD frame.
+const CANFD_MTU: usize = 72;
+
+/// The receive buffer [`SocketCan::open`] asks for, in bytes (the `SO_RCVBUF` value; the kernel
+/// doubles it for its bookkeeping and reports the doubled value).
+///
+/// Sized for a stall of the reading thread of 100 ms at the densest traffic a 1 Mbit/s classic
+/// CAN bus carries (0-byte frames of 47 bits: 21,300 frames/s, so 2,130 frames). The kernel
+/// charges each queued classic frame with its buffer's true size: measured in the `tests/vcan`
+/// guest (Linux 6.1, x86-64), the usual default of 212,992 bytes held 278 frames, 766 bytes
+/// each, which is 13 ms of that traffic or 31 ms of 8-byte frames (9,000 frames/s). 1 MiB
+/// (2 MiB of accounting room) held 2,731 frames: 128 ms of 0-byte frames, 300 ms of 8-byte
+/// ones. Without `CAP_NET_ADMIN` the kernel grants at most `net.core.rmem_max`.
+pub const DEFAULT_RECEIVE_BUFFER: usize = 1 << 20;
+
+/// Counters of one [`SocketCan`] transport, shared: a clone taken before the transport moves
+/// into a [`Network`](crate::Network) keeps counting. Frames the kernel drops before any socket
+/// sees them (its input backlog, counted in the interface's `rx_dropped` statistic) are not
+/// in these counts.
+#[derive(Debug, Clone, Default)]
+pub struct SocketCanStats {
+    inner: Arc<StatsInner>,
+}
+
+#[derive(Debug, Default)]
+struct StatsInner {
+    frames: AtomicU64,
+    dropped: AtomicU64,
+}
+
+impl SocketCanStats {
+    /// Frames received (data and remote frames, not error frames).
+    pub fn frames_received(&self) -> u64 {
+        self.inner.frames.load(Ordering::Relaxed)
+    }
+
+    /// Frames the kernel dropped because the socket's receive queue was full, as far as
+    /// reported so far (`SO_RXQ_OVFL` arrives with the next frame received after the drops;
+    /// each report is also a [`BusEvent::RxOverflow`]).
+    pub fn rx_dropped(&self) -> u64 {
+        self.inner.dropped.load(Ordering::Relaxed)
+    }
+}
+
+/// A CAN interface opened through SocketCAN.
+pub struct SocketCan {
+    socket: socketcan::CanSocket,
+    iface: String,
+    stats: SocketCanStats,
+    clock: MonotonicClock,
+    last_drops: u32,
+    down: bool,
+    events: VecDeque<Received>,
+    /// The receive timeout set on the socket (`None`: the kernel's default, none).
+    read_timeout: Option<std::time::Duration>,
+}
+
+impl core::fmt::Debug for SocketCan {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("SocketCan")
+            .field("fd", &self.socket.as_raw_fd())
+            .finish_non_exhaustive()
+    }
+}
+
+/// What a raw `struct can_frame` decodes to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum RawFrame {
+    Frame(CanFrame),
+    Error { class: u32, data: [u8; 8] },
+}
+
+/// Decodes the 16 bytes of a Linux `struct can_frame` (identifier in host byte order).
+/// Total: bad lengths or identifiers give `None`.
+pub(crate) fn decode_raw(buf: &[u8]) -> Option<RawFrame> {
+    let id_bytes: [u8; 4] = buf.get(0..4)?.try_into().ok()?;
+    let raw_id = u32::from_ne_bytes(id_bytes);
+    let len = usize::from(*buf.get(4)?);
+    let mut data = [0u8; 8];
+    data.copy_from_slice(buf.get(8..16)?);
+    if raw_id & CAN_ERR_FLAG != 0 {
+        return Some(RawFrame::Error {
+            class: raw_id & 0x1FFF_FFFF,
+            data,
+        });
+    }
+    let id = if raw_id & CAN_EFF_FLAG != 0 {
+        CanId::extended(raw_id & 0x1FFF_FFFF).ok()?
+    } else {
+        CanId::standard((raw_id & 0x7FF) as u16).ok()?
+    };
+    let frame = if raw_id & CAN_RTR_FLAG != 0 {
+        CanFrame::remote(id, len).ok()?
+    } else {
+        CanFrame::new(id, data.get(..len)?).ok()?
+    };
+    Some(RawFrame::Frame(frame))
+}
+
+/// Decodes the 72 bytes of a Linux `struct canfd_frame`: identifier, length, the flags digit
+/// candump prints (low four bits of `flags`: BRS, ESI, FDF) and the data, padded with zeros to
+/// the next CAN FD length as the wire carries it. Total: bad lengths or identifiers give `None`.
+pub(crate) fn decode_raw_fd(buf: &[u8]) -> Option<FdFrame> {
+    let id_bytes: [u8; 4] = buf.get(0..4)?.try_into().ok()?;
+    let raw_id = u32::from_ne_bytes(id_bytes);
+    if raw_id & (CAN_ERR_FLAG | CAN_RTR_FLAG) != 0 {
+        return None;
+    }
+    let len = usize::from(*buf.get(4)?);
+    let flags = *buf.get(5)? & 0x0F;
+    let id = if raw_id & CAN_EFF_FLAG != 0 {
+        CanId::extended(raw_id & 0x1FFF_FFFF).ok()?
+    } else {
+        CanId::standard((raw_id & 0x7FF) as u16).ok()?
+    };
+    let padded = *FD_LENGTHS.iter().find(|&&l| l >= len)?;
+    let mut data = [0u8; 64];
+    data[..len].copy_from_slice(buf.get(8..8 + len)?);
+    FdFrame::new(id, flags, &data[..padded])
+}
+
+/// The events an error frame stands for: the frame itself, then state changes it signals.
+pub(crate) fn error_events(class: u32, data: [u8; 8]) -> Vec<BusEvent> {
+    let mut out = vec![BusEvent::ErrorFrame { class, data }];
+    if class & CAN_ERR_CRTL != 0
+        && data[1] & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE) != 0
+    {
+        out.push(BusEvent::ErrorPassive);
+    }
+    if class & CAN_ERR_BUSOFF != 0 {
+        out.push(BusEvent::BusOff);
+    }
+    if class & CAN_ERR_RESTARTED != 0 {
+        out.push(BusEvent::Restarted);
+    }
+    out
+}
+
+/// Whether a receive timeout `set` on the socket serves a wait of `wanted`: it ends the wait
+/// at most `wanted / 16` late (less than the kernel's own rounding to its tick), and early
+/// at most by half (the caller then waits again for the rest).
+pub(crate) fn reuse_timeout(set: std::time::Duration, wanted: std::time::Duration) -> bool {
+    set <= wanted + wanted / 16 && set >= wanted / 2
+}
+
+/// Whether `iface` is up (`IFF_UP` in `/sys/class/net/IFACE/flags`); true when that file
+/// cannot be read.
+fn link_is_up(iface: &str) -> bool {
+    std::fs::read_to_string(format!("/sys/class/net/{iface}/flags"))
+        .ok()
+        .and_then(|s| u32::from_str_radix(s.trim().trim_start_matches("0x"), 16).ok())
+        .is_none_or(|flags| flags & 1 != 0)
+}
+
+fn is_down(e: &std::io::Error) -> bool {
+    matches!(e.raw_os_error(), Some(libc_enetdown) if libc_enetdown == nix::errno::Errno::ENETDOWN as i32)
+}
+
+impl SocketCan {
+    /// Opens `iface` (e.g. `can0`, `vcan0`) with a receive buffer of
+    /// [`DEFAULT_RECEIVE_BUFFER`] bytes, or what the kernel grants of it.
+    pub fn open(iface: &str) -> Result<Self, TransportError> {
+        let mut t = Self::open_default_buffer(iface)?;
+        // A kernel that refuses the size keeps its default; the transport works with it.
+        let _ = t.set_receive_buffer(DEFAULT_RECEIVE_BUFFER);
+        Ok(t)
+    }
+
+    /// Opens `iface` and leaves the socket's receive buffer at the kernel's default
+    /// (`net.core.rmem_default`).
+    pub fn open_default_buffer(iface: &str) -> Result<Self, TransportError> {
+        let socket = socketcan::CanSocket::open(iface)?;
+        socket.set_error_filter_accept_all()?;
+        // Ask for the drop counter with every received frame; not every kernel offers it, and
+        // the transport still works without it.
+        let _ = setsockopt(socket.as_raw_socket(), sockopt::RxqOvfl, &1);
+        Ok(Self {
+            socket,
+            iface: iface.to_owned(),
+            stats: SocketCanStats::default(),
+            clock: MonotonicClock::new(),
+            last_drops: 0,
+            down: false,
+            events: VecDeque::new(),
+            read_timeout: None,
+        })
+    }
+
+    /// Opens `iface` as [`open`](Self::open) does and also receives CAN FD frames, as
+    /// [`BusEvent::FdFrame`]s (when the interface carries them: an MTU of 72). Sending stays
+    /// classic.
+    pub fn open_fd(iface: &str) -> Result<Self, TransportError> {
+        let t = Self::open(iface)?;
+        t.socket
+            .set_socket_option_int(nix::libc::SOL_CAN_RAW, nix::libc::CAN_RAW_FD_FRAMES, 1)?;
+        Ok(t)
+    }
+
+    /// Asks for a receive buffer of `bytes` (the `SO_RCVBUF` value) and returns what the kernel
+    /// then reports (`getsockopt(SO_RCVBUF)`: twice the value granted). `SO_RCVBUFFORCE` is
+    /// tried first: it needs `CAP_NET_ADMIN` and ignores `net.core.rmem_max`; without the
+    /// capability `SO_RCVBUF` is used, which the kernel caps at `rmem_max`.
+    pub fn set_receive_buffer(&mut self, bytes: usize) -> Result<usize, TransportError> {
+        let fd = self.socket.as_raw_socket();
+        if setsockopt(fd, sockopt::RcvBufForce, &bytes).is_err() {
+            setsockopt(fd, sockopt::RcvBuf, &bytes).map_err(std::io::Error::from)?;
+        }
+        self.receive_buffer()
+    }
+
+    /// The receive buffer as the kernel reports it (`getsockopt(SO_RCVBUF)`), in bytes.
+    pub fn receive_buffer(&self) -> Result<usize, TransportError> {
+        Ok(getsockopt(self.socket.as_raw_socket(), sockopt::RcvBuf)
+            .map_err(std::io::Error::from)?)
+    }
+
+    /// A handle to this transport's counters (frames received, frames the kernel dropped).
+    pub fn stats(&self) -> SocketCanStats {
+        self.stats.clone()
+    }
+
+    fn came_up(&mut self) {
+        if self.down {
+            self.down = false;
+            self.events
+                .push_back(Received::Event(BusEvent::InterfaceUp));
+        }
+    }
+
+    fn went_down(&mut self) {
+        if !self.down {
+            self.down = true;
+            self.events
+                .push_back(Received::Event(BusEvent::InterfaceDown));
+        }
+    }
+
+    /// Sets the receive timeout for a blocking read that should return after `wait`, unless
+    /// the one already set serves (see the module docs).
+    fn set_wait(&mut self, wait: std::time::Duration) -> Result<(), TransportError> {
+        // A zero timeout would mean "block forever" to the kernel.
+        let wait = wait.max(std::time::Duration::from_micros(100));
+        if let Some(set) = self.read_timeout
+            && reuse_timeout(set, wait)
+        {
+            return Ok(());
+        }
+        self.socket.set_read_timeout(wait)?;
+        self.read_timeout = Some(wait);
+        Ok(())
+    }
+
+    /// One `recvmsg`: blocking with the socket's read timeout, or not blocking with
+    /// `MSG_DONTWAIT`. `Ok(false)`: nothing arrived.
+    fn read_one(&mut self, flags: MsgFlags) -> Result<bool, TransportError> {
+        let mut buf = [0u8; CANFD_MTU];
+        let mut cmsg = nix::cmsg_space!(u32);
+        let (n, drops) = {
+            let mut iov = [IoSliceMut::new(&mut buf)];
+            let msg = match recvmsg::<()>(self.socket.as_raw_fd(), &mut iov, Some(&mut cmsg), flags)
+            {
+                Ok(m) => m,
+                Err(nix::errno::Errno::EAGAIN | nix::errno::Errno::EINTR) => return Ok(false),
+                Err(nix::errno::Errno::ENETDOWN) => {
+                    self.went_down();
+                    return Ok(true);
+                }
+                Err(e) => return Err(std::io::Error::from(e).into()),
+            };
+            let mut drops = None;
+            if let Ok(cmsgs) = msg.cmsgs() {
+                for c in cmsgs {
+                    if let ControlMessageOwned::RxqOvfl(d) = c {
+                        drops = Some(d);
+                    }
+                }
+            }
+            (msg.bytes, drops)
+        };
+        if self.down && link_is_up(&self.iface) {
+            self.came_up();
+        }
+        if let Some(d) = drops
+            && d != self.last_drops
+        {
+            let dropped = u64::from(d.wrapping_sub(self.last_drops));
+            self.last_drops = d;
+            self.stats
+                .inner
+                .dropped
+                .fetch_add(dropped, Ordering::Relaxed);
+            self.events
+                .push_back(Received::Event(BusEvent::RxOverflow { dropped }));
+        }
+        let at = self.clock.now();
+        if n == CANFD_MTU {
+            if let Some(frame) = decode_raw_fd(&buf) {
+                let frame = Box::new(frame);
+                self.events
+                    .push_back(Received::Event(BusEvent::FdFrame { frame, at }));
+            }
+            return Ok(true);
+        }
+        match buf.get(..n).and_then(decode_raw) {
+            Some(RawFrame::Frame(frame)) => {
+                self.stats.inner.frames.fetch_add(1, Ordering::Relaxed);
+                self.events.push_back(Received::Frame { frame, at });
+            }
+            Some(RawFrame::Error { class, data }) => {
+                for e in error_events(class, data) {
+                    self.events.push_back(Received::Event(e));
+                }
+            }
+            None => {}
+        }
+        Ok(true)
+    }
+}
+
+impl Transport for SocketCan {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
+        let id: socketcan::Id = frame.id().into();
+        let out = if frame.is_remote() {
+            socketcan::CanFrame::new_remote(id, frame.dlc())
+        } else {
+            socketcan::CanFrame::new(id, frame.data())
+        };
+        let Some(out) = out else {
+            return Err(TransportError::Io(std::io::Error::other(
+                "frame not representable",
+            )));
+        };
+        match self.socket.write_frame(&out) {
+            Ok(()) => {
+                self.came_up();
+                Ok(())
+            }
+            Err(e) if is_down(&e) => {
+                self.went_down();
+                Err(TransportError::InterfaceDown)
+            }
+            Err(e) if e.raw_os_error() == Some(nix::errno::Errno::ENOBUFS as i32) => {
+                Err(TransportError::TxQueueFull)
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
+        loop {
+            if let Some(r) = self.events.pop_front() {
+                return Ok(Some(r));
+            }
+            let now = self.clock.now();
+            if now >= deadline {
+                // Something already queued?
+                self.read_one(MsgFlags::MSG_DONTWAIT)?;
+                return Ok(self.events.pop_front());
+            }
+            self.set_wait((deadline - now).into())?;
+            self.read_one(MsgFlags::empty())?;
+        }
+    }
+
+    fn now(&self) -> Instant {
+        self.clock.now()
+    }
+
+    fn has_pending(&self) -> bool {
+        !self.events.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn raw(id: u32, len: u8, data: [u8; 8]) -> [u8; 16] {
+        let mut b = [0u8; 16];
+        b[..4].copy_from_slice(&id.to_ne_bytes());
+        b[4] = len;
+        b[8..].copy_from_slice(&data);
+        b
+    }
+
+    #[test]
+    fn decodes_kernel_frames() {
+        let f = decode_raw(&raw(0x605, 4, [0x40, 0x17, 0x10, 0, 0, 0, 0, 0])).unwrap();
+        assert_eq!(
+            f,
+            RawFrame::Frame(
+                CanFrame::new(CanId::standard(0x605).unwrap(), &[0x40, 0x17, 0x10, 0]).unwrap()
+            )
+        );
+        let r = decode_raw(&raw(0x705 | CAN_RTR_FLAG, 1, [0; 8])).unwrap();
+        assert_eq!(
+            r,
+            RawFrame::Frame(CanFrame::remote(CanId::standard(0x705).unwrap(), 1).unwrap())
+        );
+        let e = decode_raw(&raw(0x1234 | CAN_EFF_FLAG, 0, [0; 8])).unwrap();
+        assert!(matches!(e, RawFrame::Frame(f) if f.id().is_extended()));
+        assert_eq!(decode_raw(&raw(0x605, 9, [0; 8])), None);
+        assert_eq!(decode_raw(&[0; 3]), None);
+        let err = decode_raw(&raw(CAN_ERR_FLAG | CAN_ERR_BUSOFF, 8, [0; 8])).unwrap();
+        assert_eq!(
+            err,
+            RawFrame::Error {
+                class: CAN_ERR_BUSOFF,
+                data: [0; 8]
+            }
+        );
+    }
+
+    #[test]
+    fn decodes_kernel_fd_frames() {
+        let mut b = [0u8; CANFD_MTU];
+        b[..4].copy_from_slice(&0x123u32.to_ne_bytes());
+        b[4] = 12;
+        b[5] = 0x05; // BRS | FDF
+        for (i, x) in b[8..20].iter_mut().enumerate() {
+            *x = i as u8;
+        }
+        let f = decode_raw_fd(&b).unwrap();
+        assert_eq!(f.id, CanId::standard(0x123).unwrap());
+        assert_eq!((f.flags, f.data().len(), f.data()[11]), (5, 12, 11));
+        // A length between the FD lengths is padded as the wire carries it.
+        b[4] = 9;
+        assert_eq!(decode_raw_fd(&b).unwrap().data().len(), 12);
+        b[..4].copy_from_slice(&(0x1234_5678 | CAN_EFF_FLAG).to_ne_bytes());
+        assert!(decode_raw_fd(&b).unwrap().id.is_extended());
+        b[4] = 65;
+        assert_eq!(decode_raw_fd(&b), None);
+        b[4] = 8;
+        b[..4].copy_from_slice(&(1 | CAN_ERR_FLAG).to_ne_bytes());
+        assert_eq!(decode_raw_fd(&b), None);
+        assert_eq!(decode_raw_fd(&b[..5]), None);
+    }
+
+    #[test]
+    fn receive_timeouts_are_reused_only_close_to_the_wait() {
+        let ms = std::time::Duration::from_millis;
+        let us = std::time::Duration::from_micros;
+        // The master's drive slice: the next wait is a few microseconds shorter or longer.
+        assert!(reuse_timeout(ms(2), ms(2) - us(7)));
+        assert!(reuse_timeout(ms(2) - us(7), ms(2)));
+        // Never more than 1/16 of the wait late.
+        assert!(reuse_timeout(ms(2) + us(125), ms(2)));
+        assert!(!reuse_timeout(ms(2) + us(126), ms(2)));
+        assert!(!reuse_timeout(ms(50), ms(1)));
+        // Early by at most half of the wait.
+        assert!(reuse_timeout(ms(1), ms(2)));
+        assert!(!reuse_timeout(ms(1), ms(2) + us(1)));
+        assert!(!reuse_timeout(us(100), ms(50)));
+    }
+
+    #[test]
+    fn error_frames_become_state_events() {
+        let ev = error_events(
+            CAN_ERR_CRTL | CAN_ERR_BUSOFF,
+            [0, CAN_ERR_CRTL_TX_PASSIVE, 0, 0, 0, 0, 0, 0],
+        );
+        assert!(ev.contains(&BusEvent::ErrorPassive));
+        assert!(ev.contains(&BusEvent::BusOff));
+        assert!(matches!(ev[0], BusEvent::ErrorFrame { .. }));
+        assert_eq!(
+            error_events(CAN_ERR_RESTARTED, [0; 8])[1],
+            BusEvent::Restarted
+        );
+    }
+}

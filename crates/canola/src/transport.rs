@@ -1,0 +1,337 @@
+//! The transport boundary: one small trait every bus implementation fulfils.
+//!
+//! A transport moves classic CAN frames (ISO 11898-1) and reports the state of the bus as
+//! [`BusEvent`]s in the same receive stream, so nothing that happens on the wire is silent:
+//! error frames, bus-off, the interface going down or up, and frames the receive queue had to
+//! drop. The transport also owns the clock the [`Network`](crate::Network) and the simulator run
+//! on: a real monotonic clock for SocketCAN, a virtual one for the deterministic in-memory bus.
+//!
+//! The shape is blocking with an absolute deadline ([`Transport::recv_until`]). That is what both
+//! the blocking API and the async API need: on a real clock the async API drives the same loop
+//! from a blocking worker thread (tokio's `spawn_blocking`); on a virtual clock
+//! ([`Transport::is_virtual`]) a `recv_until` never blocks, so an async task steps the same
+//! loop up to tokio's time and sleeps on a tokio timer until [`Transport::next_event`].
+
+use canola_frame::{CanFrame, Duration, Instant, is_due};
+
+/// Something that happened on the bus other than a received frame.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum BusEvent {
+    /// The controller reported a CAN error frame. `class` holds the SocketCAN error class bits
+    /// (`CAN_ERR_*` in `linux/can/error.h`), `data` the eight detail bytes.
+    ErrorFrame {
+        /// Error class bits (the error frame's identifier without the error flag).
+        class: u32,
+        /// Detail bytes of the error frame.
+        data: [u8; 8],
+    },
+    /// The controller went error-passive (transmit or receive error counter above 127).
+    ErrorPassive,
+    /// The controller went bus-off (transmit error counter above 255); it sends nothing until
+    /// restarted.
+    BusOff,
+    /// The controller restarted after bus-off.
+    Restarted,
+    /// The network interface went down; sends fail until it is up again.
+    InterfaceDown,
+    /// The network interface came (back) up.
+    InterfaceUp,
+    /// The receive queue overflowed; `dropped` frames were lost since the last report.
+    RxOverflow {
+        /// Frames lost since the previous overflow report.
+        dropped: u64,
+    },
+    /// A CAN FD frame arrived. Only a transport opened for CAN FD reports them (SocketCAN's
+    /// `SocketCan::open_fd`); the master's protocols use classic frames and ignore it.
+    FdFrame {
+        /// The frame.
+        frame: Box<crate::candump::FdFrame>,
+        /// When it was received, on the transport's clock.
+        at: Instant,
+    },
+}
+
+impl core::fmt::Display for BusEvent {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::ErrorFrame { class, data } => {
+                write!(f, "CAN error frame, class {class:#010x}, data {data:02X?}")
+            }
+            Self::ErrorPassive => f.write_str("controller is error-passive"),
+            Self::BusOff => f.write_str("controller is bus-off"),
+            Self::Restarted => f.write_str("controller restarted"),
+            Self::InterfaceDown => f.write_str("interface is down"),
+            Self::InterfaceUp => f.write_str("interface is up"),
+            Self::RxOverflow { dropped } => {
+                write!(f, "receive queue overflow: {dropped} frame(s) dropped")
+            }
+            Self::FdFrame { frame, .. } => write!(
+                f,
+                "CAN FD frame {}",
+                crate::candump::format_frame(&crate::candump::LogFrame::Fd(**frame))
+            ),
+        }
+    }
+}
+
+/// What a receive call returns: a frame with its reception time, or a bus event.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Received {
+    /// A frame from another station, stamped with the transport's clock.
+    Frame {
+        /// The frame.
+        frame: CanFrame,
+        /// When it was received, on the transport's clock.
+        at: Instant,
+    },
+    /// A bus event.
+    Event(BusEvent),
+}
+
+/// Local failures of a transport.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TransportError {
+    /// The interface is down (or the bus was closed).
+    #[error("the CAN interface is down")]
+    InterfaceDown,
+    /// The controller is bus-off and cannot send.
+    #[error("the CAN controller is bus-off")]
+    BusOff,
+    /// The transmit queue is full.
+    #[error("the transmit queue is full")]
+    TxQueueFull,
+    /// The transport is closed for good.
+    #[error("the transport is closed")]
+    Closed,
+    /// An operating-system error.
+    #[error("CAN I/O error: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// A CAN bus attachment: send frames, receive frames and events, tell the time.
+///
+/// Call order: any number of [`send`](Self::send) and [`recv_until`](Self::recv_until) calls
+/// from one thread at a time (the trait takes `&mut self`). `recv_until` returns `Ok(None)` when
+/// the deadline passes without a frame or event; with a virtual clock, waiting is what makes
+/// time advance.
+pub trait Transport: Send {
+    /// Queues one frame for transmission. Does not wait for room: a full queue is
+    /// [`TransportError::TxQueueFull`] (the network sends with its protocol core locked, and
+    /// tries again later).
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError>;
+
+    /// [`send`](Self::send) by a caller that read this transport's clock at `now` a moment
+    /// before: a transport that stamps frames with its clock may take `now` instead of reading
+    /// the clock again (on a real clock a reading costs tens of nanoseconds, a good part of an
+    /// SDO round trip on the in-memory bus). Stamps must still never go back in time.
+    /// Default: [`send`](Self::send).
+    fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
+        let _ = now;
+        self.send(frame)
+    }
+
+    /// Waits until a frame or event arrives or the clock reaches `deadline`.
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError>;
+
+    /// The current time on this transport's clock.
+    fn now(&self) -> Instant;
+
+    /// Waits at most `timeout` for a frame or event.
+    fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<Received>, TransportError> {
+        let deadline = self.now() + timeout;
+        self.recv_until(deadline)
+    }
+
+    /// Returns a frame or event that is already waiting, without blocking.
+    fn try_recv(&mut self) -> Result<Option<Received>, TransportError> {
+        let now = self.now();
+        self.recv_until(now)
+    }
+
+    /// Whether a frame or event is waiting that [`recv_until`](Self::recv_until) returns at
+    /// once, known without asking the operating system (queued inside the transport). A
+    /// driving step takes such frames together, under one lock; `false` (the default) makes
+    /// it take one frame per step, so a quiet socket costs no extra system call.
+    fn has_pending(&self) -> bool {
+        false
+    }
+
+    /// Whether the clock is virtual: it stands still until [`recv_until`](Self::recv_until)
+    /// waits, and then jumps to the next event or the deadline at once (no real time passes).
+    /// The async API ties such a clock to tokio's (see `canola::asynch`). Default: `false`.
+    fn is_virtual(&self) -> bool {
+        false
+    }
+
+    /// On a virtual clock: when the transport next has something to deliver or do by itself
+    /// (a received frame already waiting: now; a frame leaving the wire; a timer of a station
+    /// on the bus). `None` when nothing is pending, and always on a real clock (the default).
+    fn next_event(&self) -> Option<Instant> {
+        None
+    }
+}
+
+impl<T: Transport + ?Sized> Transport for Box<T> {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
+        (**self).send(frame)
+    }
+    fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
+        (**self).send_at(frame, now)
+    }
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
+        (**self).recv_until(deadline)
+    }
+    fn now(&self) -> Instant {
+        (**self).now()
+    }
+    fn is_virtual(&self) -> bool {
+        (**self).is_virtual()
+    }
+    fn has_pending(&self) -> bool {
+        (**self).has_pending()
+    }
+    fn next_event(&self) -> Option<Instant> {
+        (**self).next_event()
+    }
+}
+
+/// A sans-IO station that a driver loop can run on any transport: the simulator's devices
+/// implement it, and the in-memory bus can host such stations directly (see
+/// [`MemoryBus::attach`](crate::mem::MemoryBus::attach)).
+///
+/// Call order per step: [`handle_frame`](Self::handle_frame) for each received frame,
+/// [`handle_timeout`](Self::handle_timeout) when [`poll_timeout`](Self::poll_timeout) has passed,
+/// then drain [`poll_transmit`](Self::poll_transmit) until it returns `None`.
+pub trait Station: Send {
+    /// Feeds one received frame.
+    fn handle_frame(&mut self, now: Instant, frame: &CanFrame);
+    /// Lets timers that are due fire.
+    fn handle_timeout(&mut self, now: Instant);
+    /// The next frame to send, if any.
+    fn poll_transmit(&mut self) -> Option<CanFrame>;
+    /// When [`handle_timeout`](Self::handle_timeout) wants to be called next.
+    fn poll_timeout(&self) -> Option<Instant>;
+    /// Feeds a bus event (default: ignored).
+    fn handle_bus_event(&mut self, _now: Instant, _event: &BusEvent) {}
+}
+
+/// Runs a [`Station`] on a transport until `stop` returns true or the transport fails.
+///
+/// This is the loop behind `canopen simulate` on a real interface: receive until the station's
+/// next deadline, feed, fire timers that are due, send what it produced. `stop` is checked at
+/// least every 50 ms.
+///
+/// The loop keeps the clock reads down to what the transport needs: a received frame's
+/// reception time serves as the current time for the timers checked right after it, and
+/// [`Station::handle_timeout`] is only called when [`Station::poll_timeout`] has passed (as
+/// the call order above asks; the in-memory bus does the same).
+pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
+    transport: &mut T,
+    station: &mut S,
+    mut stop: impl FnMut() -> bool,
+) -> Result<(), TransportError> {
+    // Upper bound on one wait so `stop` is polled regularly.
+    let slice = Duration::from_millis(50);
+    let mut now = transport.now();
+    loop {
+        if is_due(station.poll_timeout(), now) {
+            station.handle_timeout(now);
+        }
+        while let Some(frame) = station.poll_transmit() {
+            transport.send(&frame)?;
+        }
+        if stop() {
+            return Ok(());
+        }
+        let deadline = match station.poll_timeout() {
+            Some(t) if t < now + slice => t,
+            _ => now + slice,
+        };
+        match transport.recv_until(deadline)? {
+            Some(Received::Frame { frame, at }) => {
+                station.handle_frame(at, &frame);
+                now = at;
+            }
+            Some(Received::Event(ev)) => {
+                now = transport.now();
+                station.handle_bus_event(now, &ev);
+            }
+            None => now = transport.now(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::VecDeque;
+
+    use canola_frame::CanId;
+
+    use super::*;
+    use crate::mem::MemoryBus;
+
+    fn frame(raw: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(CanId::standard(raw).unwrap(), data).unwrap()
+    }
+
+    /// A timer every 100 ms from 100 ms on; answers 0x600 with 0x580. Records its calls.
+    struct Recorder {
+        next: Instant,
+        timeouts: Vec<u64>,
+        frames: Vec<u64>,
+        out: VecDeque<CanFrame>,
+    }
+
+    impl Station for Recorder {
+        fn handle_frame(&mut self, now: Instant, f: &CanFrame) {
+            self.frames.push(now.as_micros() / 1000);
+            if f.cob_id() == Some(0x600) {
+                self.out.push_back(frame(0x580, f.data()));
+            }
+        }
+        fn handle_timeout(&mut self, now: Instant) {
+            self.timeouts.push(now.as_micros() / 1000);
+            if now >= self.next {
+                self.next += Duration::from_millis(100);
+            }
+        }
+        fn poll_transmit(&mut self) -> Option<CanFrame> {
+            self.out.pop_front()
+        }
+        fn poll_timeout(&self) -> Option<Instant> {
+            Some(self.next)
+        }
+    }
+
+    #[test]
+    fn run_station_fires_timers_when_due_and_answers_frames() {
+        let bus = MemoryBus::new();
+        let mut master = bus.endpoint();
+        let mut dev = bus.endpoint();
+        for n in 0..3 {
+            master.send(&frame(0x600, &[n])).unwrap();
+        }
+        let mut station = Recorder {
+            next: Instant::from_millis(100),
+            timeouts: Vec::new(),
+            frames: Vec::new(),
+            out: VecDeque::new(),
+        };
+        let clock = bus.clone();
+        run_station(&mut dev, &mut station, || {
+            clock.now() >= Instant::from_millis(450)
+        })
+        .unwrap();
+        // Timers only when due (not once per received frame or per 50 ms wait), on time.
+        assert_eq!(station.timeouts, [100, 200, 300, 400]);
+        assert_eq!(station.frames, [0, 0, 0]);
+        let mut answers = Vec::new();
+        while let Some(Received::Frame { frame, .. }) = master.try_recv().unwrap() {
+            assert_eq!(frame.cob_id(), Some(0x580));
+            answers.push(frame.data()[0]);
+        }
+        assert_eq!(answers, [0, 1, 2]);
+    }
+}

@@ -1,0 +1,71 @@
+//! A node's NMT state through `node.nmt()`: state, waiting for boot-up and for a state, on the
+//! virtual-clock bus against the simulator and against raw frames.
+
+use canola::mem::MemoryBus;
+use canola::transport::Transport;
+use canola::{Error, Network, NmtState, SimDevice};
+use canola_frame::{CanFrame, CanId, Duration, NodeId};
+
+const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+
+fn n(id: u8) -> NodeId {
+    NodeId::new(id).unwrap()
+}
+
+#[test]
+fn reset_then_wait_for_bootup_and_states_of_the_simulator() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let nmt = net.node(n(5)).nmt();
+    assert_eq!(nmt.state(), None);
+    bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
+    nmt.wait_for_bootup(Duration::from_secs(1)).unwrap();
+    // The device's heartbeat (0x1017 = 500 ms in this EDS) follows.
+    nmt.wait_for_state(NmtState::PreOperational, Duration::from_secs(1))
+        .unwrap();
+    nmt.start().unwrap();
+    nmt.wait_for_state(NmtState::Operational, Duration::from_secs(1))
+        .unwrap();
+    assert_eq!(nmt.state(), Some(NmtState::Operational));
+
+    nmt.reset_node().unwrap();
+    // Let the boot-up and the next heartbeat both arrive before anyone waits.
+    net.run_for(Duration::from_secs(2)).unwrap();
+    assert_eq!(nmt.state(), Some(NmtState::PreOperational));
+    nmt.wait_for_bootup(Duration::from_millis(10)).unwrap();
+    // That boot-up is consumed: a second wait times out (on the virtual clock).
+    let t0 = net.now();
+    let e = nmt.wait_for_bootup(Duration::from_millis(300)).unwrap_err();
+    assert!(matches!(e, Error::Timeout(_)), "{e}");
+    assert!(net.now() >= t0 + Duration::from_millis(300));
+    let e = nmt
+        .wait_for_state(NmtState::Stopped, Duration::from_millis(100))
+        .unwrap_err();
+    assert!(e.to_string().contains("not Stopped"), "{e}");
+}
+
+/// python-canopen's race: a boot-up and a heartbeat handled together leave the state at
+/// Pre-operational, and a waiter checking the state for "boot-up" misses it.
+#[test]
+fn a_bootup_followed_at_once_by_a_heartbeat_is_not_missed() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let mut other = bus.endpoint();
+    let nmt = net.node(n(9)).nmt();
+    let id = CanId::standard(0x709).unwrap();
+    other.send(&CanFrame::new(id, &[0x00]).unwrap()).unwrap();
+    other.send(&CanFrame::new(id, &[0x7F]).unwrap()).unwrap();
+    net.run_for(Duration::from_millis(1)).unwrap();
+    assert_eq!(nmt.state(), Some(NmtState::PreOperational));
+    nmt.wait_for_bootup(Duration::from_millis(50)).unwrap();
+    // A handle made after the boot-up waits for the next one.
+    let later = net.node(n(9)).nmt();
+    assert!(later.wait_for_bootup(Duration::from_millis(50)).is_err());
+    other.send(&CanFrame::new(id, &[0x00]).unwrap()).unwrap();
+    later.wait_for_bootup(Duration::from_millis(50)).unwrap();
+    assert_eq!(later.state(), Some(NmtState::BootUp));
+    assert!(matches!(
+        canola::Nmt::all(&net).wait_for_bootup(Duration::from_millis(1)),
+        Err(Error::InvalidRequest(_))
+    ));
+}

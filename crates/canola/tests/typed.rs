@@ -1,0 +1,104 @@
+//! Dictionary-aware access through `Sdo::get` / `Sdo::set` against the simulator on the
+//! virtual-clock in-memory bus: names, addresses, writes typed by the dictionary, local errors.
+
+use canola::mem::MemoryBus;
+use canola::{Error, Network, ObjectAddress, SimDevice, Value};
+use canola_frame::NodeId;
+
+const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+
+fn n(id: u8) -> NodeId {
+    NodeId::new(id).unwrap()
+}
+
+fn rig() -> (MemoryBus, Network) {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
+    net.add_node_with_dictionary(n(5), canola_od::parse(EDS).unwrap().od);
+    (bus, net)
+}
+
+#[test]
+fn read_by_name_and_by_address() {
+    let (_bus, net) = rig();
+    let node = net.node(n(5));
+    assert_eq!(
+        node.sdo().get("Producer heartbeat time").unwrap(),
+        Value::Unsigned16(500)
+    );
+    assert_eq!(
+        node.sdo().get("identity object.vendor id").unwrap(),
+        Value::Unsigned32(0x39)
+    );
+    assert_eq!(
+        node.sdo().get((0x1018, 1)).unwrap(),
+        Value::Unsigned32(0x39)
+    );
+    assert_eq!(
+        node.sdo().get("Manufacturer device name").unwrap(),
+        Value::VisibleString(b"Buerkert generic device".to_vec())
+    );
+}
+
+/// Without the dictionary's type the literal `200` is an i32: 4 bytes to an UNSIGNED16, which
+/// the device refuses. Typed by the dictionary it goes out as 2 bytes.
+#[test]
+fn writes_are_typed_by_the_dictionary() {
+    let (_bus, net) = rig();
+    let node = net.node(n(5));
+    let untyped = node.sdo().write((0x1017, 0), 200).unwrap_err();
+    assert_eq!(
+        untyped.server_abort().map(|a| a.get()),
+        Some(0x0607_0012),
+        "{untyped}"
+    );
+    node.sdo().set("Producer heartbeat time", 200).unwrap();
+    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 200u16.to_le_bytes());
+    node.sdo().set((0x1017, 0), 300u64).unwrap();
+    assert_eq!(node.sdo().get((0x1017, 0)).unwrap(), Value::Unsigned16(300));
+    node.sdo()
+        .set("Producer Heartbeat Time", Value::Unsigned32(400))
+        .unwrap();
+    assert_eq!(node.sdo().get((0x1017, 0)).unwrap(), Value::Unsigned16(400));
+}
+
+#[test]
+fn values_that_do_not_fit_fail_before_anything_is_sent() {
+    let (bus, net) = rig();
+    let node = net.node(n(5));
+    let before = bus.stats();
+    for (value, why) in [
+        (canola::WriteValue::from(70_000), "70000 does not fit"),
+        (canola::WriteValue::from(-1), "-1 does not fit"),
+        (canola::WriteValue::from(1.5), "a float"),
+        (canola::WriteValue::from("fast"), "text"),
+    ] {
+        let e = node
+            .sdo()
+            .set("Producer heartbeat time", value)
+            .unwrap_err();
+        let Error::Value {
+            node: at,
+            entry,
+            message,
+        } = &e
+        else {
+            panic!("expected a value error, got {e}");
+        };
+        assert_eq!((*at, *entry), (n(5), ObjectAddress::new(0x1017, 0)));
+        assert!(
+            message.contains("Producer Heartbeat Time is UNSIGNED16") && message.contains(why),
+            "{message}"
+        );
+    }
+    assert_eq!(bus.stats(), before, "nothing was sent");
+
+    let e = node.sdo().get("No such thing").unwrap_err();
+    assert!(matches!(e, Error::UnknownObject { .. }), "{e}");
+    let e = node.sdo().get("Identity Object").unwrap_err();
+    assert!(e.to_string().contains("array or record"), "{e}");
+    // A node without a dictionary has no names.
+    let e = net.node(n(6)).sdo().get("Device type").unwrap_err();
+    assert!(e.to_string().contains("without a dictionary"), "{e}");
+}
