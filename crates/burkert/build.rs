@@ -8,7 +8,7 @@ fn main() {
         // Without an allocator, string and DOMAIN entries are opaque (index and type only).
         .strings(StringTypes::Feature("alloc".into()))
         .static_dictionary(true)
-        .compile("../../eds/burkert-generic.eds");
+        .compile("burkert-generic.eds");
     if let Err(e) = result {
         eprintln!("canola-burkert: cannot generate entries: {e}");
         std::process::exit(1);

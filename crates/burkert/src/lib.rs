@@ -47,7 +47,7 @@ pub mod master;
 pub mod sim;
 
 /// The generic Bürkert EDS (`eds/burkert-generic.eds`) the entries are generated from.
-pub const GENERIC_EDS: &str = include_str!("../../../eds/burkert-generic.eds");
+pub const GENERIC_EDS: &str = include_str!("../burkert-generic.eds");
 
 pub use colour::{ColourError, LedColour, PredefinedColour};
 pub use comm::{
@@ -61,3 +61,8 @@ pub use status::{DeviceStatus, Kelvin, TransMemStatus};
 pub use master::{BurkertNode, DeviceReport};
 #[cfg(feature = "master")]
 pub use sim::{BurkertDevice, SimulatedDevice};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

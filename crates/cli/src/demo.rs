@@ -14,7 +14,7 @@ use canola::{
 
 use crate::outln;
 
-const BURKERT_EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const BURKERT_EDS: &[u8] = canola_burkert::GENERIC_EDS.as_bytes();
 
 fn step(title: &str) {
     outln("");

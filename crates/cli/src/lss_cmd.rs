@@ -23,7 +23,7 @@ use serde_json::json;
 use crate::bus::{BusOpts, fail, open_network};
 use crate::{Global, outln};
 
-const BURKERT_EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const BURKERT_EDS: &[u8] = canola_burkert::GENERIC_EDS.as_bytes();
 
 #[derive(Debug, Args)]
 pub(crate) struct LssArgs {

@@ -636,3 +636,8 @@ impl Generator<'_> {
         let _ = writeln!(self.out, "];");
     }
 }
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

@@ -45,3 +45,8 @@ pub use identity::{DuplicateMacCheck, Identity};
 pub use master::{Master, MasterConfig, MasterEvent, MasterState};
 pub use slave::{Application, Slave, SlaveConfig, SlaveEvent};
 pub use status::{CipError, GeneralStatus};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

@@ -32,3 +32,8 @@ pub use id::{CanId, ExtendedId, IdError, StandardId};
 pub use node::{NodeId, NodeIdError};
 pub use time::{Duration, Instant};
 pub use timer::{Periodic, earliest, is_due};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

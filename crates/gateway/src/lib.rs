@@ -62,3 +62,8 @@ pub use command::{Command, ErrorCode, Event, EventKind, NmtService, Reply, Reque
 pub use parse::{ParseError, parse_line};
 pub use server::{Config, Gateway, Version};
 pub use value::{DataType, Value};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

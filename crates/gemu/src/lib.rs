@@ -99,3 +99,8 @@ pub use sim::{SimConfig, SimulatedCpos};
 
 pub use image::{DeviceImage, DigitalInputs, DigitalOutputs, ImageError, MasterImage, PerMille};
 pub use params::{Access, ParamDef, ParamId, RangeError, Unit, ValueKind};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

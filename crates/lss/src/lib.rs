@@ -95,3 +95,8 @@ pub use service::{LssMaster, MasterConfig, Procedure, ServiceReport, Step};
 pub use slave::{LssSlave, SlaveConfig, SlaveEvent, SlaveState, StoreSupport};
 pub use slowscan::{Slowscan, SlowscanConfig};
 pub use wire::{ConfigStatus, DecodeError, IdentifyField, Mode, Request, Response, ResponseError};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

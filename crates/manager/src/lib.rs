@@ -35,3 +35,8 @@ pub use boot::{
 pub use codes::BootErrorCode;
 pub use config::{ConfigError, NetworkConfig, SoftwareCheck, StartPolicy};
 pub use supervise::{SuperviseEvent, supervise};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

@@ -90,3 +90,8 @@ pub use slave::{NmtSlave, SlaveConfig, SlaveEvent};
 pub use state::{DeviceState, NmtState, Service};
 pub use sync::{SYNC_COB_ID, SyncConfig, SyncMessage, SyncProducer};
 pub use time_stamp::{EPOCH_1984_UNIX_DAYS, TIME_COB_ID, TimeOfDay, TimeProducer};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

@@ -73,3 +73,8 @@ pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
 pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};
 #[cfg(feature = "alloc")]
 pub use write::{concise_dcf, write_dcf, write_eds};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

@@ -85,3 +85,8 @@ pub use od::{OdView, ValueSource};
 pub use pack::{PackError, RawValue, Unpacked, pack, unpack};
 pub use remote::{RemapError, RemapSteps, RemoteObjects, SdoWrite, remap};
 pub use typed::{DefaultCobId, PairValue, PdoField, TypedPdo, TypedPdoError};
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}

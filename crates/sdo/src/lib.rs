@@ -127,3 +127,8 @@ pub use server::{Access, LengthRule, ObjectAccess, ObjectInfo, Server, ServerCon
 pub use wire::{
     BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, Segment, ServerResponse,
 };
+
+/// This crate's README, whose example runs as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+mod crate_readme {}
