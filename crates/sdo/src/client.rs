@@ -37,7 +37,10 @@
 //!   its steps, and 0000:00 aborts, are dropped instead of ending it.
 //! - A block transfer's receiving side aborts after [`crate::MAX_FRUITLESS_SUB_BLOCKS`]
 //!   sub-blocks in a row without a segment in sequence (0x05040003).
-//! - Frames that are not eight bytes long are ignored. Frames while idle are ignored.
+//! - Frames shorter than eight bytes are taken when they hold the bytes their command needs
+//!   (see [`crate::wire`]); one too short for its command ends the transfer with
+//!   [`Violation::ShortFrame`] (abort 0x05040001). Empty frames and frames while idle are
+//!   ignored.
 //! - The timeout is the time the server may take for each response (it restarts on every
 //!   step), so long domains do not need a long timeout; [`ClientConfig::transfer_timeout`]
 //!   optionally bounds the whole transfer as well. On expiry the client sends abort
@@ -53,7 +56,8 @@ pub use crate::error::{Busy, ErrorKind, TransferError, Violation};
 use crate::queue::Ring;
 pub use crate::wire::MAX_BLOCK_SIZE;
 use crate::wire::{
-    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, ServerResponse, is_abort,
+    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, ServerResponse, carries_mux,
+    is_abort, short_frame_mux,
 };
 
 mod download;
@@ -658,6 +662,19 @@ impl<S: Sink, D: Source> Client<S, D> {
             Err(DecodeError::UnknownCommand(_)) if leftovers => return Step::Continue(active),
             Err(DecodeError::UnknownCommand(_)) => {
                 return Step::Finish(active, Err(protocol(Violation::UnexpectedCommand)));
+            }
+            // A short frame fails the transfer only when it is surely this transfer's: a
+            // command without multiplexer (segments, acknowledgements) or one naming this
+            // transfer's object. One naming another object, or too short to name one, is a
+            // stray frame, as its long form would be.
+            Err(DecodeError::Short { command, .. })
+                if !leftovers
+                    && match short_frame_mux(data) {
+                        Some(mux) => mux == active.mux,
+                        None => !carries_mux(command),
+                    } =>
+            {
+                return Step::Finish(active, Err(protocol(Violation::ShortFrame)));
             }
             Err(_) => return Step::Continue(active),
         };

@@ -99,6 +99,9 @@ pub enum Violation {
         /// CRC in the end message.
         received: u16,
     },
+    /// A frame shorter than the bytes its command needs (0x05040001).
+    #[error("frame too short for its command (abort 0x05040001)")]
+    ShortFrame,
     /// More data than the announced size (0x06070012).
     #[error("more data than the announced {size} bytes (abort 0x06070012)")]
     TooLong {
@@ -119,7 +122,7 @@ impl Violation {
     /// The abort code sent for this violation.
     pub const fn abort_code(&self) -> AbortCode {
         match self {
-            Self::UnexpectedCommand => AbortCode::INVALID_COMMAND,
+            Self::UnexpectedCommand | Self::ShortFrame => AbortCode::INVALID_COMMAND,
             Self::Toggle => AbortCode::TOGGLE_BIT_NOT_ALTERNATED,
             Self::BlockSize(_) => AbortCode::INVALID_BLOCK_SIZE,
             Self::SequenceNumber(_) => AbortCode::INVALID_SEQUENCE_NUMBER,

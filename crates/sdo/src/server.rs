@@ -254,7 +254,16 @@ impl Server {
             }
             _ => match ClientRequest::parse(data) {
                 Ok(req) => self.on_request(state, req, od),
-                Err(DecodeError::UnknownCommand(_)) => Err(Fail(
+                // A request too short for its command, while idle, is answered for the object
+                // it names when it holds the
+                // multiplexer; one that does not, while idle, cannot be placed and is dropped.
+                Err(DecodeError::Short { .. }) if state.mux().is_none() => {
+                    match crate::wire::short_frame_mux(data) {
+                        Some(mux) => Err(Fail(mux, AbortCode::INVALID_COMMAND)),
+                        None => Ok(state),
+                    }
+                }
+                Err(DecodeError::UnknownCommand(_) | DecodeError::Short { .. }) => Err(Fail(
                     state.mux().unwrap_or_default(),
                     AbortCode::INVALID_COMMAND,
                 )),
