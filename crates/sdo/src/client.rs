@@ -212,6 +212,12 @@ pub enum Event<S, D> {
         sink: S,
         /// Number of bytes received.
         len: u32,
+        /// The server answered expedited without indicating the size (e = 1, s = 0): the
+        /// sink holds all four data bytes, of which CiA 301 leaves those past the object
+        /// unspecified, so the object's length is its data type's (decode with
+        /// `canola_od::Value::from_le_bytes_unsized`). `false` for every other answer, whose
+        /// length is the object's.
+        unsized_expedited: bool,
     },
     /// The download finished and the server confirmed it.
     Downloaded {
@@ -278,6 +284,8 @@ enum Kind<S, D> {
         sink: S,
         phase: UpPhase,
         total: Option<u32>,
+        /// Answered expedited without size (see [`Event::Uploaded`]).
+        unsized_expedited: bool,
     },
     Down {
         source: D,
@@ -406,6 +414,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                 sink,
                 phase,
                 total: None,
+                unsized_expedited: false,
             },
             done: 0,
             crc: Crc16::new(),
@@ -619,10 +628,18 @@ impl<S: Sink, D: Source> Client<S, D> {
     fn finish(&mut self, active: Active<S, D>, result: Result<(), ErrorKind>) {
         let mux = active.mux;
         self.event = Some(match (active.kind, result) {
-            (Kind::Up { sink, .. }, Ok(())) => Event::Uploaded {
+            (
+                Kind::Up {
+                    sink,
+                    unsized_expedited,
+                    ..
+                },
+                Ok(()),
+            ) => Event::Uploaded {
                 mux,
                 sink,
                 len: active.done,
+                unsized_expedited,
             },
             (Kind::Down { source, .. }, Ok(())) => Event::Downloaded { mux, source },
             (kind, Err(kind_err)) => Event::Failed {

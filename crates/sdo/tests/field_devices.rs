@@ -159,3 +159,43 @@ fn server_takes_short_requests_that_hold_their_bytes() {
     );
     assert_eq!(od.value(U16_RW), [0x10, 0x27]);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Expedited upload without the size indicated.
+
+/// `42 ...`: e = 1, s = 0. The four bytes reach the sink and the event says the size was not
+/// indicated, so the master decodes the object with its type's length (CiA 301 leaves the
+/// bytes past the object unspecified); an answer with the size indicated says so too.
+#[test]
+fn client_reports_an_expedited_upload_without_size() {
+    let mux = Multiplexer::new(0x2000, 1);
+    let mut c = upload(mux);
+    c.handle_response(T0, &[0x42, 0x00, 0x20, 0x01, 0x05, 0xA5, 0xA5, 0xA5]);
+    match c.poll_event() {
+        Some(Event::Uploaded {
+            sink,
+            len,
+            unsized_expedited,
+            ..
+        }) => {
+            assert_eq!(sink, [0x05, 0xA5, 0xA5, 0xA5]);
+            assert_eq!(len, 4);
+            assert!(unsized_expedited);
+        }
+        other => panic!("expected the upload, got {other:?}"),
+    }
+    for (answer, expect) in [
+        (&[0x4F, 0x00, 0x20, 0x01, 0x05, 0, 0, 0], false),
+        (&[0x43, 0x00, 0x20, 0x01, 0x05, 0, 0, 0], false),
+    ] {
+        c.start_upload(T0, mux, Vec::new(), Method::Normal).unwrap();
+        drain(&mut c);
+        c.handle_response(T0, answer);
+        match c.poll_event() {
+            Some(Event::Uploaded {
+                unsized_expedited, ..
+            }) => assert_eq!(unsized_expedited, expect, "{answer:02x?}"),
+            other => panic!("expected the upload, got {other:?}"),
+        }
+    }
+}

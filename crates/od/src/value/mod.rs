@@ -307,6 +307,15 @@ impl Value {
         })
     }
 
+    /// Decodes the data of an expedited SDO upload whose size the server did not indicate
+    /// (e = 1, s = 0): a fixed-size type takes its own length from the front of the four bytes
+    /// (see [`DataType::expedited_without_size`]). Use [`from_le_bytes`](Self::from_le_bytes)
+    /// for every payload whose length was told: there a length other than the type's stays
+    /// an error.
+    pub fn from_le_bytes_unsized(data_type: DataType, bytes: &[u8]) -> Result<Self, BytesError> {
+        Self::from_le_bytes(data_type, data_type.expedited_without_size(bytes))
+    }
+
     /// Appends the little-endian encoding to `out`.
     pub fn write_le_bytes(&self, out: &mut Vec<u8>) {
         let size = self.data_type().size();

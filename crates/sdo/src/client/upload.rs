@@ -14,7 +14,13 @@ impl<S: Sink, D: Source> Client<S, D> {
         msg: ServerResponse,
     ) -> Result<Flow, ErrorKind> {
         let mux = active.mux;
-        let Kind::Up { sink, phase, total } = &mut active.kind else {
+        let Kind::Up {
+            sink,
+            phase,
+            total,
+            unsized_expedited,
+        } = &mut active.kind
+        else {
             return Err(protocol(Violation::UnexpectedCommand));
         };
         match (&*phase, msg) {
@@ -26,7 +32,8 @@ impl<S: Sink, D: Source> Client<S, D> {
                     return Ok(Flow::Ignore);
                 }
                 match data {
-                    Initiate::Expedited { .. } => {
+                    Initiate::Expedited { size, .. } => {
+                        *unsized_expedited = size.is_none();
                         let bytes = data.expedited_data();
                         let n = bytes.len() as u32;
                         *total = Some(n);
@@ -146,6 +153,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                     fruitless,
                 },
             total,
+            ..
         } = &mut active.kind
         else {
             return Step::Continue(active);
