@@ -35,6 +35,10 @@
 //!   rest of a block upload's sub-block; the server's answers to the rest of a block download).
 //!   Until the next transfer's first valid response, frames with a command that fits none of
 //!   its steps, and 0000:00 aborts, are dropped instead of ending it.
+//! - In a block upload's sub-block, a segment out of sequence is a gap: it and the rest of the
+//!   sub-block are dropped and the acknowledgement names the last segment received in
+//!   sequence, so the server repeats from there; a repeated segment changes nothing (see
+//!   `subblock.rs`; the server does the same in a block download).
 //! - A block transfer's receiving side aborts after [`crate::MAX_FRUITLESS_SUB_BLOCKS`]
 //!   sub-blocks in a row without a segment in sequence (0x05040003).
 //! - Frames shorter than eight bytes are taken when they hold the bytes their command needs
@@ -54,6 +58,7 @@ use crate::cob::SdoCobIds;
 use crate::crc::Crc16;
 pub use crate::error::{Busy, ErrorKind, TransferError, Violation};
 use crate::queue::Ring;
+use crate::subblock::Receiver;
 pub use crate::wire::MAX_BLOCK_SIZE;
 use crate::wire::{
     BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, ServerResponse, carries_mux,
@@ -243,18 +248,11 @@ enum UpPhase {
     Segment { toggle: bool },
     /// Sent initiate block upload; waiting for the block or a normal initiate response.
     BlockInitiate,
-    /// Receiving a sub-block; `expected` is the next sequence number, `held` the last segment
-    /// of the transfer once received (its length is known only from the end message).
-    SubBlock {
-        crc: bool,
-        expected: u8,
-        held: Option<[u8; 7]>,
-        /// Sub-blocks in a row that ended without one segment accepted (see
-        /// [`MAX_FRUITLESS_SUB_BLOCKS`](crate::MAX_FRUITLESS_SUB_BLOCKS)).
-        fruitless: u8,
-    },
-    /// Acknowledged the last segment; waiting for the end message.
-    BlockEnd { crc: bool, held: [u8; 7] },
+    /// Receiving sub-blocks (see [`crate::subblock`]).
+    SubBlock { crc: bool, receiver: Receiver },
+    /// Acknowledged the last segment of the transfer, `held` (its length is known only from
+    /// the end message); waiting for the end message.
+    BlockEnd { crc: bool, held: BlockSegment },
 }
 
 #[derive(Debug)]
@@ -658,16 +656,21 @@ impl<S: Sink, D: Source> Client<S, D> {
 
     fn step(&mut self, now: Instant, mut active: Active<S, D>, data: &[u8]) -> Step<S, D> {
         // In an upload sub-block every frame is a segment, except an abort.
-        if let Kind::Up {
-            phase: UpPhase::SubBlock { .. },
-            ..
-        } = active.kind
-            && !is_abort(data)
-        {
-            return match BlockSegment::parse(data) {
-                Ok(seg) => self.on_block_segment(now, active, seg),
-                Err(_) => Step::Continue(active),
-            };
+        if let Kind::Up { phase, .. } = &active.kind {
+            match phase {
+                UpPhase::SubBlock { .. } if !is_abort(data) => {
+                    return match BlockSegment::parse(data) {
+                        Ok(seg) => self.on_block_segment(now, active, seg),
+                        Err(_) => Step::Continue(active),
+                    };
+                }
+                // A repeat of the transfer's last segment (its bytes may read as anything,
+                // an abort of 0000:00 among them).
+                UpPhase::BlockEnd { held, .. } if data == held.emit() => {
+                    return Step::Continue(active);
+                }
+                _ => {}
+            }
         }
         // Right after this client aborted a transfer, the server's frames still on their way
         // (up to a sub-block of segments, each byte pattern a possible command) are dropped
