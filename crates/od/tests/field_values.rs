@@ -81,3 +81,48 @@ fn unsized_expedited_upload_of_typed_entries() {
         Ok(1000)
     );
 }
+
+/// A VISIBLE_STRING read from CANopenNode's demo device ends in its C string's NUL (901 bytes
+/// for a 900-character text): the value is the text up to the first NUL, as python-canopen
+/// and CANopenNode's own tools read it.
+#[test]
+fn visible_string_ends_at_the_first_nul() {
+    let mut bytes = vec![b'x'; 900];
+    bytes.push(0);
+    match Value::from_le_bytes(DataType::VisibleString, &bytes) {
+        Ok(Value::VisibleString(text)) => {
+            assert_eq!(text.len(), 900);
+            assert!(text.iter().all(|&b| b == b'x'));
+        }
+        other => panic!("expected a VISIBLE_STRING, got {other:?}"),
+    }
+    assert_eq!(
+        Value::from_le_bytes(DataType::VisibleString, b"CANopenNode\0\0\0garbage"),
+        Ok(Value::VisibleString(b"CANopenNode".to_vec()))
+    );
+    assert_eq!(
+        Value::from_le_bytes(DataType::VisibleString, b"\0"),
+        Ok(Value::VisibleString(Vec::new()))
+    );
+    // OCTET_STRING and DOMAIN keep every byte.
+    assert_eq!(
+        Value::from_le_bytes(DataType::OctetString, b"a\0b"),
+        Ok(Value::OctetString(b"a\0b".to_vec()))
+    );
+    // The typed path reads it the same way.
+    let name: Entry<String> = Entry::new(0x1008, 0, DataType::VisibleString);
+    assert_eq!(name.decode(b"abc\0").unwrap(), "abc");
+}
+
+/// Text prints as text; a control character is written in one way, `\n`, `\r`, `\t` or `\xHH`,
+/// never in Rust's `\u{..}` escape form.
+#[test]
+fn text_escapes_control_characters_one_way() {
+    let odd = Value::VisibleString(b"a\x00b\n\x07\x1b\x7f\tz\r".to_vec());
+    let shown = odd.to_string();
+    assert_eq!(shown, r"a\x00b\n\x07\x1B\x7F\tz\r");
+    assert!(!shown.contains("\\u{"));
+    assert_eq!(format!("{odd:#}"), r#""a\x00b\n\x07\x1B\x7F\tz\r""#);
+    let wide = Value::UnicodeString("a\u{0}\u{85}b".encode_utf16().collect());
+    assert_eq!(wide.to_string(), r"a\x00\x85b");
+}
