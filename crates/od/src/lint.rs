@@ -11,6 +11,11 @@
 //!   exist, are not `PDOMapping=1`, have a different size or wrong direction of access, dummy
 //!   entries not allowed by `[DummyUsage]`, more than 64 bits; `PDOMapping=1` on types of
 //!   variable size;
+//! - COB-IDs of the PDOs (0x1400.., 0x1800..; sub-index 1), SYNC (0x1005), TIME (0x1012) and
+//!   EMCY (0x1014) in a range CiA 301 restricts ([`canola_frame::cob::RESTRICTED`]), for
+//!   every node-ID a `$NODEID` value can take; a PDO or EMCY marked not valid (bit 31) and
+//!   29-bit identifiers are not checked. The SDO channels are left out: their default
+//!   identifiers are the restricted ones;
 //! - invalid access types, unknown data types and object codes;
 //! - duplicate sections and keys (found by the parser; [`lint_source`] includes them).
 
@@ -58,6 +63,7 @@ pub fn lint(od: &ObjectDictionary) -> Vec<Diagnostic> {
     }
     object_lists(&mut sink, od);
     pdo_mappings(&mut sink, od);
+    restricted_cob_ids(&mut sink, od);
     sink.finish()
 }
 
@@ -267,6 +273,51 @@ fn object_lists(sink: &mut Sink, od: &ObjectDictionary) {
                 K::ObjectList,
                 od.object_list_lines[0].0,
                 format!("mandatory object {index:04X} (CiA 301) is missing"),
+            );
+        }
+    }
+}
+
+/// The COB-IDs a device of this file would use, checked against CiA 301's restricted
+/// identifiers.
+fn restricted_cob_ids(sink: &mut Sink, od: &ObjectDictionary) {
+    // (index, sub-index, whether bit 31 marks the object not valid).
+    let pdos = od
+        .objects
+        .range(0x1400..=0x15FF)
+        .chain(od.objects.range(0x1800..=0x19FF))
+        .map(|(&i, _)| (i, 1, true));
+    let fixed = [(0x1005, 0, false), (0x1012, 0, false), (0x1014, 0, true)];
+    for (index, sub_index, valid_bit) in pdos.chain(fixed) {
+        let Some(sub) = od.get(index).and_then(|o| o.sub(sub_index)) else {
+            continue;
+        };
+        // The first node-ID (1..=127) whose value lands in a restricted range: a value
+        // without $NODEID is the same for all.
+        let hit = (1..=127u8).find_map(|node| {
+            let v = sub.effective_value(node)?.as_i128()?;
+            let cob = u32::try_from(v).ok()?;
+            let disabled = valid_bit && cob & 0x8000_0000 != 0;
+            let extended = cob & 0x2000_0000 != 0;
+            let id = (cob & 0x7FF) as u16;
+            (!disabled && !extended && canola_frame::is_restricted(id)).then_some((node, id))
+        });
+        if let Some((node, id)) = hit {
+            let relative = sub.effective_value(node) != sub.effective_value(node % 127 + 1);
+            let line = sub.line.0.max(od.get(index).map_or(0, |o| o.line.0));
+            sink.warn(
+                K::Value,
+                line,
+                format!(
+                    "0x{index:04X}:{sub_index:02X}: COB-ID 0x{id:03X}{} is a CAN-ID CiA 301 \
+                     restricts (restricted: 0x000, 0x001..0x07F, 0x101..0x180, 0x581..0x5FF, \
+                     0x601..0x67F, 0x6E0..0x6FF, 0x701..0x77F, 0x780..0x7FF)",
+                    if relative {
+                        format!(" (for node-ID {node})")
+                    } else {
+                        alloc::string::String::new()
+                    }
+                ),
             );
         }
     }

@@ -126,3 +126,67 @@ fn corpus_verdicts_on_communication_objects() {
         println!("  {s}");
     }
 }
+
+/// `eds lint`: a COB-ID of a communication object that lands in a CiA 301 restricted range.
+#[test]
+fn lint_flags_restricted_cob_ids() {
+    let text = "[FileInfo]\nEDSVersion=4.0\n[DeviceInfo]\nVendorNumber=0x123\n\
+        [1005]\nParameterName=COB-ID SYNC\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x7E5\n\
+        [1014]\nParameterName=COB-ID EMCY\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\n\
+        [1800]\nParameterName=TPDO1\nObjectType=0x9\nSubNumber=2\n\
+        [1800sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+        [1800sub1]\nParameterName=COB-ID\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x000\n\
+        [1801]\nParameterName=TPDO2\nObjectType=0x9\nSubNumber=2\n\
+        [1801sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+        [1801sub1]\nParameterName=COB-ID\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x700\n\
+        [1802]\nParameterName=TPDO3\nObjectType=0x9\nSubNumber=2\n\
+        [1802sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+        [1802sub1]\nParameterName=COB-ID\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x80000000\n\
+        [1803]\nParameterName=TPDO4\nObjectType=0x9\nSubNumber=2\n\
+        [1803sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+        [1803sub1]\nParameterName=COB-ID\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x480\n\
+        [1400]\nParameterName=RPDO1\nObjectType=0x9\nSubNumber=2\n\
+        [1400sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+        [1400sub1]\nParameterName=COB-ID\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x20000000\n";
+    let p = parse(text.as_bytes()).expect("parses");
+    let found: Vec<_> = canola_od::lint(&p.od)
+        .into_iter()
+        .filter(|d| d.message.contains("restricted"))
+        .collect();
+    let lines: Vec<u32> = found.iter().map(|d| d.line).collect();
+    // 0x1005 (0x7E5), 0x1800:01 (0x000), 0x1801:01 ($NODEID+0x700); not the EMCY default,
+    // the disabled TPDO3, TPDO4's default, nor the 29-bit identifier 0x00000000 of RPDO1.
+    assert_eq!(lines, [5, 26, 40], "{found:#?}");
+    assert!(
+        found[1].message.contains("0x1800:01"),
+        "{}",
+        found[1].message
+    );
+    assert!(found[1].message.contains("0x000"), "{}", found[1].message);
+}
+
+/// The corpus: how many files set a restricted COB-ID in a communication object.
+#[test]
+fn corpus_restricted_cob_ids() {
+    let Some(dir) = common::corpus_dir("corpus_restricted_cob_ids") else {
+        return;
+    };
+    let mut files = 0;
+    for path in common::corpus_files(&dir) {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let Ok(p) = parse(&std::fs::read(&path).unwrap()) else {
+            continue;
+        };
+        let found: Vec<_> = canola_od::lint(&p.od)
+            .into_iter()
+            .filter(|d| d.message.contains("restricted"))
+            .collect();
+        if !found.is_empty() {
+            files += 1;
+        }
+        for d in found {
+            println!("{}", d.render(&name));
+        }
+    }
+    println!("corpus: {files} files with a restricted COB-ID in a communication object");
+}
