@@ -13,7 +13,7 @@ pub struct Busy<T>(pub T);
 
 /// Why a transfer failed, and for which object.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("SDO {index:#06x}:{subindex:02x}: {kind}")]
+#[error("SDO 0x{index:04X}:{subindex:02X}: {kind}")]
 pub struct TransferError {
     /// Object index.
     pub index: u16,

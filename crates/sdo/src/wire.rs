@@ -136,9 +136,10 @@ impl Multiplexer {
 }
 
 impl core::fmt::Display for Multiplexer {
-    /// `0x1018:02`.
+    /// `0x1018:02`, `0x1F50:0A`: the index in four upper-case hex digits, the sub-index in
+    /// two, as every message of the stack writes an object address.
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{:#06x}:{:02x}", self.index, self.subindex)
+        write!(f, "0x{:04X}:{:02X}", self.index, self.subindex)
     }
 }
 
@@ -1235,15 +1236,15 @@ mod tests {
         assert_eq!(s(abort), text);
         assert_eq!(
             c([0xC6, 0x50, 0x1F, 0x01, 0xE8, 0x03, 0, 0]),
-            "SDO initiate block download request 0x1f50:01, CRC, 1000 bytes"
+            "SDO initiate block download request 0x1F50:01, CRC, 1000 bytes"
         );
         assert_eq!(
             c([0xC0, 0x50, 0x1F, 0x01, 0, 0, 0, 0]),
-            "SDO initiate block download request 0x1f50:01, no CRC, size not indicated"
+            "SDO initiate block download request 0x1F50:01, no CRC, size not indicated"
         );
         assert_eq!(
             s([0xA4, 0x50, 0x1F, 0x01, 0x7F, 0, 0, 0]),
-            "SDO initiate block download response 0x1f50:01, CRC, blksize 127"
+            "SDO initiate block download response 0x1F50:01, CRC, blksize 127"
         );
         assert_eq!(
             s([0xA2, 0x7F, 0x40, 0, 0, 0, 0, 0]),

@@ -549,3 +549,23 @@ proptest::proptest! {
         }
     }
 }
+
+/// One way to write an object address in every message: `0x1F50:01` (index in four upper-case
+/// hex digits, sub-index in two), as canola-od's `ObjectAddress` writes it.
+#[test]
+fn object_addresses_read_one_way() {
+    let mux = Multiplexer::new(0x1F50, 0x0A);
+    assert_eq!(mux.to_string(), "0x1F50:0A");
+    let error = canola_sdo::TransferError {
+        index: 0x1F50,
+        subindex: 0x0A,
+        kind: ErrorKind::Timeout,
+    };
+    assert!(error.to_string().starts_with("SDO 0x1F50:0A: "), "{error}");
+    assert!(
+        ServerResponse::parse(&[0x80, 0x50, 0x1F, 0x0A, 0, 0, 2, 6])
+            .unwrap()
+            .to_string()
+            .contains("0x1F50:0A"),
+    );
+}
