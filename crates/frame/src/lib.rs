@@ -29,7 +29,7 @@ pub mod timer;
 
 pub use cob::{CobId, FunctionCode, PdoNumber, is_restricted};
 pub use frame::{CanFrame, FrameError, HexBytes};
-pub use id::{CanId, ExtendedId, IdError, StandardId};
+pub use id::{CanId, Candump, ExtendedId, IdError, StandardId};
 pub use node::{NodeId, NodeIdError};
 pub use time::{Duration, Instant};
 pub use timer::{Periodic, earliest, is_due};
