@@ -55,7 +55,7 @@ pub fn lint(od: &ObjectDictionary) -> Vec<Diagnostic> {
                 K::InvalidCode,
                 obj.line.0,
                 format!(
-                    "object {:04X}: ObjectType=0x{c:X} is not a CiA 301 object code",
+                    "object 0x{:04X}: ObjectType=0x{c:X} is not a CiA 301 object code",
                     obj.index
                 ),
             );
@@ -77,7 +77,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
             K::SubNumber,
             obj.line.0,
             format!(
-                "{} {:04X} has no SubNumber ({present} sub-objects present)",
+                "{} 0x{:04X} has no SubNumber ({present} sub-objects present)",
                 obj.object_code.name(),
                 obj.index
             ),
@@ -86,7 +86,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
             K::SubNumber,
             obj.line.0,
             format!(
-                "{:04X}: SubNumber={n} but {present} sub-objects are defined",
+                "0x{:04X}: SubNumber={n} but {present} sub-objects are defined",
                 obj.index
             ),
         ),
@@ -110,7 +110,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
                     K::SubNumber,
                     sub0.line.0,
                     format!(
-                        "{:04X}sub0 says the highest sub-index is {v}, but sub-index {highest} is defined",
+                        "0x{:04X}:00 says the highest sub-index is {v}, but sub-index {highest} is defined",
                         obj.index
                     ),
                 );
@@ -120,7 +120,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
             K::SubNumber,
             obj.line.0,
             format!(
-                "{:04X}: {} without sub-index 0",
+                "0x{:04X}: {} without sub-index 0",
                 obj.index,
                 obj.object_code.name()
             ),
@@ -137,9 +137,9 @@ fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
     let (low, high) = (num(sub.low_limit()), num(sub.high_limit()));
     let what = || {
         if obj.is_simple() {
-            format!("{:04X}", obj.index)
+            format!("0x{:04X}", obj.index)
         } else {
-            format!("{:04X}sub{:X}", obj.index, sub.sub_index)
+            format!("0x{:04X}:{:02X}", obj.index, sub.sub_index)
         }
     };
     if let (Some(l), Some(h)) = (low, high)
@@ -179,7 +179,7 @@ fn codes(sink: &mut Sink, od: &ObjectDictionary, obj: &Object, sub: &SubObject) 
             K::InvalidCode,
             sub.line.0,
             format!(
-                "{:04X}sub{:X}: AccessType={raw} is none of ro, wo, rw, rwr, rww, const",
+                "0x{:04X}:{:02X}: AccessType={raw} is none of ro, wo, rw, rwr, rww, const",
                 obj.index, sub.sub_index
             ),
         );
@@ -195,7 +195,7 @@ fn codes(sink: &mut Sink, od: &ObjectDictionary, obj: &Object, sub: &SubObject) 
                 K::InvalidCode,
                 sub.line.0,
                 format!(
-                    "{:04X}sub{:X}: DataType=0x{code:04X} is not a CiA 301 basic type nor defined in this file",
+                    "0x{:04X}:{:02X}: DataType=0x{code:04X} is not a CiA 301 basic type nor defined in this file",
                     obj.index, sub.sub_index
                 ),
             );
@@ -206,7 +206,7 @@ fn codes(sink: &mut Sink, od: &ObjectDictionary, obj: &Object, sub: &SubObject) 
             K::PdoMapping,
             sub.line.0,
             format!(
-                "{:04X}sub{:X}: PDOMapping=1 on {}, whose size is not fixed",
+                "0x{:04X}:{:02X}: PDOMapping=1 on {}, whose size is not fixed",
                 obj.index, sub.sub_index, sub.data_type
             ),
         );
@@ -261,7 +261,7 @@ fn object_lists(sink: &mut Sink, od: &ObjectDictionary) {
                 K::ObjectList,
                 obj.line.0,
                 format!(
-                    "object {:04X} is not listed in any object list; add it to [{want}]",
+                    "object 0x{:04X} is not listed in any object list; add it to [{want}]",
                     obj.index
                 ),
             );
@@ -272,7 +272,7 @@ fn object_lists(sink: &mut Sink, od: &ObjectDictionary) {
             sink.warn(
                 K::ObjectList,
                 od.object_list_lines[0].0,
-                format!("mandatory object {index:04X} (CiA 301) is missing"),
+                format!("mandatory object 0x{index:04X} (CiA 301) is missing"),
             );
         }
     }
@@ -353,7 +353,7 @@ fn pdo_mappings(sink: &mut Sink, od: &ObjectDictionary) {
             let (index, sub_index, bits) = ((entry >> 16) as u16, (entry >> 8) as u8, entry & 0xFF);
             total_bits += bits;
             let here = format!(
-                "{:04X}sub{:X} maps {index:04X}sub{sub_index:X} ({bits} bits)",
+                "0x{:04X}:{:02X} maps 0x{index:04X}:{sub_index:02X} ({bits} bits)",
                 obj.index, sub.sub_index
             );
             if index < 0x20 && od.objects.get(&index).is_none_or(|o| o.is_simple()) {
@@ -421,7 +421,7 @@ fn pdo_mappings(sink: &mut Sink, od: &ObjectDictionary) {
                 K::PdoMapping,
                 obj.line.0,
                 format!(
-                    "{:04X} maps {total_bits} bits; a PDO carries at most 64",
+                    "0x{:04X} maps {total_bits} bits; a PDO carries at most 64",
                     obj.index
                 ),
             );

@@ -190,3 +190,32 @@ fn corpus_restricted_cob_ids() {
     }
     println!("corpus: {files} files with a restricted COB-ID in a communication object");
 }
+
+/// Lint messages write object addresses one way, `0x1018:01`, as `ObjectAddress` does.
+#[test]
+fn lint_messages_write_addresses_one_way() {
+    let text = "[1018]\nParameterName=Identity\nObjectType=0x9\nSubNumber=3\n\
+        [1018sub0]\nParameterName=n\nDataType=0x0005\nAccessType=ro\nDefaultValue=1\n\
+        [1018sub1]\nParameterName=Vendor\nDataType=0x0009\nAccessType=ro\nPDOMapping=1\n";
+    let p = parse(text.as_bytes()).expect("parses");
+    let messages: Vec<String> = canola_od::lint(&p.od)
+        .into_iter()
+        .map(|d| d.message)
+        .collect();
+    assert!(
+        messages
+            .iter()
+            .any(|m| m.starts_with("0x1018: SubNumber=3")),
+        "{messages:#?}"
+    );
+    assert!(
+        messages
+            .iter()
+            .any(|m| m.starts_with("0x1018:01: PDOMapping=1")),
+        "{messages:#?}"
+    );
+    assert!(
+        messages.iter().all(|m| !m.contains("1018sub")),
+        "{messages:#?}"
+    );
+}
