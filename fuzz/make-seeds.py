@@ -340,6 +340,13 @@ TARGETS = {
     "devicenet_master_sequence": DEVICENET_SEQ,
     "devicenet_slave_sequence": DEVICENET_SEQ,
     "lss_slave_sequence": LSS_SEQ,
+    # upload, crc, block size, length (u16 LE), then faults (kind, frame number) pairs.
+    "sdo_block_link": [
+        bytes([1, 1, 8, 100, 0, 0, 3]),
+        bytes([0, 0, 8, 100, 0, 1, 8, 2, 3]),
+        bytes([1, 0, 4, 0x10, 1, 0, 2, 1, 9, 2, 15]),
+        bytes([0, 1, 127, 0xE8, 3]),
+    ],
     "sdo_client_sequence": ARBITRARY + SERVER_RESPONSES,
     "sdo_server_sequence": ARBITRARY + CLIENT_REQUESTS,
     "nmt_monitor_sequence": ARBITRARY + NMT_FRAMES,

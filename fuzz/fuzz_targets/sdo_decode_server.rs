@@ -8,6 +8,10 @@ use libfuzzer_sys::fuzz_target;
 fuzz_target!(|data: &[u8]| {
     if let Ok(msg) = ClientRequest::parse(data) {
         assert_eq!(ClientRequest::parse(&msg.emit()), Ok(msg));
+        // A short frame reads as its eight-byte form with zero reserved bytes.
+        let mut padded = [0u8; 8];
+        padded[..data.len()].copy_from_slice(data);
+        assert_eq!(ClientRequest::parse(&padded), Ok(msg));
         let _ = msg.to_string();
     }
     if let Ok(seg) = BlockSegment::parse(data) {

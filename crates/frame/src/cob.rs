@@ -35,6 +35,37 @@ pub const LSS_SLAVE_TO_MASTER: u16 = 0x7E4;
 /// LSS requests, master to slave.
 pub const LSS_MASTER_TO_SLAVE: u16 = 0x7E5;
 
+/// The CAN identifiers CiA 301 (§7.3.5, restricted CAN-IDs) reserves for the predefined
+/// connection set's own use, as inclusive ranges: NMT, the node-ID-less reserve below SYNC,
+/// the reserve after TIME, the default SDO channel, the reserve below NMT error control, NMT
+/// error control, and the LSS and reserved identifiers at the top. A configurable COB-ID (a
+/// PDO, EMCY, SYNC or TIME COB-ID) must not take one of them: a device transmitting there
+/// would be read as NMT commands, SDO traffic or heartbeats.
+pub const RESTRICTED: [(u16, u16); 8] = [
+    (0x000, 0x000),
+    (0x001, 0x07F),
+    (0x101, 0x180),
+    (0x581, 0x5FF),
+    (0x601, 0x67F),
+    (0x6E0, 0x6FF),
+    (0x701, 0x77F),
+    (0x780, 0x7FF),
+];
+
+/// Whether the 11-bit CAN identifier `can_id` is one CiA 301 restricts (see [`RESTRICTED`]).
+/// Identifiers above 0x7FF are not 11-bit identifiers and are not restricted here.
+pub const fn is_restricted(can_id: u16) -> bool {
+    let mut i = 0;
+    while i < RESTRICTED.len() {
+        let (low, high) = RESTRICTED[i];
+        if can_id >= low && can_id <= high {
+            return true;
+        }
+        i += 1;
+    }
+    false
+}
+
 /// The communication object a COB-ID of the predefined connection set belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum FunctionCode {
@@ -238,6 +269,35 @@ impl fmt::Display for CobId {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn restricted_identifiers() {
+        // The edges of every range of CiA 301's table, and the identifiers between them.
+        for id in [
+            0x000, 0x001, 0x07F, 0x101, 0x180, 0x581, 0x5FF, 0x601, 0x67F, 0x6E0, 0x6FF, 0x701,
+            0x77F, 0x780, 0x7E4, 0x7E5, 0x7FF,
+        ] {
+            assert!(is_restricted(id), "{id:#05x}");
+        }
+        for id in [
+            0x080, 0x081, 0x0FF, 0x100, 0x181, 0x1FF, 0x200, 0x580, 0x600, 0x680, 0x6DF, 0x700,
+            0x800,
+        ] {
+            assert!(!is_restricted(id), "{id:#05x}");
+        }
+        // Every default PDO and EMCY identifier of nodes 1..=127 is free; every default SDO
+        // and heartbeat identifier is restricted (for use other than their own).
+        for node in 1..=127u16 {
+            for base in [
+                0x080, 0x180, 0x200, 0x280, 0x300, 0x380, 0x400, 0x480, 0x500,
+            ] {
+                assert!(!is_restricted(base + node), "{:#05x}", base + node);
+            }
+            for base in [0x580, 0x600, 0x700] {
+                assert!(is_restricted(base + node), "{:#05x}", base + node);
+            }
+        }
+    }
 
     fn n(raw: u8) -> NodeId {
         NodeId::new(raw).unwrap()

@@ -110,7 +110,7 @@ impl fmt::Debug for CanFrame {
 impl fmt::Display for CanFrame {
     /// candump compact form: `123#DEADBEEF`, `123#R` / `123#R4` for remote frames.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}#", self.id)?;
+        write!(f, "{}#", self.id.candump())?;
         if self.rtr {
             f.write_str("R")?;
             if self.len > 0 {

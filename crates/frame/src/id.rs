@@ -107,12 +107,32 @@ impl CanId {
     }
 }
 
+impl CanId {
+    /// The identifier as candump writes it: three hex digits for a standard, eight for an
+    /// extended identifier, no prefix (`181`, `18FF0001`).
+    pub const fn candump(self) -> Candump {
+        Candump(self)
+    }
+}
+
 impl fmt::Display for CanId {
-    /// candump style: three hex digits for standard, eight for extended identifiers.
+    /// `0x181` (three upper-case hex digits) for a standard identifier, `0x18FF0001` (eight)
+    /// for an extended one. [`CanId::candump`] writes it without the prefix.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Standard(id) => write!(f, "{:03X}", id.0),
-            Self::Extended(id) => write!(f, "{:08X}", id.0),
+        f.write_str("0x")?;
+        self.candump().fmt(f)
+    }
+}
+
+/// A [`CanId`] written as candump does (see [`CanId::candump`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Candump(CanId);
+
+impl fmt::Display for Candump {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            CanId::Standard(id) => write!(f, "{:03X}", id.0),
+            CanId::Extended(id) => write!(f, "{:08X}", id.0),
         }
     }
 }
@@ -172,9 +192,16 @@ mod tests {
     }
 
     #[test]
-    fn display_like_candump() {
-        assert_eq!(format!("{}", CanId::standard(0x5).unwrap()), "005");
-        assert_eq!(format!("{}", CanId::extended(0x5).unwrap()), "00000005");
+    fn display_with_prefix_and_like_candump() {
+        assert_eq!(format!("{}", CanId::standard(0x5).unwrap()), "0x005");
+        assert_eq!(format!("{}", CanId::standard(0x7E5).unwrap()), "0x7E5");
+        assert_eq!(format!("{}", CanId::extended(0x5).unwrap()), "0x00000005");
+        let id = CanId::standard(0x181).unwrap();
+        assert_eq!(format!("{}", id.candump()), "181");
+        assert_eq!(
+            format!("{}", CanId::extended(0x18FF_0001).unwrap().candump()),
+            "18FF0001"
+        );
     }
 
     #[test]

@@ -5,7 +5,8 @@
 //!   [`embedded_can::Frame`].
 //! - [`NodeId`] — a CANopen node-ID, 1..=127 (CiA 301 §7.5.2.1).
 //! - [`cob`] — the predefined connection set of CiA 301 §7.3.5 (and CiA 305 for LSS): which
-//!   function a COB-ID belongs to and for which node.
+//!   function a COB-ID belongs to and for which node, and the CAN identifiers CiA 301
+//!   restricts ([`is_restricted`]).
 //! - [`time`] — microsecond [`Instant`] and [`Duration`]. The protocol crates never read a clock;
 //!   callers pass the current instant in, so every timeout is testable on a virtual clock.
 //! - [`timer`] — [`Periodic`] timers for producers, [`is_due`] and [`earliest`] for deadlines.
@@ -26,9 +27,9 @@ mod node;
 pub mod time;
 pub mod timer;
 
-pub use cob::{CobId, FunctionCode, PdoNumber};
+pub use cob::{CobId, FunctionCode, PdoNumber, is_restricted};
 pub use frame::{CanFrame, FrameError, HexBytes};
-pub use id::{CanId, ExtendedId, IdError, StandardId};
+pub use id::{CanId, Candump, ExtendedId, IdError, StandardId};
 pub use node::{NodeId, NodeIdError};
 pub use time::{Duration, Instant};
 pub use timer::{Periodic, earliest, is_due};

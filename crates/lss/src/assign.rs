@@ -21,6 +21,16 @@
 //! which finds the smallest address above the last one found, so the workflow never finds the
 //! same slave twice and always ends.
 //!
+//! Node-IDs in use: the caller gives the node-IDs already on the bus
+//! ([`AssignConfig::in_use`]: from a scan, the boot-ups and heartbeats heard) and reports
+//! every boot-up or heartbeat it hears during the run ([`AssignAll::node_id_heard`]). None of
+//! them is handed out: the pool skips it (reported once as [`MasterEvent::NodeIdInUse`] and
+//! listed in [`AssignReport::skipped`]), a slave whose table entry names one is left
+//! unconfigured ([`LssError::NodeIdInUse`]), and a slave configured with a node-ID heard
+//! before it became active (the slave makes it active when it goes back to waiting state) is
+//! configured again with the next free one. The node-IDs this run gave, heard as their
+//! slaves boot, do not count.
+//!
 //! Failures stay per slave: a slave without a node-ID to give, or one that rejects or ignores
 //! configure node-ID, is recorded with its error ([`AssignOutcome::Failed`]) and stays
 //! unconfigured, and the workflow goes on with the next. Store configuration failing is
@@ -88,6 +98,11 @@ impl NodeIdPool {
         self.0 == 0
     }
 
+    /// The node-IDs in the pool, lowest first.
+    pub fn iter(&self) -> impl Iterator<Item = NodeId> + '_ {
+        NodeId::all().filter(|id| self.contains(*id))
+    }
+
     /// Takes the lowest node-ID out of the pool.
     pub fn take_lowest(&mut self) -> Option<NodeId> {
         if self.0 == 0 {
@@ -96,6 +111,16 @@ impl NodeIdPool {
         let bit = self.0.trailing_zeros();
         self.0 &= !(1u128 << bit);
         NodeId::new(u8::try_from(bit).ok()?).ok()
+    }
+}
+
+impl FromIterator<NodeId> for NodeIdPool {
+    fn from_iter<I: IntoIterator<Item = NodeId>>(iter: I) -> Self {
+        let mut p = Self::EMPTY;
+        for id in iter {
+            p.insert(id);
+        }
+        p
     }
 }
 
@@ -110,6 +135,9 @@ pub struct AssignConfig {
     pub pool: NodeIdPool,
     /// Fixed node-IDs for known slaves.
     pub table: Vec<(LssAddress, NodeId), MAX_SLAVES>,
+    /// Node-IDs in use on the bus (found by a scan, boot-ups and heartbeats heard): never
+    /// handed out, whether from the pool or the table.
+    pub in_use: NodeIdPool,
     /// Send store configuration after each configure node-ID.
     pub store: bool,
 }
@@ -122,6 +150,7 @@ impl AssignConfig {
             services: MasterConfig::default(),
             pool,
             table: Vec::new(),
+            in_use: NodeIdPool::EMPTY,
             store: true,
         }
     }
@@ -174,6 +203,8 @@ pub struct AssignReport {
     pub entries: Vec<AssignEntry, MAX_SLAVES>,
     /// Why discovery ended before the bus had no unconfigured slave left.
     pub stopped: Option<LssError>,
+    /// Node-IDs of the pool or the table not handed out because they are in use on the bus.
+    pub skipped: NodeIdPool,
 }
 
 impl AssignReport {
@@ -206,6 +237,10 @@ enum Phase {
 pub struct AssignAll {
     config: AssignConfig,
     pool: NodeIdPool,
+    /// Node-IDs in use on the bus: the configured ones and those heard during the run.
+    in_use: NodeIdPool,
+    /// Node-IDs this run configured.
+    given: NodeIdPool,
     io: Io<AssignReport, AssignEntry>,
     phase: Phase,
     found: Vec<LssAddress, MAX_SLAVES>,
@@ -219,6 +254,8 @@ impl AssignAll {
     pub fn new(config: AssignConfig) -> Self {
         Self {
             pool: config.pool,
+            in_use: config.in_use,
+            given: NodeIdPool::EMPTY,
             config,
             io: Io::new(),
             phase: Phase::Idle,
@@ -254,6 +291,8 @@ impl AssignAll {
         for (_, id) in table {
             self.pool.remove(*id);
         }
+        self.in_use = self.config.in_use;
+        self.given = NodeIdPool::EMPTY;
         self.io.ex.clear();
         self.io.events.clear();
         self.found.clear();
@@ -263,6 +302,75 @@ impl AssignAll {
         self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
         self.phase = Phase::Scan(ScanCore::start(&mut self.io.ex, now, self.config.fastscan));
         Ok(())
+    }
+
+    /// The caller heard a boot-up or heartbeat of node `id` during the run: unless this run
+    /// gave it, it is in use, and no slave gets it from now on. Reported as
+    /// [`MasterEvent::NodeIdInUse`] when the pool still held it.
+    pub fn node_id_heard(&mut self, id: NodeId) {
+        if self.given.contains(id) || self.in_use.contains(id) {
+            return;
+        }
+        self.in_use.insert(id);
+        if self.pool.remove(id) {
+            self.skip(id);
+        }
+    }
+
+    /// Reports a node-ID not handed out because it is in use.
+    fn skip(&mut self, id: NodeId) {
+        if !self.report.skipped.contains(id) {
+            self.report.skipped.insert(id);
+            self.io.events.push(MasterEvent::NodeIdInUse(id));
+        }
+    }
+
+    /// The lowest node-ID of the pool that is not in use; those in use are skipped.
+    fn take_free(&mut self) -> Option<NodeId> {
+        loop {
+            let id = self.pool.take_lowest()?;
+            if !self.in_use.contains(id) {
+                return Some(id);
+            }
+            self.skip(id);
+        }
+    }
+
+    /// Sends configure node-ID with `node_id` to `found[index]`.
+    fn configure(&mut self, now: Instant, index: usize, node_id: NodeId) {
+        self.io.ex.ask(
+            now,
+            Request::ConfigureNodeId(node_id.get()),
+            cs::CONFIGURE_NODE_ID,
+            self.config.services.response_timeout,
+            false,
+        );
+        self.phase = Phase::Configure(index, node_id);
+    }
+
+    /// `found[index]` is configured with `node_id` (and stored, or not: `outcome`). If the
+    /// node-ID was heard on the bus meanwhile, configure the next free one instead.
+    fn configured(&mut self, now: Instant, index: usize, node_id: NodeId, outcome: AssignOutcome) {
+        if self.in_use.contains(node_id) {
+            self.skip(node_id);
+            match self.take_free() {
+                Some(next) => self.configure(now, index, next),
+                None => {
+                    let e = LssError::NodeIdInUse(node_id.get());
+                    self.record(index, Some(node_id), AssignOutcome::Failed(e));
+                    // The slave holds a pending node-ID that must not become active: leave
+                    // it unconfigured (CiA 305: 0xFF) before it goes back to waiting.
+                    self.io
+                        .ex
+                        .send(Request::ConfigureNodeId(crate::wire::UNCONFIGURED_NODE_ID));
+                    self.next_slave(now, index);
+                }
+            }
+            return;
+        }
+        self.given.insert(node_id);
+        self.record(index, Some(node_id), outcome);
+        self.next_slave(now, index);
     }
 
     fn record(&mut self, index: usize, node_id: Option<NodeId>, outcome: AssignOutcome) {
@@ -307,17 +415,15 @@ impl AssignAll {
             .iter()
             .find(|(a, _)| *a == address)
             .map(|(_, id)| *id);
-        match listed.or_else(|| self.pool.take_lowest()) {
-            Some(node_id) => {
-                self.io.ex.ask(
-                    now,
-                    Request::ConfigureNodeId(node_id.get()),
-                    cs::CONFIGURE_NODE_ID,
-                    self.config.services.response_timeout,
-                    false,
-                );
-                self.phase = Phase::Configure(index, node_id);
-            }
+        if let Some(id) = listed.filter(|id| self.in_use.contains(*id)) {
+            self.skip(id);
+            let e = LssError::NodeIdInUse(id.get());
+            self.record(index, Some(id), AssignOutcome::Failed(e));
+            self.next_slave(now, index);
+            return;
+        }
+        match listed.or_else(|| self.take_free()) {
+            Some(node_id) => self.configure(now, index, node_id),
             None => {
                 self.record(index, None, AssignOutcome::Failed(LssError::NoFreeNodeId));
                 self.next_slave(now, index);
@@ -368,10 +474,7 @@ impl AssignAll {
                         );
                         self.phase = Phase::Store(index, node_id);
                     }
-                    Ok(()) => {
-                        self.record(index, Some(node_id), AssignOutcome::Assigned);
-                        self.next_slave(now, index);
-                    }
+                    Ok(()) => self.configured(now, index, node_id, AssignOutcome::Assigned),
                     Err(e) => {
                         self.record(index, Some(node_id), AssignOutcome::Failed(e));
                         self.next_slave(now, index);
@@ -389,8 +492,7 @@ impl AssignAll {
                     },
                     _ => AssignOutcome::StoreFailed(timeout(service, services.store_timeout)),
                 };
-                self.record(index, Some(node_id), outcome);
-                self.next_slave(now, index);
+                self.configured(now, index, node_id, outcome);
             }
         }
     }

@@ -82,6 +82,10 @@ pub enum LssError {
     /// The workflow's node-ID pool had no free node-ID left for a found slave.
     #[error("no free node-ID left for the slave")]
     NoFreeNodeId,
+    /// The node-ID is in use on the bus (a node with it was found by a scan, or its boot-up or
+    /// heartbeat was heard): it is not given to another slave.
+    #[error("node-ID {0} is in use on the bus")]
+    NodeIdInUse(u8),
     /// More results than the fixed-size result list holds (no allocator in the core).
     #[error("more than {0} results; the list is full")]
     TooMany(usize),

@@ -27,7 +27,7 @@
 
 use core::convert::Infallible;
 
-use canola_frame::{CanFrame, Duration, Instant};
+use canola_frame::{CanFrame, Duration, Instant, NodeId};
 use heapless::Deque;
 
 use crate::address::{BitTiming, LssAddress};
@@ -61,6 +61,11 @@ pub enum MasterEvent<T, P = Infallible> {
     Found(LssAddress),
     /// A step of the procedure finished (assign-all: one slave assigned or failed).
     Progress(P),
+    /// Assign-all: a node-ID of the pool was not handed out because it is in use on the bus
+    /// (given in [`AssignConfig::in_use`](crate::AssignConfig::in_use) and reached by the
+    /// pool, or reported during the run with
+    /// [`AssignAll::node_id_heard`](crate::AssignAll::node_id_heard)). Each once.
+    NodeIdInUse(NodeId),
     /// The machine finished.
     Done(Result<T, LssError>),
 }

@@ -1551,3 +1551,106 @@ fn fastscan_transcript() {
     assert_eq!(frames.len(), 133);
     assert_eq!(bus.now, Instant::from_micros(8 * 10_000 + 125 * 500));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Node-IDs already on the bus
+
+/// Nodes 5 and 6 run; the pool is 4..=10. The four new slaves get 4, 7, 8 and 9, never 5 or 6,
+/// and each skip is reported.
+#[test]
+fn assign_all_never_hands_out_a_node_id_in_use() {
+    let mut rng = Rng::new(41);
+    let addrs = random_addresses(&mut rng, 4);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+    let mut config = AssignConfig::with_pool(NodeIdPool::range(id(4), id(10)));
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    config.in_use.insert(id(5));
+    config.in_use.insert(id(6));
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let (r, events) = bus.run(&mut m);
+    let report = r.unwrap();
+    let ids: BTreeSet<u8> = report.assigned().map(|(_, i)| i.get()).collect();
+    assert_eq!(ids, [4, 7, 8, 9].into_iter().collect());
+    let skipped: Vec<NodeId> = events
+        .iter()
+        .filter_map(|e| match e {
+            MasterEvent::NodeIdInUse(i) => Some(*i),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(skipped, [id(5), id(6)]);
+    assert_eq!(report.skipped, [id(5), id(6)].into_iter().collect());
+}
+
+/// A node-ID heard during the run (a boot-up or heartbeat the caller reports) leaves the pool;
+/// the node-IDs this run handed out, heard as their slaves boot, do not count.
+#[test]
+fn assign_all_drops_a_node_id_that_appears_during_the_run() {
+    let mut rng = Rng::new(42);
+    let addrs = random_addresses(&mut rng, 3);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &addrs);
+    let mut config = AssignConfig::with_pool(NodeIdPool::range(id(4), id(10)));
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let (r, events) = bus.run_with(&mut m, |m, e| {
+        if let MasterEvent::Progress(entry) = e {
+            // The slave just configured boots with its node-ID; node 5 starts sending
+            // heartbeats.
+            m.node_id_heard(entry.node_id.unwrap());
+            m.node_id_heard(id(5));
+        }
+    });
+    let report = r.unwrap();
+    let ids: Vec<u8> = report.assigned().map(|(_, i)| i.get()).collect();
+    assert_eq!(ids, [4, 6, 7]);
+    assert!(events.contains(&MasterEvent::NodeIdInUse(id(5))));
+    assert_eq!(report.skipped, [id(5)].into_iter().collect());
+}
+
+/// A table entry whose node-ID is in use: that slave is not configured, and says why.
+#[test]
+fn assign_all_refuses_a_table_node_id_in_use() {
+    let addr = LssAddress::new(9, 9, 9, 9);
+    let mut bus = Bus::with_unconfigured(Delivery::Merged, &[addr]);
+    let mut config = AssignConfig::with_pool(NodeIdPool::range(id(20), id(30)));
+    config.fastscan = fast(ResponsePolicy::FirstAnswer);
+    config.table.push((addr, id(5))).unwrap();
+    config.in_use.insert(id(5));
+    let mut m = AssignAll::new(config);
+    m.start(bus.now).unwrap();
+    let report = bus.run(&mut m).0.unwrap();
+    assert_eq!(report.entries.len(), 1);
+    assert_eq!(
+        report.entries[0].outcome,
+        AssignOutcome::Failed(LssError::NodeIdInUse(5))
+    );
+    assert_eq!(report.entries[0].node_id, Some(id(5)));
+    assert_eq!(bus.slave(addr).active_node_id(), 0xFF, "left unconfigured");
+}
+
+/// The node-ID being configured is heard on the bus before the slave made it active: the
+/// slave is configured again with the next free one.
+#[test]
+fn assign_all_reconfigures_when_its_node_id_appears_meanwhile() {
+    for store in [true, false] {
+        let addr = LssAddress::new(7, 7, 7, 7);
+        let mut bus = Bus::with_unconfigured(Delivery::Merged, &[addr]);
+        let mut config = AssignConfig::with_pool(NodeIdPool::range(id(4), id(10)));
+        config.fastscan = fast(ResponsePolicy::FirstAnswer);
+        config.store = store;
+        let mut m = AssignAll::new(config);
+        m.start(bus.now).unwrap();
+        let (r, events) = bus.run_with(&mut m, |m, e| {
+            if let MasterEvent::Found(_) = e {
+                m.node_id_heard(id(4));
+            }
+        });
+        let report = r.unwrap();
+        assert_eq!(report.assigned().collect::<Vec<_>>(), [(addr, id(5))]);
+        assert_eq!(report.skipped, [id(4)].into_iter().collect());
+        assert!(events.contains(&MasterEvent::NodeIdInUse(id(4))));
+        assert_eq!(bus.slave(addr).active_node_id(), 5, "store: {store}");
+    }
+}

@@ -152,6 +152,15 @@ pub(crate) struct Sink {
     first_suppressed_line: [[u32; KINDS]; 2],
     /// Drop [`DiagnosticKind::Style`] warnings without counting them.
     pub(crate) quiet_style: bool,
+    /// Report every finding but style in a communication object as an error.
+    pub(crate) strict_communication: bool,
+    /// The object whose sections are being read, if any.
+    pub(crate) object: Option<u16>,
+}
+
+/// Whether `index` is in the communication profile area (CiA 301 §7.5: 0x1000..0x1FFF).
+pub(crate) const fn is_communication_object(index: u16) -> bool {
+    index >= 0x1000 && index <= 0x1FFF
 }
 
 /// How many diagnostics of one severity and kind are listed one by one.
@@ -170,6 +179,14 @@ impl Sink {
         if self.quiet_style && kind == DiagnosticKind::Style {
             return;
         }
+        let severity = if self.strict_communication
+            && kind != DiagnosticKind::Style
+            && self.object.is_some_and(is_communication_object)
+        {
+            Severity::Error
+        } else {
+            severity
+        };
         let sev = usize::from(severity == Severity::Error);
         let slot = (kind as usize).min(KINDS - 1);
         let n = &mut self.counts[sev][slot];

@@ -63,6 +63,13 @@ impl<T: EntryValue> Entry<T> {
         T::decode(self.data_type, bytes)
     }
 
+    /// Decodes the data of an expedited SDO upload whose size the server did not indicate: a
+    /// fixed-size type takes its own length from the front (see
+    /// [`DataType::expedited_without_size`]).
+    pub fn decode_unsized(&self, bytes: &[u8]) -> Result<T, EntryError> {
+        T::decode(self.data_type, self.data_type.expedited_without_size(bytes))
+    }
+
     /// Encodes a value into `out`, returning the number of bytes written.
     pub fn encode(&self, value: &T, out: &mut [u8]) -> Result<usize, EntryError> {
         value.encode(self.data_type, out)

@@ -11,6 +11,11 @@
 //!   exist, are not `PDOMapping=1`, have a different size or wrong direction of access, dummy
 //!   entries not allowed by `[DummyUsage]`, more than 64 bits; `PDOMapping=1` on types of
 //!   variable size;
+//! - COB-IDs of the PDOs (0x1400.., 0x1800..; sub-index 1), SYNC (0x1005), TIME (0x1012) and
+//!   EMCY (0x1014) in a range CiA 301 restricts ([`canola_frame::cob::RESTRICTED`]), for
+//!   every node-ID a `$NODEID` value can take; a PDO or EMCY marked not valid (bit 31) and
+//!   29-bit identifiers are not checked. The SDO channels are left out: their default
+//!   identifiers are the restricted ones;
 //! - invalid access types, unknown data types and object codes;
 //! - duplicate sections and keys (found by the parser; [`lint_source`] includes them).
 
@@ -50,7 +55,7 @@ pub fn lint(od: &ObjectDictionary) -> Vec<Diagnostic> {
                 K::InvalidCode,
                 obj.line.0,
                 format!(
-                    "object {:04X}: ObjectType=0x{c:X} is not a CiA 301 object code",
+                    "object 0x{:04X}: ObjectType=0x{c:X} is not a CiA 301 object code",
                     obj.index
                 ),
             );
@@ -58,6 +63,7 @@ pub fn lint(od: &ObjectDictionary) -> Vec<Diagnostic> {
     }
     object_lists(&mut sink, od);
     pdo_mappings(&mut sink, od);
+    restricted_cob_ids(&mut sink, od);
     sink.finish()
 }
 
@@ -71,7 +77,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
             K::SubNumber,
             obj.line.0,
             format!(
-                "{} {:04X} has no SubNumber ({present} sub-objects present)",
+                "{} 0x{:04X} has no SubNumber ({present} sub-objects present)",
                 obj.object_code.name(),
                 obj.index
             ),
@@ -80,7 +86,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
             K::SubNumber,
             obj.line.0,
             format!(
-                "{:04X}: SubNumber={n} but {present} sub-objects are defined",
+                "0x{:04X}: SubNumber={n} but {present} sub-objects are defined",
                 obj.index
             ),
         ),
@@ -104,7 +110,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
                     K::SubNumber,
                     sub0.line.0,
                     format!(
-                        "{:04X}sub0 says the highest sub-index is {v}, but sub-index {highest} is defined",
+                        "0x{:04X}:00 says the highest sub-index is {v}, but sub-index {highest} is defined",
                         obj.index
                     ),
                 );
@@ -114,7 +120,7 @@ fn sub_numbers(sink: &mut Sink, obj: &Object) {
             K::SubNumber,
             obj.line.0,
             format!(
-                "{:04X}: {} without sub-index 0",
+                "0x{:04X}: {} without sub-index 0",
                 obj.index,
                 obj.object_code.name()
             ),
@@ -131,9 +137,9 @@ fn limits(sink: &mut Sink, obj: &Object, sub: &SubObject) {
     let (low, high) = (num(sub.low_limit()), num(sub.high_limit()));
     let what = || {
         if obj.is_simple() {
-            format!("{:04X}", obj.index)
+            format!("0x{:04X}", obj.index)
         } else {
-            format!("{:04X}sub{:X}", obj.index, sub.sub_index)
+            format!("0x{:04X}:{:02X}", obj.index, sub.sub_index)
         }
     };
     if let (Some(l), Some(h)) = (low, high)
@@ -173,7 +179,7 @@ fn codes(sink: &mut Sink, od: &ObjectDictionary, obj: &Object, sub: &SubObject) 
             K::InvalidCode,
             sub.line.0,
             format!(
-                "{:04X}sub{:X}: AccessType={raw} is none of ro, wo, rw, rwr, rww, const",
+                "0x{:04X}:{:02X}: AccessType={raw} is none of ro, wo, rw, rwr, rww, const",
                 obj.index, sub.sub_index
             ),
         );
@@ -189,7 +195,7 @@ fn codes(sink: &mut Sink, od: &ObjectDictionary, obj: &Object, sub: &SubObject) 
                 K::InvalidCode,
                 sub.line.0,
                 format!(
-                    "{:04X}sub{:X}: DataType=0x{code:04X} is not a CiA 301 basic type nor defined in this file",
+                    "0x{:04X}:{:02X}: DataType=0x{code:04X} is not a CiA 301 basic type nor defined in this file",
                     obj.index, sub.sub_index
                 ),
             );
@@ -200,7 +206,7 @@ fn codes(sink: &mut Sink, od: &ObjectDictionary, obj: &Object, sub: &SubObject) 
             K::PdoMapping,
             sub.line.0,
             format!(
-                "{:04X}sub{:X}: PDOMapping=1 on {}, whose size is not fixed",
+                "0x{:04X}:{:02X}: PDOMapping=1 on {}, whose size is not fixed",
                 obj.index, sub.sub_index, sub.data_type
             ),
         );
@@ -255,7 +261,7 @@ fn object_lists(sink: &mut Sink, od: &ObjectDictionary) {
                 K::ObjectList,
                 obj.line.0,
                 format!(
-                    "object {:04X} is not listed in any object list; add it to [{want}]",
+                    "object 0x{:04X} is not listed in any object list; add it to [{want}]",
                     obj.index
                 ),
             );
@@ -266,7 +272,52 @@ fn object_lists(sink: &mut Sink, od: &ObjectDictionary) {
             sink.warn(
                 K::ObjectList,
                 od.object_list_lines[0].0,
-                format!("mandatory object {index:04X} (CiA 301) is missing"),
+                format!("mandatory object 0x{index:04X} (CiA 301) is missing"),
+            );
+        }
+    }
+}
+
+/// The COB-IDs a device of this file would use, checked against CiA 301's restricted
+/// identifiers.
+fn restricted_cob_ids(sink: &mut Sink, od: &ObjectDictionary) {
+    // (index, sub-index, whether bit 31 marks the object not valid).
+    let pdos = od
+        .objects
+        .range(0x1400..=0x15FF)
+        .chain(od.objects.range(0x1800..=0x19FF))
+        .map(|(&i, _)| (i, 1, true));
+    let fixed = [(0x1005, 0, false), (0x1012, 0, false), (0x1014, 0, true)];
+    for (index, sub_index, valid_bit) in pdos.chain(fixed) {
+        let Some(sub) = od.get(index).and_then(|o| o.sub(sub_index)) else {
+            continue;
+        };
+        // The first node-ID (1..=127) whose value lands in a restricted range: a value
+        // without $NODEID is the same for all.
+        let hit = (1..=127u8).find_map(|node| {
+            let v = sub.effective_value(node)?.as_i128()?;
+            let cob = u32::try_from(v).ok()?;
+            let disabled = valid_bit && cob & 0x8000_0000 != 0;
+            let extended = cob & 0x2000_0000 != 0;
+            let id = (cob & 0x7FF) as u16;
+            (!disabled && !extended && canola_frame::is_restricted(id)).then_some((node, id))
+        });
+        if let Some((node, id)) = hit {
+            let relative = sub.effective_value(node) != sub.effective_value(node % 127 + 1);
+            let line = sub.line.0.max(od.get(index).map_or(0, |o| o.line.0));
+            sink.warn(
+                K::Value,
+                line,
+                format!(
+                    "0x{index:04X}:{sub_index:02X}: COB-ID 0x{id:03X}{} is a CAN-ID CiA 301 \
+                     restricts (restricted: 0x000, 0x001..0x07F, 0x101..0x180, 0x581..0x5FF, \
+                     0x601..0x67F, 0x6E0..0x6FF, 0x701..0x77F, 0x780..0x7FF)",
+                    if relative {
+                        format!(" (for node-ID {node})")
+                    } else {
+                        alloc::string::String::new()
+                    }
+                ),
             );
         }
     }
@@ -302,7 +353,7 @@ fn pdo_mappings(sink: &mut Sink, od: &ObjectDictionary) {
             let (index, sub_index, bits) = ((entry >> 16) as u16, (entry >> 8) as u8, entry & 0xFF);
             total_bits += bits;
             let here = format!(
-                "{:04X}sub{:X} maps {index:04X}sub{sub_index:X} ({bits} bits)",
+                "0x{:04X}:{:02X} maps 0x{index:04X}:{sub_index:02X} ({bits} bits)",
                 obj.index, sub.sub_index
             );
             if index < 0x20 && od.objects.get(&index).is_none_or(|o| o.is_simple()) {
@@ -370,7 +421,7 @@ fn pdo_mappings(sink: &mut Sink, od: &ObjectDictionary) {
                 K::PdoMapping,
                 obj.line.0,
                 format!(
-                    "{:04X} maps {total_bits} bits; a PDO carries at most 64",
+                    "0x{:04X} maps {total_bits} bits; a PDO carries at most 64",
                     obj.index
                 ),
             );

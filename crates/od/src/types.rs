@@ -174,6 +174,18 @@ impl DataType {
         })
     }
 
+    /// The object's bytes in the data of an expedited SDO upload whose size the server did not
+    /// indicate (CiA 301 §7.2.4.3.6, e = 1 and s = 0): the four data bytes hold the object from
+    /// the first byte on and the rest is unspecified, so a fixed-size type shorter than what
+    /// arrived takes its own length from the front. Anything else (a type without fixed size,
+    /// fewer bytes than the type takes) is handed back whole, for the strict decoder to judge.
+    pub fn expedited_without_size(self, bytes: &[u8]) -> &[u8] {
+        match self.size() {
+            Some(n) if n < bytes.len() => &bytes[..n],
+            _ => bytes,
+        }
+    }
+
     /// Width in bits of an integer type (signed or unsigned, BOOLEAN counts as 8); `None` otherwise.
     pub const fn integer_bits(self) -> Option<u32> {
         match self {

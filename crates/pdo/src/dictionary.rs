@@ -55,7 +55,7 @@ pub trait Dictionary: Catalog {
 #[non_exhaustive]
 pub enum ReadError {
     /// The entry does not exist.
-    #[error("object {index:#06x}:{subindex:#04x} does not exist")]
+    #[error("object 0x{index:04X}:{subindex:02X} does not exist")]
     NoSuchObject {
         /// Index.
         index: u16,
@@ -63,7 +63,7 @@ pub enum ReadError {
         subindex: u8,
     },
     /// The entry exists but is not an unsigned integer of at most 32 bits.
-    #[error("object {index:#06x}:{subindex:#04x} is not an UNSIGNED8/16/32")]
+    #[error("object 0x{index:04X}:{subindex:02X} is not an UNSIGNED8/16/32")]
     NotAnInteger {
         /// Index.
         index: u16,

@@ -14,7 +14,7 @@ use crate::mapping::{MappedObject, Mapping, ValueKind, field_mask};
 /// A mapped object's value as the PDO data carries it: one variant per way of reading the bits
 /// (a [`ValueKind`]), up to 64 bits, no allocation — the form the engine works in, on devices
 /// without a heap too. Applications see values as the dictionary types them, as
-/// `canola_od::Value` (`Unsigned16`, `VisibleString`, ...): [`RawValue::to_value`] (feature
+/// `canola_od::Value` (`Unsigned16`, `VisibleString`, ...): `RawValue::to_value` (feature
 /// `od`) converts, and the `canola` facade delivers received PDOs that way.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum RawValue {

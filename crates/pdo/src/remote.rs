@@ -122,14 +122,14 @@ pub enum RemapError {
     /// The mapping object is read-only and holds another mapping: this PDO cannot carry the
     /// wanted objects on this node (pick another PDO or accept its fixed mapping).
     #[error(
-        "mapping object {index:#06x} is read-only (static mapping) and differs from the wanted mapping"
+        "mapping object 0x{index:04X} is read-only (static mapping) and differs from the wanted mapping"
     )]
     StaticMapping {
         /// The mapping object.
         index: u16,
     },
     /// The mapping is read-only and the node's current mapping was not given.
-    #[error("mapping object {index:#06x} is read-only and its current entries are unknown")]
+    #[error("mapping object 0x{index:04X} is read-only and its current entries are unknown")]
     StaticMappingUnknown {
         /// The mapping object.
         index: u16,

@@ -227,7 +227,7 @@ fn static_mapping_is_caught_before_any_write() {
     let err = remap(Direction::Transmit, 0, &comm, &mapping, &node).unwrap_err();
     assert_eq!(
         err.to_string(),
-        "mapping object 0x1a00 is read-only (static mapping) and differs from the wanted mapping"
+        "mapping object 0x1A00 is read-only (static mapping) and differs from the wanted mapping"
     );
     // Keeping the fixed mapping only changes the communication parameters, and the strict
     // device accepts every step.

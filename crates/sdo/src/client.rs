@@ -35,9 +35,16 @@
 //!   rest of a block upload's sub-block; the server's answers to the rest of a block download).
 //!   Until the next transfer's first valid response, frames with a command that fits none of
 //!   its steps, and 0000:00 aborts, are dropped instead of ending it.
+//! - In a block upload's sub-block, a segment out of sequence is a gap: it and the rest of the
+//!   sub-block are dropped and the acknowledgement names the last segment received in
+//!   sequence, so the server repeats from there; a repeated segment changes nothing (see
+//!   `subblock.rs`; the server does the same in a block download).
 //! - A block transfer's receiving side aborts after [`crate::MAX_FRUITLESS_SUB_BLOCKS`]
 //!   sub-blocks in a row without a segment in sequence (0x05040003).
-//! - Frames that are not eight bytes long are ignored. Frames while idle are ignored.
+//! - Frames shorter than eight bytes are taken when they hold the bytes their command needs
+//!   (see [`crate::wire`]); one too short for its command ends the transfer with
+//!   [`Violation::ShortFrame`] (abort 0x05040001). Empty frames and frames while idle are
+//!   ignored.
 //! - The timeout is the time the server may take for each response (it restarts on every
 //!   step), so long domains do not need a long timeout; [`ClientConfig::transfer_timeout`]
 //!   optionally bounds the whole transfer as well. On expiry the client sends abort
@@ -51,9 +58,11 @@ use crate::cob::SdoCobIds;
 use crate::crc::Crc16;
 pub use crate::error::{Busy, ErrorKind, TransferError, Violation};
 use crate::queue::Ring;
+use crate::subblock::Receiver;
 pub use crate::wire::MAX_BLOCK_SIZE;
 use crate::wire::{
-    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, ServerResponse, is_abort,
+    BlockSegment, ClientRequest, DecodeError, Initiate, Multiplexer, ServerResponse, carries_mux,
+    is_abort, short_frame_mux,
 };
 
 mod download;
@@ -208,6 +217,12 @@ pub enum Event<S, D> {
         sink: S,
         /// Number of bytes received.
         len: u32,
+        /// The server answered expedited without indicating the size (e = 1, s = 0): the
+        /// sink holds all four data bytes, of which CiA 301 leaves those past the object
+        /// unspecified, so the object's length is its data type's (decode with
+        /// `canola_od::Value::from_le_bytes_unsized`). `false` for every other answer, whose
+        /// length is the object's.
+        unsized_expedited: bool,
     },
     /// The download finished and the server confirmed it.
     Downloaded {
@@ -233,18 +248,11 @@ enum UpPhase {
     Segment { toggle: bool },
     /// Sent initiate block upload; waiting for the block or a normal initiate response.
     BlockInitiate,
-    /// Receiving a sub-block; `expected` is the next sequence number, `held` the last segment
-    /// of the transfer once received (its length is known only from the end message).
-    SubBlock {
-        crc: bool,
-        expected: u8,
-        held: Option<[u8; 7]>,
-        /// Sub-blocks in a row that ended without one segment accepted (see
-        /// [`MAX_FRUITLESS_SUB_BLOCKS`](crate::MAX_FRUITLESS_SUB_BLOCKS)).
-        fruitless: u8,
-    },
-    /// Acknowledged the last segment; waiting for the end message.
-    BlockEnd { crc: bool, held: [u8; 7] },
+    /// Receiving sub-blocks (see [`crate::subblock`]).
+    SubBlock { crc: bool, receiver: Receiver },
+    /// Acknowledged the last segment of the transfer, `held` (its length is known only from
+    /// the end message); waiting for the end message.
+    BlockEnd { crc: bool, held: BlockSegment },
 }
 
 #[derive(Debug)]
@@ -274,6 +282,8 @@ enum Kind<S, D> {
         sink: S,
         phase: UpPhase,
         total: Option<u32>,
+        /// Answered expedited without size (see [`Event::Uploaded`]).
+        unsized_expedited: bool,
     },
     Down {
         source: D,
@@ -402,6 +412,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                 sink,
                 phase,
                 total: None,
+                unsized_expedited: false,
             },
             done: 0,
             crc: Crc16::new(),
@@ -615,10 +626,18 @@ impl<S: Sink, D: Source> Client<S, D> {
     fn finish(&mut self, active: Active<S, D>, result: Result<(), ErrorKind>) {
         let mux = active.mux;
         self.event = Some(match (active.kind, result) {
-            (Kind::Up { sink, .. }, Ok(())) => Event::Uploaded {
+            (
+                Kind::Up {
+                    sink,
+                    unsized_expedited,
+                    ..
+                },
+                Ok(()),
+            ) => Event::Uploaded {
                 mux,
                 sink,
                 len: active.done,
+                unsized_expedited,
             },
             (Kind::Down { source, .. }, Ok(())) => Event::Downloaded { mux, source },
             (kind, Err(kind_err)) => Event::Failed {
@@ -637,16 +656,21 @@ impl<S: Sink, D: Source> Client<S, D> {
 
     fn step(&mut self, now: Instant, mut active: Active<S, D>, data: &[u8]) -> Step<S, D> {
         // In an upload sub-block every frame is a segment, except an abort.
-        if let Kind::Up {
-            phase: UpPhase::SubBlock { .. },
-            ..
-        } = active.kind
-            && !is_abort(data)
-        {
-            return match BlockSegment::parse(data) {
-                Ok(seg) => self.on_block_segment(now, active, seg),
-                Err(_) => Step::Continue(active),
-            };
+        if let Kind::Up { phase, .. } = &active.kind {
+            match phase {
+                UpPhase::SubBlock { .. } if !is_abort(data) => {
+                    return match BlockSegment::parse(data) {
+                        Ok(seg) => self.on_block_segment(now, active, seg),
+                        Err(_) => Step::Continue(active),
+                    };
+                }
+                // A repeat of the transfer's last segment (its bytes may read as anything,
+                // an abort of 0000:00 among them).
+                UpPhase::BlockEnd { held, .. } if data == held.emit() => {
+                    return Step::Continue(active);
+                }
+                _ => {}
+            }
         }
         // Right after this client aborted a transfer, the server's frames still on their way
         // (up to a sub-block of segments, each byte pattern a possible command) are dropped
@@ -658,6 +682,19 @@ impl<S: Sink, D: Source> Client<S, D> {
             Err(DecodeError::UnknownCommand(_)) if leftovers => return Step::Continue(active),
             Err(DecodeError::UnknownCommand(_)) => {
                 return Step::Finish(active, Err(protocol(Violation::UnexpectedCommand)));
+            }
+            // A short frame fails the transfer only when it is surely this transfer's: a
+            // command without multiplexer (segments, acknowledgements) or one naming this
+            // transfer's object. One naming another object, or too short to name one, is a
+            // stray frame, as its long form would be.
+            Err(DecodeError::Short { command, .. })
+                if !leftovers
+                    && match short_frame_mux(data) {
+                        Some(mux) => mux == active.mux,
+                        None => !carries_mux(command),
+                    } =>
+            {
+                return Step::Finish(active, Err(protocol(Violation::ShortFrame)));
             }
             Err(_) => return Step::Continue(active),
         };

@@ -13,7 +13,7 @@ pub struct Busy<T>(pub T);
 
 /// Why a transfer failed, and for which object.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("SDO {index:#06x}:{subindex:02x}: {kind}")]
+#[error("SDO 0x{index:04X}:{subindex:02X}: {kind}")]
 pub struct TransferError {
     /// Object index.
     pub index: u16,
@@ -99,6 +99,9 @@ pub enum Violation {
         /// CRC in the end message.
         received: u16,
     },
+    /// A frame shorter than the bytes its command needs (0x05040001).
+    #[error("frame too short for its command (abort 0x05040001)")]
+    ShortFrame,
     /// More data than the announced size (0x06070012).
     #[error("more data than the announced {size} bytes (abort 0x06070012)")]
     TooLong {
@@ -119,7 +122,7 @@ impl Violation {
     /// The abort code sent for this violation.
     pub const fn abort_code(&self) -> AbortCode {
         match self {
-            Self::UnexpectedCommand => AbortCode::INVALID_COMMAND,
+            Self::UnexpectedCommand | Self::ShortFrame => AbortCode::INVALID_COMMAND,
             Self::Toggle => AbortCode::TOGGLE_BIT_NOT_ALTERNATED,
             Self::BlockSize(_) => AbortCode::INVALID_BLOCK_SIZE,
             Self::SequenceNumber(_) => AbortCode::INVALID_SEQUENCE_NUMBER,

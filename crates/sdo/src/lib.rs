@@ -102,6 +102,7 @@ mod crc;
 mod error;
 mod queue;
 pub mod server;
+mod subblock;
 pub mod wire;
 
 /// How many sub-blocks in a row may end without a single segment in sequence before the

@@ -30,6 +30,7 @@ use crate::abort::AbortCode;
 use crate::cob::SdoCobIds;
 use crate::crc::Crc16;
 use crate::queue::Ring;
+use crate::subblock::Receiver;
 mod object;
 
 pub use object::{Access, LengthRule, ObjectAccess, ObjectInfo};
@@ -136,18 +137,16 @@ enum State {
         offset: u32,
         len: u32,
     },
-    /// Block download, receiving sub-blocks (or, with `held` set, waiting for the end).
+    /// Block download, receiving sub-blocks (see [`crate::subblock`]), or, with `held` set
+    /// to the transfer's last segment, waiting for the end.
     BlockDownload {
         mux: Multiplexer,
         crc: bool,
-        expected: u8,
+        receiver: Receiver,
         received: u32,
         size: Option<u32>,
         accepts: LengthRule,
-        held: Option<[u8; 7]>,
-        /// Sub-blocks in a row that ended without one segment accepted (see
-        /// [`MAX_FRUITLESS_SUB_BLOCKS`](crate::MAX_FRUITLESS_SUB_BLOCKS)).
-        fruitless: u8,
+        held: Option<BlockSegment>,
     },
     /// Block upload initiated; waiting for the start command.
     BlockUploadStart {
@@ -252,9 +251,23 @@ impl Server {
                     Err(_) => Ok(state),
                 }
             }
+            // A repeat of the transfer's last segment (its bytes may read as any request, an
+            // abort among them).
+            State::BlockDownload {
+                held: Some(held), ..
+            } if data == held.emit() => Ok(state),
             _ => match ClientRequest::parse(data) {
                 Ok(req) => self.on_request(state, req, od),
-                Err(DecodeError::UnknownCommand(_)) => Err(Fail(
+                // A request too short for its command, while idle, is answered for the object
+                // it names when it holds the
+                // multiplexer; one that does not, while idle, cannot be placed and is dropped.
+                Err(DecodeError::Short { .. }) if state.mux().is_none() => {
+                    match crate::wire::short_frame_mux(data) {
+                        Some(mux) => Err(Fail(mux, AbortCode::INVALID_COMMAND)),
+                        None => Ok(state),
+                    }
+                }
+                Err(DecodeError::UnknownCommand(_) | DecodeError::Short { .. }) => Err(Fail(
                     state.mux().unwrap_or_default(),
                     AbortCode::INVALID_COMMAND,
                 )),
@@ -493,7 +506,7 @@ impl Server {
                     crc: their_crc,
                 },
             ) => {
-                let bytes = &held[..usize::from(7 - unused.min(7))];
+                let bytes = &held.data[..usize::from(7 - unused.min(7))];
                 let end = received.saturating_add(bytes.len() as u32);
                 check_progress(end, size, accepts).map_err(|c| Fail(mux, c))?;
                 check_end(end, size, accepts).map_err(|c| Fail(mux, c))?;
@@ -644,12 +657,11 @@ impl Server {
                 Ok(State::BlockDownload {
                     mux,
                     crc: crc && self.config.crc,
-                    expected: 1,
+                    receiver: Receiver::new(),
                     received: 0,
                     size,
                     accepts: info.accepts,
                     held: None,
-                    fruitless: 0,
                 })
             }
             ClientRequest::BlockUploadInitiate {
@@ -741,24 +753,23 @@ impl Server {
         let State::BlockDownload {
             mux,
             crc,
-            mut expected,
+            mut receiver,
             mut received,
             size,
             accepts,
             held: None,
-            mut fruitless,
         } = state
         else {
             return Ok(state);
         };
         let blksize = self.config.block_size;
-        if seg.seqno == 0 || seg.seqno > blksize {
-            return Err(Fail(mux, AbortCode::INVALID_SEQUENCE_NUMBER));
-        }
+        let verdict = receiver
+            .on_segment(&seg, blksize)
+            .map_err(|_| Fail(mux, AbortCode::INVALID_SEQUENCE_NUMBER))?;
         let mut held = None;
-        if seg.seqno == expected {
+        if verdict.take {
             if seg.last {
-                held = Some(seg.data);
+                held = Some(seg);
             } else {
                 let end = received.saturating_add(7);
                 check_progress(end, size, accepts).map_err(|c| Fail(mux, c))?;
@@ -767,36 +778,18 @@ impl Server {
                 self.crc.update(&seg.data);
                 received = end;
             }
-            expected += 1;
         }
-        if seg.last || seg.seqno == blksize {
-            if expected == 1 {
-                // As the client does in a block upload: an endless run of sub-blocks without
-                // a segment in sequence is a peer in another transfer, not a lossy bus.
-                fruitless += 1;
-                if fruitless > crate::MAX_FRUITLESS_SUB_BLOCKS {
-                    return Err(Fail(mux, AbortCode::INVALID_SEQUENCE_NUMBER));
-                }
-            } else {
-                fruitless = 0;
-            }
-            self.send(ServerResponse::BlockDownloadAck {
-                ackseq: expected - 1,
-                blksize,
-            });
-            if held.is_none() {
-                expected = 1;
-            }
+        if let Some(ackseq) = verdict.ack {
+            self.send(ServerResponse::BlockDownloadAck { ackseq, blksize });
         }
         Ok(State::BlockDownload {
             mux,
             crc,
-            expected,
+            receiver,
             received,
             size,
             accepts,
             held,
-            fruitless,
         })
     }
 }

@@ -1,7 +1,7 @@
 //! The SDO messages on the wire (CiA 301 §7.2.4.3): every client request and server response,
 //! as typed values with a total `parse` and an `emit`.
 //!
-//! Every SDO message is eight data bytes. Byte 0 is the command byte: the command specifier
+//! An SDO message is eight data bytes. Byte 0 is the command byte: the command specifier
 //! (`ccs` for client requests, `scs` for server responses) in bits 7..5 and per-command flags
 //! below. The initiate messages and the abort carry the multiplexer (index little-endian in bytes
 //! 1..=2, sub-index in byte 3).
@@ -20,6 +20,17 @@
 //! the 7-bit sequence number), so they cannot be told apart from other messages by their bytes:
 //! the receiving state machine parses them with [`BlockSegment::parse`] while it expects a
 //! sub-block, and with [`ClientRequest::parse`] / [`ServerResponse::parse`] otherwise.
+//!
+//! # Frames shorter than eight bytes
+//!
+//! CiA 301 gives the bytes after those a command uses no meaning ("reserved"), and some devices
+//! send only the bytes they use: an expedited upload response of one byte as `4F 00 14 02 FE`
+//! with DLC 5. `parse` takes a frame of 1..=8 bytes when it holds every byte its command needs
+//! (the multiplexer, the data bytes the message announces, the size, the abort code), and reads
+//! the missing reserved bytes as zero. A frame too short for its command is
+//! [`DecodeError::Short`]: no byte that carries meaning is ever made up. Block sub-block
+//! segments keep their eight bytes, as the data length of the last one is told only by the end
+//! message that follows it.
 //!
 //! All `parse` functions are total: any byte slice gives a value or a [`DecodeError`], never a
 //! panic. Reserved bits are ignored on parse and written as zero by `emit`, so
@@ -125,9 +136,10 @@ impl Multiplexer {
 }
 
 impl core::fmt::Display for Multiplexer {
-    /// `0x1018:02`.
+    /// `0x1018:02`, `0x1F50:0A`: the index in four upper-case hex digits, the sub-index in
+    /// two, as every message of the stack writes an object address.
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{:#06x}:{:02x}", self.index, self.subindex)
+        write!(f, "0x{:04X}:{:02X}", self.index, self.subindex)
     }
 }
 
@@ -135,9 +147,19 @@ impl core::fmt::Display for Multiplexer {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum DecodeError {
-    /// SDO messages are always eight bytes long.
-    #[error("an SDO message has 8 data bytes, this one has {0}")]
+    /// No SDO message: an empty frame, or more than eight bytes.
+    #[error("an SDO message has 1..=8 data bytes, this one has {0}")]
     Length(usize),
+    /// The frame is shorter than the bytes its command needs.
+    #[error("SDO command byte {command:#04x} needs {needs} data bytes, the frame has {len}")]
+    Short {
+        /// Byte 0 of the frame.
+        command: u8,
+        /// Bytes the command needs.
+        needs: usize,
+        /// Bytes in the frame.
+        len: usize,
+    },
     /// The command specifier (or the block sub-command) is not defined in this direction.
     #[error("unknown SDO command byte {0:#04x}")]
     UnknownCommand(u8),
@@ -145,6 +167,110 @@ pub enum DecodeError {
 
 fn bytes8(data: &[u8]) -> Result<&[u8; 8], DecodeError> {
     <&[u8; 8]>::try_from(data).map_err(|_| DecodeError::Length(data.len()))
+}
+
+/// The frame's bytes padded with zeros to eight, when it holds the `needs(command)` bytes its
+/// command uses.
+fn padded(data: &[u8], needs: fn(u8) -> usize) -> Result<[u8; 8], DecodeError> {
+    let (&command, _) = data
+        .split_first()
+        .filter(|_| data.len() <= 8)
+        .ok_or(DecodeError::Length(data.len()))?;
+    let needs = needs(command);
+    if data.len() < needs {
+        return Err(DecodeError::Short {
+            command,
+            needs,
+            len: data.len(),
+        });
+    }
+    let mut b = [0u8; 8];
+    b[..data.len()].copy_from_slice(data);
+    Ok(b)
+}
+
+/// The multiplexer of a frame too short for its command, when its command carries one
+/// (initiate, block initiate, abort) and the frame holds it.
+pub(crate) fn short_frame_mux(data: &[u8]) -> Option<Multiplexer> {
+    let cmd = *data.first()?;
+    match data.get(..4) {
+        Some(&[_, lo, hi, subindex]) if carries_mux(cmd) => Some(Multiplexer {
+            index: u16::from_le_bytes([lo, hi]),
+            subindex,
+        }),
+        _ => None,
+    }
+}
+
+/// Whether messages with command byte `cmd` carry a multiplexer, in either direction: the
+/// initiate messages, the abort and the block initiate messages do; the acknowledgements, the
+/// ends and the block upload start do not.
+pub(crate) fn carries_mux(cmd: u8) -> bool {
+    match cmd >> field::CS_SHIFT {
+        1..=4 => true,
+        5 => cmd & 0x03 == 0,
+        6 => cmd & 0x01 == 0,
+        _ => false,
+    }
+}
+
+/// Bytes a segment (download segment request, upload segment response) uses: the command byte
+/// and its 7 − n data bytes.
+fn segment_needs(cmd: u8) -> usize {
+    8 - usize::from((cmd & field::SEG_N_MASK) >> field::SEG_N_SHIFT)
+}
+
+/// Bytes an initiate download request or initiate upload response uses: expedited with size
+/// indicated, the command, multiplexer and its 4 − n data bytes; expedited without size, all
+/// eight; segmented, the size if indicated, else the multiplexer.
+fn initiate_needs(cmd: u8) -> usize {
+    let sized = cmd & field::SIZE != 0;
+    match (cmd & field::EXPEDITED != 0, sized) {
+        (true, true) => 8 - usize::from((cmd & field::INIT_N_MASK) >> field::INIT_N_SHIFT),
+        (true, false) | (false, true) => 8,
+        (false, false) => field::DATA.start,
+    }
+}
+
+/// Bytes a block initiate with an optional size uses (block download request, block upload
+/// response).
+fn sized_block_initiate_needs(cmd: u8) -> usize {
+    if cmd & field::BLOCK_SIZE != 0 {
+        8
+    } else {
+        field::DATA.start
+    }
+}
+
+/// Bytes each client request uses (commands that do not exist need only their command byte,
+/// to be told apart as unknown).
+fn client_needs(cmd: u8) -> usize {
+    match (cmd >> field::CS_SHIFT, cmd & 0x03) {
+        (0, _) => segment_needs(cmd),
+        (1, _) => initiate_needs(cmd),
+        (2, _) => field::DATA.start,
+        (4, _) => 8,
+        (5, 0) => field::PST + 1,
+        (5, 2) => field::ACK_BLKSIZE + 1,
+        (6, 1) | (6, 3) => field::CRC.end,
+        (6, _) => sized_block_initiate_needs(cmd),
+        _ => 1,
+    }
+}
+
+/// Bytes each server response uses.
+fn server_needs(cmd: u8) -> usize {
+    match (cmd >> field::CS_SHIFT, cmd & 0x03) {
+        (0, _) => segment_needs(cmd),
+        (2, _) => initiate_needs(cmd),
+        (3, _) => field::DATA.start,
+        (4, _) => 8,
+        (5, 0) => field::INIT_RESP_BLKSIZE + 1,
+        (5, 2) => field::ACK_BLKSIZE + 1,
+        (6, 1) | (6, 3) => field::CRC.end,
+        (6, _) => sized_block_initiate_needs(cmd),
+        _ => 1,
+    }
 }
 
 fn data4(b: &[u8; 8]) -> [u8; 4] {
@@ -364,9 +490,10 @@ pub enum ClientRequest {
 }
 
 impl ClientRequest {
-    /// Decodes a client request. Never panics.
+    /// Decodes a client request of 1..=8 bytes that holds the bytes its command needs (see
+    /// the [module docs](self)). Never panics.
     pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
-        let b = bytes8(data)?;
+        let b = &padded(data, client_needs)?;
         let cmd = b[field::COMMAND];
         Ok(match cmd >> field::CS_SHIFT {
             0 => Self::DownloadSegment(Segment::parse(b)),
@@ -507,9 +634,10 @@ pub enum ServerResponse {
 }
 
 impl ServerResponse {
-    /// Decodes a server response. Never panics.
+    /// Decodes a server response of 1..=8 bytes that holds the bytes its command needs (see
+    /// the [module docs](self)). Never panics.
     pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
-        let b = bytes8(data)?;
+        let b = &padded(data, server_needs)?;
         let cmd = b[field::COMMAND];
         Ok(match cmd >> field::CS_SHIFT {
             0 => Self::UploadSegment(Segment::parse(b)),
@@ -1006,9 +1134,27 @@ mod tests {
     #[test]
     fn errors() {
         assert_eq!(ClientRequest::parse(&[]), Err(DecodeError::Length(0)));
+        assert_eq!(ClientRequest::parse(&[0; 9]), Err(DecodeError::Length(9)));
+        // Short frames: enough for an initiate download response, not for an abort.
         assert_eq!(
-            ServerResponse::parse(&[0x60; 7]),
-            Err(DecodeError::Length(7))
+            ServerResponse::parse(&[0x60, 0x17, 0x10, 0x00]),
+            Ok(ServerResponse::InitiateDownload { mux: M1017 })
+        );
+        assert_eq!(
+            ServerResponse::parse(&[0x60, 0x17, 0x10]),
+            Err(DecodeError::Short {
+                command: 0x60,
+                needs: 4,
+                len: 3
+            })
+        );
+        assert_eq!(
+            ClientRequest::parse(&[0x80, 0x17, 0x10, 0x00, 0, 0, 0]),
+            Err(DecodeError::Short {
+                command: 0x80,
+                needs: 8,
+                len: 7
+            })
         );
         assert_eq!(BlockSegment::parse(&[0; 9]), Err(DecodeError::Length(9)));
         assert_eq!(
@@ -1090,15 +1236,15 @@ mod tests {
         assert_eq!(s(abort), text);
         assert_eq!(
             c([0xC6, 0x50, 0x1F, 0x01, 0xE8, 0x03, 0, 0]),
-            "SDO initiate block download request 0x1f50:01, CRC, 1000 bytes"
+            "SDO initiate block download request 0x1F50:01, CRC, 1000 bytes"
         );
         assert_eq!(
             c([0xC0, 0x50, 0x1F, 0x01, 0, 0, 0, 0]),
-            "SDO initiate block download request 0x1f50:01, no CRC, size not indicated"
+            "SDO initiate block download request 0x1F50:01, no CRC, size not indicated"
         );
         assert_eq!(
             s([0xA4, 0x50, 0x1F, 0x01, 0x7F, 0, 0, 0]),
-            "SDO initiate block download response 0x1f50:01, CRC, blksize 127"
+            "SDO initiate block download response 0x1F50:01, CRC, blksize 127"
         );
         assert_eq!(
             s([0xA2, 0x7F, 0x40, 0, 0, 0, 0, 0]),

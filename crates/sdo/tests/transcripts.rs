@@ -1756,21 +1756,19 @@ fn in_first_upload_sub_block() -> TestClient {
 /// Two block machines out of step: a block upload client fed a server's block download
 /// acknowledgements (`A2 00 7F`: to the client a last segment with sequence number 34), and a
 /// block download server fed the client's block upload acknowledgements (the same bytes). Each
-/// answers every such "sub-block" with an acknowledgement of nothing, which rearms its timeout;
-/// found by the `canopen_network_sequence` fuzz target, where the two acknowledged each other
-/// forever after a device rebooted in the middle of a block download. Each side now gives up
-/// after `MAX_FRUITLESS_SUB_BLOCKS` such rounds in a row (abort 0x05040003), while a lost
-/// segment, which costs one round, still recovers.
+/// answered every such "sub-block" with an acknowledgement of nothing, which rearmed its
+/// timeout; found by the `canopen_network_sequence` fuzz target, where the two acknowledged
+/// each other forever after a device rebooted in the middle of a block download. Now the same
+/// eight bytes again are a repeat of the segment that ended the sub-block, acknowledged only
+/// once, so the timeout ends the transfer; and acknowledgements that differ (another
+/// blksize each time) end it after `MAX_FRUITLESS_SUB_BLOCKS` rounds in a row (abort
+/// 0x05040003), while a lost segment, which costs one round, still recovers.
 #[test]
 fn crossed_block_machines_give_up() {
     use canola_sdo::MAX_FRUITLESS_SUB_BLOCKS;
-    let crossed = ServerResponse::BlockDownloadAck {
-        ackseq: 0,
-        blksize: 127,
-    }
-    .emit();
+    let crossed = |blksize: u8| ServerResponse::BlockDownloadAck { ackseq: 0, blksize }.emit();
     assert_eq!(
-        crossed,
+        crossed(127),
         ClientRequest::BlockUploadAck {
             ackseq: 0,
             blksize: 127
@@ -1783,10 +1781,22 @@ fn crossed_block_machines_give_up() {
     }
     .emit();
 
+    // Client: the same frame over and over is acknowledged once; the timeout ends it.
+    let mut c = in_first_upload_sub_block();
+    c.handle_response(T0, &crossed(127));
+    assert_eq!(drain(&mut c), [nothing]);
+    for _ in 0..2 * MAX_FRUITLESS_SUB_BLOCKS {
+        c.handle_response(T0, &crossed(127));
+        assert!(drain(&mut c).is_empty());
+        assert!(c.poll_event().is_none());
+    }
+    c.handle_timeout(T0 + SEC);
+    assert_eq!(failed(c.poll_event()).kind, ErrorKind::Timeout);
+
     // Client: fruitless rounds up to the bound, then progress resets the count.
     let mut c = in_first_upload_sub_block();
-    for _ in 0..MAX_FRUITLESS_SUB_BLOCKS {
-        c.handle_response(T0, &crossed);
+    for i in 0..MAX_FRUITLESS_SUB_BLOCKS {
+        c.handle_response(T0, &crossed(127 - i));
         assert_eq!(drain(&mut c), [nothing]);
         assert!(c.poll_event().is_none());
     }
@@ -1810,30 +1820,30 @@ fn crossed_block_machines_give_up() {
         }
         .emit()]
     );
-    for _ in 0..MAX_FRUITLESS_SUB_BLOCKS {
-        c.handle_response(T0, &crossed);
+    for i in 0..MAX_FRUITLESS_SUB_BLOCKS {
+        c.handle_response(T0, &crossed(127 - i));
         assert_eq!(drain(&mut c), [nothing]);
     }
-    violates(&mut c, crossed, Violation::SequenceNumber(0x22));
+    violates(&mut c, crossed(100), Violation::SequenceNumber(0x22));
 
-    // Server: the same bound on a block download.
+    // Server: the same on a block download.
     let mut s = Scripted::new();
     s.send(ClientRequest::BlockDownloadInitiate {
         mux: DOMAIN,
         crc: false,
         size: None,
     });
-    for _ in 0..MAX_FRUITLESS_SUB_BLOCKS {
-        assert_eq!(
-            s.raw(crossed),
-            [ServerResponse::BlockDownloadAck {
-                ackseq: 0,
-                blksize: 127
-            }
-            .emit()]
-        );
+    let ack0 = [ServerResponse::BlockDownloadAck {
+        ackseq: 0,
+        blksize: 127,
     }
-    let r = s.raw(crossed);
+    .emit()];
+    assert_eq!(s.raw(crossed(127)), ack0);
+    assert!(s.raw(crossed(127)).is_empty(), "a repeat");
+    for i in 1..MAX_FRUITLESS_SUB_BLOCKS {
+        assert_eq!(s.raw(crossed(127 - i)), ack0);
+    }
+    let r = s.raw(crossed(100));
     s.aborted(DOMAIN, AbortCode::INVALID_SEQUENCE_NUMBER, r);
 }
 

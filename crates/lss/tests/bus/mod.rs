@@ -196,6 +196,16 @@ impl Bus {
 
     /// Runs `m` until it reports `Done`; returns the result and the events before it.
     pub(crate) fn run<M: LssMachine>(&mut self, m: &mut M) -> RunResult<M::Output, M::Progress> {
+        self.run_with(m, |_, _| {})
+    }
+
+    /// [`run`](Self::run), handing every event to `seen` with the machine first (a test
+    /// reports what the caller hears on the bus meanwhile: boot-ups, heartbeats).
+    pub(crate) fn run_with<M: LssMachine>(
+        &mut self,
+        m: &mut M,
+        mut seen: impl FnMut(&mut M, &MasterEvent<M::Output, M::Progress>),
+    ) -> RunResult<M::Output, M::Progress> {
         let mut events = Vec::new();
         for _ in 0..1_000_000 {
             while let Some(f) = m.poll_transmit_frame() {
@@ -210,6 +220,7 @@ impl Bus {
                     assert!(m.is_finished());
                     return (r, events);
                 }
+                seen(m, &e);
                 events.push(e);
             }
             let t_frames = self.pending.iter().map(|p| p.0).min();

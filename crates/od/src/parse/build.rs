@@ -17,7 +17,7 @@ use super::keys::{
 };
 use super::names::SectionKind;
 use super::scan::{Entry, Section, SubRec};
-use crate::diag::{DiagnosticKind as K, Echo, Sink};
+use crate::diag::{DiagnosticKind as K, Echo, Sink, is_communication_object};
 use crate::model::{FieldValue, Line, Object, ObjectDictionary, RawSection, SubObject, SubObjects};
 use crate::types::{AccessType, DataType, ObjectCode};
 use crate::value::{TextError, TextNotes, parse_int_literal};
@@ -169,6 +169,7 @@ pub(super) fn build(
             }
         }
         let own_built = built.remove(&index).unwrap_or_default();
+        sink.object = Some(index);
         if let Some(mut obj) = object(index, sec, own_subs, own_built, sink) {
             if let Some(names_sec) = names.remove(&index) {
                 apply_names(&mut obj, names_sec, sink);
@@ -184,6 +185,7 @@ pub(super) fn build(
             }
             od.objects.insert(index, obj);
         }
+        sink.object = None;
     }
     for sec in names
         .values()
@@ -370,10 +372,12 @@ pub(super) fn sub_object(
         match res {
             Ok(notes) => note_warnings(sink, fline, label, notes),
             Err(TextError::Empty) => {}
-            Err(e) => sink.warn(
-                K::Value,
+            Err(e) => unparsable(
+                sink,
+                what.index,
                 fline,
-                format!("{what}: {label}=`{}`: {e}; kept as text only", Echo(text)),
+                label,
+                format!("{what}: {label}=`{}`: {e}", Echo(text)),
             ),
         }
         Some(f)
@@ -570,6 +574,23 @@ pub(super) fn apply_names(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Si
     );
 }
 
+/// Reports a value that does not parse. In a communication object (0x1000..0x1FFF) a
+/// DefaultValue or ParameterValue configures the network (a COB-ID, a mapping, a heartbeat
+/// time): a device or master using the file would have no value, or fall back to 0, which as
+/// a COB-ID is the NMT identifier; so there it is an error. Elsewhere, and for the limits, the
+/// text is kept and the finding is a warning.
+fn unparsable(sink: &mut Sink, index: u16, line: u32, label: &str, message: alloc::string::String) {
+    if is_communication_object(index) && matches!(label, "DefaultValue" | "ParameterValue") {
+        sink.error(
+            K::Value,
+            line,
+            format!("{message}; a value of a communication object (0x1000..0x1FFF) must parse"),
+        );
+    } else {
+        sink.warn(K::Value, line, format!("{message}; kept as text only"));
+    }
+}
+
 /// `[xxxxValue]`: `NrOfEntries=n`, then `sub=value` lines (DCF `ParameterValue`).
 pub(super) fn apply_values(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut Sink) {
     for_numbered(
@@ -582,14 +603,12 @@ pub(super) fn apply_values(obj: &mut Object, sec: &Section<'_, '_>, sink: &mut S
                 match res {
                     Ok(notes) => note_warnings(sink, line, "value", notes),
                     Err(TextError::Empty) => {}
-                    Err(e) => sink.warn(
-                        K::Value,
+                    Err(e) => unparsable(
+                        sink,
+                        obj.index,
                         line,
-                        format!(
-                            "[{}] {sub}=`{}`: {e}; kept as text only",
-                            Echo(sec.name),
-                            Echo(value)
-                        ),
+                        "ParameterValue",
+                        format!("[{}] {sub}=`{}`: {e}", Echo(sec.name), Echo(value)),
                     ),
                 }
                 s.extras_mut().parameter_value = Some(f);

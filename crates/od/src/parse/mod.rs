@@ -94,6 +94,7 @@ impl core::error::Error for ParseError {}
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ParseOptions {
     style_warnings: bool,
+    strict: bool,
 }
 
 impl Default for ParseOptions {
@@ -107,6 +108,7 @@ impl ParseOptions {
     pub const fn new() -> Self {
         Self {
             style_warnings: true,
+            strict: false,
         }
     }
 
@@ -114,6 +116,16 @@ impl ParseOptions {
     /// lower-case hex, `Sub`, spaces around keys, trailing blanks) are reported. On by default.
     pub const fn style_warnings(mut self, on: bool) -> Self {
         self.style_warnings = on;
+        self
+    }
+
+    /// Strict: a file with any finding in a communication object (0x1000..0x1FFF, the
+    /// objects that configure the network: COB-IDs, PDO mappings, heartbeat, SDO channels)
+    /// other than a [`DiagnosticKind::Style`] one is refused; each such finding is listed as
+    /// an error. Off by default, where only a value of such an object that does not parse is
+    /// an error and the rest are warnings.
+    pub const fn strict(mut self, on: bool) -> Self {
+        self.strict = on;
         self
     }
 }
@@ -133,6 +145,7 @@ pub fn parse(input: &[u8]) -> Result<Parsed, ParseError> {
 pub fn parse_with(input: &[u8], options: ParseOptions) -> Result<Parsed, ParseError> {
     let mut sink = Sink::default();
     sink.quiet_style = !options.style_warnings;
+    sink.strict_communication = options.strict;
     let text = decode::decode(input, &mut sink);
     let scan = scan::scan(&text, &mut sink);
     let sections = scan::sections(&scan.entries, &scan.sections);

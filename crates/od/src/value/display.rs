@@ -7,10 +7,15 @@
 //! | INTEGERn | decimal: `-42` | same |
 //! | UNSIGNEDn | decimal: `57` | hex, zero-padded to the type's width: `0x00000039` |
 //! | REAL32/64 | shortest decimal that reads back to the same value: `24.58`, `-2000`, `NaN`, `inf`; with an exponent below 1e-5 and from 1e16: `1e-40` | same |
-//! | VISIBLE_STRING, UNICODE_STRING | the text, unquoted; control characters escaped (`\n`, `\x07`) and bytes that are not UTF-8 replaced by `\u{FFFD}` | the text in double quotes, inner quotes and backslashes escaped |
+//! | VISIBLE_STRING, UNICODE_STRING | the text, unquoted; control characters escaped (see below) and bytes that are not UTF-8 replaced by U+FFFD `�` | the text in double quotes, control characters, inner quotes and backslashes escaped |
 //! | OCTET_STRING, DOMAIN | hex bytes separated by spaces: `01 02 0A` (empty: nothing) | same |
 //! | TIME_OF_DAY | date and time since the CiA 301 epoch, 1984-01-01: `2026-12-01 19:50:40.123` | same |
 //! | TIME_DIFFERENCE | days and time: `3 d 04:05:06.007` | same |
+//!
+//! Control characters (Unicode category Cc: U+0000..U+001F, U+007F..U+009F) are the only
+//! characters of a text that are escaped, as they would break a line or a terminal: tab, line
+//! feed and carriage return as `\t`, `\n`, `\r`, every other one as `\x` and two upper-case
+//! hex digits of its code point (`\x00`, `\x1B`, `\x85`). No other escape form is used.
 //!
 //! Strings print plain because that is what a device name or a serial number is to its
 //! reader; the alternate form quotes them for output where an empty or space-padded string
@@ -91,7 +96,10 @@ fn text(f: &mut fmt::Formatter<'_>, chars: impl Iterator<Item = char>) -> fmt::R
                 f.write_char('\\')?;
                 f.write_char(c)?;
             }
-            c if c.is_control() => write!(f, "{}", c.escape_default())?,
+            '\t' => f.write_str("\\t")?,
+            '\n' => f.write_str("\\n")?,
+            '\r' => f.write_str("\\r")?,
+            c if c.is_control() => write!(f, "\\x{:02X}", u32::from(c))?,
             c => f.write_char(c)?,
         }
     }
@@ -183,8 +191,8 @@ mod tests {
         assert_eq!(
             show(&odd),
             (
-                "a\"b\\n\\u{7}\u{FFFD}".into(),
-                "\"a\\\"b\\n\\u{7}\u{FFFD}\"".into()
+                "a\"b\\n\\x07\u{FFFD}".into(),
+                "\"a\\\"b\\n\\x07\u{FFFD}\"".into()
             )
         );
         assert_eq!(

@@ -62,6 +62,7 @@ pub enum Value {
     /// REAL64.
     Real64(f64),
     /// VISIBLE_STRING, kept as the raw bytes (normally ASCII; EDS text is stored as UTF-8).
+    /// Decoded from the bus up to the first NUL.
     VisibleString(Vec<u8>),
     /// OCTET_STRING.
     OctetString(Vec<u8>),
@@ -278,7 +279,13 @@ impl Value {
             },
             DataType::Real32 => Self::Real32(f32::from_bits(le_int(bytes, false) as u32)),
             DataType::Real64 => Self::Real64(f64::from_bits(le_int(bytes, false) as u64)),
-            DataType::VisibleString => Self::VisibleString(bytes.to_vec()),
+            // Up to the first NUL: devices built on C keep the terminator of their string
+            // in the object (CANopenNode's demo sends 901 bytes for a 900-character text), and
+            // python-canopen and CANopenNode's tools read the text so.
+            DataType::VisibleString => {
+                let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+                Self::VisibleString(bytes[..end].to_vec())
+            }
             DataType::OctetString => Self::OctetString(bytes.to_vec()),
             DataType::Domain => Self::Domain(bytes.to_vec()),
             DataType::UnicodeString => {
@@ -305,6 +312,15 @@ impl Value {
             dt => Self::from_i128_wrapping(dt, le_int(bytes, dt.is_signed()))
                 .ok_or(BytesError::Unsupported(dt))?,
         })
+    }
+
+    /// Decodes the data of an expedited SDO upload whose size the server did not indicate
+    /// (e = 1, s = 0): a fixed-size type takes its own length from the front of the four bytes
+    /// (see [`DataType::expedited_without_size`]). Use [`from_le_bytes`](Self::from_le_bytes)
+    /// for every payload whose length was told: there a length other than the type's stays
+    /// an error.
+    pub fn from_le_bytes_unsized(data_type: DataType, bytes: &[u8]) -> Result<Self, BytesError> {
+        Self::from_le_bytes(data_type, data_type.expedited_without_size(bytes))
     }
 
     /// Appends the little-endian encoding to `out`.

@@ -10,10 +10,14 @@ pub(crate) fn workspace_root() -> PathBuf {
     manifest.join("../..")
 }
 
-/// The corpus folder `../shared/eds-corpus` next to the workspace, or `None` (after printing
+/// The corpus folder: `CANOPEN_EDS_CORPUS` when set (a git worktree lives elsewhere than the
+/// main checkout), else `../shared/eds-corpus` next to the workspace; `None` (after printing
 /// why) when it does not exist. With `CANOPEN_REQUIRE_CORPUS=1` a missing corpus panics.
 pub(crate) fn corpus_dir(test: &str) -> Option<PathBuf> {
-    let dir = workspace_root().join("../shared/eds-corpus");
+    let dir = match std::env::var_os("CANOPEN_EDS_CORPUS") {
+        Some(dir) => PathBuf::from(dir),
+        None => workspace_root().join("../shared/eds-corpus"),
+    };
     if dir.is_dir() {
         return Some(dir);
     }

@@ -4,6 +4,7 @@
 use super::{Active, Client, Flow, Kind, Step, UpPhase, protocol};
 use crate::buffer::{Sink, Source};
 use crate::error::{ErrorKind, Violation};
+use crate::subblock::{Receiver, SequenceError};
 use crate::wire::{BlockSegment, ClientRequest, Initiate, ServerResponse};
 use canola_frame::Instant;
 
@@ -14,7 +15,13 @@ impl<S: Sink, D: Source> Client<S, D> {
         msg: ServerResponse,
     ) -> Result<Flow, ErrorKind> {
         let mux = active.mux;
-        let Kind::Up { sink, phase, total } = &mut active.kind else {
+        let Kind::Up {
+            sink,
+            phase,
+            total,
+            unsized_expedited,
+        } = &mut active.kind
+        else {
             return Err(protocol(Violation::UnexpectedCommand));
         };
         match (&*phase, msg) {
@@ -26,7 +33,8 @@ impl<S: Sink, D: Source> Client<S, D> {
                     return Ok(Flow::Ignore);
                 }
                 match data {
-                    Initiate::Expedited { .. } => {
+                    Initiate::Expedited { size, .. } => {
+                        *unsized_expedited = size.is_none();
                         let bytes = data.expedited_data();
                         let n = bytes.len() as u32;
                         *total = Some(n);
@@ -57,9 +65,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                 *total = size;
                 *phase = UpPhase::SubBlock {
                     crc: crc && self.config.crc,
-                    expected: 1,
-                    held: None,
-                    fruitless: 0,
+                    receiver: Receiver::new(),
                 };
                 self.tx.push(ClientRequest::BlockUploadStart.emit());
                 Ok(Flow::Continue)
@@ -100,7 +106,7 @@ impl<S: Sink, D: Source> Client<S, D> {
                     crc: received,
                 },
             ) => {
-                let bytes = &held[..usize::from(7 - unused.min(7))];
+                let bytes = &held.data[..usize::from(7 - unused.min(7))];
                 let done = active.done.saturating_add(bytes.len() as u32);
                 if let Some(size) = *total {
                     if done > size {
@@ -138,73 +144,50 @@ impl<S: Sink, D: Source> Client<S, D> {
         let blksize = self.config.block_size;
         let Kind::Up {
             sink,
-            phase:
-                UpPhase::SubBlock {
-                    crc,
-                    expected,
-                    held,
-                    fruitless,
-                },
+            phase: UpPhase::SubBlock { crc, receiver },
             total,
+            ..
         } = &mut active.kind
         else {
             return Step::Continue(active);
         };
-        if seg.seqno == 0 || seg.seqno > blksize {
-            return Step::Finish(active, Err(protocol(Violation::SequenceNumber(seg.seqno))));
-        }
-        if seg.seqno == *expected {
-            if seg.last {
-                *held = Some(seg.data);
-            } else {
-                let done = active.done.saturating_add(7);
-                if let Some(size) = *total
-                    && done > size
-                {
-                    return Step::Finish(active, Err(protocol(Violation::TooLong { size })));
-                }
-                if sink.write(&seg.data).is_err() {
-                    return Step::Finish(active, Err(ErrorKind::BufferFull));
-                }
-                active.crc.update(&seg.data);
-                active.done = done;
+        let verdict = match receiver.on_segment(&seg, blksize) {
+            Ok(verdict) => verdict,
+            Err(SequenceError::Invalid(seqno) | SequenceError::Fruitless(seqno)) => {
+                return Step::Finish(active, Err(protocol(Violation::SequenceNumber(seqno))));
             }
-            *expected += 1;
-        }
-        if seg.last || seg.seqno == blksize {
-            if *expected == 1 {
-                // Nothing of this sub-block arrived in sequence. A lost segment costs one such
-                // round; an endless run of them is a peer in another transfer (stale frames of
-                // an earlier one, a server that rebooted into a block download of its own), whose
-                // "segments" would each rearm the timeout: give up instead.
-                *fruitless += 1;
-                if *fruitless > crate::MAX_FRUITLESS_SUB_BLOCKS {
-                    return Step::Finish(
-                        active,
-                        Err(protocol(Violation::SequenceNumber(seg.seqno))),
-                    );
-                }
-            } else {
-                *fruitless = 0;
+        };
+        let crc = *crc;
+        if verdict.take && !seg.last {
+            let done = active.done.saturating_add(7);
+            if let Some(size) = *total
+                && done > size
+            {
+                return Step::Finish(active, Err(protocol(Violation::TooLong { size })));
             }
-            self.tx.push(
-                ClientRequest::BlockUploadAck {
-                    ackseq: *expected - 1,
-                    blksize,
-                }
-                .emit(),
-            );
-            let crc = *crc;
-            match held.take() {
-                Some(held) => {
-                    if let Kind::Up { phase, .. } = &mut active.kind {
-                        *phase = UpPhase::BlockEnd { crc, held };
-                    }
-                }
-                None => *expected = 1,
+            if sink.write(&seg.data).is_err() {
+                return Step::Finish(active, Err(ErrorKind::BufferFull));
+            }
+            active.crc.update(&seg.data);
+            active.done = done;
+        }
+        if let Some(ackseq) = verdict.ack {
+            self.tx
+                .push(ClientRequest::BlockUploadAck { ackseq, blksize }.emit());
+            if verdict.take && seg.last {
+                active.hold_last_segment(crc, seg);
             }
             active.rearm(now, self.config.timeout);
         }
         Step::Continue(active)
+    }
+}
+
+impl<S, D> Active<S, D> {
+    /// The last segment of the transfer is held: wait for the end message.
+    fn hold_last_segment(&mut self, crc: bool, held: BlockSegment) {
+        if let Kind::Up { phase, .. } = &mut self.kind {
+            *phase = UpPhase::BlockEnd { crc, held };
+        }
     }
 }
