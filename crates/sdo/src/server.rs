@@ -30,7 +30,7 @@ use crate::abort::AbortCode;
 use crate::cob::SdoCobIds;
 use crate::crc::Crc16;
 use crate::queue::Ring;
-mod object;
+pub(crate) mod object;
 
 pub use object::{Access, LengthRule, ObjectAccess, ObjectInfo};
 use object::{Fail, check_end, check_progress, read_exact, readable, writable};

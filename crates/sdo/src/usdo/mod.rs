@@ -32,10 +32,19 @@
 
 mod abort;
 pub mod assumed;
+pub mod client;
+pub mod server;
 pub mod wire;
 
 pub use abort::UsdoAbortCode;
+pub use client::{
+    UsdoBusy, UsdoClient, UsdoClientConfig, UsdoErrorKind, UsdoEvent, UsdoTransferError,
+};
+pub use server::{MAX_SESSIONS, UsdoBytes, UsdoServer, UsdoServerConfig, UsdoServerEvent};
 pub use wire::{
     DataType, MAX_EXPEDITED, MAX_FRAME, UsdoBody, UsdoDecodeError, UsdoEncodeError, UsdoMessage,
     UsdoPacket,
 };
+
+#[cfg(test)]
+mod tests;
