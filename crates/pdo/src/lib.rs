@@ -61,6 +61,7 @@ extern crate std;
 pub mod comm;
 pub mod dictionary;
 pub mod engine;
+pub mod fd;
 pub mod mapping;
 pub mod mpdo;
 #[cfg(feature = "od")]
@@ -76,6 +77,7 @@ pub use dictionary::{
     Catalog, Dictionary, NullStore, ObjectAddress, ObjectInfo, ObjectStore, ReadError, StoreError,
 };
 pub use engine::{Engine, EngineError, Event, PdoConfig, PdoRef, RpdoId, TpdoId};
+pub use fd::{FdMappedObject, FdMapping, MAX_FD_BITS, MAX_FD_BYTES, pack_fd, unpack_fd};
 pub use mapping::{MappedObject, Mapping, MappingEntry, MappingError, ValueKind};
 pub use mpdo::{
     DispatcherEntry, Mpdo, MpdoAddress, MpdoConsumer, MpdoError, SamProducer, ScannerEntry,
