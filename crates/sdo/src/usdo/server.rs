@@ -111,6 +111,42 @@ pub enum UsdoServerEvent {
     },
 }
 
+impl core::fmt::Display for UsdoServerEvent {
+    /// `USDO download of 0x2000:01 from node 1 done, 4 bytes`, `USDO aborted 0x2000:01 for
+    /// node 1 (session 3): 0x32 (...)`, `USDO node 1 aborted 0x2000:01 (session 3): ...`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::Downloaded { client, mux, len } => {
+                write!(
+                    f,
+                    "USDO download of {mux} from node {client} done, {len} bytes"
+                )
+            }
+            Self::Uploaded { client, mux, len } => {
+                write!(f, "USDO upload of {mux} to node {client} done, {len} bytes")
+            }
+            Self::Aborted {
+                client,
+                session,
+                mux,
+                code,
+            } => write!(
+                f,
+                "USDO aborted {mux} for node {client} (session {session}): {code}"
+            ),
+            Self::AbortedByClient {
+                client,
+                session,
+                mux,
+                code,
+            } => write!(
+                f,
+                "USDO node {client} aborted {mux} (session {session}): {code}"
+            ),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 enum Phase {
     /// Segmented download: bytes received, the announced size, the next counter.

@@ -565,6 +565,83 @@ fn repeated_requests_are_answered_again_not_applied_twice() {
 }
 
 #[test]
+fn the_server_answers_only_its_own_frames() {
+    let mut od = TestOd::default().with(0x2000, Access::ReadOnly, vec![1, 2, 3], 0);
+    let mut server = UsdoServer::new(node(SERVER), UsdoServerConfig::default());
+    let now = Instant::ZERO;
+    let read = |dst: u8| {
+        UsdoMessage {
+            destination: dst,
+            session: 1,
+            body: UsdoBody::Upload {
+                mux: Multiplexer::new(0x2000, 0),
+            },
+        }
+        .to_bytes()
+        .unwrap()
+    };
+    // Another destination, a response kind, a frame on a response identifier: all ignored.
+    server.handle_request(now, CLIENT, &read(6), &mut od);
+    let response = UsdoMessage {
+        destination: SERVER,
+        session: 1,
+        body: UsdoBody::DownloadEndResponse,
+    };
+    server.handle_request(now, CLIENT, &response.to_bytes().unwrap(), &mut od);
+    let id = canola_frame::CanId::standard(0x581).unwrap();
+    let on_response_id = canola_frame::FdFrame::new_padded(id, &read(SERVER)).unwrap();
+    assert!(!server.handle_frame(now, &on_response_id, &mut od));
+    assert!(server.poll_transmit().is_none());
+    // An unknown command for us: abort 0x13; a segment for no session: abort 0x21.
+    server.handle_request(now, CLIENT, &[SERVER, 0x45, 9, 0, 0, 0, 0, 0], &mut od);
+    let seg = UsdoMessage {
+        destination: SERVER,
+        session: 4,
+        body: UsdoBody::UploadSegment { counter: 0 },
+    };
+    server.handle_request(now, CLIENT, &seg.to_bytes().unwrap(), &mut od);
+    let codes: Vec<_> = core::iter::from_fn(|| server.poll_transmit())
+        .map(|b| match UsdoMessage::parse(&b).unwrap() {
+            UsdoMessage {
+                destination: CLIENT,
+                session,
+                body: UsdoBody::Abort { code, .. },
+            } => (session, code),
+            m => panic!("{m:?}"),
+        })
+        .collect();
+    assert_eq!(
+        codes,
+        [
+            (9, UsdoAbortCode::INVALID_COMMAND),
+            (4, UsdoAbortCode::UNKNOWN_SESSION)
+        ]
+    );
+    let text = std::format!("{}", server.poll_event().unwrap());
+    assert_eq!(
+        text,
+        "USDO aborted 0x0000:00 for node 1 (session 9): 0x13 (Unknown, unexpected or unsupported command specifier)"
+    );
+    // The client ignores responses meant for another node.
+    let mut client: Client = UsdoClient::new(node(CLIENT), UsdoClientConfig::default());
+    let s = client
+        .start_upload(now, node(SERVER), Multiplexer::new(0x2000, 0), Vec::new())
+        .unwrap();
+    let other = UsdoMessage {
+        destination: 2,
+        session: s,
+        body: UsdoBody::UploadExpeditedResponse {
+            mux: Multiplexer::new(0x2000, 0),
+            data_type: DataType::DOMAIN,
+            data: &[9],
+        },
+    };
+    client.handle_response(now, SERVER, &other.to_bytes().unwrap());
+    assert!(client.poll_event().is_none());
+    assert_eq!(client.active(), 1);
+}
+
+#[test]
 fn a_lost_frame_ends_in_a_timeout_on_both_sides() {
     let od = TestOd::default().with(0x2000, Access::ReadWrite, vec![], 1000);
     let mut bus = Bus::new(od);
