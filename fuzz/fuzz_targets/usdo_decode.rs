@@ -36,5 +36,5 @@ fuzz_target!(|data: &[u8]| {
     let bytes = msg.to_bytes().expect("encodes");
     assert_eq!(Some(bytes.len()), padded_len(n));
     assert_eq!(UsdoMessage::parse(&bytes), Ok(msg));
-    let _ = format!("{msg:?} {}", msg.body.is_request());
+    let _ = format!("{msg} {msg:?} {}", msg.body.is_request());
 });

@@ -688,6 +688,78 @@ impl<'a> UsdoMessage<'a> {
     }
 }
 
+impl core::fmt::Display for DataType {
+    /// `0x07`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{:#04x}", self.0)
+    }
+}
+
+impl core::fmt::Display for UsdoMessage<'_> {
+    /// One line for logs and monitors: `to 5, session 7: download 0x2000:01 type 0x07, 4
+    /// bytes: 78 56 34 12`, `to 1, session 9: download segment 0 confirmed`, `to 1, session 11:
+    /// abort 0x6000:00: 0x33 (Object does not exist in the object dictionary)`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        use canola_frame::HexBytes;
+        write!(f, "to {}, session {}: ", self.destination, self.session)?;
+        match self.body {
+            UsdoBody::DownloadExpedited {
+                mux,
+                data_type,
+                data,
+            } => write!(
+                f,
+                "download {mux} type {data_type}, {} bytes: {}",
+                data.len(),
+                HexBytes(data)
+            ),
+            UsdoBody::DownloadExpeditedResponse { mux } => write!(f, "download {mux} done"),
+            UsdoBody::Upload { mux } => write!(f, "upload {mux}"),
+            UsdoBody::UploadExpeditedResponse {
+                mux,
+                data_type,
+                data,
+            } => write!(
+                f,
+                "upload {mux} type {data_type}, {} bytes: {}",
+                data.len(),
+                HexBytes(data)
+            ),
+            UsdoBody::DownloadInitiate {
+                mux,
+                data_type,
+                size,
+            } => write!(f, "segmented download {mux} type {data_type}, {size} bytes"),
+            UsdoBody::DownloadInitiateResponse { mux } => {
+                write!(f, "segmented download {mux} accepted")
+            }
+            UsdoBody::DownloadSegment { counter, data } => {
+                write!(f, "download segment {counter}: {}", HexBytes(data))
+            }
+            UsdoBody::DownloadSegmentResponse { counter } => {
+                write!(f, "download segment {counter} confirmed")
+            }
+            UsdoBody::DownloadEnd { data } => {
+                write!(f, "download end, {} bytes: {}", data.len(), HexBytes(data))
+            }
+            UsdoBody::DownloadEndResponse => f.write_str("download end confirmed"),
+            UsdoBody::UploadInitiateResponse {
+                mux,
+                data_type,
+                size,
+            } => write!(f, "segmented upload {mux} type {data_type}, {size} bytes"),
+            UsdoBody::UploadSegment { counter } => write!(f, "upload segment {counter} requested"),
+            UsdoBody::UploadSegmentResponse { counter, data } => {
+                write!(f, "upload segment {counter}: {}", HexBytes(data))
+            }
+            UsdoBody::UploadEnd { data } => {
+                write!(f, "upload end, {} bytes: {}", data.len(), HexBytes(data))
+            }
+            UsdoBody::Abort { mux, code } => write!(f, "abort {mux}: {code}"),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -872,7 +944,16 @@ mod tests {
                 },
             ),
         ];
+        assert_eq!(
+            std::format!("{}", cases[0].1),
+            "to 5, session 7: download 0x2000:01 type 0x07, 4 bytes: 78 56 34 12"
+        );
+        assert_eq!(
+            std::format!("{}", cases[14].1),
+            "to 1, session 11: abort 0x6000:00: 0x33 (Object does not exist in the object dictionary)"
+        );
         for (bytes, msg) in &cases {
+            assert!(!std::format!("{msg}").is_empty());
             assert_eq!(&emit(msg), bytes, "{msg:?}");
             assert_eq!(UsdoMessage::parse(bytes).as_ref(), Ok(msg));
             // Zero padding to the next FD length is accepted.
