@@ -11,6 +11,8 @@
 //!   receive PDOs into an [`ObjectStore`] and produces transmit PDOs from it, by transmission
 //!   type, with inhibit time, event timer, SYNC counter and receive deadlines. Its docs give the
 //!   call order.
+//! - [`fd`] — CAN FD PDOs of up to 64 bytes (CANopen FD): [`FdMapping`] up to 512 bits,
+//!   [`pack_fd`] and [`unpack_fd`]; the engine still runs classic 8-byte PDOs.
 //! - [`remote`] — the SDO writes that remap a node's PDO the CiA 301 way, as data.
 //! - [`mpdo`] — SAM/DAM multiplexed PDOs with object scanner and dispatcher lists.
 //! - [`typed`] — [`TypedPdo`]: PDOs as structs with named, typed fields (what
