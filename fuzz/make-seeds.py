@@ -67,6 +67,40 @@ SERVER_RESPONSES = [
     sdo(0x80, 0x6000, 1, u32(0x06020000)),  # abort: object does not exist
 ]
 
+def usdo(dst, cs, session, rest=b""):
+    """A USDO frame (CiA 1301, SOFA-CANopenFD layout) padded with zeros to a CAN FD length."""
+    frame = bytes([dst, cs, session]) + rest
+    for size in (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64):
+        if size >= len(frame):
+            return frame + bytes(size - len(frame))
+    return frame
+
+
+def usdo_mux(index, sub):
+    return bytes([sub]) + u16(index)
+
+
+SEGMENT = bytes(range(60))
+
+# USDO frames of every kind, client node 1, server node 5.
+USDO_FRAMES = [
+    usdo(5, 0x01, 7, usdo_mux(0x2000, 1) + bytes([0x07, 4]) + u32(0x12345678)),  # expedited write
+    usdo(1, 0x21, 7, usdo_mux(0x2000, 1)),  # expedited write done
+    usdo(5, 0x11, 8, usdo_mux(0x1018, 1)),  # read
+    usdo(1, 0x31, 8, usdo_mux(0x1018, 1) + bytes([0x0F, 2, 0xAA, 0xBB])),  # expedited value
+    usdo(5, 0x02, 9, usdo_mux(0x2100, 0) + bytes([0x0F, 0]) + u32(100)),  # segmented write
+    usdo(1, 0x22, 9, usdo_mux(0x2100, 0)),  # accepted
+    usdo(5, 0x03, 9, bytes([0]) + SEGMENT),  # segment 0
+    usdo(1, 0x23, 9, bytes([0])),  # segment 0 confirmed
+    usdo(5, 0x04, 9, bytes([40]) + SEGMENT[:40]),  # last 40 bytes
+    usdo(1, 0x24, 9),  # write done
+    usdo(1, 0x32, 10, usdo_mux(0x1008, 0) + bytes([0x09, 0]) + u32(70)),  # segmented value
+    usdo(5, 0x13, 10, bytes([0])),  # segment 0, please
+    usdo(1, 0x33, 10, bytes([0]) + SEGMENT),  # segment 0
+    usdo(1, 0x34, 10, bytes([10]) + SEGMENT[:10]),  # last 10 bytes
+    usdo(1, 0x7F, 11, usdo_mux(0x6000, 0) + bytes([0x33])),  # abort: no such object
+]
+
 NMT_FRAMES = [
     bytes([0x01, 0x00]),  # start all
     bytes([0x80, 0x05]),  # node 5 to pre-operational
@@ -326,6 +360,8 @@ ARBITRARY = [bytes(range(i, i + 48)) for i in (0, 7, 64, 200)] + [
 TARGETS = {
     "sdo_decode_server": CLIENT_REQUESTS,
     "sdo_decode_client": SERVER_RESPONSES,
+    "usdo_decode": USDO_FRAMES,
+    "usdo_pair_sequence": ARBITRARY,
     "nmt_decoders": NMT_FRAMES,
     "lss_decoders": LSS_FRAMES,
     "canopen_candump": CANDUMP,

@@ -23,6 +23,19 @@ pub enum FrameError {
     /// More than eight data bytes, or a remote frame DLC above 8.
     #[error("a classic CAN frame carries at most 8 data bytes, not {0}")]
     TooLong(usize),
+    /// More than 64 data bytes for a CAN FD frame.
+    #[error("a CAN FD frame carries at most 64 data bytes, not {0}")]
+    FdTooLong(usize),
+    /// A CAN FD data length that is not one of 0..=8, 12, 16, 20, 24, 32, 48, 64.
+    #[error("{0} is not a CAN FD length (0..=8, 12, 16, 20, 24, 32, 48 or 64 bytes)")]
+    InvalidFdLength(usize),
+    /// A remote frame cannot become a CAN FD frame: CAN FD has no remote frames.
+    #[error("CAN FD has no remote frames")]
+    RemoteInFd,
+    /// The CAN FD frame has the bit-rate switch or error state indicator set (these flag bits),
+    /// which a classic frame cannot carry.
+    #[error("CAN FD flags {0:#x} have no classic CAN equivalent")]
+    FdFlagsLost(u8),
 }
 
 impl CanFrame {

@@ -1,8 +1,10 @@
-//! The lowest layer of the CANopen stack: what travels on a classic CAN bus, and the clock.
+//! The lowest layer of the CANopen stack: what travels on a classic or CAN FD bus, and the clock.
 //!
 //! - [`CanId`] — an 11-bit standard or 29-bit extended identifier, validated on construction.
 //! - [`CanFrame`] — a classic CAN data or remote frame with 0..=8 data bytes; implements
 //!   [`embedded_can::Frame`].
+//! - [`FdFrame`] — a CAN FD frame with 0..=64 data bytes, [`FdFlags`] (BRS, ESI) and the DLC
+//!   table in [`fd`]; converts to and from [`CanFrame`] where nothing is lost.
 //! - [`NodeId`] — a CANopen node-ID, 1..=127 (CiA 301 §7.5.2.1).
 //! - [`cob`] — the predefined connection set of CiA 301 §7.3.5 (and CiA 305 for LSS): which
 //!   function a COB-ID belongs to and for which node, and the CAN identifiers CiA 301
@@ -21,6 +23,7 @@
 extern crate std;
 
 pub mod cob;
+pub mod fd;
 mod frame;
 pub mod id;
 mod node;
@@ -28,6 +31,7 @@ pub mod time;
 pub mod timer;
 
 pub use cob::{CobId, FunctionCode, PdoNumber, is_restricted};
+pub use fd::{FdFlags, FdFrame};
 pub use frame::{CanFrame, FrameError, HexBytes};
 pub use id::{CanId, Candump, ExtendedId, IdError, StandardId};
 pub use node::{NodeId, NodeIdError};

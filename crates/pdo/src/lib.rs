@@ -11,6 +11,8 @@
 //!   receive PDOs into an [`ObjectStore`] and produces transmit PDOs from it, by transmission
 //!   type, with inhibit time, event timer, SYNC counter and receive deadlines. Its docs give the
 //!   call order.
+//! - [`fd`] — CAN FD PDOs of up to 64 bytes (CANopen FD): [`FdMapping`] up to 512 bits,
+//!   [`pack_fd`] and [`unpack_fd`]; the engine still runs classic 8-byte PDOs.
 //! - [`remote`] — the SDO writes that remap a node's PDO the CiA 301 way, as data.
 //! - [`mpdo`] — SAM/DAM multiplexed PDOs with object scanner and dispatcher lists.
 //! - [`typed`] — [`TypedPdo`]: PDOs as structs with named, typed fields (what
@@ -61,6 +63,7 @@ extern crate std;
 pub mod comm;
 pub mod dictionary;
 pub mod engine;
+pub mod fd;
 pub mod mapping;
 pub mod mpdo;
 #[cfg(feature = "od")]
@@ -76,6 +79,7 @@ pub use dictionary::{
     Catalog, Dictionary, NullStore, ObjectAddress, ObjectInfo, ObjectStore, ReadError, StoreError,
 };
 pub use engine::{Engine, EngineError, Event, PdoConfig, PdoRef, RpdoId, TpdoId};
+pub use fd::{FdMappedObject, FdMapping, MAX_FD_BITS, MAX_FD_BYTES, pack_fd, unpack_fd};
 pub use mapping::{MappedObject, Mapping, MappingEntry, MappingError, ValueKind};
 pub use mpdo::{
     DispatcherEntry, Mpdo, MpdoAddress, MpdoConsumer, MpdoError, SamProducer, ScannerEntry,

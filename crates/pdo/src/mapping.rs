@@ -93,7 +93,7 @@ impl ValueKind {
 }
 
 /// Bit size of the dummy mapping data types 0x0001..=0x0007.
-const fn dummy_bits(data_type: u16) -> Option<u8> {
+pub(crate) const fn dummy_bits(data_type: u16) -> Option<u8> {
     match data_type {
         0x0001 => Some(1),
         0x0002 | 0x0005 => Some(8),
@@ -101,6 +101,40 @@ const fn dummy_bits(data_type: u16) -> Option<u8> {
         0x0004 | 0x0007 => Some(32),
         _ => None,
     }
+}
+
+/// The checks of one entry on its own: not empty, fixed-width kinds with their width (BOOLEAN 1
+/// or 8, REAL32 32, REAL64 64 bits), bytes in whole bytes.
+pub(crate) fn check_entry_shape(entry: MappingEntry, kind: ValueKind) -> Result<(), MappingError> {
+    if entry.bits() == 0 {
+        return Err(MappingError::ZeroLength(entry.addr()));
+    }
+    // A kind with a fixed width must be mapped with exactly that width, so decoding and
+    // encoding stay lossless. A BOOLEAN is one bit (CiA 301) or, as many devices map it,
+    // one byte: the entry's length decides.
+    let fixed = match kind {
+        ValueKind::Boolean if entry.bits() == 8 => None,
+        ValueKind::Boolean => Some(1),
+        ValueKind::Real32 => Some(32),
+        ValueKind::Real64 => Some(64),
+        ValueKind::Bytes if !entry.bits().is_multiple_of(8) => {
+            return Err(MappingError::NotWholeBytes {
+                addr: entry.addr(),
+                mapped_bits: entry.bits(),
+            });
+        }
+        _ => None,
+    };
+    if let Some(width) = fixed
+        && width != entry.bits()
+    {
+        return Err(MappingError::LengthMismatch {
+            addr: entry.addr(),
+            object_bits: width as u16,
+            mapped_bits: entry.bits(),
+        });
+    }
+    Ok(())
 }
 
 /// One mapped object with its place in the PDO and how to read its bits.
@@ -172,6 +206,17 @@ pub enum MappingError {
     /// The entries add up to more than 64 bits.
     #[error("the mapped objects need {0} bits; a PDO carries at most 64")]
     TooLong(u32),
+    /// The entries of a CAN FD PDO add up to more than 512 bits (64 data bytes).
+    #[error("the mapped objects need {0} bits; a CAN FD PDO carries at most 512")]
+    FdTooLong(u32),
+    /// One entry of a CAN FD PDO longer than 64 bits (the packer holds each value in 64 bits).
+    #[error("mapping entry {addr} has {mapped_bits} bits; one mapped object holds at most 64")]
+    EntryTooLong {
+        /// The object.
+        addr: ObjectAddress,
+        /// The length in the mapping entry.
+        mapped_bits: u8,
+    },
     /// An entry of length 0.
     #[error("mapping entry {0} has length 0")]
     ZeroLength(ObjectAddress),
@@ -237,34 +282,7 @@ impl Mapping {
     /// that fixed-width kinds have their width (BOOLEAN 1, REAL32 32, REAL64 64 bits; bytes whole
     /// bytes) — not the dictionary; see [`Mapping::from_raw_checked`].
     pub fn push(&mut self, entry: MappingEntry, kind: ValueKind) -> Result<(), MappingError> {
-        if entry.bits() == 0 {
-            return Err(MappingError::ZeroLength(entry.addr()));
-        }
-        // A kind with a fixed width must be mapped with exactly that width, so decoding and
-        // encoding stay lossless. A BOOLEAN is one bit (CiA 301) or, as many devices map it,
-        // one byte: the entry's length decides.
-        let fixed = match kind {
-            ValueKind::Boolean if entry.bits() == 8 => None,
-            ValueKind::Boolean => Some(1),
-            ValueKind::Real32 => Some(32),
-            ValueKind::Real64 => Some(64),
-            ValueKind::Bytes if !entry.bits().is_multiple_of(8) => {
-                return Err(MappingError::NotWholeBytes {
-                    addr: entry.addr(),
-                    mapped_bits: entry.bits(),
-                });
-            }
-            _ => None,
-        };
-        if let Some(width) = fixed
-            && width != entry.bits()
-        {
-            return Err(MappingError::LengthMismatch {
-                addr: entry.addr(),
-                object_bits: width as u16,
-                mapped_bits: entry.bits(),
-            });
-        }
+        check_entry_shape(entry, kind)?;
         let total = self.bits as u32 + entry.bits() as u32;
         if total > MAX_BITS {
             return Err(MappingError::TooLong(total));

@@ -1,5 +1,6 @@
 //! Client and server machines wired back to back in one thread: expedited round trips per
-//! second, and segmented and block transfer throughput in bytes per second.
+//! second, and segmented and block transfer throughput in bytes per second; the same for the
+//! USDO machines of CANopen FD (expedited, and segmented in 60-byte segments).
 //!
 //! Run with `cargo bench -p canola-sdo --bench transfer`.
 
@@ -8,7 +9,10 @@
 
 use std::hint::black_box;
 
-use canola_frame::Instant;
+use canola_frame::{Instant, NodeId};
+use canola_sdo::usdo::{
+    DataType, UsdoClient, UsdoClientConfig, UsdoEvent, UsdoServer, UsdoServerConfig,
+};
 use canola_sdo::{
     AbortCode, Access, Client, ClientConfig, Event, Method, Multiplexer, ObjectAccess, ObjectInfo,
     Server, ServerConfig,
@@ -112,6 +116,54 @@ fn upload(
     }
 }
 
+type BenchUsdoClient = UsdoClient<Vec<u8>, &'static [u8]>;
+
+const USDO_CLIENT: u8 = 1;
+const USDO_SERVER: u8 = 5;
+
+/// Runs one USDO transfer to its end and returns the completion.
+fn run_usdo(
+    client: &mut BenchUsdoClient,
+    server: &mut UsdoServer,
+    od: &mut Od,
+) -> UsdoEvent<Vec<u8>, &'static [u8]> {
+    let now = Instant::ZERO;
+    loop {
+        let mut moved = false;
+        while let Some(f) = client.poll_transmit() {
+            server.handle_request(now, USDO_CLIENT, &f, od);
+            moved = true;
+        }
+        while let Some(f) = server.poll_transmit() {
+            client.handle_response(now, USDO_SERVER, &f);
+            moved = true;
+        }
+        if !moved {
+            break;
+        }
+    }
+    match client.poll_event() {
+        Some(ev @ (UsdoEvent::Uploaded { .. } | UsdoEvent::Downloaded { .. })) => ev,
+        other => panic!("USDO transfer failed: {other:?}"),
+    }
+}
+
+fn usdo_upload(
+    client: &mut BenchUsdoClient,
+    server: &mut UsdoServer,
+    od: &mut Od,
+    mux: Multiplexer,
+    mut sink: Vec<u8>,
+) -> Vec<u8> {
+    sink.clear();
+    let node = NodeId::new(USDO_SERVER).unwrap();
+    client.start_upload(Instant::ZERO, node, mux, sink).unwrap();
+    match run_usdo(client, server, od) {
+        UsdoEvent::Uploaded { sink, .. } => sink,
+        _ => unreachable!(),
+    }
+}
+
 static DATA: [u8; SIZE] = {
     let mut d = [0u8; SIZE];
     let mut i = 0;
@@ -185,6 +237,55 @@ fn benches(c: &mut Criterion) {
             });
         });
     }
+    group.finish();
+    assert_eq!(od.domain, DATA);
+
+    let node = NodeId::new(USDO_SERVER).unwrap();
+    let mut usdo_server = UsdoServer::new(node, UsdoServerConfig::default());
+    let mut usdo_client: BenchUsdoClient = UsdoClient::new(
+        NodeId::new(USDO_CLIENT).unwrap(),
+        UsdoClientConfig::default(),
+    );
+    let mut group = c.benchmark_group("expedited");
+    group.throughput(Throughput::Elements(1));
+    group.bench_function("usdo upload round trip", |b| {
+        b.iter(|| {
+            sink = usdo_upload(
+                &mut usdo_client,
+                &mut usdo_server,
+                &mut od,
+                VALUE,
+                std::mem::take(&mut sink),
+            );
+            black_box(&sink);
+        });
+    });
+    // The SDO download round trip above wrote the first four bytes of DATA.
+    assert_eq!(sink, DATA[..4]);
+    group.finish();
+    let mut group = c.benchmark_group("4 KiB");
+    group.throughput(Throughput::Bytes(SIZE as u64));
+    group.bench_function("usdo segmented upload", |b| {
+        b.iter(|| {
+            sink = usdo_upload(
+                &mut usdo_client,
+                &mut usdo_server,
+                &mut od,
+                DOMAIN,
+                std::mem::take(&mut sink),
+            );
+            black_box(&sink);
+        });
+    });
+    assert_eq!(sink, DATA);
+    group.bench_function("usdo segmented download", |b| {
+        b.iter(|| {
+            usdo_client
+                .start_download(Instant::ZERO, node, DOMAIN, DataType::DOMAIN, &DATA[..])
+                .unwrap();
+            black_box(run_usdo(&mut usdo_client, &mut usdo_server, &mut od));
+        });
+    });
     group.finish();
     assert_eq!(od.domain, DATA);
     let _ = od.staged;

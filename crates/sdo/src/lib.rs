@@ -11,6 +11,9 @@
 //!   events and their next deadline; no clock, socket or thread inside. [`SdoCobIds`] turns
 //!   their bytes into CAN frames for a node.
 //!
+//! - [`usdo`]: the universal SDO of CANopen FD (CiA 1301) over CAN FD frames: its codec, its
+//!   1-byte abort codes and sans-IO client and server machines with several sessions.
+//!
 //! A client and a server wired back to back:
 //!
 //! ```
@@ -103,6 +106,7 @@ mod error;
 mod queue;
 pub mod server;
 mod subblock;
+pub mod usdo;
 pub mod wire;
 
 /// How many sub-blocks in a row may end without a single segment in sequence before the

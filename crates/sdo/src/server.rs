@@ -31,7 +31,7 @@ use crate::cob::SdoCobIds;
 use crate::crc::Crc16;
 use crate::queue::Ring;
 use crate::subblock::Receiver;
-mod object;
+pub(crate) mod object;
 
 pub use object::{Access, LengthRule, ObjectAccess, ObjectInfo};
 use object::{Fail, check_end, check_progress, read_exact, readable, writable};

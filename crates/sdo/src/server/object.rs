@@ -3,6 +3,7 @@
 //! during a transfer, each failing with the CiA 301 abort code to send.
 
 use crate::abort::AbortCode;
+use crate::usdo::DataType;
 use crate::wire::Multiplexer;
 
 /// Access rights of an object (CiA 301 / CiA 306 `AccessType`).
@@ -40,14 +41,14 @@ pub enum LengthRule {
 }
 
 impl LengthRule {
-    pub(super) fn max(self) -> u32 {
+    pub(crate) fn max(self) -> u32 {
         match self {
             Self::Exact(n) | Self::UpTo(n) => n,
         }
     }
 
     /// Checks a complete length.
-    pub(super) fn check(self, len: u32) -> Result<(), AbortCode> {
+    pub(crate) fn check(self, len: u32) -> Result<(), AbortCode> {
         match self {
             Self::Exact(n) | Self::UpTo(n) if len > n => Err(AbortCode::LENGTH_TOO_HIGH),
             Self::Exact(n) if len < n => Err(AbortCode::LENGTH_TOO_LOW),
@@ -114,6 +115,15 @@ pub trait ObjectAccess {
     fn discard(&mut self, mux: Multiplexer) {
         let _ = mux;
     }
+
+    /// The data type code of the object (CiA 301 §7.4.7.1), for the data type byte of USDO
+    /// (CiA 1301). The default, DOMAIN, makes the USDO server announce DOMAIN and accept any
+    /// type a client sends; any other code is announced, and a download with another type
+    /// (other than DOMAIN) is refused with 1-byte abort 0x36.
+    fn data_type(&mut self, mux: Multiplexer) -> DataType {
+        let _ = mux;
+        DataType::DOMAIN
+    }
 }
 
 impl<T: ObjectAccess + ?Sized> ObjectAccess for &mut T {
@@ -132,12 +142,15 @@ impl<T: ObjectAccess + ?Sized> ObjectAccess for &mut T {
     fn discard(&mut self, mux: Multiplexer) {
         (**self).discard(mux)
     }
+    fn data_type(&mut self, mux: Multiplexer) -> DataType {
+        (**self).data_type(mux)
+    }
 }
 
 /// Why a request ended the transfer: the object and the code to send.
-pub(super) struct Fail(pub(super) Multiplexer, pub(super) AbortCode);
+pub(crate) struct Fail(pub(crate) Multiplexer, pub(crate) AbortCode);
 
-pub(super) fn writable<O: ObjectAccess + ?Sized>(
+pub(crate) fn writable<O: ObjectAccess + ?Sized>(
     od: &mut O,
     mux: Multiplexer,
 ) -> Result<ObjectInfo, Fail> {
@@ -148,7 +161,7 @@ pub(super) fn writable<O: ObjectAccess + ?Sized>(
     Ok(info)
 }
 
-pub(super) fn readable<O: ObjectAccess + ?Sized>(
+pub(crate) fn readable<O: ObjectAccess + ?Sized>(
     od: &mut O,
     mux: Multiplexer,
 ) -> Result<ObjectInfo, Fail> {
@@ -160,7 +173,7 @@ pub(super) fn readable<O: ObjectAccess + ?Sized>(
 }
 
 /// Reads exactly `buf.len()` bytes (in as many calls as the object needs).
-pub(super) fn read_exact<O: ObjectAccess + ?Sized>(
+pub(crate) fn read_exact<O: ObjectAccess + ?Sized>(
     od: &mut O,
     mux: Multiplexer,
     offset: u32,
@@ -181,7 +194,7 @@ pub(super) fn read_exact<O: ObjectAccess + ?Sized>(
 }
 
 /// Data so far may not exceed the announced size or the object's maximum.
-pub(super) fn check_progress(
+pub(crate) fn check_progress(
     end: u32,
     size: Option<u32>,
     accepts: LengthRule,
@@ -198,7 +211,7 @@ pub(super) fn check_progress(
 }
 
 /// The complete data must have the announced size and a length the object accepts.
-pub(super) fn check_end(end: u32, size: Option<u32>, accepts: LengthRule) -> Result<(), AbortCode> {
+pub(crate) fn check_end(end: u32, size: Option<u32>, accepts: LengthRule) -> Result<(), AbortCode> {
     if let Some(size) = size
         && end != size
     {
