@@ -253,31 +253,27 @@ impl SimDrive {
             ip_active: false,
             config,
         };
-        for (entry, value) in [
-            (
-                obj::QUICK_STOP_OPTION_CODE.index(),
-                i64::from(sim.config.device.quick_stop_option.0),
-            ),
-            (obj::DISABLE_OPERATION_OPTION_CODE.index(), 1),
-            (obj::HALT_OPTION_CODE.index(), 1),
-            (obj::FAULT_REACTION_OPTION_CODE.index(), 2),
-            (obj::FOLLOWING_ERROR_WINDOW.index(), 10_000),
-            (obj::FOLLOWING_ERROR_TIME_OUT.index(), 50),
-            (obj::POSITION_WINDOW.index(), 10),
-            (obj::POSITION_WINDOW_TIME.index(), 5),
-            (obj::VELOCITY_WINDOW.index(), 10),
-            (obj::MAX_TORQUE.index(), 1000),
-            (obj::MAX_PROFILE_VELOCITY.index(), 200_000),
-            (obj::PROFILE_VELOCITY.index(), 10_000),
-            (obj::PROFILE_ACCELERATION.index(), 50_000),
-            (obj::PROFILE_DECELERATION.index(), 50_000),
-            (obj::QUICK_STOP_DECELERATION.index(), 150_000),
-            (obj::TORQUE_SLOPE.index(), 10_000),
-            (obj::HOMING_ACCELERATION.index(), 50_000),
-            (obj::INTERPOLATION_TIME_PERIOD_VALUE.index(), 1),
-        ] {
-            sim.values[Self::slot(entry, 0).unwrap_or(0)] = value;
-        }
+        sim.put(
+            obj::QUICK_STOP_OPTION_CODE,
+            i64::from(sim.config.device.quick_stop_option.0),
+        );
+        sim.put(obj::DISABLE_OPERATION_OPTION_CODE, 1);
+        sim.put(obj::HALT_OPTION_CODE, 1);
+        sim.put(obj::FAULT_REACTION_OPTION_CODE, 2);
+        sim.put(obj::FOLLOWING_ERROR_WINDOW, 10_000);
+        sim.put(obj::FOLLOWING_ERROR_TIME_OUT, 50);
+        sim.put(obj::POSITION_WINDOW, 10);
+        sim.put(obj::POSITION_WINDOW_TIME, 5);
+        sim.put(obj::VELOCITY_WINDOW, 10);
+        sim.put(obj::MAX_TORQUE, 1000);
+        sim.put(obj::MAX_PROFILE_VELOCITY, 200_000);
+        sim.put(obj::PROFILE_VELOCITY, 10_000);
+        sim.put(obj::PROFILE_ACCELERATION, 50_000);
+        sim.put(obj::PROFILE_DECELERATION, 50_000);
+        sim.put(obj::QUICK_STOP_DECELERATION, 150_000);
+        sim.put(obj::TORQUE_SLOPE, 10_000);
+        sim.put(obj::HOMING_ACCELERATION, 50_000);
+        sim.put(obj::INTERPOLATION_TIME_PERIOD_VALUE, 1);
         sim.put(obj::HOMING_SPEED_SWITCH, 5_000);
         sim.put(obj::HOMING_SPEED_ZERO, 500);
         sim.put(obj::INTERPOLATION_TIME_INDEX, -3);
@@ -425,13 +421,15 @@ impl SimDrive {
         match base {
             0x6060 => {
                 let mode = ModeOfOperation::from_code(value as i8);
-                let known = mode.supported_bit().is_some()
-                    && (mode != ModeOfOperation::Velocity
-                        || self
-                            .config
-                            .supported_modes
-                            .is_some_and(|s| s.contains(mode)));
-                let listed = self.config.supported_modes.is_none_or(|s| s.contains(mode));
+                // Accepted: 0 (no mode) and the modes the drive runs, as listed in its 0x6502
+                // (without 0x6502: every mode but vl, which is optional on a servo).
+                let runs = mode.supported_bit().is_some();
+                let listed = match self.config.supported_modes {
+                    Some(s) => s.contains(mode),
+                    None => mode != ModeOfOperation::Velocity,
+                };
+                let known = mode == ModeOfOperation::NoMode || runs;
+                let listed = listed || mode == ModeOfOperation::NoMode;
                 if !(known && listed) {
                     return Err(AccessError::ValueRange(index, sub));
                 }
