@@ -729,6 +729,9 @@ impl SimDrive {
     /// limits and monitors, then the statusword and actual values.
     pub fn step(&mut self, dt: Duration) {
         let t = dt.as_secs_f64();
+        if t <= 0.0 {
+            return;
+        }
         self.since_power_on += dt;
         if self.machine.state() == State::NotReadyToSwitchOn
             && self.since_power_on >= self.config.init_time
