@@ -763,15 +763,19 @@ impl SimDrive {
                     .machine
                     .config()
                     .quick_stop_option
-                    .ramp(Default::default());
-                if self.stop(ramp.unwrap_or(StopRamp::QuickStopRamp), t) {
+                    .ramp(Default::default())
+                    .unwrap_or(StopRamp::QuickStopRamp);
+                // "Disable drive function" ends the quick stop at once; the motor coasts on.
+                if self.stop(ramp, t) || ramp == StopRamp::DisableDrive {
                     self.machine.quick_stop_done();
                 }
             }
             State::FaultReactionActive => {
                 let code = OptionCode(self.get(obj::FAULT_REACTION_OPTION_CODE) as i16);
-                let ramp = code.fault_reaction_ramp(Default::default());
-                if self.stop(ramp.unwrap_or(StopRamp::DisableDrive), t) {
+                let ramp = code
+                    .fault_reaction_ramp(Default::default())
+                    .unwrap_or(StopRamp::DisableDrive);
+                if self.stop(ramp, t) || ramp == StopRamp::DisableDrive {
                     self.machine.fault_reaction_done();
                 }
             }
