@@ -56,3 +56,8 @@ pub use mode::ModeOfOperation;
 pub use objects::{ErrorCode, QuickStopOption, SupportedModes};
 pub use state::{Command, PlanError, Planner, State, Transition};
 pub use words::{Controlword, Statusword};
+
+/// The README's example, compiled and run as a doctest.
+#[cfg(all(doctest, feature = "std"))]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
