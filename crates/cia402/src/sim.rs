@@ -178,6 +178,16 @@ enum HomingPhase {
     Index { dir: f64 },
 }
 
+/// A linear segment of ip or csp: from the demand when a new set-point arrived to that
+/// set-point, in one interpolation period 0x60C2 (CiA 402-2 §11, §14: the drive spreads each
+/// set-point over the period the master sends them in).
+#[derive(Clone, Copy, PartialEq, Debug)]
+struct Segment {
+    from: f64,
+    to: f64,
+    elapsed: f64,
+}
+
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Switch {
     NegativeLimit,
@@ -213,8 +223,8 @@ pub struct SimDrive {
     // Homing.
     homing: Option<HomingPhase>,
     homing_status: HomingStatus,
-    // Interpolated position: (start, end) of the current segment.
-    ip_active: bool,
+    // ip and csp: the segment toward the latest set-point.
+    segment: Option<Segment>,
 }
 
 impl Default for SimDrive {
@@ -250,7 +260,7 @@ impl SimDrive {
             pp_moving: false,
             homing: None,
             homing_status: HomingStatus::Interrupted,
-            ip_active: false,
+            segment: None,
             config,
         };
         sim.put(
@@ -526,6 +536,7 @@ impl SimDrive {
                 self.pp_target = self.position;
                 self.pp_moving = false;
                 self.pp_pending = None;
+                self.segment = None;
             }
         }
         if self.machine.state() != State::OperationEnabled {
@@ -749,6 +760,7 @@ impl SimDrive {
             self.demand_velocity = self.velocity;
             self.pp_target = self.position;
             self.pp_moving = false;
+            self.segment = None;
         }
         let before = self.position;
         self.limit_active = false;
@@ -942,21 +954,13 @@ impl SimDrive {
                 None => self.hold(t),
             },
             ModeOfOperation::InterpolatedPosition => {
-                self.ip_active = cw.bit(4);
-                if self.ip_active {
+                if cw.bit(4) {
                     let set_point =
                         self.clamp_to_limits(self.get(obj::INTERPOLATION_DATA_RECORD) as f64);
-                    let period = crate::objects::InterpolationPeriod {
-                        value: self.get(obj::INTERPOLATION_TIME_PERIOD_VALUE) as u8,
-                        index: self.get(obj::INTERPOLATION_TIME_INDEX) as i8,
-                    }
-                    .as_nanos()
-                    .map_or(t, |n| (n as f64 / 1e9).max(t));
-                    let step = (set_point - self.demand_position) / period * t;
-                    self.demand_velocity = step / t;
-                    self.demand_position += step;
+                    self.interpolate(set_point, t);
                     self.follow_position(t);
                 } else {
+                    self.segment = None;
                     self.hold(t);
                 }
             }
@@ -964,8 +968,7 @@ impl SimDrive {
                 let target =
                     self.get(obj::TARGET_POSITION) as f64 + self.get(obj::POSITION_OFFSET) as f64;
                 let target = self.clamp_to_limits(target);
-                self.demand_velocity = (target - self.demand_position) / t;
-                self.demand_position = target;
+                self.interpolate(target, t);
                 self.follow_position(t);
             }
             ModeOfOperation::CyclicSyncVelocity => {
@@ -977,6 +980,39 @@ impl SimDrive {
             }
             _ => self.hold(t),
         }
+    }
+
+    /// The interpolation period 0x60C2 in seconds (at least one step).
+    fn interpolation_period(&self, t: f64) -> f64 {
+        crate::objects::InterpolationPeriod {
+            value: self.get(obj::INTERPOLATION_TIME_PERIOD_VALUE) as u8,
+            index: self.get(obj::INTERPOLATION_TIME_INDEX) as i8,
+        }
+        .as_nanos()
+        .map_or(t, |n| (n as f64 / 1e9).max(t))
+    }
+
+    /// Moves the demand along the segment toward `set_point`, starting a new segment when the
+    /// set-point changed.
+    fn interpolate(&mut self, set_point: f64, t: f64) {
+        let period = self.interpolation_period(t);
+        let mut seg = match self.segment {
+            Some(seg) if seg.to == set_point => seg,
+            _ => Segment {
+                from: self.demand_position,
+                to: set_point,
+                elapsed: 0.0,
+            },
+        };
+        seg.elapsed += t;
+        let f = (seg.elapsed / period).min(1.0);
+        self.demand_position = seg.from + (seg.to - seg.from) * f;
+        self.demand_velocity = if f < 1.0 {
+            (seg.to - seg.from) / period
+        } else {
+            0.0
+        };
+        self.segment = Some(seg);
     }
 
     fn hold(&mut self, t: f64) {

@@ -620,3 +620,27 @@ fn homing_method_3_puts_the_home_offset_on_the_index_pulse_below_the_switch_edge
         );
     }
 }
+
+#[test]
+fn cyclic_position_spreads_each_set_point_over_the_interpolation_period() {
+    // 0x60C2 = 10 × 10^-3 s: a set-point 100 counts away is reached in 10 ms, half-way at 5 ms.
+    let mut sim = enabled(ModeOfOperation::CyclicSyncPosition);
+    sim.set(obj::INTERPOLATION_TIME_PERIOD_VALUE, 10).unwrap();
+    sim.set(obj::TARGET_POSITION, 100).unwrap();
+    for _ in 0..5 {
+        sim.step(MS);
+    }
+    assert_eq!(sim.value(obj::POSITION_DEMAND_VALUE), 50);
+    assert_eq!(sim.value(obj::VELOCITY_DEMAND_VALUE), 10_000);
+    for _ in 0..5 {
+        sim.step(MS);
+    }
+    assert_eq!(sim.value(obj::POSITION_DEMAND_VALUE), 100);
+    // The same in steps of 100 µs, as a finer simulator clock would run it.
+    let mut sim = enabled(ModeOfOperation::CyclicSyncPosition);
+    sim.set(obj::TARGET_POSITION, 30).unwrap();
+    for _ in 0..5 {
+        sim.step(Duration::from_micros(100));
+    }
+    assert_eq!(sim.value(obj::POSITION_DEMAND_VALUE), 15);
+}
