@@ -3,7 +3,8 @@
 //!
 //! What it models, and after which real behaviour:
 //! - the power drive state machine of [`crate::device`] (quick stop by 0x605A, transition 16,
-//!   fault reset on the rising edge of bit 7);
+//!   fault reset on the rising edge of bit 7); the stop ramps of quick stop (0x605A), halt
+//!   (0x605D), fault reaction (0x605E), disable operation (0x605C) and shutdown (0x605B);
 //! - motion: a trapezoidal profile generator (pp, pv, homing) with 0x6081/0x6083/0x6084, a
 //!   linear interpolator (ip), direct cyclic targets with feed-forward offsets (csp, csv, cst),
 //!   torque with slope 0x6087 (tq), vl with its three ramp bits; a position loop whose
@@ -225,6 +226,8 @@ pub struct SimDrive {
     homing_status: HomingStatus,
     // ip and csp: the segment toward the latest set-point.
     segment: Option<Segment>,
+    // How the motor stops after leaving operation enabled (0x605B / 0x605C).
+    disable_ramp: StopRamp,
 }
 
 impl Default for SimDrive {
@@ -261,6 +264,7 @@ impl SimDrive {
             homing: None,
             homing_status: HomingStatus::Interrupted,
             segment: None,
+            disable_ramp: StopRamp::DisableDrive,
             config,
         };
         sim.put(
@@ -408,7 +412,14 @@ impl SimDrive {
     /// shows in 0x6061 after the next step.
     pub fn write(&mut self, index: u16, sub: u8, data: &[u8]) -> Result<(), AccessError> {
         let (index, base) = self.local(index)?;
-        if base < 0x6000 || (sub == 0 && RECORDS.iter().any(|(i, _)| *i == base)) {
+        if base < 0x6000 {
+            return Err(match (base, sub) {
+                (0x1000 | 0x1001, 0) => AccessError::ReadOnly(index, sub),
+                (0x1000 | 0x1001, _) => AccessError::NoSubIndex(index, sub),
+                _ => AccessError::NoObject(index),
+            });
+        }
+        if sub == 0 && RECORDS.iter().any(|(i, _)| *i == base) {
             return Err(AccessError::ReadOnly(index, sub));
         }
         let info = self.lookup(index, base, sub)?;
@@ -529,6 +540,17 @@ impl SimDrive {
                     error_register: 0,
                 });
             }
+            // Leaving operation enabled: transition 5 brakes as 0x605C says, 8 as 0x605B says,
+            // the others (9, and 10 and 7 with nothing moving) disable the drive function.
+            self.disable_ramp = match t {
+                Transition::T5 => OptionCode(self.get(obj::DISABLE_OPERATION_OPTION_CODE) as i16)
+                    .shutdown_ramp()
+                    .unwrap_or(StopRamp::DisableDrive),
+                Transition::T8 => OptionCode(self.get(obj::SHUTDOWN_OPTION_CODE) as i16)
+                    .shutdown_ramp()
+                    .unwrap_or(StopRamp::DisableDrive),
+                _ => StopRamp::DisableDrive,
+            };
             if t.to() == State::OperationEnabled {
                 // Enabling starts from where the motor is: no jump to an old demand.
                 self.demand_position = self.position;
@@ -792,7 +814,9 @@ impl SimDrive {
                 }
             }
             _ => {
-                self.stop(StopRamp::DisableDrive, t);
+                if self.stop(self.disable_ramp, t) {
+                    self.disable_ramp = StopRamp::DisableDrive;
+                }
             }
         }
         if self.homing.is_some() {

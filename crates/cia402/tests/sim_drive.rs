@@ -644,3 +644,41 @@ fn cyclic_position_spreads_each_set_point_over_the_interpolation_period() {
     }
     assert_eq!(sim.value(obj::POSITION_DEMAND_VALUE), 15);
 }
+
+#[test]
+fn disable_operation_and_shutdown_brake_by_605c_and_605b() {
+    // 0x605C = 1 (the default): transition 5 brakes on the slow-down ramp (0x6084 = 50 000/s²,
+    // 0.2 s from 10 000/s); 0x605B = 0: transition 8 lets the motor coast (friction only).
+    let mut stop_times = vec![];
+    for cw in [0x0007u16, 0x0006] {
+        let mut sim = enabled(ModeOfOperation::ProfileVelocity);
+        sim.set(obj::TARGET_VELOCITY, 10_000).unwrap();
+        run(&mut sim, 1_000, |s| s.statusword().target_reached()).unwrap();
+        sim.set_controlword(Controlword::from_raw(cw));
+        stop_times.push(run(&mut sim, 10_000, |s| s.velocity() == 0.0).expect("stops"));
+    }
+    assert!((195..=210).contains(&stop_times[0]), "{stop_times:?}");
+    assert!(stop_times[1] > 1_000, "{stop_times:?}");
+}
+
+#[test]
+fn communication_objects_outside_the_profile() {
+    let mut sim = started();
+    assert_eq!(
+        sim.write(0x1000, 0, &[0; 4])
+            .map_err(AccessError::abort_code),
+        Err(0x0601_0002)
+    );
+    assert_eq!(
+        sim.write(0x2000, 0, &[0]).map_err(AccessError::abort_code),
+        Err(0x0602_0000)
+    );
+    assert_eq!(
+        sim.write(0x1001, 1, &[0]).map_err(AccessError::abort_code),
+        Err(0x0609_0011)
+    );
+    assert_eq!(
+        sim.write(0x607D, 0, &[2]).map_err(AccessError::abort_code),
+        Err(0x0601_0002)
+    );
+}
