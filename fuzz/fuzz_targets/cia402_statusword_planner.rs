@@ -11,9 +11,17 @@ use canola_cia402::device::{DeviceConfig, DeviceStateMachine};
 use canola_cia402::mode::{HomingStatus, ModeOfOperation, ModeStatus};
 use canola_cia402::objects::{self, QuickStopOption};
 use canola_cia402::sim::SimDrive;
-use canola_cia402::state::{Command, Plan, PlanError, Planner, State, VoltageCheck};
+use canola_cia402::state::{Command, Plan, PlanError, Planner, State, StateMasks, VoltageCheck};
 use canola_cia402::words::{Controlword, Statusword};
 use libfuzzer_sys::fuzz_target;
+
+fn planner_masks(flags: u8) -> StateMasks {
+    if flags & 0x20 != 0 {
+        StateMasks::BeckhoffSsc
+    } else {
+        StateMasks::Standard
+    }
+}
 
 fn table(cw: Controlword) -> bool {
     Command::ALL.iter().any(|c| c.controlword() == cw)
@@ -46,7 +54,7 @@ fuzz_target!(|data: &[u8]| {
         let last =
             (flags & 0x80 != 0).then(|| Controlword::from_raw(u16::from_le_bytes([b[6], b[7]])));
 
-        let state = State::decode(sw);
+        let state = State::decode_with(sw, planner_masks(flags));
         for mode in (-3i8..=11).map(ModeOfOperation::from_code) {
             let _ = ModeStatus::decode(mode, sw).target_reached();
         }
@@ -65,6 +73,7 @@ fuzz_target!(|data: &[u8]| {
                 1 => VoltageCheck::BeforeSwitchOn,
                 _ => VoltageCheck::Always,
             },
+            state_masks: planner_masks(flags),
         };
         match planner.plan_after(sw, last, target) {
             Ok(plan) => {

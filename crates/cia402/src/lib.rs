@@ -54,7 +54,7 @@ pub mod words;
 pub use device::{DeviceConfig, DeviceStateMachine};
 pub use mode::ModeOfOperation;
 pub use objects::{ErrorCode, QuickStopOption, SupportedModes};
-pub use state::{Command, PlanError, Planner, State, Transition};
+pub use state::{Command, PlanError, Planner, State, StateMasks, Transition};
 pub use words::{Controlword, Statusword};
 
 /// The README's example, compiled and run as a doctest.

@@ -12,7 +12,7 @@
 //! |---|---|---|---|---|---|---|---|
 //! | pp | new set-point | change set immediately | relative | change on set-point | target reached | set-point acknowledge | following error |
 //! | vl | ramp enable | ramp unlock | use reference | – | – | – | – |
-//! | pv | – | – | – | – | target reached | speed = 0 | max slippage |
+//! | pv | – | – | – | – | target reached | speed = 0 | (reserved; max slippage on some) |
 //! | tq | – | – | – | – | target reached | – | – |
 //! | hm | start homing | – | – | – | target reached | homing attained | homing error |
 //! | ip | enable ip | – | – | – | target reached | ip mode active | – |
@@ -177,8 +177,9 @@ pub enum ModeStatus {
         target_reached: bool,
         /// Bit 12: speed is zero.
         speed_zero: bool,
-        /// Bit 13: maximum slippage reached (reserved on some drives).
-        max_slippage: bool,
+        /// Bit 13: reserved on most drives (Danfoss, Roboteq: always 0); "maximum slippage
+        /// reached" on some (ni-lab ePulse). Kept raw.
+        bit13: bool,
     },
     /// Profile torque.
     ProfileTorque {
@@ -231,7 +232,7 @@ impl ModeStatus {
             ModeOfOperation::ProfileVelocity => Self::ProfileVelocity {
                 target_reached: b10,
                 speed_zero: b12,
-                max_slippage: b13,
+                bit13: b13,
             },
             ModeOfOperation::ProfileTorque => Self::ProfileTorque {
                 target_reached: b10,
@@ -550,7 +551,7 @@ mod tests {
             ModeStatus::ProfileVelocity {
                 target_reached: true,
                 speed_zero: true,
-                max_slippage: false
+                bit13: false
             }
         );
         assert_eq!(

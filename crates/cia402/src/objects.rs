@@ -150,6 +150,12 @@ objects! {
     SUPPORTED_DRIVE_MODES: u32 = (0x6502, 0, Unsigned32, "Supported drive modes");
 }
 
+/// 0x6060 written as `INTEGER16`. The majority of sources (EPOS4, SSC, ros2_canopen, the Pilz
+/// DCF, Technosoft) make 0x6060 `INTEGER8` ([`MODES_OF_OPERATION`]); the heig-vd canopen-stack
+/// lists `INTEGER16`, and a Schneider LXM32M reportedly errors unless two bytes are written.
+/// For such drives write this entry instead (the value range is still −128..127).
+pub const MODES_OF_OPERATION_INTEGER16: Entry<i16> = Entry::new(0x6060, 0, DataType::Integer16);
+
 /// The index offset between two axes of a multi-axis device (CiA 402-2 §5).
 pub const AXIS_OFFSET: u16 = 0x800;
 

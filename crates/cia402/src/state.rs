@@ -84,9 +84,25 @@ impl State {
         }
     }
 
-    /// The state a statusword shows; `None` for the patterns no state has (for example 0x0001,
-    /// or bit 6 set together with bit 0).
+    /// The state a statusword shows, with the [`StateMasks::Standard`] masks; `None` for the
+    /// patterns no state has (for example 0x0001, or bit 6 set together with bit 0).
     pub const fn decode(sw: Statusword) -> Option<State> {
+        Self::decode_with(sw, StateMasks::Standard)
+    }
+
+    /// The state a statusword shows with the given masks.
+    pub const fn decode_with(sw: Statusword, masks: StateMasks) -> Option<State> {
+        if let StateMasks::BeckhoffSsc = masks {
+            // SSC: switch on disabled is 0x0020 under 0x006F; checked before not ready to
+            // switch on, whose standard pattern it also matches.
+            if sw.raw() & 0x006F == 0x0020 {
+                return Some(Self::SwitchOnDisabled);
+            }
+        }
+        Self::decode_standard(sw)
+    }
+
+    const fn decode_standard(sw: Statusword) -> Option<State> {
         let raw = sw.raw();
         let mut i = 0;
         while i < Self::ALL.len() {
@@ -127,6 +143,19 @@ impl fmt::Display for State {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
+}
+
+/// Which statusword masks identify the states. `shared/spec/cia402.md` §3.1: python-canopen,
+/// ros2_canopen and Toshiba (citing CiA DS402-2 Table 30) give switch on disabled as 0x0040 under
+/// 0x004F; Beckhoff's EtherCAT SSC (`cia402appl.h`) gives 0x0020 under 0x006F.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub enum StateMasks {
+    /// The majority's masks (the table of [`State::mask`] and [`State::value`]).
+    #[default]
+    Standard,
+    /// The standard masks, and also 0x0020 under 0x006F as switch on disabled (drives whose
+    /// firmware follows Beckhoff SSC).
+    BeckhoffSsc,
 }
 
 /// A device-control command: the controlword bits 0..3 and 7 (CiA 402-2 Table 27).
@@ -483,6 +512,8 @@ pub struct Planner {
     pub fault_reset: bool,
     /// When statusword bit 4 gates switching on.
     pub voltage_check: VoltageCheck,
+    /// The statusword masks of the drive's states.
+    pub state_masks: StateMasks,
 }
 
 impl Default for Planner {
@@ -494,6 +525,7 @@ impl Default for Planner {
             transition_16: true,
             fault_reset: true,
             voltage_check: VoltageCheck::BeforeSwitchOn,
+            state_masks: StateMasks::Standard,
         }
     }
 }
@@ -517,7 +549,7 @@ impl Planner {
         last: Option<Controlword>,
         target: State,
     ) -> Result<Plan, PlanError> {
-        let from = State::decode(sw).ok_or(PlanError::UnknownState(sw))?;
+        let from = State::decode_with(sw, self.state_masks).ok_or(PlanError::UnknownState(sw))?;
         let plan = self.walk(from, last, target)?;
         let checked = match self.voltage_check {
             VoltageCheck::Off => false,
@@ -674,6 +706,23 @@ mod tests {
                 State::decode(Statusword::from_raw(unknown)),
                 None,
                 "{unknown:#06x}"
+            );
+        }
+    }
+
+    #[test]
+    fn beckhoff_ssc_switch_on_disabled_is_selectable() {
+        let ssc = Statusword::from_raw(0x0220);
+        assert_eq!(State::decode(ssc), Some(State::NotReadyToSwitchOn));
+        assert_eq!(
+            State::decode_with(ssc, StateMasks::BeckhoffSsc),
+            Some(State::SwitchOnDisabled)
+        );
+        for raw in [0x0040, 0x0021, 0x0027, 0x0008, 0x0000] {
+            let sw = Statusword::from_raw(raw);
+            assert_eq!(
+                State::decode_with(sw, StateMasks::BeckhoffSsc),
+                State::decode(sw)
             );
         }
     }
