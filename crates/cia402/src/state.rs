@@ -326,16 +326,13 @@ impl Transition {
         use State::*;
         Some(match self.0 {
             1 => NotReadyToSwitchOn,
-            2 | 7 | 15 => match self.0 {
-                2 => SwitchOnDisabled,
-                7 => ReadyToSwitchOn,
-                _ => Fault,
-            },
-            3 => ReadyToSwitchOn,
+            2 => SwitchOnDisabled,
+            3 | 7 => ReadyToSwitchOn,
             4 | 6 | 10 => SwitchedOn,
             5 | 8 | 9 | 11 => OperationEnabled,
             12 | 16 => QuickStopActive,
             14 => FaultReactionActive,
+            15 => Fault,
             _ => return None,
         })
     }
@@ -394,6 +391,10 @@ impl fmt::Display for Transition {
 }
 
 /// One step of a [`Plan`].
+///
+/// A fault reset can take two steps of transition 15: first 0x0000 (bit 7 clear, the drive
+/// stays in fault), then 0x0080 (the rising edge). Send them in separate cycles: two writes
+/// less than about a millisecond apart may not be seen as an edge (yarp-devices #215).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Step {
     /// The transition this step is part of.
