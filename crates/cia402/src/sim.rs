@@ -892,8 +892,13 @@ impl SimDrive {
     /// The position loop: the motor follows the demand with an acceleration limited by 0x6072.
     fn follow_position(&mut self, t: f64) {
         let gain = (0.5 / t).min(200.0);
-        let wanted = self.demand_velocity + gain * (self.demand_position - self.position);
-        self.drive_velocity(wanted, t);
+        // What is left to the demand after this step's feed-forward move.
+        let error = self.demand_position - self.position - self.demand_velocity * t;
+        // Proportional near the demand; far from it no faster than the motor can still brake
+        // from (v² = 2·a·e), so a saturated loop closes in without overshooting.
+        let braking = (2.0 * self.max_acceleration() * error.abs()).sqrt();
+        let correction = error.signum() * (gain * error.abs()).min(braking);
+        self.drive_velocity(self.demand_velocity + correction, t);
     }
 
     fn drive_velocity(&mut self, wanted: f64, t: f64) {
@@ -1030,12 +1035,10 @@ impl SimDrive {
         };
         seg.elapsed += t;
         let f = (seg.elapsed / period).min(1.0);
-        self.demand_position = seg.from + (seg.to - seg.from) * f;
-        self.demand_velocity = if f < 1.0 {
-            (seg.to - seg.from) / period
-        } else {
-            0.0
-        };
+        let next = seg.from + (seg.to - seg.from) * f;
+        // The velocity of this step, the feed-forward of the position loop.
+        self.demand_velocity = (next - self.demand_position) / t;
+        self.demand_position = next;
         self.segment = Some(seg);
     }
 
@@ -1186,5 +1189,43 @@ impl SimDrive {
             | u32::from(self.switch(Switch::PositiveLimit, self.position)) << 1
             | u32::from(self.switch(Switch::Home, self.position)) << 2;
         self.put(obj::DIGITAL_INPUTS, i64::from(inputs));
+    }
+}
+
+/// The drive's objects as the PDO engine's store: RPDOs write through [`SimDrive::write`]
+/// (a controlword acts at once), TPDOs read through [`SimDrive::read`].
+#[cfg(feature = "pdo")]
+impl canola_pdo::ObjectStore for SimDrive {
+    fn read(
+        &mut self,
+        addr: canola_od::ObjectAddress,
+        out: &mut [u8],
+    ) -> Result<(), canola_pdo::StoreError> {
+        let mut buf = [0u8; 8];
+        let n = SimDrive::read(self, addr.index, addr.sub_index, &mut buf).map_err(store_error)?;
+        let dst = out.len().min(n);
+        out.fill(0);
+        out[..dst].copy_from_slice(&buf[..dst]);
+        Ok(())
+    }
+
+    fn write(
+        &mut self,
+        addr: canola_od::ObjectAddress,
+        data: &[u8],
+    ) -> Result<(), canola_pdo::StoreError> {
+        SimDrive::write(self, addr.index, addr.sub_index, data).map_err(store_error)
+    }
+}
+
+#[cfg(feature = "pdo")]
+fn store_error(e: AccessError) -> canola_pdo::StoreError {
+    match e {
+        AccessError::NoObject(_) | AccessError::NoSubIndex(..) => {
+            canola_pdo::StoreError::NoSuchObject
+        }
+        AccessError::ReadOnly(..) => canola_pdo::StoreError::AccessDenied,
+        AccessError::ValueRange(..) => canola_pdo::StoreError::ValueRange,
+        other => canola_pdo::StoreError::Other(other.abort_code()),
     }
 }
