@@ -14,7 +14,8 @@
 //! - [`device`]: the same state machine from the drive's side (controlword in, state out), with
 //!   fault reset on the rising edge of bit 7 and quick stop ending by 0x605A.
 //! - `sim` (feature `std`): a simulated servo drive with motion, homing, faults and a
-//!   safe-torque-off input, behind an object-dictionary read/write interface.
+//!   safe-torque-off input, behind an object-dictionary read/write interface (with feature
+//!   `pdo`, also a `canola_pdo::ObjectStore` for the PDO engine).
 //!
 //! Facts and their sources: `shared/spec/cia402.md` of the project. Where the sources disagree
 //! the majority is the default and the minority is selectable (see
