@@ -788,6 +788,10 @@ impl SimDrive {
         self.limit_active = false;
         match self.machine.state() {
             State::OperationEnabled if cw.halt() => {
+                if self.homing.take().is_some() {
+                    // Halt interrupts homing (CiA 402-2 §10: controlword bit 8 in hm).
+                    self.homing_status = HomingStatus::Interrupted;
+                }
                 let ramp = OptionCode(self.get(obj::HALT_OPTION_CODE) as i16).halt_ramp();
                 self.stop(ramp.unwrap_or(StopRamp::SlowDownRamp), t);
             }

@@ -346,6 +346,23 @@ fn homing_on_current_position_and_unknown_methods() {
     assert_eq!(home(&mut sim, 0), HomingStatus::ErrorStandstill);
     assert_eq!(home(&mut sim, 15), HomingStatus::ErrorStandstill);
     assert_eq!(home(&mut sim, -3), HomingStatus::ErrorStandstill);
+    // Halt interrupts a running homing; the drive stops and stays enabled.
+    sim.set(obj::HOMING_METHOD, 17).unwrap();
+    sim.set_controlword(Controlword::from_raw(0x000F));
+    sim.step(MS);
+    sim.set_controlword(Controlword::from_raw(0x001F));
+    run(&mut sim, 200, |_| false);
+    assert_eq!(
+        HomingStatus::decode(sim.statusword()),
+        HomingStatus::InProgress
+    );
+    sim.set_controlword(Controlword::from_raw(0x011F));
+    run(&mut sim, 1_000, |s| s.velocity() == 0.0).expect("stops");
+    assert_eq!(
+        HomingStatus::decode(sim.statusword()),
+        HomingStatus::Interrupted
+    );
+    assert_eq!(sim.state(), State::OperationEnabled);
 }
 
 #[test]
