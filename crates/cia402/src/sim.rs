@@ -63,6 +63,13 @@ pub struct SimConfig {
     pub init_time: Duration,
     /// Safe torque off active at power-on.
     pub safe_torque_off: bool,
+    /// Refuse a write of a different mode to 0x6060 in operation enabled (ipa_canopen PR #29
+    /// allows mode changes only in switch on disabled, ready to switch on and switched on).
+    /// Off by default: python-canopen #244/#251 drives switch modes in any state.
+    pub refuse_mode_change_when_enabled: bool,
+    /// Refuse a write of a different mode to 0x6060 while the controlword holds halt (bit 8),
+    /// as some drives do (ros_canopen #328, ros2_canopen #234).
+    pub refuse_mode_change_while_halt: bool,
 }
 
 impl Default for SimConfig {
@@ -79,6 +86,8 @@ impl Default for SimConfig {
             positive_limit_switch: Some(200_000.0),
             init_time: Duration::from_millis(10),
             safe_torque_off: false,
+            refuse_mode_change_when_enabled: false,
+            refuse_mode_change_while_halt: false,
         }
     }
 }
@@ -136,6 +145,9 @@ pub enum AccessError {
     /// 0x06090030.
     #[error("value out of range for {0:#06x}:{1}")]
     ValueRange(u16, u8),
+    /// 0x08000022: not now, in the drive's present state.
+    #[error("{0:#06x}:{1} cannot be written in the drive's present state")]
+    DeviceState(u16, u8),
 }
 
 impl AccessError {
@@ -147,6 +159,7 @@ impl AccessError {
             Self::ReadOnly(..) => 0x0601_0002,
             Self::Length(..) => 0x0607_0010,
             Self::ValueRange(..) => 0x0609_0030,
+            Self::DeviceState(..) => 0x0800_0022,
         }
     }
 }
@@ -453,6 +466,15 @@ impl SimDrive {
                 let listed = listed || mode == ModeOfOperation::NoMode;
                 if !(known && listed) {
                     return Err(AccessError::ValueRange(index, sub));
+                }
+                let change = i64::from(mode.code()) != self.get(obj::MODES_OF_OPERATION);
+                let enabled = self.machine.state() == State::OperationEnabled;
+                let halt = Controlword::from_raw(self.get(obj::CONTROLWORD) as u16).halt();
+                if change
+                    && (self.config.refuse_mode_change_when_enabled && enabled
+                        || self.config.refuse_mode_change_while_halt && halt)
+                {
+                    return Err(AccessError::DeviceState(index, sub));
                 }
             }
             0x605A => self

@@ -699,3 +699,34 @@ fn communication_objects_outside_the_profile() {
         Err(0x0601_0002)
     );
 }
+
+#[test]
+fn drives_that_refuse_mode_changes_when_enabled_or_halted() {
+    let cfg = SimConfig {
+        refuse_mode_change_when_enabled: true,
+        ..SimConfig::default()
+    };
+    let mut sim = SimDrive::new(cfg);
+    run(&mut sim, 100, |s| s.state() == State::SwitchOnDisabled).unwrap();
+    set_mode(&mut sim, ModeOfOperation::ProfilePosition);
+    go(&mut sim, &Planner::default(), State::OperationEnabled).unwrap();
+    let refused = sim
+        .set(obj::MODES_OF_OPERATION, 3)
+        .map_err(AccessError::abort_code);
+    assert_eq!(refused, Err(0x0800_0022));
+    // The same mode again is no change and is accepted (ros2_canopen #445).
+    sim.set(obj::MODES_OF_OPERATION, 1).unwrap();
+    go(&mut sim, &Planner::default(), State::SwitchedOn).unwrap();
+    set_mode(&mut sim, ModeOfOperation::ProfileVelocity);
+
+    let cfg = SimConfig {
+        refuse_mode_change_while_halt: true,
+        ..SimConfig::default()
+    };
+    let mut sim = SimDrive::new(cfg);
+    run(&mut sim, 100, |s| s.state() == State::SwitchOnDisabled).unwrap();
+    sim.set_controlword(Controlword::from_raw(0x0100));
+    assert!(sim.set(obj::MODES_OF_OPERATION, 1).is_err());
+    sim.set_controlword(Controlword::from_raw(0x0000));
+    set_mode(&mut sim, ModeOfOperation::ProfilePosition);
+}
