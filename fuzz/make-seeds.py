@@ -390,6 +390,17 @@ TARGETS = {
     "manager_bus_toml": BUS_TOML,
     "manager_master_dcf": None,  # the manager's test DCFs
     # Head byte (low nibble: length, high nibble: TPDO number, bit 7: remote) then data.
+    # Chunks of 8: statusword, 0x605A, target state, flags (bit 0 t16, 1 fault reset, 2-3 voltage
+    # check, 4 enable from ready, 7 last controlword known), last controlword; first byte >= 0x80:
+    # a write to the simulated drive and a step.
+    "cia402_statusword_planner": [
+        bytes([0x50, 0x02, 2, 0, 4, 0x87, 0x0F, 0]),  # SOD -> OE
+        bytes([0x18, 0x02, 2, 0, 1, 0x83, 0x80, 0]),  # fault, bit 7 high before
+        bytes([0x37, 0x02, 6, 0, 5, 0x03, 0, 0]) + bytes([0x17, 0x02, 6, 0, 4, 0x03, 0, 0]),
+        bytes([0x21, 0x02, 2, 0, 4, 0x05, 0, 0]),  # RTSO without voltage
+        bytes([0x0F, 0x00, 0xFF, 0xFF, 1, 0x00, 0, 0]),
+        bytes([0x85, 12, 1, 0, 0, 0, 0x0F, 0]) + bytes([0x9C, 35, 0x10, 0x27, 0, 0, 0x1F, 0]),
+    ],
     "pdo_typed": [bytes([0x18]) + bytes(range(8)), bytes([0x24, 1, 2, 3, 4]),
                   bytes([0x02, 0xFF, 0x7F]), bytes([0x80])],
 }

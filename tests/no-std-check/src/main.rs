@@ -4,6 +4,7 @@
 #![no_main]
 
 extern crate canola_burkert;
+extern crate canola_cia402;
 extern crate canola_devicenet;
 extern crate canola_frame;
 extern crate canola_gemu;
@@ -39,11 +40,16 @@ pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
     let sdo = canola_sdo::ClientRequest::parse(&[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
     let mut server = canola_sdo::Server::new(canola_sdo::ServerConfig::default());
     let dn = canola_devicenet::DuplicateMacCheck::parse(&[0; 7]);
+    let plan = canola_cia402::Planner::default().plan(
+        canola_cia402::Statusword::from_raw(0x0250),
+        canola_cia402::State::OperationEnabled,
+    );
     if id.is_ok()
         && colour.is_ok()
         && heartbeat.is_ok()
         && sdo.is_ok()
         && dn.is_ok()
+        && plan.is_ok()
         && server.poll_transmit().is_none()
     {
         0
