@@ -35,6 +35,8 @@ mod decoder;
 mod error;
 mod frame;
 mod hex;
+#[cfg(feature = "serial")]
+mod link;
 mod reply;
 
 pub use bitrate::{BitrateTable, Btr, DataBitrate, NominalBitrate, TimestampMode};
@@ -42,6 +44,10 @@ pub use command::Command;
 pub use decoder::{Decoder, Items};
 pub use error::{EncodeError, LineError};
 pub use frame::{FdFrame, Frame, RxFrame, Timestamp, fd_dlc_to_len, fd_len_to_dlc};
+#[cfg(feature = "serial")]
+pub use link::{
+    AckMode, AdapterInfo, DEFAULT_SERIAL_BAUD, Incoming, Link, LinkConfig, LinkError, LinkStats,
+};
 pub use reply::{BusErrors, BusState, ErrorState, Item, StatusFlags, Text};
 
 /// The longest line the decoder accepts, without its terminator: an extended CAN FD frame with
