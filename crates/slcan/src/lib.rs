@@ -63,3 +63,8 @@ pub const CR: u8 = b'\r';
 
 /// BEL: the error reply. Adapters send it without a CR after it.
 pub const BEL: u8 = 0x07;
+
+/// The README's example, compiled as a doctest.
+#[cfg(all(doctest, feature = "serial"))]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -245,6 +245,8 @@ pub struct Link {
     /// Frames and events that arrived while a command waited for its reply.
     pending: VecDeque<Incoming>,
     acks: bool,
+    /// The timeout last given to the port.
+    port_timeout: Duration,
     stats: LinkStats,
 }
 
@@ -271,6 +273,7 @@ impl Link {
             rend: 0,
             pending: VecDeque::new(),
             acks: true,
+            port_timeout: Duration::ZERO,
             stats: LinkStats::default(),
         };
         link.start()?;
@@ -295,6 +298,7 @@ impl Link {
             })?;
         // Bytes from before this open (a previous session's frames) mean nothing now.
         let _ = port.clear(ClearBuffer::All);
+        self.port_timeout = self.config.reply_timeout;
         self.port = Some(port);
         self.decoder.reset();
         self.rpos = 0;
@@ -379,10 +383,15 @@ impl Link {
     /// Waits at most `timeout` for a frame or bus event; `Ok(None)` when none came.
     /// Acknowledgements and stray replies are counted and skipped.
     pub fn recv(&mut self, timeout: Duration) -> Result<Option<Incoming>, LinkError> {
+        self.recv_until(Instant::now() + timeout)
+    }
+
+    /// [`recv`](Self::recv) with an absolute deadline; a deadline in the past still takes what
+    /// has arrived, without waiting.
+    pub fn recv_until(&mut self, deadline: Instant) -> Result<Option<Incoming>, LinkError> {
         if let Some(i) = self.pending.pop_front() {
             return Ok(Some(i));
         }
-        let deadline = Instant::now() + timeout;
         loop {
             let Some(item) = self.next_item(deadline)? else {
                 return Ok(None);
@@ -393,10 +402,14 @@ impl Link {
         }
     }
 
-    /// Whether a frame or event is already decoded or buffered, so [`recv`](Self::recv) returns
-    /// without reading the port.
+    /// Whether a frame or event is already decoded, or a complete line is buffered, so
+    /// [`recv`](Self::recv) returns without waiting for the port (the line may still turn out to
+    /// be an acknowledgement that `recv` skips).
     pub fn has_pending(&self) -> bool {
-        !self.pending.is_empty() || self.rpos < self.rend
+        !self.pending.is_empty()
+            || self.rbuf[self.rpos..self.rend]
+                .iter()
+                .any(|&b| b == crate::CR || b == crate::BEL)
     }
 
     /// Asks `V`, `N` and `F` and collects what the adapter answers.
@@ -516,6 +529,7 @@ impl Link {
         let mut buf = [0u8; crate::MAX_COMMAND];
         // MAX_COMMAND fits every command.
         let n = cmd.encode(&mut buf).map_err(|_| LinkError::Closed)?;
+        self.set_port_timeout(self.config.reply_timeout)?;
         let port = self.port.as_mut().ok_or(LinkError::Closed)?;
         match port.write_all(&buf[..n]) {
             Ok(()) => Ok(()),
@@ -524,7 +538,9 @@ impl Link {
         }
     }
 
-    /// The next decoded item, reading the port until `deadline`; `None` at the deadline.
+    /// The next decoded item, reading the port until `deadline`; `None` at the deadline. Reads
+    /// at least once (without waiting when the deadline has passed), so a zero timeout still
+    /// picks up what the adapter has sent.
     fn next_item(
         &mut self,
         deadline: Instant,
@@ -537,16 +553,8 @@ impl Link {
                     return Ok(item);
                 }
             }
+            self.set_port_timeout(deadline.saturating_duration_since(Instant::now()))?;
             let port = self.port.as_mut().ok_or(LinkError::Closed)?;
-            let now = Instant::now();
-            if now >= deadline {
-                return Ok(None);
-            }
-            port.set_timeout(deadline - now)
-                .map_err(|e| LinkError::Vanished {
-                    path: self.config.path.clone(),
-                    source: e.into(),
-                })?;
             match port.read(&mut self.rbuf[..]) {
                 Ok(0) => {
                     let eof = io::Error::new(io::ErrorKind::UnexpectedEof, "end of stream");
@@ -560,6 +568,21 @@ impl Link {
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(self.vanished(e)),
             }
+        }
+    }
+
+    /// Sets the port's timeout if it differs (on Windows each change is a system call).
+    fn set_port_timeout(&mut self, timeout: Duration) -> Result<(), LinkError> {
+        if self.port_timeout == timeout {
+            return Ok(());
+        }
+        let port = self.port.as_mut().ok_or(LinkError::Closed)?;
+        match port.set_timeout(timeout) {
+            Ok(()) => {
+                self.port_timeout = timeout;
+                Ok(())
+            }
+            Err(e) => Err(self.vanished(e.into())),
         }
     }
 

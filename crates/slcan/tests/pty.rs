@@ -390,3 +390,28 @@ fn vanished_adapter_is_an_error_and_reopen_works() {
     drop(fake);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_deadline_in_the_past_still_takes_what_has_arrived() {
+    let fake = Fake::start(Firmware::Canable);
+    let mut link = Link::open(config(&fake.path, 500_000)).unwrap();
+    assert_eq!(fake.lines(3), ["C", "S6", "O"]);
+    fake.emit(b"t1230\rt1231AA\r");
+    let mut got = Vec::new();
+    let until = Instant::now() + Duration::from_secs(5);
+    while got.len() < 2 {
+        assert!(Instant::now() < until, "got only {got:?}");
+        match link.recv_until(Instant::now()).unwrap() {
+            Some(i) => got.push(i),
+            None => thread::sleep(Duration::from_millis(1)),
+        }
+    }
+    assert_eq!(
+        got,
+        [
+            rx(CanFrame::new(sid(0x123), &[]).unwrap(), None),
+            rx(CanFrame::new(sid(0x123), &[0xAA]).unwrap(), None)
+        ]
+    );
+    assert!(!link.has_pending());
+}
