@@ -12,6 +12,7 @@ extern crate canola_nmt;
 extern crate canola_od;
 extern crate canola_pdo;
 extern crate canola_sdo;
+extern crate canola_slcan;
 
 use core::panic::PanicInfo;
 
@@ -39,11 +40,13 @@ pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
     let sdo = canola_sdo::ClientRequest::parse(&[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]);
     let mut server = canola_sdo::Server::new(canola_sdo::ServerConfig::default());
     let dn = canola_devicenet::DuplicateMacCheck::parse(&[0; 7]);
+    let slcan_items = canola_slcan::Decoder::new().feed(b"t1230\r").count();
     if id.is_ok()
         && colour.is_ok()
         && heartbeat.is_ok()
         && sdo.is_ok()
         && dn.is_ok()
+        && slcan_items == 1
         && server.poll_transmit().is_none()
     {
         0
