@@ -264,7 +264,23 @@ impl core::fmt::Debug for Link {
 impl Link {
     /// Opens the serial port, configures the adapter and opens its CAN channel.
     pub fn open(config: LinkConfig) -> Result<Self, LinkError> {
-        let mut link = Self {
+        let mut link = Self::new(config);
+        link.start()?;
+        Ok(link)
+    }
+
+    /// Runs the open sequence on a port the caller opened: a pseudo-terminal master from
+    /// `serialport::TTYPort::pair`, or a port with settings [`LinkConfig`] has no field for.
+    /// `config.path` names it in errors; [`reopen`](Self::reopen) opens `config.path` as a
+    /// serial port.
+    pub fn with_port(config: LinkConfig, port: Box<dyn SerialPort>) -> Result<Self, LinkError> {
+        let mut link = Self::new(config);
+        link.configure(port)?;
+        Ok(link)
+    }
+
+    fn new(config: LinkConfig) -> Self {
+        Self {
             config,
             port: None,
             decoder: Decoder::new(),
@@ -275,9 +291,7 @@ impl Link {
             acks: true,
             port_timeout: Duration::ZERO,
             stats: LinkStats::default(),
-        };
-        link.start()?;
-        Ok(link)
+        }
     }
 
     /// Opens the same path again with the same configuration (after the adapter vanished and came
@@ -296,8 +310,13 @@ impl Link {
                 path: path.clone(),
                 source,
             })?;
+        self.configure(port)
+    }
+
+    fn configure(&mut self, mut port: Box<dyn SerialPort>) -> Result<(), LinkError> {
         // Bytes from before this open (a previous session's frames) mean nothing now.
         let _ = port.clear(ClearBuffer::All);
+        let _ = port.set_timeout(self.config.reply_timeout);
         self.port_timeout = self.config.reply_timeout;
         self.port = Some(port);
         self.decoder.reset();
