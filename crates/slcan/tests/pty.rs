@@ -5,8 +5,9 @@
 //! this crate's codec: it splits on CR, matches command strings by hand and answers as two kinds
 //! of firmware do. `Lawicel` (CAN232/CANUSB and the Nakakiyo CANable 2 firmware): CR for OK, BEL
 //! for errors (including `C` while closed and any unknown command), `z`/`Z` after a frame,
-//! `Vhhss`, `Nxxxx`, `Fxx`, `Z0`/`Z1`. `Canable` (the official CANable 1.0/2.0 firmware): no
-//! reply to any command, a free-text `V` reply, no `N`, `F` or `Z`.
+//! `Vhhss`, `Nxxxx`, `Fxx`, `Z0`/`Z1`. `Canable` (the official CANable 2.0 firmware): no
+//! reply to any command, a free-text `V` reply, no `N`, `F` or `Z`; `Y2`/`Y5` and CAN FD frame
+//! lines.
 
 #![cfg(all(unix, feature = "serial"))]
 
@@ -18,8 +19,8 @@ use std::time::{Duration, Instant};
 
 use canola_frame::{CanFrame, CanId};
 use canola_slcan::{
-    AckMode, Frame, Incoming, LineError, Link, LinkConfig, LinkError, RxFrame, StatusFlags,
-    Timestamp, TimestampMode,
+    AckMode, DataBitrate, FdFrame, Frame, Incoming, LineError, Link, LinkConfig, LinkError,
+    RxFrame, StatusFlags, Timestamp, TimestampMode,
 };
 use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
 
@@ -140,6 +141,9 @@ fn run(
                     ok.to_vec()
                 }
                 "Z0" | "Z1" if lawicel && !open => ok.to_vec(),
+                // CANable 2.0: CAN FD data bit rates 2 and 5 Mbit/s, and FD frame lines.
+                "Y2" | "Y5" if !lawicel && !open => ok.to_vec(),
+                l if !lawicel && open && l.starts_with(['d', 'D', 'b', 'B']) => Vec::new(),
                 "V" if lawicel => b"V1013\r".to_vec(),
                 "V" => b"b6fe3a1 git@github.com:normaldotcom/canable2-fw.git\r".to_vec(),
                 "N" if lawicel => b"NA1B2\r".to_vec(),
@@ -414,4 +418,29 @@ fn a_deadline_in_the_past_still_takes_what_has_arrived() {
         ]
     );
     assert!(!link.has_pending());
+}
+
+#[test]
+fn canable_fd_frames_and_data_bitrate() {
+    let fake = Fake::start(Firmware::Canable);
+    let mut cfg = config(&fake.path, 500_000);
+    cfg.data_bitrate = DataBitrate::from_bps(2_000_000);
+    let mut link = Link::open(cfg).unwrap();
+    assert_eq!(fake.lines(4), ["C", "S6", "Y2", "O"]);
+
+    let data: Vec<u8> = (0..64).collect();
+    let f = FdFrame::new(CanId::extended(0x01AB_CDEF).unwrap(), true, &data).unwrap();
+    link.send(&f.into()).unwrap();
+    let hex: String = data.iter().map(|b| format!("{b:02X}")).collect();
+    assert_eq!(fake.line(), format!("B01ABCDEFF{hex}"));
+
+    // Nakakiyo's example line: standard id 0x200, DLC 9 = 12 bytes, no BRS.
+    fake.emit(b"d200900112233445566778899AABB\r");
+    let twelve = [
+        0x00, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88, 0x99, 0xAA, 0xBB,
+    ];
+    assert_eq!(
+        recv(&mut link),
+        rx(FdFrame::new(sid(0x200), false, &twelve).unwrap(), None)
+    );
 }
