@@ -1,6 +1,8 @@
 //! The slcan line decoder and command parser: never panic on any bytes, in any chunking; every
 //! frame they accept encodes to a line that decodes to the same frame; the decoder's counters add
-//! up to what it returned.
+//! up to what it returned. `-max_len=1024` (fuzz/options): inputs longer than a line
+//! (`MAX_LINE` = 160) reach the overlong-line path, and several lines per input the
+//! resynchronisation.
 #![no_main]
 
 use canola_slcan::{Command, Decoder, Item, MAX_COMMAND, MAX_LINE};

@@ -4,8 +4,9 @@
 //! - codec: encode N frame lines into a buffer; decode the same byte stream in 4 KiB chunks.
 //! - pty, host -> adapter: `Link::send` of N frames; a peer thread on the pty master reads and
 //!   counts the lines. Timed until the peer has all of them.
-//! - pty, adapter -> host: the peer writes N frame lines as fast as the pty takes them;
-//!   `Link::recv` until all N frames are decoded.
+//! - pty, adapter -> host: the peer writes N frame lines as fast as the pty takes them, in
+//!   4 KiB writes (a USB adapter's bursts) or one line per write (as the kernel's slcan driver
+//!   writes); `Link::recv` until all N frames are decoded.
 //!
 //! CPU is the calling thread's (CLOCK_THREAD_CPUTIME_ID): the link's own cost per frame,
 //! without the peer's.
@@ -165,16 +166,20 @@ fn pty_tx(kind: &str, n: usize) -> Row {
     row
 }
 
-fn pty_rx(kind: &str, n: usize) -> Row {
+/// `per_line`: the peer writes one line per system call, as the kernel's slcan driver does;
+/// otherwise up to 4 KiB per call, as a USB CDC adapter delivers bursts.
+fn pty_rx(kind: &str, n: usize, per_line: bool) -> Row {
     let (master, path) = pty();
     let stream = encode_all(&frames(kind, n));
+    let line_len = stream.iter().position(|&b| b == b'\r').map_or(1, |i| i + 1);
+    let chunk = if per_line { line_len } else { 4096 };
     let mut link = open_link(&path);
     let peer = thread::spawn(move || {
         let mut rest = &stream[..];
         while !rest.is_empty() {
             let mut fds = [PollFd::new(master.as_fd(), PollFlags::POLLOUT)];
             let _ = poll(&mut fds, PollTimeout::from(1000u16));
-            match nix::unistd::write(&master, &rest[..rest.len().min(4096)]) {
+            match nix::unistd::write(&master, &rest[..rest.len().min(chunk)]) {
                 Ok(w) => rest = &rest[w..],
                 Err(nix::errno::Errno::EAGAIN | nix::errno::Errno::EINTR) => {}
                 Err(e) => panic!("peer write: {e}"),
@@ -182,7 +187,12 @@ fn pty_rx(kind: &str, n: usize) -> Row {
         }
         master
     });
-    let row = timed(format!("pty link recv {kind}"), n, || {
+    let what = if per_line {
+        format!("pty link recv {kind}, line per write")
+    } else {
+        format!("pty link recv {kind}")
+    };
+    let row = timed(what, n, || {
         let mut count = 0;
         while count < n {
             match link.recv(Duration::from_secs(2)).unwrap() {
@@ -219,6 +229,7 @@ fn main() {
     }
     for kind in ["std8", "ext8", "fd64"] {
         pty_tx(kind, np).print();
-        pty_rx(kind, np).print();
+        pty_rx(kind, np, false).print();
+        pty_rx(kind, np, true).print();
     }
 }
