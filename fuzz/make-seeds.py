@@ -357,6 +357,20 @@ ARBITRARY = [bytes(range(i, i + 48)) for i in (0, 7, 64, 200)] + [
     b"\x00\x01\x02\x03" * 12, b"\xff" * 32, bytes([3, 0, 16, 0, 1, 0x40, 0, 0x10, 0, 2] * 4),
 ]
 
+# slcan adapter output and host commands (crates/slcan): the first byte is the chunk size the
+# target splits the rest into; lines from the kernel driver, python-can, slcanpty, Lawicel and
+# CANable firmware replies.
+SLCAN = [
+    bytes([7]) + b"t4563112233\rT12ABCDEF2AA55\rr1230\r",
+    bytes([3]) + b"T1111222281122334455667788EA5F\rt10020011000A0\r",
+    bytes([64]) + b"\rV1013\rN4242\rF00\r\x07z\rZ\r",
+    bytes([16]) + b"d200900112233445566778899AABB\rB1FFFFFFFF" + b"E" * 128 + b"\r",
+    bytes([5]) + b"sa057033\re3bcO\rb6fe3a1 git@github.com:normaldotcom/canable2-fw.git\r",
+    bytes([1]) + b"C\rS6\rO\rL\rs001C\rY2\rZ1\rV\rN\rF\r",
+    bytes([9]) + b"t12\xff30\rt1230\r\nt1231AA\x07\r",
+]
+
+
 TARGETS = {
     "sdo_decode_server": CLIENT_REQUESTS,
     "sdo_decode_client": SERVER_RESPONSES,
@@ -369,6 +383,7 @@ TARGETS = {
     "gateway_line": GATEWAY,
     "burkert_values": BURKERT,
     "pdo_decode": PDO,
+    "slcan_line": SLCAN,
     "od_value_text": OD_VALUES,
     "od_eds_parser": None,  # filled from the repository's EDS files
     "gemu_device_to_master": GEMU,

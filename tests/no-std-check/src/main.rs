@@ -13,6 +13,7 @@ extern crate canola_nmt;
 extern crate canola_od;
 extern crate canola_pdo;
 extern crate canola_sdo;
+extern crate canola_slcan;
 
 use core::panic::PanicInfo;
 
@@ -44,12 +45,14 @@ pub extern "C" fn main(_argc: i32, _argv: *const *const u8) -> i32 {
         canola_cia402::Statusword::from_raw(0x0250),
         canola_cia402::State::OperationEnabled,
     );
+    let slcan_items = canola_slcan::Decoder::new().feed(b"t1230\r").count();
     if id.is_ok()
         && colour.is_ok()
         && heartbeat.is_ok()
         && sdo.is_ok()
         && dn.is_ok()
         && plan.is_ok()
+        && slcan_items == 1
         && server.poll_transmit().is_none()
     {
         0
