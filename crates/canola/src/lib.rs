@@ -34,15 +34,14 @@
 #[cfg(feature = "tokio")]
 pub mod asynch;
 pub mod candump;
-mod core;
 pub mod describe;
 pub mod error;
 pub mod lss;
+mod machine;
 pub mod mem;
 pub mod network;
 mod node;
 mod pdo_access;
-mod pdo_glue;
 mod pdo_subscriber;
 pub mod prelude;
 mod request;
@@ -69,7 +68,7 @@ pub use canola_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
 pub use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canola_sdo::{AbortCode, Method, SdoCobIds};
 
-pub use crate::core::{
+pub use crate::machine::{
     CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
     RequestId, TransferProgress,
 };

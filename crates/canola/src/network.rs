@@ -43,8 +43,8 @@ use canola_frame::{CanFrame, Duration, Instant, NodeId};
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget, SyncConfig};
 use canola_od::ObjectDictionary;
 
-use crate::core::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequest, Taken};
 use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::machine::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequest, Taken};
 use crate::transport::{Received, Transport, TransportError};
 use canola_od::ObjectAddress;
 
@@ -99,7 +99,7 @@ pub(crate) struct Io {
     transport: Box<dyn Transport>,
     /// The frames taken from the core for sending: kept between steps so that a step
     /// allocates nothing for them.
-    out: std::collections::VecDeque<crate::core::Outgoing>,
+    out: std::collections::VecDeque<crate::machine::Outgoing>,
     /// A clock reading the next driving step may start from (see [`MAX_REUSED_READINGS`]).
     reading: Option<Instant>,
     /// Steps in a row that started from such a reading.
@@ -458,7 +458,7 @@ impl Network {
 
     /// How many entries the master's tables hold now (nodes, SDO channels, requests, frames
     /// waiting for the transport, ...): a long run with steady traffic must see them stay put.
-    pub fn occupancy(&self) -> crate::core::Occupancy {
+    pub fn occupancy(&self) -> crate::machine::Occupancy {
         self.core().occupancy()
     }
 

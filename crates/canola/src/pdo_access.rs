@@ -1070,7 +1070,7 @@ async fn configure_with(
             .await?;
     }
     let mapping = match node.dictionary() {
-        Some(od) => crate::pdo_glue::typed_mapping(&od, node.id, direction, mapping),
+        Some(od) => crate::machine::pdo::typed_mapping(&od, node.id, direction, mapping),
         None => mapping,
     };
     let mut core = node.net.core();

@@ -24,7 +24,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use canola_frame::{Instant, NodeId};
 use canola_od::{ObjectAddress, Value};
 
-use crate::core::{PdoData, PdoReceived};
+use crate::machine::events::{PdoData, PdoReceived};
 
 /// How many PDOs may wait in the shared batch, while more frames are already waiting in the
 /// transport, before a sleeping subscriber is woken anyway. Frames wait in the transport only

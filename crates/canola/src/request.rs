@@ -7,10 +7,10 @@ use canola_frame::{Duration, NodeId};
 use canola_od::{DataType, Value};
 use canola_sdo::{Method, SdoCobIds};
 
-use crate::core::{
+use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::machine::{
     Completion, DownSource, Op, ProgressFn, RequestId, SdoRequest, TransferProgress, UpSink,
 };
-use crate::error::{Error, SdoError, SdoErrorKind};
 use crate::network::*;
 use canola_od::ObjectAddress;
 

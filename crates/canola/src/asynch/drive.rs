@@ -23,8 +23,8 @@ use std::sync::{Arc, Mutex, Weak};
 
 use canola_frame::{Duration, Instant};
 
-use crate::core::Core;
 use crate::error::Error;
+use crate::machine::Core;
 use crate::network::{Inner, Network};
 use crate::transport::TransportError;
 

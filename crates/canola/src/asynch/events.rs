@@ -10,7 +10,7 @@ use std::task::{Context, Poll, Waker};
 
 use futures_core::Stream;
 
-use crate::core::{EventSink, NetworkEvent};
+use crate::machine::{EventSink, NetworkEvent};
 use crate::network::Network;
 
 /// Queue length of [`Network::events`].

@@ -100,9 +100,10 @@ use canola_lss::{
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::{DataType, ObjectAddress, Value};
 
-use crate::core::{Completion, DownSource, Op, RequestId, Taken, UpSink};
 use crate::error::{Error, SdoError, SdoErrorKind};
-use crate::lss::{Lss, Outcome};
+use crate::lss::Lss;
+use crate::machine::lss::Outcome;
+use crate::machine::{Completion, DownSource, Op, RequestId, Taken, UpSink};
 use crate::network::{Network, Nmt, Pending, Sdo, SdoValue};
 use crate::scan::{Identity, ScannedNode};
 use crate::typed::{ObjectKey, WriteValue};
