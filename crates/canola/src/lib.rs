@@ -40,11 +40,11 @@ pub mod lss;
 mod machine;
 pub mod mem;
 pub mod network;
-mod node;
 mod pdo_access;
 mod pdo_subscriber;
 pub mod prelude;
-mod request;
+#[cfg(feature = "tokio")]
+mod reactor;
 pub mod scan;
 pub mod sim;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]

@@ -802,6 +802,37 @@ impl Port<'_> {
 /// The async twins of the PDO services (`tokio` feature; see [`crate::asynch`]). Dropping one
 /// of these futures cancels the SDO transfer it is in; a `save` dropped half-way leaves the PDO
 /// as far as the sequence got (invalid on the node until saved again).
+impl Node {
+    /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
+    /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
+    /// from `canola_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
+    /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
+    /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
+    pub fn remap_pdo(
+        &self,
+        direction: canola_pdo::Direction,
+        number: u16,
+        comm: canola_pdo::CommParams,
+        mapping: canola_pdo::Mapping,
+    ) -> Result<(), Error> {
+        let n = number.saturating_sub(1);
+        let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
+        // With a dictionary, write only the sub-indices the node has.
+        if let Some(od) = self.dictionary() {
+            let ci = direction.comm_index(n);
+            let has = |sub| od.sub(ci, sub).is_some();
+            remote.has_inhibit_time = has(3);
+            remote.has_event_timer = has(5);
+            remote.has_sync_start = has(6);
+            // Dynamic mapping (CiA 301 §7.4.8.3): sub 0 of the mapping object is writable.
+            remote.mapping_writable = od
+                .sub(direction.mapping_index(n), 0)
+                .is_none_or(|s| s.access.is_writable());
+        }
+        configure(self, direction, n, &comm, mapping, &remote)
+    }
+}
+
 #[cfg(feature = "tokio")]
 mod asynch_twins {
     use super::{

@@ -89,7 +89,6 @@
 pub(crate) mod drive;
 pub mod events;
 
-pub(crate) use drive::{Reactor, spawn_virtual_driver};
 pub use events::{DEFAULT_EVENT_CAPACITY, EventStream, Lagged};
 
 use canola_frame::{CanFrame, Duration, Instant, NodeId};
@@ -342,7 +341,7 @@ impl Sdo {
     ) -> Result<T, Error> {
         let at = ObjectAddress::new(entry.index(), entry.sub_index());
         let node = self.node;
-        crate::request::decode_entry(node, entry, &self.read_async(at).await?)
+        crate::network::request::decode_entry(node, entry, &self.read_async(at).await?)
     }
 
     /// Writes a typed entry from generated code (async [`write_entry`](Self::write_entry)).
@@ -351,7 +350,7 @@ impl Sdo {
         entry: &canola_od::Entry<T>,
         value: &T,
     ) -> Result<(), Error> {
-        let (at, bytes) = crate::request::encode_entry(self.node, entry, value)?;
+        let (at, bytes) = crate::network::request::encode_entry(self.node, entry, value)?;
         self.write_async(at, bytes).await
     }
 }

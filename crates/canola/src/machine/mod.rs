@@ -31,11 +31,13 @@ mod sdo;
 mod sdo_client;
 mod subscribers;
 
+pub(crate) use events::Completion;
+#[cfg(feature = "tokio")]
+use events::EventSink;
 pub use events::{
     CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
     RequestId, TransferProgress,
 };
-pub(crate) use events::{Completion, EventSink};
 pub(crate) use sdo::{DownSource, Op, Outcome, Outgoing, SdoRequest, Taken, UpSink};
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
