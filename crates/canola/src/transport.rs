@@ -124,8 +124,8 @@ pub trait Transport: Send {
 
     /// [`send`](Self::send) by a caller that read this transport's clock at `now` a moment
     /// before: a transport that stamps frames with its clock may take `now` instead of reading
-    /// the clock again (on a real clock a reading costs tens of nanoseconds, a good part of an
-    /// SDO round trip on the in-memory bus). Stamps must still never go back in time.
+    /// the clock again (a real clock's reading is a noticeable part of a short driving step).
+    /// Stamps must still never go back in time.
     /// Default: [`send`](Self::send).
     fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
         let _ = now;

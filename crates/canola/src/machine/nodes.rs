@@ -9,7 +9,11 @@ use canola_sdo::SdoCobIds;
 
 use super::sdo::SdoChannel;
 
+/// What the master keeps per node it knows: its dictionary (for typed values and object
+/// names in errors), its PDO state and its SDO client channels. Heartbeat, guarding and EMCY
+/// state live in the machines of `canola-nmt`, which keep every node themselves.
 pub(super) struct NodeSlot {
+    /// The node's object dictionary, when the application gave one.
     pub(super) od: Option<Arc<ObjectDictionary>>,
     /// The node's TPDOs mirrored as receive PDOs, and its RPDOs the master transmits.
     pub(super) pdo: Option<crate::machine::pdo::NodePdos>,

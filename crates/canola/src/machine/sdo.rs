@@ -59,8 +59,12 @@ impl canola_sdo::Source for DownSource {
     }
 }
 
+/// What an SDO request does, with the buffer it needs: an upload (read from the server) and
+/// where its bytes go, or a download (write to the server) and the bytes it sends.
 pub(crate) enum Op {
+    /// Read the entry into the sink.
     Upload(UpSink),
+    /// Write the source's bytes to the entry.
     Download(DownSource),
 }
 
@@ -76,14 +80,26 @@ pub(crate) struct SdoRequest {
     pub(crate) progress: Option<ProgressFn>,
 }
 
+/// Where a request is in its life, as the request table keeps it under its [`RequestId`]:
+/// waiting in its channel's queue, running on the channel's client machine, or finished with
+/// its result until the caller takes it. A cancelled request leaves the table at once (a
+/// running one with an abort on the bus), so a late response finds no entry to complete.
 pub(super) enum ReqState {
+    /// In the channel's queue; the request itself is kept here until it starts.
     Queued(SdoRequest),
+    /// Running on `channel` of `node` (its buffer now belongs to the client machine); what a
+    /// finished transfer needs to report is kept here.
     Active {
+        /// Called as segments or blocks arrive.
         progress: Option<ProgressFn>,
+        /// The entry, for the error should it fail.
         entry: ObjectAddress,
+        /// The node it runs on.
         node: NodeId,
+        /// The index of its channel among the node's channels.
         channel: usize,
     },
+    /// Finished: the result, until [`Core::take_result`](super::Core::take_result) hands it over.
     Done(Outcome),
 }
 
