@@ -30,8 +30,10 @@ pub enum SdoErrorKind {
     NodeRebooted,
 }
 
-/// An SDO request failed.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// An SDO request failed. Its `Debug` prints what its `Display` says, so an error that ends
+/// `main` or an `unwrap` reads as a sentence (abort codes as `0x06020000 (Object does not
+/// exist in the object dictionary)`).
+#[derive(Clone, PartialEq, Eq)]
 pub struct SdoError {
     /// The node.
     pub node: NodeId,
@@ -94,10 +96,17 @@ impl core::fmt::Display for SdoError {
     }
 }
 
+impl core::fmt::Debug for SdoError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
+}
+
 impl std::error::Error for SdoError {}
 
-/// Errors of the master API.
-#[derive(Debug, thiserror::Error)]
+/// Errors of the master API. `Debug` prints what `Display` says (see [`SdoError`]), so
+/// `fn main() -> Result<(), Box<dyn std::error::Error>>` reports a readable message.
+#[derive(thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
     /// An SDO request failed.
@@ -143,6 +152,12 @@ pub enum Error {
     Driver(String),
 }
 
+impl core::fmt::Debug for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
+}
+
 impl Error {
     /// The SDO abort code the server sent, if this is a server abort.
     pub fn server_abort(&self) -> Option<AbortCode> {
@@ -150,5 +165,31 @@ impl Error {
             Self::Sdo(e) => e.server_abort(),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn debug_prints_what_display_says_with_the_abort_code_in_words() {
+        let e = SdoError {
+            node: NodeId::new(5).unwrap(),
+            entry: ObjectAddress::new(0x2000, 1),
+            name: Some("Setpoint".into()),
+            kind: SdoErrorKind::Transfer(ErrorKind::ServerAbort(AbortCode(0x0602_0000))),
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("0x06020000 (Object does not exist in the object dictionary)"),
+            "{text}"
+        );
+        assert_eq!(format!("{e:?}"), text);
+        let e = Error::from(e);
+        assert_eq!(format!("{e:?}"), e.to_string());
+        assert!(!format!("{e:?}").contains("AbortCode("));
+        let e = Error::Transport(TransportError::BusOff);
+        assert_eq!(format!("{e:?}"), "transport: the CAN controller is bus-off");
     }
 }
