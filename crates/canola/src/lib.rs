@@ -38,12 +38,10 @@
 
 #[cfg(feature = "tokio")]
 pub mod asynch;
-pub mod candump;
 pub mod describe;
 pub mod error;
 pub mod lss;
 mod machine;
-pub mod mem;
 pub mod network;
 mod pdo_access;
 mod pdo_subscriber;
@@ -52,12 +50,8 @@ pub mod prelude;
 mod reactor;
 pub mod scan;
 pub mod sim;
-#[cfg(all(feature = "socketcan", target_os = "linux"))]
-pub mod socketcan;
 pub mod transport;
 pub mod typed;
-#[cfg(all(feature = "socketcan", target_os = "linux"))]
-pub mod udp;
 
 // The public names, in one block: the protocol crates (for what the facade does not wrap:
 // applications and the CLI need no other dependency than this crate), then the names common
@@ -89,6 +83,9 @@ pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber};
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
+pub use transport::{candump, mem};
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub use transport::{socketcan, udp};
 pub use typed::{ObjectKey, WriteValue};
 
 /// Moves every element of `from` to the back of `to`, in order. Mostly `to` is empty (the

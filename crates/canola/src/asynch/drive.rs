@@ -1,6 +1,6 @@
 //! How an async operation waits: the one wait primitive every future of the async API uses.
 //!
-//! * **Real clock** (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::mem::ClockMode) memory
+//! * **Real clock** (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::transport::mem::ClockMode) memory
 //!   bus): the blocking wait loop of [`Network`] runs on tokio's blocking pool (whoever waits
 //!   drives, or the background driver does). A dropped future sets a flag the loop checks at
 //!   every step, so the blocking task ends within one step.

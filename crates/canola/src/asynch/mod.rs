@@ -32,7 +32,7 @@
 //! and its result is discarded.
 //!
 //! **Clocks.** How a future waits depends on the transport's clock:
-//! * A real clock (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime)
+//! * A real clock (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::transport::mem::ClockMode::RealTime)
 //!   memory bus): the blocking wait loop runs on tokio's blocking pool, and bus time is real
 //!   time, as tokio's timers are. A paused tokio clock (`start_paused`) does not move such a
 //!   bus, and tokio does not auto-advance while the blocking wait runs: use a virtual bus for

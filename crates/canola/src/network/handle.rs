@@ -140,7 +140,7 @@ impl Network {
     /// ```
     #[cfg(all(feature = "socketcan", target_os = "linux"))]
     pub fn open(interface: &str) -> Result<Self, Error> {
-        let net = Self::new(crate::socketcan::SocketCan::open(interface)?);
+        let net = Self::new(crate::transport::socketcan::SocketCan::open(interface)?);
         net.start_driver()?;
         Ok(net)
     }

@@ -32,7 +32,7 @@
 //! The explicit stepping mode stays for deterministic tests: without a driver nothing happens
 //! between calls, and [`Network::run_for`] advances a virtual-clock bus by exactly the time
 //! asked. A driver thread on a virtual-clock bus would run simulated time as fast as the CPU
-//! allows; use it on SocketCAN or a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime)
+//! allows; use it on SocketCAN or a [`ClockMode::RealTime`](crate::transport::mem::ClockMode::RealTime)
 //! bus. (Under the `tokio` feature, `start_driver_on_runtime` on a virtual-clock bus is a task
 //! that keeps the bus at tokio's time instead.)
 //!

@@ -13,7 +13,7 @@
 //!   master assigns one, then boots with it.
 //!
 //! It implements [`Station`](crate::transport::Station), so it runs attached to an in-memory bus
-//! ([`MemoryBus::attach`](crate::mem::MemoryBus::attach), deterministic on the virtual clock) or
+//! ([`MemoryBus::attach`](crate::transport::mem::MemoryBus::attach), deterministic on the virtual clock) or
 //! on any transport with [`run_station`](crate::transport::run_station) (e.g. SocketCAN for
 //! `canopen simulate`). Several devices share one bus.
 //!

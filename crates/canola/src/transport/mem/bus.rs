@@ -7,7 +7,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
 use canola_frame::time::MonotonicClock;
 use canola_frame::{Duration, Instant};
 
-use crate::transport::{BusEvent, Received, Station};
+use crate::transport::contract::{BusEvent, Received, Station};
 
 use super::config::{BusConfig, BusStats, ClockMode, Faults, Rng};
 use super::state::{Attached, Clock, Shared, State};

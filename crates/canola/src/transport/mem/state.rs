@@ -10,7 +10,7 @@ use std::sync::{Condvar, Mutex, MutexGuard};
 use canola_frame::time::MonotonicClock;
 use canola_frame::{CanFrame, Duration, Instant};
 
-use crate::transport::{BusEvent, Received, Station};
+use crate::transport::contract::{BusEvent, Received, Station};
 
 use super::config::{BusConfig, BusStats, Rng, arbitration_key, frame_time};
 

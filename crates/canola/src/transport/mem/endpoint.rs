@@ -6,7 +6,7 @@ use std::sync::MutexGuard;
 
 use canola_frame::{CanFrame, Instant};
 
-use crate::transport::{Received, Transport, TransportError};
+use crate::transport::contract::{Received, Transport, TransportError};
 
 use super::bus::MemoryBus;
 use super::state::{Clock, Ep, Participant, Pending, State};

@@ -6,13 +6,13 @@ use std::sync::Arc;
 
 use canola_frame::{CanFrame, CanId, Duration, Instant};
 
-use crate::transport::{BusEvent, Received, Station, Transport, TransportError};
+use crate::transport::contract::{BusEvent, Received, Station, Transport, TransportError};
 
 use super::bus::MemoryBus;
 use super::config::{BusConfig, ClockMode, Faults, frame_time};
 use super::endpoint::Endpoint;
 use super::*;
-use crate::transport::run_station;
+use crate::transport::contract::run_station;
 
 fn sid(raw: u16) -> CanId {
     CanId::standard(raw).unwrap()
