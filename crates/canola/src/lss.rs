@@ -16,7 +16,7 @@ use crate::network::Network;
 pub use canola_lss::*;
 
 pub use crate::machine::lss::LssOutcome;
-use crate::machine::lss::Outcome;
+use crate::machine::lss::LssOutput;
 
 /// LSS master services of a network.
 #[derive(Debug, Clone)]
@@ -38,10 +38,10 @@ impl Lss {
         &self,
         mut machine: M,
         start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
-    ) -> Result<<M::Output as Outcome>::Value, Error>
+    ) -> Result<<M::Output as LssOutput>::Value, Error>
     where
         M: LssMachine + Send + 'static,
-        M::Output: Outcome,
+        M::Output: LssOutput,
     {
         let now = self.net.now();
         start(&mut machine, now).map_err(Error::Lss)?;

@@ -101,7 +101,7 @@ use canola_od::{DataType, ObjectAddress, Value};
 
 use crate::error::{Error, SdoError, SdoErrorKind};
 use crate::lss::Lss;
-use crate::machine::lss::Outcome;
+use crate::machine::lss::LssOutput;
 use crate::machine::{Completion, DownSource, Op, RequestId, Taken, UpSink};
 use crate::network::{Network, Nmt, Pending, Sdo, SdoValue};
 use crate::scan::{Identity, ScannedNode};
@@ -560,10 +560,10 @@ impl Lss {
         &self,
         mut machine: M,
         start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
-    ) -> Result<<M::Output as Outcome>::Value, Error>
+    ) -> Result<<M::Output as LssOutput>::Value, Error>
     where
         M: LssMachine + Send + 'static,
-        M::Output: Outcome,
+        M::Output: LssOutput,
     {
         drive::catch_up(&self.net)?;
         let now = self.net.now();

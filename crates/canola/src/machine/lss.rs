@@ -20,14 +20,14 @@ pub enum LssOutcome {
 }
 
 /// A machine output the network's core can carry as an [`LssOutcome`].
-pub(crate) trait Outcome: Sized {
+pub(crate) trait LssOutput: Sized {
     /// What the public API returns.
     type Value;
     fn into_outcome(self) -> LssOutcome;
     fn from_outcome(outcome: LssOutcome) -> Option<Self::Value>;
 }
 
-impl Outcome for ServiceReport {
+impl LssOutput for ServiceReport {
     type Value = ServiceReport;
     fn into_outcome(self) -> LssOutcome {
         LssOutcome::Service(self)
@@ -40,7 +40,7 @@ impl Outcome for ServiceReport {
     }
 }
 
-impl Outcome for Option<LssAddress> {
+impl LssOutput for Option<LssAddress> {
     type Value = Option<LssAddress>;
     fn into_outcome(self) -> LssOutcome {
         LssOutcome::Fastscan(self)
@@ -53,7 +53,7 @@ impl Outcome for Option<LssAddress> {
     }
 }
 
-impl Outcome for canola_lss::fastscan::AddressList {
+impl LssOutput for canola_lss::fastscan::AddressList {
     type Value = Vec<LssAddress>;
     fn into_outcome(self) -> LssOutcome {
         LssOutcome::Discovered(self.into_iter().collect())
@@ -66,7 +66,7 @@ impl Outcome for canola_lss::fastscan::AddressList {
     }
 }
 
-impl Outcome for AssignReport {
+impl LssOutput for AssignReport {
     type Value = AssignReport;
     fn into_outcome(self) -> LssOutcome {
         LssOutcome::Assigned(Box::new(self))
@@ -92,7 +92,7 @@ pub(crate) trait LssJob: Send {
 impl<M> LssJob for M
 where
     M: LssMachine + Send,
-    M::Output: Outcome,
+    M::Output: LssOutput,
 {
     fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
         LssMachine::handle_frame(self, now, frame);
@@ -111,7 +111,7 @@ where
         // carries everything the blocking API returns.
         while let Some(ev) = self.poll_event() {
             if let MasterEvent::Done(r) = ev {
-                return Some(r.map(Outcome::into_outcome));
+                return Some(r.map(LssOutput::into_outcome));
             }
         }
         None
