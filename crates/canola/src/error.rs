@@ -21,13 +21,70 @@ pub enum SdoErrorKind {
     /// Writing an upload into the caller's writer (or reading a download) failed.
     Io(String),
     /// The transport failed while the request ran.
-    Transport(String),
+    Transport(TransportFailure),
     /// The node sent a boot-up message (it was reset or power-cycled) while the transfer ran:
     /// its SDO server forgot the transfer. A transfer the server had answered ends at once; one
     /// not answered yet ends when its response timeout passes without an answer. No abort is
     /// sent. Nothing of a download is known to be stored; the next request goes to the
     /// rebooted node.
     NodeRebooted,
+}
+
+/// How the transport failed under an SDO request: a [`TransportError`] as a value that can be
+/// cloned and compared, as [`SdoError`] is (an operating-system error keeps its kind and its
+/// words).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TransportFailure {
+    /// The interface is down (or the bus was closed).
+    #[error("the CAN interface is down")]
+    InterfaceDown,
+    /// The controller is bus-off and cannot send.
+    #[error("the CAN controller is bus-off")]
+    BusOff,
+    /// The transmit queue is full.
+    #[error("the transmit queue is full")]
+    TxQueueFull,
+    /// The transport is closed for good.
+    #[error("the transport is closed")]
+    Closed,
+    /// An operating-system or other local error.
+    #[error("CAN I/O error: {message}")]
+    Io {
+        /// The kind of the operating-system error.
+        kind: std::io::ErrorKind,
+        /// Its words.
+        message: String,
+    },
+}
+
+impl From<&TransportError> for TransportFailure {
+    fn from(e: &TransportError) -> Self {
+        match e {
+            TransportError::InterfaceDown => Self::InterfaceDown,
+            TransportError::BusOff => Self::BusOff,
+            TransportError::TxQueueFull => Self::TxQueueFull,
+            TransportError::Closed => Self::Closed,
+            TransportError::Io(io) => Self::Io {
+                kind: io.kind(),
+                message: io.to_string(),
+            },
+        }
+    }
+}
+
+impl From<&Error> for TransportFailure {
+    /// The failure that ends the requests in flight when a driving step fails: the transport's
+    /// own (the only kind a step returns), or any other local error by its words.
+    fn from(e: &Error) -> Self {
+        match e {
+            Error::Transport(t) => t.into(),
+            other => Self::Io {
+                kind: std::io::ErrorKind::Other,
+                message: other.to_string(),
+            },
+        }
+    }
 }
 
 /// An SDO request failed. Its `Debug` prints what its `Display` says, so an error that ends

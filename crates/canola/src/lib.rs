@@ -72,7 +72,7 @@ pub use canola_pdo as pdo;
 pub use canola_sdo as sdo;
 pub use canola_sdo::{AbortCode, Method, SdoCobIds};
 pub use describe::{BusDictionary, Description, Monitor, describe};
-pub use error::{Error, SdoError, SdoErrorKind};
+pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};

@@ -99,7 +99,7 @@ use canola_lss::{
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::{DataType, ObjectAddress, Value};
 
-use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
 use crate::lss::Lss;
 use crate::machine::lss::LssOutput;
 use crate::machine::{Completion, DownSource, Op, RequestId, Taken, UpSink};
@@ -184,10 +184,7 @@ async fn wait_requests(net: &Network, reqs: Vec<Req>) -> Vec<Result<Completion, 
         Ok(v) => v,
         Err(e) => {
             // A transport failure ends the requests: say which node and object each was for.
-            let text = match e {
-                Error::Transport(t) => t.to_string(),
-                other => other.to_string(),
-            };
+            let failure = TransportFailure::from(&e);
             let mut core = net.core();
             reqs.iter()
                 .map(|req| {
@@ -196,7 +193,7 @@ async fn wait_requests(net: &Network, reqs: Vec<Req>) -> Vec<Result<Completion, 
                         node: req.node,
                         entry: req.entry,
                         name: None,
-                        kind: SdoErrorKind::Transport(text.clone()),
+                        kind: SdoErrorKind::Transport(failure.clone()),
                     }))
                 })
                 .collect()

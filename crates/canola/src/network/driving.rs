@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex, MutexGuard, Weak};
 
 use canola_frame::{Duration, Instant, NodeId};
 
-use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
 use crate::machine::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequest, Taken};
 use crate::transport::{Received, Transport, TransportError};
 use canola_od::ObjectAddress;
@@ -382,17 +382,11 @@ impl Network {
                 // A transport failure ends the request: say which node and object it was for.
                 let mut core = self.core();
                 core.cancel(id);
-                // The transport's own words ("the CAN interface is down"), without the
-                // "transport: " that `Error` puts in front: SdoErrorKind::Transport says it.
-                let text = match e {
-                    Error::Transport(t) => t.to_string(),
-                    other => other.to_string(),
-                };
                 Err(Box::new(core.name_error(SdoError {
                     node,
                     entry,
                     name: None,
-                    kind: SdoErrorKind::Transport(text),
+                    kind: SdoErrorKind::Transport(TransportFailure::from(&e)),
                 })))
             }
         }
