@@ -21,7 +21,7 @@ pub enum SdoErrorKind {
     /// Writing an upload into the caller's writer (or reading a download) failed.
     Io(String),
     /// The transport failed while the request ran.
-    Transport(String),
+    Transport(TransportFailure),
     /// The node sent a boot-up message (it was reset or power-cycled) while the transfer ran:
     /// its SDO server forgot the transfer. A transfer the server had answered ends at once; one
     /// not answered yet ends when its response timeout passes without an answer. No abort is
@@ -30,8 +30,67 @@ pub enum SdoErrorKind {
     NodeRebooted,
 }
 
-/// An SDO request failed.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// How the transport failed under an SDO request: a [`TransportError`] as a value that can be
+/// cloned and compared, as [`SdoError`] is (an operating-system error keeps its kind and its
+/// words).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TransportFailure {
+    /// The interface is down (or the bus was closed).
+    #[error("the CAN interface is down")]
+    InterfaceDown,
+    /// The controller is bus-off and cannot send.
+    #[error("the CAN controller is bus-off")]
+    BusOff,
+    /// The transmit queue is full.
+    #[error("the transmit queue is full")]
+    TxQueueFull,
+    /// The transport is closed for good.
+    #[error("the transport is closed")]
+    Closed,
+    /// An operating-system or other local error.
+    #[error("CAN I/O error: {message}")]
+    Io {
+        /// The kind of the operating-system error.
+        kind: std::io::ErrorKind,
+        /// Its words.
+        message: String,
+    },
+}
+
+impl From<&TransportError> for TransportFailure {
+    fn from(e: &TransportError) -> Self {
+        match e {
+            TransportError::InterfaceDown => Self::InterfaceDown,
+            TransportError::BusOff => Self::BusOff,
+            TransportError::TxQueueFull => Self::TxQueueFull,
+            TransportError::Closed => Self::Closed,
+            TransportError::Io(io) => Self::Io {
+                kind: io.kind(),
+                message: io.to_string(),
+            },
+        }
+    }
+}
+
+impl From<&Error> for TransportFailure {
+    /// The failure that ends the requests in flight when a driving step fails: the transport's
+    /// own (the only kind a step returns), or any other local error by its words.
+    fn from(e: &Error) -> Self {
+        match e {
+            Error::Transport(t) => t.into(),
+            other => Self::Io {
+                kind: std::io::ErrorKind::Other,
+                message: other.to_string(),
+            },
+        }
+    }
+}
+
+/// An SDO request failed. Its `Debug` prints what its `Display` says, so an error that ends
+/// `main` or an `unwrap` reads as a sentence (abort codes as `0x06020000 (Object does not
+/// exist in the object dictionary)`).
+#[derive(Clone, PartialEq, Eq)]
 pub struct SdoError {
     /// The node.
     pub node: NodeId,
@@ -94,10 +153,17 @@ impl core::fmt::Display for SdoError {
     }
 }
 
+impl core::fmt::Debug for SdoError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
+}
+
 impl std::error::Error for SdoError {}
 
-/// Errors of the master API.
-#[derive(Debug, thiserror::Error)]
+/// Errors of the master API. `Debug` prints what `Display` says (see [`SdoError`]), so
+/// `fn main() -> Result<(), Box<dyn std::error::Error>>` reports a readable message.
+#[derive(thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
     /// An SDO request failed.
@@ -143,6 +209,12 @@ pub enum Error {
     Driver(String),
 }
 
+impl core::fmt::Debug for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
+}
+
 impl Error {
     /// The SDO abort code the server sent, if this is a server abort.
     pub fn server_abort(&self) -> Option<AbortCode> {
@@ -150,5 +222,31 @@ impl Error {
             Self::Sdo(e) => e.server_abort(),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn debug_prints_what_display_says_with_the_abort_code_in_words() {
+        let e = SdoError {
+            node: NodeId::new(5).unwrap(),
+            entry: ObjectAddress::new(0x2000, 1),
+            name: Some("Setpoint".into()),
+            kind: SdoErrorKind::Transfer(ErrorKind::ServerAbort(AbortCode(0x0602_0000))),
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("0x06020000 (Object does not exist in the object dictionary)"),
+            "{text}"
+        );
+        assert_eq!(format!("{e:?}"), text);
+        let e = Error::from(e);
+        assert_eq!(format!("{e:?}"), e.to_string());
+        assert!(!format!("{e:?}").contains("AbortCode("));
+        let e = Error::Transport(TransportError::BusOff);
+        assert_eq!(format!("{e:?}"), "transport: the CAN controller is bus-off");
     }
 }

@@ -1,20 +1,25 @@
 //! CANopen master facade: the layer that turns the sans-IO protocol crates into a library an
 //! application uses, plus the transports and the device simulator.
 //!
-//! Layers, bottom up:
+//! Layers, bottom up (each imports only from the layers below it):
 //! * [`transport`]: one small [`Transport`] trait (blocking send and receive-until-deadline, the
 //!   transport's clock, bus-state [`BusEvent`]s); implementations are the in-memory bus
-//!   ([`mem`]) and SocketCAN (`socketcan` feature, Linux).
-//! * [`candump`]: the can-utils log format for recording and replaying traffic.
-//! * [`Network`] ([`network`]): owns one transport and its clock, routes received frames by
-//!   COB-ID to per-node machines of the protocol crates (SDO clients, heartbeat consumer, EMCY
-//!   consumer, SYNC producer, LSS master) held in one sans-IO core, and drives their deadlines.
-//!   The blocking API ([`Node::sdo`], [`Node::nmt`], [`Network::lss`], [`Network::subscribe`])
-//!   and the async API ([`asynch`], `tokio` feature) are loops around that one core.
-//! * PDOs from the master: [`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO
-//!   parameters; TPDOs arrive decoded ([`NetworkEvent::PdoValues`], or in batches from
-//!   [`Network::subscribe_pdos`], or to an [`Network::on_pdo`] callback) from the COB-IDs the
-//!   node uses; [`Rpdos::start`] transmits its RPDOs through the `canola-pdo` engine.
+//!   ([`mem`]), SocketCAN and UDP (`socketcan` feature, Linux); [`candump`] is the can-utils
+//!   log format for recording and replaying traffic.
+//! * `machine` (internal): the sans-IO master machine. It routes received frames by COB-ID to
+//!   the per-node machines of the protocol crates (SDO clients, heartbeat and guarding, EMCY
+//!   consumer, SYNC producer, the LSS job, the PDO mirrors), keeps the request table and
+//!   reports [`NetworkEvent`]s; it knows no thread, transport or clock.
+//! * [`network`]: [`Network`] owns one transport, its clock and one machine, and steps them
+//!   (whoever waits drives, or the background driver); [`Node`], [`Nmt`], [`Sdo`] and
+//!   [`Pending`] are the blocking API on it.
+//! * Services over the network: [`lss`] (CiA 305), [`scan`], [`typed`] values, PDOs
+//!   ([`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO parameters, [`Rpdos::start`]
+//!   transmits RPDOs through the `canola-pdo` engine; TPDOs arrive decoded as
+//!   [`NetworkEvent::PdoValues`], in batches from [`Network::subscribe_pdos`] or to an
+//!   [`Network::on_pdo`] callback), [`mod@describe`] (traffic in words).
+//! * [`asynch`] (`tokio` feature): the same operations awaited; a tie between the network's
+//!   clock and tokio's lets a virtual-clock bus follow tokio's time.
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
 //! ```
@@ -33,50 +38,41 @@
 
 #[cfg(feature = "tokio")]
 pub mod asynch;
-pub mod candump;
-mod core;
 pub mod describe;
 pub mod error;
 pub mod lss;
-pub mod mem;
+mod machine;
 pub mod network;
-mod node;
 mod pdo_access;
-mod pdo_glue;
 mod pdo_subscriber;
 pub mod prelude;
-mod request;
+#[cfg(feature = "tokio")]
+mod reactor;
 pub mod scan;
 pub mod sim;
-#[cfg(all(feature = "socketcan", target_os = "linux"))]
-pub mod socketcan;
 pub mod transport;
 pub mod typed;
-#[cfg(all(feature = "socketcan", target_os = "linux"))]
-pub mod udp;
 
-// The protocol crates, for what the facade does not wrap: applications and the CLI need no
-// other dependency than this crate.
-pub use canola_frame as frame;
-pub use canola_nmt as nmt;
-pub use canola_od as od;
-pub use canola_pdo as pdo;
-pub use canola_sdo as sdo;
-
-// The names common work needs.
-pub use canola_frame::{CanFrame, CanId, Duration, Instant, NodeId};
-pub use canola_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
-pub use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
-pub use canola_sdo::{AbortCode, Method, SdoCobIds};
-
-pub use crate::core::{
+// The public names, in one block: the protocol crates (for what the facade does not wrap:
+// applications and the CLI need no other dependency than this crate), then the names common
+// work needs.
+pub use crate::machine::{
     CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
     RequestId, TransferProgress,
 };
 #[cfg(feature = "tokio")]
 pub use asynch::{EventStream, Lagged};
+pub use canola_frame as frame;
+pub use canola_frame::{CanFrame, CanId, Duration, Instant, NodeId};
+pub use canola_nmt as nmt;
+pub use canola_nmt::{CommandSpecifier, DeviceState, HeartbeatEvent, NmtState};
+pub use canola_od as od;
+pub use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
+pub use canola_pdo as pdo;
+pub use canola_sdo as sdo;
+pub use canola_sdo::{AbortCode, Method, SdoCobIds};
 pub use describe::{BusDictionary, Description, Monitor, describe};
-pub use error::{Error, SdoError, SdoErrorKind};
+pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
@@ -87,6 +83,9 @@ pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber};
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
+pub use transport::{candump, mem};
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub use transport::{socketcan, udp};
 pub use typed::{ObjectKey, WriteValue};
 
 /// Moves every element of `from` to the back of `to`, in order. Mostly `to` is empty (the

@@ -6,7 +6,7 @@
 //! the machine queued last, so that a service that only transmits (switch mode global,
 //! activate bit timing) has its frame on the bus when the call returns.
 
-use canola_frame::{CanFrame, Instant};
+use canola_frame::Instant;
 
 use crate::error::Error;
 use crate::network::Network;
@@ -15,118 +15,8 @@ use crate::network::Network;
 // machine), so `canola::lss` is the one LSS import of an application.
 pub use canola_lss::*;
 
-/// What a finished LSS job produced.
-#[derive(Debug, Clone, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum LssOutcome {
-    /// A procedure of services.
-    Service(ServiceReport),
-    /// Fastscan: the address of one unconfigured slave, if any answered.
-    Fastscan(Option<LssAddress>),
-    /// Every unconfigured slave's address.
-    Discovered(Vec<LssAddress>),
-    /// The assign-all workflow's report.
-    Assigned(Box<AssignReport>),
-}
-
-/// A machine output the network's core can carry as an [`LssOutcome`].
-pub(crate) trait Outcome: Sized {
-    /// What the public API returns.
-    type Value;
-    fn into_outcome(self) -> LssOutcome;
-    fn from_outcome(outcome: LssOutcome) -> Option<Self::Value>;
-}
-
-impl Outcome for ServiceReport {
-    type Value = ServiceReport;
-    fn into_outcome(self) -> LssOutcome {
-        LssOutcome::Service(self)
-    }
-    fn from_outcome(outcome: LssOutcome) -> Option<Self::Value> {
-        match outcome {
-            LssOutcome::Service(r) => Some(r),
-            _ => None,
-        }
-    }
-}
-
-impl Outcome for Option<LssAddress> {
-    type Value = Option<LssAddress>;
-    fn into_outcome(self) -> LssOutcome {
-        LssOutcome::Fastscan(self)
-    }
-    fn from_outcome(outcome: LssOutcome) -> Option<Self::Value> {
-        match outcome {
-            LssOutcome::Fastscan(r) => Some(r),
-            _ => None,
-        }
-    }
-}
-
-impl Outcome for canola_lss::fastscan::AddressList {
-    type Value = Vec<LssAddress>;
-    fn into_outcome(self) -> LssOutcome {
-        LssOutcome::Discovered(self.into_iter().collect())
-    }
-    fn from_outcome(outcome: LssOutcome) -> Option<Self::Value> {
-        match outcome {
-            LssOutcome::Discovered(r) => Some(r),
-            _ => None,
-        }
-    }
-}
-
-impl Outcome for AssignReport {
-    type Value = AssignReport;
-    fn into_outcome(self) -> LssOutcome {
-        LssOutcome::Assigned(Box::new(self))
-    }
-    fn from_outcome(outcome: LssOutcome) -> Option<Self::Value> {
-        match outcome {
-            LssOutcome::Assigned(r) => Some(*r),
-            _ => None,
-        }
-    }
-}
-
-/// An LSS master machine with its output type erased, as the network's core holds it.
-pub(crate) trait LssJob: Send {
-    fn handle_frame(&mut self, now: Instant, frame: &CanFrame);
-    fn handle_timeout(&mut self, now: Instant);
-    fn poll_transmit(&mut self) -> Option<CanFrame>;
-    fn poll_timeout(&self) -> Option<Instant>;
-    /// The final result, once the machine is done.
-    fn poll(&mut self) -> Option<Result<LssOutcome, LssError>>;
-}
-
-impl<M> LssJob for M
-where
-    M: LssMachine + Send,
-    M::Output: Outcome,
-{
-    fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
-        LssMachine::handle_frame(self, now, frame);
-    }
-    fn handle_timeout(&mut self, now: Instant) {
-        LssMachine::handle_timeout(self, now);
-    }
-    fn poll_transmit(&mut self) -> Option<CanFrame> {
-        self.poll_transmit_frame()
-    }
-    fn poll_timeout(&self) -> Option<Instant> {
-        LssMachine::poll_timeout(self)
-    }
-    fn poll(&mut self) -> Option<Result<LssOutcome, LssError>> {
-        // Progress events (found slaves, bit rate switches) are not needed here: the result
-        // carries everything the blocking API returns.
-        while let Some(ev) = self.poll_event() {
-            if let MasterEvent::Done(r) = ev {
-                return Some(r.map(Outcome::into_outcome));
-            }
-        }
-        None
-    }
-}
+pub use crate::machine::lss::LssOutcome;
+use crate::machine::lss::LssOutput;
 
 /// LSS master services of a network.
 #[derive(Debug, Clone)]
@@ -148,10 +38,10 @@ impl Lss {
         &self,
         mut machine: M,
         start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
-    ) -> Result<<M::Output as Outcome>::Value, Error>
+    ) -> Result<<M::Output as LssOutput>::Value, Error>
     where
         M: LssMachine + Send + 'static,
-        M::Output: Outcome,
+        M::Output: LssOutput,
     {
         let now = self.net.now();
         start(&mut machine, now).map_err(Error::Lss)?;

@@ -24,13 +24,14 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use canola_frame::{Instant, NodeId};
 use canola_od::{ObjectAddress, Value};
 
-use crate::core::{PdoData, PdoReceived};
+use crate::machine::events::{PdoData, PdoReceived};
 
 /// How many PDOs may wait in the shared batch, while more frames are already waiting in the
 /// transport, before a sleeping subscriber is woken anyway. Frames wait in the transport only
-/// when the master is behind the bus (a step takes at most 32 of them); at the 64-node load of
-/// `pdo_rx` this cuts the futex calls of a driver and a blocked subscriber from 11 000 to
-/// 1 000 per 256 000 PDOs. 1024 PDOs are 20 ms of data at 1 Mbit/s full load.
+/// when the master is behind the bus (a step takes at most 32 of them); then waking the
+/// subscriber for every step would cost a system call per step on both sides while neither
+/// gains anything (the bench README has the counts). 1024 PDOs are 20 ms of data at 1 Mbit/s
+/// full load, so a subscriber still hears of them promptly.
 const WAKE_AT: usize = 1024;
 
 /// One PDO of a batch; its values are `values[previous values_end..values_end]`.

@@ -131,8 +131,8 @@ impl Outcome {
             }
             Err(e) => {
                 match &e.kind {
-                    SdoErrorKind::Transport(text) => {
-                        assert_eq!(text, transport_text, "{e}");
+                    SdoErrorKind::Transport(failure) => {
+                        assert_eq!(failure.to_string(), transport_text, "{e}");
                         self.transport_errors += 1;
                     }
                     _ => self.other_errors.push(e.to_string()),

@@ -11,8 +11,9 @@ use canola::od::write::{ConciseSelection, concise_dcf, decode_concise};
 use canola::od::{AccessType, FieldValue, Object, ObjectCode, ObjectDictionary, SubObject};
 use canola::{DataType, NodeId};
 
-use crate::boot::configured_values;
-use crate::config::{IdentityCheck, NetworkConfig, Program, SoftwareCheck, StartPolicy};
+use crate::config::{
+    IdentityCheck, NetworkConfig, Program, SoftwareCheck, StartPolicy, configured_values,
+};
 
 /// 0x1F80 bit 0: the device is the NMT master.
 pub const STARTUP_NMT_MASTER: u32 = 1 << 0;

@@ -1,6 +1,6 @@
 //! How an async operation waits: the one wait primitive every future of the async API uses.
 //!
-//! * **Real clock** (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::mem::ClockMode) memory
+//! * **Real clock** (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::transport::mem::ClockMode) memory
 //!   bus): the blocking wait loop of [`Network`] runs on tokio's blocking pool (whoever waits
 //!   drives, or the background driver does). A dropped future sets a flag the loop checks at
 //!   every step, so the blocking task ends within one step.
@@ -21,76 +21,26 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, Weak};
 
-use canola_frame::{Duration, Instant};
+use canola_frame::Instant;
 
-use crate::core::Core;
 use crate::error::Error;
-use crate::network::{Inner, Network};
+use crate::machine::Core;
+use crate::network::Network;
+use crate::network::driving::drive;
+use crate::network::handle::Inner;
 use crate::transport::TransportError;
 
 /// Steps taken in one go before the future yields to the runtime.
 const STEPS_PER_TURN: usize = 1024;
 
-/// The async side of a network: wake-ups between futures driving a virtual clock, and the tie
-/// between that clock and tokio's.
-pub(crate) struct Reactor {
-    virtual_clock: bool,
-    progress: tokio::sync::Notify,
-    /// A tokio instant and the network instant it corresponds to.
-    anchor: Mutex<Option<(tokio::time::Instant, Instant)>>,
-}
-
-impl Reactor {
-    pub(crate) fn new(virtual_clock: bool) -> Self {
-        Self {
-            virtual_clock,
-            progress: tokio::sync::Notify::new(),
-            anchor: Mutex::new(None),
-        }
-    }
-
-    /// The network instant tokio's clock is at, given the bus's `now`. Moves the anchor when
-    /// the bus is ahead (blocking calls jumped it), so time never goes back.
-    fn target(&self, now: Instant) -> Instant {
-        let t = tokio::time::Instant::now();
-        let mut anchor = self.anchor.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some((at, v)) = *anchor {
-            let mapped = v + Duration::from_micros(micros(t.saturating_duration_since(at)));
-            if mapped >= now {
-                return mapped;
-            }
-        }
-        *anchor = Some((t, now));
-        now
-    }
-
-    /// The tokio instant at which the network's clock reaches `at`.
-    fn tokio_at(&self, at: Instant) -> tokio::time::Instant {
-        let anchor = *self.anchor.lock().unwrap_or_else(|p| p.into_inner());
-        match anchor {
-            Some((t, v)) => {
-                let d: std::time::Duration = at.saturating_duration_since(v).into();
-                // A deadline too far for tokio's clock is as good as never.
-                t.checked_add(d)
-                    .unwrap_or_else(|| t + std::time::Duration::from_secs(86_400 * 365))
-            }
-            None => tokio::time::Instant::now(),
-        }
-    }
-}
-
-fn micros(d: std::time::Duration) -> u64 {
-    u64::try_from(d.as_micros()).unwrap_or(u64::MAX)
-}
-
 /// On a virtual clock: steps the network up to the instant tokio's clock is at, and returns
 /// when something is due next. `None` when another task is stepping right now. Wakes the
 /// other futures if anything happened.
 fn catch_up_once(net: &Network, deadline: Option<Instant>) -> Result<Option<Next>, Error> {
-    let Ok(mut io) = net.inner.io.try_lock() else {
+    let Some(mut io) = net.try_io() else {
         return Ok(None);
     };
-    let r = &net.inner.reactor;
+    let r = &net.reactor();
     let due = net.core().poll_timeout();
     let target = r.target(io.now());
     let mut received = false;
@@ -144,7 +94,7 @@ enum Next {
 /// Brings a virtual clock up to tokio's time before an operation stamps "now" (a request's
 /// timeout, an LSS machine's timers). Nothing to do on a real clock.
 pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
-    if net.inner.reactor.virtual_clock {
+    if net.reactor().virtual_clock {
         // Another task stepping holds the transport: it is catching up the same clock.
         catch_up_once(net, None)?;
     }
@@ -153,7 +103,7 @@ pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
 
 /// Whether the network's transport runs on a virtual clock.
 pub(crate) fn is_virtual(net: &Network) -> bool {
-    net.inner.reactor.virtual_clock
+    net.reactor().virtual_clock
 }
 
 /// Waits until `done` returns a value, driving the network meanwhile (see the module docs).
@@ -164,7 +114,7 @@ pub(crate) async fn wait_until<T: Send + 'static>(
     deadline: Option<Instant>,
     done: impl FnMut(&mut Core) -> Option<T> + Send + 'static,
 ) -> Result<T, Error> {
-    if net.inner.reactor.virtual_clock {
+    if net.reactor().virtual_clock {
         drive_virtual(net, deadline, done).await
     } else {
         wait_blocking(net, done).await
@@ -176,7 +126,7 @@ async fn drive_virtual<T>(
     deadline: Option<Instant>,
     mut done: impl FnMut(&mut Core) -> Option<T>,
 ) -> Result<T, Error> {
-    let r = &net.inner.reactor;
+    let r = &net.reactor();
     loop {
         // Registered before the check, so progress made after it wakes this future.
         let progress = r.progress.notified();
@@ -256,7 +206,7 @@ async fn wait_blocking<T: Send + 'static>(
 /// Sends what the core has queued. On a real clock the transport may be held by a thread in a
 /// receive (up to one driving step), so the flush runs on the blocking pool.
 pub(crate) async fn flush(net: &Network) -> Result<(), Error> {
-    if net.inner.reactor.virtual_clock {
+    if net.reactor().virtual_clock {
         return net.flush();
     }
     let n = net.clone();
@@ -272,18 +222,17 @@ const DRIVER_SLICE: std::time::Duration = std::time::Duration::from_millis(50);
 /// The background driver of a virtual-clock network: a task that keeps the bus at tokio's
 /// time, so heartbeats, EMCY and PDO events flow while the application awaits something else.
 /// Ends when `stop` is set, the network is gone or the transport fails for good.
-pub(crate) fn spawn_virtual_driver(
+fn spawn_virtual_driver(
     inner: Weak<Inner>,
     stop: Arc<AtomicBool>,
     error: Arc<Mutex<Option<String>>>,
 ) {
     drop(tokio::spawn(async move {
         while !stop.load(Ordering::SeqCst) {
-            let Some(inner) = inner.upgrade() else {
+            let Some(net) = Network::upgrade(&inner) else {
                 return;
             };
-            let net = Network { inner };
-            let progress = net.inner.reactor.progress.notified();
+            let progress = net.reactor().progress.notified();
             let mut progress = std::pin::pin!(progress);
             progress.as_mut().enable();
             let slice_end = tokio::time::Instant::now() + DRIVER_SLICE;
@@ -311,12 +260,37 @@ pub(crate) fn spawn_virtual_driver(
                 }
             }
             // The last handle is this one: the application let the network go.
-            if Arc::strong_count(&net.inner) == 1 {
+            if net.is_last_handle() {
                 return;
             }
         }
-        if let Some(inner) = inner.upgrade() {
-            Network { inner }.core().wake_pdo_subscribers();
+        if let Some(net) = Network::upgrade(&inner) {
+            net.core().wake_pdo_subscribers();
         }
     }));
+}
+
+impl Network {
+    /// Starts the background driver on the current tokio runtime (its blocking pool: the
+    /// transport's receive blocks; on a virtual-clock bus, a task that keeps the bus at
+    /// tokio's time instead, see [`crate::asynch`]). Does nothing when one runs already.
+    /// Panics outside a tokio runtime, as `tokio::task::spawn_blocking` does.
+    pub fn start_driver_on_runtime(&self) {
+        let virtual_clock = self.reactor().virtual_clock;
+        let started = self.install_driver(|weak, stop, error| {
+            // The task ends by itself once `stop` is set or the network is gone.
+            if virtual_clock {
+                spawn_virtual_driver(weak, stop, error);
+            } else {
+                drop(tokio::task::spawn_blocking(move || {
+                    drive(&weak, &stop, &error);
+                }));
+            }
+            Ok::<_, core::convert::Infallible>(None)
+        });
+        match started {
+            Ok(()) => {}
+            Err(never) => match never {},
+        }
+    }
 }

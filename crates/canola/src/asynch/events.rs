@@ -10,7 +10,8 @@ use std::task::{Context, Poll, Waker};
 
 use futures_core::Stream;
 
-use crate::core::{EventSink, NetworkEvent};
+use crate::machine::NetworkEvent;
+use crate::machine::events::EventSink;
 use crate::network::Network;
 
 /// Queue length of [`Network::events`].

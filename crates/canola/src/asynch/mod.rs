@@ -32,7 +32,7 @@
 //! and its result is discarded.
 //!
 //! **Clocks.** How a future waits depends on the transport's clock:
-//! * A real clock (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::mem::ClockMode::RealTime)
+//! * A real clock (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::transport::mem::ClockMode::RealTime)
 //!   memory bus): the blocking wait loop runs on tokio's blocking pool, and bus time is real
 //!   time, as tokio's timers are. A paused tokio clock (`start_paused`) does not move such a
 //!   bus, and tokio does not auto-advance while the blocking wait runs: use a virtual bus for
@@ -89,7 +89,6 @@
 pub(crate) mod drive;
 pub mod events;
 
-pub(crate) use drive::{Reactor, spawn_virtual_driver};
 pub use events::{DEFAULT_EVENT_CAPACITY, EventStream, Lagged};
 
 use canola_frame::{CanFrame, Duration, Instant, NodeId};
@@ -100,9 +99,10 @@ use canola_lss::{
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::{DataType, ObjectAddress, Value};
 
-use crate::core::{Completion, DownSource, Op, RequestId, Taken, UpSink};
-use crate::error::{Error, SdoError, SdoErrorKind};
-use crate::lss::{Lss, Outcome};
+use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
+use crate::lss::Lss;
+use crate::machine::lss::LssOutput;
+use crate::machine::{Completion, DownSource, Op, RequestId, Taken, UpSink};
 use crate::network::{Network, Nmt, Pending, Sdo, SdoValue};
 use crate::scan::{Identity, ScannedNode};
 use crate::typed::{ObjectKey, WriteValue};
@@ -184,10 +184,7 @@ async fn wait_requests(net: &Network, reqs: Vec<Req>) -> Vec<Result<Completion, 
         Ok(v) => v,
         Err(e) => {
             // A transport failure ends the requests: say which node and object each was for.
-            let text = match e {
-                Error::Transport(t) => t.to_string(),
-                other => other.to_string(),
-            };
+            let failure = TransportFailure::from(&e);
             let mut core = net.core();
             reqs.iter()
                 .map(|req| {
@@ -196,7 +193,7 @@ async fn wait_requests(net: &Network, reqs: Vec<Req>) -> Vec<Result<Completion, 
                         node: req.node,
                         entry: req.entry,
                         name: None,
-                        kind: SdoErrorKind::Transport(text.clone()),
+                        kind: SdoErrorKind::Transport(failure.clone()),
                     }))
                 })
                 .collect()
@@ -341,7 +338,7 @@ impl Sdo {
     ) -> Result<T, Error> {
         let at = ObjectAddress::new(entry.index(), entry.sub_index());
         let node = self.node;
-        crate::request::decode_entry(node, entry, &self.read_async(at).await?)
+        crate::network::request::decode_entry(node, entry, &self.read_async(at).await?)
     }
 
     /// Writes a typed entry from generated code (async [`write_entry`](Self::write_entry)).
@@ -350,7 +347,7 @@ impl Sdo {
         entry: &canola_od::Entry<T>,
         value: &T,
     ) -> Result<(), Error> {
-        let (at, bytes) = crate::request::encode_entry(self.node, entry, value)?;
+        let (at, bytes) = crate::network::request::encode_entry(self.node, entry, value)?;
         self.write_async(at, bytes).await
     }
 }
@@ -560,10 +557,10 @@ impl Lss {
         &self,
         mut machine: M,
         start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
-    ) -> Result<<M::Output as Outcome>::Value, Error>
+    ) -> Result<<M::Output as LssOutput>::Value, Error>
     where
         M: LssMachine + Send + 'static,
-        M::Output: Outcome,
+        M::Output: LssOutput,
     {
         drive::catch_up(&self.net)?;
         let now = self.net.now();

@@ -16,7 +16,7 @@ use super::keys::{
     KeyTable, Keys, Where, boolean, extra_owned, note_warnings, resolve_keys, uint, unquote,
 };
 use super::names::SectionKind;
-use super::scan::{Entry, Section, SubRec};
+use super::section::{Entry, Section, SubRec};
 use crate::diag::{DiagnosticKind as K, Echo, Sink, is_communication_object};
 use crate::model::{FieldValue, Line, Object, ObjectDictionary, RawSection, SubObject, SubObjects};
 use crate::types::{AccessType, DataType, ObjectCode};

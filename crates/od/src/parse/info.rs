@@ -10,7 +10,7 @@ use alloc::vec::Vec;
 
 use super::keys::{KeyTable, boolean, extra_owned, resolve_keys, uint, unquote};
 use super::names::{hex4, strip_prefix_ci};
-use super::scan::Section;
+use super::section::Section;
 use crate::diag::{DiagnosticKind as K, Echo, Sink};
 use crate::model::{BAUD_RATES_KBIT, DeviceCommissioning, DeviceInfo, FileInfo};
 use crate::value::{TextNotes, parse_int_literal};

@@ -8,7 +8,7 @@ use alloc::format;
 use alloc::vec::Vec;
 use core::fmt;
 
-use super::scan::Section;
+use super::section::Section;
 use crate::diag::{DiagnosticKind as K, Echo, Sink};
 use crate::model::Extra;
 use crate::value::{TextNotes, parse_int_literal};

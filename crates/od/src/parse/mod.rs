@@ -21,6 +21,7 @@
 //! - `decode` — bytes to text (UTF-8, or Windows-1252 line by line);
 //! - `lines` — the word-at-a-time line splitter the scanner reads with;
 //! - `names` — section names to section kinds (`[1018sub2]`, `[DeviceInfo]`, ...);
+//! - `section` — the records scanned: sections with their entries, sub sections built;
 //! - `scan` — one pass over the lines: sections, their `key=value` entries, duplicates merged;
 //!   sub sections are built into sub-objects as soon as they end;
 //! - `keys` — the canonical keys of each kind of section and readers for their values;
@@ -35,6 +36,7 @@ mod keys;
 mod lines;
 mod names;
 mod scan;
+mod section;
 
 use alloc::vec::Vec;
 use core::fmt;

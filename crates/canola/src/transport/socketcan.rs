@@ -39,8 +39,8 @@ use canola_frame::{CanFrame, CanId, Instant};
 use nix::sys::socket::{ControlMessageOwned, MsgFlags, getsockopt, recvmsg, setsockopt, sockopt};
 use socketcan::{EmbeddedFrame, Socket, SocketOptions};
 
-use crate::candump::{FD_LENGTHS, FdFrame};
-use crate::transport::{BusEvent, Received, Transport, TransportError};
+use crate::transport::candump::{FD_LENGTHS, FdFrame};
+use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
 
 const CAN_EFF_FLAG: u32 = 0x8000_0000;
 const CAN_RTR_FLAG: u32 = 0x4000_0000;

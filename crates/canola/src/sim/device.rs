@@ -1,390 +1,46 @@
-//! The device simulator: a CANopen slave built from any object dictionary (EDS/DCF or generated).
-//!
-//! A [`SimDevice`] composes the device-side machines of the protocol crates:
-//! * NMT slave with boot-up and heartbeat producer (`canola-nmt`, CiA 301 §7.2.8, §7.3.2);
-//! * SDO server for expedited, segmented and block transfers (`canola-sdo`, CiA 301 §7.2.4)
-//!   over the dictionary's values;
-//! * EMCY producer (`canola-nmt`, CiA 301 §7.2.7);
-//! * TPDOs and RPDOs by the `canola-pdo` engine, configured from the device's PDO objects
-//!   (0x1400.., 0x1600.., 0x1800.., 0x1A00..) when it enters Operational; SYNC, event timers,
-//!   inhibit times and change-of-state ([`SimDevice::set_value`]) as the engine implements them;
-//! * LSS slave (`canola-lss`, CiA 305) with the identity from 0x1018 as its LSS address. A
-//!   device made with [`SimDevice::unconfigured`] has no node-ID: it only answers LSS until a
-//!   master assigns one, then boots with it.
-//!
-//! It implements [`Station`], so it runs attached to an in-memory bus
-//! ([`MemoryBus::attach`](crate::mem::MemoryBus::attach), deterministic on the virtual clock) or
-//! on any transport with [`run_station`](crate::transport::run_station) (e.g. SocketCAN for
-//! `canopen simulate`). Several devices share one bus.
-//!
-//! Device-specific behaviour plugs in through [`DeviceHook`]: hooks see every SDO write before it
-//! is stored (and may refuse it with an abort code), may serve reads themselves (a generated
-//! DOMAIN such as a logbook), get their own timers, and can request a reset or an emergency.
-//!
-//! Communication objects with side effects handled here: 0x1017 producer heartbeat time.
+//! The simulated device itself: [`SimDevice`], the composition of the protocol crates'
+//! device-side machines over one dictionary and its values, as a [`Station`] on a bus.
 
-use std::collections::{HashMap, VecDeque};
-use std::hash::{BuildHasherDefault, Hasher};
+use std::collections::VecDeque;
 
 use canola_frame::cob::FunctionCode;
 use canola_frame::{CanFrame, Instant, NodeId, is_due};
 use canola_lss::{LssAddress, LssSlave, SlaveConfig as LssConfig, SlaveEvent as LssEvent};
 use canola_nmt::{DeviceState, Emcy, EmcyProducer, NmtSlave, Service, SlaveConfig, SlaveEvent};
-use canola_od::{AccessType, ObjectDictionary};
-use canola_sdo::{
-    AbortCode, Access, LengthRule, Multiplexer, ObjectAccess, ObjectInfo, SdoCobIds, Server,
-    ServerConfig,
-};
+use canola_od::ObjectDictionary;
+use canola_sdo::Server;
 
 use crate::transport::Station;
 
-/// Longest value a variable-size object (string, DOMAIN) accepts by download.
-pub const MAX_VARIABLE_SIZE: u32 = 1 << 20;
-
-/// What a hook may do to the device besides answering.
-#[derive(Debug, Default)]
-pub struct HookActions {
-    /// Emergencies to send.
-    pub emcy: Vec<Emcy>,
-    /// Reset the application (as NMT reset node).
-    pub reset_node: bool,
-    /// Reset communication.
-    pub reset_communication: bool,
-}
-
-impl HookActions {
-    /// Nothing asked for.
-    fn is_empty(&self) -> bool {
-        self.emcy.is_empty() && !self.reset_node && !self.reset_communication
-    }
-}
-
-/// Device-specific behaviour. Every method has a default that does nothing.
-pub trait DeviceHook: Send {
-    /// An SDO download of `value` to `entry` completed; return `Err(code)` to refuse it (the
-    /// value is then not stored and the client gets the abort code).
-    fn on_write(
-        &mut self,
-        now: Instant,
-        values: &mut Values,
-        index: u16,
-        sub: u8,
-        value: &[u8],
-        actions: &mut HookActions,
-    ) -> Result<(), AbortCode> {
-        let _ = (now, values, index, sub, value, actions);
-        Ok(())
-    }
-
-    /// An SDO upload of `entry` starts; return `Some` to serve the value (or an abort) instead of
-    /// the stored one.
-    fn on_read(
-        &mut self,
-        now: Instant,
-        values: &Values,
-        index: u16,
-        sub: u8,
-    ) -> Option<Result<Vec<u8>, AbortCode>> {
-        let _ = (now, values, index, sub);
-        None
-    }
-
-    /// The hook's timer passed.
-    fn on_timeout(&mut self, now: Instant, values: &mut Values, actions: &mut HookActions) {
-        let _ = (now, values, actions);
-    }
-
-    /// When [`on_timeout`](Self::on_timeout) wants to be called.
-    fn poll_timeout(&self) -> Option<Instant> {
-        None
-    }
-
-    /// The device's NMT state changed (or it was reset: `Initialising`).
-    fn on_state(&mut self, now: Instant, state: DeviceState, values: &mut Values) {
-        let _ = (now, state, values);
-    }
-}
-
-/// The device's current object values (little-endian bytes, CiA 301 §7.1).
-#[derive(Clone, Default)]
-pub struct Values {
-    /// By [`key`], hashed: an SDO request looks a value up twice, and a tree of a few hundred
-    /// entries costs several times a hash lookup.
-    map: KeyMap<Vec<u8>>,
-}
-
-/// The key of `index:sub` (ordered as `(index, sub)`).
-fn key(index: u16, sub: u8) -> u32 {
-    (u32::from(index) << 8) | u32::from(sub)
-}
-
-/// A map by [`key`].
-type KeyMap<V> = HashMap<u32, V, BuildHasherDefault<KeyHasher>>;
-
-/// A multiplicative hash for the [`key`]s (the device's own entries, no untrusted input): the
-/// default SipHash would cost more than the tree lookup it replaces.
-#[derive(Default, Clone, Copy)]
-struct KeyHasher(u64);
-
-impl Hasher for KeyHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.write_u64(self.0.rotate_left(8) ^ u64::from(*b));
-        }
-    }
-
-    fn write_u32(&mut self, x: u32) {
-        self.write_u64(u64::from(x));
-    }
-
-    fn write_u64(&mut self, x: u64) {
-        // The high bits mixed into the low ones, which pick the bucket.
-        let h = x.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        self.0 = h ^ (h >> 32);
-    }
-}
-
-impl core::fmt::Debug for Values {
-    /// As the `(index, sub)` map it stands for, in that order.
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        let mut entries: Vec<_> = self.map.iter().collect();
-        entries.sort_unstable_by_key(|(k, _)| **k);
-        f.debug_map()
-            .entries(
-                entries
-                    .into_iter()
-                    .map(|(k, v)| (((k >> 8) as u16, *k as u8), v)),
-            )
-            .finish()
-    }
-}
-
-impl Values {
-    /// The value of `index:sub`.
-    pub fn get(&self, index: u16, sub: u8) -> Option<&[u8]> {
-        self.map.get(&key(index, sub)).map(Vec::as_slice)
-    }
-
-    /// Sets the value of `index:sub`.
-    pub fn set(&mut self, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
-        self.map.insert(key(index, sub), value.into());
-    }
-
-    /// An unsigned value of up to 8 bytes.
-    pub fn get_u64(&self, index: u16, sub: u8) -> Option<u64> {
-        let b = self.get(index, sub)?;
-        let mut buf = [0u8; 8];
-        let n = b.len().min(8);
-        buf[..n].copy_from_slice(&b[..n]);
-        Some(u64::from_le_bytes(buf))
-    }
-
-    fn defaults(od: &ObjectDictionary, node: NodeId) -> Self {
-        let mut map = KeyMap::default();
-        for (index, sub) in od.entries() {
-            let bytes = sub
-                .effective_value(node.get())
-                .map(|v| v.to_le_bytes())
-                .unwrap_or_else(|| vec![0; sub.data_type.size().unwrap_or(0)]);
-            map.insert(key(index, sub.sub_index), bytes);
-        }
-        Self { map }
-    }
-}
-
-impl canola_pdo::ValueSource for Values {
-    fn value(&self, index: u16, subindex: u8) -> Option<&[u8]> {
-        self.get(index, subindex)
-    }
-}
-
-/// What the SDO server asks the dictionary about a sub-object at every request.
-#[derive(Debug, Clone, Copy)]
-struct SubMeta {
-    access: Access,
-    /// The size of a fixed-size type.
-    fixed: Option<u32>,
-}
-
-/// Every sub-object's [`SubMeta`], by [`key`] (the dictionary never changes).
-fn sub_meta(od: &ObjectDictionary) -> KeyMap<SubMeta> {
-    od.entries()
-        .map(|(index, s)| {
-            let fixed = match s.data_type.size() {
-                Some(n) if !s.data_type.is_variable_size() => Some(n as u32),
-                _ => None,
-            };
-            let meta = SubMeta {
-                access: access(s.access),
-                fixed,
-            };
-            (key(index, s.sub_index), meta)
-        })
-        .collect()
-}
-
-/// The objects as the SDO server sees them: dictionary metadata plus current values.
-struct Objects<'a> {
-    od: &'a ObjectDictionary,
-    meta: &'a KeyMap<SubMeta>,
-    values: &'a mut Values,
-    staging: &'a mut Vec<u8>,
-    hooks: &'a mut Vec<Box<dyn DeviceHook>>,
-    actions: &'a mut HookActions,
-    written: &'a mut Vec<(u16, u8)>,
-    now: Instant,
-}
-
-fn access(a: AccessType) -> Access {
-    match a {
-        AccessType::Ro => Access::ReadOnly,
-        AccessType::Wo => Access::WriteOnly,
-        AccessType::Const => Access::Const,
-        _ => Access::ReadWrite,
-    }
-}
-
-impl ObjectAccess for Objects<'_> {
-    fn info(&mut self, mux: Multiplexer) -> Result<ObjectInfo, AbortCode> {
-        let (index, sub) = (mux.index, mux.subindex);
-        let Some(&meta) = self.meta.get(&key(index, sub)) else {
-            return Err(if self.od.get(index).is_none() {
-                AbortCode::OBJECT_DOES_NOT_EXIST
-            } else {
-                AbortCode::SUBINDEX_DOES_NOT_EXIST
-            });
-        };
-        // A hook may serve the value: its length counts.
-        for h in self.hooks.iter_mut() {
-            if let Some(r) = h.on_read(self.now, self.values, index, sub) {
-                let v = r?;
-                self.values.set(index, sub, v);
-                break;
-            }
-        }
-        let len = self.values.get(index, sub).map_or(0, |v| v.len()) as u32;
-        let acc = meta.access;
-        Ok(match meta.fixed {
-            Some(n) => ObjectInfo {
-                access: acc,
-                len,
-                accepts: LengthRule::Exact(n),
-            },
-            None => ObjectInfo::variable(acc, len, MAX_VARIABLE_SIZE),
-        })
-    }
-
-    fn read(&mut self, mux: Multiplexer, offset: u32, buf: &mut [u8]) -> Result<usize, AbortCode> {
-        let v = self
-            .values
-            .get(mux.index, mux.subindex)
-            .ok_or(AbortCode::NO_DATA_AVAILABLE)?;
-        let start = (offset as usize).min(v.len());
-        let n = buf.len().min(v.len() - start);
-        buf[..n].copy_from_slice(&v[start..start + n]);
-        Ok(n)
-    }
-
-    fn write(&mut self, _mux: Multiplexer, offset: u32, data: &[u8]) -> Result<(), AbortCode> {
-        let offset = offset as usize;
-        if offset == 0 {
-            self.staging.clear();
-        }
-        let end = offset + data.len();
-        if end > MAX_VARIABLE_SIZE as usize {
-            return Err(AbortCode::OUT_OF_MEMORY);
-        }
-        if self.staging.len() < end {
-            self.staging.resize(end, 0);
-        }
-        self.staging[offset..end].copy_from_slice(data);
-        Ok(())
-    }
-
-    fn commit(&mut self, mux: Multiplexer, len: u32) -> Result<(), AbortCode> {
-        let value: Vec<u8> = self.staging.iter().take(len as usize).copied().collect();
-        self.staging.clear();
-        let (index, sub) = (mux.index, mux.subindex);
-        // Range check against the dictionary's limits for integers.
-        if let Some(s) = self.od.sub(index, sub) {
-            let v = canola_od::Value::from_le_bytes(s.data_type, &value)
-                .map_err(|_| AbortCode::LENGTH_MISMATCH)?;
-            if let Some(x) = v.as_i128() {
-                let limit = |f: Option<&canola_od::FieldValue>| {
-                    f.and_then(|f| f.resolve(0)).and_then(|v| v.as_i128())
-                };
-                if limit(s.low_limit()).is_some_and(|lo| x < lo) {
-                    return Err(AbortCode::VALUE_TOO_LOW);
-                }
-                if limit(s.high_limit()).is_some_and(|hi| x > hi) {
-                    return Err(AbortCode::VALUE_TOO_HIGH);
-                }
-            }
-        }
-        for h in self.hooks.iter_mut() {
-            h.on_write(self.now, self.values, index, sub, &value, self.actions)?;
-        }
-        self.values.set(index, sub, value);
-        self.written.push((index, sub));
-        Ok(())
-    }
-
-    fn discard(&mut self, _mux: Multiplexer) {
-        self.staging.clear();
-    }
-}
-
-/// One SDO server channel (CiA 301 §7.2.4.2): its COB-IDs and its server machine.
-struct SdoChannel {
-    ids: SdoCobIds,
-    server: Server,
-}
-
-/// The device's SDO server channels: the default channel (0x1200: 0x600/0x580 + node-ID, which
-/// CiA 301 fixes to the node-ID, so it follows a node-ID change) and every further server
-/// parameter record 0x1201..=0x127F whose two COB-IDs are valid in the current values.
-fn sdo_channels(od: &ObjectDictionary, values: &Values, node: NodeId) -> Vec<SdoChannel> {
-    let ids_of = |index: u16| {
-        od.get(index)?;
-        let cob = |sub| values.get_u64(index, sub).map(|v| v as u32);
-        SdoCobIds::from_parameters(cob(1)?, cob(2)?)
-    };
-    core::iter::once(SdoCobIds::default_for(node))
-        .chain((0x1201..=0x127F).filter_map(ids_of))
-        .map(|ids| SdoChannel {
-            ids,
-            server: Server::new(ServerConfig::default()),
-        })
-        .collect()
-}
+use super::hook::{DeviceHook, HookActions};
+use super::objects::{Objects, SdoChannel, SubMeta, sdo_channels, sub_meta};
+use super::pdo::{Store, device_engine};
+use super::values::{KeyMap, Values};
+use crate::machine::pdo::PdoEngine;
 
 /// A simulated CANopen device. See the module docs.
 pub struct SimDevice {
-    node: NodeId,
-    od: ObjectDictionary,
+    pub(super) node: NodeId,
+    pub(super) od: ObjectDictionary,
     /// What the SDO server asks `od` at each request, found by one hash lookup.
-    meta: KeyMap<SubMeta>,
-    values: Values,
-    staging: Vec<u8>,
-    nmt: NmtSlave,
+    pub(super) meta: KeyMap<SubMeta>,
+    pub(super) values: Values,
+    pub(super) staging: Vec<u8>,
+    pub(super) nmt: NmtSlave,
     /// SDO server channels: 0x1200 first, then the valid ones of 0x1201..=0x127F.
-    sdo: Vec<SdoChannel>,
-    emcy: EmcyProducer,
-    hooks: Vec<Box<dyn DeviceHook>>,
-    out: VecDeque<CanFrame>,
-    booted: bool,
-    configured: bool,
-    lss: LssSlave,
-    pdo: Box<crate::pdo_glue::PdoEngine>,
-    last_state: DeviceState,
+    pub(super) sdo: Vec<SdoChannel>,
+    pub(super) emcy: EmcyProducer,
+    pub(super) hooks: Vec<Box<dyn DeviceHook>>,
+    pub(super) out: VecDeque<CanFrame>,
+    pub(super) booted: bool,
+    pub(super) configured: bool,
+    pub(super) lss: LssSlave,
+    pub(super) pdo: Box<PdoEngine>,
+    pub(super) last_state: DeviceState,
     /// The earliest deadline of the protocol machines (hooks are asked each time), kept
     /// current by every input: the bus asks for it after every frame, and a scan over all
     /// machines costs more than the SDO request that changed one of them.
-    timers: Option<Instant>,
+    pub(super) timers: Option<Instant>,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
 }
@@ -432,7 +88,7 @@ impl SimDevice {
             booted: false,
             configured: true,
             lss: LssSlave::new(lss_config),
-            pdo: Box::new(crate::pdo_glue::PdoEngine::new()),
+            pdo: Box::new(PdoEngine::new()),
             last_state: DeviceState::Initialising,
             timers: None,
             sdo_requests: 0,
@@ -440,7 +96,7 @@ impl SimDevice {
     }
 
     /// The earliest deadline of the protocol machines, looked up.
-    fn machine_timers(&self) -> Option<Instant> {
+    pub(super) fn machine_timers(&self) -> Option<Instant> {
         [
             self.nmt.poll_timeout(),
             self.emcy.poll_timeout(),
@@ -453,7 +109,7 @@ impl SimDevice {
         .min()
     }
 
-    fn refresh_timers(&mut self) {
+    pub(super) fn refresh_timers(&mut self) {
         self.timers = self.machine_timers();
     }
 
@@ -477,7 +133,7 @@ impl SimDevice {
         dev
     }
 
-    fn set_identity(&mut self, a: LssAddress) {
+    pub(super) fn set_identity(&mut self, a: LssAddress) {
         for (sub, v) in [
             (1, a.vendor_id),
             (2, a.product_code),
@@ -500,7 +156,7 @@ impl SimDevice {
 
     /// Takes a new node-ID (after LSS): values back to defaults for that node-ID, machines
     /// rebuilt, boot-up.
-    fn adopt_node_id(&mut self, now: Instant, node: NodeId) {
+    pub(super) fn adopt_node_id(&mut self, now: Instant, node: NodeId) {
         let address = self.lss.address();
         self.node = node;
         self.configured = true;
@@ -551,23 +207,21 @@ impl SimDevice {
     pub fn set_value(&mut self, now: Instant, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
         self.values.set(index, sub, value);
         if self.nmt.state() == DeviceState::Operational {
-            self.pdo
-                .update(now, &mut crate::pdo_glue::Store(&mut self.values));
+            self.pdo.update(now, &mut Store(&mut self.values));
             self.collect();
             self.refresh_timers();
         }
     }
 
     /// (Re)builds the PDO engine from the current PDO objects; enabled in Operational.
-    fn rebuild_pdos(&mut self, now: Instant) {
+    pub(super) fn rebuild_pdos(&mut self, now: Instant) {
         let view = canola_pdo::OdView::with_values(&self.od, &self.values);
-        self.pdo = crate::pdo_glue::device_engine(&view, now);
+        self.pdo = device_engine(&view, now);
         let operational = self.nmt.state() == DeviceState::Operational;
         self.pdo.set_enabled(now, operational);
         if operational {
             // Event-driven TPDOs send their first value when the device starts.
-            self.pdo
-                .update(now, &mut crate::pdo_glue::Store(&mut self.values));
+            self.pdo.update(now, &mut Store(&mut self.values));
         }
     }
 
@@ -580,7 +234,7 @@ impl SimDevice {
         }
     }
 
-    fn collect(&mut self) {
+    pub(super) fn collect(&mut self) {
         while let Some(f) = self.nmt.poll_transmit_frame() {
             self.out.push_back(f);
         }
@@ -601,7 +255,7 @@ impl SimDevice {
         while self.pdo.poll_event().is_some() {}
     }
 
-    fn after_lss(&mut self, now: Instant) {
+    pub(super) fn after_lss(&mut self, now: Instant) {
         let mut adopt = None;
         while let Some(ev) = self.lss.poll_event() {
             if let LssEvent::ResetCommunication { node_id } = ev {
@@ -614,7 +268,7 @@ impl SimDevice {
         }
     }
 
-    fn reset(&mut self, now: Instant, application: bool) {
+    pub(super) fn reset(&mut self, now: Instant, application: bool) {
         // NMT reset makes a node-ID configured by LSS active (CiA 305).
         self.lss.reset_communication();
         if let Ok(n) = NodeId::new(self.lss.active_node_id())
@@ -642,7 +296,7 @@ impl SimDevice {
         self.after_nmt(now);
     }
 
-    fn after_nmt(&mut self, now: Instant) {
+    pub(super) fn after_nmt(&mut self, now: Instant) {
         let mut resets = Vec::new();
         while let Some(ev) = self.nmt.poll_event() {
             match ev {
@@ -668,7 +322,7 @@ impl SimDevice {
     /// Runs one step of SDO channel `ch`'s server over the device's objects, then applies what
     /// the hooks asked for and what the writes changed. Keeps [`timers`](Self::timers)
     /// current.
-    fn serve_sdo(
+    pub(super) fn serve_sdo(
         &mut self,
         now: Instant,
         ch: usize,
@@ -706,7 +360,7 @@ impl SimDevice {
 
     /// Takes new SDO server parameters (0x1200..=0x127F written): channels whose COB-IDs are
     /// unchanged keep their server (and a transfer in progress).
-    fn reconfigure_sdo(&mut self) {
+    pub(super) fn reconfigure_sdo(&mut self) {
         let mut old = core::mem::take(&mut self.sdo);
         self.sdo = sdo_channels(&self.od, &self.values, self.node)
             .into_iter()
@@ -717,7 +371,7 @@ impl SimDevice {
             .collect();
     }
 
-    fn apply(&mut self, now: Instant, actions: HookActions, written: &[(u16, u8)]) {
+    pub(super) fn apply(&mut self, now: Instant, actions: HookActions, written: &[(u16, u8)]) {
         let mut remapped = false;
         let mut sdo_parameters = false;
         for &(index, sub) in written {
@@ -773,7 +427,7 @@ impl Station for SimDevice {
             self.after_nmt(now);
         } else if self
             .pdo
-            .handle_frame(now, frame, &mut crate::pdo_glue::Store(&mut self.values))
+            .handle_frame(now, frame, &mut Store(&mut self.values))
         {
             self.collect();
         }
@@ -807,8 +461,7 @@ impl Station for SimDevice {
             self.emcy.handle_timeout(now);
         }
         if is_due(self.pdo.poll_timeout(), now) {
-            self.pdo
-                .handle_timeout(now, &mut crate::pdo_glue::Store(&mut self.values));
+            self.pdo.handle_timeout(now, &mut Store(&mut self.values));
             self.collect();
         }
         let mut actions = HookActions::default();

@@ -7,11 +7,11 @@ use canola_frame::{Duration, NodeId};
 use canola_od::{DataType, Value};
 use canola_sdo::{Method, SdoCobIds};
 
-use crate::core::{
+use super::handle::Network;
+use crate::error::{Error, SdoError, SdoErrorKind};
+use crate::machine::{
     Completion, DownSource, Op, ProgressFn, RequestId, SdoRequest, TransferProgress, UpSink,
 };
-use crate::error::{Error, SdoError, SdoErrorKind};
-use crate::network::*;
 use canola_od::ObjectAddress;
 
 /// A request in flight, typed by what it produces: `Pending<Vec<u8>>` for an upload into

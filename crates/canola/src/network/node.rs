@@ -9,8 +9,9 @@ use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::ObjectDictionary;
 use canola_sdo::{Method, SdoCobIds};
 
+use super::handle::{DEFAULT_SDO_TIMEOUT, Network};
+use super::request::Sdo;
 use crate::error::Error;
-use crate::network::*;
 
 /// A node on the network.
 #[derive(Clone, Debug)]
@@ -45,35 +46,6 @@ impl Node {
     /// NMT commands to this node, and its state (see [`Nmt::state`]).
     pub fn nmt(&self) -> Nmt {
         Nmt::new(&self.net, NmtTarget::Node(self.id))
-    }
-
-    /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
-    /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
-    /// from `canola_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
-    /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
-    /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
-    pub fn remap_pdo(
-        &self,
-        direction: canola_pdo::Direction,
-        number: u16,
-        comm: canola_pdo::CommParams,
-        mapping: canola_pdo::Mapping,
-    ) -> Result<(), Error> {
-        let n = number.saturating_sub(1);
-        let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
-        // With a dictionary, write only the sub-indices the node has.
-        if let Some(od) = self.dictionary() {
-            let ci = direction.comm_index(n);
-            let has = |sub| od.sub(ci, sub).is_some();
-            remote.has_inhibit_time = has(3);
-            remote.has_event_timer = has(5);
-            remote.has_sync_start = has(6);
-            // Dynamic mapping (CiA 301 §7.4.8.3): sub 0 of the mapping object is writable.
-            remote.mapping_writable = od
-                .sub(direction.mapping_index(n), 0)
-                .is_none_or(|s| s.access.is_writable());
-        }
-        crate::pdo_access::configure(self, direction, n, &comm, mapping, &remote)
     }
 
     /// The node's dictionary, if it was added with one.
@@ -218,5 +190,28 @@ impl Nmt {
     /// Reset communication.
     pub fn reset_communication(&self) -> Result<(), Error> {
         self.send(CommandSpecifier::ResetCommunication)
+    }
+}
+
+impl Network {
+    /// Adds a node without a dictionary (values are raw bytes).
+    pub fn add_node(&self, id: NodeId) -> Node {
+        self.core().add_node(id, None);
+        self.node(id)
+    }
+
+    /// Adds a node with its object dictionary (from an EDS/DCF or generated code): errors then
+    /// name objects, and typed reads decode values.
+    pub fn add_node_with_dictionary(&self, id: NodeId, od: ObjectDictionary) -> Node {
+        self.core().add_node(id, Some(Arc::new(od)));
+        self.node(id)
+    }
+
+    /// A handle to a node (added on first use if needed).
+    pub fn node(&self, id: NodeId) -> Node {
+        Node {
+            net: self.clone(),
+            id,
+        }
     }
 }

@@ -1,17 +1,14 @@
-//! PDO glue (CiA 301 §7.2.2): the `canola-pdo` engine configured from a dictionary's PDO
-//! parameter objects (0x1400.., 0x1600.., 0x1800.., 0x1A00..), for the simulator (a device's own
-//! TPDOs and RPDOs over its current values) and for the master: per node one engine whose
-//! receive side mirrors the node's TPDOs (received frames decode into values) and whose transmit
-//! side produces the node's RPDOs from the master's process image (see [`NodePdos`]).
+//! The master's PDOs with each node (CiA 301 §7.2.2): per node one `canola-pdo` engine whose
+//! receive side mirrors the node's TPDOs (received frames decode into values) and whose
+//! transmit side produces the node's RPDOs from the master's process image ([`NodePdos`]),
+//! configured from the PDO parameter objects (0x1400.., 0x1600.., 0x1800.., 0x1A00..) of the
+//! node's dictionary or of what was read from it.
 
-use canola_frame::{CanId, Instant};
 use canola_od::{DataType, ObjectDictionary, Value};
 use canola_pdo::{
-    CommParams, Dictionary, Direction, Engine, MapStore, Mapping, ObjectAddress, ObjectStore,
-    OdView, PdoConfig, RpdoId, StoreError, TpdoId,
+    CommParams, Dictionary, Direction, Engine, MapStore, Mapping, ObjectAddress, OdView, PdoConfig,
+    RpdoId, TpdoId,
 };
-
-use crate::sim::Values;
 
 /// Four PDOs each way, as the predefined connection set has.
 pub(crate) type PdoEngine = Engine<4, 4>;
@@ -25,7 +22,7 @@ pub(crate) struct NodePdos {
     /// Per mirrored receive PDO, the data type of each mapped object (its type in the node's
     /// dictionary where that agrees with the mapping), in mapping order: received values are
     /// delivered as the dictionary types them.
-    types: Vec<(RpdoId, Vec<DataType>)>,
+    pub(super) types: Vec<(RpdoId, Vec<DataType>)>,
     /// (RPDO number of the node, the engine's transmit PDO) of the RPDOs being transmitted.
     pub(crate) rpdos: Vec<(u16, TpdoId)>,
     /// Transmit PDOs of the engine no RPDO uses any more (stopped), for reuse.
@@ -198,48 +195,11 @@ impl NodePdos {
     }
 }
 
-/// A device's values as the PDO engine's process image.
-pub(crate) struct Store<'a>(pub(crate) &'a mut Values);
-
-impl ObjectStore for Store<'_> {
-    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), StoreError> {
-        let v = self
-            .0
-            .get(addr.index, addr.sub_index)
-            .ok_or(StoreError::NoSuchObject)?;
-        let n = out.len().min(v.len());
-        out[..n].copy_from_slice(&v[..n]);
-        out[n..].fill(0);
-        Ok(())
-    }
-    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), StoreError> {
-        self.0.set(addr.index, addr.sub_index, data.to_vec());
-        Ok(())
-    }
-}
-
 /// Reads PDO `n` (0-based) of `direction` from the view; `None` when absent or unusable.
-fn read_pdo(view: &impl Dictionary, direction: Direction, n: u16) -> Option<PdoConfig> {
+pub(crate) fn read_pdo(view: &impl Dictionary, direction: Direction, n: u16) -> Option<PdoConfig> {
     let comm = CommParams::read_from(view, direction.comm_index(n)).ok()?;
     let mapping = Mapping::read_from(view, direction, direction.mapping_index(n)).ok()?;
     Some(PdoConfig::new(comm, mapping))
-}
-
-/// A device's engine: its RPDOs and TPDOs from its current values.
-pub(crate) fn device_engine(view: &OdView<'_>, now: Instant) -> Box<PdoEngine> {
-    let mut e = Box::new(PdoEngine::new());
-    if let Ok(id) = CanId::standard(0x80) {
-        e.set_sync_cob_id(Some(id));
-    }
-    for n in 0..4 {
-        if let Some(c) = read_pdo(view, Direction::Receive, n) {
-            let _ = e.add_rpdo(c);
-        }
-        if let Some(c) = read_pdo(view, Direction::Transmit, n) {
-            let _ = e.add_tpdo(now, c);
-        }
-    }
-    e
 }
 
 /// The master's PDOs for one node with a dictionary: the node's TPDOs (from its dictionary,

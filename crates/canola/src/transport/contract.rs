@@ -1,16 +1,6 @@
-//! The transport boundary: one small trait every bus implementation fulfils.
-//!
-//! A transport moves classic CAN frames (ISO 11898-1) and reports the state of the bus as
-//! [`BusEvent`]s in the same receive stream, so nothing that happens on the wire is silent:
-//! error frames, bus-off, the interface going down or up, and frames the receive queue had to
-//! drop. The transport also owns the clock the [`Network`](crate::Network) and the simulator run
-//! on: a real monotonic clock for SocketCAN, a virtual one for the deterministic in-memory bus.
-//!
-//! The shape is blocking with an absolute deadline ([`Transport::recv_until`]). That is what both
-//! the blocking API and the async API need: on a real clock the async API drives the same loop
-//! from a blocking worker thread (tokio's `spawn_blocking`); on a virtual clock
-//! ([`Transport::is_virtual`]) a `recv_until` never blocks, so an async task steps the same
-//! loop up to tokio's time and sleeps on a tokio timer until [`Transport::next_event`].
+//! The contract every transport fulfils: the [`Transport`] trait, what it receives
+//! ([`Received`], [`BusEvent`]), its errors, and the [`Station`] a bus steps with
+//! [`run_station`].
 
 use canola_frame::{CanFrame, Duration, Instant, is_due};
 
@@ -46,7 +36,7 @@ pub enum BusEvent {
     /// `SocketCan::open_fd`); the master's protocols use classic frames and ignore it.
     FdFrame {
         /// The frame.
-        frame: Box<crate::candump::FdFrame>,
+        frame: Box<crate::transport::candump::FdFrame>,
         /// When it was received, on the transport's clock.
         at: Instant,
     },
@@ -69,7 +59,9 @@ impl core::fmt::Display for BusEvent {
             Self::FdFrame { frame, .. } => write!(
                 f,
                 "CAN FD frame {}",
-                crate::candump::format_frame(&crate::candump::LogFrame::Fd(**frame))
+                crate::transport::candump::format_frame(&crate::transport::candump::LogFrame::Fd(
+                    **frame
+                ))
             ),
         }
     }
@@ -124,8 +116,8 @@ pub trait Transport: Send {
 
     /// [`send`](Self::send) by a caller that read this transport's clock at `now` a moment
     /// before: a transport that stamps frames with its clock may take `now` instead of reading
-    /// the clock again (on a real clock a reading costs tens of nanoseconds, a good part of an
-    /// SDO round trip on the in-memory bus). Stamps must still never go back in time.
+    /// the clock again (a real clock's reading is a noticeable part of a short driving step).
+    /// Stamps must still never go back in time.
     /// Default: [`send`](Self::send).
     fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
         let _ = now;
@@ -199,7 +191,7 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
 
 /// A sans-IO station that a driver loop can run on any transport: the simulator's devices
 /// implement it, and the in-memory bus can host such stations directly (see
-/// [`MemoryBus::attach`](crate::mem::MemoryBus::attach)).
+/// [`MemoryBus::attach`](crate::transport::mem::MemoryBus::attach)).
 ///
 /// Call order per step: [`handle_frame`](Self::handle_frame) for each received frame,
 /// [`handle_timeout`](Self::handle_timeout) when [`poll_timeout`](Self::poll_timeout) has passed,
@@ -260,78 +252,5 @@ pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
             }
             None => now = transport.now(),
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use std::collections::VecDeque;
-
-    use canola_frame::CanId;
-
-    use super::*;
-    use crate::mem::MemoryBus;
-
-    fn frame(raw: u16, data: &[u8]) -> CanFrame {
-        CanFrame::new(CanId::standard(raw).unwrap(), data).unwrap()
-    }
-
-    /// A timer every 100 ms from 100 ms on; answers 0x600 with 0x580. Records its calls.
-    struct Recorder {
-        next: Instant,
-        timeouts: Vec<u64>,
-        frames: Vec<u64>,
-        out: VecDeque<CanFrame>,
-    }
-
-    impl Station for Recorder {
-        fn handle_frame(&mut self, now: Instant, f: &CanFrame) {
-            self.frames.push(now.as_micros() / 1000);
-            if f.cob_id() == Some(0x600) {
-                self.out.push_back(frame(0x580, f.data()));
-            }
-        }
-        fn handle_timeout(&mut self, now: Instant) {
-            self.timeouts.push(now.as_micros() / 1000);
-            if now >= self.next {
-                self.next += Duration::from_millis(100);
-            }
-        }
-        fn poll_transmit(&mut self) -> Option<CanFrame> {
-            self.out.pop_front()
-        }
-        fn poll_timeout(&self) -> Option<Instant> {
-            Some(self.next)
-        }
-    }
-
-    #[test]
-    fn run_station_fires_timers_when_due_and_answers_frames() {
-        let bus = MemoryBus::new();
-        let mut master = bus.endpoint();
-        let mut dev = bus.endpoint();
-        for n in 0..3 {
-            master.send(&frame(0x600, &[n])).unwrap();
-        }
-        let mut station = Recorder {
-            next: Instant::from_millis(100),
-            timeouts: Vec::new(),
-            frames: Vec::new(),
-            out: VecDeque::new(),
-        };
-        let clock = bus.clone();
-        run_station(&mut dev, &mut station, || {
-            clock.now() >= Instant::from_millis(450)
-        })
-        .unwrap();
-        // Timers only when due (not once per received frame or per 50 ms wait), on time.
-        assert_eq!(station.timeouts, [100, 200, 300, 400]);
-        assert_eq!(station.frames, [0, 0, 0]);
-        let mut answers = Vec::new();
-        while let Some(Received::Frame { frame, .. }) = master.try_recv().unwrap() {
-            assert_eq!(frame.cob_id(), Some(0x580));
-            answers.push(frame.data()[0]);
-        }
-        assert_eq!(answers, [0, 1, 2]);
     }
 }

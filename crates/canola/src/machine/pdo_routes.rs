@@ -1,0 +1,312 @@
+//! The master machine's PDOs: TPDOs received from nodes (routed by COB-ID, decoded by the
+//! mirrored mapping, handed to subscribers and callbacks) and the RPDOs it transmits to nodes
+//! from its process image (CiA 301 §7.2.2).
+
+use std::collections::VecDeque;
+
+use canola_frame::cob::FunctionCode;
+use canola_frame::{CanFrame, CobId, Instant, NodeId};
+use canola_od::ObjectAddress;
+
+use super::Core;
+use super::events::{NetworkEvent, PdoCallback, PdoCallbackId, PdoData, PdoReceived};
+use super::sdo::Outgoing;
+use crate::pdo_subscriber::{PdoSubscriber, pdo_subscription};
+
+impl Core {
+    pub(crate) fn subscribe_pdos(&mut self) -> PdoSubscriber {
+        let (publisher, subscriber) = pdo_subscription();
+        self.pdo_subs.push(publisher);
+        subscriber
+    }
+
+    pub(crate) fn add_pdo_callback(&mut self, f: PdoCallback) -> PdoCallbackId {
+        let id = PdoCallbackId(self.next_callback);
+        self.next_callback += 1;
+        self.pdo_callbacks.push((id, f));
+        id
+    }
+
+    pub(crate) fn remove_pdo_callback(&mut self, id: PdoCallbackId) -> bool {
+        let before = self.pdo_callbacks.len();
+        self.pdo_callbacks.retain(|(i, _)| *i != id);
+        self.pdo_callbacks.len() != before
+    }
+
+    /// The master's view of a node's TPDO `number` (1-based) after a remap or a read of its
+    /// parameters: received frames decode with `config` from now on, from its COB-ID.
+    pub(crate) fn mirror_tpdo(&mut self, node: NodeId, number: u8, config: canola_pdo::PdoConfig) {
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return;
+        };
+        let pdos = slot
+            .pdo
+            .get_or_insert_with(crate::machine::pdo::NodePdos::new);
+        pdos.mirror_tpdo(number, config, slot.od.as_deref());
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        self.route_pdos();
+    }
+
+    /// Rebuilds the COB-ID routes of TPDOs outside the predefined connection set.
+    pub(super) fn route_pdos(&mut self) {
+        self.pdo_routes.clear();
+        for (node, slot) in self.nodes.iter() {
+            let Some(pdos) = &slot.pdo else {
+                continue;
+            };
+            for (_, id) in &pdos.tpdos {
+                let Some(config) = pdos.engine.rpdo(*id) else {
+                    continue;
+                };
+                if !config.comm.cob_id.is_valid() || config.mapping.is_empty() {
+                    continue;
+                }
+                let Ok(can_id) = config.comm.cob_id.can_id() else {
+                    continue;
+                };
+                let predefined = can_id
+                    .as_standard()
+                    .and_then(CobId::classify)
+                    .is_some_and(|c| {
+                        matches!(c.function, FunctionCode::Tpdo(_)) && c.node == Some(node)
+                    });
+                if !predefined {
+                    self.pdo_routes.insert(can_id, node);
+                }
+            }
+        }
+    }
+
+    /// Starts transmitting `node`'s RPDO `number` with `config` (see
+    /// [`NodePdos::start_rpdo`](crate::machine::pdo::NodePdos::start_rpdo)).
+    pub(crate) fn start_rpdo(
+        &mut self,
+        node: NodeId,
+        number: u16,
+        config: canola_pdo::PdoConfig,
+    ) -> Result<(), canola_pdo::EngineError> {
+        let now = self.now;
+        self.add_node(node, None);
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return Err(canola_pdo::EngineError::UnknownPdo);
+        };
+        let pdos = slot
+            .pdo
+            .get_or_insert_with(crate::machine::pdo::NodePdos::new);
+        let r = pdos.start_rpdo(now, number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        r
+    }
+
+    /// Reconfigures a transmitted RPDO with the node's new COB-ID and mapping, keeping the
+    /// master's transmission parameters; nothing when it is not transmitted.
+    pub(crate) fn retarget_rpdo(
+        &mut self,
+        node: NodeId,
+        number: u16,
+        comm: canola_pdo::CommParams,
+        mapping: canola_pdo::Mapping,
+    ) -> Result<(), canola_pdo::EngineError> {
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return Ok(());
+        };
+        let Some(id) = pdos.rpdo_id(number) else {
+            return Ok(());
+        };
+        let Some(old) = pdos.engine.tpdo(id).cloned() else {
+            return Ok(());
+        };
+        let mut config = canola_pdo::PdoConfig::new(old.comm, mapping);
+        config.comm.cob_id = comm.cob_id;
+        let now = self.now;
+        let r = pdos.start_rpdo(now, number, config);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        r
+    }
+
+    /// Stops transmitting `node`'s RPDO `number`; `false` when it was not transmitted.
+    pub(crate) fn stop_rpdo(&mut self, node: NodeId, number: u16) -> bool {
+        let now = self.now;
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return false;
+        };
+        let stopped = pdos.stop_rpdo(now, number);
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+        stopped
+    }
+
+    /// Sets mapped values of `node`'s transmitted RPDOs (little-endian, sized as mapped) and
+    /// lets the engine see the change: event-driven RPDOs go out now or after their inhibit
+    /// time, synchronous acyclic ones at the next SYNC.
+    pub(crate) fn set_rpdo_values(&mut self, node: NodeId, values: &[(ObjectAddress, Vec<u8>)]) {
+        let now = self.now;
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return;
+        };
+        for (addr, bytes) in values {
+            pdos.image.set(*addr, bytes);
+        }
+        pdos.engine.update(now, &mut pdos.image);
+        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
+    }
+
+    /// The length in bits of `addr` in `node`'s transmitted RPDO `number`: `None` when that
+    /// RPDO is not transmitted, `Some(Err(()))` when it does not map `addr`.
+    pub(crate) fn rpdo_bits(
+        &self,
+        node: NodeId,
+        number: u16,
+        addr: ObjectAddress,
+    ) -> Option<Result<u8, ()>> {
+        self.nodes.get(&node)?.pdo.as_ref()?.rpdo_bits(number, addr)
+    }
+
+    /// An application event for `node`'s transmitted RPDO `number`.
+    pub(crate) fn trigger_rpdo(&mut self, node: NodeId, number: u16) -> bool {
+        let now = self.now;
+        let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
+            return false;
+        };
+        let Some(id) = pdos.rpdo_id(number) else {
+            return false;
+        };
+        let ok = pdos.engine.trigger(now, id, &mut pdos.image).is_ok();
+        Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
+        ok
+    }
+
+    /// Queues a node engine's frames; its events other than receptions (deadlines, store
+    /// failures) have no subscriber yet and are dropped.
+    pub(super) fn drain_pdos(
+        pdos: &mut crate::machine::pdo::NodePdos,
+        tx: &mut VecDeque<Outgoing>,
+        bound: &mut Option<Instant>,
+    ) {
+        while let Some(frame) = pdos.engine.poll_transmit() {
+            tx.push_back(Outgoing {
+                frame,
+                transfer: None,
+            });
+        }
+        while pdos.engine.poll_event().is_some() {}
+        Self::pdo_touched(pdos, bound);
+    }
+
+    /// After an input to a node's engine: its next deadline, and the core's bound lowered to
+    /// it.
+    pub(super) fn pdo_touched(
+        pdos: &mut crate::machine::pdo::NodePdos,
+        bound: &mut Option<Instant>,
+    ) {
+        pdos.next = pdos.engine.poll_timeout();
+        if let Some(t) = pdos.next {
+            *bound = Some(bound.map_or(t, |b| b.min(t)));
+        }
+    }
+
+    /// A TPDO of `node` (`predefined`: its number in the predefined connection set, when it
+    /// came on such a COB-ID): the raw event, then the values decoded through the mirror.
+    pub(super) fn handle_tpdo(
+        &mut self,
+        now: Instant,
+        node: NodeId,
+        predefined: Option<u8>,
+        frame: &CanFrame,
+    ) {
+        let data = PdoData::new(frame.data());
+        let mut number = None;
+        let mut decoded = false;
+        if let Some(slot) = self.nodes.get_mut(&node)
+            && let Some(pdos) = &mut slot.pdo
+            && pdos
+                .engine
+                .handle_frame(now, frame, &mut canola_pdo::NullStore)
+        {
+            // The mirror arms no receive deadlines (see `machine::pdo::mirrored`), so a reception
+            // leaves the engine's timers as they were.
+            while let Some(ev) = pdos.engine.poll_event() {
+                match ev {
+                    canola_pdo::Event::Received { pdo, .. } => {
+                        let Some(n) = number.or_else(|| pdos.tpdo_number(pdo)).or(predefined)
+                        else {
+                            continue;
+                        };
+                        number = Some(n);
+                        if pdos.received_values(pdo, &mut self.pdo_scratch) {
+                            decoded = true;
+                            let seen = PdoReceived {
+                                node,
+                                number: n,
+                                data: &data,
+                                values: &self.pdo_scratch,
+                                at: now,
+                            };
+                            for (_, f) in &mut self.pdo_callbacks {
+                                f(&seen);
+                            }
+                            if let Some((last, others)) = self.pdo_subs.split_last_mut() {
+                                for s in others {
+                                    s.push(node, n, data, now, &self.pdo_scratch);
+                                }
+                                if self.subs.is_empty() {
+                                    // No event takes the values: the last subscriber does,
+                                    // without a copy of each (the scratch keeps its room).
+                                    last.push_moving(node, n, data, now, &mut self.pdo_scratch);
+                                    continue;
+                                }
+                                last.push(node, n, data, now, &self.pdo_scratch);
+                            }
+                            if !self.subs.is_empty() {
+                                // The event takes the values as they are (no copy of each
+                                // value); the scratch starts again with room for as many.
+                                let room = self.pdo_scratch.len();
+                                let values = core::mem::replace(
+                                    &mut self.pdo_scratch,
+                                    Vec::with_capacity(room),
+                                );
+                                let ev = NetworkEvent::PdoValues {
+                                    node,
+                                    number: n,
+                                    data,
+                                    values,
+                                    at: now,
+                                };
+                                self.subs.deliver(ev);
+                            }
+                        }
+                    }
+                    canola_pdo::Event::LengthError { pdo, .. }
+                    | canola_pdo::Event::LengthExceeded { pdo, .. } => {
+                        number = number.or_else(|| pdos.tpdo_number(pdo));
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if decoded {
+            return;
+        }
+        let Some(number) = number.or(predefined) else {
+            return;
+        };
+        let seen = PdoReceived {
+            node,
+            number,
+            data: &data,
+            values: &[],
+            at: now,
+        };
+        for (_, f) in &mut self.pdo_callbacks {
+            f(&seen);
+        }
+        for s in &mut self.pdo_subs {
+            s.push(node, number, data, now, &[]);
+        }
+        self.publish(NetworkEvent::Pdo {
+            node,
+            number,
+            data,
+            at: now,
+        });
+    }
+}

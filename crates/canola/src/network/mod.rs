@@ -1,0 +1,50 @@
+//! [`Network`]: one transport, one clock, one core of protocol machines, and
+//! the blocking API on top.
+//!
+//! Driving: whoever waits drives. A blocking call submits its request to the core, then loops:
+//! if its result is there it returns; otherwise, if no other thread is driving, it takes the
+//! transport and runs one step (send what the core produced, receive until the core's next
+//! deadline or a short slice, feed the core, fire due timers); else it waits for the driving
+//! thread to make progress. So one thread alone is deterministic on a virtual-clock bus, and
+//! several threads share one transport safely. Requests to different nodes progress together
+//! whichever of them is being waited on; requests to one node run in submission order.
+//!
+//! A step reads the transport's clock once, at its start, and stamps what it sends with that
+//! reading ([`Transport::send_at`](crate::Transport::send_at)); on a real clock a short step (one frame handled) passes
+//! its last reading on to the next few (see `MAX_REUSED_READINGS`: a reading costs a good
+//! part of an SDO round trip on the in-memory bus). A blocking request is submitted under the
+//! core lock its first step takes (`Network::run`).
+//!
+//! The async API (`tokio` feature, `crate::asynch`) runs the same wait loop on tokio's
+//! blocking pool on a real clock, steps it from the task on a virtual clock (whose time then
+//! follows tokio's), and cancels the request when the future is dropped.
+//!
+//! Running by itself: [`Network::start_driver`] starts a background driver (a thread; under the
+//! `tokio` feature [`Network::start_driver_on_runtime`] runs it on the caller's runtime's
+//! blocking pool) that drives the network whenever nobody else does, so heartbeats, EMCY, PDO
+//! events, SYNC and timeouts flow with no call from the application. It steps aside while a
+//! thread waits for a request (that thread drives, so a request costs no hand-over between
+//! threads), and stops when [`Network::stop_driver`] is called or the last handle to the
+//! network is dropped. A transport that fails for good (closed, an operating-system error) ends
+//! it: subscribers get
+//! [`NetworkEvent::TransportFailed`](crate::NetworkEvent::TransportFailed) and [`Network::stop_driver`] returns the error.
+//!
+//! The explicit stepping mode stays for deterministic tests: without a driver nothing happens
+//! between calls, and [`Network::run_for`] advances a virtual-clock bus by exactly the time
+//! asked. A driver thread on a virtual-clock bus would run simulated time as fast as the CPU
+//! allows; use it on SocketCAN or a [`ClockMode::RealTime`](crate::transport::mem::ClockMode::RealTime)
+//! bus. (Under the `tokio` feature, `start_driver_on_runtime` on a virtual-clock bus is a task
+//! that keeps the bus at tokio's time instead.)
+//!
+//! Files by job: `handle` (the [`Network`] handle and its direct calls), `driving` (the step,
+//! the wait loop and the background driver), `node` ([`Node`], [`Nmt`]), `request` ([`Sdo`],
+//! [`Pending`], [`SdoValue`]).
+
+pub(crate) mod driving;
+pub(crate) mod handle;
+pub(crate) mod node;
+pub(crate) mod request;
+
+pub use handle::{DEFAULT_SDO_TIMEOUT, Network};
+pub use node::{Nmt, Node};
+pub use request::{Pending, Sdo, SdoValue};

@@ -1,0 +1,121 @@
+//! The per-node PDO handles: [`Tpdos`] and [`Rpdos`] ([`Node::tpdo`], [`Node::rpdo`]) read
+//! and save a direction's PDOs; [`Rpdos::start`] transmits an RPDO from the master.
+
+use canola_pdo::{CommParams, Direction, PdoConfig};
+
+use crate::error::Error;
+use crate::network::Node;
+
+use super::params::{PdoParameters, PdoSet, event_millis, inhibit_units};
+use super::sequence::{Port, read_set, save_set};
+use super::transmit::{RpdoSender, Transmission};
+
+impl Node {
+    /// The node's transmit PDOs: read and save their parameters (python-canopen's
+    /// `node.tpdo.read()` / `save()`); after either, the master decodes them as the node sends
+    /// them.
+    pub fn tpdo(&self) -> Tpdos {
+        Tpdos { node: self.clone() }
+    }
+
+    /// The node's receive PDOs: read and save their parameters, and transmit them from the
+    /// master ([`Rpdos::start`]).
+    pub fn rpdo(&self) -> Rpdos {
+        Rpdos { node: self.clone() }
+    }
+}
+
+/// A node's transmit PDOs ([`Node::tpdo`]).
+#[derive(Debug, Clone)]
+pub struct Tpdos {
+    pub(super) node: Node,
+}
+
+impl Tpdos {
+    /// Reads every TPDO's parameters by SDO (the PDOs the node's dictionary lists; without a
+    /// dictionary TPDO1..4, those that exist). The master decodes each valid TPDO from its
+    /// COB-ID and with its mapping from now on.
+    pub fn read(&self) -> Result<PdoSet, Error> {
+        let port = Port::Blocking(&self.node);
+        port.run(read_set(port, Direction::Transmit))
+    }
+
+    /// Writes the TPDOs changed since they were read (see the module docs for the sequence);
+    /// the master's decoding follows. Stops at the first failure (the PDOs saved before it
+    /// stay saved, the failed one is left invalid on the node as the sequence leaves it).
+    pub fn save(&self, set: &mut PdoSet) -> Result<(), Error> {
+        let port = Port::Blocking(&self.node);
+        port.run(save_set(port, Direction::Transmit, set))
+    }
+}
+
+/// A node's receive PDOs ([`Node::rpdo`]).
+#[derive(Debug, Clone)]
+pub struct Rpdos {
+    pub(super) node: Node,
+}
+
+impl Rpdos {
+    /// Reads every RPDO's parameters by SDO (the PDOs the node's dictionary lists; without a
+    /// dictionary RPDO1..4, those that exist). RPDOs the master transmits follow the COB-ID
+    /// and mapping read.
+    pub fn read(&self) -> Result<PdoSet, Error> {
+        let port = Port::Blocking(&self.node);
+        port.run(read_set(port, Direction::Receive))
+    }
+
+    /// Writes the RPDOs changed since they were read (as [`Tpdos::save`]); RPDOs the master
+    /// transmits follow the new COB-ID and mapping.
+    pub fn save(&self, set: &mut PdoSet) -> Result<(), Error> {
+        let port = Port::Blocking(&self.node);
+        port.run(save_set(port, Direction::Receive, set))
+    }
+
+    /// Transmits the node's RPDO `pdo` (its COB-ID and mapping, from [`read`](Self::read))
+    /// from the master as `how` says, until [`RpdoSender::stop`]. Mapped values start at zero;
+    /// set them through the returned sender. Starting an RPDO that is being transmitted
+    /// replaces its transmission parameters. The master's engine holds four transmitted RPDOs
+    /// per node.
+    pub fn start(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
+        let sender = self.engage(pdo, how)?;
+        self.node.net.flush()?;
+        Ok(sender)
+    }
+
+    /// [`start`](Self::start) without sending: the RPDO is in the master's engine, its first
+    /// frame queued.
+    pub(super) fn engage(
+        &self,
+        pdo: &PdoParameters,
+        how: Transmission,
+    ) -> Result<RpdoSender, Error> {
+        if pdo.direction != Direction::Receive {
+            return Err(pdo.error("the master transmits a node's RPDOs, not its TPDOs".into()));
+        }
+        if !pdo.is_enabled() {
+            return Err(pdo.error("the PDO is not valid on the node (COB-ID bit 31)".into()));
+        }
+        let mapping = pdo
+            .mapping_lenient()
+            .ok_or_else(|| pdo.error("the mapping does not fit a PDO".into()))?;
+        if mapping.is_empty() {
+            return Err(pdo.error("nothing is mapped".into()));
+        }
+        let comm = CommParams {
+            cob_id: pdo.comm.cob_id,
+            transmission_type: how.transmission_type,
+            inhibit_time: inhibit_units(how.inhibit_time).map_err(|m| pdo.error(m))?,
+            event_timer: event_millis(how.event_timer).map_err(|m| pdo.error(m))?,
+            sync_start: 0,
+        };
+        let now = self.node.net.now();
+        let mut core = self.node.net.core();
+        core.set_now(now);
+        core.start_rpdo(self.node.id, pdo.number, PdoConfig::new(comm, mapping))
+            .map_err(|e| pdo.error(e.to_string()))?;
+        Ok(RpdoSender {
+            node: self.node.clone(),
+            number: pdo.number,
+        })
+    }
+}

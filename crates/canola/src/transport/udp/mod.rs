@@ -1,0 +1,31 @@
+//! A CAN bus over UDP multicast in the wire format of python-can's `udp_multicast` interface,
+//! for several processes on one machine (or one LAN segment) without CAN hardware or vcan.
+//!
+//! Every attached process joins one IPv4 multicast group and port; each frame is one datagram
+//! holding a MessagePack map with the keys python-can writes: `timestamp` (float seconds),
+//! `arbitration_id`, `is_extended_id`, `is_remote_frame`, `is_error_frame`, `channel`, `dlc`,
+//! `data` (binary), `is_fd`, `bitrate_switch`, `error_state_indicator`. python-can's default
+//! IPv4 group is `239.74.163.2`, its default port 43113 (its default group is an IPv6 one:
+//! give python-can `channel="239.74.163.2"` to meet this transport).
+//!
+//! Like python-can, the socket binds the group's port with `SO_REUSEADDR`/`SO_REUSEPORT`, joins
+//! the group on the default interface, and sends with a TTL of 1 (the local segment) and
+//! multicast loopback on, so processes on the same machine hear each other. Frames are sent from
+//! a second socket on an ephemeral port; a datagram whose source port is that port is this
+//! transport's own and is not received again (a CAN controller does not receive its own frames
+//! either).
+//!
+//! Received datagrams are decoded by a total MessagePack reader ([`decode`]): a datagram that is
+//! not a frame in this format, and CAN FD frames (the stack carries classic frames), are skipped
+//! and counted ([`UdpMulticast::skipped`]), never fatal: anyone on the segment can send to the
+//! group.
+//!
+//! Files by job: `codec` (the MessagePack datagrams), `socket` (the multicast sockets).
+
+mod codec;
+mod socket;
+#[cfg(test)]
+mod tests;
+
+pub use codec::{DecodeError, Message, decode, encode};
+pub use socket::{DEFAULT_GROUP, DEFAULT_PORT, MAX_DATAGRAM, UdpMulticast, parse_spec};

@@ -1,0 +1,129 @@
+//! The datagram codec against python-can's format and arbitrary bytes, and the sockets.
+
+use std::net::{Ipv4Addr, SocketAddrV4};
+
+use canola_frame::{CanFrame, CanId};
+
+use crate::transport::contract::{Received, Transport};
+
+use super::codec::{DecodeError, Message, decode, encode};
+use super::socket::{DEFAULT_GROUP, DEFAULT_PORT, UdpMulticast, parse_spec};
+
+use proptest::prelude::*;
+
+fn sid(raw: u16) -> CanId {
+    CanId::standard(raw).unwrap()
+}
+
+#[test]
+fn encodes_and_decodes_frames() {
+    for frame in [
+        CanFrame::new(sid(0x605), &[0x40, 0x17, 0x10, 0, 0, 0, 0, 0]).unwrap(),
+        CanFrame::new(sid(0x000), &[]).unwrap(),
+        CanFrame::remote(sid(0x705), 1).unwrap(),
+        CanFrame::new(CanId::extended(0x1ABC_DEF0).unwrap(), &[1, 2]).unwrap(),
+    ] {
+        assert_eq!(decode(&encode(&frame, 1.5)), Ok(Message::Frame(frame)));
+    }
+}
+
+#[test]
+fn reads_other_encodings_of_the_fields() {
+    // map16, int fields as uint16, data as an array of ints, an extra key.
+    let mut d = vec![0xDE, 0x00, 0x04];
+    d.extend_from_slice(b"\xAEarbitration_id\xCD\x06\x05");
+    d.extend_from_slice(b"\xA4data\x92\x01\xCC\xFF");
+    d.extend_from_slice(b"\xA5is_fd\xC0");
+    d.extend_from_slice(b"\xA3new\x81\xA1k\x90");
+    assert_eq!(
+        decode(&d),
+        Ok(Message::Frame(
+            CanFrame::new(sid(0x605), &[1, 0xFF]).unwrap()
+        ))
+    );
+    let fd = b"\x82\xAEarbitration_id\x01\xA5is_fd\xC3";
+    assert_eq!(decode(fd), Ok(Message::Fd));
+}
+
+#[test]
+fn rejects_what_is_not_a_frame() {
+    assert_eq!(decode(b""), Err(DecodeError::NotAMap));
+    assert_eq!(decode(b"\x91\x01"), Err(DecodeError::NotAMap));
+    assert_eq!(decode(b"\x81\xA4data"), Err(DecodeError::Truncated));
+    assert_eq!(decode(b"\x80\x00"), Err(DecodeError::TrailingBytes));
+    assert_eq!(
+        decode(b"\x80"),
+        Err(DecodeError::BadField("arbitration_id"))
+    );
+    assert_eq!(
+        decode(b"\x81\xAEarbitration_id\xCD\x08\x00"),
+        Err(DecodeError::BadFrame)
+    );
+    assert_eq!(
+        decode(b"\x81\xAEarbitration_id\xFF"),
+        Err(DecodeError::BadField("arbitration_id"))
+    );
+    let deep = [vec![0x91; 40], vec![0x01]].concat();
+    let mut d = b"\x81\xA1x".to_vec();
+    d.extend_from_slice(&deep);
+    assert_eq!(decode(&d), Err(DecodeError::TooDeep));
+    assert_eq!(
+        decode(b"\x81\xA1x\xDD\xFF\xFF\xFF\xFF"),
+        Err(DecodeError::Truncated)
+    );
+}
+
+#[test]
+fn parses_bus_specs() {
+    assert_eq!(
+        parse_spec("udp"),
+        Some(Ok(SocketAddrV4::new(DEFAULT_GROUP, DEFAULT_PORT)))
+    );
+    assert_eq!(
+        parse_spec("udp:239.0.0.1:5000"),
+        Some(Ok(SocketAddrV4::new(Ipv4Addr::new(239, 0, 0, 1), 5000)))
+    );
+    assert!(matches!(parse_spec("udp:10.0.0.1"), Some(Err(_))));
+    assert!(matches!(parse_spec("udp:239.0.0.1:0"), Some(Err(_))));
+    assert_eq!(parse_spec("vcan0"), None);
+    assert_eq!(parse_spec("udpx"), None);
+}
+
+#[test]
+fn two_transports_hear_each_other_not_themselves() {
+    // A port of its own per test run, so parallel runs do not cross.
+    let port = 40000 + (std::process::id() % 20000) as u16;
+    let group = SocketAddrV4::new(Ipv4Addr::new(239, 74, 163, 3), port);
+    let (Ok(mut a), Ok(mut b)) = (UdpMulticast::open(group), UdpMulticast::open(group)) else {
+        panic!("cannot open UDP multicast sockets");
+    };
+    let f = CanFrame::new(sid(0x123), &[1, 2, 3]).unwrap();
+    a.send(&f).unwrap();
+    let got = b
+        .recv_timeout(canola_frame::Duration::from_millis(2000))
+        .unwrap();
+    assert!(
+        matches!(got, Some(Received::Frame { frame, .. }) if frame == f),
+        "{got:?}"
+    );
+    assert_eq!(
+        a.recv_timeout(canola_frame::Duration::from_millis(50))
+            .unwrap(),
+        None
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+    #[test]
+    fn decode_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
+        let _ = decode(&bytes);
+    }
+
+    #[test]
+    fn decode_never_panics_on_maps(tail in proptest::collection::vec(any::<u8>(), 0..200)) {
+        let mut d = vec![0x8B];
+        d.extend_from_slice(&tail);
+        let _ = decode(&d);
+    }
+}

@@ -1,0 +1,423 @@
+//! [`Gateway`]: accepting connections (TCP, Unix socket, stdio, any byte stream), reading
+//! each connection's lines, answering what needs no bus at once and dispatching the rest to
+//! the queues; `help` and `info version` texts.
+
+use std::collections::HashMap;
+use std::io::{BufReader, Read, Write};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
+use std::thread::JoinHandle;
+
+use canola::Network;
+use canola_frame::{Duration, NodeId};
+
+use crate::command::{Command, ErrorCode, HelpTopic, Level, Reply, Request, Response};
+use crate::exec::{self, SdoSettings};
+use crate::parse::{ParseError, parse_line};
+
+use super::client::{Client, OutboxState, error_text, leading_seq, lock, read_line, write_outbox};
+use super::config::{Config, Version};
+use super::workers::{Job, Shared, Work, drive, forward_events};
+
+/// Per-connection settings.
+pub(super) struct Session {
+    pub(super) net: Option<u16>,
+    pub(super) node: Option<u8>,
+    pub(super) sdo: SdoSettings,
+}
+
+/// The CiA 309-3 gateway in front of one [`Network`]. Cheap to clone.
+///
+/// ```
+/// use canola::{MemoryBus, Network, SimDevice};
+/// use canola_gateway::{Config, Gateway};
+///
+/// let bus = MemoryBus::new();
+/// let net = Network::new(bus.endpoint());
+/// let eds = include_bytes!("../../../../eds/burkert-generic.eds");
+/// bus.attach(SimDevice::from_eds(canola_frame::NodeId::new(5).unwrap(), eds).unwrap());
+/// let gateway = Gateway::new(net, Config::default());
+/// let mut out = Vec::new();
+/// gateway.serve_stream(&b"[1] 5 write 0x1017 0 u16 250\n[2] 5 read 0x1017 0 u16\n"[..], &mut out);
+/// assert_eq!(String::from_utf8(out).unwrap(), "[1] OK\r\n[2] 250\r\n");
+/// ```
+#[derive(Clone)]
+pub struct Gateway {
+    pub(super) shared: Arc<Shared>,
+}
+
+impl core::fmt::Debug for Gateway {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Gateway")
+            .field("net", &self.shared.config.net)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Gateway {
+    /// A gateway for `net`. Starts the event thread (and the background driver, see
+    /// [`Config::drive_period`]).
+    pub fn new(net: Network, config: Config) -> Self {
+        let events = net.subscribe();
+        let shared = Arc::new(Shared {
+            net,
+            config,
+            workers: Mutex::new(HashMap::new()),
+            clients: Mutex::new(Vec::new()),
+            next_client: AtomicU64::new(1),
+            stop: AtomicBool::new(false),
+            threads: Mutex::new(Vec::new()),
+            active: std::sync::atomic::AtomicUsize::new(0),
+        });
+        let s = shared.clone();
+        if let Ok(h) = std::thread::Builder::new()
+            .name("gateway-events".into())
+            .spawn(move || forward_events(&s, &events))
+        {
+            lock(&shared.threads).push(h);
+        }
+        if let Some(period) = shared.config.drive_period {
+            let s = shared.clone();
+            if let Ok(h) = std::thread::Builder::new()
+                .name("gateway-driver".into())
+                .spawn(move || drive(&s, period))
+            {
+                lock(&shared.threads).push(h);
+            }
+        }
+        Self { shared }
+    }
+
+    /// The network.
+    pub fn network(&self) -> &Network {
+        &self.shared.net
+    }
+
+    /// Serves one connection on a byte stream until the reader ends and every reply is
+    /// written (or writing fails). Blocks; run it on a thread of its own per connection.
+    pub fn serve_stream(&self, reader: impl Read, writer: impl Write + Send) {
+        let shared = &self.shared;
+        let client = Arc::new(Client {
+            id: shared.next_client.fetch_add(1, Ordering::Relaxed),
+            out: Mutex::new(OutboxState::default()),
+            cond: Condvar::new(),
+            events: AtomicBool::new(false),
+        });
+        lock(&shared.clients).push(Arc::downgrade(&client));
+        std::thread::scope(|scope| {
+            let c = client.clone();
+            scope.spawn(move || write_outbox(&c, writer));
+            self.read_requests(&client, reader);
+            let mut o = lock(&client.out);
+            o.reading_done = true;
+            drop(o);
+            client.cond.notify_all();
+        });
+    }
+
+    pub(super) fn read_requests(&self, client: &Arc<Client>, reader: impl Read) {
+        let cfg = &self.shared.config;
+        let mut session = Session {
+            net: Some(cfg.net),
+            node: None,
+            sdo: SdoSettings {
+                timeout: cfg.sdo_timeout,
+                block: false,
+                max_upload: cfg.max_upload,
+            },
+        };
+        let mut reader = BufReader::with_capacity(cfg.max_line.clamp(64, 64 * 1024), reader);
+        let mut line = Vec::with_capacity(256);
+        loop {
+            // Room for one more reply before reading the next line.
+            {
+                let mut o = lock(&client.out);
+                while !o.gone && o.pending + o.replies >= cfg.max_in_flight {
+                    o = client
+                        .cond
+                        .wait(o)
+                        .unwrap_or_else(std::sync::PoisonError::into_inner);
+                }
+                if o.gone {
+                    return;
+                }
+            }
+            line.clear();
+            let (too_long, eof) = match read_line(&mut reader, &mut line, cfg.max_line) {
+                Ok(r) => r,
+                Err(_) => return,
+            };
+            if eof && line.is_empty() {
+                return;
+            }
+            if too_long {
+                let seq = std::str::from_utf8(&line)
+                    .ok()
+                    .and_then(|t| parse_line(t).err().and_then(|e| e.seq()))
+                    .or_else(|| leading_seq(&line));
+                client.reply(error_text(seq, ErrorCode::OUT_OF_MEMORY));
+            } else {
+                match std::str::from_utf8(&line) {
+                    Ok(text) => self.handle_line(client, &mut session, text),
+                    Err(_) => client.reply(error_text(leading_seq(&line), ErrorCode::SYNTAX)),
+                }
+            }
+            if eof {
+                return;
+            }
+        }
+    }
+
+    pub(super) fn handle_line(&self, client: &Arc<Client>, session: &mut Session, text: &str) {
+        let req = match parse_line(text) {
+            Ok(Some(r)) => r,
+            Ok(None) => return,
+            Err(e) => {
+                let code = match e {
+                    ParseError::Syntax { .. } => ErrorCode::SYNTAX,
+                    ParseError::NotSupported { .. } => ErrorCode::REQUEST_NOT_SUPPORTED,
+                    ParseError::UnsupportedNode { .. } => ErrorCode::UNSUPPORTED_NODE,
+                };
+                client.reply(error_text(e.seq(), code));
+                return;
+            }
+        };
+        if let Some(reply) = self.dispatch(client, session, &req) {
+            client.reply(
+                Response {
+                    seq: req.seq,
+                    reply,
+                }
+                .to_text(),
+            );
+        }
+    }
+
+    /// Answers `req` now, or queues it and returns `None`.
+    pub(super) fn dispatch(
+        &self,
+        client: &Arc<Client>,
+        s: &mut Session,
+        req: &Request,
+    ) -> Option<Reply> {
+        let shared = &self.shared;
+        let err = |c| Some(Reply::Error(c));
+        // The net: given, else the default; only the gateway's own exists.
+        let net = req.net.or(s.net);
+        if req.command.level() != Level::Gateway {
+            match net {
+                None => return err(ErrorCode::NO_DEFAULT_NET),
+                Some(n) if n != shared.config.net => return err(ErrorCode::UNSUPPORTED_NET),
+                Some(_) => {}
+            }
+        }
+        let node = req.node.or(s.node);
+        let sdo_node = || match node {
+            None => Err(ErrorCode::NO_DEFAULT_NODE),
+            Some(n) => NodeId::new(n).map_err(|_| ErrorCode::UNSUPPORTED_NODE),
+        };
+        let queue = |key: u8, work: Work| {
+            let w = shared.worker(key);
+            lock(&client.out).pending += 1;
+            lock(&w.queue).push(Job {
+                client: client.clone(),
+                seq: req.seq,
+                work,
+            });
+            w.cond.notify_one();
+            None
+        };
+        match &req.command {
+            Command::Read {
+                index,
+                sub,
+                data_type,
+            } => match sdo_node() {
+                Ok(node) => queue(
+                    node.get(),
+                    Work::Read {
+                        node,
+                        index: *index,
+                        sub: *sub,
+                        data_type: *data_type,
+                        sdo: s.sdo,
+                    },
+                ),
+                Err(c) => err(c),
+            },
+            Command::Write { index, sub, value } => match sdo_node() {
+                Ok(node) => queue(
+                    node.get(),
+                    Work::Write {
+                        node,
+                        index: *index,
+                        sub: *sub,
+                        value: value.clone(),
+                        sdo: s.sdo,
+                    },
+                ),
+                Err(c) => err(c),
+            },
+            Command::Nmt(service) => match node {
+                None => err(ErrorCode::NO_DEFAULT_NODE),
+                Some(n) if n > 127 => err(ErrorCode::UNSUPPORTED_NODE),
+                // To all nodes: at once.
+                Some(0) => Some(exec::nmt(&shared.net, 0, *service)),
+                // Behind this connection's earlier requests to the node.
+                Some(n) => queue(
+                    n,
+                    Work::Nmt {
+                        node: n,
+                        service: *service,
+                    },
+                ),
+            },
+            Command::SetNetwork(n) => {
+                if *n != shared.config.net {
+                    return err(ErrorCode::UNSUPPORTED_NET);
+                }
+                s.net = Some(*n);
+                Some(Reply::Ok)
+            }
+            Command::SetNode(n) => {
+                if *n > 127 {
+                    return err(ErrorCode::UNSUPPORTED_NODE);
+                }
+                s.node = Some(*n);
+                Some(Reply::Ok)
+            }
+            Command::SetSdoTimeout(ms) => {
+                s.sdo.timeout = Duration::from_millis((*ms).into());
+                Some(Reply::Ok)
+            }
+            Command::SetSdoBlock(b) => {
+                s.sdo.block = *b;
+                Some(Reply::Ok)
+            }
+            Command::Help(topic) => Some(Reply::Lines(help(*topic))),
+            Command::InfoVersion => Some(Reply::Text(version_text(&shared.config.version))),
+            Command::Events(on) => {
+                client.events.store(*on, Ordering::Relaxed);
+                Some(Reply::Ok)
+            }
+            lss => queue(0, Work::Lss(lss.clone())),
+        }
+    }
+
+    /// Accepts TCP connections on `listener` on a thread, each served on a thread of its own.
+    pub fn serve_tcp(&self, listener: std::net::TcpListener) -> JoinHandle<()> {
+        let gw = self.clone();
+        std::thread::spawn(move || {
+            for stream in listener.incoming() {
+                let Ok(stream) = stream else { continue };
+                let _ = stream.set_nodelay(true);
+                let Ok(writer) = stream.try_clone() else {
+                    continue;
+                };
+                gw.spawn_connection(stream, writer);
+            }
+        })
+    }
+
+    /// Accepts connections on a Unix socket on a thread, each served on a thread of its own.
+    #[cfg(unix)]
+    pub fn serve_unix(&self, listener: std::os::unix::net::UnixListener) -> JoinHandle<()> {
+        let gw = self.clone();
+        std::thread::spawn(move || {
+            for stream in listener.incoming() {
+                let Ok(stream) = stream else { continue };
+                let Ok(writer) = stream.try_clone() else {
+                    continue;
+                };
+                gw.spawn_connection(stream, writer);
+            }
+        })
+    }
+
+    /// Serves standard input and output as one connection until standard input ends.
+    pub fn serve_stdio(&self) {
+        self.serve_stream(std::io::stdin().lock(), std::io::stdout());
+    }
+
+    pub(super) fn spawn_connection<S: Read + Send + 'static, W: Write + Send + 'static>(
+        &self,
+        reader: S,
+        mut writer: W,
+    ) {
+        let live = {
+            let mut c = lock(&self.shared.clients);
+            c.retain(|w| w.strong_count() > 0);
+            c.len()
+        };
+        if live >= self.shared.config.max_connections {
+            let _ = writer.write_all(error_text(None, ErrorCode::OUT_OF_MEMORY).as_bytes());
+            return;
+        }
+        let gw = self.clone();
+        let _ = std::thread::Builder::new()
+            .name("gateway-connection".into())
+            .spawn(move || gw.serve_stream(reader, writer));
+    }
+
+    /// Stops the background threads (event forwarding, driver, queue workers) once their
+    /// current request is done. Connections still being served end with their streams.
+    pub fn shutdown(&self) {
+        self.shared.stop.store(true, Ordering::SeqCst);
+        for w in lock(&self.shared.workers).values() {
+            lock(&w.queue).stop = true;
+            w.cond.notify_all();
+        }
+        let threads: Vec<_> = lock(&self.shared.threads).drain(..).collect();
+        for t in threads {
+            let _ = t.join();
+        }
+    }
+}
+
+pub(super) fn version_text(v: &Version) -> String {
+    format!(
+        "{} {} {}.{} {} {} {}.{} {}.{}",
+        v.vendor_id,
+        v.product_code,
+        v.revision >> 16,
+        v.revision & 0xFFFF,
+        v.serial,
+        v.class,
+        v.protocol.0,
+        v.protocol.1,
+        v.implementation.0,
+        v.implementation.1
+    )
+}
+
+pub(super) fn help(topic: Option<HelpTopic>) -> Vec<String> {
+    let text = match topic {
+        None => HELP,
+        Some(HelpTopic::DataType) => HELP_DATATYPE,
+        Some(HelpTopic::Lss) => HELP_LSS,
+    };
+    text.lines().map(str::to_owned).collect()
+}
+
+pub(super) const HELP: &str = "\
+# Requests: [<seq>] [[<net>] <node>] <command>, one per line (CR LF or LF); '#' starts a comment.
+# r[ead] <index> <sub> [<type>]          SDO upload
+# w[rite] <index> <sub> <type> <value>   SDO download
+# start | stop | preop[erational] | reset node | reset comm[unication]   NMT (node 0: all)
+# [<net>] set network <n> | set node <n> | set sdo_timeout <ms> | set sdo_block 0|1
+# help [datatype|lss] | info version | _events 0|1 (event lines on this connection)
+# Replies: [<seq>] OK | <value> | ERROR:0x<SDO abort code> | ERROR:<gateway error code>";
+
+pub(super) const HELP_DATATYPE: &str = "\
+# b  boolean 0|1; i8 i16 i32 i64 u8 u16 u32 u64 integers (decimal or 0x hex)
+# x8 x16 x32 x64  unsigned, shown in hex; r32 r64 reals
+# t td  time of day, time difference: <days> <ms>
+# vs  visible string, \"quoted\" (inner quotes doubled) or one word
+# os us d  octet string, unicode string, domain: base64; hex  bytes in hex";
+
+pub(super) const HELP_LSS: &str = "\
+# lss_switch_glob 0|1 | lss_switch_sel <vendor> <product> <revision> <serial>
+# lss_set_node <node> | lss_conf_bitrate <table> <index> | lss_activate_bitrate <delay_ms>
+# lss_store | lss_inquire_addr [0..3] | lss_get_node | _lss_fastscan [<timeout_ms>]
+# lss_allnodes [<timeout_ms> [<node_start> <store 0|1> [<scan type> <value>]x4]]
+#   scan type 0: find by Fastscan, 1: ignore (not the vendor-ID), 2: match the value";

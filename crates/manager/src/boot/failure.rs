@@ -1,0 +1,85 @@
+//! The pieces the per-slave boot shares: a failed step as it ends a slave's boot, what the
+//! network reported since the last look, and the checks of values read against the DCF.
+
+use canola::{NodeId, ObjectAddress, SdoError, SdoErrorKind};
+
+use super::report::BootStep;
+use crate::codes::BootErrorCode;
+use crate::config::SlaveConfig;
+
+/// A failed step, as the slave's boot thread ends with it.
+pub(super) struct Failure {
+    pub(super) step: BootStep,
+    pub(super) code: BootErrorCode,
+    pub(super) object: Option<ObjectAddress>,
+    pub(super) abort: Option<u32>,
+    pub(super) detail: String,
+    pub(super) absent: bool,
+}
+
+impl Failure {
+    pub(super) fn sdo(step: BootStep, code: BootErrorCode, e: &SdoError) -> Self {
+        Self {
+            step,
+            code,
+            object: Some(e.entry),
+            abort: e.abort_code().map(|c| c.get()),
+            detail: e.to_string(),
+            absent: false,
+        }
+    }
+}
+
+/// What the network reported since the last poll, by node.
+#[derive(Default)]
+pub(super) struct Seen {
+    /// A state change or recovery by heartbeat or guarding: the node is alive.
+    pub(super) life: Vec<NodeId>,
+    /// A boot-up message.
+    pub(super) boot_ups: Vec<NodeId>,
+}
+
+pub(super) fn to_u32(bytes: &[u8]) -> u32 {
+    let mut b = [0u8; 4];
+    let n = bytes.len().min(4);
+    b[..n].copy_from_slice(&bytes[..n]);
+    u32::from_le_bytes(b)
+}
+
+/// Whether the SDO failed by the response timeout.
+pub(super) fn is_timeout(e: &SdoError) -> bool {
+    matches!(
+        e.kind,
+        SdoErrorKind::Transfer(canola::sdo::ErrorKind::Timeout)
+    )
+}
+
+pub(super) fn mismatch(
+    code: BootErrorCode,
+    at: ObjectAddress,
+    expected: u32,
+    actual: u32,
+) -> Failure {
+    Failure {
+        step: BootStep::Identity,
+        code,
+        object: Some(at),
+        abort: None,
+        detail: format!("{at} is {actual:#010x}, expected {expected:#010x}"),
+        absent: false,
+    }
+}
+
+/// The configuration date and time 0x1020:01/02 the DCF records, when it records one.
+pub(super) fn verify_stamp(slave: &SlaveConfig) -> Option<(u32, u32)> {
+    let get = |sub| {
+        let s = slave.dictionary.sub(0x1020, sub)?;
+        let v = s.parameter_value()?.resolve(slave.node_id.get())?;
+        // A UNSIGNED32 from a DCF, or four bytes from a concise DCF.
+        <[u8; 4]>::try_from(v.to_le_bytes().as_slice())
+            .ok()
+            .map(u32::from_le_bytes)
+    };
+    let stamp = (get(1)?, get(2)?);
+    (stamp != (0, 0)).then_some(stamp)
+}
