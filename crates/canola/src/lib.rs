@@ -54,6 +54,8 @@ pub mod transport;
 pub mod typed;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod udp;
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+pub mod udp_scope;
 
 // The protocol crates, for what the facade does not wrap: applications and the CLI need no
 // other dependency than this crate.

@@ -1,5 +1,6 @@
 //! A CAN bus over UDP multicast in the wire format of python-can's `udp_multicast` interface,
-//! for several processes on one machine (or one LAN segment) without CAN hardware or vcan.
+//! for several processes on one machine (or, on purpose, one LAN segment: see
+//! [`crate::udp_scope`]) without CAN hardware or vcan.
 //!
 //! Every attached process joins one IPv4 multicast group and port; each frame is one datagram
 //! holding a MessagePack map with the keys python-can writes: `timestamp` (float seconds),
@@ -8,17 +9,19 @@
 //! IPv4 group is `239.74.163.2`, its default port 43113 (its default group is an IPv6 one:
 //! give python-can `channel="239.74.163.2"` to meet this transport).
 //!
-//! Like python-can, the socket binds the group's port with `SO_REUSEADDR`/`SO_REUSEPORT`, joins
-//! the group on the default interface, and sends with a TTL of 1 (the local segment) and
-//! multicast loopback on, so processes on the same machine hear each other. Frames are sent from
+//! Like python-can, the socket binds the group's port with `SO_REUSEADDR`/`SO_REUSEPORT` and
+//! sends with a TTL of 1 and multicast loopback on, so processes on the same machine hear each
+//! other. Unlike python-can, it binds the group's address (no unicast datagrams to the port) and
+//! by default joins and sends on the loopback interface only: nothing leaves the machine and
+//! only this machine's datagrams are taken ([`crate::udp_scope::UdpScope`]). Frames are sent from
 //! a second socket on an ephemeral port; a datagram whose source port is that port is this
 //! transport's own and is not received again (a CAN controller does not receive its own frames
 //! either).
 //!
 //! Received datagrams are decoded by a total MessagePack reader ([`decode`]): a datagram that is
 //! not a frame in this format, and CAN FD frames (the stack carries classic frames), are skipped
-//! and counted ([`UdpMulticast::skipped`]), never fatal: anyone on the segment can send to the
-//! group.
+//! and counted ([`UdpMulticast::skipped`]), never fatal: on a LAN scope anyone on the segment
+//! can send to the group.
 
 use std::net::{Ipv4Addr, SocketAddrV4, UdpSocket};
 use std::os::fd::AsRawFd;
@@ -387,11 +390,24 @@ pub struct UdpMulticast {
     skipped: u64,
     nonblocking: bool,
     read_timeout: Option<std::time::Duration>,
+    /// Where the bus reaches ([`crate::udp_scope`]).
+    scope: crate::udp_scope::UdpScope,
+    /// On the loopback scope: the sources taken.
+    local: Option<crate::udp_scope::LocalSources>,
 }
 
 impl UdpMulticast {
-    /// Joins the bus at `group` (an IPv4 multicast address and port).
+    /// Joins the bus at `group` (an IPv4 multicast address and port) on this machine only
+    /// ([`crate::udp_scope::UdpScope::Loopback`]).
     pub fn open(group: SocketAddrV4) -> Result<Self, TransportError> {
+        Self::open_scoped(group, crate::udp_scope::UdpScope::Loopback)
+    }
+
+    /// Joins the bus at `group` in `scope` ([`crate::udp_scope`]).
+    pub fn open_scoped(
+        group: SocketAddrV4,
+        scope: crate::udp_scope::UdpScope,
+    ) -> Result<Self, TransportError> {
         let io = |e: nix::errno::Errno| TransportError::Io(e.into());
         let fd = socket(
             AddressFamily::Inet,
@@ -402,14 +418,12 @@ impl UdpMulticast {
         .map_err(io)?;
         setsockopt(&fd, sockopt::ReuseAddr, &true).map_err(io)?;
         setsockopt(&fd, sockopt::ReusePort, &true).map_err(io)?;
-        bind(
-            fd.as_raw_fd(),
-            &SockaddrIn::from(SocketAddrV4::new(Ipv4Addr::UNSPECIFIED, group.port())),
-        )
-        .map_err(io)?;
+        // Scope hook: bound to the group (no unicast to the port), joined on the scope's
+        // interface only, sent from its address (so out of that interface only).
+        bind(fd.as_raw_fd(), &SockaddrIn::from(group)).map_err(io)?;
         let rx = UdpSocket::from(fd);
-        rx.join_multicast_v4(group.ip(), &Ipv4Addr::UNSPECIFIED)?;
-        let tx = UdpSocket::bind(SocketAddrV4::new(Ipv4Addr::UNSPECIFIED, 0))?;
+        rx.join_multicast_v4(group.ip(), &scope.interface_addr())?;
+        let tx = UdpSocket::bind(SocketAddrV4::new(scope.interface_addr(), 0))?;
         tx.set_multicast_ttl_v4(1)?;
         tx.set_multicast_loop_v4(true)?;
         let own_port = tx.local_addr()?.port();
@@ -422,7 +436,15 @@ impl UdpMulticast {
             skipped: 0,
             nonblocking: false,
             read_timeout: None,
+            local: (scope == crate::udp_scope::UdpScope::Loopback)
+                .then(crate::udp_scope::LocalSources::new),
+            scope,
         })
+    }
+
+    /// Where the bus reaches.
+    pub fn scope(&self) -> &crate::udp_scope::UdpScope {
+        &self.scope
     }
 
     /// The group and port of the bus.
@@ -486,6 +508,13 @@ impl Transport for UdpMulticast {
                 Err(e) => return Err(e.into()),
             };
             if from.port() == self.own_port {
+                continue;
+            }
+            // Scope hook: on the loopback scope, only this machine's datagrams.
+            if let Some(local) = &mut self.local
+                && !local.admits(from.ip())
+            {
+                self.skipped += 1;
                 continue;
             }
             let at = self.clock.now();
