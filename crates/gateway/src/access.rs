@@ -399,6 +399,32 @@ pub(crate) fn permit(
 mod tests {
     use super::*;
     use crate::parse_line;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(512))]
+        /// Any line before `auth` is refused (and closes) or passes as blank; never a panic.
+        #[test]
+        fn the_gate_takes_any_line(text in ".{0,80}") {
+            let access = Access {
+                write_token: Some(Token::new("write-token-0123456789").unwrap()),
+                ..Access::default()
+            };
+            let mut c = ConnAccess::new(&access, Peer::Unix);
+            let g = gate(&access, &mut c, &Counters::default(), &text);
+            prop_assert!(!c.authenticated() || text.contains("write-token-0123456789"));
+            if let Gate::Answer(a) = g {
+                prop_assert!(a.ends_with("\r\n"));
+            }
+        }
+
+        #[test]
+        fn allow_entries_and_tokens_never_panic(text in "\\PC{0,60}") {
+            let _ = text.parse::<AllowNet>();
+            let _ = Token::new(&text);
+            let _ = auth_line(&text);
+        }
+    }
 
     fn tok(s: &str) -> Token {
         Token::new(s).unwrap()
