@@ -204,3 +204,35 @@ fn a_slow_or_endless_line_is_cut_by_the_line_time() {
     endless_thread.join().unwrap();
     assert_eq!(gw.limit_counters().timed_out, 2);
 }
+
+#[test]
+fn binary_junk_is_answered_then_cut_after_the_bad_line_limit() {
+    let (gw, _bus) = gateway(&[4], Config::default());
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    gw.serve_tcp(listener);
+    let junk = connect(port);
+    let mut w = junk.try_clone().unwrap();
+    // 200 lines of bytes that are not UTF-8.
+    let writer = std::thread::spawn(move || {
+        for i in 0u8..200 {
+            if w.write_all(&[0xFF, 0xFE, i, 0x80, b'\n']).is_err() {
+                break;
+            }
+        }
+    });
+    let mut text = String::new();
+    let _ = BufReader::new(junk).read_to_string(&mut text);
+    writer.join().unwrap();
+    // Each bad line answered (syntax error) until the limit, then the connection closed.
+    let limit = ConnLimits::default().max_bad_lines as usize;
+    assert_eq!(text, "ERROR:101\r\n".repeat(limit));
+    // A good client is unaffected.
+    let s = connect(port);
+    let mut w = s.try_clone().unwrap();
+    let mut r = BufReader::new(s);
+    w.write_all(b"[1] 4 r 0x1017 0 u16\n").unwrap();
+    let mut l = String::new();
+    r.read_line(&mut l).unwrap();
+    assert_eq!(l, "[1] 500\r\n");
+}
