@@ -4,7 +4,9 @@
 //! CiA 309-3 has no authentication: any client that reaches the gateway may read, write, reset
 //! nodes and reassign node-IDs. This module adds, on top of the mapping:
 //! * **Tokens.** With a token configured ([`Access::write_token`], [`Access::read_token`]),
-//!   every connection but standard input must first send `[<seq>] auth <token>`. The token is
+//!   every TCP and Unix-socket connection must first send `[<seq>] auth <token>` (standard
+//!   input and a stream handed to [`crate::Gateway::serve_stream`] are the embedding
+//!   process's own and need none). The token is
 //!   compared in constant time (the time taken does not depend on where the first difference
 //!   is). A right token is answered `OK` and gives the connection the token's [`Role`]; a
 //!   wrong one, or any other line first, is answered `ERROR:102` (request not processed due to
