@@ -20,7 +20,9 @@ use clap::Args;
 pub(crate) struct BusOpts {
     /// The bus: a SocketCAN interface (can0, vcan0), or `udp[:GROUP[:PORT]]`, a bus over UDP
     /// multicast between processes on this machine in python-can's `udp_multicast` format
-    /// (default 239.74.163.2:43113). Without it, an in-memory simulated bus inside this process.
+    /// (default 239.74.163.2:43113; nothing leaves the machine). `udp[:GROUP[:PORT]]@IFACE`
+    /// puts it on that interface's LAN segment, where anyone can read and inject frames.
+    /// Without it, an in-memory simulated bus inside this process.
     #[arg(long, global = true, value_name = "IFACE")]
     pub(crate) iface: Option<String>,
     /// Object dictionary of a node, NODE=FILE (repeatable). On the in-memory bus the node is
@@ -278,9 +280,13 @@ pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> 
 /// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`.
 fn open_transport_with(iface: &str, fd: bool) -> Result<Box<dyn Transport>, String> {
     use canola::socketcan::SocketCan;
-    if let Some(spec) = canola::udp::parse_spec(iface) {
-        let group = spec.map_err(|e| format!("--iface {iface}: {e}"))?;
-        return canola::udp::UdpMulticast::open(group)
+    // `udp[:GROUP[:PORT]][@IFACE]`: this machine only unless an interface is named.
+    if let Some(spec) = canola::udp::parse_scoped_spec(iface) {
+        let (group, scope) = spec.map_err(|e| format!("--iface {iface}: {e}"))?;
+        if let Some(w) = scope.warning(group) {
+            eprintln!("warning: {w}");
+        }
+        return canola::udp::UdpMulticast::open_scoped(group, scope)
             .map(|t| Box::new(t) as Box<dyn Transport>)
             .map_err(|e| format!("{iface}: {e}"));
     }

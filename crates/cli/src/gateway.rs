@@ -13,7 +13,9 @@ use crate::bus::{BusOpts, open_network};
 #[derive(Debug, Args)]
 pub(crate) struct GatewayArgs {
     /// Where to accept connections (repeatable): `tcp:HOST:PORT`, `tcp:PORT` (loopback) or
-    /// `unix:PATH`. Port 0 picks a free port; the address is printed on stderr.
+    /// `unix:PATH`. Port 0 picks a free port; the address is printed on stderr. An address
+    /// other than the loopback needs --allow-remote and a token or --allow; a Unix socket is
+    /// created owner-only (--socket-mode).
     #[arg(long, value_name = "tcp:HOST:PORT|unix:PATH")]
     listen: Vec<String>,
     /// Serve standard input and output as one more connection; the gateway ends with stdin.
@@ -22,6 +24,9 @@ pub(crate) struct GatewayArgs {
     /// SDO timeout every connection starts with, in ms (`set sdo_timeout` changes it).
     #[arg(long, default_value_t = 500)]
     sdo_timeout: u64,
+    /// Who may connect and what they may do.
+    #[command(flatten)]
+    access: crate::gateway_access::AccessArgs,
 }
 
 enum Listener {
@@ -29,7 +34,7 @@ enum Listener {
     Unix(std::os::unix::net::UnixListener),
 }
 
-fn bind(spec: &str) -> Result<(Listener, String), String> {
+fn bind(spec: &str, socket_mode: u32) -> Result<(Listener, String), String> {
     if let Some(rest) = spec.strip_prefix("tcp:") {
         let addr = if rest.contains(':') {
             rest.to_owned()
@@ -41,7 +46,8 @@ fn bind(spec: &str) -> Result<(Listener, String), String> {
         return Ok((Listener::Tcp(l), format!("tcp:{local}")));
     }
     if let Some(path) = spec.strip_prefix("unix:") {
-        let l = std::os::unix::net::UnixListener::bind(path).map_err(|e| format!("{spec}: {e}"))?;
+        let l = crate::gateway_access::bind_unix(path, socket_mode)
+            .map_err(|e| format!("{spec}: {e}"))?;
         return Ok((Listener::Unix(l), spec.to_owned()));
     }
     Err(format!(
@@ -57,9 +63,15 @@ pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
         );
         return ExitCode::FAILURE;
     }
+    // Access hook: tokens, allow-list, read-only, audit log; refuses a remote listen address
+    // that is not guarded.
+    let access = match crate::gateway_access::settings(&args.access, &args.listen) {
+        Ok(a) => a,
+        Err(e) => return crate::bus::fail(e),
+    };
     let mut listeners = Vec::new();
     for spec in &args.listen {
-        match bind(spec) {
+        match bind(spec, access.socket_mode) {
             Ok(l) => listeners.push(l),
             Err(e) => return crate::bus::fail(e),
         }
@@ -71,6 +83,8 @@ pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
     };
     let config = Config {
         sdo_timeout: canola::Duration::from_millis(args.sdo_timeout),
+        access: access.access,
+        audit: Some(access.audit),
         ..Config::default()
     };
     let gateway = Gateway::new(net, config);

@@ -15,6 +15,7 @@ mod cpos;
 mod demo;
 mod eds;
 mod gateway;
+mod gateway_access;
 mod lss_cmd;
 mod nmt_cmd;
 mod objaddr;

@@ -120,6 +120,11 @@ fn a_bad_udp_spec_is_refused() {
 /// LocalNode's answer, and python-can receives what the CLI sends. Needs the workspace's
 /// `.venv` with python-can, python-canopen and `msgpack` (python-can's udp_multicast needs
 /// it; scripts/test-all's setup stage installs them).
+///
+/// python-can runs with its defaults but `hop_limit=0` (TTL 0): it joins the group on its
+/// default interface and sends there, and the kernel loops its frames back to this machine
+/// without putting them on the wire, so the test sends nothing beyond this machine. The CLI's
+/// bus is on the loopback scope (the default): python-can still hears it and is heard.
 #[test]
 fn interoperates_with_python_can_udp_multicast() {
     let iface = bus(1);
@@ -129,7 +134,7 @@ fn interoperates_with_python_can_udp_multicast() {
     let script = format!(
         "import can, canopen\n\
          net = canopen.Network()\n\
-         net.connect(interface='udp_multicast', channel='{group}', port={port})\n\
+         net.connect(interface='udp_multicast', channel='{group}', port={port}, hop_limit=0)\n\
          node = net.add_node(5, '{EDS}')\n\
          print(node.sdo[0x1017].raw, node.sdo[0x1008].raw)\n\
          net.disconnect()\n"
@@ -148,7 +153,7 @@ fn interoperates_with_python_can_udp_multicast() {
     std::thread::sleep(std::time::Duration::from_millis(500));
     let send = format!(
         "import can\n\
-         bus = can.Bus(interface='udp_multicast', channel='{group}', port={port})\n\
+         bus = can.Bus(interface='udp_multicast', channel='{group}', port={port}, hop_limit=0)\n\
          bus.send(can.Message(arbitration_id=0x705, data=[0x05], is_extended_id=False))\n\
          bus.send(can.Message(arbitration_id=0x000, data=[0x01, 0x00], is_extended_id=False))\n\
          bus.shutdown()\n"
@@ -163,7 +168,7 @@ fn interoperates_with_python_can_udp_multicast() {
     // The CLI sends, python-can receives: NMT start node 5 and an SDO request.
     let recv = format!(
         "import can, sys\n\
-         bus = can.Bus(interface='udp_multicast', channel='{group}', port={port})\n\
+         bus = can.Bus(interface='udp_multicast', channel='{group}', port={port}, hop_limit=0)\n\
          print('READY', flush=True)\n\
          seen = []\n\
          while len(seen) < 2:\n\

@@ -7,6 +7,9 @@
 //! * [`parse`]: the nom parser from a line to a [`Request`].
 //! * [`server`]: the [`Gateway`]: connections over TCP, a Unix socket, stdio or any byte
 //!   stream in front of one `canola::Network`, with one request queue per node.
+//! * [`access`]: tokens (`auth <token>`), read and write roles, the client allow-list,
+//!   read-only; [`audit_log`]: a line per request that changes the network;
+//!   [`conn_limits`]: limits against hostile clients (line time, idle eviction, junk).
 //!
 //! # Compatibility
 //!
@@ -52,13 +55,19 @@
 //! assert_eq!(req.to_string(), "[1] 4 read 0x1017 0 u16");
 //! ```
 
+pub mod access;
+pub mod audit_log;
 pub mod command;
+pub mod conn_limits;
 mod exec;
 pub mod parse;
 pub mod server;
 pub mod value;
 
+pub use access::{Access, AccessCounters, AllowNet, Role, Token};
+pub use audit_log::AuditLog;
 pub use command::{Command, ErrorCode, Event, EventKind, NmtService, Reply, Request, Response};
+pub use conn_limits::{ConnLimits, LimitCounters};
 pub use parse::{ParseError, parse_line};
 pub use server::{Config, Gateway, Version};
 pub use value::{DataType, Value};

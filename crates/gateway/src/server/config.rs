@@ -66,6 +66,12 @@ pub struct Config {
     pub drive_period: Option<std::time::Duration>,
     /// What `info version` reports.
     pub version: Version,
+    /// Who may do what ([`crate::access`]); the default admits everyone to everything.
+    pub access: crate::access::Access,
+    /// Where the requests that change the network are logged ([`crate::audit_log`]).
+    pub audit: Option<std::sync::Arc<crate::audit_log::AuditLog>>,
+    /// Limits against hostile clients on sockets ([`crate::conn_limits`]).
+    pub limits: crate::conn_limits::ConnLimits,
 }
 
 impl Default for Config {
@@ -80,6 +86,9 @@ impl Default for Config {
             max_upload: 64 * 1024,
             drive_period: Some(std::time::Duration::from_millis(10)),
             version: Version::default(),
+            access: crate::access::Access::default(),
+            audit: None,
+            limits: crate::conn_limits::ConnLimits::default(),
         }
     }
 }

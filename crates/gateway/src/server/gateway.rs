@@ -24,6 +24,9 @@ pub(super) struct Session {
     pub(super) net: Option<u16>,
     pub(super) node: Option<u8>,
     pub(super) sdo: SdoSettings,
+    /// Role and peer ([`crate::access`]).
+    pub(super) access: crate::access::ConnAccess,
+    pub(super) bad_lines: crate::conn_limits::BadLines,
 }
 
 /// The CiA 309-3 gateway in front of one [`Network`]. Cheap to clone.
@@ -68,6 +71,8 @@ impl Gateway {
             stop: AtomicBool::new(false),
             threads: Mutex::new(Vec::new()),
             active: std::sync::atomic::AtomicUsize::new(0),
+            access_counters: crate::access::Counters::default(),
+            conns: Arc::default(),
         });
         let s = shared.clone();
         if let Ok(h) = std::thread::Builder::new()
@@ -96,6 +101,20 @@ impl Gateway {
     /// Serves one connection on a byte stream until the reader ends and every reply is
     /// written (or writing fails). Blocks; run it on a thread of its own per connection.
     pub fn serve_stream(&self, reader: impl Read, writer: impl Write + Send) {
+        self.serve_peer(reader, writer, crate::access::Peer::Local);
+    }
+
+    /// What access control refused so far.
+    pub fn access_counters(&self) -> crate::access::AccessCounters {
+        self.shared.access_counters.snapshot()
+    }
+
+    /// What the connection limits did so far.
+    pub fn limit_counters(&self) -> crate::conn_limits::LimitCounters {
+        self.shared.conns.counters()
+    }
+
+    fn serve_peer(&self, reader: impl Read, writer: impl Write + Send, peer: crate::access::Peer) {
         let shared = &self.shared;
         let client = Arc::new(Client {
             id: shared.next_client.fetch_add(1, Ordering::Relaxed),
@@ -107,7 +126,7 @@ impl Gateway {
         std::thread::scope(|scope| {
             let c = client.clone();
             scope.spawn(move || write_outbox(&c, writer));
-            self.read_requests(&client, reader);
+            self.read_requests(&client, reader, peer);
             let mut o = lock(&client.out);
             o.reading_done = true;
             drop(o);
@@ -115,7 +134,12 @@ impl Gateway {
         });
     }
 
-    pub(super) fn read_requests(&self, client: &Arc<Client>, reader: impl Read) {
+    pub(super) fn read_requests(
+        &self,
+        client: &Arc<Client>,
+        reader: impl Read,
+        peer: crate::access::Peer,
+    ) {
         let cfg = &self.shared.config;
         let mut session = Session {
             net: Some(cfg.net),
@@ -125,6 +149,8 @@ impl Gateway {
                 block: false,
                 max_upload: cfg.max_upload,
             },
+            access: crate::access::ConnAccess::new(&cfg.access, peer),
+            bad_lines: crate::conn_limits::BadLines::default(),
         };
         let mut reader = BufReader::with_capacity(cfg.max_line.clamp(64, 64 * 1024), reader);
         let mut line = Vec::with_capacity(256);
@@ -150,17 +176,25 @@ impl Gateway {
             if eof && line.is_empty() {
                 return;
             }
-            if too_long {
+            let bad = if too_long {
                 let seq = std::str::from_utf8(&line)
                     .ok()
                     .and_then(|t| parse_line(t).err().and_then(|e| e.seq()))
                     .or_else(|| leading_seq(&line));
                 client.reply(error_text(seq, ErrorCode::OUT_OF_MEMORY));
+                true
             } else {
                 match std::str::from_utf8(&line) {
                     Ok(text) => self.handle_line(client, &mut session, text),
-                    Err(_) => client.reply(error_text(leading_seq(&line), ErrorCode::SYNTAX)),
+                    Err(_) => {
+                        client.reply(error_text(leading_seq(&line), ErrorCode::SYNTAX));
+                        true
+                    }
                 }
+            };
+            // Access and junk limits: a failed `auth`, or too many bad lines in a row, ends it.
+            if session.access.closed() || session.bad_lines.note(bad, &cfg.limits) {
+                return;
             }
             if eof {
                 return;
@@ -168,10 +202,24 @@ impl Gateway {
         }
     }
 
-    pub(super) fn handle_line(&self, client: &Arc<Client>, session: &mut Session, text: &str) {
+    /// Serves one line; whether it was an erroneous line.
+    pub(super) fn handle_line(
+        &self,
+        client: &Arc<Client>,
+        session: &mut Session,
+        text: &str,
+    ) -> bool {
+        // Access hook: `auth` first where a token is needed.
+        let (cfg, counters) = (&self.shared.config, &self.shared.access_counters);
+        if let crate::access::Gate::Answer(a) =
+            crate::access::gate(&cfg.access, &mut session.access, counters, text)
+        {
+            client.reply(a);
+            return false;
+        }
         let req = match parse_line(text) {
             Ok(Some(r)) => r,
-            Ok(None) => return,
+            Ok(None) => return false,
             Err(e) => {
                 let code = match e {
                     ParseError::Syntax { .. } => ErrorCode::SYNTAX,
@@ -179,18 +227,34 @@ impl Gateway {
                     ParseError::UnsupportedNode { .. } => ErrorCode::UNSUPPORTED_NODE,
                 };
                 client.reply(error_text(e.seq(), code));
-                return;
+                return true;
             }
         };
-        if let Some(reply) = self.dispatch(client, session, &req) {
-            client.reply(
-                Response {
-                    seq: req.seq,
-                    reply,
-                }
-                .to_text(),
-            );
+        // Access hook: the role, and the audit line of a request that changes the network.
+        let mut audit = match (&cfg.audit, crate::access::Class::of(&req.command)) {
+            (Some(log), crate::access::Class::Change) => Some(crate::audit_log::Pending::new(
+                log,
+                session.access.peer.to_string(),
+                text,
+            )),
+            _ => None,
+        };
+        let reply = match crate::access::permit(&session.access, counters, &req.command) {
+            Ok(()) => self.dispatch(client, session, &req, &mut audit),
+            Err(code) => Some(Reply::Error(code)),
+        };
+        if let Some(reply) = reply {
+            let text = Response {
+                seq: req.seq,
+                reply,
+            }
+            .to_text();
+            if let Some(a) = audit {
+                a.record(&text);
+            }
+            client.reply(text);
         }
+        false
     }
 
     /// Answers `req` now, or queues it and returns `None`.
@@ -199,6 +263,7 @@ impl Gateway {
         client: &Arc<Client>,
         s: &mut Session,
         req: &Request,
+        audit: &mut Option<crate::audit_log::Pending>,
     ) -> Option<Reply> {
         let shared = &self.shared;
         let err = |c| Some(Reply::Error(c));
@@ -216,13 +281,14 @@ impl Gateway {
             None => Err(ErrorCode::NO_DEFAULT_NODE),
             Some(n) => NodeId::new(n).map_err(|_| ErrorCode::UNSUPPORTED_NODE),
         };
-        let queue = |key: u8, work: Work| {
+        let mut queue = |key: u8, work: Work| {
             let w = shared.worker(key);
             lock(&client.out).pending += 1;
             lock(&w.queue).push(Job {
                 client: client.clone(),
                 seq: req.seq,
                 work,
+                audit: audit.take(),
             });
             w.cond.notify_one();
             None
@@ -311,10 +377,17 @@ impl Gateway {
             for stream in listener.incoming() {
                 let Ok(stream) = stream else { continue };
                 let _ = stream.set_nodelay(true);
-                let Ok(writer) = stream.try_clone() else {
+                // Access hook: the allow-list.
+                let Ok(peer) = stream.peer_addr() else {
                     continue;
                 };
-                gw.spawn_connection(stream, writer);
+                if !gw.shared.config.access.admits(peer.ip()) {
+                    gw.shared.access_counters.count_not_allowed();
+                    let _ =
+                        (&stream).write_all(error_text(None, ErrorCode::INTERNAL_STATE).as_bytes());
+                    continue;
+                }
+                gw.spawn_socket(stream, crate::access::Peer::Tcp(peer));
             }
         })
     }
@@ -326,10 +399,7 @@ impl Gateway {
         std::thread::spawn(move || {
             for stream in listener.incoming() {
                 let Ok(stream) = stream else { continue };
-                let Ok(writer) = stream.try_clone() else {
-                    continue;
-                };
-                gw.spawn_connection(stream, writer);
+                gw.spawn_socket(stream, crate::access::Peer::Unix);
             }
         })
     }
@@ -339,24 +409,36 @@ impl Gateway {
         self.serve_stream(std::io::stdin().lock(), std::io::stdout());
     }
 
-    pub(super) fn spawn_connection<S: Read + Send + 'static, W: Write + Send + 'static>(
+    /// Serves a socket connection on a thread of its own, under the connection limits.
+    pub(super) fn spawn_socket<S: crate::conn_limits::Socket + Write>(
         &self,
-        reader: S,
-        mut writer: W,
+        stream: S,
+        peer: crate::access::Peer,
     ) {
+        let Ok(mut writer) = stream.handle() else {
+            return;
+        };
+        let cfg = &self.shared.config;
         let live = {
             let mut c = lock(&self.shared.clients);
             c.retain(|w| w.strong_count() > 0);
             c.len()
         };
-        if live >= self.shared.config.max_connections {
+        if live >= cfg.max_connections
+            && !self.shared.conns.evict_idlest(cfg.limits.evict_idle_after)
+        {
             let _ = writer.write_all(error_text(None, ErrorCode::OUT_OF_MEMORY).as_bytes());
             return;
         }
+        let Ok(reg) = self.shared.conns.register(&stream) else {
+            return;
+        };
+        let first_line_due = cfg.access.needs_token();
+        let reader = crate::conn_limits::Guarded::new(stream, reg, &cfg.limits, first_line_due);
         let gw = self.clone();
         let _ = std::thread::Builder::new()
             .name("gateway-connection".into())
-            .spawn(move || gw.serve_stream(reader, writer));
+            .spawn(move || gw.serve_peer(reader, writer, peer));
     }
 
     /// Stops the background threads (event forwarding, driver, queue workers) once their

@@ -20,6 +20,9 @@
 //!   (later ones are dropped for that connection only), and an upload is at most
 //!   [`Config::max_upload`] bytes. A connection whose peer stopped reading or vanished holds
 //!   only its own requests: the node workers never wait for a connection.
+//! * Access control, the audit log and the limits against hostile clients live in
+//!   [`crate::access`], [`crate::audit_log`] and [`crate::conn_limits`]; this file calls them
+//!   at a few marked hooks (the accept loops, the start of a line, the queue's reply).
 //! * A background thread drives the network while no request runs (heartbeats, boot-up and
 //!   EMCY are received) and turns its events into event lines for the connections that asked
 //!   for them with `_events 1`.

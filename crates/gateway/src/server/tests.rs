@@ -23,6 +23,7 @@ fn job(c: &Arc<Client>, seq: u32) -> Job {
         client: c.clone(),
         seq: Some(seq),
         work: Work::Lss(Command::LssStore),
+        audit: None,
     }
 }
 

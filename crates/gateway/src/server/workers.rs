@@ -24,6 +24,8 @@ pub(super) struct Job {
     pub(super) client: Arc<Client>,
     pub(super) seq: Option<u32>,
     pub(super) work: Work,
+    /// The audit log line waiting for the reply (a request that changes the network).
+    pub(super) audit: Option<crate::audit_log::Pending>,
 }
 
 pub(super) enum Work {
@@ -91,6 +93,10 @@ pub(super) struct Shared {
     pub(super) threads: Mutex<Vec<JoinHandle<()>>>,
     /// Requests being carried out: while there are any, their threads drive the network.
     pub(super) active: std::sync::atomic::AtomicUsize,
+    /// What access control refused.
+    pub(super) access_counters: crate::access::Counters,
+    /// The socket connections, for the connection limits.
+    pub(super) conns: Arc<crate::conn_limits::ConnTable>,
 }
 
 impl Shared {
@@ -155,13 +161,15 @@ impl Shared {
                 Work::Lss(c) => exec::lss(&self.net, c),
             };
             self.active.fetch_sub(1, Ordering::SeqCst);
-            job.client.complete(
-                Response {
-                    seq: job.seq,
-                    reply,
-                }
-                .to_text(),
-            );
+            let text = Response {
+                seq: job.seq,
+                reply,
+            }
+            .to_text();
+            if let Some(a) = &job.audit {
+                a.record(&text);
+            }
+            job.client.complete(text);
         }
     }
 

@@ -1,5 +1,6 @@
 //! A CAN bus over UDP multicast in the wire format of python-can's `udp_multicast` interface,
-//! for several processes on one machine (or one LAN segment) without CAN hardware or vcan.
+//! for several processes on one machine (or, on purpose, one LAN segment: see [`scope`])
+//! without CAN hardware or vcan.
 //!
 //! Every attached process joins one IPv4 multicast group and port; each frame is one datagram
 //! holding a MessagePack map with the keys python-can writes: `timestamp` (float seconds),
@@ -8,24 +9,29 @@
 //! IPv4 group is `239.74.163.2`, its default port 43113 (its default group is an IPv6 one:
 //! give python-can `channel="239.74.163.2"` to meet this transport).
 //!
-//! Like python-can, the socket binds the group's port with `SO_REUSEADDR`/`SO_REUSEPORT`, joins
-//! the group on the default interface, and sends with a TTL of 1 (the local segment) and
-//! multicast loopback on, so processes on the same machine hear each other. Frames are sent from
+//! Like python-can, the socket binds the group's port with `SO_REUSEADDR`/`SO_REUSEPORT` and
+//! sends with a TTL of 1 and multicast loopback on, so processes on the same machine hear each
+//! other. Unlike python-can, it binds the group's address (no unicast datagrams to the port) and
+//! by default joins and sends on the loopback interface only: nothing leaves the machine and
+//! only this machine's datagrams are taken ([`UdpScope`]). Frames are sent from
 //! a second socket on an ephemeral port; a datagram whose source port is that port is this
 //! transport's own and is not received again (a CAN controller does not receive its own frames
 //! either).
 //!
 //! Received datagrams are decoded by a total MessagePack reader ([`decode`]): a datagram that is
 //! not a frame in this format, and CAN FD frames (the stack carries classic frames), are skipped
-//! and counted ([`UdpMulticast::skipped`]), never fatal: anyone on the segment can send to the
-//! group.
+//! and counted ([`UdpMulticast::skipped`]), never fatal: on a LAN scope anyone on the segment
+//! can send to the group.
 //!
-//! Files by job: `codec` (the MessagePack datagrams), `socket` (the multicast sockets).
+//! Files by job: `codec` (the MessagePack datagrams), `socket` (the multicast sockets), [`scope`]
+//! (where the bus reaches, and the `udp:GROUP:PORT@IFACE` spec).
 
 mod codec;
+pub mod scope;
 mod socket;
 #[cfg(test)]
 mod tests;
 
 pub use codec::{DecodeError, Message, decode, encode};
+pub use scope::{UdpScope, parse_scoped_spec};
 pub use socket::{DEFAULT_GROUP, DEFAULT_PORT, MAX_DATAGRAM, UdpMulticast, parse_spec};

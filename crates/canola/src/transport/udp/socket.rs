@@ -13,6 +13,7 @@ use nix::sys::socket::{
 use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
 
 use super::codec::{Message, decode, encode};
+use super::scope::{LocalSources, UdpScope};
 
 /// python-can's default IPv4 multicast group of `udp_multicast`.
 pub const DEFAULT_GROUP: Ipv4Addr = Ipv4Addr::new(239, 74, 163, 2);
@@ -58,11 +59,21 @@ pub struct UdpMulticast {
     skipped: u64,
     nonblocking: bool,
     read_timeout: Option<std::time::Duration>,
+    /// Where the bus reaches ([`super::scope`]).
+    scope: UdpScope,
+    /// On the loopback scope: the sources taken.
+    local: Option<LocalSources>,
 }
 
 impl UdpMulticast {
-    /// Joins the bus at `group` (an IPv4 multicast address and port).
+    /// Joins the bus at `group` (an IPv4 multicast address and port) on this machine only
+    /// ([`UdpScope::Loopback`]).
     pub fn open(group: SocketAddrV4) -> Result<Self, TransportError> {
+        Self::open_scoped(group, UdpScope::Loopback)
+    }
+
+    /// Joins the bus at `group` in `scope` ([`super::scope`]).
+    pub fn open_scoped(group: SocketAddrV4, scope: UdpScope) -> Result<Self, TransportError> {
         let io = |e: nix::errno::Errno| TransportError::Io(e.into());
         let fd = socket(
             AddressFamily::Inet,
@@ -73,14 +84,12 @@ impl UdpMulticast {
         .map_err(io)?;
         setsockopt(&fd, sockopt::ReuseAddr, &true).map_err(io)?;
         setsockopt(&fd, sockopt::ReusePort, &true).map_err(io)?;
-        bind(
-            fd.as_raw_fd(),
-            &SockaddrIn::from(SocketAddrV4::new(Ipv4Addr::UNSPECIFIED, group.port())),
-        )
-        .map_err(io)?;
+        // Bound to the group (no unicast to the port), joined on the scope's interface only,
+        // sent from its address (so out of that interface only).
+        bind(fd.as_raw_fd(), &SockaddrIn::from(group)).map_err(io)?;
         let rx = UdpSocket::from(fd);
-        rx.join_multicast_v4(group.ip(), &Ipv4Addr::UNSPECIFIED)?;
-        let tx = UdpSocket::bind(SocketAddrV4::new(Ipv4Addr::UNSPECIFIED, 0))?;
+        rx.join_multicast_v4(group.ip(), &scope.interface_addr())?;
+        let tx = UdpSocket::bind(SocketAddrV4::new(scope.interface_addr(), 0))?;
         tx.set_multicast_ttl_v4(1)?;
         tx.set_multicast_loop_v4(true)?;
         let own_port = tx.local_addr()?.port();
@@ -93,7 +102,14 @@ impl UdpMulticast {
             skipped: 0,
             nonblocking: false,
             read_timeout: None,
+            local: (scope == UdpScope::Loopback).then(LocalSources::new),
+            scope,
         })
+    }
+
+    /// Where the bus reaches.
+    pub fn scope(&self) -> &UdpScope {
+        &self.scope
     }
 
     /// The group and port of the bus.
@@ -157,6 +173,13 @@ impl Transport for UdpMulticast {
                 Err(e) => return Err(e.into()),
             };
             if from.port() == self.own_port {
+                continue;
+            }
+            // On the loopback scope, only this machine's datagrams.
+            if let Some(local) = &mut self.local
+                && !local.admits(from.ip())
+            {
+                self.skipped += 1;
                 continue;
             }
             let at = self.clock.now();
