@@ -304,7 +304,7 @@ impl fmt::Debug for FdFrame {
 impl fmt::Display for FdFrame {
     /// candump compact form: `123##1DEADBEEF` (identifier, `##`, the flags digit, the data).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}##{:X}", self.id, self.flags.bits())?;
+        write!(f, "{}##{:X}", self.id.candump(), self.flags.bits())?;
         for b in self.data() {
             write!(f, "{b:02X}")?;
         }
