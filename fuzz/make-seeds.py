@@ -11,6 +11,7 @@ beside the persisted corpus. Rerun after changing a target's input layout:
 """
 
 import os
+import re
 import shutil
 import struct
 
@@ -422,7 +423,9 @@ TARGETS = {
 
 
 def main():
-    targets = {os.path.splitext(n)[0] for n in os.listdir(os.path.join(ROOT, "fuzz_targets"))}
+    # The fuzz targets are the `[[bin]]`s of fuzz/Cargo.toml (fuzz_targets/ also holds shared modules).
+    with open(os.path.join(ROOT, "Cargo.toml")) as f:
+        targets = set(re.findall(r'^\[\[bin\]\]\s*\nname = "([^"]+)"', f.read(), re.M))
     TARGETS["od_eds_parser"] = eds_heads()
     TARGETS["manager_master_dcf"] = master_dcfs() + [
         repo_file("crates", "manager", "tests", "data", "valve.dcf")[:2048]
@@ -430,8 +433,12 @@ def main():
     for t in sorted(targets):
         seeds = TARGETS.get(t, ARBITRARY)
         folder = os.path.join(SEEDS, t)
-        shutil.rmtree(folder, ignore_errors=True)
-        os.makedirs(folder)
+        # Only the generated `seed-NN` files are replaced: inputs a fuzzer found and someone kept
+        # (named for what they found) stay.
+        os.makedirs(folder, exist_ok=True)
+        for old in os.listdir(folder):
+            if re.fullmatch(r"seed-\d+", old):
+                os.remove(os.path.join(folder, old))
         for i, s in enumerate(seeds):
             with open(os.path.join(folder, f"seed-{i:02}"), "wb") as f:
                 f.write(s)
