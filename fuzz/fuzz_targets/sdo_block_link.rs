@@ -8,8 +8,8 @@
 use arbitrary::Arbitrary;
 use canola_frame::{Duration, Instant};
 use canola_sdo::{
-    AbortCode, Access, Client, ClientConfig, Event, LengthRule, Method, Multiplexer,
-    ObjectAccess, ObjectInfo, Server, ServerConfig,
+    AbortCode, Access, Client, ClientConfig, Event, LengthRule, Method, Multiplexer, ObjectAccess,
+    ObjectInfo, Server, ServerConfig,
 };
 use libfuzzer_sys::fuzz_target;
 
@@ -53,7 +53,11 @@ impl ObjectAccess for Od {
         Ok(n)
     }
     fn write(&mut self, _: Multiplexer, offset: u32, data: &[u8]) -> Result<(), AbortCode> {
-        assert_eq!(offset as usize, self.staging.len(), "writes arrive in order");
+        assert_eq!(
+            offset as usize,
+            self.staging.len(),
+            "writes arrive in order"
+        );
         self.staging.extend_from_slice(data);
         Ok(())
     }
@@ -112,30 +116,39 @@ fuzz_target!(|input: Input| {
         ..ServerConfig::default()
     });
     let mut od = Od {
-        value: if input.upload { data.clone() } else { Vec::new() },
+        value: if input.upload {
+            data.clone()
+        } else {
+            Vec::new()
+        },
         staging: Vec::new(),
     };
     let mut now = Instant::ZERO;
     if input.upload {
-        client.start_upload(now, MUX, Vec::new(), Method::Block).unwrap();
+        client
+            .start_upload(now, MUX, Vec::new(), Method::Block)
+            .unwrap();
     } else {
         client
             .start_download(now, MUX, data.clone(), Method::Block)
             .unwrap();
     }
-    let ambiguous = blksize == 1 && !input.crc && input.faults.iter().any(|f| matches!(f, Fault::Dup(_)));
+    let ambiguous =
+        blksize == 1 && !input.crc && input.faults.iter().any(|f| matches!(f, Fault::Dup(_)));
     let mut sent = 0;
     let event = 'run: {
         for _ in 0..100_000 {
             loop {
-                let mut from_client: Vec<_> = std::iter::from_fn(|| client.poll_transmit()).collect();
+                let mut from_client: Vec<_> =
+                    std::iter::from_fn(|| client.poll_transmit()).collect();
                 if !input.upload {
                     from_client = mangle(&input.faults, &mut sent, from_client);
                 }
                 for f in &from_client {
                     server.handle_request(now, f, &mut od);
                 }
-                let mut from_server: Vec<_> = std::iter::from_fn(|| server.poll_transmit()).collect();
+                let mut from_server: Vec<_> =
+                    std::iter::from_fn(|| server.poll_transmit()).collect();
                 if input.upload {
                     from_server = mangle(&input.faults, &mut sent, from_server);
                 }
