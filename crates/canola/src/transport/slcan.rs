@@ -23,8 +23,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use canola_frame::time::MonotonicClock;
 use canola_frame::{CanFrame, Instant};
-pub use canola_slcan::{AdapterInfo, LinkConfig, LinkError};
-use canola_slcan::{BusErrors, ErrorState, Frame, Incoming, Link};
+pub use canola_slcan::{
+    AckMode, AdapterInfo, BitrateTable, DataBitrate, Link, LinkConfig, LinkError, NominalBitrate,
+    StatusFlags,
+};
+use canola_slcan::{BusErrors, ErrorState, Frame, Incoming};
 
 use crate::transport::candump::FdFrame;
 use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
@@ -232,9 +235,7 @@ impl Slcan {
             }
             Incoming::BusErrors(e) => bus_error_frame(e),
             Incoming::Status(flags) => {
-                if flags.contains(canola_slcan::StatusFlags::ERROR_PASSIVE)
-                    && self.state != ErrorState::Passive
-                {
+                if flags.contains(StatusFlags::ERROR_PASSIVE) && self.state != ErrorState::Passive {
                     self.state = ErrorState::Passive;
                     BusEvent::ErrorPassive
                 } else {

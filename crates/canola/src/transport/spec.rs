@@ -219,6 +219,21 @@ impl BusSpec {
         }
     }
 
+    /// Opens an slcan adapter as its own type (for [`Slcan::info`](crate::slcan::Slcan::info)
+    /// and its counters); another kind of bus is [`OpenErrorKind::BadSpec`].
+    #[cfg(feature = "slcan")]
+    pub fn open_slcan(&self) -> Result<crate::transport::slcan::Slcan, OpenError> {
+        match self {
+            Self::Slcan(config) => crate::transport::slcan::Slcan::open(config.clone())
+                .map_err(|e| slcan_error(&self.name(), e)),
+            _ => Err(OpenError::new(
+                &self.name(),
+                OpenErrorKind::BadSpec("not an slcan adapter".into()),
+                Some("give slcan:PATH[@BITRATE]".into()),
+            )),
+        }
+    }
+
     /// Opens the bus.
     pub fn open(&self) -> Result<Box<dyn Transport>, OpenError> {
         self.open_with(false)

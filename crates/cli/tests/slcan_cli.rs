@@ -1,0 +1,278 @@
+//! The bus commands over `--iface slcan:PTY`: the CLI opens the slave side of a
+//! pseudo-terminal pair as it would a USB adapter's `/dev/ttyACM0`; on the master side a fake
+//! Lawicel-style adapter, written by hand from the slcan command table (not from the stack's
+//! codec), answers commands and queries and bridges frame lines to a simulated device (the
+//! library's `SimDevice`, stepped on a real clock). Everything above the transport (SDO, NMT,
+//! scan) runs unchanged; `adapter info` shows the adapter's `V`, `N` and `F` answers.
+
+#![cfg(unix)]
+
+use std::os::fd::{AsFd, OwnedFd};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread;
+
+use canola::frame::time::MonotonicClock;
+use canola::{CanFrame, CanId, NodeId, SimDevice, Station};
+use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
+
+mod common;
+use common::{canopen, stderr, stdout};
+
+const EDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
+
+/// A fake adapter with a device behind it, on a fresh pty pair.
+struct Adapter {
+    path: String,
+    /// Every line the host sent, without its CR.
+    lines: Arc<Mutex<Vec<String>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<thread::JoinHandle<()>>,
+}
+
+impl Adapter {
+    fn start(node: u8) -> Self {
+        let pty = nix::pty::openpty(None, None).expect("openpty");
+        let path = nix::unistd::ttyname(pty.slave.as_fd())
+            .expect("ttyname")
+            .to_string_lossy()
+            .into_owned();
+        // Writes never block the adapter: with no host reading, frames are dropped (the host
+        // clears its buffers when it opens the port).
+        let fl = nix::fcntl::fcntl(pty.master.as_fd(), nix::fcntl::FcntlArg::F_GETFL).unwrap();
+        let fl = nix::fcntl::OFlag::from_bits_truncate(fl) | nix::fcntl::OFlag::O_NONBLOCK;
+        nix::fcntl::fcntl(pty.master.as_fd(), nix::fcntl::FcntlArg::F_SETFL(fl)).unwrap();
+        let eds = std::fs::read(EDS).unwrap();
+        let device = SimDevice::from_eds(NodeId::new(node).unwrap(), &eds).unwrap();
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (l, s) = (lines.clone(), stop.clone());
+        let thread = thread::spawn(move || run(pty.master, pty.slave, device, l, s));
+        Self {
+            path,
+            lines,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    fn iface(&self) -> String {
+        format!("slcan:{}@500k", self.path)
+    }
+
+    fn lines(&self) -> Vec<String> {
+        self.lines.lock().unwrap().clone()
+    }
+}
+
+impl Drop for Adapter {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn write_line(master: &OwnedFd, bytes: &[u8]) {
+    // Non-blocking: a full buffer (no host reading) drops the line, as a real adapter would.
+    let _ = nix::unistd::write(master, bytes);
+}
+
+/// `tIIILDD...` or `TIIIIIIIILDD...` as a frame, by hand.
+fn parse_frame(line: &str) -> Option<CanFrame> {
+    let (ext, rest) = match line.as_bytes().first()? {
+        b't' => (false, &line[1..]),
+        b'T' => (true, &line[1..]),
+        _ => return None,
+    };
+    let idlen = if ext { 8 } else { 3 };
+    let raw = u32::from_str_radix(rest.get(..idlen)?, 16).ok()?;
+    let len = rest.get(idlen..idlen + 1)?.parse::<usize>().ok()?;
+    let hex = rest.get(idlen + 1..idlen + 1 + 2 * len)?;
+    let data: Vec<u8> = (0..len)
+        .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16))
+        .collect::<Result<_, _>>()
+        .ok()?;
+    let id = if ext {
+        CanId::extended(raw).ok()?
+    } else {
+        CanId::standard(raw as u16).ok()?
+    };
+    CanFrame::new(id, &data).ok()
+}
+
+fn format_frame(f: &CanFrame) -> String {
+    let mut s = if f.id().is_extended() {
+        format!("T{:08X}{}", f.id().as_raw(), f.data().len())
+    } else {
+        format!("t{:03X}{}", f.id().as_raw(), f.data().len())
+    };
+    for b in f.data() {
+        s.push_str(&format!("{b:02X}"));
+    }
+    s.push('\r');
+    s
+}
+
+fn run(
+    master: OwnedFd,
+    // Held so the master never reads EIO between two CLI runs.
+    _slave: OwnedFd,
+    mut device: SimDevice,
+    lines: Arc<Mutex<Vec<String>>>,
+    stop: Arc<AtomicBool>,
+) {
+    let clock = MonotonicClock::new();
+    let mut open = false;
+    let mut pending = Vec::new();
+    while !stop.load(Ordering::Relaxed) {
+        let now = clock.now();
+        if device.poll_timeout().is_some_and(|t| t <= now) {
+            device.handle_timeout(now);
+        }
+        while let Some(f) = device.poll_transmit() {
+            if open {
+                write_line(&master, format_frame(&f).as_bytes());
+            }
+        }
+        let mut fds = [PollFd::new(master.as_fd(), PollFlags::POLLIN)];
+        if poll(&mut fds, PollTimeout::from(2u8)).unwrap_or(0) == 0 {
+            continue;
+        }
+        let mut buf = [0u8; 512];
+        let n = match nix::unistd::read(&master, &mut buf) {
+            Ok(n) => n,
+            Err(_) => continue,
+        };
+        pending.extend_from_slice(&buf[..n]);
+        while let Some(cr) = pending.iter().position(|&b| b == b'\r') {
+            let line: Vec<u8> = pending.drain(..=cr).take(cr).collect();
+            let line = String::from_utf8_lossy(&line).into_owned();
+            lines.lock().unwrap().push(line.clone());
+            let reply: Vec<u8> = match line.as_str() {
+                "" => Vec::new(),
+                "O" | "L" => {
+                    open = true;
+                    b"\r".to_vec()
+                }
+                "C" => {
+                    open = false;
+                    b"\r".to_vec()
+                }
+                l if l.len() == 2 && l.starts_with('S') && l.as_bytes()[1].is_ascii_digit() => {
+                    b"\r".to_vec()
+                }
+                "V" => b"V1013\r".to_vec(),
+                "N" => b"NSIM7\r".to_vec(),
+                "F" => b"F20\r".to_vec(),
+                l => match parse_frame(l) {
+                    Some(f) if open => {
+                        device.handle_frame(clock.now(), &f);
+                        if l.starts_with('t') {
+                            b"z\r".to_vec()
+                        } else {
+                            b"Z\r".to_vec()
+                        }
+                    }
+                    _ => b"\x07".to_vec(),
+                },
+            };
+            write_line(&master, &reply);
+        }
+    }
+}
+
+#[test]
+fn sdo_nmt_and_scan_run_unchanged_over_an_slcan_adapter() {
+    let adapter = Adapter::start(5);
+    let iface = adapter.iface();
+    let eds = format!("5={EDS}");
+
+    // The open sequence: close, bit rate (500 kbit/s is S6), open.
+    let o = canopen(&[
+        "--iface", &iface, "sdo", "read", "5", "0x1017", "0", "-t", "u16",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "500\n");
+    let first: Vec<String> = adapter.lines().into_iter().take(3).collect();
+    assert_eq!(first, ["C", "S6", "O"]);
+    // Expedited write and read back, the frames as slcan lines.
+    let o = canopen(&[
+        "--iface", &iface, "sdo", "write", "5", "0x1017", "0", "250", "-t", "u16",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        adapter.lines().iter().any(|l| l == "t60582B171000FA000000"),
+        "{:?}",
+        adapter.lines()
+    );
+    let o = canopen(&[
+        "--iface", &iface, "sdo", "read", "5", "0x1017", "0", "-t", "u16",
+    ]);
+    assert_eq!(stdout(&o), "250\n", "{}", stderr(&o));
+    // Segmented: the device name (23 bytes), through the dictionary's name.
+    let o = canopen(&[
+        "--iface", &iface, "--eds", &eds, "sdo", "read", "5", "0x1008", "0",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "Buerkert generic device\n");
+
+    // NMT: the command frame reaches the adapter.
+    let o = canopen(&["--iface", &iface, "nmt", "start", "5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(adapter.lines().iter().any(|l| l == "t00020105"));
+
+    // Scan finds the device with its identity.
+    let o = canopen(&["--iface", &iface, "scan"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let rows: Vec<Vec<&str>> = out
+        .lines()
+        .skip(1)
+        .map(|l| l.split_whitespace().collect())
+        .filter(|r: &Vec<&str>| !r.is_empty())
+        .collect();
+    // Node 5 alone, with the vendor-ID of its dictionary (0x1018:1 = 57).
+    assert_eq!(rows.len(), 1, "{out}");
+    assert_eq!(&rows[0][..2], ["5", "57"], "{out}");
+}
+
+#[test]
+fn adapter_info_shows_version_serial_and_status() {
+    let adapter = Adapter::start(5);
+    let iface = adapter.iface();
+    let o = canopen(&["--iface", &iface, "adapter", "info"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains("version   1013 (hardware 10, software 13)"),
+        "{out}"
+    );
+    assert!(out.contains("serial    SIM7"), "{out}");
+    assert!(out.contains("status    0x20 (error passive)"), "{out}");
+    assert!(out.contains("acknowledges commands"), "{out}");
+    assert!(out.contains("500000 bit/s (S6)"), "{out}");
+    assert!(out.contains("can fd    unknown"), "{out}");
+    let o = canopen(&["--json", "--iface", &iface, "adapter", "info"]);
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).expect("JSON");
+    assert_eq!(v["serial"], "SIM7");
+    assert_eq!(v["status"], 0x20);
+    assert_eq!(v["hardware_version"], 10);
+    assert_eq!(v["bitrate"], 500_000);
+    // Not an slcan bus, and no adapter at the path: errors that say so.
+    let o = canopen(&["--iface", "udp", "adapter", "info"]);
+    assert!(
+        stderr(&o).contains("not an slcan adapter"),
+        "{}",
+        stderr(&o)
+    );
+    let o = canopen(&["--iface", "slcan:/nonexistent/ttyACM9", "adapter", "info"]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.starts_with("error: slcan:/nonexistent/ttyACM9: no such serial device"),
+        "{e}"
+    );
+    assert!(e.contains("hint: "), "{e}");
+}
