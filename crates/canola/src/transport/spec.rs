@@ -392,6 +392,7 @@ fn socketcan_error(iface: &str, e: TransportError) -> OpenError {
     }
 }
 
+#[cfg_attr(not(all(feature = "socketcan", target_os = "linux")), allow(dead_code))]
 fn transport_error(spec: &str, e: TransportError) -> OpenError {
     if let TransportError::Io(io) = &e
         && io.kind() == std::io::ErrorKind::PermissionDenied
