@@ -93,10 +93,14 @@ const CAN_ERR_PROT_FORM: u8 = 0x02;
 const CAN_ERR_PROT_STUFF: u8 = 0x04;
 const CAN_ERR_PROT_LOC_CRC_SEQ: u8 = 0x08;
 
+/// How a vanished adapter is opened again: by default [`Link::reopen`] on the same path;
+/// [`Slcan::with_reopen`] sets another way (a pseudo-terminal master has no path).
+type Reopen = Box<dyn FnMut(&LinkConfig) -> Result<Link, LinkError> + Send>;
+
 /// An slcan adapter as a [`Transport`]; see the module docs.
-#[derive(Debug)]
 pub struct Slcan {
     link: Link,
+    reopen: Option<Reopen>,
     clock: MonotonicClock,
     stats: SlcanStats,
     events: VecDeque<Received>,
@@ -105,6 +109,16 @@ pub struct Slcan {
     last_try: Option<std::time::Instant>,
     /// The controller state from the last bus state line.
     state: ErrorState,
+}
+
+impl core::fmt::Debug for Slcan {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Slcan")
+            .field("link", &self.link)
+            .field("down", &self.down)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Slcan {
@@ -124,6 +138,7 @@ impl Slcan {
     pub fn with_link(link: Link) -> Self {
         Self {
             link,
+            reopen: None,
             clock: MonotonicClock::new(),
             stats: SlcanStats::default(),
             events: VecDeque::new(),
@@ -131,6 +146,18 @@ impl Slcan {
             last_try: None,
             state: ErrorState::Active,
         }
+    }
+
+    /// [`with_link`](Self::with_link), opening the adapter again after it vanished with
+    /// `reopen` (given the configuration) instead of by its path: for a port without a path,
+    /// such as a pseudo-terminal master whose successor the caller makes.
+    pub fn with_reopen(
+        link: Link,
+        reopen: impl FnMut(&LinkConfig) -> Result<Link, LinkError> + Send + 'static,
+    ) -> Self {
+        let mut t = Self::with_link(link);
+        t.reopen = Some(Box::new(reopen));
+        t
     }
 
     /// The adapter's version, serial number and status flags (`V`, `N`, `F`). Frames arriving
@@ -160,7 +187,10 @@ impl Slcan {
     /// transport that was down reports [`BusEvent::InterfaceUp`].
     pub fn reopen(&mut self) -> Result<(), LinkError> {
         self.last_try = Some(std::time::Instant::now());
-        self.link.reopen()?;
+        match &mut self.reopen {
+            Some(reopen) => self.link = reopen(self.link.config())?,
+            None => self.link.reopen()?,
+        }
         self.state = ErrorState::Active;
         if self.down.take().is_some() {
             self.stats.inner.reopened.fetch_add(1, Ordering::Relaxed);
