@@ -264,13 +264,12 @@ impl Slcan {
                 }
             }
             Incoming::BusErrors(e) => bus_error_frame(e),
-            Incoming::Status(flags) => {
-                if flags.contains(StatusFlags::ERROR_PASSIVE) && self.state != ErrorState::Passive {
-                    self.state = ErrorState::Passive;
-                    BusEvent::ErrorPassive
-                } else {
-                    return;
-                }
+            Incoming::Status(flags)
+                if flags.contains(StatusFlags::ERROR_PASSIVE)
+                    && self.state != ErrorState::Passive =>
+            {
+                self.state = ErrorState::Passive;
+                BusEvent::ErrorPassive
             }
             Incoming::TxRefused => {
                 self.stats.inner.refused.fetch_add(1, Ordering::Relaxed);
