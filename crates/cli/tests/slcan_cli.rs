@@ -63,6 +63,18 @@ impl Adapter {
     fn lines(&self) -> Vec<String> {
         self.lines.lock().unwrap().clone()
     }
+
+    /// Whether the host sent `line`, waiting up to 5 s for the adapter thread to read it.
+    fn saw(&self, line: &str) -> bool {
+        let until = std::time::Instant::now() + std::time::Duration::from_secs(5);
+        while std::time::Instant::now() < until {
+            if self.lines().iter().any(|l| l == line) {
+                return true;
+            }
+            thread::sleep(std::time::Duration::from_millis(10));
+        }
+        false
+    }
 }
 
 impl Drop for Adapter {
@@ -221,7 +233,7 @@ fn sdo_nmt_and_scan_run_unchanged_over_an_slcan_adapter() {
     // NMT: the command frame reaches the adapter.
     let o = canopen(&["--iface", &iface, "nmt", "start", "5"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(adapter.lines().iter().any(|l| l == "t00020105"));
+    assert!(adapter.saw("t00020105"), "{:?}", adapter.lines());
 
     // Scan finds the device with its identity.
     let o = canopen(&["--iface", &iface, "scan"]);
@@ -236,6 +248,33 @@ fn sdo_nmt_and_scan_run_unchanged_over_an_slcan_adapter() {
     // Node 5 alone, with the vendor-ID of its dictionary (0x1018:1 = 57).
     assert_eq!(rows.len(), 1, "{out}");
     assert_eq!(&rows[0][..2], ["5", "57"], "{out}");
+}
+
+#[test]
+fn monitor_and_record_over_an_slcan_adapter() {
+    let adapter = Adapter::start(6);
+    let iface = adapter.iface();
+    // The device's heartbeats (0x1017 = 500 ms in its dictionary), decoded.
+    let o = canopen(&["--iface", &iface, "monitor", "--duration", "1.5"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("706"), "{out}");
+    assert!(out.to_lowercase().contains("heartbeat"), "{out}");
+    // Recorded as a candump log.
+    let log = std::env::temp_dir().join(format!("canopen-slcan-{}.log", std::process::id()));
+    let o = canopen(&[
+        "--iface",
+        &iface,
+        "record",
+        "-o",
+        log.to_str().unwrap(),
+        "--duration",
+        "1.5",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&log).unwrap();
+    let _ = std::fs::remove_file(&log);
+    assert!(text.lines().any(|l| l.contains("706#")), "{text}");
 }
 
 #[test]
