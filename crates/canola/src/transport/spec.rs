@@ -508,6 +508,11 @@ mod tests {
         let s = BusSpec::parse("udp:239.1.2.3:5000").unwrap();
         assert_eq!(s.name(), "udp:239.1.2.3:5000");
         assert_eq!(s.warning(), None);
+        // The network opens it as it opens every other bus.
+        let port = 31000 + (std::process::id() % 4000) as u16;
+        let net =
+            crate::Network::open(&format!("udp:239.74.163.99:{port}")).expect("UDP bus opens");
+        drop(net);
         for bad in ["udp:1.2.3.4", "udp:nonsense", "udp@", "udp@nosuchif9"] {
             let e = BusSpec::parse(bad).unwrap_err();
             assert!(matches!(e.kind, OpenErrorKind::BadSpec(_)), "{bad}: {e}");
