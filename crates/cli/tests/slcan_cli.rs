@@ -3,7 +3,9 @@
 //! Lawicel-style adapter, written by hand from the slcan command table (not from the stack's
 //! codec), answers commands and queries and bridges frame lines to a simulated device (the
 //! library's `SimDevice`, stepped on a real clock). Everything above the transport (SDO, NMT,
-//! scan) runs unchanged; `adapter info` shows the adapter's `V`, `N` and `F` answers.
+//! scan, monitor, record) runs unchanged; `adapter info` shows the adapter's `V`, `N` and `F`
+//! answers. A second fake, two adapters bridged onto one bus, carries `canopen simulate` on one
+//! and the master's SDO on the other.
 
 #![cfg(unix)]
 
@@ -248,6 +250,134 @@ fn sdo_nmt_and_scan_run_unchanged_over_an_slcan_adapter() {
     // Node 5 alone, with the vendor-ID of its dictionary (0x1018:1 = 57).
     assert_eq!(rows.len(), 1, "{out}");
     assert_eq!(&rows[0][..2], ["5", "57"], "{out}");
+}
+
+/// Two fake adapters on one bus: each a pty, commands answered with CR, every frame line from
+/// one passed to the other while its channel is open.
+struct Bridge {
+    paths: [String; 2],
+    stop: Arc<AtomicBool>,
+    thread: Option<thread::JoinHandle<()>>,
+}
+
+impl Bridge {
+    fn start() -> Self {
+        let a = nix::pty::openpty(None, None).expect("openpty");
+        let b = nix::pty::openpty(None, None).expect("openpty");
+        let name = |p: &nix::pty::OpenptyResult| {
+            nix::unistd::ttyname(p.slave.as_fd())
+                .unwrap()
+                .to_string_lossy()
+                .into_owned()
+        };
+        let paths = [name(&a), name(&b)];
+        for p in [&a, &b] {
+            let fl = nix::fcntl::fcntl(p.master.as_fd(), nix::fcntl::FcntlArg::F_GETFL).unwrap();
+            let fl = nix::fcntl::OFlag::from_bits_truncate(fl) | nix::fcntl::OFlag::O_NONBLOCK;
+            nix::fcntl::fcntl(p.master.as_fd(), nix::fcntl::FcntlArg::F_SETFL(fl)).unwrap();
+        }
+        let stop = Arc::new(AtomicBool::new(false));
+        let s = stop.clone();
+        let thread = thread::spawn(move || {
+            let masters = [a.master, b.master];
+            let _slaves = [a.slave, b.slave];
+            let mut open = [false; 2];
+            let mut pending = [Vec::new(), Vec::new()];
+            while !s.load(Ordering::Relaxed) {
+                let mut fds = [
+                    PollFd::new(masters[0].as_fd(), PollFlags::POLLIN),
+                    PollFd::new(masters[1].as_fd(), PollFlags::POLLIN),
+                ];
+                if poll(&mut fds, PollTimeout::from(5u8)).unwrap_or(0) == 0 {
+                    continue;
+                }
+                for i in 0..2 {
+                    let mut buf = [0u8; 512];
+                    if let Ok(n) = nix::unistd::read(&masters[i], &mut buf) {
+                        pending[i].extend_from_slice(&buf[..n]);
+                    }
+                    while let Some(cr) = pending[i].iter().position(|&b| b == b'\r') {
+                        let line: Vec<u8> = pending[i].drain(..=cr).collect();
+                        match line[0] {
+                            b'O' | b'L' => open[i] = true,
+                            b'C' => open[i] = false,
+                            b't' | b'T'
+                                if open[i]
+                                    && parse_frame(
+                                        std::str::from_utf8(&line[..line.len() - 1]).unwrap_or(""),
+                                    )
+                                    .is_some() =>
+                            {
+                                if open[1 - i] {
+                                    write_line(&masters[1 - i], &line);
+                                }
+                            }
+                            _ => {}
+                        }
+                        write_line(&masters[i], b"\r");
+                    }
+                }
+            }
+        });
+        Self {
+            paths,
+            stop,
+            thread: Some(thread),
+        }
+    }
+}
+
+impl Drop for Bridge {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+#[test]
+fn simulate_on_one_adapter_answers_the_master_on_another() {
+    let bridge = Bridge::start();
+    let device = format!("slcan:{}", bridge.paths[1]);
+    let master = format!("slcan:{}", bridge.paths[0]);
+    let mut sim = std::process::Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args([
+            "--iface",
+            &device,
+            "simulate",
+            EDS,
+            "--node-id",
+            "7",
+            "--duration",
+            "20",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("simulate starts");
+    let mut answered = false;
+    for _ in 0..50 {
+        let o = canopen(&[
+            "--iface", &master, "sdo", "read", "7", "0x1018", "1", "-t", "u32",
+        ]);
+        if o.status.success() {
+            assert_eq!(stdout(&o), "57\n");
+            answered = true;
+            break;
+        }
+    }
+    let eds = format!("7={EDS}");
+    let o = canopen(&[
+        "--iface", &master, "--eds", &eds, "sdo", "read", "7", "0x1008",
+    ]);
+    let _ = sim.kill();
+    let _ = sim.wait();
+    assert!(
+        answered,
+        "the simulated device never answered over the adapters"
+    );
+    assert_eq!(stdout(&o), "Buerkert generic device\n", "{}", stderr(&o));
 }
 
 #[test]
