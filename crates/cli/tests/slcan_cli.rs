@@ -298,19 +298,13 @@ impl Bridge {
                     }
                     while let Some(cr) = pending[i].iter().position(|&b| b == b'\r') {
                         let line: Vec<u8> = pending[i].drain(..=cr).collect();
+                        let text = std::str::from_utf8(&line[..line.len() - 1]).unwrap_or("");
+                        let frame = parse_frame(text).is_some();
                         match line[0] {
                             b'O' | b'L' => open[i] = true,
                             b'C' => open[i] = false,
-                            b't' | b'T'
-                                if open[i]
-                                    && parse_frame(
-                                        std::str::from_utf8(&line[..line.len() - 1]).unwrap_or(""),
-                                    )
-                                    .is_some() =>
-                            {
-                                if open[1 - i] {
-                                    write_line(&masters[1 - i], &line);
-                                }
+                            _ if frame && open[i] && open[1 - i] => {
+                                write_line(&masters[1 - i], &line);
                             }
                             _ => {}
                         }
