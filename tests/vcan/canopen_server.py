@@ -6,7 +6,10 @@ standard input closes or says `quit`.
 With --tpdo-ms N it also sends TPDO1 (configured from the EDS: 0x1800/0x1A00, 0x2000 mapped)
 every N ms; an SDO write to 0x2000 changes the value the following PDOs carry.
 
-usage: canopen_server.py [--tpdo-ms N] [NODE_ID] [EDS]"""
+With --rpdo it also applies RPDO1 (0x1400/0x1600 from the EDS: 0x2003 and 0x2002:02) to its
+dictionary, so an SDO read shows what the last RPDO carried, and prints `RPDO1 <hex>`.
+
+usage: canopen_server.py [--tpdo-ms N] [--rpdo] [NODE_ID] [EDS]"""
 
 import os
 import sys
@@ -31,12 +34,29 @@ def start_tpdo1(node, period_ms):
     tpdo.start(period_ms / 1000.0)
 
 
+def apply_rpdo1(node):
+    node.rpdo.read(from_od=True)
+    rpdo = node.rpdo[1]
+
+    def on_rpdo(pdo_map):
+        for var in pdo_map:
+            node.set_data(var.index, var.subindex, var.get_data())
+        print(f"RPDO1 {bytes(pdo_map.data).hex()}", flush=True)
+
+    rpdo.add_callback(on_rpdo)
+
+
 def main():
     args = sys.argv[1:]
     tpdo_ms = 0
-    if args[:1] == ["--tpdo-ms"]:
-        tpdo_ms = int(args[1])
-        args = args[2:]
+    rpdo = False
+    while args[:1] in (["--tpdo-ms"], ["--rpdo"]):
+        if args[0] == "--rpdo":
+            rpdo = True
+            args = args[1:]
+        else:
+            tpdo_ms = int(args[1])
+            args = args[2:]
     node_id = int(args[0], 0) if len(args) > 0 else 0x22
     eds = args[1] if len(args) > 1 else os.path.join(HERE, "test-device.eds")
     channel = os.environ.get("CANOPEN_VCAN_IFACE", "vcan0")
@@ -50,6 +70,8 @@ def main():
         node.nmt.state = "PRE-OPERATIONAL"
         if tpdo_ms:
             start_tpdo1(node, tpdo_ms)
+        if rpdo:
+            apply_rpdo1(node)
         print(f"READY node {node_id} on {channel}", flush=True)
         for line in sys.stdin:
             if line.strip() == "quit":

@@ -172,6 +172,10 @@ pub enum Error {
     /// The transport failed.
     #[error("transport: {0}")]
     Transport(#[from] TransportError),
+    /// The bus could not be opened ([`Network::open`](crate::Network::open)): the message
+    /// names the bus and may carry a hint on a second line.
+    #[error("{0}")]
+    Open(#[from] crate::transport::OpenError),
     /// A value did not match the object's type, or could not be converted.
     #[error("node {node}, object {entry}: {message}")]
     Value {

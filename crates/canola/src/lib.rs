@@ -82,7 +82,12 @@ pub use pdo_access::{
 pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber};
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
-pub use transport::{BusEvent, Received, Station, Transport, TransportError, run_station};
+#[cfg(feature = "slcan")]
+pub use transport::slcan;
+pub use transport::{
+    BusEvent, BusSpec, OpenError, OpenErrorKind, Received, Station, Transport, TransportError,
+    run_station,
+};
 pub use transport::{candump, mem};
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub use transport::{socketcan, udp};

@@ -18,11 +18,13 @@ use clap::Args;
 /// Options of the bus commands (global: they may stand before or after the subcommand).
 #[derive(Debug, Clone, Args)]
 pub(crate) struct BusOpts {
-    /// The bus: a SocketCAN interface (can0, vcan0), or `udp[:GROUP[:PORT]]`, a bus over UDP
-    /// multicast between processes on this machine in python-can's `udp_multicast` format
-    /// (default 239.74.163.2:43113; nothing leaves the machine). `udp[:GROUP[:PORT]]@IFACE`
-    /// puts it on that interface's LAN segment, where anyone can read and inject frames.
-    /// Without it, an in-memory simulated bus inside this process.
+    /// The bus: a SocketCAN interface (can0, vcan0); `slcan:PATH[@BITRATE]`, a USB
+    /// serial-line adapter (CANable with slcan firmware, USBtin, CANUSB: slcan:/dev/ttyACM0@500k,
+    /// slcan:COM3); or `udp[:GROUP[:PORT]]`, a bus over UDP multicast between processes on this
+    /// machine in python-can's `udp_multicast` format (default 239.74.163.2:43113; nothing
+    /// leaves the machine). `udp[:GROUP[:PORT]]@IFACE` puts it on that interface's LAN
+    /// segment, where anyone can read and inject frames. Without it, an in-memory simulated
+    /// bus inside this process.
     #[arg(long, global = true, value_name = "IFACE")]
     pub(crate) iface: Option<String>,
     /// Object dictionary of a node, NODE=FILE (repeatable). On the in-memory bus the node is
@@ -272,63 +274,19 @@ pub(crate) fn seconds(secs: f64) -> Duration {
     Duration::from_micros((secs.max(0.0) * 1e6) as u64)
 }
 
-/// Opens `--iface IFACE`: a UDP multicast bus for `udp[:GROUP[:PORT]]`, else SocketCAN.
+/// Opens `--iface IFACE` (every form [`canola::BusSpec`] parses: SocketCAN, UDP, slcan).
 pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> {
     open_transport_with(iface, false)
 }
 
-/// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`.
+/// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`. Errors are the
+/// library's: they name the bus and carry its hints.
 fn open_transport_with(iface: &str, fd: bool) -> Result<Box<dyn Transport>, String> {
-    use canola::socketcan::SocketCan;
-    // `udp[:GROUP[:PORT]][@IFACE]`: this machine only unless an interface is named.
-    if let Some(spec) = canola::udp::parse_scoped_spec(iface) {
-        let (group, scope) = spec.map_err(|e| format!("--iface {iface}: {e}"))?;
-        if let Some(w) = scope.warning(group) {
-            eprintln!("warning: {w}");
-        }
-        return canola::udp::UdpMulticast::open_scoped(group, scope)
-            .map(|t| Box::new(t) as Box<dyn Transport>)
-            .map_err(|e| format!("{iface}: {e}"));
+    let spec = canola::BusSpec::parse(iface).map_err(|e| e.to_string())?;
+    if let Some(w) = spec.warning() {
+        eprintln!("warning: {w}");
     }
-    let socket = if fd {
-        SocketCan::open_fd(iface)
-    } else {
-        SocketCan::open(iface)
-    };
-    socket
-        .map(|t| Box::new(t) as Box<dyn Transport>)
-        .map_err(|e| format!("{iface}: {e}{}", iface_hint(iface)))
-}
-
-/// The hint for an interface that cannot be opened: which interfaces exist, and how to make a
-/// virtual one.
-fn iface_hint(iface: &str) -> String {
-    let exists = std::path::Path::new("/sys/class/net").join(iface).exists();
-    if exists {
-        return String::new();
-    }
-    let mut known: Vec<String> = std::fs::read_dir("/sys/class/net")
-        .map(|d| {
-            d.filter_map(|e| e.ok())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .filter(|n| {
-                    std::fs::read_to_string(format!("/sys/class/net/{n}/type"))
-                        .is_ok_and(|t| t.trim() == "280") // ARPHRD_CAN
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    known.sort();
-    let list = if known.is_empty() {
-        "no CAN interface exists".to_string()
-    } else {
-        format!("CAN interfaces here: {}", known.join(", "))
-    };
-    format!(
-        "\nhint: there is no interface `{iface}` ({list}; `ip link` lists all). A virtual one: \
-         `sudo modprobe vcan && sudo ip link add dev {iface} type vcan && sudo ip link set {iface} up`; \
-         without CAN, `--iface udp` is a bus between processes on this machine (python-can's udp_multicast)"
-    )
+    spec.open_with(fd).map_err(|e| e.to_string())
 }
 
 /// Whether errors print as JSON (`--json`); set once by `main`.

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{CommandFactory as _, Parser, Subcommand};
 
+mod adapter;
 mod argv;
 mod boot;
 mod burkert;
@@ -127,6 +128,10 @@ enum Command {
     Boot(boot::BootArgs),
     /// Compare every device's configuration with its DCF (bus.toml).
     Audit(boot::AuditArgs),
+    /// The CAN adapter itself: `adapter info --iface slcan:PATH` shows an slcan adapter's
+    /// version, serial number and status flags.
+    #[command(subcommand)]
+    Adapter(adapter::AdapterCommand),
 }
 
 /// Options every command group may read.
@@ -204,5 +209,6 @@ fn main() -> ExitCode {
         Command::Gateway(args) => gateway::run(args, &cli.bus),
         Command::Boot(args) => boot::run_boot(args, &cli.bus, global),
         Command::Audit(args) => boot::run_audit(args, &cli.bus, global),
+        Command::Adapter(cmd) => adapter::run(cmd, &cli.bus, global),
     }
 }

@@ -131,16 +131,18 @@ impl Network {
         }
     }
 
-    /// Opens a SocketCAN interface (e.g. `"can0"`, `"vcan0"`) and starts the background
-    /// driver: the network runs by itself from the first line.
+    /// Opens a bus by the name `canopen --iface` takes (see [`BusSpec`](crate::BusSpec)):
+    /// a SocketCAN interface (`"can0"`, `"vcan0"`), `"udp[:GROUP[:PORT]][@IFACE]"`, or an
+    /// slcan adapter (`"slcan:/dev/ttyACM0@500k"`, `"slcan:COM3"`), and starts the background
+    /// driver: the network runs by itself from the first line. A failure is
+    /// [`Error::Open`]: it names the bus and carries a hint.
     ///
     /// ```no_run
     /// let net = canola::Network::open("can0")?;
     /// # Ok::<(), canola::Error>(())
     /// ```
-    #[cfg(all(feature = "socketcan", target_os = "linux"))]
-    pub fn open(interface: &str) -> Result<Self, Error> {
-        let net = Self::new(crate::transport::socketcan::SocketCan::open(interface)?);
+    pub fn open(spec: &str) -> Result<Self, Error> {
+        let net = Self::new(crate::transport::BusSpec::parse(spec)?.open()?);
         net.start_driver()?;
         Ok(net)
     }

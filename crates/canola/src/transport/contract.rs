@@ -32,6 +32,18 @@ pub enum BusEvent {
         /// Frames lost since the previous overflow report.
         dropped: u64,
     },
+    /// The adapter refused a frame written earlier (an slcan adapter's BEL after a frame line:
+    /// channel closed, transmit queue full).
+    TxRefused,
+    /// The adapter sent bytes that are not its protocol (a serial-line adapter's line that did
+    /// not decode); the transport skipped them and carries on. `total` counts them since the
+    /// transport was opened.
+    BadInput {
+        /// What was wrong with them.
+        detail: String,
+        /// Bad inputs since the transport was opened.
+        total: u64,
+    },
     /// A CAN FD frame arrived. Only a transport opened for CAN FD reports them (SocketCAN's
     /// `SocketCan::open_fd`); the master's protocols use classic frames and ignore it.
     FdFrame {
@@ -55,6 +67,10 @@ impl core::fmt::Display for BusEvent {
             Self::InterfaceUp => f.write_str("interface is up"),
             Self::RxOverflow { dropped } => {
                 write!(f, "receive queue overflow: {dropped} frame(s) dropped")
+            }
+            Self::TxRefused => f.write_str("the adapter refused a frame"),
+            Self::BadInput { detail, total } => {
+                write!(f, "bad input from the adapter ({total} so far): {detail}")
             }
             Self::FdFrame { frame, .. } => write!(
                 f,

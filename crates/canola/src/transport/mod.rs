@@ -14,16 +14,22 @@
 
 //!
 //! Files by job: `contract` (the trait and its types), [`mem`] (the in-memory bus),
-//! [`candump`] (can-utils log files), `socketcan` and `udp` (`socketcan` feature, Linux).
+//! [`candump`] (can-utils log files), `socketcan` and `udp` (`socketcan` feature, Linux),
+//! `slcan` (`slcan` feature: serial-line adapters on every system), [`spec`] (the bus names
+//! users type, parsed and opened with hints on failure).
 
 pub mod candump;
 pub(crate) mod contract;
 pub mod mem;
+#[cfg(feature = "slcan")]
+pub mod slcan;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod socketcan;
+pub mod spec;
 #[cfg(test)]
 mod tests;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod udp;
 
 pub use contract::{BusEvent, Received, Station, Transport, TransportError, run_station};
+pub use spec::{BusSpec, OpenError, OpenErrorKind};

@@ -128,6 +128,11 @@ impl PythonDevice {
     /// Starts the LocalNode with `args` (e.g. `["--tpdo-ms", "100", "0x43"]`) and waits until it
     /// serves (its READY line; Python under TCG needs several seconds to import canopen).
     pub fn start(args: &[&str]) -> Self {
+        Self::start_on(&vcan_tests::interface(), args)
+    }
+
+    /// [`start`](Self::start) on the SocketCAN interface `iface` (`slcan0`).
+    pub fn start_on(iface: &str, args: &[&str]) -> Self {
         use std::io::BufRead;
         use std::process::{Command, Stdio};
 
@@ -138,6 +143,7 @@ impl PythonDevice {
             .arg("-u")
             .arg(rig_file("canopen_server.py"))
             .args(args)
+            .env("CANOPEN_VCAN_IFACE", iface)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .spawn()
