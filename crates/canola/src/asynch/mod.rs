@@ -559,7 +559,7 @@ impl Lss {
         start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
     ) -> Result<<M::Output as LssOutput>::Value, Error>
     where
-        M: LssMachine + Send + 'static,
+        M: LssMachine + crate::machine::lss::HearsNodeIds + Send + 'static,
         M::Output: LssOutput,
     {
         drive::catch_up(&self.net)?;
@@ -608,10 +608,38 @@ impl Lss {
             .await
     }
 
-    /// The commissioning workflow: every unconfigured slave found and given a node-ID (async
-    /// [`assign_all`](Self::assign_all)).
-    pub async fn assign_all_async(&self, config: AssignConfig) -> Result<AssignReport, Error> {
-        self.run_async(AssignAll::new(config), |m, now| m.start(now))
-            .await
+    /// The commissioning workflow: every unconfigured slave found and given a node-ID, none
+    /// in use on the bus (async [`assign_all`](Self::assign_all)).
+    pub async fn assign_all_async(&self, mut config: AssignConfig) -> Result<AssignReport, Error> {
+        let candidates = Self::candidates(&config);
+        let found = self
+            .nodes_in_use_async(candidates, config.services.response_timeout)
+            .await?;
+        for id in found.iter() {
+            config.in_use.insert(id);
+        }
+        let in_use = config.in_use;
+        let mut report = self
+            .run_async(AssignAll::new(config), |m, now| m.start(now))
+            .await?;
+        crate::lss::list_conflicts(&mut report, candidates, in_use);
+        Ok(report)
+    }
+
+    /// The node-IDs of `candidates` in use on the bus (async
+    /// [`nodes_in_use`](Self::nodes_in_use)).
+    pub async fn nodes_in_use_async(
+        &self,
+        candidates: canola_lss::NodeIdPool,
+        timeout: impl Into<Duration>,
+    ) -> Result<canola_lss::NodeIdPool, Error> {
+        drive::catch_up(&self.net)?;
+        let (mut in_use, pending) = self.probe(candidates, timeout.into());
+        for (id, p) in pending {
+            if crate::lss::answered(p.wait_async().await)? || self.heard(id) {
+                in_use.insert(id);
+            }
+        }
+        Ok(in_use)
     }
 }

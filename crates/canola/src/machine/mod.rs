@@ -381,6 +381,14 @@ impl Core {
                     *self.boots.entry(node).or_default() += 1;
                     self.end_transfers_on_boot(node);
                 }
+                // A node-ID in use: an LSS job handing out node-IDs must not give it.
+                if !frame.is_remote()
+                    && frame.data().len() == 1
+                    && let Some(job) = &mut self.lss
+                {
+                    job.node_id_heard(node);
+                    self.pump_lss();
+                }
                 // A guarded node's answers go to the guarding master alone (their toggle bit
                 // is no heartbeat state); every other node's frames to the heartbeat consumer,
                 // which reports boot-ups and state changes of unmonitored nodes too.
