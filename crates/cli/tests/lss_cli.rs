@@ -235,3 +235,71 @@ fn simulate_needs_an_interface() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("give --iface"), "{}", stderr(&o));
 }
+
+#[test]
+fn assign_all_leaves_out_node_ids_in_use_and_reports_them() {
+    let args = [
+        "lss",
+        "--unconfigured",
+        "3",
+        "--real-slaves",
+        "--running",
+        "5,6",
+        "assign-all",
+        "--first",
+        "4",
+        "--last",
+        "10",
+    ];
+    let o = canopen(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for id in [5, 6] {
+        assert!(
+            text.contains(&format!(
+                "node-ID {id} is in use on the bus: not handed out"
+            )),
+            "{text}"
+        );
+    }
+    let mut json_args = vec!["--json"];
+    json_args.extend_from_slice(&args);
+    let o = canopen(&json_args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let ids: Vec<u64> = v["assigned"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["node_id"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ids, [4, 7, 8], "{v}");
+    assert_eq!(v["in_use"], serde_json::json!([5, 6]), "{v}");
+}
+
+#[test]
+fn configure_node_id_refuses_a_node_id_in_use_unless_forced() {
+    let base = ["lss", "--unconfigured", "1", "--running", "5"];
+    let mut args = base.to_vec();
+    args.extend(["configure-node-id", "5"]);
+    let o = canopen(&args);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("node-ID 5 is in use on the bus") && stderr(&o).contains("--force"),
+        "{}",
+        stderr(&o)
+    );
+    args.push("--force");
+    let o = canopen(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("node-ID 5 assigned"),
+        "{}",
+        stdout(&o)
+    );
+    // A free node-ID goes through without --force.
+    let mut args = base.to_vec();
+    args.extend(["configure-node-id", "7"]);
+    let o = canopen(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
