@@ -356,12 +356,7 @@ impl Nmt {
     async fn send_async(&self, cmd: CommandSpecifier) -> Result<(), Error> {
         drive::catch_up(&self.net)?;
         {
-            let mut core = self.net.core();
-            if let NmtTarget::Node(id) = self.target {
-                self.boots_seen
-                    .store(core.boot_count(id), std::sync::atomic::Ordering::SeqCst);
-            }
-            core.nmt(cmd, self.target);
+            self.net.core().nmt(cmd, self.target);
         }
         drive::flush(&self.net).await
     }
@@ -396,21 +391,20 @@ impl Nmt {
         self.send_async(CommandSpecifier::ResetCommunication).await
     }
 
-    /// Waits for a boot-up of the node received since this handle was made or sent its last
-    /// command (async [`wait_for_bootup`](Self::wait_for_bootup): boot-ups are counted, so
-    /// one followed at once by a heartbeat is not missed). Times out after `timeout` on the
-    /// network's clock.
+    /// Waits for a boot-up of the node not accounted for yet, and accounts for it (async
+    /// [`wait_for_bootup`](Self::wait_for_bootup): boot-ups are counted per node, so one that
+    /// arrived before this handle was made, or followed at once by a heartbeat, is not
+    /// missed). Times out after `timeout` on the network's clock.
     pub async fn wait_for_bootup_async(&self, timeout: impl Into<Duration>) -> Result<(), Error> {
-        use std::sync::atomic::Ordering;
         let timeout: Duration = timeout.into();
         let node = self.node_id()?;
         drive::catch_up(&self.net)?;
-        let seen = self.boots_seen.load(Ordering::SeqCst);
         let deadline = self.net.now() + timeout;
-        let boots = drive::wait_until(&self.net, Some(deadline), move |c| {
+        drive::wait_until(&self.net, Some(deadline), move |c| {
             let boots = c.boot_count(node);
-            if boots > seen {
-                Some(Ok(boots))
+            if boots > c.boots_taken(node) {
+                c.take_boots(node, boots);
+                Some(Ok(()))
             } else if c.now() >= deadline {
                 Some(Err(Error::Timeout(format!(
                     "no boot-up from node {node} within {timeout}"
@@ -419,9 +413,7 @@ impl Nmt {
                 None
             }
         })
-        .await??;
-        self.boots_seen.store(boots, Ordering::SeqCst);
-        Ok(())
+        .await?
     }
 
     /// Waits until the node reports `state`; returns at once if it is in it already (async
