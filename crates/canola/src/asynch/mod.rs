@@ -323,12 +323,9 @@ impl Sdo {
     ) -> Result<Value, Error> {
         let entry = entry.into();
         let node = self.node;
-        let bytes = self.read_async(entry).await?;
-        Value::from_le_bytes(data_type, &bytes).map_err(|e| Error::Value {
-            node,
-            entry,
-            message: e.to_string(),
-        })
+        drive::catch_up(&self.net)?;
+        let upload = wait_pending(self.submit_read_upload(entry)).await?;
+        upload.decode(node, entry, data_type)
     }
 
     /// Reads a typed entry from generated code (async [`read_entry`](Self::read_entry)).
@@ -338,7 +335,9 @@ impl Sdo {
     ) -> Result<T, Error> {
         let at = ObjectAddress::new(entry.index(), entry.sub_index());
         let node = self.node;
-        crate::network::request::decode_entry(node, entry, &self.read_async(at).await?)
+        drive::catch_up(&self.net)?;
+        let upload = wait_pending(self.submit_read_upload(at)).await?;
+        crate::network::request::decode_entry(node, entry, &upload)
     }
 
     /// Writes a typed entry from generated code (async [`write_entry`](Self::write_entry)).

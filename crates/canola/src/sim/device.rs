@@ -41,6 +41,8 @@ pub struct SimDevice {
     /// current by every input: the bus asks for it after every frame, and a scan over all
     /// machines costs more than the SDO request that changed one of them.
     pub(super) timers: Option<Instant>,
+    /// Habits of real devices this one copies.
+    pub(super) quirks: super::Quirks,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
 }
@@ -91,6 +93,7 @@ impl SimDevice {
             pdo: Box::new(PdoEngine::new()),
             last_state: DeviceState::Initialising,
             timers: None,
+            quirks: super::Quirks::default(),
             sdo_requests: 0,
         }
     }
@@ -171,6 +174,12 @@ impl SimDevice {
         Ok(Self::new(node, canola_od::parse(text)?.od))
     }
 
+    /// Copies habits of real devices (see [`Quirks`](super::Quirks)).
+    pub fn with_quirks(mut self, quirks: super::Quirks) -> Self {
+        self.quirks = quirks;
+        self
+    }
+
     /// Adds device-specific behaviour.
     pub fn with_hook(mut self, hook: impl DeviceHook + 'static) -> Self {
         self.hooks.push(Box::new(hook));
@@ -240,6 +249,7 @@ impl SimDevice {
         }
         for ch in &mut self.sdo {
             while let Some(data) = ch.server.poll_transmit() {
+                let data = self.quirks.sdo_response(data);
                 self.out.push_back(ch.ids.response_frame(data));
             }
         }
@@ -347,6 +357,7 @@ impl SimDevice {
             // its inputs): only it can have frames, and only its timer can have moved.
             let c = &mut self.sdo[ch];
             while let Some(data) = c.server.poll_transmit() {
+                let data = self.quirks.sdo_response(data);
                 self.out.push_back(c.ids.response_frame(data));
             }
             if c.server.poll_timeout() != before {
