@@ -169,9 +169,24 @@ impl SimDevice {
         self.reset(now, false);
     }
 
-    /// Parses an EDS/DCF text and builds a device from it.
+    /// Parses an EDS/DCF text and builds a device from it. A file with errors is refused,
+    /// among them a value of a communication object (0x1000..=0x1FFF) that does not parse:
+    /// kept as text it would leave a COB-ID at 0 and the device sending on 0x000, the NMT
+    /// identifier. [`from_eds_with`](Self::from_eds_with) also hands back the warnings.
     pub fn from_eds(node: NodeId, text: &[u8]) -> Result<Self, canola_od::ParseError> {
         Ok(Self::new(node, canola_od::parse(text)?.od))
+    }
+
+    /// [`from_eds`](Self::from_eds) with parser options (e.g.
+    /// [`ParseOptions::strict`](canola_od::ParseOptions::strict), which refuses a file with any
+    /// finding in a communication object), handing back the parser's warnings with the device.
+    pub fn from_eds_with(
+        node: NodeId,
+        text: &[u8],
+        options: canola_od::ParseOptions,
+    ) -> Result<(Self, Vec<canola_od::Diagnostic>), canola_od::ParseError> {
+        let parsed = canola_od::parse_with(text, options)?;
+        Ok((Self::new(node, parsed.od), parsed.diagnostics))
     }
 
     /// Copies habits of real devices (see [`Quirks`](super::Quirks)).
