@@ -277,6 +277,7 @@ impl Sdo {
 
     /// Starts an upload for a typed read: the bytes, and whether the server answered
     /// expedited without the size indicated (see [`Upload`]).
+    #[cfg(feature = "tokio")]
     pub(crate) fn submit_read_upload(self, entry: ObjectAddress) -> Pending<Upload> {
         self.request(entry, upload_to_memory(), Upload::from)
     }
