@@ -131,7 +131,7 @@ impl Lss {
         &self,
         candidates: NodeIdPool,
         timeout: canola_frame::Duration,
-    ) -> (NodeIdPool, Vec<(NodeId, crate::Pending<Vec<u8>>)>) {
+    ) -> (NodeIdPool, Vec<Probe>) {
         let in_use: NodeIdPool = candidates.iter().filter(|id| self.heard(*id)).collect();
         let pending = candidates
             .iter()
@@ -154,6 +154,9 @@ impl Lss {
         candidates
     }
 }
+
+/// A probe read of node-ID's device type (0x1000) under way.
+pub(crate) type Probe = (NodeId, crate::Pending<Vec<u8>>);
 
 /// Whether a probe read was answered (data, an abort, or a broken answer: a node is there).
 /// A failed transport is an error: nothing can be said.

@@ -18,10 +18,7 @@ fn n(id: u8) -> NodeId {
 fn rig() -> (MemoryBus, Network) {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
-    let quirks = Quirks {
-        expedited_without_size: true,
-        ..Quirks::default()
-    };
+    let quirks = Quirks::default().with_expedited_without_size(true);
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap().with_quirks(quirks));
     net.add_node_with_dictionary(n(5), canola_od::parse(EDS).unwrap().od);
     (bus, net)

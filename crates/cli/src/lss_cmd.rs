@@ -3,8 +3,13 @@
 //! On the in-memory bus, `--unconfigured N` adds N simulated devices without a node-ID (the
 //! Bürkert generic EDS, serial numbers 1001, 1002, ...) so the services have slaves to find;
 //! `--real-slaves` makes them answer Fastscan in LSS configuration state as real slaves do,
-//! `--store-unsupported` makes them refuse store configuration (error 1), and `--record-bus FILE` writes
-//! every frame the bus carried to a candump log.
+//! `--store-unsupported` makes them refuse store configuration (error 1), `--running IDS` adds
+//! configured devices running with those node-IDs (the nodes of a live network), and
+//! `--record-bus FILE` writes every frame the bus carried to a candump log.
+//!
+//! Node-IDs in use are never given: `assign-all` leaves out and reports those heard or
+//! answering before the run and those heard during it ([`canola::Lss::assign_all`]), and
+//! `configure-node-id` refuses one in use unless `--force`.
 
 use canola::frame::is_due;
 use std::process::ExitCode;

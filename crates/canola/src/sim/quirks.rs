@@ -4,7 +4,10 @@
 
 /// Habits of real devices, all off by default (see
 /// [`SimDevice::with_quirks`](super::SimDevice::with_quirks)).
+/// Built with the setters, so habits added later do not break callers:
+/// `Quirks::default().with_expedited_without_size(true)`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct Quirks {
     /// Answer every expedited upload without the size indicated: command byte `0x42`
     /// (e = 1, s = 0) and all four data bytes, those past the object's length unspecified
@@ -17,6 +20,12 @@ pub struct Quirks {
 }
 
 impl Quirks {
+    /// Sets [`expedited_without_size`](Self::expedited_without_size).
+    pub const fn with_expedited_without_size(mut self, on: bool) -> Self {
+        self.expedited_without_size = on;
+        self
+    }
+
     /// The SDO server's response `data` as a device with these habits sends it.
     pub(super) fn sdo_response(&self, mut data: [u8; 8]) -> [u8; 8] {
         // Expedited upload response with the size indicated: scs = 2, e = 1, s = 1.
@@ -37,9 +46,7 @@ mod tests {
 
     #[test]
     fn an_expedited_answer_loses_its_size() {
-        let q = Quirks {
-            expedited_without_size: true,
-        };
+        let q = Quirks::default().with_expedited_without_size(true);
         // UNSIGNED16 500 from 0x1017:00 (n = 2).
         let sized = [0x4B, 0x17, 0x10, 0x00, 0xF4, 0x01, 0x00, 0x00];
         assert_eq!(
