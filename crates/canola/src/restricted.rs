@@ -5,7 +5,8 @@
 //! checked: a PDO is switched off by writing its COB-ID with bit 31 set, whatever the
 //! identifier. The SDO channels (0x1200..) are left out: their default identifiers are the
 //! restricted ones. The simulated device refuses such a write (abort 0x06090030), and the
-//! master refuses to configure one (PDO remapping, boot from a DCF, audit repairs).
+//! master refuses to configure one (PDO remapping, boot from a DCF, audit repairs) or to
+//! transmit a node's RPDO on one.
 
 /// The restricted CAN identifier that writing `value` to `index:sub_index` would configure,
 /// or `None` when the entry is not a COB-ID entry checked here or the value is allowed.

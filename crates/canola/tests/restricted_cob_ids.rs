@@ -116,3 +116,23 @@ fn from_eds_with_hands_back_the_warnings() {
         "{warnings:?}"
     );
 }
+
+#[test]
+fn the_master_does_not_transmit_an_rpdo_on_a_restricted_cob_id() {
+    let (_bus, net) = rig();
+    let node = net.node(n(5));
+    let mut rpdos = node.rpdo().read().unwrap();
+    // As read from a device whose RPDO1 COB-ID is the NMT identifier.
+    rpdos
+        .get_mut(1)
+        .unwrap()
+        .set_can_id(CanId::standard(0x000).unwrap());
+    let e = node
+        .rpdo()
+        .start(rpdos.get(1).unwrap(), canola::Transmission::on_change())
+        .unwrap_err();
+    assert!(
+        matches!(e, Error::RestrictedCobId { can_id: 0, entry, .. } if entry.index == 0x1400),
+        "{e}"
+    );
+}
