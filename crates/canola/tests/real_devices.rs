@@ -1,6 +1,7 @@
-//! Habits of real devices the master must take: a simulated device answering expedited
-//! uploads without the size indicated (`42 …`, four data bytes), as devices that always send
-//! four bytes do, read through the facade's typed reads on the virtual-clock bus.
+//! Habits of real devices the master must take, through the facade on the virtual-clock bus: a
+//! simulated device answering expedited uploads without the size indicated (`42 …`, four data
+//! bytes), as devices that always send four bytes do, read with the typed reads; and an
+//! expedited answer in a frame shorter than eight bytes.
 
 use canola::mem::MemoryBus;
 use canola::sim::Quirks;
@@ -82,4 +83,40 @@ async fn async_typed_reads_take_the_type_length_too() {
     );
     let reg: Entry<u8> = Entry::new(0x1001, 0, DataType::Unsigned8);
     assert_eq!(sdo().read_entry_async(&reg).await.unwrap(), 0);
+}
+
+/// A device that answers an expedited upload with a frame only as long as its data (DLC 5:
+/// `4F 00 14 02 FE`), as some devices do.
+struct ShortAnswers {
+    out: Option<canola::CanFrame>,
+}
+
+impl canola::Station for ShortAnswers {
+    fn handle_frame(&mut self, _now: canola::Instant, frame: &canola::CanFrame) {
+        let d = frame.data();
+        if frame.cob_id() == Some(0x605) && d.len() == 8 && d[0] == 0x40 {
+            let id = canola::CanId::standard(0x585).unwrap();
+            self.out = Some(canola::CanFrame::new(id, &[0x4F, d[1], d[2], d[3], 0xFE]).unwrap());
+        }
+    }
+    fn handle_timeout(&mut self, _now: canola::Instant) {}
+    fn poll_transmit(&mut self) -> Option<canola::CanFrame> {
+        self.out.take()
+    }
+    fn poll_timeout(&self) -> Option<canola::Instant> {
+        None
+    }
+}
+
+#[test]
+fn an_expedited_answer_shorter_than_eight_bytes_is_taken() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    bus.attach(ShortAnswers { out: None });
+    let sdo = || net.node(n(5)).sdo().timeout(Duration::from_millis(100));
+    assert_eq!(sdo().read((0x1400, 2)).unwrap(), [0xFE]);
+    assert_eq!(
+        sdo().read_as((0x1400, 2), DataType::Unsigned8).unwrap(),
+        Value::Unsigned8(0xFE)
+    );
 }
