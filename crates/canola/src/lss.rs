@@ -280,6 +280,23 @@ mod tests {
         }
     }
 
+    #[cfg(feature = "tokio")]
+    #[tokio::test(start_paused = true)]
+    async fn assign_all_async_does_not_hand_out_node_ids_in_use() {
+        let (bus, net) = bus(2, StoreSupport::Supported);
+        bus.attach(SimDevice::from_eds(NodeId::new(5).unwrap(), EDS).unwrap());
+        let pool = NodeIdPool::range(NodeId::new(4).unwrap(), NodeId::new(10).unwrap());
+        let report = net
+            .lss()
+            .assign_all_async(AssignConfig::with_pool(pool))
+            .await
+            .unwrap();
+        let given: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
+        assert_eq!(given, [4, 6], "{report:?}");
+        let skipped: Vec<u8> = report.skipped.iter().map(|id| id.get()).collect();
+        assert_eq!(skipped, [5], "{report:?}");
+    }
+
     #[test]
     fn assign_all_does_not_hand_out_a_node_id_that_appears_during_the_run() {
         let (bus, net) = bus(3, StoreSupport::Supported);
