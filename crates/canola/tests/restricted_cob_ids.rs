@@ -136,3 +136,35 @@ fn the_master_does_not_transmit_an_rpdo_on_a_restricted_cob_id() {
         "{e}"
     );
 }
+
+/// A device built from a dictionary whose TPDO1 COB-ID is 0x000 (parsed, but restricted: `eds
+/// lint` flags it) never sends its TPDO on the NMT identifier.
+#[test]
+fn a_simulated_device_does_not_send_a_tpdo_on_a_restricted_cob_id() {
+    use canola::transport::{Received, Transport};
+    let text = String::from_utf8_lossy(EDS).into_owned();
+    let start = text.find("[1800sub1]").unwrap();
+    let text = format!(
+        "{}{}",
+        &text[..start],
+        text[start..].replacen("DefaultValue=$NODEID+0x180", "DefaultValue=0x00000000", 1)
+    );
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let mut tap = bus.endpoint();
+    bus.attach(SimDevice::from_eds(n(5), text.as_bytes()).unwrap());
+    net.run_for(canola::Duration::from_millis(10)).unwrap();
+    net.node(n(5)).nmt().start().unwrap();
+    net.run_for(canola::Duration::from_secs(3)).unwrap();
+    let until = tap.now() + canola::Duration::from_millis(1);
+    let mut on_nmt = Vec::new();
+    while let Ok(Some(r)) = tap.recv_until(until) {
+        if let Received::Frame { frame, .. } = r
+            && frame.cob_id() == Some(0x000)
+        {
+            on_nmt.push(frame.data().to_vec());
+        }
+    }
+    // Only the master's NMT start command.
+    assert_eq!(on_nmt, [vec![0x01, 0x05]]);
+}
