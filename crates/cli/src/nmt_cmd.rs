@@ -35,7 +35,7 @@ pub(crate) struct NmtArgs {
     /// The command.
     #[arg(value_enum)]
     command: NmtCmd,
-    /// Node-ID or `all` (not with `state`).
+    /// Node-ID, node-IDs (`5,6`) or `all` (not with `state`).
     target: Option<String>,
     /// Wait until the node confirms: a heartbeat with the new state (start, stop, preop) or
     /// its boot-up (reset, reset-comm).
@@ -79,18 +79,20 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
     let all = target.eq_ignore_ascii_case("all");
     if all && args.wait {
         return fail_usage(
-            "--wait needs a node-ID (`nmt start 5 --wait`): with `all` the master does not know \
-             which nodes to wait for",
+            "--wait needs node-IDs (`nmt start 5 --wait`, `nmt reset 5,6 --wait`): with `all` \
+             the master does not know which nodes to wait for",
         );
     }
-    let node = if all {
-        None
-    } else {
-        match parse_node(target) {
-            Ok(n) => Some(n),
-            Err(e) => return fail_usage(e),
+    let mut nodes = Vec::new();
+    if !all {
+        for part in target.split(',') {
+            match parse_node(part.trim()) {
+                Ok(n) if !nodes.contains(&n) => nodes.push(n),
+                Ok(_) => {}
+                Err(e) => return fail_usage(e),
+            }
         }
-    };
+    }
     let (net, _mem) = match open_network(opts) {
         Ok(b) => b,
         Err(e) => return fail(e),
@@ -99,7 +101,7 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
         .command
         .to_possible_value()
         .map(|v| v.get_name().to_string());
-    let Some(node) = node else {
+    if all {
         return match net.nmt_all(cs) {
             Ok(()) => {
                 if g.json {
@@ -109,18 +111,21 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
             }
             Err(e) => fail(e),
         };
-    };
-    let nmt = net.node(node).nmt();
-    let sent = match args.command {
-        NmtCmd::Start => nmt.start(),
-        NmtCmd::Stop => nmt.stop(),
-        NmtCmd::Preop => nmt.enter_preoperational(),
-        NmtCmd::Reset => nmt.reset_node(),
-        NmtCmd::ResetComm => nmt.reset_communication(),
-        NmtCmd::State => Ok(()),
-    };
-    if let Err(e) = sent {
-        return fail(e);
+    }
+    // One command per node, all sent before any wait.
+    for &node in &nodes {
+        let nmt = net.node(node).nmt();
+        let sent = match args.command {
+            NmtCmd::Start => nmt.start(),
+            NmtCmd::Stop => nmt.stop(),
+            NmtCmd::Preop => nmt.enter_preoperational(),
+            NmtCmd::Reset => nmt.reset_node(),
+            NmtCmd::ResetComm => nmt.reset_communication(),
+            NmtCmd::State => Ok(()),
+        };
+        if let Err(e) = sent {
+            return fail(e);
+        }
     }
     if !args.wait {
         if g.json {
@@ -128,33 +133,47 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
         }
         return ExitCode::SUCCESS;
     }
-    let timeout = Duration::from_millis(args.timeout);
-    let (want, confirmed) = match args.command {
-        NmtCmd::Reset | NmtCmd::ResetComm => ("boot-up".to_string(), nmt.wait_for_bootup(timeout)),
-        cmd => {
-            let state = match cmd {
-                NmtCmd::Start => NmtState::Operational,
-                NmtCmd::Stop => NmtState::Stopped,
-                _ => NmtState::PreOperational,
-            };
-            (state_name(state), nmt.wait_for_state(state, timeout))
-        }
-    };
-    match confirmed {
-        Ok(()) => {
-            if g.json {
-                outln(
-                    &json!({"nmt": name, "target": target,
-                            "nodes": [{"node": node.get(), "state": want}]})
-                    .to_string(),
-                );
-            } else {
-                outln(&format!("node {node}: {want}"));
+    // One deadline for all: each node's wait gets what is left of it.
+    let deadline = net.now() + Duration::from_millis(args.timeout);
+    let mut confirmed = Vec::new();
+    let mut missing = Vec::new();
+    for &node in &nodes {
+        let nmt = net.node(node).nmt();
+        let left = deadline.saturating_duration_since(net.now());
+        let (want, r) = match args.command {
+            NmtCmd::Reset | NmtCmd::ResetComm => ("boot-up".to_string(), nmt.wait_for_bootup(left)),
+            cmd => {
+                let state = match cmd {
+                    NmtCmd::Start => NmtState::Operational,
+                    NmtCmd::Stop => NmtState::Stopped,
+                    _ => NmtState::PreOperational,
+                };
+                (state_name(state), nmt.wait_for_state(state, left))
             }
-            ExitCode::SUCCESS
+        };
+        match r {
+            Ok(()) => confirmed.push((node, want)),
+            Err(canola::Error::Timeout(_)) => {
+                missing.push(unconfirmed(&net, node, &want, args.timeout))
+            }
+            Err(e) => return fail(e),
         }
-        Err(canola::Error::Timeout(_)) => fail(unconfirmed(&net, node, &want, args.timeout)),
-        Err(e) => fail(e),
+    }
+    if g.json && missing.is_empty() {
+        let list: Vec<_> = confirmed
+            .iter()
+            .map(|(n, w)| json!({"node": n.get(), "state": w}))
+            .collect();
+        outln(&json!({"nmt": name, "target": target, "nodes": list}).to_string());
+    } else if !g.json {
+        for (n, w) in &confirmed {
+            outln(&format!("node {n}: {w}"));
+        }
+    }
+    if missing.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        fail(missing.join("; "))
     }
 }
 

@@ -54,6 +54,34 @@ fn commands_wait_for_the_state_they_ask_for() {
 }
 
 #[test]
+fn several_nodes_are_commanded_and_waited_for() {
+    let e5 = format!("5={EDS}");
+    let e6 = format!("6={EDS}");
+    let o = canopen(&["--eds", &e5, "--eds", &e6, "nmt", "reset", "5,6", "--wait"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "node 5: boot-up\nnode 6: boot-up\n");
+    // One of them absent: the other is confirmed (by its next heartbeat, within 500 ms), the
+    // absent one is the error.
+    let o = canopen(&[
+        "--eds",
+        &e5,
+        "nmt",
+        "start",
+        "5,7",
+        "--wait",
+        "--timeout",
+        "1000",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stdout(&o), "node 5: operational\n");
+    assert!(
+        stderr(&o).contains("node 7 did not confirm operational"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
 fn a_wait_that_is_not_confirmed_is_a_clear_error() {
     let e5 = format!("5={EDS}");
     // Node 7 is not on the bus.
