@@ -205,6 +205,21 @@ pub enum Error {
         /// Why it does not resolve.
         reason: String,
     },
+    /// The master refused to configure a COB-ID entry with a CAN identifier CiA 301
+    /// restricts (see [`restricted_cob_id`](crate::restricted_cob_id)): nothing was written.
+    #[error(
+        "node {node}, object {entry}: COB-ID 0x{can_id:03X} is a CAN identifier CiA 301 \
+         restricts (0x000, 0x001..0x07F, 0x101..0x180, 0x581..0x5FF, 0x601..0x67F, \
+         0x6E0..0x6FF, 0x701..0x77F, 0x780..0x7FF): not configured"
+    )]
+    RestrictedCobId {
+        /// The node.
+        node: NodeId,
+        /// The COB-ID entry.
+        entry: ObjectAddress,
+        /// The restricted 11-bit identifier.
+        can_id: u16,
+    },
     /// A request the API cannot serve as asked (the message says why).
     #[error("{0}")]
     InvalidRequest(String),

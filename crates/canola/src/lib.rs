@@ -48,6 +48,7 @@ mod pdo_subscriber;
 pub mod prelude;
 #[cfg(feature = "tokio")]
 mod reactor;
+pub mod restricted;
 pub mod scan;
 pub mod sim;
 pub mod transport;
@@ -80,6 +81,7 @@ pub use pdo_access::{
     MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
 };
 pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber};
+pub use restricted::restricted_cob_id;
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 #[cfg(feature = "slcan")]

@@ -6,7 +6,7 @@
 //! the machine queued last, so that a service that only transmits (switch mode global,
 //! activate bit timing) has its frame on the bus when the call returns.
 
-use canola_frame::Instant;
+use canola_frame::{Instant, NodeId};
 
 use crate::error::Error;
 use crate::network::Network;
@@ -40,7 +40,7 @@ impl Lss {
         start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
     ) -> Result<<M::Output as LssOutput>::Value, Error>
     where
-        M: LssMachine + Send + 'static,
+        M: LssMachine + crate::machine::lss::HearsNodeIds + Send + 'static,
         M::Output: LssOutput,
     {
         let now = self.net.now();
@@ -82,15 +82,113 @@ impl Lss {
     }
 
     /// The commissioning workflow: find every unconfigured slave and give each a node-ID.
-    pub fn assign_all(&self, config: AssignConfig) -> Result<AssignReport, Error> {
-        self.run(AssignAll::new(config), |m, now| m.start(now))
+    ///
+    /// It never hands out a node-ID in use on the bus. Before the first slave, the node-IDs of
+    /// the pool and the table are checked ([`nodes_in_use`](Self::nodes_in_use): heard since
+    /// the network started, or answering an SDO read within
+    /// `config.services.response_timeout`) and joined to `config.in_use`; during the run,
+    /// every boot-up, heartbeat and guarding answer heard takes its node-ID out too. Each
+    /// node-ID of the pool or the table found in use is listed in
+    /// [`AssignReport::skipped`], the conflicts to report.
+    pub fn assign_all(&self, mut config: AssignConfig) -> Result<AssignReport, Error> {
+        let candidates = Self::candidates(&config);
+        let found = self.nodes_in_use(candidates, config.services.response_timeout)?;
+        for id in found.iter() {
+            config.in_use.insert(id);
+        }
+        let in_use = config.in_use;
+        let mut report = self.run(AssignAll::new(config), |m, now| m.start(now))?;
+        list_conflicts(&mut report, candidates, in_use);
+        Ok(report)
+    }
+
+    /// The node-IDs of `candidates` in use on the bus: those heard since the network started
+    /// (a boot-up, heartbeat or guarding answer), and those whose node answers an SDO read of
+    /// its device type (0x1000) within `timeout` (an abort is an answer too). All the reads
+    /// run at once, so this takes about one `timeout`.
+    pub fn nodes_in_use(
+        &self,
+        candidates: NodeIdPool,
+        timeout: impl Into<canola_frame::Duration>,
+    ) -> Result<NodeIdPool, Error> {
+        let (mut in_use, pending) = self.probe(candidates, timeout.into());
+        for (id, p) in pending {
+            if answered(p.wait())? || self.heard(id) {
+                in_use.insert(id);
+            }
+        }
+        Ok(in_use)
+    }
+
+    /// Whether anything was heard from node `id` since the network started.
+    pub(crate) fn heard(&self, id: NodeId) -> bool {
+        self.net.last_state(id).is_some() || self.net.last_heartbeat(id).is_some()
+    }
+
+    /// The node-IDs of `candidates` heard already, and SDO reads of 0x1000 submitted to the
+    /// others.
+    pub(crate) fn probe(
+        &self,
+        candidates: NodeIdPool,
+        timeout: canola_frame::Duration,
+    ) -> (NodeIdPool, Vec<Probe>) {
+        let in_use: NodeIdPool = candidates.iter().filter(|id| self.heard(*id)).collect();
+        let pending = candidates
+            .iter()
+            .filter(|id| !in_use.contains(*id))
+            .map(|id| {
+                let read = self.net.node(id).sdo().timeout(timeout);
+                (id, read.submit_read((0x1000, 0)))
+            })
+            .collect();
+        (in_use, pending)
+    }
+
+    /// Joins the node-IDs in use on the bus to `config.in_use` (see
+    /// [`assign_all`](Self::assign_all)); returns the node-IDs of the pool and the table.
+    pub(crate) fn candidates(config: &AssignConfig) -> NodeIdPool {
+        let mut candidates = config.pool;
+        for (_, id) in &config.table {
+            candidates.insert(*id);
+        }
+        candidates
+    }
+}
+
+/// A probe read of node-ID's device type (0x1000) under way.
+pub(crate) type Probe = (NodeId, crate::Pending<Vec<u8>>);
+
+/// Whether a probe read was answered (data, an abort, or a broken answer: a node is there).
+/// A failed transport is an error: nothing can be said.
+pub(crate) fn answered(r: Result<Vec<u8>, crate::SdoError>) -> Result<bool, Error> {
+    use crate::error::SdoErrorKind;
+    use canola_sdo::ErrorKind;
+    match r {
+        Ok(_) => Ok(true),
+        Err(e) => match e.kind {
+            SdoErrorKind::Transfer(ErrorKind::ServerAbort(_) | ErrorKind::Protocol(_)) => Ok(true),
+            SdoErrorKind::Transport(_) => Err(Error::Sdo(e)),
+            _ => Ok(false),
+        },
+    }
+}
+
+/// The report of assign-all lists every node-ID of `candidates` in use as skipped, reached by
+/// the pool or not.
+pub(crate) fn list_conflicts(
+    report: &mut AssignReport,
+    candidates: NodeIdPool,
+    in_use: NodeIdPool,
+) {
+    for id in candidates.iter().filter(|id| in_use.contains(*id)) {
+        report.skipped.insert(id);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{MemoryBus, SimDevice};
+    use crate::{MemoryBus, Nmt, SimDevice};
     use canola_frame::{Duration, NodeId};
     use canola_lss::{Mode, NodeIdPool, SlaveConfig, Step, StoreSupport};
 
@@ -132,6 +230,91 @@ mod tests {
             let again = net.lss().discover_all(FastscanConfig::default()).unwrap();
             assert!(again.is_empty(), "{again:?}");
         }
+    }
+
+    /// A node that starts sending heartbeats (node-ID `id`, Operational) `after` the bus
+    /// starts: a node that appears while assign-all runs.
+    struct LateNode {
+        id: u8,
+        next: Instant,
+        out: Option<canola_frame::CanFrame>,
+    }
+
+    impl crate::Station for LateNode {
+        fn handle_frame(&mut self, _now: Instant, _frame: &canola_frame::CanFrame) {}
+        fn handle_timeout(&mut self, now: Instant) {
+            if now >= self.next {
+                let id = canola_frame::CanId::standard(0x700 + u16::from(self.id)).unwrap();
+                self.out = Some(canola_frame::CanFrame::new(id, &[0x05]).unwrap());
+                self.next = now + Duration::from_millis(50);
+            }
+        }
+        fn poll_transmit(&mut self) -> Option<canola_frame::CanFrame> {
+            self.out.take()
+        }
+        fn poll_timeout(&self) -> Option<Instant> {
+            Some(self.next)
+        }
+    }
+
+    #[test]
+    fn assign_all_does_not_hand_out_node_ids_in_use() {
+        let (bus, net) = bus(3, StoreSupport::Supported);
+        // Nodes 5 and 6 running: booted, started, sending heartbeats.
+        for id in [5, 6] {
+            bus.attach(SimDevice::from_eds(NodeId::new(id).unwrap(), EDS).unwrap());
+        }
+        net.run_for(Duration::from_millis(10)).unwrap();
+        Nmt::all(&net).start().unwrap();
+        net.run_for(Duration::from_millis(10)).unwrap();
+        let pool = NodeIdPool::range(NodeId::new(4).unwrap(), NodeId::new(10).unwrap());
+        let report = net.lss().assign_all(AssignConfig::with_pool(pool)).unwrap();
+        let given: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
+        assert_eq!(given, [4, 7, 8], "{report:?}");
+        let skipped: Vec<u8> = report.skipped.iter().map(|id| id.get()).collect();
+        assert_eq!(skipped, [5, 6], "{report:?}");
+        // The running nodes still answer as themselves.
+        for id in [5, 6] {
+            let n = NodeId::new(id).unwrap();
+            assert_eq!(net.last_state(n), Some(canola_nmt::NmtState::Operational));
+        }
+    }
+
+    #[cfg(feature = "tokio")]
+    #[tokio::test(start_paused = true)]
+    async fn assign_all_async_does_not_hand_out_node_ids_in_use() {
+        let (bus, net) = bus(2, StoreSupport::Supported);
+        bus.attach(SimDevice::from_eds(NodeId::new(5).unwrap(), EDS).unwrap());
+        let pool = NodeIdPool::range(NodeId::new(4).unwrap(), NodeId::new(10).unwrap());
+        let report = net
+            .lss()
+            .assign_all_async(AssignConfig::with_pool(pool))
+            .await
+            .unwrap();
+        let given: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
+        assert_eq!(given, [4, 6], "{report:?}");
+        let skipped: Vec<u8> = report.skipped.iter().map(|id| id.get()).collect();
+        assert_eq!(skipped, [5], "{report:?}");
+    }
+
+    #[test]
+    fn assign_all_does_not_hand_out_a_node_id_that_appears_during_the_run() {
+        let (bus, net) = bus(3, StoreSupport::Supported);
+        // Node 5 only starts sending heartbeats after the scan for node-IDs in use, while
+        // the slaves are being found (a Fastscan of one slave takes well over 100 ms).
+        bus.attach(LateNode {
+            id: 5,
+            next: net.now() + Duration::from_millis(400),
+            out: None,
+        });
+        let pool = NodeIdPool::range(NodeId::new(4).unwrap(), NodeId::new(10).unwrap());
+        let report = net.lss().assign_all(AssignConfig::with_pool(pool)).unwrap();
+        let given: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
+        assert_eq!(given, [4, 6, 7], "{report:?}");
+        assert!(
+            report.skipped.contains(NodeId::new(5).unwrap()),
+            "{report:?}"
+        );
     }
 
     #[test]

@@ -173,10 +173,11 @@ async fn nmt_commands_and_state_waits() {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
-    // The device's first boot-up is received; a handle made after it waits for the next one.
+    // The device's first boot-up is received; boot-ups count for waits from `add_node`, so
+    // a wait after it waits for the next one.
     net.run_for_async(Duration::from_millis(1)).await.unwrap();
-    let nmt = net.node(n(5)).nmt();
-    // Nothing happened since the handle was made: a boot-up wait times out on tokio's clock.
+    let nmt = net.add_node(n(5)).nmt();
+    // Nothing happened since the node was added: a boot-up wait times out on tokio's clock.
     let t0 = tokio::time::Instant::now();
     match nmt.wait_for_bootup_async(Duration::from_millis(200)).await {
         Err(Error::Timeout(_)) => {}

@@ -69,3 +69,58 @@ fn a_bootup_followed_at_once_by_a_heartbeat_is_not_missed() {
         Err(Error::InvalidRequest(_))
     ));
 }
+
+/// Boot-ups count per node from `add_node`: a node's boot-up that arrived while the master
+/// waited for another node is there for a handle made afterwards.
+#[test]
+fn a_bootup_that_arrived_before_the_handle_was_made_is_not_lost() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    net.add_node(n(5));
+    net.add_node(n(6));
+    bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
+    bus.attach(SimDevice::from_eds(n(6), EDS).unwrap());
+    net.node(n(5))
+        .nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .unwrap();
+    // Node 6 booted while node 5 was waited for.
+    net.node(n(6))
+        .nmt()
+        .wait_for_bootup(Duration::from_millis(100))
+        .unwrap();
+    // Consumed: the next wait, on any handle, waits for the next boot-up.
+    assert!(
+        net.node(n(6))
+            .nmt()
+            .wait_for_bootup(Duration::from_millis(100))
+            .is_err()
+    );
+
+    // The same after a reset of all nodes.
+    canola::Nmt::all(&net).reset_node().unwrap();
+    net.node(n(5))
+        .nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .unwrap();
+    net.node(n(6))
+        .nmt()
+        .wait_for_bootup(Duration::from_millis(100))
+        .unwrap();
+}
+
+/// A boot-up heard before `add_node` does not count for the node's waits.
+#[test]
+fn a_bootup_before_add_node_does_not_count() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    bus.attach(SimDevice::from_eds(n(7), EDS).unwrap());
+    net.run_for(Duration::from_millis(10)).unwrap();
+    assert_eq!(net.last_state(n(7)), Some(NmtState::BootUp));
+    let node = net.add_node(n(7));
+    assert!(
+        node.nmt()
+            .wait_for_bootup(Duration::from_millis(50))
+            .is_err()
+    );
+}

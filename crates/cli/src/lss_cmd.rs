@@ -3,8 +3,13 @@
 //! On the in-memory bus, `--unconfigured N` adds N simulated devices without a node-ID (the
 //! Bürkert generic EDS, serial numbers 1001, 1002, ...) so the services have slaves to find;
 //! `--real-slaves` makes them answer Fastscan in LSS configuration state as real slaves do,
-//! `--store-unsupported` makes them refuse store configuration (error 1), and `--record-bus FILE` writes
-//! every frame the bus carried to a candump log.
+//! `--store-unsupported` makes them refuse store configuration (error 1), `--running IDS` adds
+//! configured devices running with those node-IDs (the nodes of a live network), and
+//! `--record-bus FILE` writes every frame the bus carried to a candump log.
+//!
+//! Node-IDs in use are never given: `assign-all` leaves out and reports those heard or
+//! answering before the run and those heard during it ([`canola::Lss::assign_all`]), and
+//! `configure-node-id` refuses one in use unless `--force`.
 
 use canola::frame::is_due;
 use std::process::ExitCode;
@@ -41,6 +46,10 @@ pub(crate) struct LssArgs {
     /// In-memory bus only: write every frame the bus carried to FILE (candump log format).
     #[arg(long, value_name = "FILE")]
     record_bus: Option<std::path::PathBuf>,
+    /// In-memory bus only: also simulate configured devices running (Operational, sending
+    /// heartbeats) with these node-IDs, e.g. `5,6`: the nodes already on a live network.
+    #[arg(long, value_name = "IDS", value_delimiter = ',', value_parser = clap::value_parser!(u8).range(1..=127))]
+    running: Vec<u8>,
     /// Fastscan (fastscan, discover-all, assign-all): how long to wait for an answer at each
     /// step, in ms. A scan takes about 133 steps per slave, each silent one costs this timeout
     /// (one slave: about 2 s at 25 ms); raise it for slow slaves, emulated or loaded buses.
@@ -124,12 +133,18 @@ pub(crate) enum MasterCommand {
     },
     /// Configure node-ID of the one slave on the bus (switch global, configure, store, switch
     /// back); a slave without store support is reported "assigned, not stored".
+    ///
+    /// A node-ID in use on the bus (heard, or answering an SDO read of 0x1000) is refused:
+    /// two nodes with one node-ID break both.
     ConfigureNodeId {
         /// The new node-ID.
         node_id: u8,
         /// Do not store the configuration.
         #[arg(long)]
         no_store: bool,
+        /// Configure the node-ID even when a node on the bus uses it.
+        #[arg(long)]
+        force: bool,
     },
     /// Change the bit rate of the slave(s) in configuration state (kbit/s: 1000, 800, 500,
     /// 250, 125, 100, 50, 20, 10).
@@ -152,7 +167,8 @@ pub(crate) enum MasterCommand {
     DiscoverAll,
     /// Assign-all: find every unconfigured slave and give each a node-ID from FIRST..=LAST
     /// (configure, store, back to waiting, one slave at a time; a slave that does not support
-    /// store is reported "assigned, not stored").
+    /// store is reported "assigned, not stored"). Node-IDs in use on the bus (heard, or
+    /// answering an SDO read, before or during the run) are not handed out; each is reported.
     AssignAll {
         /// First node-ID of the pool.
         #[arg(long, default_value_t = 2)]
@@ -196,6 +212,28 @@ fn entry_text(e: &canola::lss::AssignEntry, g: Global) -> String {
     format!("{}: {what}", addr_text(&e.address, g))
 }
 
+/// How long a node-ID check waits for an SDO answer.
+const IN_USE_TIMEOUT_MS: u64 = 100;
+
+/// Refuses `id` when a node on the bus uses it (heard, or answering an SDO read), unless
+/// `force`.
+fn in_use_check(lss: &canola::Lss, id: NodeId, force: bool) -> Result<(), String> {
+    if force {
+        return Ok(());
+    }
+    let one: NodeIdPool = std::iter::once(id).collect();
+    let in_use = lss
+        .nodes_in_use(one, Duration::from_millis(IN_USE_TIMEOUT_MS))
+        .map_err(|e| e.to_string())?;
+    if in_use.contains(id) {
+        return Err(format!(
+            "node-ID {id} is in use on the bus (a node answers or was heard with it): \
+             not configured; give --force to configure it anyway"
+        ));
+    }
+    Ok(())
+}
+
 const NONE_ANSWERED: &str = "no unconfigured slave answered";
 
 fn addr_json(a: &LssAddress) -> serde_json::Value {
@@ -220,10 +258,13 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
         Ok(x) => x,
         Err(e) => return fail(e),
     };
-    let simulated = args.unconfigured > 0 || args.real_slaves || args.store_unsupported;
+    let simulated = args.unconfigured > 0
+        || args.real_slaves
+        || args.store_unsupported
+        || !args.running.is_empty();
     if mem.is_none() && (simulated || args.record_bus.is_some()) {
         return fail(
-            "--unconfigured, --real-slaves, --store-unsupported and --record-bus only work on the in-memory bus",
+            "--unconfigured, --real-slaves, --store-unsupported, --running and --record-bus only work on the in-memory bus",
         );
     }
     let log = Arc::new(Mutex::new(Vec::new()));
@@ -238,6 +279,9 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
                 }
             }
             Err(e) => return fail(e),
+        }
+        if let Err(e) = running(mem, &net, &args.running) {
+            return fail(e);
         }
     }
     let code = command(&net, master, args.step_timeout, g);
@@ -273,6 +317,28 @@ fn devices(
             SimDevice::unconfigured_with(od.clone(), slave)
         })
         .collect())
+}
+
+/// Attaches configured devices (the Bürkert generic EDS) with node-IDs `ids` and starts them
+/// (NMT start), so that they run and send heartbeats as the nodes of a live network do.
+fn running(mem: &MemoryBus, net: &canola::Network, ids: &[u8]) -> Result<(), String> {
+    if ids.is_empty() {
+        return Ok(());
+    }
+    for &id in ids {
+        let node = NodeId::new(id).map_err(|e| e.to_string())?;
+        let dev = SimDevice::from_eds(node, BURKERT_EDS).map_err(|e| e.to_string())?;
+        mem.attach(dev);
+    }
+    // Boot-ups, then NMT start of each, then their first heartbeats.
+    net.run_for(Duration::from_millis(10))
+        .map_err(|e| e.to_string())?;
+    for &id in ids {
+        let node = NodeId::new(id).map_err(|e| e.to_string())?;
+        net.node(node).nmt().start().map_err(|e| e.to_string())?;
+    }
+    net.run_for(Duration::from_millis(10))
+        .map_err(|e| e.to_string())
 }
 
 /// Several simulated devices as one station on one socket.
@@ -379,25 +445,34 @@ fn command(
                 _ => Err("address parts must be numbers (0x hex or decimal)".into()),
             }
         }
-        MasterCommand::ConfigureNodeId { node_id, no_store } => match NodeId::new(node_id) {
-            Ok(n) => lss
-                .procedure(Procedure::assign_node_id(n, !no_store))
-                .map(|r| {
-                    let stored = r.stored == Some(true);
-                    if !g.json {
-                        outln(&match r.stored {
-                            Some(true) => format!("node-ID {node_id} assigned and stored"),
-                            Some(false) => format!(
-                                "node-ID {node_id} assigned, not stored: the slave does not \
-                                 support store configuration (it takes effect now, and is lost \
-                                 at power-off)"
-                            ),
-                            None => format!("node-ID {node_id} assigned, not stored (--no-store)"),
-                        });
-                    }
-                    json!({"node_id": node_id, "stored": stored})
-                })
-                .map_err(|e| e.to_string()),
+        MasterCommand::ConfigureNodeId {
+            node_id,
+            no_store,
+            force,
+        } => match NodeId::new(node_id) {
+            Ok(n) => match in_use_check(&lss, n, force) {
+                Err(e) => Err(e),
+                Ok(()) => lss
+                    .procedure(Procedure::assign_node_id(n, !no_store))
+                    .map(|r| {
+                        let stored = r.stored == Some(true);
+                        if !g.json {
+                            outln(&match r.stored {
+                                Some(true) => format!("node-ID {node_id} assigned and stored"),
+                                Some(false) => format!(
+                                    "node-ID {node_id} assigned, not stored: the slave does not \
+                                     support store configuration (it takes effect now, and is \
+                                     lost at power-off)"
+                                ),
+                                None => {
+                                    format!("node-ID {node_id} assigned, not stored (--no-store)")
+                                }
+                            });
+                        }
+                        json!({"node_id": node_id, "stored": stored})
+                    })
+                    .map_err(|e| e.to_string()),
+            },
             Err(e) => Err(e.to_string()),
         },
         MasterCommand::SetBitRate { kbit, delay } => {
@@ -479,6 +554,11 @@ fn command(
                 lss.assign_all(config)
                     .map(|rep| {
                         if !g.json {
+                            for id in rep.skipped.iter() {
+                                outln(&format!(
+                                    "node-ID {id} is in use on the bus: not handed out"
+                                ));
+                            }
                             for e in &rep.entries {
                                 outln(&entry_text(e, g));
                             }
@@ -507,6 +587,7 @@ fn command(
                             }).collect::<Vec<_>>(),
                             "slaves": entries.collect::<Vec<_>>(),
                             "stopped": rep.stopped.map(|e| e.to_string()),
+                            "in_use": rep.skipped.iter().map(|n| n.get()).collect::<Vec<_>>(),
                         })
                     })
                     .map_err(|e| e.to_string())

@@ -60,14 +60,9 @@ enum Command {
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
     Sdo(sdo_cmd::SdoCommand),
-    /// NMT module control: start|stop|preop|reset|reset-comm NODE|all.
-    Nmt {
-        /// The command.
-        #[arg(value_enum)]
-        command: nmt_cmd::NmtCmd,
-        /// Node-ID or `all`.
-        target: String,
-    },
+    /// NMT module control: start|stop|preop|reset|reset-comm NODE|all [--wait]; `state`
+    /// lists every node's last state and heartbeat age.
+    Nmt(nmt_cmd::NmtArgs),
     /// List the nodes that answer, with their identity (0x1018).
     Scan,
     /// Decoded live traffic, optionally filtered as candump filters (CAN FD frames shown, not
@@ -185,7 +180,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
-        Command::Nmt { command, target } => nmt_cmd::run(command, &target, &cli.bus, global),
+        Command::Nmt(args) => nmt_cmd::run(args, &cli.bus, global),
         Command::Scan => nmt_cmd::run_scan(&cli.bus, global),
         Command::Monitor {
             duration,

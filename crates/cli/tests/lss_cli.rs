@@ -1,5 +1,6 @@
 //! `canopen lss` as a binary against simulated LSS slaves on the in-memory bus, with the bus
-//! recorded to a candump log (`--record-bus`) to check what reached the wire.
+//! recorded to a candump log (`--record-bus`) to check what reached the wire, and on the UDP
+//! bus against devices in other processes.
 
 use std::process::Output;
 
@@ -234,4 +235,149 @@ fn simulate_needs_an_interface() {
     let o = canopen(&["lss", "--unconfigured", "2", "simulate", "--duration", "1"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("give --iface"), "{}", stderr(&o));
+}
+
+#[test]
+fn assign_all_leaves_out_node_ids_in_use_and_reports_them() {
+    let args = [
+        "lss",
+        "--unconfigured",
+        "3",
+        "--real-slaves",
+        "--running",
+        "5,6",
+        "assign-all",
+        "--first",
+        "4",
+        "--last",
+        "10",
+    ];
+    let o = canopen(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for id in [5, 6] {
+        assert!(
+            text.contains(&format!(
+                "node-ID {id} is in use on the bus: not handed out"
+            )),
+            "{text}"
+        );
+    }
+    let mut json_args = vec!["--json"];
+    json_args.extend_from_slice(&args);
+    let o = canopen(&json_args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let ids: Vec<u64> = v["assigned"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["node_id"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ids, [4, 7, 8], "{v}");
+    assert_eq!(v["in_use"], serde_json::json!([5, 6]), "{v}");
+}
+
+#[test]
+fn configure_node_id_refuses_a_node_id_in_use_unless_forced() {
+    let base = ["lss", "--unconfigured", "1", "--running", "5"];
+    let mut args = base.to_vec();
+    args.extend(["configure-node-id", "5"]);
+    let o = canopen(&args);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("node-ID 5 is in use on the bus") && stderr(&o).contains("--force"),
+        "{}",
+        stderr(&o)
+    );
+    args.push("--force");
+    let o = canopen(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).starts_with("node-ID 5 assigned"),
+        "{}",
+        stdout(&o)
+    );
+    // A free node-ID goes through without --force.
+    let mut args = base.to_vec();
+    args.extend(["configure-node-id", "7"]);
+    let o = canopen(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// `lss assign-all` on a live bus of other processes: nodes 5 and 6 running (`simulate`), two
+/// unconfigured LSS slaves (`lss simulate`); 5 and 6 are not handed out.
+#[test]
+fn assign_all_on_a_live_udp_bus_leaves_the_running_nodes_alone() {
+    const EDS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
+    let iface = common::udp_bus(3);
+    let mut children = vec![
+        common::simulator(&iface, EDS, "5", "60"),
+        common::simulator(&iface, EDS, "6", "60"),
+    ];
+    children.push(
+        std::process::Command::new(env!("CARGO_BIN_EXE_canopen"))
+            .args([
+                "--iface",
+                &iface,
+                "lss",
+                "--unconfigured",
+                "2",
+                "--real-slaves",
+                "simulate",
+                "--duration",
+                "60",
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("lss simulate starts"),
+    );
+    // The LSS slaves answer once their process is up.
+    let mut up = false;
+    for _ in 0..50 {
+        let o = canopen(&["--iface", &iface, "lss", "identify-non-configured"]);
+        if stdout(&o).contains("an unconfigured slave answered") {
+            up = true;
+            break;
+        }
+    }
+    assert!(up, "the LSS slaves never answered");
+    let o = canopen(&[
+        "--json",
+        "--iface",
+        &iface,
+        "lss",
+        "--step-timeout",
+        "60",
+        "assign-all",
+        "--first",
+        "4",
+        "--last",
+        "10",
+    ]);
+    let out = stdout(&o);
+    let v: Result<serde_json::Value, _> = serde_json::from_str(&out);
+    let o2 = canopen(&["--iface", &iface, "lss", "configure-node-id", "6"]);
+    for c in &mut children {
+        let _ = c.kill();
+        let _ = c.wait();
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = v.unwrap();
+    let ids: Vec<u64> = v["assigned"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["node_id"].as_u64().unwrap())
+        .collect();
+    assert_eq!(ids, [4, 7], "{v}");
+    assert_eq!(v["in_use"], serde_json::json!([5, 6]), "{v}");
+    // A single slave is not given node 6 either.
+    assert_eq!(o2.status.code(), Some(1), "{}", stdout(&o2));
+    assert!(
+        stderr(&o2).contains("node-ID 6 is in use"),
+        "{}",
+        stderr(&o2)
+    );
 }

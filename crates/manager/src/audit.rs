@@ -239,8 +239,16 @@ impl<'a> SlaveRun<'a> {
                     match p.wait() {
                         Ok(bytes) if bytes == c.expected.to_le_bytes() => {}
                         Ok(bytes) if self.fix && !c.read_only => {
-                            let write = self.sdo().submit_write(c.object, &c.expected);
-                            self.step = Step::Fix(i, bytes, write);
+                            // A restricted COB-ID is not written back.
+                            match crate::config::restricted_value(node, c.object, &c.expected) {
+                                Some(e) => {
+                                    self.differ(i, bytes, Some(Err(e.to_string())), on_event)
+                                }
+                                None => {
+                                    let write = self.sdo().submit_write(c.object, &c.expected);
+                                    self.step = Step::Fix(i, bytes, write);
+                                }
+                            }
                         }
                         Ok(bytes) => self.differ(i, bytes, None, on_event),
                         Err(e) => {

@@ -323,12 +323,9 @@ impl Sdo {
     ) -> Result<Value, Error> {
         let entry = entry.into();
         let node = self.node;
-        let bytes = self.read_async(entry).await?;
-        Value::from_le_bytes(data_type, &bytes).map_err(|e| Error::Value {
-            node,
-            entry,
-            message: e.to_string(),
-        })
+        drive::catch_up(&self.net)?;
+        let upload = wait_pending(self.submit_read_upload(entry)).await?;
+        upload.decode(node, entry, data_type)
     }
 
     /// Reads a typed entry from generated code (async [`read_entry`](Self::read_entry)).
@@ -338,7 +335,9 @@ impl Sdo {
     ) -> Result<T, Error> {
         let at = ObjectAddress::new(entry.index(), entry.sub_index());
         let node = self.node;
-        crate::network::request::decode_entry(node, entry, &self.read_async(at).await?)
+        drive::catch_up(&self.net)?;
+        let upload = wait_pending(self.submit_read_upload(at)).await?;
+        crate::network::request::decode_entry(node, entry, &upload)
     }
 
     /// Writes a typed entry from generated code (async [`write_entry`](Self::write_entry)).
@@ -356,12 +355,7 @@ impl Nmt {
     async fn send_async(&self, cmd: CommandSpecifier) -> Result<(), Error> {
         drive::catch_up(&self.net)?;
         {
-            let mut core = self.net.core();
-            if let NmtTarget::Node(id) = self.target {
-                self.boots_seen
-                    .store(core.boot_count(id), std::sync::atomic::Ordering::SeqCst);
-            }
-            core.nmt(cmd, self.target);
+            self.net.core().nmt(cmd, self.target);
         }
         drive::flush(&self.net).await
     }
@@ -396,21 +390,20 @@ impl Nmt {
         self.send_async(CommandSpecifier::ResetCommunication).await
     }
 
-    /// Waits for a boot-up of the node received since this handle was made or sent its last
-    /// command (async [`wait_for_bootup`](Self::wait_for_bootup): boot-ups are counted, so
-    /// one followed at once by a heartbeat is not missed). Times out after `timeout` on the
-    /// network's clock.
+    /// Waits for a boot-up of the node not accounted for yet, and accounts for it (async
+    /// [`wait_for_bootup`](Self::wait_for_bootup): boot-ups are counted per node, so one that
+    /// arrived before this handle was made, or followed at once by a heartbeat, is not
+    /// missed). Times out after `timeout` on the network's clock.
     pub async fn wait_for_bootup_async(&self, timeout: impl Into<Duration>) -> Result<(), Error> {
-        use std::sync::atomic::Ordering;
         let timeout: Duration = timeout.into();
         let node = self.node_id()?;
         drive::catch_up(&self.net)?;
-        let seen = self.boots_seen.load(Ordering::SeqCst);
         let deadline = self.net.now() + timeout;
-        let boots = drive::wait_until(&self.net, Some(deadline), move |c| {
+        drive::wait_until(&self.net, Some(deadline), move |c| {
             let boots = c.boot_count(node);
-            if boots > seen {
-                Some(Ok(boots))
+            if boots > c.boots_taken(node) {
+                c.take_boots(node, boots);
+                Some(Ok(()))
             } else if c.now() >= deadline {
                 Some(Err(Error::Timeout(format!(
                     "no boot-up from node {node} within {timeout}"
@@ -419,9 +412,7 @@ impl Nmt {
                 None
             }
         })
-        .await??;
-        self.boots_seen.store(boots, Ordering::SeqCst);
-        Ok(())
+        .await?
     }
 
     /// Waits until the node reports `state`; returns at once if it is in it already (async
@@ -559,7 +550,7 @@ impl Lss {
         start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
     ) -> Result<<M::Output as LssOutput>::Value, Error>
     where
-        M: LssMachine + Send + 'static,
+        M: LssMachine + crate::machine::lss::HearsNodeIds + Send + 'static,
         M::Output: LssOutput,
     {
         drive::catch_up(&self.net)?;
@@ -608,10 +599,38 @@ impl Lss {
             .await
     }
 
-    /// The commissioning workflow: every unconfigured slave found and given a node-ID (async
-    /// [`assign_all`](Self::assign_all)).
-    pub async fn assign_all_async(&self, config: AssignConfig) -> Result<AssignReport, Error> {
-        self.run_async(AssignAll::new(config), |m, now| m.start(now))
-            .await
+    /// The commissioning workflow: every unconfigured slave found and given a node-ID, none
+    /// in use on the bus (async [`assign_all`](Self::assign_all)).
+    pub async fn assign_all_async(&self, mut config: AssignConfig) -> Result<AssignReport, Error> {
+        let candidates = Self::candidates(&config);
+        let found = self
+            .nodes_in_use_async(candidates, config.services.response_timeout)
+            .await?;
+        for id in found.iter() {
+            config.in_use.insert(id);
+        }
+        let in_use = config.in_use;
+        let mut report = self
+            .run_async(AssignAll::new(config), |m, now| m.start(now))
+            .await?;
+        crate::lss::list_conflicts(&mut report, candidates, in_use);
+        Ok(report)
+    }
+
+    /// The node-IDs of `candidates` in use on the bus (async
+    /// [`nodes_in_use`](Self::nodes_in_use)).
+    pub async fn nodes_in_use_async(
+        &self,
+        candidates: canola_lss::NodeIdPool,
+        timeout: impl Into<Duration>,
+    ) -> Result<canola_lss::NodeIdPool, Error> {
+        drive::catch_up(&self.net)?;
+        let (mut in_use, pending) = self.probe(candidates, timeout.into());
+        for (id, p) in pending {
+            if crate::lss::answered(p.wait_async().await)? || self.heard(id) {
+                in_use.insert(id);
+            }
+        }
+        Ok(in_use)
     }
 }

@@ -37,6 +37,9 @@ pub type ProgressFn = Box<dyn FnMut(TransferProgress) + Send>;
 pub(crate) struct Completion {
     pub(crate) data: Vec<u8>,
     pub(crate) transferred: u64,
+    /// An expedited upload answered without the size indicated: `data` holds all four bytes,
+    /// and a typed read takes its type's length from them.
+    pub(crate) unsized_expedited: bool,
 }
 
 /// Something that happened on the network, for subscribers.

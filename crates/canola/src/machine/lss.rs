@@ -2,8 +2,11 @@
 //! output type erased ([`LssJob`]), and what a finished one produced ([`LssOutcome`]). One job
 //! runs at a time, as LSS has one channel per bus (COB-IDs 0x7E5/0x7E4).
 
-use canola_frame::{CanFrame, Instant};
-use canola_lss::{AssignReport, LssAddress, LssError, LssMachine, MasterEvent, ServiceReport};
+use canola_frame::{CanFrame, Instant, NodeId};
+use canola_lss::{
+    AssignAll, AssignReport, DiscoverAll, Fastscan, LssAddress, LssError, LssMachine, LssMaster,
+    MasterEvent, ServiceReport,
+};
 
 /// What a finished LSS job produced.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -79,8 +82,26 @@ impl LssOutput for AssignReport {
     }
 }
 
+/// A machine that wants to know the node-IDs heard on the bus while it runs (assign-all keeps
+/// them out of its pool); the others ignore them.
+pub(crate) trait HearsNodeIds {
+    /// A boot-up, heartbeat or guarding answer of node `id` arrived.
+    fn node_id_heard(&mut self, _id: NodeId) {}
+}
+
+impl HearsNodeIds for LssMaster {}
+impl HearsNodeIds for Fastscan {}
+impl HearsNodeIds for DiscoverAll {}
+impl HearsNodeIds for AssignAll {
+    fn node_id_heard(&mut self, id: NodeId) {
+        AssignAll::node_id_heard(self, id);
+    }
+}
+
 /// An LSS master machine with its output type erased, as the network's core holds it.
 pub(crate) trait LssJob: Send {
+    /// A node-ID heard on the bus (see [`HearsNodeIds`]).
+    fn node_id_heard(&mut self, id: NodeId);
     fn handle_frame(&mut self, now: Instant, frame: &CanFrame);
     fn handle_timeout(&mut self, now: Instant);
     fn poll_transmit(&mut self) -> Option<CanFrame>;
@@ -91,9 +112,12 @@ pub(crate) trait LssJob: Send {
 
 impl<M> LssJob for M
 where
-    M: LssMachine + Send,
+    M: LssMachine + HearsNodeIds + Send,
     M::Output: LssOutput,
 {
+    fn node_id_heard(&mut self, id: NodeId) {
+        HearsNodeIds::node_id_heard(self, id);
+    }
     fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
         LssMachine::handle_frame(self, now, frame);
     }

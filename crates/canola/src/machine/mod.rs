@@ -74,6 +74,10 @@ pub(crate) struct Core {
     /// Boot-up messages received per node: a waiter compares counts, so a boot-up stays seen
     /// even when a heartbeat follows it in the same step.
     boots: BTreeMap<NodeId, u64>,
+    /// Per node, the boot-ups already accounted for: those before `add_node`, before the last
+    /// NMT command to it, or consumed by a wait. A wait returns for a later one, whichever
+    /// handle waits (a handle made after the boot-up arrived included).
+    boots_taken: BTreeMap<NodeId, u64>,
     subs: Subscribers,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
@@ -122,6 +126,7 @@ impl Core {
             emcy: EmcyConsumer::new(),
             sync: None,
             boots: BTreeMap::new(),
+            boots_taken: BTreeMap::new(),
             subs: Subscribers::default(),
             settle: Duration::from_millis(1),
             lss: None,
@@ -154,6 +159,8 @@ impl Core {
             }
             None => {
                 self.nodes.insert(node, NodeSlot::new(node, od));
+                // Boot-ups count from here.
+                self.take_boots(node, self.boot_count(node));
             }
         }
         // A dictionary may put TPDOs on COB-IDs outside the predefined set.
@@ -238,13 +245,34 @@ impl Core {
         self.boots.get(&node).copied().unwrap_or(0)
     }
 
+    /// The boot-ups of `node` already accounted for (see `boots_taken`).
+    pub(crate) fn boots_taken(&self, node: NodeId) -> u64 {
+        self.boots_taken.get(&node).copied().unwrap_or(0)
+    }
+
+    /// Marks the first `count` boot-ups of `node` as accounted for.
+    pub(crate) fn take_boots(&mut self, node: NodeId, count: u64) {
+        let t = self.boots_taken.entry(node).or_default();
+        *t = (*t).max(count);
+    }
+
     /// The time of the latest frame or timer the core was given.
     pub(crate) fn now(&self) -> Instant {
         self.now
     }
 
     /// Queues an NMT command (COB-ID 0x000).
+    /// The boot-ups heard before it no longer count for waits.
     pub(crate) fn nmt(&mut self, cmd: CommandSpecifier, target: NmtTarget) {
+        match target {
+            NmtTarget::Node(id) => self.take_boots(id, self.boot_count(id)),
+            _ => {
+                let counts: Vec<_> = self.boots.iter().map(|(n, c)| (*n, *c)).collect();
+                for (n, c) in counts {
+                    self.take_boots(n, c);
+                }
+            }
+        }
         self.queue(NmtCommand::new(cmd, target).to_frame());
     }
 
@@ -380,6 +408,14 @@ impl Core {
                 if !frame.is_remote() && frame.data() == [0] {
                     *self.boots.entry(node).or_default() += 1;
                     self.end_transfers_on_boot(node);
+                }
+                // A node-ID in use: an LSS job handing out node-IDs must not give it.
+                if !frame.is_remote()
+                    && frame.data().len() == 1
+                    && let Some(job) = &mut self.lss
+                {
+                    job.node_id_heard(node);
+                    self.pump_lss();
                 }
                 // A guarded node's answers go to the guarding master alone (their toggle bit
                 // is no heartbeat state); every other node's frames to the heartbeat consumer,

@@ -207,10 +207,15 @@ impl Core {
                 );
                 let rebooted = core::mem::take(&mut c.rebooted) || (boot_seen && timed_out);
                 let result = match ev {
-                    SdoEvent::Uploaded { sink, .. } => match sink {
+                    SdoEvent::Uploaded {
+                        sink,
+                        unsized_expedited,
+                        ..
+                    } => match sink {
                         UpSink::Mem(data) => Ok(Completion {
                             transferred: data.len() as u64,
                             data,
+                            unsized_expedited,
                         }),
                         // A buffered writer may hold the tail still: flush it, and a failing
                         // flush fails the upload (the bytes did not all arrive).
@@ -218,6 +223,7 @@ impl Core {
                             Ok(()) => Ok(Completion {
                                 data: Vec::new(),
                                 transferred: written,
+                                unsized_expedited,
                             }),
                             Err(e) => Err(SdoErrorKind::Io(format!("flushing the output: {e}"))),
                         },
@@ -225,6 +231,7 @@ impl Core {
                     SdoEvent::Downloaded { source, .. } => Ok(Completion {
                         data: Vec::new(),
                         transferred: source.0.len() as u64,
+                        unsized_expedited: false,
                     }),
                     SdoEvent::Failed { .. } if rebooted => Err(SdoErrorKind::NodeRebooted),
                     SdoEvent::Failed { error, buffer } => Err(match buffer {

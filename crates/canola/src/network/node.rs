@@ -2,7 +2,6 @@
 //! remapping; and [`Nmt`], NMT module control (CiA 301 §7.2.8.3.1) and a node's NMT state.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use canola_frame::{Duration, NodeId};
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
@@ -57,38 +56,25 @@ impl Node {
 /// NMT module control (CiA 301 §7.2.8.3.1) for one node or all, and a node's NMT state as its
 /// heartbeats, boot-up and guarding answers report it.
 ///
-/// Boot-ups are counted, not sampled: [`wait_for_bootup`](Self::wait_for_bootup) returns for a
-/// boot-up received since this handle was made or since its last command, even if a heartbeat
-/// with the next state followed at once (or the background driver received both before the
-/// wait began). So `nmt.reset_node()` then `nmt.wait_for_bootup(t)` cannot miss the boot-up.
-#[derive(Debug)]
+/// Boot-ups are counted per node, not sampled: [`wait_for_bootup`](Self::wait_for_bootup)
+/// returns for a boot-up received since the node was added ([`Network::add_node`]; for a node
+/// never added, since the network started), since the last NMT command to it (or to all), or
+/// since the last wait that returned, whichever came last. It does not matter when the handle
+/// was made, nor whether a heartbeat with the next state followed at once (or the background
+/// driver received both before the wait began). So `nmt.reset_node()` then
+/// `nmt.wait_for_bootup(t)` cannot miss the boot-up, and after a reset of all nodes, the
+/// boot-up of a node whose handle is made after waiting for another one is not lost.
+#[derive(Debug, Clone)]
 pub struct Nmt {
     pub(crate) net: Network,
     pub(crate) target: NmtTarget,
-    /// The node's boot-up count when this handle was made or last sent a command.
-    pub(crate) boots_seen: AtomicU64,
-}
-
-impl Clone for Nmt {
-    fn clone(&self) -> Self {
-        Self {
-            net: self.net.clone(),
-            target: self.target,
-            boots_seen: AtomicU64::new(self.boots_seen.load(Ordering::SeqCst)),
-        }
-    }
 }
 
 impl Nmt {
     fn new(net: &Network, target: NmtTarget) -> Self {
-        let boots = match target {
-            NmtTarget::Node(id) => net.core().boot_count(id),
-            _ => 0,
-        };
         Self {
             net: net.clone(),
             target,
-            boots_seen: AtomicU64::new(boots),
         }
     }
 
@@ -99,9 +85,6 @@ impl Nmt {
 
     fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
         let mut core = self.net.core();
-        if let NmtTarget::Node(id) = self.target {
-            self.boots_seen.store(core.boot_count(id), Ordering::SeqCst);
-        }
         core.nmt(cmd, self.target);
         drop(core);
         self.net.flush()
@@ -125,17 +108,17 @@ impl Nmt {
         }
     }
 
-    /// Waits (driving the network) for a boot-up of the node received since this handle was
-    /// made or sent its last command. Times out after `timeout` on the network's clock.
+    /// Waits (driving the network) for a boot-up of the node not accounted for yet (see the
+    /// type's docs), and accounts for it. Times out after `timeout` on the network's clock.
     pub fn wait_for_bootup(&self, timeout: impl Into<Duration>) -> Result<(), Error> {
         let timeout: Duration = timeout.into();
         let node = self.node()?;
-        let seen = self.boots_seen.load(Ordering::SeqCst);
         let deadline = self.net.now() + timeout;
-        let r = self.net.wait_for(|c| {
+        self.net.wait_for(|c| {
             let boots = c.boot_count(node);
-            if boots > seen {
-                Some(Ok(boots))
+            if boots > c.boots_taken(node) {
+                c.take_boots(node, boots);
+                Some(Ok(()))
             } else if c.now() >= deadline {
                 Some(Err(Error::Timeout(format!(
                     "no boot-up from node {node} within {timeout}"
@@ -143,9 +126,7 @@ impl Nmt {
             } else {
                 None
             }
-        })??;
-        self.boots_seen.store(r, Ordering::SeqCst);
-        Ok(())
+        })?
     }
 
     /// Waits (driving the network) until the node reports `state`; returns at once if it is in

@@ -275,6 +275,18 @@ impl Sdo {
         Ok(self.run(entry.into(), upload_to_memory(), |c| c.data)?)
     }
 
+    /// Starts an upload for a typed read: the bytes, and whether the server answered
+    /// expedited without the size indicated (see [`Upload`]).
+    #[cfg(feature = "tokio")]
+    pub(crate) fn submit_read_upload(self, entry: ObjectAddress) -> Pending<Upload> {
+        self.request(entry, upload_to_memory(), Upload::from)
+    }
+
+    /// [`submit_read_upload`](Self::submit_read_upload) run to its end on this thread.
+    fn read_upload(self, entry: ObjectAddress) -> Result<Upload, Error> {
+        Ok(self.run(entry, upload_to_memory(), Upload::from)?)
+    }
+
     /// Reads an object and decodes it with the type from the node's dictionary.
     pub fn read_value(self, entry: impl Into<ObjectAddress>) -> Result<Value, Error> {
         let entry = entry.into();
@@ -302,12 +314,7 @@ impl Sdo {
     ) -> Result<Value, Error> {
         let entry = entry.into();
         let node = self.node;
-        let bytes = self.read(entry)?;
-        Value::from_le_bytes(data_type, &bytes).map_err(|e| Error::Value {
-            node,
-            entry,
-            message: e.to_string(),
-        })
+        self.read_upload(entry)?.decode(node, entry, data_type)
     }
 
     /// Reads a typed entry (from generated code: `canola_od::Entry<T>`) and decodes it.
@@ -317,7 +324,7 @@ impl Sdo {
     ) -> Result<T, Error> {
         let at = ObjectAddress::new(entry.index(), entry.sub_index());
         let node = self.node;
-        decode_entry(node, entry, &self.read(at)?)
+        decode_entry(node, entry, &self.read_upload(at)?)
     }
 
     /// Writes a typed entry (from generated code: `canola_od::Entry<T>`).
@@ -369,13 +376,59 @@ impl Sdo {
     }
 }
 
+/// An upload's bytes for a typed read.
+pub(crate) struct Upload {
+    pub(crate) data: Vec<u8>,
+    /// The server answered expedited without the size indicated (e = 1, s = 0): `data` holds
+    /// all four bytes, of which CiA 301 leaves those past the object unspecified, so the
+    /// type's length is taken from the front (real devices that always send four bytes
+    /// answer a 1- or 2-byte object this way).
+    pub(crate) unsized_expedited: bool,
+}
+
+impl From<Completion> for Upload {
+    fn from(c: Completion) -> Self {
+        Self {
+            data: c.data,
+            unsized_expedited: c.unsized_expedited,
+        }
+    }
+}
+
+impl Upload {
+    /// The bytes decoded as `data_type`, the error naming node and object (blocking and async
+    /// reads).
+    pub(crate) fn decode(
+        &self,
+        node: NodeId,
+        entry: ObjectAddress,
+        data_type: DataType,
+    ) -> Result<Value, Error> {
+        let decoded = if self.unsized_expedited {
+            Value::from_le_bytes_unsized(data_type, &self.data)
+        } else {
+            Value::from_le_bytes(data_type, &self.data)
+        };
+        decoded.map_err(|e| Error::Value {
+            node,
+            entry,
+            message: e.to_string(),
+        })
+    }
+}
+
 /// A typed entry's bytes decoded, the error naming node and object (blocking and async reads).
 pub(crate) fn decode_entry<T: canola_od::EntryValue>(
     node: NodeId,
     entry: &canola_od::Entry<T>,
-    bytes: &[u8],
+    upload: &Upload,
 ) -> Result<T, Error> {
-    entry.decode(bytes).map_err(|e| Error::Value {
+    let decoded = if upload.unsized_expedited {
+        entry.decode_unsized(&upload.data)
+    } else {
+        entry.decode(&upload.data)
+    };
+    decoded.map_err(|e| Error::Value {
         node,
         entry: ObjectAddress::new(entry.index(), entry.sub_index()),
         message: e.to_string(),

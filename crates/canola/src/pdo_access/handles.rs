@@ -95,6 +95,15 @@ impl Rpdos {
         if !pdo.is_enabled() {
             return Err(pdo.error("the PDO is not valid on the node (COB-ID bit 31)".into()));
         }
+        // The master would send on it: on 0x000 every frame would be an NMT command.
+        let index = pdo.comm_index();
+        if let Some(can_id) = crate::restricted_cob_id(index, 1, pdo.comm.cob_id.0) {
+            return Err(Error::RestrictedCobId {
+                node: self.node.id,
+                entry: canola_od::ObjectAddress::new(index, 1),
+                can_id,
+            });
+        }
         let mapping = pdo
             .mapping_lenient()
             .ok_or_else(|| pdo.error("the mapping does not fit a PDO".into()))?;

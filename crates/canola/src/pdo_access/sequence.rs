@@ -334,6 +334,17 @@ pub(super) async fn configure_with(
             entry: ObjectAddress::new(direction.comm_index(n), 0),
             message: e.to_string(),
         })?;
+    // No step is sent when one would give the PDO a restricted identifier.
+    for step in &steps {
+        if let Some(can_id) = crate::restricted_cob_id(step.index, step.subindex, step.value_u32())
+        {
+            return Err(Error::RestrictedCobId {
+                node: node.id,
+                entry: ObjectAddress::new(step.index, step.subindex),
+                can_id,
+            });
+        }
+    }
     for step in &steps {
         port.write(ObjectAddress::new(step.index, step.subindex), step.value())
             .await?;

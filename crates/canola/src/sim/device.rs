@@ -41,6 +41,8 @@ pub struct SimDevice {
     /// current by every input: the bus asks for it after every frame, and a scan over all
     /// machines costs more than the SDO request that changed one of them.
     pub(super) timers: Option<Instant>,
+    /// Habits of real devices this one copies.
+    pub(super) quirks: super::Quirks,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
 }
@@ -91,6 +93,7 @@ impl SimDevice {
             pdo: Box::new(PdoEngine::new()),
             last_state: DeviceState::Initialising,
             timers: None,
+            quirks: super::Quirks::default(),
             sdo_requests: 0,
         }
     }
@@ -166,9 +169,30 @@ impl SimDevice {
         self.reset(now, false);
     }
 
-    /// Parses an EDS/DCF text and builds a device from it.
+    /// Parses an EDS/DCF text and builds a device from it. A file with errors is refused,
+    /// among them a value of a communication object (0x1000..=0x1FFF) that does not parse:
+    /// kept as text it would leave a COB-ID at 0 and the device sending on 0x000, the NMT
+    /// identifier. [`from_eds_with`](Self::from_eds_with) also hands back the warnings.
     pub fn from_eds(node: NodeId, text: &[u8]) -> Result<Self, canola_od::ParseError> {
         Ok(Self::new(node, canola_od::parse(text)?.od))
+    }
+
+    /// [`from_eds`](Self::from_eds) with parser options (e.g.
+    /// [`ParseOptions::strict`](canola_od::ParseOptions::strict), which refuses a file with any
+    /// finding in a communication object), handing back the parser's warnings with the device.
+    pub fn from_eds_with(
+        node: NodeId,
+        text: &[u8],
+        options: canola_od::ParseOptions,
+    ) -> Result<(Self, Vec<canola_od::Diagnostic>), canola_od::ParseError> {
+        let parsed = canola_od::parse_with(text, options)?;
+        Ok((Self::new(node, parsed.od), parsed.diagnostics))
+    }
+
+    /// Copies habits of real devices (see [`Quirks`](super::Quirks)).
+    pub fn with_quirks(mut self, quirks: super::Quirks) -> Self {
+        self.quirks = quirks;
+        self
     }
 
     /// Adds device-specific behaviour.
@@ -240,6 +264,7 @@ impl SimDevice {
         }
         for ch in &mut self.sdo {
             while let Some(data) = ch.server.poll_transmit() {
+                let data = self.quirks.sdo_response(data);
                 self.out.push_back(ch.ids.response_frame(data));
             }
         }
@@ -347,6 +372,7 @@ impl SimDevice {
             // its inputs): only it can have frames, and only its timer can have moved.
             let c = &mut self.sdo[ch];
             while let Some(data) = c.server.poll_transmit() {
+                let data = self.quirks.sdo_response(data);
                 self.out.push_back(c.ids.response_frame(data));
             }
             if c.server.poll_timeout() != before {

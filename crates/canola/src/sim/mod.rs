@@ -24,15 +24,18 @@
 //! Communication objects with side effects handled here: 0x1017 producer heartbeat time.
 //!
 //! Files by job: `device` (the [`SimDevice`] station), `objects` (the objects as the SDO server
-//! sees them), `values` ([`Values`]), `hook` ([`DeviceHook`]), `pdo` (the device's own PDOs).
+//! sees them), `values` ([`Values`]), `hook` ([`DeviceHook`]), `pdo` (the device's own PDOs), `quirks` ([`Quirks`]: habits of
+//! real devices it can copy, such as expedited answers without the size).
 
 mod device;
 mod hook;
 mod objects;
 mod pdo;
+mod quirks;
 mod values;
 
 pub use device::SimDevice;
 pub use hook::{DeviceHook, HookActions};
 pub use objects::MAX_VARIABLE_SIZE;
+pub use quirks::Quirks;
 pub use values::Values;

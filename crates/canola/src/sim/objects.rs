@@ -138,6 +138,13 @@ impl ObjectAccess for Objects<'_> {
                 }
             }
         }
+        // A COB-ID entry set to an identifier CiA 301 restricts (TPDO1 on 0x000, the NMT
+        // identifier, say) would disturb the network: refused as an invalid value.
+        if let Ok(raw) = <[u8; 4]>::try_from(value.as_slice())
+            && crate::restricted_cob_id(index, sub, u32::from_le_bytes(raw)).is_some()
+        {
+            return Err(AbortCode::INVALID_VALUE);
+        }
         for h in self.hooks.iter_mut() {
             h.on_write(self.now, self.values, index, sub, &value, self.actions)?;
         }

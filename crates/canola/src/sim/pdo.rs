@@ -33,11 +33,20 @@ pub(crate) fn device_engine(view: &OdView<'_>, now: Instant) -> Box<PdoEngine> {
     if let Ok(id) = CanId::standard(0x80) {
         e.set_sync_cob_id(Some(id));
     }
+    // A PDO on a CAN identifier CiA 301 restricts (a dictionary can carry one: SDO writes of
+    // one are refused, defaults are not) stays off: TPDO1 on 0x000 would send NMT commands.
+    let allowed = |index: u16, c: &canola_pdo::PdoConfig| {
+        crate::restricted_cob_id(index, 1, c.comm.cob_id.0).is_none()
+    };
     for n in 0..4 {
-        if let Some(c) = read_pdo(view, Direction::Receive, n) {
+        if let Some(c) = read_pdo(view, Direction::Receive, n)
+            && allowed(Direction::Receive.comm_index(n), &c)
+        {
             let _ = e.add_rpdo(c);
         }
-        if let Some(c) = read_pdo(view, Direction::Transmit, n) {
+        if let Some(c) = read_pdo(view, Direction::Transmit, n)
+            && allowed(Direction::Transmit.comm_index(n), &c)
+        {
             let _ = e.add_tpdo(now, c);
         }
     }

@@ -436,6 +436,25 @@ impl<'a> SlaveBoot<'a> {
                     Phase::NextWrite(0)
                 }
             }
+            // Before the first write: a configuration that would put a COB-ID on a CAN
+            // identifier CiA 301 restricts is refused whole, nothing written.
+            Phase::NextWrite(0)
+                if let Some(e) =
+                    crate::config::restricted_write(self.slave.node_id, &self.writes) =>
+            {
+                let object = match &e {
+                    canola::Error::RestrictedCobId { entry, .. } => Some(*entry),
+                    _ => None,
+                };
+                return Err(Failure {
+                    step: BootStep::Configuration,
+                    code: BootErrorCode::J,
+                    object,
+                    abort: None,
+                    detail: e.to_string(),
+                    absent: false,
+                });
+            }
             Phase::NextWrite(i) => match self.writes.get(i) {
                 Some((addr, value)) => Phase::Write(i, self.sdo().submit_write(*addr, value)),
                 None => {

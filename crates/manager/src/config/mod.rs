@@ -233,4 +233,25 @@ pub fn configured_values(slave: &SlaveConfig) -> Vec<(ObjectAddress, Value)> {
         .collect()
 }
 
+/// The first of `writes` that would configure a COB-ID entry of node `node` with a CAN
+/// identifier CiA 301 restricts ([`canola::restricted_cob_id`]), as the error the master
+/// refuses it with.
+pub fn restricted_write(node: NodeId, writes: &[(ObjectAddress, Value)]) -> Option<canola::Error> {
+    writes
+        .iter()
+        .find_map(|(at, v)| restricted_value(node, *at, v))
+}
+
+/// Whether writing `value` to `at` of node `node` configures a restricted COB-ID, as the
+/// error the master refuses it with.
+pub fn restricted_value(node: NodeId, at: ObjectAddress, value: &Value) -> Option<canola::Error> {
+    let raw = u32::try_from(value.as_i128()?).ok()?;
+    let can_id = canola::restricted_cob_id(at.index, at.sub_index, raw)?;
+    Some(canola::Error::RestrictedCobId {
+        node,
+        entry: at,
+        can_id,
+    })
+}
+
 mod load;
