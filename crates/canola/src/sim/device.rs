@@ -465,10 +465,17 @@ impl Station for SimDevice {
             self.collect();
         }
         let mut actions = HookActions::default();
+        let mut hooked = false;
         for h in self.hooks.iter_mut() {
             if is_due(h.poll_timeout(), now) {
                 h.on_timeout(now, &mut self.values, &mut actions);
+                hooked = true;
             }
+        }
+        if hooked && self.nmt.state() == DeviceState::Operational {
+            // A hook's timer may change mapped values (a drive model stepping): event-driven
+            // TPDOs send what changed, as for `set_value`.
+            self.pdo.update(now, &mut Store(&mut self.values));
         }
         self.apply(now, actions, &[]);
         self.refresh_timers();

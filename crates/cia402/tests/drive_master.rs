@@ -1,0 +1,318 @@
+//! The `Drive` API against the simulated drive (`DriveHook` behind a `SimDevice` from
+//! `eds/cia402-servo.eds`) on the in-memory bus, through the real SDO and PDO codecs: the
+//! state walk, moves, modes, homing, faults, and one test per master pitfall of
+//! `shared/spec/cia402.md` §7.
+
+use std::sync::{Arc, Mutex};
+
+use canola::{CanFrame, CanId, Duration, MemoryBus, Network, NodeId, Received, Transport as _};
+use canola_cia402::master::{Drive, DriveError, Move, simulated_drive};
+use canola_cia402::sim::{SimConfig, SimDrive, SimFault};
+use canola_cia402::{ModeOfOperation, PlanError, QuickStopOption, State};
+
+const EDS: &[u8] = include_bytes!("../../../eds/cia402-servo.eds");
+
+struct Rig {
+    bus: MemoryBus,
+    net: Network,
+    model: Arc<Mutex<SimDrive>>,
+    drive: Drive,
+}
+
+fn rig(config: SimConfig) -> Rig {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let id = NodeId::new(5).unwrap();
+    let node = net.add_node(id);
+    let (device, model) = simulated_drive(id, EDS, SimDrive::new(config)).unwrap();
+    bus.attach(device);
+    node.nmt().wait_for_bootup(Duration::from_secs(1)).unwrap();
+    let drive = Drive::new(node);
+    Rig {
+        bus,
+        net,
+        model,
+        drive,
+    }
+}
+
+fn abort_code(e: &DriveError) -> Option<u32> {
+    match e {
+        DriveError::Sdo(e) => e.server_abort().map(|c| c.0),
+        _ => None,
+    }
+}
+
+#[test]
+fn enable_then_absolute_and_relative_moves_end_at_target_reached_bit_10() {
+    let r = rig(SimConfig::default());
+    // Straight after boot the drive may still be in not ready to switch on: the walk waits
+    // for transition 1.
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    let pos = r
+        .drive
+        .move_to(Move {
+            target: 4_000,
+            ..Move::default()
+        })
+        .unwrap();
+    // Bit 4 (voltage enabled) was set all along: returning on it would leave the drive near 0.
+    assert!((pos - 4_000).abs() <= 10, "position {pos}");
+    let sw = r.drive.statusword().unwrap();
+    assert!(sw.target_reached());
+    let mut seen = Vec::new();
+    r.drive
+        .start_move(Move {
+            target: 1_000,
+            relative: true,
+            velocity: Some(20_000),
+            immediate: false,
+        })
+        .unwrap();
+    let pos = r.drive.wait_target_reached(|p| seen.push(p)).unwrap();
+    assert!((pos - 5_000).abs() <= 10, "position {pos}");
+    // The live positions rose through the move.
+    assert!(seen.len() > 2 && seen.first() < seen.last(), "{seen:?}");
+    assert!((r.model.lock().unwrap().position() - 5_000.0).abs() <= 10.0);
+}
+
+#[test]
+fn quick_stop_ends_in_switch_on_disabled_with_605a_2() {
+    // python-canopen #167: QSA, then automatically SOD.
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    r.drive.set_velocity(20_000).unwrap();
+    r.net.run_for(Duration::from_millis(200)).unwrap();
+    assert_eq!(r.drive.quick_stop().unwrap(), State::SwitchOnDisabled);
+    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
+    assert!(r.model.lock().unwrap().velocity().abs() < 1.0);
+}
+
+#[test]
+fn quick_stop_stays_active_with_605a_6_and_transition_16_enables_again() {
+    let r = rig(SimConfig::default());
+    r.drive.node().sdo().write((0x605A, 0), 6i16).unwrap();
+    r.drive.enable().unwrap();
+    assert_eq!(r.drive.quick_stop().unwrap(), State::QuickStopActive);
+    r.net.run_for(Duration::from_millis(300)).unwrap();
+    assert_eq!(r.drive.state().unwrap(), State::QuickStopActive);
+    // Transition 16: 0x000F in quick stop active.
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+}
+
+#[test]
+fn a_drive_without_transition_16_is_enabled_through_switch_on_disabled() {
+    // python-canopen #169: the drive ignores 0x000F in quick stop active.
+    let mut config = SimConfig::default();
+    config.device.transition_16 = false;
+    config.device.quick_stop_option = QuickStopOption(6);
+    let r = rig(config);
+    r.drive.enable().unwrap();
+    assert_eq!(r.drive.quick_stop().unwrap(), State::QuickStopActive);
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    // Told beforehand, the planner does not try transition 16 at all.
+    let drive = Drive::new(r.drive.node().clone()).with_transition_16(false);
+    assert_eq!(drive.quick_stop().unwrap(), State::QuickStopActive);
+    assert_eq!(drive.enable().unwrap(), State::OperationEnabled);
+}
+
+#[test]
+fn mode_0_at_power_up_and_an_unknown_mode_are_values_not_failures() {
+    // python-canopen #183.
+    let r = rig(SimConfig::default());
+    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::NoMode);
+    // A reserved code the drive refuses: its SDO abort, no panic, mode unchanged.
+    let e = r.drive.set_mode(ModeOfOperation::Reserved(5)).unwrap_err();
+    assert_eq!(abort_code(&e), Some(0x0609_0030), "{e}");
+    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::NoMode);
+    assert_eq!(
+        r.drive.set_mode(ModeOfOperation::ProfileVelocity).unwrap(),
+        ModeOfOperation::NoMode
+    );
+    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::ProfileVelocity);
+}
+
+#[test]
+fn a_mode_already_set_succeeds_without_writing_0x6060() {
+    // ros2_canopen #445.
+    let r = rig(SimConfig::default());
+    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
+    let mut tap = r.bus.endpoint();
+    assert_eq!(
+        r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap(),
+        ModeOfOperation::ProfilePosition
+    );
+    let mut writes = 0;
+    while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
+        let d = frame.data();
+        let sdo_download = frame.cob_id() == Some(0x605) && d.len() == 8 && d[0] & 0xE0 == 0x20;
+        if sdo_download && u16::from_le_bytes([d[1], d[2]]) == 0x6060 {
+            writes += 1;
+        }
+    }
+    assert_eq!(writes, 0);
+}
+
+#[test]
+fn modes_work_without_0x6502() {
+    // ros2_canopen #299: 0x6502 absent (SDO abort 0x06020000); modes are verified by 0x6061.
+    let r = rig(SimConfig {
+        supported_modes: None,
+        ..SimConfig::default()
+    });
+    let e = r.drive.node().sdo().read((0x6502, 0)).unwrap_err();
+    assert_eq!(abort_code(&DriveError::Sdo(e)), Some(0x0602_0000));
+    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
+    r.drive.enable().unwrap();
+    let pos = r
+        .drive
+        .move_to(Move {
+            target: -2_000,
+            ..Move::default()
+        })
+        .unwrap();
+    assert!((pos + 2_000).abs() <= 10);
+}
+
+#[test]
+fn homing_from_switch_on_disabled_selects_the_mode_and_asks_for_enable() {
+    // python-canopen #244: homing mode can be chosen in switch on disabled; the power state is
+    // not changed behind the caller's back, and homing itself needs operation enabled.
+    let r = rig(SimConfig::default());
+    r.net.run_for(Duration::from_millis(50)).unwrap();
+    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
+    match r.drive.home(Some(19)) {
+        Err(DriveError::NotEnabled { state, .. }) => assert_eq!(state, State::SwitchOnDisabled),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::Homing);
+    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
+    r.drive.enable().unwrap();
+    // Method 19: the home switch (active from 5000 counts) searched in the positive direction.
+    let pos = r.drive.home(Some(19)).unwrap();
+    assert!(pos.abs() <= 10, "position after homing {pos}");
+    let shaft = r.model.lock().unwrap().position();
+    assert!(shaft.abs() <= 10.0, "{shaft}");
+}
+
+#[test]
+fn safe_torque_off_at_start_up_leaves_the_drive_usable_but_not_enabled() {
+    // ros2_canopen #421/#422: nothing at set-up needs operation enabled; enabling says why it
+    // cannot.
+    let r = rig(SimConfig {
+        safe_torque_off: true,
+        ..SimConfig::default()
+    });
+    r.net.run_for(Duration::from_millis(50)).unwrap();
+    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
+    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
+    match r.drive.enable() {
+        Err(DriveError::Plan(PlanError::VoltageNotEnabled { state, .. })) => {
+            assert_eq!(state, State::ReadyToSwitchOn)
+        }
+        other => panic!("{other:?}"),
+    }
+    r.model.lock().unwrap().set_safe_torque_off(false);
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+}
+
+#[test]
+fn a_fault_names_0x603f_and_the_emcy_and_the_reset_clears_it() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    r.drive
+        .start_move(Move {
+            target: 50_000,
+            ..Move::default()
+        })
+        .unwrap();
+    r.model
+        .lock()
+        .unwrap()
+        .inject_fault(SimFault::FollowingError);
+    match r.drive.wait_target_reached(|_| {}) {
+        Err(DriveError::Fault { code, emcy, .. }) => {
+            assert_eq!(code.0, 0x8611);
+            assert!(emcy.unwrap().contains("0x8611"));
+        }
+        other => panic!("{other:?}"),
+    }
+    let report = r.drive.fault_reset().unwrap();
+    assert_eq!(report.code.0, 0x8611);
+    assert!(
+        report.emcy.as_deref().unwrap_or("").contains("0x8611"),
+        "{report:?}"
+    );
+    assert_eq!(report.from, State::Fault);
+    assert_eq!(report.state, State::SwitchOnDisabled);
+    assert_eq!(r.drive.error_code().unwrap().0, 0);
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+}
+
+#[test]
+fn a_wait_that_times_out_names_expected_reached_and_statusword() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    let drive = Drive::new(r.drive.node().clone()).with_timeouts(canola_cia402::master::Timeouts {
+        motion: Duration::from_millis(50),
+        ..Default::default()
+    });
+    let e = drive
+        .move_to(Move {
+            target: 100_000,
+            ..Move::default()
+        })
+        .unwrap_err();
+    match &e {
+        DriveError::Timeout {
+            expected,
+            reached,
+            statusword,
+            ..
+        } => {
+            assert_eq!(expected, "target reached");
+            assert!(reached.starts_with("operation enabled"), "{reached}");
+            assert!(!statusword.target_reached());
+        }
+        other => panic!("{other:?}"),
+    }
+    let text = e.to_string();
+    assert!(
+        text.contains("expected target reached") && text.contains("statusword"),
+        "{text}"
+    );
+}
+
+#[test]
+fn rpdo_controlwords_reach_the_drive_and_tpdos_carry_its_statusword() {
+    // The drive behind the device's PDOs: RPDO1 = controlword + mode, TPDO1 = statusword + mode
+    // display (event-driven), as the EDS maps them.
+    let r = rig(SimConfig::default());
+    r.net.run_for(Duration::from_millis(50)).unwrap();
+    r.drive.node().nmt().start().unwrap();
+    let events = r.net.subscribe();
+    let rpdo = CanId::standard(0x205).unwrap();
+    for cw in [0x0006u16, 0x0007, 0x000F] {
+        let [lo, hi] = cw.to_le_bytes();
+        r.net
+            .send(CanFrame::new(rpdo, &[lo, hi, 1]).unwrap())
+            .unwrap();
+        r.net.run_for(Duration::from_millis(20)).unwrap();
+    }
+    assert_eq!(r.model.lock().unwrap().state(), State::OperationEnabled);
+    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
+    let mut last = None;
+    while let Ok(ev) = events.try_recv() {
+        if let canola::NetworkEvent::Pdo {
+            node, number, data, ..
+        } = ev
+            && node.get() == 5
+            && number == 1
+        {
+            last = Some(data.to_vec());
+        }
+    }
+    let data = last.expect("a TPDO1");
+    assert_eq!(u16::from_le_bytes([data[0], data[1]]) & 0x6F, 0x27);
+    assert_eq!(data[2], 1, "mode display pp");
+}
