@@ -316,3 +316,25 @@ fn rpdo_controlwords_reach_the_drive_and_tpdos_carry_its_statusword() {
     assert_eq!(u16::from_le_bytes([data[0], data[1]]) & 0x6F, 0x27);
     assert_eq!(data[2], 1, "mode display pp");
 }
+
+#[test]
+fn a_set_point_edge_sent_by_two_back_to_back_rpdos_is_not_lost() {
+    // RPDO2 = controlword + target position, synchronous (type 1): 0x001F, SYNC, 0x000F, SYNC
+    // within the same millisecond; the drive takes each RPDO when its SYNC applies it.
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
+    r.drive.node().nmt().start().unwrap();
+    r.net.run_for(Duration::from_millis(10)).unwrap();
+    let rpdo2 = CanId::standard(0x305).unwrap();
+    for cw in [0x001Fu16, 0x000F] {
+        let mut data = cw.to_le_bytes().to_vec();
+        data.extend_from_slice(&3_000i32.to_le_bytes());
+        r.net.send(CanFrame::new(rpdo2, &data).unwrap()).unwrap();
+        r.net
+            .send(CanFrame::new(CanId::standard(0x080).unwrap(), &[]).unwrap())
+            .unwrap();
+    }
+    let pos = r.drive.wait_target_reached(|_| {}).unwrap();
+    assert!((pos - 3_000).abs() <= 10, "{pos}");
+}

@@ -9,11 +9,11 @@
 //!   unsupported mode, 0x08000022 for a mode change the drive's state forbids, ...).
 //! - SDO uploads of the drive's objects are read from [`SimDrive::read`], fresh at the moment of
 //!   the request (a statusword read after a controlword write shows the new state).
-//! - Every [`DriveHook::TICK`] of bus time the drive steps, after taking the values RPDOs wrote
-//!   into the device since the previous tick (an object whose value differs from what the hook
-//!   last published), and publishes its objects back into the device's values, where TPDOs
-//!   (SYNC or event-driven) read them. An RPDO controlword that changes twice within one tick is
-//!   seen once, with its latest value.
+//! - After each RPDO (or SYNC applying synchronous RPDOs) the drive takes the values the RPDO
+//!   wrote into the device (an object whose value differs from what the hook last published),
+//!   so every controlword edge of a master's RPDOs counts, and publishes its objects back.
+//! - Every [`DriveHook::TICK`] of bus time the drive steps and publishes its objects into the
+//!   device's values, where TPDOs (SYNC or event-driven) read them.
 //! - The drive's EMCYs (fault, reset) go out as the device's EMCYs.
 //!
 //! Objects outside the drive's table (the communication area, manufacturer objects) stay with
@@ -92,7 +92,11 @@ impl DriveHook {
 
     /// Takes what RPDOs wrote since the last tick into the drive.
     fn take_rpdo_writes(&mut self, values: &Values) {
-        for o in obj::ALL {
+        // The controlword last: a set-point edge in the same PDO as its target takes that
+        // target (objects are otherwise in index order, 0x6040 before 0x607A).
+        let controlword = |o: &&ObjectInfo| o.index == obj::CONTROLWORD.index();
+        let others = obj::ALL.iter().filter(|o| !controlword(o));
+        for o in others.chain(obj::ALL.iter().filter(controlword)) {
             let index = self.axis_index(o.index);
             let Some(now) = values.get(index, o.sub_index) else {
                 continue;
@@ -170,6 +174,12 @@ impl DeviceHook for DriveHook {
                 .map(|n| buf[..n].to_vec())
                 .map_err(|e| AbortCode(e.abort_code())),
         )
+    }
+
+    fn on_pdo_input(&mut self, _now: Instant, values: &mut Values, actions: &mut HookActions) {
+        self.take_rpdo_writes(values);
+        self.publish(values);
+        self.send_emcys(actions);
     }
 
     fn on_timeout(&mut self, now: Instant, values: &mut Values, actions: &mut HookActions) {
