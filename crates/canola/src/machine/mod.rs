@@ -74,6 +74,8 @@ pub(crate) struct Core {
     /// Boot-up messages received per node: a waiter compares counts, so a boot-up stays seen
     /// even when a heartbeat follows it in the same step.
     boots: BTreeMap<NodeId, u64>,
+    /// Each node's latest EMCY (one per node: bounded by the node-IDs).
+    emcys: BTreeMap<NodeId, canola_nmt::EmcyEvent>,
     subs: Subscribers,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
@@ -122,6 +124,7 @@ impl Core {
             emcy: EmcyConsumer::new(),
             sync: None,
             boots: BTreeMap::new(),
+            emcys: BTreeMap::new(),
             subs: Subscribers::default(),
             settle: Duration::from_millis(1),
             lss: None,
@@ -231,6 +234,11 @@ impl Core {
     /// When the latest heartbeat or boot-up of `node` arrived.
     pub(crate) fn last_heartbeat(&self, node: NodeId) -> Option<Instant> {
         self.heartbeat.last_seen(node)
+    }
+
+    /// The latest EMCY `node` sent.
+    pub(crate) fn last_emcy(&self, node: NodeId) -> Option<canola_nmt::EmcyEvent> {
+        self.emcys.get(&node).copied()
     }
 
     /// How many boot-up messages `node` has sent since the network started.
@@ -397,6 +405,7 @@ impl Core {
             }) => {
                 let _ = self.emcy.handle_frame(now, frame);
                 while let Some(ev) = self.emcy.poll_event() {
+                    self.emcys.insert(ev.node, ev);
                     self.publish(NetworkEvent::Emcy(ev));
                 }
             }

@@ -13,10 +13,9 @@
 
 use std::format;
 use std::prelude::rust_2024::*;
-use std::sync::{Mutex, mpsc};
+use std::sync::Mutex;
 
-use canola::nmt::EmcyEvent;
-use canola::{Duration, NetworkEvent, Node};
+use canola::{Duration, Node};
 
 use crate::mode::{HomingStatus, ModeOfOperation};
 use crate::objects::{self as obj, ErrorCode, QuickStopOption};
@@ -166,13 +165,6 @@ pub struct Drive {
     transition_16: bool,
     /// The last controlword sent (bit 7 matters for the fault reset's rising edge).
     last_cw: Mutex<Option<Controlword>>,
-    events: Mutex<Emcys>,
-}
-
-#[derive(Debug)]
-struct Emcys {
-    rx: mpsc::Receiver<NetworkEvent>,
-    last: Option<EmcyEvent>,
 }
 
 impl Drive {
@@ -183,14 +175,12 @@ impl Drive {
 
     /// Axis `axis` of a multi-axis `node` (objects at index + axis × 0x800; axes 0..=7).
     pub fn on_axis(node: Node, axis: u8) -> Self {
-        let rx = node.network().subscribe();
         Self {
             node,
             axis: axis.min(obj::MAX_AXIS),
             timeouts: Timeouts::default(),
             transition_16: true,
             last_cw: Mutex::new(None),
-            events: Mutex::new(Emcys { rx, last: None }),
         }
     }
 
@@ -288,18 +278,12 @@ impl Drive {
         })
     }
 
-    /// The node's last EMCY received since this handle was made, as text.
+    /// The node's latest EMCY (since the network started), as text.
     pub fn last_emcy(&self) -> Option<String> {
-        let mut ev = self.events.lock().unwrap_or_else(|p| p.into_inner());
-        let me = self.node.id();
-        while let Ok(e) = ev.rx.try_recv() {
-            if let NetworkEvent::Emcy(e) = e
-                && e.node == me
-            {
-                ev.last = Some(e);
-            }
-        }
-        ev.last.as_ref().map(|e| e.emcy.to_string())
+        self.node
+            .network()
+            .last_emcy(self.node.id())
+            .map(|e| e.emcy.to_string())
     }
 
     /// Writes the controlword 0x6040.
