@@ -338,3 +338,35 @@ fn a_set_point_edge_sent_by_two_back_to_back_rpdos_is_not_lost() {
     let pos = r.drive.wait_target_reached(|_| {}).unwrap();
     assert!((pos - 3_000).abs() <= 10, "{pos}");
 }
+
+#[test]
+fn halt_stops_profile_velocity_in_operation_enabled_and_release_runs_again() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    r.drive.set_velocity(10_000).unwrap();
+    r.net.run_for(Duration::from_millis(500)).unwrap();
+    let moving = r.model.lock().unwrap().velocity();
+    assert!((moving - 10_000.0).abs() < 200.0, "{moving}");
+    r.drive.halt(true).unwrap();
+    r.net.run_for(Duration::from_millis(500)).unwrap();
+    assert!(r.model.lock().unwrap().velocity().abs() < 1.0);
+    // Halt keeps the drive enabled (0x605D = 1: slow down and stay).
+    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
+    r.drive.halt(false).unwrap();
+    r.net.run_for(Duration::from_millis(500)).unwrap();
+    assert!(r.model.lock().unwrap().velocity() > 5_000.0);
+}
+
+#[test]
+fn profile_torque_accelerates_the_motor_and_shows_in_the_status() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    r.drive.set_torque(100).unwrap();
+    r.net.run_for(Duration::from_millis(200)).unwrap();
+    let s = r.drive.status().unwrap();
+    assert_eq!(s.mode, ModeOfOperation::ProfileTorque);
+    assert_eq!(s.state, Some(State::OperationEnabled));
+    assert!(s.torque > 0 && s.velocity > 0, "{s:?}");
+    r.drive.set_torque(0).unwrap();
+    assert_eq!(r.drive.disable().unwrap(), State::SwitchOnDisabled);
+}
