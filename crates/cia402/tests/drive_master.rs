@@ -370,3 +370,28 @@ fn profile_torque_accelerates_the_motor_and_shows_in_the_status() {
     r.drive.set_torque(0).unwrap();
     assert_eq!(r.drive.disable().unwrap(), State::SwitchOnDisabled);
 }
+
+#[test]
+fn enable_from_fault_resets_it_on_a_rising_edge_of_bit_7() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    r.model.lock().unwrap().inject_fault(SimFault::OverCurrent);
+    r.net.run_for(Duration::from_millis(200)).unwrap();
+    assert_eq!(r.drive.state().unwrap(), State::Fault);
+    assert_eq!(r.drive.error_code().unwrap().0, 0x2310);
+    // The last controlword had bit 7 clear (0x000F): the planner's reset sends 0x0080 at once.
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.error_code().unwrap().0, 0);
+}
+
+#[test]
+fn a_homing_method_the_drive_cannot_run_ends_in_a_homing_error() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    // Method 7 (home switch with a limit switch reversal) is not among the simulated methods.
+    match r.drive.home(Some(7)) {
+        Err(DriveError::Homing { status, .. }) => assert!(status.is_error()),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
+}
