@@ -395,3 +395,15 @@ fn a_homing_method_the_drive_cannot_run_ends_in_a_homing_error() {
     }
     assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
 }
+
+#[test]
+fn halt_outside_operation_enabled_is_refused_without_a_controlword() {
+    let r = rig(SimConfig::default());
+    r.drive.set_state(State::ReadyToSwitchOn).unwrap();
+    match r.drive.halt(true) {
+        Err(DriveError::NotEnabled { state, .. }) => assert_eq!(state, State::ReadyToSwitchOn),
+        other => panic!("{other:?}"),
+    }
+    r.net.run_for(Duration::from_millis(20)).unwrap();
+    assert_eq!(r.drive.state().unwrap(), State::ReadyToSwitchOn);
+}

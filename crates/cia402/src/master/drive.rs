@@ -458,10 +458,14 @@ impl Drive {
         }
     }
 
-    /// Sets or clears halt (controlword bit 8), keeping the rest of the last controlword.
+    /// Sets or clears halt (controlword bit 8) in operation enabled, keeping the mode bits of
+    /// the last controlword. In any other state: [`DriveError::NotEnabled`] (a controlword
+    /// written there could switch the drive on).
     pub fn halt(&self, on: bool) -> Result<(), DriveError> {
+        self.require_enabled()?;
         let cw = self
             .last_controlword()
+            .filter(|c| c.raw() & 0x008F == 0x000F)
             .unwrap_or(Controlword::from_raw(0x000F));
         self.write_controlword(cw.with(0x0100, on))
     }
@@ -547,10 +551,7 @@ impl Drive {
             .with(0x0040, m.relative)
             .with(0x0020, m.immediate);
         // Bit 4 clear first, so that the set-point is a rising edge.
-        if self
-            .last_controlword()
-            .is_none_or(|c| c.bit(4) || c != base)
-        {
+        if self.last_controlword() != Some(base) {
             self.write_controlword(base)?;
         }
         self.write_controlword(base.with(0x0010, true))?;
