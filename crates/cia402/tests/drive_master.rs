@@ -407,3 +407,49 @@ fn halt_outside_operation_enabled_is_refused_without_a_controlword() {
     r.net.run_for(Duration::from_millis(20)).unwrap();
     assert_eq!(r.drive.state().unwrap(), State::ReadyToSwitchOn);
 }
+
+#[test]
+fn a_drive_handle_sends_nothing_at_set_up_and_forces_no_nmt_state() {
+    // python-canopen #178: set-up forced NMT and 402 transitions and timed out. A `Drive` is
+    // made without bus traffic; its first read fails on its own SDO timeout when no device
+    // answers, and no NMT command is ever sent.
+    let r = rig(SimConfig::default());
+    let mut tap = r.bus.endpoint();
+    let absent = Drive::new(r.net.node(NodeId::new(9).unwrap()));
+    r.net.run_for(Duration::from_millis(10)).unwrap();
+    let e = absent.state().unwrap_err();
+    assert!(matches!(e, DriveError::Sdo(_)), "{e}");
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    let mut sent_nmt = false;
+    while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
+        sent_nmt |= frame.cob_id() == Some(0x000);
+    }
+    assert!(!sent_nmt);
+}
+
+#[test]
+fn the_statusword_is_read_fresh_without_any_tpdo() {
+    // python-canopen #168/#554: a state machine run from a TPDO cache fails or lags when the
+    // TPDO is missing or stale. With the device operational and TPDO1 switched off (0x1800:1
+    // bit 31), every step still sees the drive's present state.
+    let r = rig(SimConfig::default());
+    let sdo = r.drive.node().sdo();
+    let cob = u32::from_le_bytes(sdo.read((0x1800, 1)).unwrap().try_into().unwrap());
+    r.drive
+        .node()
+        .sdo()
+        .write((0x1800, 1), cob | 0x8000_0000)
+        .unwrap();
+    r.drive.node().nmt().start().unwrap();
+    let events = r.net.subscribe();
+    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.quick_stop().unwrap(), State::SwitchOnDisabled);
+    let tpdo1 = events.try_iter().any(|e| {
+        matches!(
+            e,
+            canola::NetworkEvent::Pdo { number: 1, .. }
+                | canola::NetworkEvent::PdoValues { number: 1, .. }
+        )
+    });
+    assert!(!tpdo1);
+}
