@@ -453,3 +453,48 @@ fn the_statusword_is_read_fresh_without_any_tpdo() {
     });
     assert!(!tpdo1);
 }
+
+#[test]
+fn two_axes_of_one_device_are_commanded_apart() {
+    // A two-axis device: the EDS's profile objects again at + 0x800 (CiA 402-2 axis 1), one
+    // simulated drive behind each axis.
+    let mut od = canola::od::parse(EDS).unwrap().od;
+    let axis0: Vec<_> = (0x6000..0x6800u16)
+        .filter_map(|i| od.get(i).cloned())
+        .collect();
+    for mut o in axis0 {
+        o.index += 0x800;
+        od.insert(o);
+    }
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let id = NodeId::new(6).unwrap();
+    let second = canola_cia402::master::DriveHook::new(SimDrive::new(SimConfig {
+        axis: 1,
+        ..SimConfig::default()
+    }));
+    let model1 = second.drive();
+    bus.attach(
+        canola::SimDevice::new(id, od)
+            .with_hook(canola_cia402::master::DriveHook::new(SimDrive::default()))
+            .with_hook(second),
+    );
+    net.node(id)
+        .nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .unwrap();
+    let a0 = Drive::new(net.node(id));
+    let a1 = Drive::on_axis(net.node(id), 1);
+    assert_eq!(a1.enable().unwrap(), State::OperationEnabled);
+    let pos = a1
+        .move_to(Move {
+            target: 1_234,
+            ..Move::default()
+        })
+        .unwrap();
+    assert!((pos - 1_234).abs() <= 10);
+    assert!((model1.lock().unwrap().position() - 1_234.0).abs() <= 10.0);
+    assert_eq!(a0.state().unwrap(), State::SwitchOnDisabled);
+    assert_eq!(a0.position().unwrap(), 0);
+    assert_eq!(a0.mode().unwrap(), ModeOfOperation::NoMode);
+}
