@@ -498,3 +498,42 @@ fn two_axes_of_one_device_are_commanded_apart() {
     assert_eq!(a0.position().unwrap(), 0);
     assert_eq!(a0.mode().unwrap(), ModeOfOperation::NoMode);
 }
+
+#[test]
+fn actual_values_come_from_sync_tpdos_when_followed_and_by_sdo_when_stale() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let id = NodeId::new(5).unwrap();
+    let node = net.add_node_with_dictionary(id, canola::od::parse(EDS).unwrap().od);
+    let (device, _model) = simulated_drive(id, EDS, SimDrive::default()).unwrap();
+    bus.attach(device);
+    node.nmt().wait_for_bootup(Duration::from_secs(1)).unwrap();
+    node.nmt().start().unwrap();
+    net.start_sync(Duration::from_millis(10)); // TPDO2 (statusword, 0x6064) on each SYNC
+    let drive = Drive::new(node);
+    drive.follow_tpdos(Duration::from_millis(50));
+    drive.enable().unwrap();
+    drive
+        .move_to(Move {
+            target: 2_000,
+            ..Move::default()
+        })
+        .unwrap();
+    net.run_for(Duration::from_millis(30)).unwrap();
+    let uploads_of_6064 = |tap: &mut canola::Endpoint| {
+        let mut n = 0;
+        while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
+            let d = frame.data();
+            let upload = frame.cob_id() == Some(0x605) && d.len() == 8 && d[0] == 0x40;
+            n += usize::from(upload && u16::from_le_bytes([d[1], d[2]]) == 0x6064);
+        }
+        n
+    };
+    let mut tap = bus.endpoint();
+    assert!((drive.position().unwrap() - 2_000).abs() <= 10);
+    assert_eq!(uploads_of_6064(&mut tap), 0, "served from TPDO2");
+    net.stop_sync();
+    net.run_for(Duration::from_millis(100)).unwrap();
+    assert!((drive.position().unwrap() - 2_000).abs() <= 10);
+    assert_eq!(uploads_of_6064(&mut tap), 1, "stale: read by SDO");
+}

@@ -11,9 +11,10 @@
 //! in-memory bus) and end with [`DriveError::Timeout`], which names what was awaited, the state
 //! expected, the state reached and the last statusword.
 
+use std::collections::HashMap;
 use std::format;
 use std::prelude::rust_2024::*;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use canola::{Duration, Node};
 
@@ -165,6 +166,32 @@ pub struct Drive {
     transition_16: bool,
     /// The last controlword sent (bit 7 matters for the fault reset's rising edge).
     last_cw: Mutex<Option<Controlword>>,
+    /// Actual values from TPDOs, when followed.
+    tpdo: Mutex<Option<Following>>,
+}
+
+/// The TPDO values a [`Drive`] follows (see [`Drive::follow_tpdos`]).
+#[derive(Debug)]
+struct Following {
+    callback: canola::PdoCallbackId,
+    cache: Arc<Mutex<ActualsCache>>,
+    max_age: Duration,
+}
+
+/// The latest value of each followed object, with its reception time.
+type ActualsCache = HashMap<(u16, u8), (i64, canola::Instant)>;
+
+impl Drop for Drive {
+    fn drop(&mut self) {
+        if let Some(f) = self
+            .tpdo
+            .get_mut()
+            .unwrap_or_else(|p| p.into_inner())
+            .take()
+        {
+            self.node.network().remove_pdo_callback(f.callback);
+        }
+    }
 }
 
 impl Drive {
@@ -181,6 +208,7 @@ impl Drive {
             timeouts: Timeouts::default(),
             transition_16: true,
             last_cw: Mutex::new(None),
+            tpdo: Mutex::new(None),
         }
     }
 
@@ -257,11 +285,87 @@ impl Drive {
         )))
     }
 
-    /// The actual position 0x6064, counts.
+    /// Takes the actual values (position 0x6064, velocity 0x606C, torque 0x6077) from the
+    /// node's TPDOs as they arrive, each while it is at most `max_age` old; an older
+    /// or never received value is read by SDO. TPDOs are decoded through the node's dictionary
+    /// (a node added with [`Network::add_node_with_dictionary`](canola::Network::add_node_with_dictionary)),
+    /// with the mapping the master knows. The statusword and the mode are always read by SDO:
+    /// the state machine and mode changes wait on fresh ones (python-canopen #554).
+    pub fn follow_tpdos(&self, max_age: Duration) {
+        let cache: Arc<Mutex<ActualsCache>> = Arc::default();
+        let sink = Arc::clone(&cache);
+        let me = self.node.id();
+        let watched = [
+            self.at(obj::POSITION_ACTUAL_VALUE),
+            self.at(obj::VELOCITY_ACTUAL_VALUE),
+            self.at(obj::TORQUE_ACTUAL_VALUE),
+        ];
+        let callback = self.node.network().on_pdo(move |p| {
+            if p.node != me {
+                return;
+            }
+            let mut c = sink.lock().unwrap_or_else(|e| e.into_inner());
+            for (addr, value) in p.values {
+                let key = (addr.index, addr.sub_index);
+                if let (true, Some(v)) = (watched.contains(&key), value.as_i128()) {
+                    c.insert(key, (v as i64, p.at));
+                }
+            }
+        });
+        let old = self
+            .tpdo
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .replace(Following {
+                callback,
+                cache,
+                max_age,
+            });
+        if let Some(f) = old {
+            self.node.network().remove_pdo_callback(f.callback);
+        }
+    }
+
+    /// A followed TPDO value of `e`, if fresh enough.
+    fn from_tpdo<T>(&self, e: canola::od::Entry<T>) -> Option<i64> {
+        let guard = self.tpdo.lock().unwrap_or_else(|p| p.into_inner());
+        let f = guard.as_ref()?;
+        let (v, at) = *f
+            .cache
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .get(&self.at(e))?;
+        (self.node.network().now() - at <= f.max_age).then_some(v)
+    }
+
+    /// The actual position 0x6064, counts (from a TPDO when followed and fresh).
     pub fn position(&self) -> Result<i32, DriveError> {
-        Ok(i32::from_le_bytes(
-            self.read_bytes(obj::POSITION_ACTUAL_VALUE)?,
-        ))
+        match self.from_tpdo(obj::POSITION_ACTUAL_VALUE) {
+            Some(v) => Ok(v as i32),
+            None => Ok(i32::from_le_bytes(
+                self.read_bytes(obj::POSITION_ACTUAL_VALUE)?,
+            )),
+        }
+    }
+
+    /// The actual velocity 0x606C, counts/s (from a TPDO when followed and fresh).
+    pub fn velocity(&self) -> Result<i32, DriveError> {
+        match self.from_tpdo(obj::VELOCITY_ACTUAL_VALUE) {
+            Some(v) => Ok(v as i32),
+            None => Ok(i32::from_le_bytes(
+                self.read_bytes(obj::VELOCITY_ACTUAL_VALUE)?,
+            )),
+        }
+    }
+
+    /// The actual torque 0x6077, ‰ of rated torque (from a TPDO when followed and fresh).
+    pub fn torque(&self) -> Result<i16, DriveError> {
+        match self.from_tpdo(obj::TORQUE_ACTUAL_VALUE) {
+            Some(v) => Ok(v as i16),
+            None => Ok(i16::from_le_bytes(
+                self.read_bytes(obj::TORQUE_ACTUAL_VALUE)?,
+            )),
+        }
     }
 
     /// Statusword, state, mode, actual values and error code.
@@ -272,8 +376,8 @@ impl Drive {
             state: State::decode(statusword),
             mode: self.mode()?,
             position: self.position()?,
-            velocity: i32::from_le_bytes(self.read_bytes(obj::VELOCITY_ACTUAL_VALUE)?),
-            torque: i16::from_le_bytes(self.read_bytes(obj::TORQUE_ACTUAL_VALUE)?),
+            velocity: self.velocity()?,
+            torque: self.torque()?,
             error_code: self.error_code()?,
         })
     }
