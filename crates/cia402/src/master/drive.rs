@@ -327,7 +327,7 @@ impl Drive {
     }
 
     /// A followed TPDO value of `e`, if fresh enough.
-    fn from_tpdo<T>(&self, e: canola::od::Entry<T>) -> Option<i64> {
+    fn tpdo_value<T>(&self, e: canola::od::Entry<T>) -> Option<i64> {
         let guard = self.tpdo.lock().unwrap_or_else(|p| p.into_inner());
         let f = guard.as_ref()?;
         let (v, at) = *f
@@ -340,7 +340,7 @@ impl Drive {
 
     /// The actual position 0x6064, counts (from a TPDO when followed and fresh).
     pub fn position(&self) -> Result<i32, DriveError> {
-        match self.from_tpdo(obj::POSITION_ACTUAL_VALUE) {
+        match self.tpdo_value(obj::POSITION_ACTUAL_VALUE) {
             Some(v) => Ok(v as i32),
             None => Ok(i32::from_le_bytes(
                 self.read_bytes(obj::POSITION_ACTUAL_VALUE)?,
@@ -350,7 +350,7 @@ impl Drive {
 
     /// The actual velocity 0x606C, counts/s (from a TPDO when followed and fresh).
     pub fn velocity(&self) -> Result<i32, DriveError> {
-        match self.from_tpdo(obj::VELOCITY_ACTUAL_VALUE) {
+        match self.tpdo_value(obj::VELOCITY_ACTUAL_VALUE) {
             Some(v) => Ok(v as i32),
             None => Ok(i32::from_le_bytes(
                 self.read_bytes(obj::VELOCITY_ACTUAL_VALUE)?,
@@ -360,7 +360,7 @@ impl Drive {
 
     /// The actual torque 0x6077, ‰ of rated torque (from a TPDO when followed and fresh).
     pub fn torque(&self) -> Result<i16, DriveError> {
-        match self.from_tpdo(obj::TORQUE_ACTUAL_VALUE) {
+        match self.tpdo_value(obj::TORQUE_ACTUAL_VALUE) {
             Some(v) => Ok(v as i16),
             None => Ok(i16::from_le_bytes(
                 self.read_bytes(obj::TORQUE_ACTUAL_VALUE)?,
