@@ -537,3 +537,53 @@ fn actual_values_come_from_sync_tpdos_when_followed_and_by_sdo_when_stale() {
     assert!((drive.position().unwrap() - 2_000).abs() <= 10);
     assert_eq!(uploads_of_6064(&mut tap), 1, "stale: read by SDO");
 }
+
+#[test]
+fn a_csp_stream_on_sync_moves_the_drive_without_a_jump() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().unwrap();
+    r.drive
+        .move_to(Move {
+            target: 500,
+            ..Move::default()
+        })
+        .unwrap();
+    r.drive.node().nmt().start().unwrap();
+    r.net.start_sync(Duration::from_millis(1));
+    let stream = r
+        .drive
+        .start_cyclic(
+            ModeOfOperation::CyclicSyncPosition,
+            4,
+            Duration::from_millis(1),
+        )
+        .unwrap();
+    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::CyclicSyncPosition);
+    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
+    // No jump to 0 when the mode switched: the first target was the actual position.
+    r.net.run_for(Duration::from_millis(20)).unwrap();
+    assert!((r.model.lock().unwrap().position() - 500.0).abs() <= 10.0);
+    let mut farthest: f64 = 0.0;
+    for i in 1..=300 {
+        stream.set_target(500 + i * 10).unwrap();
+        r.net.run_for(Duration::from_millis(1)).unwrap();
+        farthest = farthest.max(r.model.lock().unwrap().position());
+    }
+    r.net.run_for(Duration::from_millis(500)).unwrap();
+    let pos = r.drive.position().unwrap();
+    assert!((pos - 3_500).abs() <= 20, "{pos} {farthest}");
+    assert!(
+        r.drive.statusword().unwrap().bit(12),
+        "csp: following the command"
+    );
+    stream.stop().unwrap();
+    // Not a cyclic mode: refused before anything is written.
+    assert!(matches!(
+        r.drive.start_cyclic(
+            ModeOfOperation::ProfilePosition,
+            4,
+            Duration::from_millis(1)
+        ),
+        Err(DriveError::NotCyclic(_))
+    ));
+}

@@ -102,6 +102,12 @@ pub enum DriveError {
         /// The statusword.
         statusword: Statusword,
     },
+    /// A cyclic stream needs csp, csv or cst.
+    #[error("{0:?} is not a cyclic synchronous mode (csp, csv, cst)")]
+    NotCyclic(ModeOfOperation),
+    /// The node has no such RPDO, or its period does not fit 0x60C2.
+    #[error("cannot set up the cyclic stream: {0}")]
+    Cyclic(String),
     /// Homing ended with an error (statusword bit 13).
     #[error("homing failed: {status:?} (statusword {statusword})")]
     Homing {
@@ -827,6 +833,97 @@ impl Drive {
             let _ = self.write_controlword(base);
         }
         result
+    }
+}
+
+/// A cyclic synchronous stream (csp, csv, cst) of one drive: its target goes in an RPDO the
+/// master's PDO engine sends after every SYNC the master produces (see
+/// [`Drive::start_cyclic`]). Set the next target once per cycle.
+#[derive(Debug)]
+pub struct CyclicStream<'d> {
+    drive: &'d Drive,
+    sender: canola::RpdoSender,
+    target: (u16, u8),
+}
+
+impl CyclicStream<'_> {
+    /// The target the next SYNC's RPDO carries (position in counts for csp, velocity in
+    /// counts/s for csv, torque in ‰ for cst; range-checked against the object's type).
+    pub fn set_target(&self, value: i32) -> Result<(), DriveError> {
+        self.sender.set(self.target, value)?;
+        Ok(())
+    }
+
+    /// The drive.
+    pub fn drive(&self) -> &Drive {
+        self.drive
+    }
+
+    /// Stops sending the RPDO (the drive keeps its last target).
+    pub fn stop(self) -> Result<(), DriveError> {
+        self.sender.stop()?;
+        Ok(())
+    }
+}
+
+impl Drive {
+    /// Starts a cyclic synchronous stream in `mode` (csp, csv or cst) through the node's RPDO
+    /// number `rpdo`, which is remapped to carry only the mode's target (0x607A, 0x60FF or
+    /// 0x6071) on every SYNC (type 1). 0x60C2 is set to `period`, the SYNC period the master
+    /// produces (start it with [`Network::start_sync`](canola::Network::start_sync)); the node
+    /// must be operational for its RPDOs to count.
+    ///
+    /// The first target is the present actual value for csp (the drive does not jump:
+    /// ethercat_driver_ros2 #125) and 0 for csv and cst; it is in the RPDO before the mode is
+    /// switched, so the drive never takes a stale target. The power state is not changed.
+    pub fn start_cyclic(
+        &self,
+        mode: ModeOfOperation,
+        rpdo: u16,
+        period: Duration,
+    ) -> Result<CyclicStream<'_>, DriveError> {
+        let (target, bits, first) = match mode {
+            ModeOfOperation::CyclicSyncPosition => (
+                self.at(obj::TARGET_POSITION),
+                32,
+                i64::from(self.position()?),
+            ),
+            ModeOfOperation::CyclicSyncVelocity => (self.at(obj::TARGET_VELOCITY), 32, 0),
+            ModeOfOperation::CyclicSyncTorque => (self.at(obj::TARGET_TORQUE), 16, 0),
+            m => return Err(DriveError::NotCyclic(m)),
+        };
+        let ip = obj::InterpolationPeriod::from_micros(period.as_micros()).ok_or_else(|| {
+            DriveError::Cyclic(format!("a period of {period} does not fit 0x60C2"))
+        })?;
+        let sdo = || self.node.sdo();
+        sdo().write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)?;
+        sdo().write(self.at(obj::INTERPOLATION_TIME_INDEX), ip.index)?;
+        let rpdos = self.node.rpdo();
+        let mut set = rpdos.read()?;
+        let p = set
+            .get_mut(rpdo)
+            .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
+        p.clear();
+        p.map_entry(canola::ObjectAddress::new(target.0, target.1), bits);
+        p.set_transmission_type(canola::pdo::TransmissionType::SyncCyclic(1));
+        p.set_enabled(true);
+        rpdos.save(&mut set)?;
+        let p = set
+            .get(rpdo)
+            .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
+        let sender = rpdos.start(p, canola::Transmission::on_sync())?;
+        sender.set(target, first)?;
+        // Also by SDO, so the target is in place before the mode switch whatever the SYNC does.
+        match bits {
+            16 => sdo().write(target, first as i16)?,
+            _ => sdo().write(target, first as i32)?,
+        }
+        self.set_mode(mode)?;
+        Ok(CyclicStream {
+            drive: self,
+            sender,
+            target,
+        })
     }
 }
 

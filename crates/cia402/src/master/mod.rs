@@ -5,5 +5,5 @@
 mod drive;
 mod sim_device;
 
-pub use drive::{Drive, DriveError, DriveStatus, FaultReport, Move, Timeouts};
+pub use drive::{CyclicStream, Drive, DriveError, DriveStatus, FaultReport, Move, Timeouts};
 pub use sim_device::{DriveHook, simulated_drive};
