@@ -587,3 +587,67 @@ fn a_csp_stream_on_sync_moves_the_drive_without_a_jump() {
         Err(DriveError::NotCyclic(_))
     ));
 }
+
+#[test]
+fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let mut drives = Vec::new();
+    for n in [5u8, 6] {
+        let id = NodeId::new(n).unwrap();
+        let (device, _) = simulated_drive(id, EDS, SimDrive::default()).unwrap();
+        bus.attach(device);
+        net.node(id)
+            .nmt()
+            .wait_for_bootup(Duration::from_secs(1))
+            .unwrap();
+        drives.push(Drive::new(net.node(id)));
+    }
+    net.nmt_all(canola::CommandSpecifier::Start).unwrap();
+    for d in &drives {
+        d.enable().unwrap();
+    }
+    net.start_sync(Duration::from_millis(1));
+    let streams: Vec<_> = drives
+        .iter()
+        .map(|d| {
+            d.start_cyclic(
+                ModeOfOperation::CyclicSyncPosition,
+                4,
+                Duration::from_millis(1),
+            )
+            .unwrap()
+        })
+        .collect();
+    let mut tap = bus.endpoint();
+    for i in 1..=100 {
+        for (k, s) in streams.iter().enumerate() {
+            s.set_target(i * 10 * (k as i32 + 1)).unwrap();
+        }
+        net.run_for(Duration::from_millis(1)).unwrap();
+    }
+    net.stop_sync();
+    // Between two SYNCs: RPDO4 of node 5 (0x505) and of node 6 (0x506), once each.
+    let mut cycles: Vec<Vec<u16>> = Vec::new();
+    while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
+        match frame.cob_id() {
+            Some(0x080) => cycles.push(Vec::new()),
+            Some(id @ (0x505 | 0x506)) => {
+                if let Some(c) = cycles.last_mut() {
+                    c.push(id);
+                }
+            }
+            _ => {}
+        }
+    }
+    cycles.pop(); // the last cycle may be cut short
+    assert!(cycles.len() >= 90, "{}", cycles.len());
+    for c in &cycles {
+        let mut ids = c.clone();
+        ids.sort_unstable();
+        assert_eq!(ids, [0x505, 0x506], "{cycles:?}");
+    }
+    net.run_for(Duration::from_millis(500)).unwrap();
+    assert!((drives[0].position().unwrap() - 1_000).abs() <= 20);
+    assert!((drives[1].position().unwrap() - 2_000).abs() <= 20);
+}
