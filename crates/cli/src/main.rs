@@ -122,8 +122,8 @@ enum Command {
     Demo,
     /// Bürkert devices: status with the LED colour, locate, maintenance, LED, logbook.
     Burkert(burkert::BurkertArgs),
-    /// CiA 402 drives: status|enable|disable|quick-stop|fault-reset|mode MODE|home [METHOD]|
-    /// move POS|velocity V|torque T.
+    /// CiA 402 drives: status, enable, disable, quick stop, fault reset, mode, homing, moves,
+    /// velocity and torque.
     Drive(drive_cmd::DriveArgs),
     /// CiA 309-3 ASCII gateway over TCP, Unix sockets and stdio.
     Gateway(gateway::GatewayArgs),
