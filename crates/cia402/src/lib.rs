@@ -16,6 +16,8 @@
 //! - `sim` (feature `std`): a simulated servo drive with motion, homing, faults and a
 //!   safe-torque-off input, behind an object-dictionary read/write interface (with feature
 //!   `pdo`, also a `canola_pdo::ObjectStore` for the PDO engine).
+//! - `master` (feature `master`): `Drive`, one axis of a drive commanded over the `canola`
+//!   facade, and `DriveHook`, the simulated drive behind a `canola::SimDevice` on the bus.
 //!
 //! Facts and their sources: `shared/spec/cia402.md` of the project. Where the sources disagree
 //! the majority is the default and the minority is selectable (see
@@ -45,6 +47,8 @@
 extern crate std;
 
 pub mod device;
+#[cfg(feature = "master")]
+pub mod master;
 pub mod mode;
 pub mod objects;
 #[cfg(feature = "std")]

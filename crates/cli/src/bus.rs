@@ -1,7 +1,8 @@
 //! The bus every bus command runs on, chosen by the global flags every subcommand shares
 //! ([`BusOpts`]): SocketCAN with `--iface IFACE`, else an in-memory bus on a virtual clock. On
 //! the in-memory bus every `--eds NODE=FILE` node is also simulated (a Bürkert device when the
-//! file carries the Bürkert profile, the generic simulator otherwise), so every command has a
+//! file carries the Bürkert profile, the simulated servo for a CiA 402 drive, the generic
+//! simulator otherwise), so every command has a
 //! device to talk to without hardware.
 //!
 //! Also the argument parsers the bus commands share and their one error printer.
@@ -12,7 +13,6 @@ use canola::candump::FdFrame;
 use canola::mem::MemoryBus;
 use canola::transport::{BusEvent, Received, Transport};
 use canola::{BusDictionary, CanFrame, Duration, Instant, Network, NodeId, ObjectDictionary};
-use canola_burkert::SimulatedDevice;
 use clap::Args;
 
 /// Options of the bus commands (global: they may stand before or after the subcommand).
@@ -142,7 +142,7 @@ impl BusOpts {
                 // The master's endpoint first, so it sees the devices' boot-up messages.
                 let endpoint = bus.endpoint();
                 for (node, od) in &dictionaries {
-                    bus.attach(SimulatedDevice::for_dictionary(*node, od.clone()));
+                    bus.attach(crate::drive_cmd::simulated_device(*node, od.clone()));
                 }
                 Ok(Bus {
                     transport: Box::new(endpoint),

@@ -14,6 +14,7 @@ mod burkert;
 mod bus;
 mod cpos;
 mod demo;
+mod drive_cmd;
 mod eds;
 mod gateway;
 mod gateway_access;
@@ -117,6 +118,9 @@ enum Command {
     Demo,
     /// Bürkert devices: status with the LED colour, locate, maintenance, LED, logbook.
     Burkert(burkert::BurkertArgs),
+    /// CiA 402 drives: status, enable, disable, quick stop, fault reset, mode, homing, moves,
+    /// velocity and torque.
+    Drive(drive_cmd::DriveArgs),
     /// CiA 309-3 ASCII gateway over TCP, Unix sockets and stdio.
     Gateway(gateway::GatewayArgs),
     /// Boot a network from its description (bus.toml) the CiA 302-2 way.
@@ -201,6 +205,7 @@ fn main() -> ExitCode {
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
         Command::Cpos(args) => cpos::run(args, cli.bus.iface.as_deref(), global),
         Command::Burkert(args) => burkert::run(args, &cli.bus, global),
+        Command::Drive(args) => drive_cmd::run(args, &cli.bus, global),
         Command::Gateway(args) => gateway::run(args, &cli.bus),
         Command::Boot(args) => boot::run_boot(args, &cli.bus, global),
         Command::Audit(args) => boot::run_audit(args, &cli.bus, global),

@@ -1,5 +1,6 @@
 //! `canopen simulate EDS --node-id N`: a simulated device ([`canola_burkert::SimulatedDevice`]:
-//! the Bürkert device for a file with the Bürkert profile, the generic simulator otherwise) on
+//! the Bürkert device for a file with the Bürkert profile, the simulated servo of
+//! `canola-cia402` for a CiA 402 drive, the generic simulator otherwise) on
 //! SocketCAN until stopped, or on the in-memory bus for `--duration` seconds of bus time,
 //! printing the traffic.
 
@@ -8,7 +9,6 @@ use std::process::ExitCode;
 
 use canola::transport::{Received, Transport as _};
 use canola::{BusDictionary, Monitor, NodeId, Station};
-use canola_burkert::SimulatedDevice;
 use serde_json::json;
 
 use crate::bus::{Bus, BusOpts, fail, read_dictionary, seconds};
@@ -34,7 +34,7 @@ pub(crate) fn run(
     let dictionary = BusDictionary::new().with_node(node, od.clone());
     run_station(
         bus,
-        SimulatedDevice::for_dictionary(node, od),
+        crate::drive_cmd::simulated_device(node, od),
         &dictionary,
         duration,
         g,

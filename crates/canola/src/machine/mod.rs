@@ -78,6 +78,8 @@ pub(crate) struct Core {
     /// NMT command to it, or consumed by a wait. A wait returns for a later one, whichever
     /// handle waits (a handle made after the boot-up arrived included).
     boots_taken: BTreeMap<NodeId, u64>,
+    /// Each node's latest EMCY (one per node: bounded by the node-IDs).
+    emcys: BTreeMap<NodeId, canola_nmt::EmcyEvent>,
     subs: Subscribers,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
@@ -127,6 +129,7 @@ impl Core {
             sync: None,
             boots: BTreeMap::new(),
             boots_taken: BTreeMap::new(),
+            emcys: BTreeMap::new(),
             subs: Subscribers::default(),
             settle: Duration::from_millis(1),
             lss: None,
@@ -238,6 +241,11 @@ impl Core {
     /// When the latest heartbeat or boot-up of `node` arrived.
     pub(crate) fn last_heartbeat(&self, node: NodeId) -> Option<Instant> {
         self.heartbeat.last_seen(node)
+    }
+
+    /// The latest EMCY `node` sent.
+    pub(crate) fn last_emcy(&self, node: NodeId) -> Option<canola_nmt::EmcyEvent> {
+        self.emcys.get(&node).copied()
     }
 
     /// How many boot-up messages `node` has sent since the network started.
@@ -433,6 +441,7 @@ impl Core {
             }) => {
                 let _ = self.emcy.handle_frame(now, frame);
                 while let Some(ev) = self.emcy.poll_event() {
+                    self.emcys.insert(ev.node, ev);
                     self.publish(NetworkEvent::Emcy(ev));
                 }
             }

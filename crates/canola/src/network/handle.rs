@@ -251,6 +251,12 @@ impl Network {
         self.core().last_heartbeat(id)
     }
 
+    /// The latest emergency message (CiA 301 §7.2.7) a node sent since the network started,
+    /// subscribed or not: what a drive's fault reset reports with the fault.
+    pub fn last_emcy(&self, id: NodeId) -> Option<canola_nmt::EmcyEvent> {
+        self.core().last_emcy(id)
+    }
+
     /// Starts producing SYNC (CiA 301 §7.2.3) with the given period, COB-ID 0x080.
     pub fn start_sync(&self, period: impl Into<Duration>) {
         let period: Duration = period.into();

@@ -455,7 +455,16 @@ impl Station for SimDevice {
             .pdo
             .handle_frame(now, frame, &mut Store(&mut self.values))
         {
-            self.collect();
+            // An RPDO (or a SYNC applying one) may have written values: the hooks see them
+            // at once, one frame at a time (a controlword edge is not lost between two timers).
+            let mut actions = HookActions::default();
+            for h in self.hooks.iter_mut() {
+                h.on_pdo_input(now, &mut self.values, &mut actions);
+            }
+            if !self.hooks.is_empty() {
+                self.pdo.update(now, &mut Store(&mut self.values));
+            }
+            self.apply(now, actions, &[]);
         }
         self.refresh_timers();
     }
@@ -491,10 +500,17 @@ impl Station for SimDevice {
             self.collect();
         }
         let mut actions = HookActions::default();
+        let mut hooked = false;
         for h in self.hooks.iter_mut() {
             if is_due(h.poll_timeout(), now) {
                 h.on_timeout(now, &mut self.values, &mut actions);
+                hooked = true;
             }
+        }
+        if hooked && self.nmt.state() == DeviceState::Operational {
+            // A hook's timer may change mapped values (a drive model stepping): event-driven
+            // TPDOs send what changed, as for `set_value`.
+            self.pdo.update(now, &mut Store(&mut self.values));
         }
         self.apply(now, actions, &[]);
         self.refresh_timers();

@@ -1,6 +1,6 @@
 //! The simulator's plug-in point for device-specific behaviour: a [`DeviceHook`] sees SDO
-//! writes before they are stored, may serve reads, gets timers, and asks for resets or
-//! emergencies through [`HookActions`].
+//! writes before they are stored, may serve reads, sees the values RPDOs wrote, gets timers,
+//! and asks for resets or emergencies through [`HookActions`].
 
 use canola_frame::Instant;
 use canola_nmt::{DeviceState, Emcy};
@@ -54,6 +54,13 @@ pub trait DeviceHook: Send {
     ) -> Option<Result<Vec<u8>, AbortCode>> {
         let _ = (now, values, index, sub);
         None
+    }
+
+    /// The PDO engine took a received frame (an RPDO, or a SYNC that applies synchronous
+    /// RPDOs): the values it wrote are in `values`. A hook with behaviour behind mapped objects
+    /// (a drive model reacting to a controlword) takes them here.
+    fn on_pdo_input(&mut self, now: Instant, values: &mut Values, actions: &mut HookActions) {
+        let _ = (now, values, actions);
     }
 
     /// The hook's timer passed.

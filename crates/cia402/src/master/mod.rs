@@ -1,0 +1,9 @@
+//! The master side of CiA 402 over the `canola` facade (feature `master`): [`Drive`], one axis of
+//! a drive commanded by SDO with blocking waits, and [`DriveHook`], the simulated drive
+//! ([`SimDrive`](crate::sim::SimDrive)) behind a device on the simulated bus.
+
+mod drive;
+mod sim_device;
+
+pub use drive::{CyclicStream, Drive, DriveError, DriveStatus, FaultReport, Move, Timeouts};
+pub use sim_device::{DriveHook, simulated_drive};
