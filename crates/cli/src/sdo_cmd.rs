@@ -1,8 +1,10 @@
 //! `canopen sdo read|write|upload|download`: SDO transfers (CiA 301 §7.2.4) through the
 //! library's [`canola::Sdo`]; this module parses the arguments and the value text, and prints.
 //!
-//! Values are typed by `--type`, else by the node's dictionary (`--eds NODE=FILE`); reads
-//! without either print the bytes in hex.
+//! Values are typed by `--type`, else by the node's dictionary (`--eds NODE=FILE`), else, for
+//! the communication profile (0x1000..0x1FFF), by the types CiA 301 gives its objects; a read
+//! of an object of unknown type prints its bytes in hex and says so on stderr (`--json`:
+//! `bytes`, no `value`).
 
 use std::io::{IsTerminal, Write as _};
 use std::path::PathBuf;
@@ -246,17 +248,21 @@ fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
     }
 }
 
+/// The type of `entry` on `node`: `--type`, else the node's dictionary, else the type CiA 301
+/// gives a communication profile object (0x1017 UNSIGNED16 on every device).
 fn data_type_of(
     net: &Network,
     node: NodeId,
     entry: ObjectAddress,
     ty: Option<Ty>,
 ) -> Option<DataType> {
-    ty.map(Ty::data_type).or_else(|| {
-        net.node(node)
-            .dictionary()
-            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
-    })
+    ty.map(Ty::data_type)
+        .or_else(|| {
+            net.node(node)
+                .dictionary()
+                .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
+        })
+        .or_else(|| canola::od::profile::communication_type(entry.index, entry.sub_index))
 }
 
 /// The transfer's progress bar on stderr, drawn only when stderr is a terminal; a transfer
@@ -355,7 +361,24 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             block,
         } => {
             let entry = address(net, node, &object, sub)?;
-            let dt = data_type_of(net, node, entry, ty).unwrap_or(DataType::Domain);
+            let Some(dt) = data_type_of(net, node, entry, ty) else {
+                let bytes = net.node(node).sdo().block(block).read(entry)?;
+                let note = format!(
+                    "node {node}, object {entry}: type unknown (not a CiA 301 communication \
+                     object; give --type or --eds {node}=FILE), printed as its bytes in hex"
+                );
+                let mut fields = serde_json::Map::new();
+                fields.insert("node".into(), node.get().into());
+                fields.insert("index".into(), entry.index.into());
+                fields.insert("sub".into(), entry.sub_index.into());
+                crate::bus::warn("note", &note, fields);
+                if g.json {
+                    outln(&with(addr_json(node, entry), "bytes", json!(hex(&bytes))));
+                } else {
+                    outln(&hex(&bytes));
+                }
+                return Ok(ExitCode::SUCCESS);
+            };
             let value = net.node(node).sdo().block(block).read_as(entry, dt)?;
             if g.json {
                 let mut v = addr_json(node, entry);
