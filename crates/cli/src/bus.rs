@@ -46,9 +46,10 @@ where
     r.map_err(|e| format!("`{s}`: {e}"))
 }
 
-/// An object index: `0x` hex or decimal.
+/// An object index: `0x` hex or decimal, at most 0xFFFF.
 pub(crate) fn parse_u16(s: &str) -> Result<u16, String> {
     parse_number(s, |h| u16::from_str_radix(h, 16))
+        .map_err(|e| format!("`{s}` is not an object index (0x0000..0xFFFF): {e}"))
 }
 
 /// A sub-index: `0x` hex or decimal.
