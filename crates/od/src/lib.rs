@@ -73,7 +73,7 @@ pub use model::{
 pub use parse::{ParseError, ParseOptions, Parsed, parse, parse_with};
 pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
 #[cfg(feature = "alloc")]
-pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};
+pub use value::{BytesError, ConvertError, EdsValue, TextError, TextNotes, Value, ValueType};
 #[cfg(feature = "alloc")]
 pub use write::{concise_dcf, write_dcf, write_eds};
 

@@ -52,6 +52,16 @@ impl Node {
     pub fn dictionary(&self) -> Option<Arc<ObjectDictionary>> {
         self.net.core().dictionary(self.id)
     }
+
+    /// Reads an object as a Rust value with the default SDO client: `read_typed::<u16>((0x1017,
+    /// 0))` is 500 on a device with a 500 ms heartbeat. See [`Sdo::read_typed`] for how the
+    /// object's type is found.
+    pub fn read_typed<T: canola_od::ValueType>(
+        &self,
+        entry: impl Into<canola_od::ObjectAddress>,
+    ) -> Result<T, Error> {
+        self.sdo().read_typed(entry)
+    }
 }
 
 /// NMT module control (CiA 301 §7.2.8.3.1) for one node or all, and a node's NMT state as its

@@ -138,7 +138,10 @@ mod tests {
 
     #[test]
     fn specs_with_an_interface() {
-        let g = SocketAddrV4::new(crate::transport::udp::DEFAULT_GROUP, crate::transport::udp::DEFAULT_PORT);
+        let g = SocketAddrV4::new(
+            crate::transport::udp::DEFAULT_GROUP,
+            crate::transport::udp::DEFAULT_PORT,
+        );
         assert_eq!(parse_scoped_spec("udp"), Some(Ok((g, UdpScope::Loopback))));
         assert_eq!(
             parse_scoped_spec("udp@lo"),
