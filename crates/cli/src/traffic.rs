@@ -82,6 +82,11 @@ pub(crate) fn run_monitor(
     devicenet: bool,
     g: Global,
 ) -> ExitCode {
+    // Before the bus opens (its transport may start threads): Ctrl-C ends the monitor with
+    // everything shown so far written out, and exit status 0.
+    if let Err(e) = crate::bus::stop_on_signals() {
+        return fail(e);
+    }
     let mut bus = match opts.open_watching() {
         Ok(b) => b,
         Err(e) => return fail(e),
