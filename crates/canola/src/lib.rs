@@ -75,7 +75,7 @@ pub use describe::{BusDictionary, Description, Monitor, describe};
 pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
-pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
+pub use network::{Network, Nmt, Node, ParameterGroup, Pending, Sdo, SdoValue};
 pub use pdo_access::{
     MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
 };

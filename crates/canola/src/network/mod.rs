@@ -46,5 +46,5 @@ pub(crate) mod node;
 pub(crate) mod request;
 
 pub use handle::{DEFAULT_SDO_TIMEOUT, Network};
-pub use node::{Nmt, Node};
+pub use node::{Nmt, Node, ParameterGroup};
 pub use request::{Pending, Sdo, SdoValue};

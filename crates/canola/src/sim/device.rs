@@ -43,6 +43,10 @@ pub struct SimDevice {
     pub(super) timers: Option<Instant>,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
+    /// The values in non-volatile memory (0x1010 stores into it, 0x1011 puts defaults back
+    /// into it), which an NMT reset node loads; `None` while nothing was stored or restored
+    /// (the defaults).
+    pub(super) stored: Option<Values>,
 }
 
 impl core::fmt::Debug for SimDevice {
@@ -92,6 +96,7 @@ impl SimDevice {
             last_state: DeviceState::Initialising,
             timers: None,
             sdo_requests: 0,
+            stored: None,
         }
     }
 
@@ -279,7 +284,10 @@ impl SimDevice {
         }
         if application {
             let address = self.lss.address();
-            self.values = Values::defaults(&self.od, self.node);
+            self.values = match &self.stored {
+                Some(stored) => stored.clone(),
+                None => Values::defaults(&self.od, self.node),
+            };
             self.set_identity(address);
         }
         let hb = self.values.get_u64(0x1017, 0).unwrap_or(0) as u16;
@@ -371,10 +379,32 @@ impl SimDevice {
             .collect();
     }
 
+    /// Stores `group`'s current values in the non-volatile memory (`save`), or its defaults
+    /// (`load`, restore default parameters: they take effect at the next reset node).
+    fn store(&mut self, group: crate::ParameterGroup, save: bool) {
+        let defaults = Values::defaults(&self.od, self.node);
+        let source = if save { &self.values } else { &defaults };
+        let stored = self.stored.get_or_insert_with(|| defaults.clone());
+        let in_group = |k: &u32| group.holds((k >> 8) as u16);
+        stored.map.retain(|k, _| !in_group(k));
+        stored.map.extend(
+            source
+                .map
+                .iter()
+                .filter(|(k, _)| in_group(k))
+                .map(|(k, v)| (*k, v.clone())),
+        );
+    }
+
     pub(super) fn apply(&mut self, now: Instant, actions: HookActions, written: &[(u16, u8)]) {
         let mut remapped = false;
         let mut sdo_parameters = false;
         for &(index, sub) in written {
+            match index {
+                0x1010 => self.store(crate::ParameterGroup::from_sub_index(sub), true),
+                0x1011 => self.store(crate::ParameterGroup::from_sub_index(sub), false),
+                _ => {}
+            }
             remapped |= (0x1400..=0x1BFF).contains(&index);
             sdo_parameters |= (0x1200..=0x127F).contains(&index);
             if (index, sub) == (0x1017, 0) {
