@@ -18,7 +18,7 @@
 //!   transmits RPDOs through the `canola-pdo` engine; TPDOs arrive decoded as
 //!   [`NetworkEvent::PdoValues`], in batches from [`Network::subscribe_pdos`] or to an
 //!   [`Network::on_pdo`] callback), [`mod@describe`] (traffic in words).
-//! * [`asynch`] (`tokio` feature): the same operations awaited; a tie between the network's
+//! * `asynch` (`tokio` feature): the same operations awaited; a tie between the network's
 //!   clock and tokio's lets a virtual-clock bus follow tokio's time.
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
