@@ -347,9 +347,19 @@ pub(crate) fn fail(e: impl std::fmt::Display) -> ExitCode {
 }
 
 /// [`fail`] with extra JSON fields.
+///
+/// A text with a hint (`...\nhint: ...`) gives under `--json` the error and the hint as two
+/// fields, each once.
 fn fail_fields(text: &str, mut fields: serde_json::Map<String, serde_json::Value>) -> ExitCode {
     if JSON_ERRORS.load(std::sync::atomic::Ordering::Relaxed) {
-        fields.insert("error".into(), text.into());
+        let (error, hint) = match text.split_once("\nhint: ") {
+            Some((e, h)) => (e, Some(h)),
+            None => (text, None),
+        };
+        fields.insert("error".into(), error.into());
+        if let Some(h) = hint {
+            fields.insert("hint".into(), h.into());
+        }
         eprintln!("{}", serde_json::Value::Object(fields));
     } else {
         eprintln!("error: {text}");
@@ -411,7 +421,6 @@ pub(crate) fn fail_op(e: &canola::Error) -> ExitCode {
                  `--eds NODE=FILE` nodes exist.",
                 s.node
             );
-            fields.insert("hint".into(), json!(hint));
             text = format!("{text}\n{hint}");
         }
     }

@@ -410,11 +410,19 @@ fn check_json_is_only_json_with_diagnostics_as_objects() {
     let warn = dir.join("warn.eds");
     std::fs::write(&warn, WARNING_EDS).unwrap();
     let bad = dir.join("bad.eds");
-    std::fs::write(&bad, WARNING_EDS.replace("DefaultValue=0\n", "DefaultValue=0x1Z\n")).unwrap();
+    std::fs::write(
+        &bad,
+        WARNING_EDS.replace("DefaultValue=0\n", "DefaultValue=0x1Z\n"),
+    )
+    .unwrap();
     let (warn, bad) = (warn.to_str().unwrap(), bad.to_str().unwrap());
     let out = canopen(&["--json", "eds", "check", warn, bad]);
     assert_eq!(out.status.code(), Some(1));
-    assert!(out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("only JSON");
     let w = &v[0];
     assert_eq!(w["file"], warn);
@@ -424,7 +432,12 @@ fn check_json_is_only_json_with_diagnostics_as_objects() {
     assert_eq!(warning["file"], warn);
     assert_eq!(warning["line"], 23);
     assert_eq!(warning["severity"], "warning");
-    assert!(warning["message"].as_str().unwrap().contains("kept as text"));
+    assert!(
+        warning["message"]
+            .as_str()
+            .unwrap()
+            .contains("kept as text")
+    );
     let b = &v[1];
     assert_eq!(b["ok"], false);
     assert_eq!(b["errors"][0]["severity"], "error");

@@ -714,3 +714,22 @@ fn parse_messages_name_the_object_and_the_type() {
         stderr(&o)
     );
 }
+
+/// Under `--json` a hint is a field of its own, given once: not repeated inside `error`.
+#[test]
+fn json_errors_carry_the_hint_once() {
+    let eds = format!("5={EDS}");
+    let o = canopen(&["--json", "--eds", &eds, "sdo", "read", "9", "0x1000"]);
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
+    let hint = v["hint"].as_str().expect("a hint");
+    assert!(hint.starts_with("nothing answered"), "{hint}");
+    assert!(
+        !v["error"].as_str().unwrap().contains("nothing answered"),
+        "{v}"
+    );
+    assert_eq!(stderr(&o).matches("nothing answered").count(), 1);
+    let o = canopen(&["--json", "--iface", "nosuchcan0", "scan"]);
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
+    assert!(v["hint"].as_str().is_some(), "{v}");
+    assert!(!v["error"].as_str().unwrap().contains("hint"), "{v}");
+}
