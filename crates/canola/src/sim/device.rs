@@ -47,6 +47,8 @@ pub struct SimDevice {
     /// into it), which an NMT reset node loads; `None` while nothing was stored or restored
     /// (the defaults).
     pub(super) stored: Option<Values>,
+    /// The parser's warnings of the EDS the device was built from.
+    pub(super) warnings: Vec<canola_od::Diagnostic>,
 }
 
 impl core::fmt::Debug for SimDevice {
@@ -97,6 +99,7 @@ impl SimDevice {
             timers: None,
             sdo_requests: 0,
             stored: None,
+            warnings: Vec::new(),
         }
     }
 
@@ -172,8 +175,18 @@ impl SimDevice {
     }
 
     /// Parses an EDS/DCF text and builds a device from it.
+    /// The parser's warnings stay with the device: [`warnings`](Self::warnings).
     pub fn from_eds(node: NodeId, text: &[u8]) -> Result<Self, canola_od::ParseError> {
-        Ok(Self::new(node, canola_od::parse(text)?.od))
+        let parsed = canola_od::parse(text)?;
+        let mut device = Self::new(node, parsed.od);
+        device.warnings = parsed.diagnostics;
+        Ok(device)
+    }
+
+    /// The warnings of the EDS the device was built from ([`from_eds`](Self::from_eds)), as
+    /// `canola_od::parse` gives them; empty for a device built from a dictionary.
+    pub fn warnings(&self) -> &[canola_od::Diagnostic] {
+        &self.warnings
     }
 
     /// Adds device-specific behaviour.
