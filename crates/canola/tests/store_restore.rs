@@ -90,6 +90,12 @@ fn a_wrong_signature_and_a_device_without_storage_are_refused() {
     node.sdo().write((0x2000, 0), 321u16).unwrap();
     let e = node.sdo().write((0x1010, 1), *b"load").unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::CANNOT_STORE), "{e}");
+    // The object as every message writes an address.
+    assert!(
+        e.to_string()
+            .starts_with("node 5, object 0x1010:01: SDO abort 0x08000020"),
+        "{e}"
+    );
     let e = node.sdo().write((0x1011, 1), *b"save").unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::CANNOT_STORE), "{e}");
     reset(&node);
