@@ -414,12 +414,21 @@ fn lss_commissioning() {
     );
     std::thread::sleep(Duration::from_millis(500));
     let found = ok(&l[1], &dir, &bus);
-    assert_eq!(found.lines().count(), 2, "{found}");
-    let assigned = ok(&l[2], &dir, &bus);
-    assert!(
-        assigned.contains("2") && assigned.contains("3"),
-        "{assigned}"
+    assert_eq!(
+        found
+            .lines()
+            .filter(|l| l.starts_with("found vendor-id 57"))
+            .count(),
+        2,
+        "{found}"
     );
+    let assigned = ok(&l[2], &dir, &bus);
+    // Each slave its node-ID from the pool, in order ("Fastscan, configure, store, one by one").
+    let ids: Vec<&str> = assigned
+        .lines()
+        .filter_map(|l| l.rsplit_once("node-ID ").map(|(_, id)| id.trim()))
+        .collect();
+    assert_eq!(ids, ["2", "3"], "{assigned}");
     drop(slaves);
     // "the one slave on the bus".
     let _one = Background(
