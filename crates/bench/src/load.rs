@@ -467,7 +467,7 @@ fn new_read(net: &Network, node: NodeId, rng: &mut Rng, plan: &SdoPlan, expect: 
 }
 
 fn error_text(e: &canola::SdoError) -> String {
-    // "node 5, object 0x2100 sub 0 ...: TEXT": keep the text.
+    // "node 5, object 0x2100:00 ...: TEXT": keep the text.
     let s = e.to_string();
     match s.split_once(": ") {
         Some((_, t)) => t.to_string(),

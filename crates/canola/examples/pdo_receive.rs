@@ -13,7 +13,12 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     let id = NodeId::new(5)?;
-    net.add_node_with_dictionary(id, canola::od::parse(EDS)?.od);
+    // The parser hands back its warnings with the dictionary: show them.
+    let parsed = canola::od::parse(EDS)?;
+    for d in &parsed.diagnostics {
+        eprintln!("{}", d.render("burkert-generic.eds"));
+    }
+    net.add_node_with_dictionary(id, parsed.od);
     let device = bus.attach(SimDevice::from_eds(id, EDS)?);
     let events = net.subscribe();
     let mut batches = net.subscribe_pdos();
@@ -45,6 +50,10 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
 
     // Every PDO since the subscription (or the previous batch), as borrowed views.
     let batch = batches.try_recv()?;
+    // A value by its name in the node's EDS.
+    if let Some(v) = batch.iter().find_map(|p| p.get("Sensor Value 1.Value")) {
+        println!("Sensor Value 1.Value (by name, first in the batch) = {v}");
+    }
     for p in batch.iter().filter(|p| !p.values.is_empty()) {
         let text: Vec<String> = p.values.iter().map(|(a, v)| format!("{a} = {v}")).collect();
         println!(

@@ -16,8 +16,8 @@ use std::collections::HashMap;
 use canola_frame::cob::{FunctionCode, LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
 use canola_frame::{CanFrame, CanId, CobId, HexBytes, NodeId};
 use canola_nmt::{Emcy, ErrorControlMessage, NmtCommand, SyncMessage, TimeOfDay};
-use canola_od::ObjectDictionary;
-use canola_pdo::{CommParams, Direction, Mapping, OdView};
+use canola_od::{ObjectAddress, ObjectDictionary};
+use canola_pdo::{CommParams, Direction, Mapping, OdView, PackError};
 use canola_sdo::{ClientRequest, Multiplexer, ServerResponse};
 
 /// What [`describe`] knows about the nodes on a bus: their dictionaries (for object names) and
@@ -26,6 +26,28 @@ use canola_sdo::{ClientRequest, Multiplexer, ServerResponse};
 pub struct BusDictionary {
     nodes: HashMap<NodeId, ObjectDictionary>,
     pdos: HashMap<u16, PdoLayout>,
+}
+
+/// A PDO decoded by [`BusDictionary::decode_pdo`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct DecodedPdo {
+    /// `TPDO1 node 5`.
+    pub label: String,
+    /// The mapped objects' values, in PDO order.
+    pub values: Vec<PdoValue>,
+}
+
+/// One mapped object's value in a [`DecodedPdo`].
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct PdoValue {
+    /// The mapped object.
+    pub address: ObjectAddress,
+    /// Its name (`Object / Sub-object` for records and arrays).
+    pub name: String,
+    /// Its value as the mapping types it.
+    pub value: canola_pdo::RawValue,
 }
 
 /// One configured PDO: its label (`TPDO1 node 5`), mapping and the mapped objects' names.
@@ -94,6 +116,31 @@ impl BusDictionary {
             }
         }
         self.nodes.insert(node, od);
+    }
+
+    /// The values of a PDO that one of the dictionaries configures: its label (`TPDO1 node
+    /// 5`) and each mapped object (dummy entries included) with its address, name and value,
+    /// in PDO order. `None` for any other frame; `Some(Err(_))` when the data is shorter
+    /// than the mapping.
+    pub fn decode_pdo(&self, frame: &CanFrame) -> Option<Result<DecodedPdo, PackError>> {
+        if frame.is_remote() {
+            return None;
+        }
+        let pdo = self.pdos.get(&frame.cob_id()?)?;
+        Some(
+            canola_pdo::unpack(&pdo.mapping, frame.data()).map(|values| DecodedPdo {
+                label: pdo.label.clone(),
+                values: values
+                    .iter()
+                    .zip(&pdo.names)
+                    .map(|((object, value), name)| PdoValue {
+                        address: ObjectAddress::new(object.entry.index(), object.entry.subindex()),
+                        name: name.clone(),
+                        value,
+                    })
+                    .collect(),
+            }),
+        )
     }
 
     /// The dictionary of `node`, if known.

@@ -122,11 +122,8 @@ impl SdoError {
 
 impl core::fmt::Display for SdoError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(
-            f,
-            "node {}, object {:#06x} sub {}",
-            self.node, self.entry.index, self.entry.sub_index
-        )?;
+        // The address as every message writes one: `0x1018:01`.
+        write!(f, "node {}, object {}", self.node, self.entry)?;
         if let Some(name) = &self.name {
             write!(f, " \"{name}\"")?;
         }

@@ -18,7 +18,7 @@
 //!   transmits RPDOs through the `canola-pdo` engine; TPDOs arrive decoded as
 //!   [`NetworkEvent::PdoValues`], in batches from [`Network::subscribe_pdos`] or to an
 //!   [`Network::on_pdo`] callback), [`mod@describe`] (traffic in words).
-//! * [`asynch`] (`tokio` feature): the same operations awaited; a tie between the network's
+//! * `asynch` (`tokio` feature): the same operations awaited; a tie between the network's
 //!   clock and tokio's lets a virtual-clock bus follow tokio's time.
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
@@ -72,11 +72,11 @@ pub use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canola_pdo as pdo;
 pub use canola_sdo as sdo;
 pub use canola_sdo::{AbortCode, Method, SdoCobIds};
-pub use describe::{BusDictionary, Description, Monitor, describe};
+pub use describe::{BusDictionary, DecodedPdo, Description, Monitor, PdoValue, describe};
 pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
-pub use network::{Network, Nmt, Node, Pending, Sdo, SdoValue};
+pub use network::{Network, Nmt, Node, ParameterGroup, Pending, Sdo, SdoValue};
 pub use pdo_access::{
     MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
 };

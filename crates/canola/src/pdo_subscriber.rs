@@ -22,7 +22,7 @@ use std::sync::mpsc::{RecvError, RecvTimeoutError, TryRecvError};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 
 use canola_frame::{Instant, NodeId};
-use canola_od::{ObjectAddress, Value};
+use canola_od::{ObjectAddress, ObjectDictionary, Value};
 
 use crate::machine::events::{PdoData, PdoReceived};
 
@@ -35,13 +35,15 @@ use crate::machine::events::{PdoData, PdoReceived};
 const WAKE_AT: usize = 1024;
 
 /// One PDO of a batch; its values are `values[previous values_end..values_end]`.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct Record {
     node: NodeId,
     number: u8,
     data: PdoData,
     at: Instant,
     values_end: u32,
+    /// The producer's dictionary (shared, not copied), for values by name.
+    od: Option<Arc<ObjectDictionary>>,
 }
 
 /// The PDOs received since the subscriber's previous batch, in reception order.
@@ -89,12 +91,20 @@ impl PdoBatch {
         }
     }
 
-    fn push_record(&mut self, node: NodeId, number: u8, data: PdoData, at: Instant) {
+    fn push_record(
+        &mut self,
+        node: NodeId,
+        number: u8,
+        data: PdoData,
+        at: Instant,
+        od: Option<&Arc<ObjectDictionary>>,
+    ) {
         self.records.push(Record {
             node,
             number,
             data,
             at,
+            od: od.cloned(),
             // A batch holds what a few driving steps receive; u32 is far from full.
             values_end: u32::try_from(self.values.len()).unwrap_or(u32::MAX),
         });
@@ -148,6 +158,7 @@ impl<'a> Iterator for PdoBatchIter<'a> {
             data: &r.data,
             values,
             at: r.at,
+            dictionary: r.od.as_deref(),
         })
     }
 
@@ -199,10 +210,11 @@ impl PdoPublisher {
         number: u8,
         data: PdoData,
         at: Instant,
+        od: Option<&Arc<ObjectDictionary>>,
         values: &[(ObjectAddress, Value)],
     ) {
         self.pending.values.extend_from_slice(values);
-        self.pending.push_record(node, number, data, at);
+        self.pending.push_record(node, number, data, at, od);
     }
 
     /// A received PDO, its values moved out of `values` (left empty, with its capacity).
@@ -212,10 +224,11 @@ impl PdoPublisher {
         number: u8,
         data: PdoData,
         at: Instant,
+        od: Option<&Arc<ObjectDictionary>>,
         values: &mut Vec<(ObjectAddress, Value)>,
     ) {
         self.pending.values.append(values);
-        self.pending.push_record(node, number, data, at);
+        self.pending.push_record(node, number, data, at, od);
     }
 
     /// Hands the pending PDOs to the subscriber; `false` when the subscriber is gone. `more`:
@@ -396,7 +409,7 @@ mod tests {
         let node = NodeId::new(5).expect("node-ID");
         let data = PdoData::new(&k.to_le_bytes());
         let values = [(ObjectAddress::new(0x2000, 1), Value::Unsigned32(k))];
-        p.push(node, 1, data, Instant::ZERO, &values);
+        p.push(node, 1, data, Instant::ZERO, None, &values);
     }
 
     fn counters(batch: &PdoBatch) -> Vec<u32> {

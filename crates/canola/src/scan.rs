@@ -22,6 +22,25 @@ pub struct Identity {
     pub serial: Option<u32>,
 }
 
+/// `vendor-ID 0x00000039, product code 0x00001234, revision 0x00010002, serial number
+/// 0x00BC614E`: each value as CANopen writes identity values, the ones the node does not
+/// implement left out.
+impl core::fmt::Display for Identity {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "vendor-ID 0x{:08X}", self.vendor_id)?;
+        for (name, v) in [
+            ("product code", self.product_code),
+            ("revision", self.revision),
+            ("serial number", self.serial),
+        ] {
+            if let Some(v) = v {
+                write!(f, ", {name} 0x{v:08X}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A node that answered a scan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct ScannedNode {

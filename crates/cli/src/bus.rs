@@ -48,9 +48,10 @@ where
     r.map_err(|e| format!("`{s}`: {e}"))
 }
 
-/// An object index: `0x` hex or decimal.
+/// An object index: `0x` hex or decimal, at most 0xFFFF.
 pub(crate) fn parse_u16(s: &str) -> Result<u16, String> {
     parse_number(s, |h| u16::from_str_radix(h, 16))
+        .map_err(|e| format!("`{s}` is not an object index (0x0000..0xFFFF): {e}"))
 }
 
 /// A sub-index: `0x` hex or decimal.
@@ -304,9 +305,19 @@ pub(crate) fn fail(e: impl std::fmt::Display) -> ExitCode {
 }
 
 /// [`fail`] with extra JSON fields.
+///
+/// A text with a hint (`...\nhint: ...`) gives under `--json` the error and the hint as two
+/// fields, each once.
 fn fail_fields(text: &str, mut fields: serde_json::Map<String, serde_json::Value>) -> ExitCode {
     if JSON_ERRORS.load(std::sync::atomic::Ordering::Relaxed) {
-        fields.insert("error".into(), text.into());
+        let (error, hint) = match text.split_once("\nhint: ") {
+            Some((e, h)) => (e, Some(h)),
+            None => (text, None),
+        };
+        fields.insert("error".into(), error.into());
+        if let Some(h) = hint {
+            fields.insert("hint".into(), h.into());
+        }
         eprintln!("{}", serde_json::Value::Object(fields));
     } else {
         eprintln!("error: {text}");
@@ -368,7 +379,6 @@ pub(crate) fn fail_op(e: &canola::Error) -> ExitCode {
                  `--eds NODE=FILE` nodes exist.",
                 s.node
             );
-            fields.insert("hint".into(), json!(hint));
             text = format!("{text}\n{hint}");
         }
     }

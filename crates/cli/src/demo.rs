@@ -211,7 +211,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     }
     while let Ok(Some(_)) = tap.try_recv() {}
 
-    step("5. A segmented download: location text into 0x2002 sub 2");
+    step("5. A segmented download: location text into 0x2002:02");
     net.node(n6)
         .sdo()
         .write((0x2002, 2), "Hall 3 / line 7 / valve island A")?;
@@ -222,7 +222,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     ));
     show_traffic(&mut tap, &mut monitor, 12);
 
-    step("6. A block transfer: the logbook DOMAIN 0x2003 sub 4 (XML) with progress");
+    step("6. A block transfer: the logbook DOMAIN 0x2003:04 (XML) with progress");
     let t0 = net.now();
     let data = net
         .node(n5)

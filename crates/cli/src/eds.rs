@@ -141,6 +141,24 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
 struct Failed {
     lines: Vec<String>,
     errors: usize,
+    /// The diagnostics themselves (empty when the file could not be read: see `lines`).
+    diagnostics: Vec<Diagnostic>,
+}
+
+/// A diagnostic as `eds check --json` and `eds lint --json` give it.
+fn diagnostic_json(file: &str, d: &Diagnostic) -> Json {
+    json!({"file": file, "line": d.line, "severity": d.severity.to_string(), "message": d.message})
+}
+
+/// The diagnostics of `severity` as JSON objects.
+fn diagnostics_json(file: &str, diagnostics: &[Diagnostic], severity: Severity) -> Json {
+    Json::Array(
+        diagnostics
+            .iter()
+            .filter(|d| d.severity == severity)
+            .map(|d| diagnostic_json(file, d))
+            .collect(),
+    )
 }
 
 /// Reads and parses a file: the dictionary and its warnings, or why it failed.
@@ -149,6 +167,7 @@ fn load(file: &Path, report: Report) -> Result<(ObjectDictionary, Vec<Diagnostic
     let bytes = std::fs::read(file).map_err(|e| Failed {
         lines: vec![format!("{name}: error: {e}")],
         errors: 1,
+        diagnostics: Vec::new(),
     })?;
     match canola::od::parse_with(&bytes, report.options()) {
         Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
@@ -159,6 +178,7 @@ fn load(file: &Path, report: Report) -> Result<(ObjectDictionary, Vec<Diagnostic
                 .map(|d| d.render(&name).to_string())
                 .collect(),
             errors: e.error_count(),
+            diagnostics: e.diagnostics.clone(),
         }),
     }
 }
@@ -211,29 +231,53 @@ fn check(files: &[PathBuf], report_opts: Report, global: Global) -> ExitCode {
         let name = file.display().to_string();
         match load(file, report_opts) {
             Ok((od, diagnostics)) => {
-                for d in &diagnostics {
-                    eprintln!("{}", d.render(&name));
-                }
                 let warnings = total(&diagnostics, Severity::Warning);
                 if global.json {
-                    report.push(json!({"file": name, "ok": true, "objects": od.objects.len(), "warnings": warnings}));
+                    // Under --json, the diagnostics are in the report, not on stderr.
+                    report.push(json!({
+                        "file": name, "ok": true, "objects": od.objects.len(),
+                        "error_count": 0, "warning_count": warnings,
+                        "errors": [],
+                        "warnings": diagnostics_json(&name, &diagnostics, Severity::Warning),
+                    }));
                 } else {
+                    for d in &diagnostics {
+                        eprintln!("{}", d.render(&name));
+                    }
                     crate::outln(&format!(
                         "{name}: ok, {} objects, {warnings} warnings",
                         od.objects.len()
                     ));
                 }
             }
-            Err(Failed { lines, errors }) => {
+            Err(Failed {
+                lines,
+                errors,
+                diagnostics,
+            }) => {
                 all_ok = false;
-                for l in &lines {
-                    eprintln!("{l}");
-                }
                 if global.json {
-                    report.push(
-                        json!({"file": name, "ok": false, "error_count": errors, "errors": lines}),
-                    );
+                    let mut error_list = diagnostics_json(&name, &diagnostics, Severity::Error);
+                    if diagnostics.is_empty() {
+                        // Not read at all: the reason as the one error.
+                        error_list = Json::Array(
+                            lines
+                                .iter()
+                                .map(|l| json!({"file": name, "line": 0, "severity": "error", "message": l.strip_prefix(&format!("{name}: error: ")).unwrap_or(l)}))
+                                .collect(),
+                        );
+                    }
+                    report.push(json!({
+                        "file": name, "ok": false,
+                        "error_count": errors,
+                        "warning_count": total(&diagnostics, Severity::Warning),
+                        "errors": error_list,
+                        "warnings": diagnostics_json(&name, &diagnostics, Severity::Warning),
+                    }));
                 } else {
+                    for l in &lines {
+                        eprintln!("{l}");
+                    }
                     crate::outln(&format!("{name}: FAILED, {errors} errors"));
                 }
             }
@@ -267,16 +311,13 @@ fn lint(file: &Path, global: Global) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    for d in &findings {
-        eprintln!("{}", d.render(&name));
-    }
     if global.json {
-        let list: Vec<Json> = findings
-            .iter()
-            .map(|d| json!({"line": d.line, "severity": d.severity.to_string(), "message": d.message}))
-            .collect();
+        let list: Vec<Json> = findings.iter().map(|d| diagnostic_json(&name, d)).collect();
         crate::outln(&json!({"file": name, "findings": list}).to_string());
     } else {
+        for d in &findings {
+            eprintln!("{}", d.render(&name));
+        }
         // A summary of findings not listed counts as what it stands for.
         let count = total(&findings, Severity::Warning) + total(&findings, Severity::Error);
         crate::outln(&format!("{name}: {count} findings"));

@@ -24,6 +24,7 @@ mod objaddr;
 mod outfile;
 mod sdo_cmd;
 mod simulate;
+mod store_cmd;
 mod traffic;
 
 /// CANopen master tools: EDS files, and (with the bus commands) devices on SocketCAN or a
@@ -66,6 +67,11 @@ enum Command {
     Nmt(nmt_cmd::NmtArgs),
     /// List the nodes that answer, with their identity (0x1018).
     Scan,
+    /// Store a node's parameters in its non-volatile memory (0x1010, signature `save`).
+    Store(store_cmd::StoreArgs),
+    /// Restore a node's default parameters (0x1011, signature `load`); they take effect at
+    /// its next reset.
+    Restore(store_cmd::StoreArgs),
     /// Decoded live traffic, optionally filtered as candump filters (CAN FD frames shown, not
     /// decoded).
     Monitor {
@@ -186,6 +192,8 @@ fn main() -> ExitCode {
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
         Command::Nmt(args) => nmt_cmd::run(args, &cli.bus, global),
         Command::Scan => nmt_cmd::run_scan(&cli.bus, global),
+        Command::Store(args) => store_cmd::run(args, false, &cli.bus, global),
+        Command::Restore(args) => store_cmd::run(args, true, &cli.bus, global),
         Command::Monitor {
             duration,
             devicenet,

@@ -1,8 +1,10 @@
 //! `canopen sdo read|write|upload|download`: SDO transfers (CiA 301 §7.2.4) through the
 //! library's [`canola::Sdo`]; this module parses the arguments and the value text, and prints.
 //!
-//! Values are typed by `--type`, else by the node's dictionary (`--eds NODE=FILE`); reads
-//! without either print the bytes in hex.
+//! Values are typed by `--type`, else by the node's dictionary (`--eds NODE=FILE`), else, for
+//! the communication profile (0x1000..0x1FFF), by the types CiA 301 gives its objects; a read
+//! of an object of unknown type prints its bytes in hex and says so on stderr (`--json`:
+//! `bytes`, no `value`).
 
 use std::io::{IsTerminal, Write as _};
 use std::path::PathBuf;
@@ -93,7 +95,7 @@ pub(crate) enum SdoCommand {
         object: String,
         /// `[SUB] VALUE`: the sub-index (default 0) and the value (integers decimal or 0x hex,
         /// negative ones as `-42`; bytes as hex).
-        #[arg(num_args = 1..=2, required = true, value_names = ["SUB", "VALUE"],
+        #[arg(num_args = 0..=2, value_names = ["SUB", "VALUE"],
               allow_negative_numbers = true)]
         args: Vec<String>,
         /// Value type (default: from --eds).
@@ -138,13 +140,38 @@ pub(crate) enum SdoCommand {
     },
 }
 
-/// Splits `[SUB] LAST` positionals.
-fn sub_and_last(args: &[String]) -> Result<(Option<u8>, &str), String> {
+/// Splits `[SUB] LAST` positionals; `what` names LAST in the message when it is missing.
+fn sub_and_last<'a>(args: &'a [String], what: &str) -> Result<(Option<u8>, &'a str), String> {
     match args {
         [last] => Ok((None, last)),
         [sub, last] => Ok((Some(parse_u8(sub)?), last)),
-        _ => Err("expected [SUB] and one more argument".into()),
+        [] => Err(format!("{what} is missing")),
+        _ => Err(format!("expected [SUB] and {what}")),
     }
+}
+
+/// "a" or "an" before a data type's name, as it is read aloud (`an UNSIGNED16`, `a REAL32`).
+fn article(dt: DataType) -> &'static str {
+    let name = dt.to_string();
+    if name.starts_with(['U', 'I', 'O']) {
+        "an"
+    } else {
+        "a"
+    }
+}
+
+/// The range an integer type holds, as `MIN..=MAX`.
+fn integer_range(dt: DataType) -> Option<String> {
+    let bits = dt.integer_bits()?;
+    if dt == DataType::Boolean {
+        return Some("0..=1".into());
+    }
+    Some(if dt.is_signed() {
+        let max = (1i128 << (bits - 1)) - 1;
+        format!("{}..={max}", -max - 1)
+    } else {
+        format!("0..={}", (1u128 << bits) - 1)
+    })
 }
 
 /// The object address of `object` and `sub` on `node`.
@@ -200,6 +227,13 @@ fn json_value(v: &Value) -> serde_json::Value {
     }
 }
 
+fn out_of_range(text: &str, dt: DataType) -> String {
+    match integer_range(dt) {
+        Some(r) => format!("`{text}` is out of range for {dt} ({r})"),
+        None => format!("`{text}` is out of range for {dt}"),
+    }
+}
+
 fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
     match dt {
         DataType::VisibleString => Ok(text.as_bytes().to_vec()),
@@ -220,11 +254,11 @@ fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
         DataType::Real32 => text
             .parse::<f32>()
             .map(|f| f.to_le_bytes().to_vec())
-            .map_err(|e| format!("`{text}`: {e}")),
+            .map_err(|_| format!("`{text}` is not a REAL32 value")),
         DataType::Real64 => text
             .parse::<f64>()
             .map(|f| f.to_le_bytes().to_vec())
-            .map_err(|e| format!("`{text}`: {e}")),
+            .map_err(|_| format!("`{text}` is not a REAL64 value")),
         dt => {
             let (neg, body) = match text.strip_prefix('-') {
                 Some(b) => (true, b),
@@ -234,29 +268,40 @@ fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
                 Some(h) => i128::from_str_radix(h, 16),
                 None => body.parse::<i128>(),
             }
-            .map_err(|e| format!("`{text}`: {e}"))?;
+            .map_err(|e| match e.kind() {
+                std::num::IntErrorKind::PosOverflow | std::num::IntErrorKind::NegOverflow
+                    if dt.integer_bits().is_some() =>
+                {
+                    out_of_range(text, dt)
+                }
+                _ => format!("`{text}` is not {} {dt} value", article(dt)),
+            })?;
             let v = if neg { -mag } else { mag };
             let value = Value::from_i128_wrapping(dt, v)
                 .ok_or_else(|| format!("cannot write `{text}` as {dt}"))?;
             if value.as_i128() != Some(v) {
-                return Err(format!("`{text}` is out of range for {dt}"));
+                return Err(out_of_range(text, dt));
             }
             Ok(value.to_le_bytes())
         }
     }
 }
 
+/// The type of `entry` on `node`: `--type`, else the node's dictionary, else the type CiA 301
+/// gives a communication profile object (0x1017 UNSIGNED16 on every device).
 fn data_type_of(
     net: &Network,
     node: NodeId,
     entry: ObjectAddress,
     ty: Option<Ty>,
 ) -> Option<DataType> {
-    ty.map(Ty::data_type).or_else(|| {
-        net.node(node)
-            .dictionary()
-            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
-    })
+    ty.map(Ty::data_type)
+        .or_else(|| {
+            net.node(node)
+                .dictionary()
+                .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
+        })
+        .or_else(|| canola::od::profile::communication_type(entry.index, entry.sub_index))
 }
 
 /// The transfer's progress bar on stderr, drawn only when stderr is a terminal; a transfer
@@ -314,14 +359,17 @@ pub(crate) fn run(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
     match run_on(&net, cmd, g) {
         Ok(code) => code,
         Err(Failure::Op(e)) => fail_op(&e),
-        Err(Failure::Usage(e)) => fail(e),
+        Err(Failure::Usage(e)) => crate::bus::fail_usage(e),
+        Err(Failure::Local(e)) => fail(e),
     }
 }
 
-/// Why a command failed: the master's error (with its fields), or bad input.
+/// Why a command failed: the master's error (with its fields), bad input (a usage error,
+/// exit 2), or a local failure such as a file that cannot be opened (exit 1).
 enum Failure {
     Op(canola::Error),
     Usage(String),
+    Local(String),
 }
 
 impl From<String> for Failure {
@@ -355,7 +403,24 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             block,
         } => {
             let entry = address(net, node, &object, sub)?;
-            let dt = data_type_of(net, node, entry, ty).unwrap_or(DataType::Domain);
+            let Some(dt) = data_type_of(net, node, entry, ty) else {
+                let bytes = net.node(node).sdo().block(block).read(entry)?;
+                let note = format!(
+                    "node {node}, object {entry}: type unknown (not a CiA 301 communication \
+                     object; give --type or --eds {node}=FILE), printed as its bytes in hex"
+                );
+                let mut fields = serde_json::Map::new();
+                fields.insert("node".into(), node.get().into());
+                fields.insert("index".into(), entry.index.into());
+                fields.insert("sub".into(), entry.sub_index.into());
+                crate::bus::warn("note", &note, fields);
+                if g.json {
+                    outln(&with(addr_json(node, entry), "bytes", json!(hex(&bytes))));
+                } else {
+                    outln(&hex(&bytes));
+                }
+                return Ok(ExitCode::SUCCESS);
+            };
             let value = net.node(node).sdo().block(block).read_as(entry, dt)?;
             if g.json {
                 let mut v = addr_json(node, entry);
@@ -372,7 +437,13 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             ty,
             block,
         } => {
-            let (sub, value) = sub_and_last(&args)?;
+            let (sub, value) = match sub_and_last(&args, "the value to write") {
+                Ok(v) => v,
+                Err(e) => {
+                    let entry = address(net, node, &object, None)?;
+                    return Err(format!("node {node}, object {entry}: {e}").into());
+                }
+            };
             let entry = address(net, node, &object, sub)?;
             let Some(dt) = data_type_of(net, node, entry, ty) else {
                 return Err(format!(
@@ -380,7 +451,8 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
                 )
                 .into());
             };
-            let bytes = parse_value(dt, value)?;
+            let bytes =
+                parse_value(dt, value).map_err(|e| format!("node {node}, object {entry}: {e}"))?;
             net.node(node).sdo().block(block).write(entry, bytes)?;
             if g.json {
                 outln(&with(addr_json(node, entry), "ok", json!(true)));
@@ -394,17 +466,20 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             block,
         } => {
             let entry = address(net, node, &object, sub)?;
-            let file = OutFile::create(&output)?;
+            let file = OutFile::create(&output).map_err(Failure::Local)?;
             let bar = Bar::new();
             let r = net
                 .node(node)
                 .sdo()
                 .block(block)
                 .on_progress(bar.callback())
-                .upload_to(entry, std::io::BufWriter::new(file.writer()?));
+                .upload_to(
+                    entry,
+                    std::io::BufWriter::new(file.writer().map_err(Failure::Local)?),
+                );
             bar.finish(r.as_ref().ok().copied());
             let n = r?;
-            file.commit()?;
+            file.commit().map_err(Failure::Local)?;
             if g.json {
                 outln(&with(addr_json(node, entry), "bytes", json!(n)));
             } else {
@@ -417,9 +492,10 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             args,
             block,
         } => {
-            let (sub, file) = sub_and_last(&args)?;
+            let (sub, file) = sub_and_last(&args, "the input file")?;
             let entry = address(net, node, &object, sub)?;
-            let f = std::fs::File::open(file).map_err(|e| format!("{file}: {e}"))?;
+            let f =
+                std::fs::File::open(file).map_err(|e| Failure::Local(format!("{file}: {e}")))?;
             let bar = Bar::new();
             let r = net
                 .node(node)

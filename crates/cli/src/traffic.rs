@@ -75,6 +75,24 @@ fn passes(filters: &[Filter], id: CanId) -> bool {
 /// `canopen monitor [FILTER...]` (`--devicenet`: the frames read as DeviceNet, CAN's other
 /// application layer on the same wire, e.g. for the GEMÜ cPos). CAN FD frames are shown in
 /// candump's syntax, not decoded.
+/// A PDO value as a JSON value: numbers as numbers, bytes as hex text.
+fn raw_json(v: &canola::pdo::RawValue) -> serde_json::Value {
+    use canola::pdo::RawValue as R;
+    match v {
+        R::Bool(b) => json!(b),
+        R::Unsigned(u) => json!(u),
+        R::Signed(i) => json!(i),
+        R::Real32(x) => json!(x),
+        R::Real64(x) => json!(x),
+        R::Bytes(b) => json!(
+            b.as_slice()
+                .iter()
+                .map(|x| format!("{x:02x}"))
+                .collect::<String>()
+        ),
+    }
+}
+
 pub(crate) fn run_monitor(
     opts: &BusOpts,
     duration: Option<f64>,
@@ -82,11 +100,17 @@ pub(crate) fn run_monitor(
     devicenet: bool,
     g: Global,
 ) -> ExitCode {
+    // Before the bus opens (its transport may start threads): Ctrl-C ends the monitor with
+    // everything shown so far written out, and exit status 0.
+    if let Err(e) = crate::bus::stop_on_signals() {
+        return fail(e);
+    }
     let mut bus = match opts.open_watching() {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
-    let mut monitor = Monitor::new(bus.bus_dictionary());
+    let dictionary = bus.bus_dictionary();
+    let mut monitor = Monitor::new(dictionary.clone());
     let r = bus.pump(duration, |traffic, at| {
         if !passes(filters, traffic.id()) {
             return;
@@ -103,10 +127,24 @@ pub(crate) fn run_monitor(
             ),
         };
         if g.json {
-            outln(
-                &json!({"time": at.as_micros() as f64 / 1e6, "frame": shown, "decoded": what})
-                    .to_string(),
-            );
+            let mut line =
+                json!({"time": at.as_micros() as f64 / 1e6, "frame": shown, "decoded": what});
+            // A PDO an EDS maps: its values as JSON values too.
+            if let Traffic::Can(frame) = traffic
+                && !devicenet
+                && let Some(Ok(pdo)) = dictionary.decode_pdo(frame)
+            {
+                line["pdo"] = json!(pdo.label);
+                line["values"] = pdo
+                    .values
+                    .iter()
+                    .map(|v| {
+                        json!({"index": v.address.index, "sub": v.address.sub_index,
+                               "name": v.name, "value": raw_json(&v.value)})
+                    })
+                    .collect();
+            }
+            outln(&line.to_string());
         } else {
             outln(&format!("{at}  {shown:<28} {what}"));
         }

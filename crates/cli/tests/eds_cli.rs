@@ -394,3 +394,64 @@ fn check_of_junk_stays_within_a_small_multiple_of_the_file_in_memory() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A file with one warning (a manufacturer object's value kept as text) and one with an
+/// error (a communication object's value that does not parse).
+const WARNING_EDS: &str = "[FileInfo]\nFileName=x.eds\n[DeviceInfo]\nVendorName=t\n\
+[MandatoryObjects]\nSupportedObjects=1\n1=0x1000\n\
+[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\nPDOMapping=0\n\
+[ManufacturerObjects]\nSupportedObjects=1\n1=0x2000\n\
+[2000]\nParameterName=X\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=0x1Z\nPDOMapping=0\n";
+
+#[test]
+fn check_json_is_only_json_with_diagnostics_as_objects() {
+    let dir = std::env::temp_dir().join(format!("canopen-eds-json-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let warn = dir.join("warn.eds");
+    std::fs::write(&warn, WARNING_EDS).unwrap();
+    let bad = dir.join("bad.eds");
+    std::fs::write(
+        &bad,
+        WARNING_EDS.replace("DefaultValue=0\n", "DefaultValue=0x1Z\n"),
+    )
+    .unwrap();
+    let (warn, bad) = (warn.to_str().unwrap(), bad.to_str().unwrap());
+    let out = canopen(&["--json", "eds", "check", warn, bad]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("only JSON");
+    let w = &v[0];
+    assert_eq!(w["file"], warn);
+    assert_eq!(w["ok"], true);
+    assert_eq!(w["errors"], serde_json::json!([]));
+    let warning = &w["warnings"][0];
+    assert_eq!(warning["file"], warn);
+    assert_eq!(warning["line"], 23);
+    assert_eq!(warning["severity"], "warning");
+    assert!(
+        warning["message"]
+            .as_str()
+            .unwrap()
+            .contains("kept as text")
+    );
+    let b = &v[1];
+    assert_eq!(b["ok"], false);
+    assert_eq!(b["errors"][0]["severity"], "error");
+    assert_eq!(b["errors"][0]["line"], 13);
+    assert!(b["errors"][0]["message"].as_str().unwrap().contains("0x1Z"));
+
+    // `eds lint` includes what `check` finds.
+    let out = canopen(&["--json", "eds", "lint", warn]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let findings = v["findings"].as_array().unwrap();
+    assert!(
+        findings
+            .iter()
+            .any(|f| f["line"] == 23 && f["message"].as_str().unwrap().contains("kept as text")),
+        "{v}"
+    );
+}

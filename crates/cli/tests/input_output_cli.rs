@@ -665,3 +665,71 @@ fn an_upload_file_appears_whole_or_not_at_all() {
             .is_char_device()
     );
 }
+
+/// What a wrong value or object says: the object and its type, and that a usage mistake is
+/// one (exit 2).
+#[test]
+fn parse_messages_name_the_object_and_the_type() {
+    let eds = format!("5={EDS}");
+    let run = |args: &[&str]| {
+        let mut all = vec!["--eds", &eds];
+        all.extend_from_slice(args);
+        canopen(&all)
+    };
+    let o = run(&["sdo", "write", "5", "0x1017", "abc"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        "error: node 5, object 0x1017:00: `abc` is not an UNSIGNED16 value\n"
+    );
+    let o = run(&["sdo", "write", "5", "0x1017", "70000"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("0x1017:00: `70000` is out of range for UNSIGNED16 (0..=65535)"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&["sdo", "write", "5", "0x1017", "1.5x", "--type", "f32"]);
+    assert!(
+        stderr(&o).contains("`1.5x` is not a REAL32 value"),
+        "{}",
+        stderr(&o)
+    );
+    for index in ["0x10000", "70000"] {
+        let o = run(&["sdo", "read", "5", index]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains(&format!(
+                "`{index}` is not an object index (0x0000..0xFFFF)"
+            )),
+            "{}",
+            stderr(&o)
+        );
+    }
+    let o = run(&["sdo", "write", "5", "0x1017"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("the value to write is missing"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// Under `--json` a hint is a field of its own, given once: not repeated inside `error`.
+#[test]
+fn json_errors_carry_the_hint_once() {
+    let eds = format!("5={EDS}");
+    let o = canopen(&["--json", "--eds", &eds, "sdo", "read", "9", "0x1000"]);
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
+    let hint = v["hint"].as_str().expect("a hint");
+    assert!(hint.starts_with("nothing answered"), "{hint}");
+    assert!(
+        !v["error"].as_str().unwrap().contains("nothing answered"),
+        "{v}"
+    );
+    assert_eq!(stderr(&o).matches("nothing answered").count(), 1);
+    let o = canopen(&["--json", "--iface", "nosuchcan0", "scan"]);
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).expect("JSON on stderr");
+    assert!(v["hint"].as_str().is_some(), "{v}");
+    assert!(!v["error"].as_str().unwrap().contains("hint"), "{v}");
+}

@@ -41,6 +41,10 @@
 //! * A line longer than [`Config::max_line`] is refused with 600, running out of memory, the
 //!   code Lely gives for the command size service (CANopenNode streams long values through a
 //!   fixed buffer and answers a token over its 20-byte limit with 101).
+//! * A written number outside its type's range (`w 0x1017 0 u16 70000`) is answered
+//!   `ERROR:0x06090031` (value too high) or `ERROR:0x06090032` (too low), the SDO abort a
+//!   device gives for it: CiA 309-3's gateway error codes have no range error, and 101 (syntax,
+//!   what canopend answers) would tell the user the line is malformed when it is not.
 //! * `lss_allnodes` takes CANopenNode's scan types per part (0 search, 1 ignore, 2 match the
 //!   value given) in any mix; a form that leaves no Fastscan (the vendor-ID ignored, or the
 //!   three parts after it) is a syntax error, 101 (CANopenNode's master refuses it as an illegal

@@ -51,6 +51,16 @@ pub enum ParseError {
         /// The sequence number, when the line started with a readable one.
         seq: Option<u32>,
     },
+    /// A write whose value is a number outside its type's range: answered with CiA 301's SDO
+    /// abort code for a value above (0x06090031) or below (0x06090032) the range, as a device
+    /// answers such a value. CiA 309-3's own error codes have none for a range.
+    #[error("value out of range")]
+    OutOfRange {
+        /// The sequence number.
+        seq: Option<u32>,
+        /// Above the type's maximum (else below its minimum).
+        above: bool,
+    },
     /// A node-ID above 127 before a node-level command (gateway error 107, as CANopenNode
     /// answers it).
     #[error("unsupported node")]
@@ -61,12 +71,22 @@ pub enum ParseError {
 }
 
 impl ParseError {
+    /// The SDO abort code this error is answered with (`ERROR:0x........`), if it is one.
+    pub fn abort_code(&self) -> Option<u32> {
+        match self {
+            Self::OutOfRange { above: true, .. } => Some(0x0609_0031),
+            Self::OutOfRange { above: false, .. } => Some(0x0609_0032),
+            _ => None,
+        }
+    }
+
     /// The sequence number to echo.
     pub fn seq(&self) -> Option<u32> {
         match *self {
-            Self::Syntax { seq } | Self::NotSupported { seq } | Self::UnsupportedNode { seq } => {
-                seq
-            }
+            Self::Syntax { seq }
+            | Self::NotSupported { seq }
+            | Self::UnsupportedNode { seq }
+            | Self::OutOfRange { seq, .. } => seq,
         }
     }
 }
@@ -181,7 +201,14 @@ fn write_args(i: &str) -> Res<'_, Command> {
     if text.is_empty() && !dt.may_be_empty() {
         return Err(fail());
     }
-    let value = Value::parse(dt, text).map_err(|_| fail())?;
+    let value = Value::parse(dt, text).map_err(|e| match e {
+        // Kept apart from the syntax errors: `command_args` answers it as a range error.
+        crate::value::ValueError::Range { above, .. } => nom::Err::Failure(nom::error::Error::new(
+            i,
+            if above { RANGE_ABOVE } else { RANGE_BELOW },
+        )),
+        _ => fail(),
+    })?;
     Ok((
         rest,
         Command::Write {
@@ -264,7 +291,24 @@ fn all_nodes(i: &str) -> Res<'_, Option<AllNodes>> {
 }
 
 /// The arguments of command word `w`; `Ok(None)` for an unknown word.
-fn command_args<'a>(w: &str, i: &'a str) -> Result<Option<(&'a str, Command)>, ()> {
+/// The error kinds `write_args` marks a value out of range with (above, below).
+const RANGE_ABOVE: nom::error::ErrorKind = nom::error::ErrorKind::TooLarge;
+const RANGE_BELOW: nom::error::ErrorKind = nom::error::ErrorKind::Satisfy;
+
+/// Why a command's arguments did not parse.
+enum ArgError {
+    Syntax,
+    /// A written value outside its type's range (above it, else below).
+    Range(bool),
+}
+
+impl From<()> for ArgError {
+    fn from((): ()) -> Self {
+        Self::Syntax
+    }
+}
+
+fn command_args<'a>(w: &str, i: &'a str) -> Result<Option<(&'a str, Command)>, ArgError> {
     let r: Res<'a, Command> = match w {
         "r" | "read" => read_args(i),
         "w" | "write" => write_args(i),
@@ -323,7 +367,7 @@ fn command_args<'a>(w: &str, i: &'a str) -> Result<Option<(&'a str, Command)>, (
             Ok((r, Some(v @ 0x5A..=0x5D))) => {
                 Ok((r, Command::LssInquireAddr(Some((v - 0x5A) as u8))))
             }
-            _ => return Err(()),
+            _ => return Err(ArgError::Syntax),
         },
         "lss_get_node" => Ok((i, Command::LssGetNode)),
         "_lss_fastscan" => opt(arg(0xFFFF))
@@ -344,7 +388,11 @@ fn command_args<'a>(w: &str, i: &'a str) -> Result<Option<(&'a str, Command)>, (
         "_events" => bit(i).map(|(r, b)| (r, Command::Events(b))),
         _ => return Ok(None),
     };
-    r.map(Some).map_err(|_| ())
+    r.map(Some).map_err(|e| match e {
+        nom::Err::Failure(e) if e.code == RANGE_ABOVE => ArgError::Range(true),
+        nom::Err::Failure(e) if e.code == RANGE_BELOW => ArgError::Range(false),
+        _ => ArgError::Syntax,
+    })
 }
 
 /// Parses one line. `Ok(None)` for an empty or comment-only line.
@@ -390,7 +438,8 @@ pub fn parse_line(line: &str) -> Result<Option<Request>, ParseError> {
     let (i, command) = match command_args(&w.to_ascii_lowercase(), i) {
         Ok(Some(v)) => v,
         Ok(None) => return Err(ParseError::NotSupported { seq }),
-        Err(()) => return Err(syntax(seq)),
+        Err(ArgError::Syntax) => return Err(syntax(seq)),
+        Err(ArgError::Range(above)) => return Err(ParseError::OutOfRange { seq, above }),
     };
     all_consuming(tail)
         .parse(i)
@@ -526,7 +575,7 @@ mod tests {
             "[7] 4 read 0x1000 256",
             "[7] 4 read 0x1000 0 q8",
             "[7] 4 write 0x1000 0 u8",
-            "[7] 4 write 0x1000 0 u8 256",
+            "[7] 4 write 0x1000 0 u8 2x6",
             "[7] 1 2 3 start",
             "[7] 1 2 set node 3",
             "[7] 3 help",
@@ -540,6 +589,24 @@ mod tests {
                 Err(ParseError::Syntax { seq: Some(7) }),
                 "{bad}"
             );
+        }
+        // A number outside the type's range: a range error, answered with the abort code.
+        for (bad, above) in [
+            ("[7] 4 write 0x1000 0 u8 256", true),
+            ("[7] 4 write 0x1000 0 i16 -40000", false),
+            ("[7] 4 write 0x1000 0 u32 -0x1", false),
+        ] {
+            let e = parse_line(bad).unwrap_err();
+            assert_eq!(
+                e,
+                ParseError::OutOfRange {
+                    seq: Some(7),
+                    above
+                },
+                "{bad}"
+            );
+            let code = if above { 0x0609_0031 } else { 0x0609_0032 };
+            assert_eq!(e.abort_code(), Some(code));
         }
         // A node-ID above 127: unsupported node, as CANopenNode answers.
         for bad in ["[7] 300 start", "[7] 128 r 0x1000 0", "[7] 1 200 stop"] {

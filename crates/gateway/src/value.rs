@@ -248,6 +248,16 @@ pub enum ValueError {
         /// The text (cut to 40 characters).
         text: String,
     },
+    /// The text is a number, but outside the type's range.
+    #[error("`{text}` is out of range for {data_type}")]
+    Range {
+        /// The type.
+        data_type: DataType,
+        /// The text (cut to 40 characters).
+        text: String,
+        /// Above the type's maximum (else below its minimum).
+        above: bool,
+    },
     /// The bytes do not have the type's size.
     #[error("{got} bytes for a {data_type} value of {want} bytes")]
     Length {
@@ -277,6 +287,20 @@ pub(crate) fn parse_unsigned(text: &str) -> Option<u64> {
         None if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) => text.parse().ok(),
         None => None,
     }
+}
+
+/// Whether `text` is written as an integer (decimal or `0x` hex, an optional sign) of any
+/// size, and if so whether it is negative.
+fn integer_shape(text: &str) -> Option<bool> {
+    let (negative, body) = match text.strip_prefix('-') {
+        Some(rest) => (true, rest),
+        None => (false, text.strip_prefix('+').unwrap_or(text)),
+    };
+    let digits = match body.strip_prefix("0x").or_else(|| body.strip_prefix("0X")) {
+        Some(h) => !h.is_empty() && h.bytes().all(|b| b.is_ascii_hexdigit()),
+        None => !body.is_empty() && body.bytes().all(|b| b.is_ascii_digit()),
+    };
+    digits.then_some(negative)
 }
 
 fn parse_signed(text: &str) -> Option<i64> {
@@ -327,12 +351,28 @@ impl Value {
     /// string, or for `t`/`td`/`hex` several).
     pub fn parse(dt: DataType, text: &str) -> Result<Self, ValueError> {
         let err = || bad(dt, text);
-        let int = |min: i64, max: i64| {
-            parse_signed(text)
-                .filter(|v| (min..=max).contains(v))
-                .ok_or_else(err)
+        // A number the type cannot hold is a range error, anything else not a number a text
+        // error.
+        let range = |above: bool| ValueError::Range {
+            data_type: dt,
+            text: text.chars().take(40).collect(),
+            above,
         };
-        let uint = |max: u64| parse_unsigned(text).filter(|v| *v <= max).ok_or_else(err);
+        let not_held = || match integer_shape(text) {
+            Some(negative) => range(!negative),
+            None => err(),
+        };
+        let int = |min: i64, max: i64| match parse_signed(text) {
+            Some(v) if v < min => Err(range(false)),
+            Some(v) if v > max => Err(range(true)),
+            Some(v) => Ok(v),
+            None => Err(not_held()),
+        };
+        let uint = |max: u64| match parse_unsigned(text) {
+            Some(v) if v > max => Err(range(true)),
+            Some(v) => Ok(v),
+            None => Err(not_held()),
+        };
         Ok(match dt {
             DataType::Bool => match text {
                 "0" | "false" | "FALSE" => Self::Bool(false),

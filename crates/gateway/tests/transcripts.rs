@@ -79,7 +79,21 @@ fn defaults_nmt_and_errors() {
             ("[15] set network 1\r\n", "[15] OK\r\n"),
             ("[16] frobnicate\r\n", "[16] ERROR:100\r\n"),
             ("[17] 4 read\r\n", "[17] ERROR:101\r\n"),
-            ("[18] 4 w 0x1017 0 u16 70000\r\n", "[18] ERROR:101\r\n"),
+            // A number out of the type's range is a range error (CiA 301's abort code for a
+            // value above or below the range, as the device would answer it), not a syntax
+            // error; a number that is not one still is.
+            (
+                "[18] 4 w 0x1017 0 u16 70000\r\n",
+                "[18] ERROR:0x06090031\r\n",
+            ),
+            ("[18] 4 w 0x1017 0 u16 -1\r\n", "[18] ERROR:0x06090032\r\n"),
+            ("[18] 4 w 0x1017 0 i8 -129\r\n", "[18] ERROR:0x06090032\r\n"),
+            (
+                "[18] 4 w 0x1017 0 u64 99999999999999999999\r\n",
+                "[18] ERROR:0x06090031\r\n",
+            ),
+            ("[18] 4 w 0x1017 0 u16 7x\r\n", "[18] ERROR:101\r\n"),
+            ("[18] 4 r 0x1017 0 u16\r\n", "[18] 500\r\n"),
             (
                 "# a comment line gets no reply\r\n[19] 4 r 0x1017 0 u16 # trailing comment\r\n",
                 "[19] 500\r\n",

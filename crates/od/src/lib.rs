@@ -4,6 +4,8 @@
 //!   allocator).
 //! - [`entry`] — typed entries (index, sub-index and Rust value type) for generated code (no allocator).
 //! - [`types`] — CiA 301 data type indices, object codes and CiA 306 access types (no allocator).
+//! - [`profile`] — the data types CiA 301 fixes for the communication profile objects
+//!   (0x1017 UNSIGNED16, 0x1018:01 UNSIGNED32), for access without an EDS (no allocator).
 //! - [`value`] — typed values of every basic data type with two codecs: little-endian bytes
 //!   (SDO/PDO payloads) and CiA 306 EDS text including `$NODEID` expressions, and a `Display`
 //!   in CANopen terms (`57`, `24.58`, `01 02 0A`; `{:#}` for hex) (`alloc`).
@@ -13,7 +15,7 @@
 //! - [`lint`](mod@lint) — consistency checks (SubNumber, object lists, limits, PDO mappings, codes).
 //! - `file` — load/save by path (`std`).
 //!
-//! The crate is `#![no_std]`. Without features only [`types`], [`address`] and [`entry`] are available (no
+//! The crate is `#![no_std]`. Without features only [`types`], [`profile`], [`address`] and [`entry`] are available (no
 //! allocator); `alloc` adds the value codec, the model, parser, writer and linter; `std`
 //! (default) adds file I/O conveniences.
 //!
@@ -43,6 +45,7 @@ pub mod lint;
 pub mod model;
 #[cfg(feature = "alloc")]
 pub mod parse;
+pub mod profile;
 pub mod types;
 #[cfg(feature = "alloc")]
 pub mod value;
@@ -70,7 +73,7 @@ pub use model::{
 pub use parse::{ParseError, ParseOptions, Parsed, parse, parse_with};
 pub use types::{AccessType, BASIC_DATA_TYPES, DataType, ObjectCode};
 #[cfg(feature = "alloc")]
-pub use value::{BytesError, EdsValue, TextError, TextNotes, Value};
+pub use value::{BytesError, ConvertError, EdsValue, TextError, TextNotes, Value, ValueType};
 #[cfg(feature = "alloc")]
 pub use write::{concise_dcf, write_dcf, write_eds};
 

@@ -27,17 +27,16 @@ use crate::model::{Object, ObjectDictionary, SubObject};
 use crate::parse::{ParseError, parse};
 use crate::types::{DataType, ObjectCode};
 
-/// Parses `input` and lints it: the parser's duplicate and invalid-code warnings followed by
-/// [`lint`]'s findings, sorted by line.
+/// Parses `input` and lints it: every warning of the parser (what `eds check` reports)
+/// followed by [`lint`]'s findings, sorted by line, each finding once.
 pub fn lint_source(input: &[u8]) -> Result<Vec<Diagnostic>, ParseError> {
     let parsed = parse(input)?;
-    let mut out: Vec<Diagnostic> = parsed
-        .diagnostics
-        .into_iter()
-        .filter(|d| d.kind == K::Duplicate)
-        .collect();
+    // What the parser found (`eds check`'s findings), then the model's checks.
+    let mut out: Vec<Diagnostic> = parsed.diagnostics;
     out.extend(lint(&parsed.od));
     out.sort_by_key(|d| d.line);
+    let mut seen = alloc::collections::BTreeSet::new();
+    out.retain(|d| seen.insert((d.line, d.message.clone())));
     Ok(out)
 }
 

@@ -5,7 +5,7 @@
 
 use canola_frame::{Instant, NodeId};
 use canola_nmt::{EmcyEvent, GuardingEvent, HeartbeatEvent};
-use canola_od::{ObjectAddress, Value};
+use canola_od::{ObjectAddress, ObjectDictionary, Value};
 use canola_sdo::AbortCode;
 
 use crate::transport::BusEvent;
@@ -131,6 +131,26 @@ pub struct PdoReceived<'a> {
     pub values: &'a [(ObjectAddress, Value)],
     /// Reception time.
     pub at: Instant,
+    /// The producer's dictionary, when the node was added with one: how [`get`](Self::get)
+    /// finds a value by name.
+    pub dictionary: Option<&'a ObjectDictionary>,
+}
+
+impl<'a> PdoReceived<'a> {
+    /// The value of a mapped object by its name in the producer's dictionary, as
+    /// python-canopen names them: `p.get("Sensor Value 1.Value")` (`"object.sub-object"` for
+    /// an entry of an ARRAY or RECORD, the object's name for a VAR; any letter case). `None`
+    /// when the node has no dictionary, the name is not in it, or this PDO does not map it.
+    pub fn get(&self, name: &str) -> Option<&'a Value> {
+        let at = self.dictionary?.find(name)?;
+        self.value(at)
+    }
+
+    /// The value of a mapped object by its address; `None` when this PDO does not map it.
+    pub fn value(&self, at: impl Into<ObjectAddress>) -> Option<&'a Value> {
+        let at = at.into();
+        self.values.iter().find(|(a, _)| *a == at).map(|(_, v)| v)
+    }
 }
 
 /// Identifies a PDO callback for [`Network::remove_pdo_callback`](crate::Network::remove_pdo_callback).

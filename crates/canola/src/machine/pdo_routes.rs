@@ -240,21 +240,29 @@ impl Core {
                                 data: &data,
                                 values: &self.pdo_scratch,
                                 at: now,
+                                dictionary: slot.od.as_deref(),
                             };
                             for (_, f) in &mut self.pdo_callbacks {
                                 f(&seen);
                             }
                             if let Some((last, others)) = self.pdo_subs.split_last_mut() {
                                 for s in others {
-                                    s.push(node, n, data, now, &self.pdo_scratch);
+                                    s.push(node, n, data, now, slot.od.as_ref(), &self.pdo_scratch);
                                 }
                                 if self.subs.is_empty() {
                                     // No event takes the values: the last subscriber does,
                                     // without a copy of each (the scratch keeps its room).
-                                    last.push_moving(node, n, data, now, &mut self.pdo_scratch);
+                                    last.push_moving(
+                                        node,
+                                        n,
+                                        data,
+                                        now,
+                                        slot.od.as_ref(),
+                                        &mut self.pdo_scratch,
+                                    );
                                     continue;
                                 }
-                                last.push(node, n, data, now, &self.pdo_scratch);
+                                last.push(node, n, data, now, slot.od.as_ref(), &self.pdo_scratch);
                             }
                             if !self.subs.is_empty() {
                                 // The event takes the values as they are (no copy of each
@@ -295,12 +303,13 @@ impl Core {
             data: &data,
             values: &[],
             at: now,
+            dictionary: None,
         };
         for (_, f) in &mut self.pdo_callbacks {
             f(&seen);
         }
         for s in &mut self.pdo_subs {
-            s.push(node, number, data, now, &[]);
+            s.push(node, number, data, now, None, &[]);
         }
         self.publish(NetworkEvent::Pdo {
             node,

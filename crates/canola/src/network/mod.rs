@@ -20,7 +20,7 @@
 //! follows tokio's), and cancels the request when the future is dropped.
 //!
 //! Running by itself: [`Network::start_driver`] starts a background driver (a thread; under the
-//! `tokio` feature [`Network::start_driver_on_runtime`] runs it on the caller's runtime's
+//! `tokio` feature `Network::start_driver_on_runtime` runs it on the caller's runtime's
 //! blocking pool) that drives the network whenever nobody else does, so heartbeats, EMCY, PDO
 //! events, SYNC and timeouts flow with no call from the application. It steps aside while a
 //! thread waits for a request (that thread drives, so a request costs no hand-over between
@@ -46,5 +46,5 @@ pub(crate) mod node;
 pub(crate) mod request;
 
 pub use handle::{DEFAULT_SDO_TIMEOUT, Network};
-pub use node::{Nmt, Node};
+pub use node::{Nmt, Node, ParameterGroup};
 pub use request::{Pending, Sdo, SdoValue};

@@ -12,6 +12,57 @@ use super::handle::{DEFAULT_SDO_TIMEOUT, Network};
 use super::request::Sdo;
 use crate::error::Error;
 
+/// Which parameters [`Node::store_parameters_of`] and [`Node::restore_defaults_of`] store or
+/// restore: the sub-index of 0x1010 and 0x1011 (CiA 301 §7.5.2.13).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ParameterGroup {
+    /// Sub-index 1: all parameters.
+    All,
+    /// Sub-index 2: the communication parameters (0x1000..=0x1FFF).
+    Communication,
+    /// Sub-index 3: the application parameters (0x6000..=0x9FFF).
+    Application,
+    /// Sub-index 4: the manufacturer-specific parameters (0x2000..=0x5FFF).
+    Manufacturer,
+    /// Another sub-index (5..=127: manufacturer-specific groups).
+    Other(u8),
+}
+
+impl ParameterGroup {
+    /// The sub-index of 0x1010 and 0x1011 for this group.
+    pub const fn sub_index(self) -> u8 {
+        match self {
+            Self::All => 1,
+            Self::Communication => 2,
+            Self::Application => 3,
+            Self::Manufacturer => 4,
+            Self::Other(s) => s,
+        }
+    }
+
+    /// Whether the group holds the object at `index` (sub-index 1 and groups of its own hold
+    /// every object).
+    pub const fn holds(self, index: u16) -> bool {
+        match self {
+            Self::Communication => index >= 0x1000 && index <= 0x1FFF,
+            Self::Application => index >= 0x6000 && index <= 0x9FFF,
+            Self::Manufacturer => index >= 0x2000 && index <= 0x5FFF,
+            Self::All | Self::Other(_) => true,
+        }
+    }
+
+    /// The group of a sub-index of 0x1010/0x1011.
+    pub const fn from_sub_index(sub: u8) -> Self {
+        match sub {
+            1 => Self::All,
+            2 => Self::Communication,
+            3 => Self::Application,
+            4 => Self::Manufacturer,
+            s => Self::Other(s),
+        }
+    }
+}
+
 /// A node on the network.
 #[derive(Clone, Debug)]
 pub struct Node {
@@ -50,6 +101,43 @@ impl Node {
     /// The node's dictionary, if it was added with one.
     pub fn dictionary(&self) -> Option<Arc<ObjectDictionary>> {
         self.net.core().dictionary(self.id)
+    }
+
+    /// Stores all parameters in the device's non-volatile memory: writes the signature `save`
+    /// to 0x1010:01 (CiA 301 §7.5.2.13). A device that cannot store answers with an abort,
+    /// the error here: 0x06020000 when it has no 0x1010, 0x08000020 when it refuses.
+    pub fn store_parameters(&self) -> Result<(), Error> {
+        self.store_parameters_of(ParameterGroup::All)
+    }
+
+    /// Stores one group of parameters (0x1010 at the group's sub-index), see
+    /// [`store_parameters`](Self::store_parameters).
+    pub fn store_parameters_of(&self, group: ParameterGroup) -> Result<(), Error> {
+        self.sdo().write((0x1010, group.sub_index()), *b"save")
+    }
+
+    /// Restores all parameters to their defaults: writes the signature `load` to 0x1011:01
+    /// (CiA 301 §7.5.2.14). The defaults take effect at the device's next reset (NMT reset
+    /// node; reset communication for the communication parameters). Errors as for
+    /// [`store_parameters`](Self::store_parameters).
+    pub fn restore_defaults(&self) -> Result<(), Error> {
+        self.restore_defaults_of(ParameterGroup::All)
+    }
+
+    /// Restores one group of parameters (0x1011 at the group's sub-index), see
+    /// [`restore_defaults`](Self::restore_defaults).
+    pub fn restore_defaults_of(&self, group: ParameterGroup) -> Result<(), Error> {
+        self.sdo().write((0x1011, group.sub_index()), *b"load")
+    }
+
+    /// Reads an object as a Rust value with the default SDO client: `read_typed::<u16>((0x1017,
+    /// 0))` is 500 on a device with a 500 ms heartbeat. See [`Sdo::read_typed`] for how the
+    /// object's type is found.
+    pub fn read_typed<T: canola_od::ValueType>(
+        &self,
+        entry: impl Into<canola_od::ObjectAddress>,
+    ) -> Result<T, Error> {
+        self.sdo().read_typed(entry)
     }
 }
 

@@ -306,6 +306,32 @@ impl Sdo {
         }
     }
 
+    /// Reads an object as a Rust value (`read_typed::<u16>((0x1017, 0))`): decoded with the
+    /// object's type from the node's dictionary, else the type CiA 301 gives a communication
+    /// profile object, else `T`'s own CANopen type (`u16` is UNSIGNED16), then converted to
+    /// `T` ([`TryFrom<Value>`](canola_od::ValueType)). A value that `T` cannot hold (500 read
+    /// as `u8`) is an [`Error::Value`] naming the object, never a truncated number.
+    pub fn read_typed<T: canola_od::ValueType>(
+        self,
+        entry: impl Into<ObjectAddress>,
+    ) -> Result<T, Error> {
+        let entry = entry.into();
+        let node = self.node;
+        let data_type = self
+            .net
+            .core()
+            .dictionary(node)
+            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
+            .or_else(|| canola_od::profile::communication_type(entry.index, entry.sub_index))
+            .unwrap_or(T::DATA_TYPE);
+        let value = self.read_as(entry, data_type)?;
+        T::try_from(value).map_err(|e| Error::Value {
+            node,
+            entry,
+            message: e.to_string(),
+        })
+    }
+
     /// Reads an object and decodes it as `data_type` (whatever the dictionary says).
     pub fn read_as(
         self,

@@ -114,7 +114,7 @@ impl Port<'_> {
     }
 }
 
-/// The async twins of the PDO services (`tokio` feature; see [`crate::asynch`]). Dropping one
+/// The async twins of the PDO services (`tokio` feature; see the `asynch` module). Dropping one
 /// of these futures cancels the SDO transfer it is in; a `save` dropped half-way leaves the PDO
 /// as far as the sequence got (invalid on the node until saved again).
 impl Node {

@@ -45,6 +45,12 @@ pub struct SimDevice {
     pub(super) quirks: super::Quirks,
     /// SDO requests served, for tests and statistics.
     pub sdo_requests: u64,
+    /// The values in non-volatile memory (0x1010 stores into it, 0x1011 puts defaults back
+    /// into it), which an NMT reset node loads; `None` while nothing was stored or restored
+    /// (the defaults).
+    pub(super) stored: Option<Values>,
+    /// The parser's warnings of the EDS the device was built from.
+    pub(super) warnings: Vec<canola_od::Diagnostic>,
 }
 
 impl core::fmt::Debug for SimDevice {
@@ -95,6 +101,8 @@ impl SimDevice {
             timers: None,
             quirks: super::Quirks::default(),
             sdo_requests: 0,
+            stored: None,
+            warnings: Vec::new(),
         }
     }
 
@@ -172,9 +180,18 @@ impl SimDevice {
     /// Parses an EDS/DCF text and builds a device from it. A file with errors is refused,
     /// among them a value of a communication object (0x1000..=0x1FFF) that does not parse:
     /// kept as text it would leave a COB-ID at 0 and the device sending on 0x000, the NMT
-    /// identifier. [`from_eds_with`](Self::from_eds_with) also hands back the warnings.
+    /// identifier. The parser's warnings stay with the device: [`warnings`](Self::warnings).
     pub fn from_eds(node: NodeId, text: &[u8]) -> Result<Self, canola_od::ParseError> {
-        Ok(Self::new(node, canola_od::parse(text)?.od))
+        let parsed = canola_od::parse(text)?;
+        let mut device = Self::new(node, parsed.od);
+        device.warnings = parsed.diagnostics;
+        Ok(device)
+    }
+
+    /// The warnings of the EDS the device was built from ([`from_eds`](Self::from_eds)), as
+    /// `canola_od::parse` gives them; empty for a device built from a dictionary.
+    pub fn warnings(&self) -> &[canola_od::Diagnostic] {
+        &self.warnings
     }
 
     /// [`from_eds`](Self::from_eds) with parser options (e.g.
@@ -186,7 +203,9 @@ impl SimDevice {
         options: canola_od::ParseOptions,
     ) -> Result<(Self, Vec<canola_od::Diagnostic>), canola_od::ParseError> {
         let parsed = canola_od::parse_with(text, options)?;
-        Ok((Self::new(node, parsed.od), parsed.diagnostics))
+        let mut device = Self::new(node, parsed.od);
+        device.warnings = parsed.diagnostics.clone();
+        Ok((device, parsed.diagnostics))
     }
 
     /// Copies habits of real devices (see [`Quirks`](super::Quirks)).
@@ -304,7 +323,10 @@ impl SimDevice {
         }
         if application {
             let address = self.lss.address();
-            self.values = Values::defaults(&self.od, self.node);
+            self.values = match &self.stored {
+                Some(stored) => stored.clone(),
+                None => Values::defaults(&self.od, self.node),
+            };
             self.set_identity(address);
         }
         let hb = self.values.get_u64(0x1017, 0).unwrap_or(0) as u16;
@@ -397,10 +419,32 @@ impl SimDevice {
             .collect();
     }
 
+    /// Stores `group`'s current values in the non-volatile memory (`save`), or its defaults
+    /// (`load`, restore default parameters: they take effect at the next reset node).
+    fn store(&mut self, group: crate::ParameterGroup, save: bool) {
+        let defaults = Values::defaults(&self.od, self.node);
+        let source = if save { &self.values } else { &defaults };
+        let stored = self.stored.get_or_insert_with(|| defaults.clone());
+        let in_group = |k: &u32| group.holds((k >> 8) as u16);
+        stored.map.retain(|k, _| !in_group(k));
+        stored.map.extend(
+            source
+                .map
+                .iter()
+                .filter(|(k, _)| in_group(k))
+                .map(|(k, v)| (*k, v.clone())),
+        );
+    }
+
     pub(super) fn apply(&mut self, now: Instant, actions: HookActions, written: &[(u16, u8)]) {
         let mut remapped = false;
         let mut sdo_parameters = false;
         for &(index, sub) in written {
+            match index {
+                0x1010 => self.store(crate::ParameterGroup::from_sub_index(sub), true),
+                0x1011 => self.store(crate::ParameterGroup::from_sub_index(sub), false),
+                _ => {}
+            }
             remapped |= (0x1400..=0x1BFF).contains(&index);
             sdo_parameters |= (0x1200..=0x127F).contains(&index);
             if (index, sub) == (0x1017, 0) {

@@ -145,6 +145,17 @@ impl ObjectAccess for Objects<'_> {
         {
             return Err(AbortCode::INVALID_VALUE);
         }
+        // Store parameters and restore default parameters (CiA 301 §7.5.2.13/14): only the
+        // signature `save` (`load`) is taken, and it is an order, not a value (the sub-index
+        // keeps reading the device's capabilities); the device carries it out after the SDO.
+        if matches!(index, 0x1010 | 0x1011) && sub >= 1 {
+            let signature: &[u8] = if index == 0x1010 { b"save" } else { b"load" };
+            if value != signature {
+                return Err(AbortCode::CANNOT_STORE);
+            }
+            self.written.push((index, sub));
+            return Ok(());
+        }
         for h in self.hooks.iter_mut() {
             h.on_write(self.now, self.values, index, sub, &value, self.actions)?;
         }

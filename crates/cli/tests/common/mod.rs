@@ -22,10 +22,10 @@ pub(crate) fn stderr(o: &Output) -> String {
 }
 
 /// A UDP multicast bus of this test process's own (`udp:GROUP:PORT`, from the process ID and
-/// `salt` 0..=3), so parallel tests and runs do not meet.
+/// `salt` 0..=7), so parallel tests and runs do not meet.
 pub(crate) fn udp_bus(salt: u16) -> String {
-    assert!(salt < 4);
-    let port = 30000 + (std::process::id() % 8000) as u16 * 4 + salt;
+    assert!(salt < 8);
+    let port = 30000 + (std::process::id() % 4000) as u16 * 8 + salt;
     format!("udp:239.74.163.{}:{port}", 10 + salt)
 }
 

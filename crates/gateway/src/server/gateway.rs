@@ -220,9 +220,17 @@ impl Gateway {
         let req = match parse_line(text) {
             Ok(Some(r)) => r,
             Ok(None) => return false,
+            Err(e @ ParseError::OutOfRange { .. }) => {
+                let reply = crate::command::Response {
+                    seq: e.seq(),
+                    reply: crate::command::Reply::Abort(e.abort_code().unwrap_or(0x0609_0030)),
+                };
+                client.reply(reply.to_text());
+                return true;
+            }
             Err(e) => {
                 let code = match e {
-                    ParseError::Syntax { .. } => ErrorCode::SYNTAX,
+                    ParseError::OutOfRange { .. } | ParseError::Syntax { .. } => ErrorCode::SYNTAX,
                     ParseError::NotSupported { .. } => ErrorCode::REQUEST_NOT_SUPPORTED,
                     ParseError::UnsupportedNode { .. } => ErrorCode::UNSUPPORTED_NODE,
                 };

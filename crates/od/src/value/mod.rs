@@ -7,6 +7,7 @@
 
 //! The EDS text codec lives in `text`, the display form in `display`.
 
+mod convert;
 mod display;
 mod text;
 
@@ -14,6 +15,7 @@ use alloc::vec::Vec;
 
 use crate::types::DataType;
 
+pub use convert::{ConvertError, ValueType};
 pub use text::{EdsValue, TextError, TextNotes};
 pub(crate) use text::{parse_int_literal, trim};
 
