@@ -670,10 +670,123 @@ fn the_demo_runs() {
 }
 
 /// Lines the tests above do not run, and why.
-const NOT_RUN: &[(&str, &str)] = &[(
-    "./scripts/test-all",
-    "the whole test run, of which this test is a part",
-)];
+/// "CiA 402 drives": one process on the in-memory bus, then the drive in `simulate` and the
+/// commands in other processes on the UDP bus.
+const DRIVE: &[&str] = &[
+    "canopen --eds 5=eds/cia402-servo.eds drive 5 move 4000 --enable --velocity 20000",
+    "canopen --iface udp simulate eds/cia402-servo.eds --node-id 5",
+    "canopen --iface udp drive 5 mode pp",
+    "canopen --iface udp drive 5 enable",
+    "canopen --iface udp drive 5 move 4000",
+    "canopen --iface udp drive 5 move -1500 --relative",
+    "canopen --iface udp --json drive 5 status",
+    "canopen --iface udp drive 5 home 19",
+    "canopen --iface udp drive 5 quick-stop",
+];
+
+#[test]
+fn a_drive() {
+    let bus = common::udp_bus(6);
+    let dir = workdir("drive");
+    let l: Vec<String> = DRIVE.iter().map(|l| readme(l).text).collect();
+    let moved = ok(&l[0], &dir, &bus);
+    assert!(moved.contains("target reached at position 4000"), "{moved}");
+    let _drive = Background(
+        command(&l[1], &dir, &bus, 0)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    wait_for_node(&bus, "5");
+    // Each line's comment says what it prints.
+    let expect = [
+        (2, "mode: pp (1)"),
+        (3, "operation enabled"),
+        (4, "target reached at position 4000"),
+        (5, "target reached at position 2500"),
+        (7, "homing completed at position 0"),
+        (8, "switch on disabled"),
+    ];
+    for (i, want) in expect {
+        if i == 7 {
+            let status = ok(&l[6], &dir, &bus);
+            assert!(
+                status.trim_start().starts_with('{') && status.contains("operation"),
+                "{status}"
+            );
+        }
+        let out = ok(&l[i], &dir, &bus);
+        assert!(
+            out.contains(want),
+            "`{}` printed {out:?}, not {want:?}",
+            l[i]
+        );
+    }
+}
+
+/// "NMT from the command line", against nodes 5 and 6 (heartbeat 500 ms) on the UDP bus.
+const NMT: &[&str] = &[
+    "canopen --iface can0 nmt start 5 --wait",
+    "canopen --iface can0 nmt reset 5,6 --wait",
+    "canopen --iface can0 nmt state",
+];
+
+#[test]
+fn nmt_from_the_command_line() {
+    let bus = common::udp_bus(7);
+    let dir = workdir("nmt");
+    let l: Vec<String> = NMT.iter().map(|l| readme(l).text).collect();
+    let _node5 = Background(common::simulator(&bus, EDS, "5", "60"));
+    let _node6 = Background(common::simulator(&bus, EDS, "6", "60"));
+    ok(&l[0], &dir, &bus);
+    ok(&l[1], &dir, &bus);
+    // After the reset both boot again and go on with their heartbeats; `nmt state` lists both.
+    let state = ok(&l[2], &dir, &bus);
+    for node in ["5", "6"] {
+        assert!(
+            state
+                .lines()
+                .any(|x| x.split_whitespace().next() == Some(node)),
+            "{state}"
+        );
+    }
+}
+
+/// `--running 5,6` on the in-memory bus: the pool 4..=10 gives the three slaves 4, 7 and 8.
+#[test]
+fn assign_all_leaves_running_nodes_alone() {
+    let dir = workdir("lss-running");
+    let line = readme(
+        "canopen lss --unconfigured 3 --real-slaves --running 5,6 assign-all --first 4 --last 10",
+    )
+    .text;
+    let out = ok(&line, &dir, "unused");
+    let ids: Vec<&str> = out
+        .lines()
+        .filter_map(|l| l.rsplit_once("node-ID ").map(|(_, id)| id.trim()))
+        .collect();
+    for id in ["4", "7", "8"] {
+        assert!(ids.contains(&id), "{out}");
+    }
+    assert!(!ids.contains(&"5") && !ids.contains(&"6"), "{out}");
+}
+
+const NOT_RUN: &[(&str, &str)] = &[
+    (
+        "./scripts/test-all",
+        "the whole test run, of which this test is a part",
+    ),
+    (
+        "canopen --iface slcan:/dev/ttyACM0@500k scan",
+        "needs a USB slcan adapter; the same commands run through a fake adapter on a \
+         pseudo-terminal in slcan_cli.rs, and against the kernel's slcan driver in the rig",
+    ),
+    (
+        "canopen --iface slcan:/dev/ttyACM0 adapter info",
+        "needs a USB slcan adapter; slcan_cli.rs runs `adapter info` against fake adapters",
+    ),
+];
 
 #[test]
 fn every_readme_line_is_run() {
@@ -681,6 +794,8 @@ fn every_readme_line_is_run() {
         .iter()
         .chain(LSS)
         .chain(CPOS)
+        .chain(DRIVE)
+        .chain(NMT)
         .copied()
         .chain([
             "canopen --iface udp simulate eds/burkert-generic.eds --node-id 5",
@@ -694,6 +809,7 @@ fn every_readme_line_is_run() {
             "canopen --iface udp audit crates/manager/tests/data/three.toml",
             "canopen --iface udp audit --fix crates/manager/tests/data/three.toml",
             "cargo run -q -p canola-cli -- demo",
+            "canopen lss --unconfigured 3 --real-slaves --running 5,6 assign-all --first 4 --last 10",
         ])
         .chain(NOT_RUN.iter().map(|(l, _)| *l))
         .collect();
