@@ -8,13 +8,23 @@ with values equal to the SDO reads of the mapped objects (also after an SDO writ
 and an RPDO from python-canopen applied by the simulator (SDO read back, and seen in the next
 TPDO).
 
-usage (inside the rig): remote_vs_simulator.py CANOPEN_BINARY
+With `--slcan`, the simulator runs on this project's slcan transport (`--iface slcan:PTY`) and
+python-canopen on the Linux kernel's slcan driver (`slcan0`): two pseudo-terminal pairs joined by
+a byte pump here, the kernel driver attached to one by can-utils' `slcand`, the simulator on the
+other. The same checks then cover SDO in all three modes (block both ways included, with
+python-canopen's block client), NMT and PDOs through the slcan transport against two
+implementations this project did not write.
+
+usage (inside the rig): remote_vs_simulator.py CANOPEN_BINARY [--slcan]
 run-all passes the `canopen` binary built on the host."""
 
 import os
+import select
 import subprocess
 import sys
+import threading
 import time
+import tty
 
 import canopen
 from canopen.sdo import SdoAbortedError
@@ -123,9 +133,68 @@ def receive_pdos(node, tpdo, rpdo):
     check("TPDO1 carries 0x2002:02 as set by the RPDO", seen[-1], -321)
 
 
+class PtyBridge:
+    """Two pseudo-terminal pairs whose masters a thread joins byte for byte: each slave has a
+    path (`a`, `b`), so one program can open each side as a serial port."""
+
+    def __init__(self):
+        self.fds = []
+        paths = []
+        for _ in range(2):
+            master, slave = os.openpty()
+            tty.setraw(slave)
+            self.fds += [master, slave]
+            paths.append(os.ttyname(slave))
+        self.a, self.b = paths
+        self.stopped = False
+        self.thread = threading.Thread(target=self.pump, daemon=True)
+        self.thread.start()
+
+    def pump(self):
+        ma, mb = self.fds[0], self.fds[2]
+        other = {ma: mb, mb: ma}
+        while not self.stopped:
+            ready, _, _ = select.select([ma, mb], [], [], 0.2)
+            for fd in ready:
+                try:
+                    data = os.read(fd, 4096)
+                except OSError:
+                    continue  # the slave side is closed for now (the program reopens it)
+                view = memoryview(data)
+                while view:
+                    view = view[os.write(other[fd], view):]
+
+    def close(self):
+        self.stopped = True
+        self.thread.join(2)
+        for fd in self.fds:
+            os.close(fd)
+
+
+def attach_slcan0(path):
+    """The kernel's slcan driver on the tty `path`, as the interface slcan0 (up)."""
+    slcand = subprocess.Popen(["slcand", "-o", "-c", "-s6", "-F", path, "slcan0"])
+    deadline = time.monotonic() + 20
+    while not os.path.exists("/sys/class/net/slcan0"):
+        if time.monotonic() > deadline:
+            raise AssertionError("slcand did not create slcan0")
+        time.sleep(0.05)
+    subprocess.run(["ip", "link", "set", "slcan0", "up"], check=True)
+    return slcand
+
+
 def main():
     binary = sys.argv[1]
     channel = os.environ.get("CANOPEN_VCAN_IFACE", "vcan0")
+    sim_iface = channel
+    bridge = slcand = None
+    if "--slcan" in sys.argv[2:]:
+        bridge = PtyBridge()
+        slcand = attach_slcan0(bridge.a)
+        channel = "slcan0"
+        sim_iface = f"slcan:{bridge.b}@500k"
+        print(f"python-canopen on slcan0 (kernel driver on {bridge.a}), "
+              f"the simulator on {sim_iface}", flush=True)
     network = canopen.Network()
     network.connect(interface="socketcan", channel=channel)
     node = canopen.RemoteNode(NODE_ID, EDS)
@@ -135,7 +204,7 @@ def main():
     node.nmt.add_heartbeat_callback(lambda state: bootups.append(state) if state == 0 else None)
 
     sim = subprocess.Popen(
-        [binary, "--iface", channel, "simulate", EDS, "--node-id", str(NODE_ID)],
+        [binary, "--iface", sim_iface, "simulate", EDS, "--node-id", str(NODE_ID)],
         stdin=subprocess.DEVNULL)
     try:
         t0 = time.monotonic()
@@ -190,7 +259,13 @@ def main():
         except subprocess.TimeoutExpired:
             sim.kill()
         network.disconnect()
-    print("python-canopen RemoteNode and the canopen-rs simulator interoperate over vcan0", flush=True)
+        if slcand is not None:
+            slcand.terminate()
+            slcand.wait(10)
+        if bridge is not None:
+            bridge.close()
+    print(f"python-canopen RemoteNode and the canopen-rs simulator interoperate over {channel}",
+          flush=True)
     return 0
 
 
