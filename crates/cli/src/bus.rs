@@ -223,6 +223,7 @@ static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(
 /// signal ends the process (exit status 130). Call it before any other thread starts: the
 /// signals are blocked in this thread (and so in every thread started later) and taken by a
 /// thread of their own with `sigwait`.
+#[cfg(unix)]
 pub(crate) fn stop_on_signals() -> Result<(), String> {
     use nix::sys::signal::{SigSet, Signal};
     let mut set = SigSet::empty();
@@ -237,6 +238,12 @@ pub(crate) fn stop_on_signals() -> Result<(), String> {
             }
         }
     });
+    Ok(())
+}
+
+/// Elsewhere Ctrl-C ends the process as usual (`record` may then leave its file unwritten).
+#[cfg(not(unix))]
+pub(crate) fn stop_on_signals() -> Result<(), String> {
     Ok(())
 }
 

@@ -31,6 +31,7 @@ pub(crate) struct GatewayArgs {
 
 enum Listener {
     Tcp(std::net::TcpListener),
+    #[cfg(unix)]
     Unix(std::os::unix::net::UnixListener),
 }
 
@@ -45,6 +46,9 @@ fn bind(spec: &str, socket_mode: u32) -> Result<(Listener, String), String> {
         let local = l.local_addr().map_err(|e| format!("{spec}: {e}"))?;
         return Ok((Listener::Tcp(l), format!("tcp:{local}")));
     }
+    #[cfg(not(unix))]
+    let _ = socket_mode; // Unix sockets only
+    #[cfg(unix)]
     if let Some(path) = spec.strip_prefix("unix:") {
         let l = crate::gateway_access::bind_unix(path, socket_mode)
             .map_err(|e| format!("{spec}: {e}"))?;
@@ -93,6 +97,7 @@ pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
         eprintln!("canopen gateway: listening on {name}");
         threads.push(match l {
             Listener::Tcp(l) => gateway.serve_tcp(l),
+            #[cfg(unix)]
             Listener::Unix(l) => gateway.serve_unix(l),
         });
     }

@@ -155,6 +155,7 @@ fn check_listen(spec: &str, allow_remote: bool, access: &Access) -> Result<(), S
 /// Binds a Unix socket at `path` with `mode` from the start: bound inside a fresh directory
 /// only the owner can enter, given its mode, then moved into place, so no other user can
 /// connect in between.
+#[cfg(unix)]
 pub(crate) fn bind_unix(
     path: &str,
     mode: u32,

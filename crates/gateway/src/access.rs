@@ -252,6 +252,7 @@ pub(crate) enum Peer {
     /// A TCP client.
     Tcp(std::net::SocketAddr),
     /// A Unix socket client.
+    #[cfg(unix)]
     Unix,
     /// Standard input, or a byte stream handed to [`crate::Gateway::serve_stream`]: the
     /// gateway's own process; no token asked.
@@ -262,6 +263,7 @@ impl fmt::Display for Peer {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Tcp(a) => write!(f, "tcp:{a}"),
+            #[cfg(unix)]
             Self::Unix => f.write_str("unix"),
             Self::Local => f.write_str("local"),
         }
