@@ -143,7 +143,7 @@ impl BusOpts {
                 // The master's endpoint first, so it sees the devices' boot-up messages.
                 let endpoint = bus.endpoint();
                 for (node, od) in &dictionaries {
-                    bus.attach(crate::drive_cmd::simulated_device(*node, od.clone()));
+                    bus.attach(crate::sim_device::simulated_device(*node, od.clone()));
                 }
                 Ok(Bus {
                     transport: Box::new(endpoint),

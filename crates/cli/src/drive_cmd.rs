@@ -5,32 +5,14 @@
 
 use std::process::ExitCode;
 
-use canola::{NodeId, ObjectDictionary, SimDevice};
-use canola_burkert::SimulatedDevice;
-use canola_cia402::master::{Drive, DriveError, DriveHook, DriveStatus, Move};
-use canola_cia402::sim::SimDrive;
+use canola::NodeId;
+use canola_cia402::master::{Drive, DriveError, DriveStatus, Move};
 use canola_cia402::{ModeOfOperation, State};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
 use crate::bus::{BusOpts, fail, fail_op, open_network, parse_node};
 use crate::{Global, outln};
-
-/// Whether `od` describes a CiA 402 drive (controlword 0x6040 and statusword 0x6041).
-pub(crate) fn is_drive(od: &ObjectDictionary) -> bool {
-    od.sub(0x6040, 0).is_some() && od.sub(0x6041, 0).is_some()
-}
-
-/// The simulated device for `od`: the simulated servo ([`SimDrive`] behind a [`SimDevice`])
-/// for a CiA 402 dictionary, else what [`SimulatedDevice::for_dictionary`] gives.
-pub(crate) fn simulated_device(node: NodeId, od: ObjectDictionary) -> SimulatedDevice {
-    if is_drive(&od) {
-        let device = SimDevice::new(node, od).with_hook(DriveHook::new(SimDrive::default()));
-        SimulatedDevice::Generic(Box::new(device))
-    } else {
-        SimulatedDevice::for_dictionary(node, od)
-    }
-}
 
 /// `canopen drive NODE COMMAND`
 #[derive(Debug, Args)]

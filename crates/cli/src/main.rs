@@ -23,6 +23,7 @@ mod nmt_cmd;
 mod objaddr;
 mod outfile;
 mod sdo_cmd;
+mod sim_device;
 mod simulate;
 mod store_cmd;
 mod traffic;

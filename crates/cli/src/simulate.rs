@@ -34,7 +34,7 @@ pub(crate) fn run(
     let dictionary = BusDictionary::new().with_node(node, od.clone());
     run_station(
         bus,
-        crate::drive_cmd::simulated_device(node, od),
+        crate::sim_device::simulated_device(node, od),
         &dictionary,
         duration,
         g,
