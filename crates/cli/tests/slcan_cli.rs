@@ -5,7 +5,8 @@
 //! library's `SimDevice`, stepped on a real clock). Everything above the transport (SDO, NMT,
 //! scan, monitor, record) runs unchanged; `adapter info` shows the adapter's `V`, `N` and `F`
 //! answers. A second fake, two adapters bridged onto one bus, carries `canopen simulate` on one
-//! and the master's SDO on the other.
+//! and the master's SDO on the other, and LSS slaves on one and `lss assign-all` on the other;
+//! the gateway (stdio) and `replay` run through the first.
 
 #![cfg(unix)]
 
@@ -438,4 +439,84 @@ fn adapter_info_shows_version_serial_and_status() {
         "{e}"
     );
     assert!(e.contains("hint: "), "{e}");
+}
+
+#[test]
+fn lss_assign_all_runs_unchanged_over_slcan_adapters() {
+    let bridge = Bridge::start();
+    let slaves_iface = format!("slcan:{}", bridge.paths[1]);
+    let master = format!("slcan:{}", bridge.paths[0]);
+    let mut slaves = std::process::Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args([
+            "--iface",
+            &slaves_iface,
+            "lss",
+            "--unconfigured",
+            "2",
+            "--real-slaves",
+            "simulate",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("the LSS slaves start");
+    thread::sleep(std::time::Duration::from_millis(500));
+    let o = canopen(&[
+        "--iface",
+        &master,
+        "lss",
+        "assign-all",
+        "--first",
+        "2",
+        "--last",
+        "3",
+    ]);
+    let _ = slaves.kill();
+    let _ = slaves.wait();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let ids: Vec<&str> = out
+        .lines()
+        .filter_map(|l| l.rsplit_once("node-ID ").map(|(_, id)| id.trim()))
+        .collect();
+    assert_eq!(ids, ["2", "3"], "{out}");
+}
+
+#[test]
+fn the_gateway_and_replay_run_unchanged_over_an_slcan_adapter() {
+    use std::io::Write as _;
+    let adapter = Adapter::start(5);
+    let iface = adapter.iface();
+    // CiA 309-3 over stdio: a read and a write through the adapter to the device.
+    let mut gw = std::process::Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args(["--iface", &iface, "gateway", "--stdio"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("the gateway starts");
+    gw.stdin
+        .take()
+        .unwrap()
+        .write_all(b"[1] 5 r 0x1017 0 u16\n[2] 5 w 0x1017 0 u16 300\n[3] 5 r 0x1017 0 u16\n")
+        .unwrap();
+    let o = gw.wait_with_output().unwrap();
+    assert_eq!(
+        stdout(&o),
+        "[1] 500\r\n[2] OK\r\n[3] 300\r\n",
+        "{}",
+        stderr(&o)
+    );
+    assert!(
+        adapter.saw("t60582B1710002C010000"),
+        "{:?}",
+        adapter.lines()
+    );
+    // A candump log replayed onto the adapter: its frames become slcan lines.
+    let log = std::env::temp_dir().join(format!("canopen-slcan-replay-{}.log", std::process::id()));
+    std::fs::write(&log, "(1700000000.000000) can0 000#8005\n").unwrap();
+    let o = canopen(&["--iface", &iface, "replay", log.to_str().unwrap()]);
+    let _ = std::fs::remove_file(&log);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(adapter.saw("t00028005"), "{:?}", adapter.lines());
 }
