@@ -1,0 +1,478 @@
+//! Eight CiA 402 drives in cyclic synchronous position (csp) on the in-memory bus: the core of
+//! the `drives_csp` binary and of its test.
+//!
+//! Set-up: a [`MemoryBus`] on the virtual clock with the 1 Mbit/s timing model; `drives`
+//! simulated servos (`canola_cia402::master::simulated_drive` from `eds/cia402-servo.eds`, nodes
+//! 1..=`drives`); the master a [`Network`] on an endpoint of the same bus, every node added with
+//! the EDS as its dictionary (so the master decodes the TPDOs). Each drive is started
+//! (NMT), enabled and put in csp by [`Drive::start_cyclic`] on RPDO4 (0x607A alone, transmission
+//! type 1); the master produces the SYNC every `period`. Per cycle the master sets one new
+//! target per drive ([`CyclicStream::set_target`]) and runs the network for one period, so its
+//! PDO engine sends the eight RPDOs after each SYNC. The drives send their synchronous TPDOs 2,
+//! 3 and 4 of the EDS (statusword with position, velocity and torque actual value) on every
+//! SYNC, and TPDO1 (statusword, mode display) on change.
+//!
+//! The targets follow a smoothstep from the start position over `ramp` of the cycles (drive
+//! `n` moves `n × amplitude`), then hold, so the drives end at rest on their last target.
+//!
+//! What is measured (see [`Report`]): a tap endpoint records every frame with its reception time
+//! (the end of the frame on the wire); a cycle is the interval between two SYNCs, and it is
+//! complete when it holds exactly one RPDO of every drive. Bus load is the bus model's busy time
+//! ([`canola::BusStats::busy`], the bit times of every frame) over the bus time elapsed. CPU: the
+//! calling thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`) over the cycles; on the virtual clock
+//! that thread runs the bus, the eight simulated drives and the master. A second phase on the
+//! same bus and drives then sends the same kind of traffic (SYNC and eight RPDOs of the next
+//! targets each cycle) from a bare endpoint with the master idle; the difference of the two
+//! per-cycle figures is the master's share.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use canola::{
+    BusConfig, CanFrame, CanId, CommandSpecifier, MemoryBus, Network, NodeId, Received,
+    Transport as _,
+};
+use canola_cia402::ModeOfOperation;
+use canola_cia402::master::{CyclicStream, Drive, simulated_drive};
+use canola_cia402::objects as obj;
+use canola_cia402::sim::{SimConfig, SimDrive};
+use canola_frame::{Duration, Instant};
+
+use crate::{BenchError, thread_cpu_seconds};
+
+/// The 402 servo's EDS the simulated drives are built from.
+pub const SERVO_EDS: &[u8] = include_bytes!("../../../eds/cia402-servo.eds");
+
+/// The RPDO the targets travel in (RPDO4: COB-ID 0x500 + node).
+pub const TARGET_RPDO: u16 = 4;
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct DrivesConfig {
+    /// Number of drives (nodes 1..=drives).
+    pub drives: u8,
+    /// Cycles streamed (SYNC periods).
+    pub cycles: u32,
+    /// The SYNC period.
+    pub period: Duration,
+    /// Bit rate of the bus model.
+    pub bitrate: u32,
+    /// Count worst-case stuff bits in the bus model.
+    pub stuffing: bool,
+    /// Share of the cycles the targets ramp over (the rest holds the last target).
+    pub ramp: f64,
+    /// Distance drive 1 moves at most, counts; drive `n` moves `n` times the distance of drive 1.
+    pub amplitude: i32,
+    /// Peak acceleration of drive 1's ramp, counts/s² (drive `n`: `n` times this); a short run
+    /// moves less than `amplitude` so that the drives can follow.
+    pub acceleration: f64,
+    /// Transmission type of each drive's TPDO2 (statusword, 0x6064): every n-th SYNC.
+    pub tpdo_every: u8,
+    /// Run the second phase (bare endpoint, master idle) for the master's CPU share.
+    pub baseline: bool,
+}
+
+impl Default for DrivesConfig {
+    fn default() -> Self {
+        Self {
+            drives: 8,
+            cycles: 5_000,
+            period: Duration::from_millis(1),
+            bitrate: 1_000_000,
+            stuffing: false,
+            ramp: 0.8,
+            amplitude: 20_000,
+            acceleration: 12_000.0,
+            tpdo_every: 8,
+            baseline: true,
+        }
+    }
+}
+
+/// One drive at the end of the stream.
+#[derive(Clone, Debug)]
+pub struct DriveEnd {
+    /// Node-ID.
+    pub node: u8,
+    /// The last target streamed, counts.
+    pub target: i32,
+    /// Where the drive started, counts.
+    pub start: i32,
+    /// The drive model's position after the last cycle, counts.
+    pub position: f64,
+    /// 0x60F4 following error actual value after the last cycle.
+    pub following_error: i64,
+    /// The largest |0x60F4| seen at the end of any cycle.
+    pub max_following_error: i64,
+}
+
+/// The figures of one run.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// Complete SYNC-to-SYNC intervals seen by the tap while streaming.
+    pub cycles: u64,
+    /// Cycles with exactly one RPDO of every drive between their SYNC and the next.
+    pub cycles_all_rpdos: u64,
+    /// Fewest and most target RPDOs in one cycle.
+    pub rpdos_per_cycle: (usize, usize),
+    /// RPDOs whose value was not the target the master set for that SYNC.
+    pub wrong_targets: u64,
+    /// Latest end of an RPDO on the wire after its cycle's SYNC.
+    pub worst_rpdo_after_sync: Duration,
+    /// RPDOs that arrived after the next SYNC began (outside their cycle), and the worst of
+    /// them past the end of their cycle.
+    pub late_rpdos: u64,
+    /// See [`late_rpdos`](Self::late_rpdos); zero when none was late.
+    pub worst_lateness: Duration,
+    /// Fewest and most TPDO2s (position actual value) on the wire in one cycle.
+    pub position_tpdos_per_cycle: (usize, usize),
+    /// TPDO frames the master received per cycle.
+    pub tpdos_per_cycle: f64,
+    /// Actual values (0x6064, 0x606C, 0x6077) the master decoded from TPDOs per cycle.
+    pub actual_values_per_cycle: f64,
+    /// Bits on the wire per cycle (busy time × bit rate).
+    pub bits_per_cycle: f64,
+    /// Busy time of the bus model over the bus time elapsed.
+    pub bus_load: f64,
+    /// Thread CPU per cycle with the master streaming (bus, drives and master), seconds.
+    pub cpu_per_cycle: f64,
+    /// Thread CPU per cycle of the second phase (bus and drives, a bare endpoint sending), if
+    /// run.
+    pub baseline_cpu_per_cycle: Option<f64>,
+    /// Each drive at the end.
+    pub drives: Vec<DriveEnd>,
+}
+
+impl Report {
+    /// The master's CPU per cycle: the difference of the two phases.
+    pub fn master_cpu_per_cycle(&self) -> Option<f64> {
+        self.baseline_cpu_per_cycle.map(|b| self.cpu_per_cycle - b)
+    }
+}
+
+fn err(what: &str, e: impl std::fmt::Debug) -> BenchError {
+    BenchError(format!("{what}: {e:?}"))
+}
+
+/// The target of drive `k` (0-based) in cycle `i`.
+fn target(cfg: &DrivesConfig, start: i32, k: usize, i: u32) -> i32 {
+    let ramp_cycles = (f64::from(cfg.cycles) * cfg.ramp).max(1.0);
+    let x = (f64::from(i) / ramp_cycles).min(1.0);
+    let s = x * x * (3.0 - 2.0 * x);
+    let ramp_s = ramp_cycles * cfg.period.as_micros() as f64 / 1e6;
+    // A smoothstep over T peaks at an acceleration of 6 × distance / T².
+    let distance =
+        f64::from(cfg.amplitude).min(cfg.acceleration * ramp_s * ramp_s / 6.0) * (k as f64 + 1.0);
+    start + (distance * s).round() as i32
+}
+
+/// Runs the benchmark; see the module documentation.
+pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
+    let bus = MemoryBus::with_config(BusConfig {
+        bitrate: Some(cfg.bitrate),
+        worst_case_stuffing: cfg.stuffing,
+        // Room for every frame of the run in the tap and the idle master (no overflow).
+        queue_capacity: (cfg.cycles as usize + 1_000) * (usize::from(cfg.drives) * 5 + 4),
+        ..BusConfig::default()
+    });
+    let net = Network::new(bus.endpoint());
+    let od = canola::od::parse(SERVO_EDS).map_err(|e| err("EDS", e))?.od;
+    let mut models = Vec::new();
+    let mut drives = Vec::new();
+    for n in 1..=cfg.drives {
+        let id = NodeId::new(n).map_err(|e| err("node-ID", e))?;
+        let node = net.add_node_with_dictionary(id, od.clone());
+        let (device, model) = simulated_drive(id, SERVO_EDS, SimDrive::new(SimConfig::default()))
+            .map_err(|e| err("EDS", e))?;
+        bus.attach(device);
+        node.nmt()
+            .wait_for_bootup(Duration::from_secs(1))
+            .map_err(|e| err("boot-up", e))?;
+        models.push(model);
+        drives.push(Drive::new(node));
+    }
+    net.nmt_all(CommandSpecifier::Start)
+        .map_err(|e| err("NMT start", e))?;
+    // TPDO2..4 of the EDS (6 bytes each on every SYNC) would need 2 300 bits per cycle for
+    // eight drives, over twice what 1 Mbit/s carries in 1 ms: TPDO3 and 4 (velocity, torque)
+    // off, TPDO2 (statusword, position) invalid until it is staggered below.
+    let cob_off = 0x8000_0000u32;
+    for (k, d) in drives.iter().enumerate() {
+        let n = k as u32 + 1;
+        let sdo = || d.node().sdo();
+        for (tpdo, base) in [(0x1801u16, 0x280u32), (0x1802, 0x380), (0x1803, 0x480)] {
+            sdo()
+                .write((tpdo, 1u8), cob_off | (base + n))
+                .map_err(|e| err("TPDO off", e))?;
+        }
+        sdo()
+            .write((0x1801u16, 2u8), cfg.tpdo_every)
+            .map_err(|e| err("TPDO2 type", e))?;
+        d.enable().map_err(|e| err("enable", e))?;
+    }
+    net.start_sync(cfg.period);
+    let streams: Vec<CyclicStream<'_>> = drives
+        .iter()
+        .map(|d| d.start_cyclic(ModeOfOperation::CyclicSyncPosition, TARGET_RPDO, cfg.period))
+        .collect::<Result<_, _>>()
+        .map_err(|e| err("start_cyclic", e))?;
+    // TPDO2 counts SYNCs from when it becomes valid: one drive per cycle spreads the drives
+    // over the SYNCs instead of all sending on the same one.
+    for (k, d) in drives.iter().enumerate() {
+        d.node()
+            .sdo()
+            .write((0x1801u16, 1u8), 0x280u32 + k as u32 + 1)
+            .map_err(|e| err("TPDO2 on", e))?;
+        net.run_for(cfg.period).map_err(|e| err("run", e))?;
+    }
+    let starts: Vec<i32> = models
+        .iter()
+        .map(|m| {
+            m.lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .position()
+                .round() as i32
+        })
+        .collect();
+
+    // What the master decodes from TPDOs.
+    let tpdo_counts: Arc<Mutex<(u64, u64)>> = Arc::default();
+    let sink = Arc::clone(&tpdo_counts);
+    let actuals = [
+        (obj::POSITION_ACTUAL_VALUE.index(), 0),
+        (obj::VELOCITY_ACTUAL_VALUE.index(), 0),
+        (obj::TORQUE_ACTUAL_VALUE.index(), 0),
+    ];
+    net.on_pdo(move |p| {
+        let n = p
+            .values
+            .iter()
+            .filter(|(a, _)| actuals.contains(&(a.index, a.sub_index)))
+            .count() as u64;
+        let mut c = sink.lock().unwrap_or_else(|e| e.into_inner());
+        c.0 += 1;
+        c.1 += n;
+    });
+
+    let mut tap = bus.endpoint();
+    let mut max_fe = vec![0i64; drives.len()];
+    let following_errors = |max_fe: &mut [i64]| {
+        for (m, fe) in models.iter().zip(max_fe.iter_mut()) {
+            let v = m
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .value(obj::FOLLOWING_ERROR_ACTUAL_VALUE);
+            *fe = (*fe).max(v.abs());
+        }
+    };
+    // The targets set before each cycle, to check what each RPDO carried.
+    let mut sent: Vec<Vec<i32>> = vec![Vec::with_capacity(cfg.cycles as usize); drives.len()];
+
+    let busy0 = bus.stats().busy;
+    let t0 = bus.now();
+    let cpu0 = thread_cpu_seconds();
+    for i in 1..=cfg.cycles {
+        for (k, s) in streams.iter().enumerate() {
+            let t = target(cfg, starts[k], k, i);
+            s.set_target(t).map_err(|e| err("set_target", e))?;
+            sent[k].push(t);
+        }
+        net.run_for(cfg.period).map_err(|e| err("run", e))?;
+        following_errors(&mut max_fe);
+    }
+    let cpu = thread_cpu_seconds() - cpu0;
+    let elapsed = bus.now() - t0;
+    let busy = bus.stats().busy - busy0;
+    let (tpdos, values) = *tpdo_counts.lock().unwrap_or_else(|p| p.into_inner());
+
+    let ends: Vec<DriveEnd> = models
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let m = m.lock().unwrap_or_else(|p| p.into_inner());
+            DriveEnd {
+                node: k as u8 + 1,
+                target: target(cfg, starts[k], k, cfg.cycles),
+                start: starts[k],
+                position: m.position(),
+                following_error: m.value(obj::FOLLOWING_ERROR_ACTUAL_VALUE),
+                max_following_error: max_fe[k],
+            }
+        })
+        .collect();
+
+    let mut frames = Vec::new();
+    while let Ok(Some(r)) = tap.try_recv() {
+        if let Received::Frame { frame, at } = r {
+            frames.push((frame, at));
+        }
+    }
+    let cycles = check_cycles(&frames, cfg, &sent);
+
+    let baseline_cpu_per_cycle = if cfg.baseline {
+        net.stop_sync();
+        for s in streams {
+            s.stop().map_err(|e| err("stop", e))?;
+        }
+        Some(baseline(&bus, cfg, &starts, &models, &mut max_fe.clone())? / f64::from(cfg.cycles))
+    } else {
+        None
+    };
+
+    let n_cycles = f64::from(cfg.cycles);
+    Ok(Report {
+        cycles: cycles.cycles,
+        cycles_all_rpdos: cycles.complete,
+        rpdos_per_cycle: cycles.per_cycle,
+        position_tpdos_per_cycle: cycles.tpdo2,
+        wrong_targets: cycles.wrong,
+        worst_rpdo_after_sync: cycles.worst_after_sync,
+        late_rpdos: cycles.late,
+        worst_lateness: cycles.worst_lateness,
+        tpdos_per_cycle: tpdos as f64 / n_cycles,
+        actual_values_per_cycle: values as f64 / n_cycles,
+        bits_per_cycle: busy.as_micros() as f64 * f64::from(cfg.bitrate) / 1e6 / n_cycles,
+        bus_load: busy.as_micros() as f64 / elapsed.as_micros() as f64,
+        cpu_per_cycle: cpu / n_cycles,
+        baseline_cpu_per_cycle,
+        drives: ends,
+    })
+}
+
+struct Cycles {
+    cycles: u64,
+    complete: u64,
+    per_cycle: (usize, usize),
+    tpdo2: (usize, usize),
+    wrong: u64,
+    worst_after_sync: Duration,
+    late: u64,
+    worst_lateness: Duration,
+}
+
+/// Splits the tap's frames into SYNC-to-SYNC cycles and checks the target RPDOs of each.
+fn check_cycles(frames: &[(CanFrame, Instant)], cfg: &DrivesConfig, sent: &[Vec<i32>]) -> Cycles {
+    let rpdo_base = 0x100 + 0x100 * TARGET_RPDO; // RPDO4: 0x500 + node
+    let is_target_rpdo = |id: u16| id > rpdo_base && id <= rpdo_base + u16::from(cfg.drives);
+    let syncs: Vec<Instant> = frames
+        .iter()
+        .filter(|(f, _)| f.cob_id() == Some(0x080))
+        .map(|(_, at)| *at)
+        .collect();
+    let mut out = Cycles {
+        cycles: syncs.len().saturating_sub(1) as u64,
+        complete: 0,
+        per_cycle: (usize::MAX, 0),
+        tpdo2: (usize::MAX, 0),
+        wrong: 0,
+        worst_after_sync: Duration::ZERO,
+        late: 0,
+        worst_lateness: Duration::ZERO,
+    };
+    // Per cycle: the nodes whose RPDO arrived in it.
+    let mut in_cycle: Vec<HashMap<u16, usize>> = vec![HashMap::new(); syncs.len()];
+    // Each node's RPDOs in order, with the cycle they fell in.
+    let mut seen_per_node: HashMap<u16, Vec<i32>> = HashMap::new();
+    let mut tpdo2 = vec![0usize; syncs.len()];
+    let mut cycle: Option<usize> = None;
+    for (f, at) in frames {
+        let Some(id) = f.cob_id() else { continue };
+        if id == 0x080 {
+            cycle = Some(cycle.map_or(0, |c| c + 1));
+            continue;
+        }
+        let Some(c) = cycle else { continue };
+        if id > 0x280 && id <= 0x280 + u16::from(cfg.drives) {
+            tpdo2[c] += 1;
+        }
+        if !is_target_rpdo(id) {
+            continue;
+        }
+        *in_cycle[c].entry(id).or_default() += 1;
+        let after = *at - syncs[c];
+        out.worst_after_sync = out.worst_after_sync.max(after);
+        // The RPDO of the cycle must end before the next SYNC begins: with frames on one wire
+        // in order, an RPDO of this cycle seen after the next SYNC is late.
+        if after > cfg.period {
+            out.late += 1;
+            out.worst_lateness = out.worst_lateness.max(after - cfg.period);
+        }
+        let d = f.data();
+        if d.len() == 4 {
+            seen_per_node
+                .entry(id)
+                .or_default()
+                .push(i32::from_le_bytes([d[0], d[1], d[2], d[3]]));
+        } else {
+            out.wrong += 1;
+        }
+    }
+    // Complete cycles: the last SYNC's interval is cut short by the end of the run.
+    for &n in tpdo2.iter().take(out.cycles as usize) {
+        out.tpdo2 = (out.tpdo2.0.min(n), out.tpdo2.1.max(n));
+    }
+    if out.tpdo2.0 == usize::MAX {
+        out.tpdo2.0 = 0;
+    }
+    for counts in in_cycle.iter().take(out.cycles as usize) {
+        let total: usize = counts.values().sum();
+        out.per_cycle.0 = out.per_cycle.0.min(total);
+        out.per_cycle.1 = out.per_cycle.1.max(total);
+        if counts.len() == usize::from(cfg.drives) && counts.values().all(|&n| n == 1) {
+            out.complete += 1;
+        }
+    }
+    if out.per_cycle.0 == usize::MAX {
+        out.per_cycle.0 = 0;
+    }
+    // Each RPDO carries a target the master set, in the order it set them (a SYNC that comes
+    // before the next `set_target` repeats the last one).
+    for (k, targets) in sent.iter().enumerate() {
+        let id = rpdo_base + k as u16 + 1;
+        let mut next = 0usize;
+        for v in seen_per_node.get(&id).map_or(&[][..], Vec::as_slice) {
+            match targets[next..].iter().position(|t| t == v) {
+                Some(p) => next += p,
+                None => out.wrong += 1,
+            }
+        }
+    }
+    out
+}
+
+/// The second phase: the same SYNC and RPDO traffic from a bare endpoint, the master idle;
+/// returns the thread CPU seconds of `cfg.cycles` cycles.
+fn baseline(
+    bus: &MemoryBus,
+    cfg: &DrivesConfig,
+    starts: &[i32],
+    models: &[Arc<Mutex<SimDrive>>],
+    max_fe: &mut [i64],
+) -> Result<f64, BenchError> {
+    let mut raw = bus.endpoint();
+    let sync = CanFrame::new(CanId::standard(0x080).map_err(|e| err("id", e))?, &[])
+        .map_err(|e| err("frame", e))?;
+    let ids: Vec<CanId> = (1..=u16::from(cfg.drives))
+        .map(|n| CanId::standard(0x100 + 0x100 * TARGET_RPDO + n))
+        .collect::<Result<_, _>>()
+        .map_err(|e| err("id", e))?;
+    let cpu0 = thread_cpu_seconds();
+    for i in 1..=cfg.cycles {
+        raw.send(&sync).map_err(|e| err("send", e))?;
+        for (k, id) in ids.iter().enumerate() {
+            // Back along the same path, so the drives keep moving.
+            let t = target(cfg, starts[k], k, cfg.cycles - i);
+            let f = CanFrame::new(*id, &t.to_le_bytes()).map_err(|e| err("frame", e))?;
+            raw.send(&f).map_err(|e| err("send", e))?;
+        }
+        bus.run_for(cfg.period);
+        for (m, fe) in models.iter().zip(max_fe.iter_mut()) {
+            let v = m
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .value(obj::FOLLOWING_ERROR_ACTUAL_VALUE);
+            *fe = (*fe).max(v.abs());
+        }
+    }
+    Ok(thread_cpu_seconds() - cpu0)
+}
