@@ -23,8 +23,10 @@
 //! * TPDOs: the EDS's TPDO2, 3 and 4 (6 bytes each on every SYNC) would need about 2 300 bits
 //!   per cycle for eight drives, more than twice what 1 Mbit/s carries in 1 ms, so TPDO3 and 4
 //!   (velocity, torque) are switched off and TPDO2 (statusword, position actual value) goes on
-//!   every `--tpdo-every` SYNC (default 8), enabled one drive per cycle so the drives spread over
-//!   the SYNCs (TPDO1, statusword and mode on change, stays). Printed: the frames the master
+//!   every `--tpdo-every` SYNC (default 4: two drives a cycle). TPDO2 counts SYNCs from when it
+//!   becomes valid, so the drives are spread over the SYNCs at set-up (a tap sees on which SYNC
+//!   a drive's first TPDO2 comes; a drive on a full SYNC is made invalid and valid again later).
+//!   TPDO1 (statusword and mode on change) stays. Printed: the frames the master
 //!   received and decoded through each node's dictionary (its
 //!   `on_pdo` callback), and the actual values among their values (0x6064, 0x606C, 0x6077), per
 //!   cycle;
