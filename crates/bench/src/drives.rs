@@ -22,10 +22,11 @@
 //! complete when it holds exactly one RPDO of every drive. Bus load is the bus model's busy time
 //! ([`canola::BusStats::busy`], the bit times of every frame) over the bus time elapsed. CPU: the
 //! calling thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`) over the cycles; on the virtual clock
-//! that thread runs the bus, the eight simulated drives and the master. A second phase on the
-//! same bus and drives then sends the same kind of traffic (SYNC and eight RPDOs of the next
-//! targets each cycle) from a bare endpoint with the master idle; the difference of the two
-//! per-cycle figures is the master's share.
+//! that thread runs the bus, the eight simulated drives and the master. Blocks of [`BLOCK`]
+//! cycles of the master alternate with blocks in which a bare endpoint sends the same traffic
+//! (SYNC and eight RPDOs continuing the path each cycle) with the master idle; the median over
+//! the pairs of the difference per cycle is the master's share (pairs close in time, as the
+//! machine's load changes).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -45,6 +46,10 @@ use crate::{BenchError, thread_cpu_seconds};
 /// The 402 servo's EDS the simulated drives are built from.
 pub const SERVO_EDS: &[u8] = include_bytes!("../../../eds/cia402-servo.eds");
 
+/// Cycles per block: with a baseline, blocks of the master streaming alternate with blocks of a
+/// bare endpoint sending the same frames.
+pub const BLOCK: u32 = 100;
+
 /// The RPDO the targets travel in (RPDO4: COB-ID 0x500 + node).
 pub const TARGET_RPDO: u16 = 4;
 
@@ -53,7 +58,8 @@ pub const TARGET_RPDO: u16 = 4;
 pub struct DrivesConfig {
     /// Number of drives (nodes 1..=drives).
     pub drives: u8,
-    /// Cycles streamed (SYNC periods).
+    /// Cycles the master streams (SYNC periods); with `baseline`, the bare endpoint's blocks
+    /// come on top.
     pub cycles: u32,
     /// The SYNC period.
     pub period: Duration,
@@ -70,7 +76,8 @@ pub struct DrivesConfig {
     pub acceleration: f64,
     /// Transmission type of each drive's TPDO2 (statusword, 0x6064): every n-th SYNC.
     pub tpdo_every: u8,
-    /// Run the second phase (bare endpoint, master idle) for the master's CPU share.
+    /// Alternate blocks of [`BLOCK`] cycles of the master with blocks of a bare endpoint sending
+    /// the same frames (master idle), for the master's CPU share.
     pub baseline: bool,
 }
 
@@ -138,18 +145,14 @@ pub struct Report {
     pub bus_load: f64,
     /// Thread CPU per cycle with the master streaming (bus, drives and master), seconds.
     pub cpu_per_cycle: f64,
-    /// Thread CPU per cycle of the second phase (bus and drives, a bare endpoint sending), if
+    /// Thread CPU per cycle of the bare endpoint's blocks (bus and drives, the master idle), if
     /// run.
     pub baseline_cpu_per_cycle: Option<f64>,
+    /// The master's CPU per cycle: the median over the pairs of blocks of the master's block's
+    /// CPU per cycle minus that of the bare endpoint's block after it.
+    pub master_cpu_per_cycle: Option<f64>,
     /// Each drive at the end.
     pub drives: Vec<DriveEnd>,
-}
-
-impl Report {
-    /// The master's CPU per cycle: the difference of the two phases.
-    pub fn master_cpu_per_cycle(&self) -> Option<f64> {
-        self.baseline_cpu_per_cycle.map(|b| self.cpu_per_cycle - b)
-    }
 }
 
 fn err(what: &str, e: impl std::fmt::Debug) -> BenchError {
@@ -261,23 +264,104 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
     };
     // The targets set before each cycle, to check what each RPDO carried.
     let mut sent: Vec<Vec<i32>> = vec![Vec::with_capacity(cfg.cycles as usize); drives.len()];
+    // The path runs over the master's cycles and the bare endpoint's between them.
+    let traj = DrivesConfig {
+        cycles: if cfg.baseline {
+            cfg.cycles * 2
+        } else {
+            cfg.cycles
+        },
+        ..cfg.clone()
+    };
+    let mut raw = bus.endpoint();
+    let sync = CanFrame::new(CanId::standard(0x080).map_err(|e| err("id", e))?, &[])
+        .map_err(|e| err("frame", e))?;
+    let rpdo_ids: Vec<CanId> = (1..=u16::from(cfg.drives))
+        .map(|n| CanId::standard(0x100 + 0x100 * TARGET_RPDO + n))
+        .collect::<Result<_, _>>()
+        .map_err(|e| err("id", e))?;
+    let sync_time = canola::transport::mem::frame_time(&sync, cfg.bitrate, cfg.stuffing);
+    let counts = || *tpdo_counts.lock().unwrap_or_else(|p| p.into_inner());
 
+    let mut frames = Vec::new();
+    let (mut tpdos, mut values) = (0u64, 0u64);
+    let (mut cpu_master, mut cpu_bare) = (0.0f64, 0.0f64);
+    let mut pairs = Vec::new();
     let busy0 = bus.stats().busy;
     let t0 = bus.now();
-    let cpu0 = thread_cpu_seconds();
-    for i in 1..=cfg.cycles {
-        for (k, s) in streams.iter().enumerate() {
-            let t = target(cfg, starts[k], k, i);
-            s.set_target(t).map_err(|e| err("set_target", e))?;
+    let mut i = 0u32;
+    let mut done = 0u32;
+    while done < cfg.cycles {
+        let n = BLOCK.min(cfg.cycles - done);
+        let before = counts();
+        let cpu0 = thread_cpu_seconds();
+        for _ in 0..n {
+            i += 1;
+            for (k, s) in streams.iter().enumerate() {
+                let t = target(&traj, starts[k], k, i);
+                s.set_target(t).map_err(|e| err("set_target", e))?;
+                sent[k].push(t);
+            }
+            net.run_for(cfg.period).map_err(|e| err("run", e))?;
+            following_errors(&mut max_fe);
+        }
+        let master_block = thread_cpu_seconds() - cpu0;
+        cpu_master += master_block;
+        let after = counts();
+        tpdos += after.0 - before.0;
+        values += after.1 - before.1;
+        done += n;
+        while let Ok(Some(r)) = tap.try_recv() {
+            if let Received::Frame { frame, at } = r {
+                frames.push((frame, at));
+            }
+        }
+        if !cfg.baseline || done >= cfg.cycles {
+            continue;
+        }
+        // The same traffic from the bare endpoint, the master not producing SYNC: its SYNCs
+        // on the master's phase (from the start of the last SYNC the tap saw).
+        let Some(last_sync) = frames
+            .iter()
+            .rev()
+            .find(|(f, _)| f.cob_id() == Some(0x080))
+            .map(|(_, at)| *at)
+        else {
+            return Err(BenchError("no SYNC in a block".into()));
+        };
+        let mut next = last_sync - sync_time + cfg.period;
+        net.stop_sync();
+        let cpu0 = thread_cpu_seconds();
+        for _ in 0..n {
+            i += 1;
+            // The master keeps receiving (it decodes the TPDOs as in its own blocks).
+            net.run_until(next).map_err(|e| err("run", e))?;
+            raw.send(&sync).map_err(|e| err("send", e))?;
+            for (k, id) in rpdo_ids.iter().enumerate() {
+                let t = target(&traj, starts[k], k, i);
+                let f = CanFrame::new(*id, &t.to_le_bytes()).map_err(|e| err("frame", e))?;
+                raw.send(&f).map_err(|e| err("send", e))?;
+            }
+            next = next + cfg.period;
+            following_errors(&mut max_fe);
+        }
+        net.run_until(next).map_err(|e| err("run", e))?;
+        let bare_block = thread_cpu_seconds() - cpu0;
+        cpu_bare += bare_block;
+        pairs.push((master_block - bare_block) / f64::from(n));
+        // Outside the figures: what the tap and the bare endpoint received.
+        while let Ok(Some(_)) = tap.try_recv() {}
+        while let Ok(Some(_)) = raw.try_recv() {}
+        // The master's first SYNC goes at once: its RPDOs must carry the path's present target.
+        for (k, st) in streams.iter().enumerate() {
+            let t = target(&traj, starts[k], k, i);
+            st.set_target(t).map_err(|e| err("set_target", e))?;
             sent[k].push(t);
         }
-        net.run_for(cfg.period).map_err(|e| err("run", e))?;
-        following_errors(&mut max_fe);
+        net.start_sync(cfg.period);
     }
-    let cpu = thread_cpu_seconds() - cpu0;
     let elapsed = bus.now() - t0;
     let busy = bus.stats().busy - busy0;
-    let (tpdos, values) = *tpdo_counts.lock().unwrap_or_else(|p| p.into_inner());
 
     let ends: Vec<DriveEnd> = models
         .iter()
@@ -286,7 +370,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
             let m = m.lock().unwrap_or_else(|p| p.into_inner());
             DriveEnd {
                 node: k as u8 + 1,
-                target: target(cfg, starts[k], k, cfg.cycles),
+                target: target(&traj, starts[k], k, i),
                 start: starts[k],
                 position: m.position(),
                 following_error: m.value(obj::FOLLOWING_ERROR_ACTUAL_VALUE),
@@ -294,25 +378,15 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
             }
         })
         .collect();
-
-    let mut frames = Vec::new();
-    while let Ok(Some(r)) = tap.try_recv() {
-        if let Received::Frame { frame, at } = r {
-            frames.push((frame, at));
-        }
-    }
     let cycles = check_cycles(&frames, cfg, &sent);
-
-    let baseline_cpu_per_cycle = if cfg.baseline {
-        net.stop_sync();
-        for s in streams {
-            s.stop().map_err(|e| err("stop", e))?;
-        }
-        Some(baseline(&bus, cfg, &starts, &models, &mut max_fe.clone())? / f64::from(cfg.cycles))
+    let bare_cycles = f64::from(cfg.cycles.saturating_sub(BLOCK.min(cfg.cycles)));
+    pairs.sort_by(f64::total_cmp);
+    let (baseline_cpu_per_cycle, master_cpu_per_cycle) = if pairs.is_empty() {
+        (None, None)
     } else {
-        None
+        (Some(cpu_bare / bare_cycles), Some(pairs[pairs.len() / 2]))
     };
-
+    let cpu = cpu_master;
     let n_cycles = f64::from(cfg.cycles);
     Ok(Report {
         cycles: cycles.cycles,
@@ -325,10 +399,13 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
         worst_lateness: cycles.worst_lateness,
         tpdos_per_cycle: tpdos as f64 / n_cycles,
         actual_values_per_cycle: values as f64 / n_cycles,
-        bits_per_cycle: busy.as_micros() as f64 * f64::from(cfg.bitrate) / 1e6 / n_cycles,
+        bits_per_cycle: busy.as_micros() as f64 * f64::from(cfg.bitrate)
+            / 1e6
+            / (elapsed.as_micros() as f64 / cfg.period.as_micros() as f64),
         bus_load: busy.as_micros() as f64 / elapsed.as_micros() as f64,
         cpu_per_cycle: cpu / n_cycles,
         baseline_cpu_per_cycle,
+        master_cpu_per_cycle,
         drives: ends,
     })
 }
@@ -499,41 +576,4 @@ fn check_cycles(frames: &[(CanFrame, Instant)], cfg: &DrivesConfig, sent: &[Vec<
         }
     }
     out
-}
-
-/// The second phase: the same SYNC and RPDO traffic from a bare endpoint, the master idle;
-/// returns the thread CPU seconds of `cfg.cycles` cycles.
-fn baseline(
-    bus: &MemoryBus,
-    cfg: &DrivesConfig,
-    starts: &[i32],
-    models: &[Arc<Mutex<SimDrive>>],
-    max_fe: &mut [i64],
-) -> Result<f64, BenchError> {
-    let mut raw = bus.endpoint();
-    let sync = CanFrame::new(CanId::standard(0x080).map_err(|e| err("id", e))?, &[])
-        .map_err(|e| err("frame", e))?;
-    let ids: Vec<CanId> = (1..=u16::from(cfg.drives))
-        .map(|n| CanId::standard(0x100 + 0x100 * TARGET_RPDO + n))
-        .collect::<Result<_, _>>()
-        .map_err(|e| err("id", e))?;
-    let cpu0 = thread_cpu_seconds();
-    for i in 1..=cfg.cycles {
-        raw.send(&sync).map_err(|e| err("send", e))?;
-        for (k, id) in ids.iter().enumerate() {
-            // Back along the same path, so the drives keep moving.
-            let t = target(cfg, starts[k], k, cfg.cycles - i);
-            let f = CanFrame::new(*id, &t.to_le_bytes()).map_err(|e| err("frame", e))?;
-            raw.send(&f).map_err(|e| err("send", e))?;
-        }
-        bus.run_for(cfg.period);
-        for (m, fe) in models.iter().zip(max_fe.iter_mut()) {
-            let v = m
-                .lock()
-                .unwrap_or_else(|p| p.into_inner())
-                .value(obj::FOLLOWING_ERROR_ACTUAL_VALUE);
-            *fe = (*fe).max(v.abs());
-        }
-    }
-    Ok(thread_cpu_seconds() - cpu0)
 }
