@@ -267,7 +267,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
     // The path runs over the master's cycles and the bare endpoint's between them.
     let traj = DrivesConfig {
         cycles: if cfg.baseline {
-            cfg.cycles * 2
+            cfg.cycles.saturating_mul(2)
         } else {
             cfg.cycles
         },
@@ -342,7 +342,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
                 let f = CanFrame::new(*id, &t.to_le_bytes()).map_err(|e| err("frame", e))?;
                 raw.send(&f).map_err(|e| err("send", e))?;
             }
-            next = next + cfg.period;
+            next += cfg.period;
             following_errors(&mut max_fe);
         }
         net.run_until(next).map_err(|e| err("run", e))?;

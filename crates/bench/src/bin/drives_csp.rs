@@ -88,7 +88,7 @@ fn parse() -> Result<DrivesConfig, String> {
     if !(1..=127).contains(&cfg.drives) {
         return Err("--drives must be 1..=127".into());
     }
-    if cfg.period.as_micros() == 0 || !(seconds > 0.0) {
+    if cfg.period.as_micros() == 0 || !seconds.is_finite() || seconds <= 0.0 {
         return Err("--seconds and --period-us must be positive".into());
     }
     let cycles = seconds * 1e6 / cfg.period.as_micros() as f64;
