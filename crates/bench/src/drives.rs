@@ -20,7 +20,7 @@
 //! What is measured (see [`Report`]): a tap endpoint records every frame with its reception time
 //! (the end of the frame on the wire); a cycle is the interval between two SYNCs, and it is
 //! complete when it holds exactly one RPDO of every drive. Bus load is the bus model's busy time
-//! ([`canola::BusStats::busy`], the bit times of every frame) over the bus time elapsed. CPU: the
+//! ([`canola::transport::mem::BusStats::busy`], the bit times of every frame) over the bus time elapsed. CPU: the
 //! calling thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`) over the cycles; on the virtual clock
 //! that thread runs the bus, the eight simulated drives and the master. Blocks of [`BLOCK`]
 //! cycles of the master alternate with blocks in which a bare endpoint sends the same traffic
