@@ -128,8 +128,9 @@ pub struct Report {
     pub wrong_targets: u64,
     /// Latest end of an RPDO on the wire after its cycle's SYNC.
     pub worst_rpdo_after_sync: Duration,
-    /// RPDOs that arrived after the next SYNC began (outside their cycle), and the worst of
-    /// them past the end of their cycle.
+    /// RPDOs that ended more than one period after the SYNC before them (the SYNC itself came
+    /// late). An RPDO that ends after the next SYNC shows as a cycle without it (and the next
+    /// cycle with two): see [`cycles_all_rpdos`](Self::cycles_all_rpdos).
     pub late_rpdos: u64,
     /// See [`late_rpdos`](Self::late_rpdos); zero when none was late.
     pub worst_lateness: Duration,
@@ -529,8 +530,8 @@ fn check_cycles(frames: &[(CanFrame, Instant)], cfg: &DrivesConfig, sent: &[Vec<
         *in_cycle[c].entry(id).or_default() += 1;
         let after = *at - syncs[c];
         out.worst_after_sync = out.worst_after_sync.max(after);
-        // The RPDO of the cycle must end before the next SYNC begins: with frames on one wire
-        // in order, an RPDO of this cycle seen after the next SYNC is late.
+        // Past the deadline one period after the SYNC (frames are in wire order, so an RPDO
+        // after the next SYNC falls in the next cycle and leaves this one short).
         if after > cfg.period {
             out.late += 1;
             out.worst_lateness = out.worst_lateness.max(after - cfg.period);
@@ -576,4 +577,49 @@ fn check_cycles(frames: &[(CanFrame, Instant)], cfg: &DrivesConfig, sent: &[Vec<
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(id: u16, data: &[u8]) -> CanFrame {
+        CanFrame::new(CanId::standard(id).unwrap(), data).unwrap()
+    }
+
+    #[test]
+    fn a_missing_a_late_and_a_wrong_rpdo_are_counted() {
+        let cfg = DrivesConfig {
+            drives: 2,
+            ..DrivesConfig::default()
+        };
+        let at = Instant::from_micros;
+        let t = |v: i32| v.to_le_bytes();
+        let frames = vec![
+            // Cycle 0: both RPDOs, the second ending 900 µs after the SYNC.
+            (frame(0x080, &[]), at(1_000)),
+            (frame(0x501, &t(10)), at(1_100)),
+            (frame(0x502, &t(20)), at(1_900)),
+            // Cycle 1: node 2's RPDO is missing; node 1's carries a target never set.
+            (frame(0x080, &[]), at(2_000)),
+            (frame(0x501, &t(99)), at(2_100)),
+            // Cycle 2: node 2's RPDO of this cycle ends after the next SYNC.
+            (frame(0x080, &[]), at(3_000)),
+            (frame(0x501, &t(11)), at(3_100)),
+            (frame(0x080, &[]), at(4_000)),
+            (frame(0x502, &t(21)), at(4_100)),
+            (frame(0x501, &t(12)), at(4_200)),
+            (frame(0x080, &[]), at(5_000)),
+        ];
+        let sent = vec![vec![10, 11, 12], vec![20, 21, 22]];
+        let c = check_cycles(&frames, &cfg, &sent);
+        assert_eq!(c.cycles, 4);
+        // Only cycle 0 and cycle 3 (node 2's RPDO of cycle 2 arriving there) hold one of each:
+        // a late RPDO shows as a short cycle.
+        assert_eq!(c.complete, 2);
+        assert_eq!(c.per_cycle, (1, 2));
+        assert_eq!(c.wrong, 1);
+        assert_eq!(c.worst_after_sync, Duration::from_micros(900));
+        assert_eq!(c.late, 0);
+    }
 }

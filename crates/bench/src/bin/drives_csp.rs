@@ -17,8 +17,9 @@
 //! * RPDOs inside their cycle: a tap endpoint records every frame with the time its last bit
 //!   left the wire; a cycle runs from one SYNC to the next, and it counts when it holds exactly
 //!   one target RPDO (RPDO4, 0x500 + node) of every drive. "after SYNC" is the latest end of an
-//!   RPDO after its cycle's SYNC; an RPDO later than one period is late, and the worst lateness
-//!   is how far past the period it ended. Each RPDO's value is also checked against the targets
+//!   RPDO after its cycle's SYNC; an RPDO ending more than one period after the SYNC before it
+//!   is late, and the worst lateness is how far past the period it ended (an RPDO after the
+//!   next SYNC shows as a cycle without it). Each RPDO's value is also checked against the targets
 //!   the master set, in order;
 //! * TPDOs: the EDS's TPDO2, 3 and 4 (6 bytes each on every SYNC) would need about 2 300 bits
 //!   per cycle for eight drives, more than twice what 1 Mbit/s carries in 1 ms, so TPDO3 and 4
