@@ -332,6 +332,13 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
         };
         let mut next = last_sync - sync_time + cfg.period;
         net.stop_sync();
+        // The last cycle's RPDOs may still be on their way: up to the next SYNC they count.
+        net.run_until(next).map_err(|e| err("run", e))?;
+        while let Ok(Some(r)) = tap.try_recv() {
+            if let Received::Frame { frame, at } = r {
+                frames.push((frame, at));
+            }
+        }
         let cpu0 = thread_cpu_seconds();
         for _ in 0..n {
             i += 1;
