@@ -12,9 +12,13 @@
 //! The binary `soak` and the full-load tests use [`load`]: 64 simulated nodes sending
 //! synchronous PDOs at 95 % of a 1 Mbit/s bus, optionally with SDO traffic to every node.
 //!
+//! The binary `drives_csp` uses [`drives`]: eight simulated CiA 402 servos in cyclic synchronous
+//! position at 1 kHz SYNC, one target per drive per cycle.
+//!
 //! The workload (CiA 301 §7.2.4 SDO uploads): expedited reads of [`EXPEDITED_ENTRY`] (4 bytes),
 //! and a [`LARGE_LEN`]-byte upload of [`LARGE_ENTRY`], segmented and by block transfer.
 
+pub mod drives;
 pub mod load;
 
 use canola::SimDevice;

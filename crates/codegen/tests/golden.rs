@@ -139,3 +139,40 @@ fn pdo_structs_follow_the_default_mappings() {
     let plain = Config::new().generate(&parsed.od, "pdo-device.eds");
     assert!(!plain.contains("canola_pdo") && !plain.contains("pub mod client"));
 }
+
+/// The facade preset on the CiA 402 servo shipped in `eds/`: a drive's EDS gives typed objects
+/// and PDO structs as any device's (compiled and run against the simulator in `tests/cia402.rs`).
+fn generate_cia402_servo() -> (String, Vec<String>) {
+    let eds = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../eds/cia402-servo.eds");
+    let parsed = canola_od::parse(&std::fs::read(eds).unwrap()).expect("the 402 EDS parses");
+    Config::for_canola().generate_with_notes(&parsed.od, "cia402-servo.eds")
+}
+
+#[test]
+fn cia402_servo_matches_golden_file() {
+    let (code, notes) = generate_cia402_servo();
+    assert!(notes.is_empty(), "{notes:?}");
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/cia402-servo.rs");
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        std::fs::write(&golden, &code).unwrap();
+    }
+    let want =
+        std::fs::read_to_string(&golden).expect("golden file exists (UPDATE_GOLDEN=1 writes it)");
+    if code != want {
+        let first = code.lines().zip(want.lines()).position(|(a, b)| a != b);
+        panic!(
+            "generated code differs from {} (first differing line: {:?}); rerun with UPDATE_GOLDEN=1 after checking the change",
+            golden.display(),
+            first.map(|l| l + 1)
+        );
+    }
+    // The profile objects are typed by the EDS's data types.
+    assert!(code.contains("pub const CONTROLWORD: ::canola::od::Entry<u16>"));
+    assert!(code.contains("pub const POSITION_ACTUAL_VALUE: ::canola::od::Entry<i32>"));
+    assert!(code.contains("pub const MODES_OF_OPERATION: ::canola::od::Entry<i8>"));
+    // One struct per default mapping: TPDO1..4 and RPDO1..4.
+    for n in 1..=4 {
+        assert!(code.contains(&format!("pub struct Tpdo{n} {{")), "Tpdo{n}");
+        assert!(code.contains(&format!("pub struct Rpdo{n} {{")), "Rpdo{n}");
+    }
+}
