@@ -17,8 +17,8 @@
 use heapless::Vec;
 
 use crate::mapping::{
-    MAX_ENTRIES, Mapping, MappingEntry, MappingError, ValueKind, check_entry_shape, dummy_bits,
-    field_mask,
+    MAX_ENTRIES, Mapping, MappingEntry, MappingError, ValueKind, check_entry_shape, field_mask,
+    raw_entry_kind,
 };
 use crate::pack::{PackError, RawValue};
 
@@ -101,12 +101,7 @@ impl FdMapping {
         let mut m = Self::new();
         for &raw in entries {
             let e = MappingEntry(raw);
-            let kind = if dummy_bits(e.index()) == Some(e.bits()) {
-                ValueKind::from_data_type(e.index())
-            } else {
-                ValueKind::Unsigned
-            };
-            m.push(e, kind)?;
+            m.push(e, raw_entry_kind(e))?;
         }
         Ok(m)
     }

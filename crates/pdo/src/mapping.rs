@@ -315,12 +315,7 @@ impl Mapping {
         let mut m = Self::new();
         for &raw in entries {
             let e = MappingEntry(raw);
-            let kind = if dummy_bits(e.index()) == Some(e.bits()) {
-                ValueKind::from_data_type(e.index())
-            } else {
-                ValueKind::Unsigned
-            };
-            m.push(e, kind)?;
+            m.push(e, raw_entry_kind(e))?;
         }
         Ok(m)
     }
@@ -465,6 +460,16 @@ fn check_entry<C: Catalog + ?Sized>(
         });
     }
     Ok(kind)
+}
+
+/// How an entry is read when no dictionary says: a dummy entry of its type's size as that type,
+/// every other entry as [`ValueKind::Unsigned`] (the `from_raw` constructors).
+pub(crate) fn raw_entry_kind(e: MappingEntry) -> ValueKind {
+    if dummy_bits(e.index()) == Some(e.bits()) {
+        ValueKind::from_data_type(e.index())
+    } else {
+        ValueKind::Unsigned
+    }
 }
 
 #[cfg(test)]
