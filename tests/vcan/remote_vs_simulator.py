@@ -179,7 +179,9 @@ def attach_slcan0(path):
         if time.monotonic() > deadline:
             raise AssertionError("slcand did not create slcan0")
         time.sleep(0.05)
-    subprocess.run(["ip", "link", "set", "slcan0", "up"], check=True)
+    # slcan interfaces come with a transmit queue of 10 frames: python-canopen's block download
+    # sends a sub-block of up to 127 segments at once, which such a queue refuses (ENOBUFS).
+    subprocess.run(["ip", "link", "set", "slcan0", "txqueuelen", "1000", "up"], check=True)
     return slcand
 
 
