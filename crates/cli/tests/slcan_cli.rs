@@ -6,7 +6,7 @@
 //! scan, monitor, record) runs unchanged; `adapter info` shows the adapter's `V`, `N` and `F`
 //! answers. A second fake, two adapters bridged onto one bus, carries `canopen simulate` on one
 //! and the master's SDO on the other, and LSS slaves on one and `lss assign-all` on the other;
-//! the gateway (stdio) and `replay` run through the first.
+//! the gateway (stdio), `replay`, and a CiA 302-2 boot and audit run through the first.
 
 #![cfg(unix)]
 
@@ -35,6 +35,11 @@ struct Adapter {
 
 impl Adapter {
     fn start(node: u8) -> Self {
+        Self::start_with(node, EDS)
+    }
+
+    /// A fake adapter with the device of `eds` (an EDS or DCF file) behind it.
+    fn start_with(node: u8, eds: &str) -> Self {
         let pty = nix::pty::openpty(None, None).expect("openpty");
         let path = nix::unistd::ttyname(pty.slave.as_fd())
             .expect("ttyname")
@@ -45,7 +50,7 @@ impl Adapter {
         let fl = nix::fcntl::fcntl(pty.master.as_fd(), nix::fcntl::FcntlArg::F_GETFL).unwrap();
         let fl = nix::fcntl::OFlag::from_bits_truncate(fl) | nix::fcntl::OFlag::O_NONBLOCK;
         nix::fcntl::fcntl(pty.master.as_fd(), nix::fcntl::FcntlArg::F_SETFL(fl)).unwrap();
-        let eds = std::fs::read(EDS).unwrap();
+        let eds = std::fs::read(eds).unwrap();
         let device = SimDevice::from_eds(NodeId::new(node).unwrap(), &eds).unwrap();
         let lines = Arc::new(Mutex::new(Vec::new()));
         let stop = Arc::new(AtomicBool::new(false));
@@ -519,4 +524,36 @@ fn the_gateway_and_replay_run_unchanged_over_an_slcan_adapter() {
     let _ = std::fs::remove_file(&log);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(adapter.saw("t00028005"), "{:?}", adapter.lines());
+}
+
+#[test]
+fn boot_and_audit_run_unchanged_over_an_slcan_adapter() {
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../manager/tests/data");
+    let adapter = Adapter::start_with(5, &format!("{data}/valve.dcf"));
+    let iface = adapter.iface();
+    let dir = std::env::temp_dir().join(format!("canopen-slcan-boot-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let toml = dir.join("one.toml");
+    std::fs::write(
+        &toml,
+        format!(
+            "[master]\nnode_id = 1\nsdo_timeout_ms = 500\nboot_timeout_ms = 2000\n\n\
+             [[slave]]\nnode_id = 5\ndcf = \"{data}/valve.dcf\"\nmandatory = true\n"
+        ),
+    )
+    .unwrap();
+    let toml = toml.to_str().unwrap();
+    // CiA 302-2 boot: configuration from the DCF written by SDO, then NMT start.
+    let o = canopen(&["--iface", &iface, "boot", toml]);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+    // NMT start, of the node or of all nodes (the master starts all when every slave booted).
+    assert!(
+        adapter.saw("t00020100") || adapter.saw("t00020105"),
+        "{:?}",
+        adapter.lines()
+    );
+    // The audit finds the device as its DCF describes it.
+    let o = canopen(&["--iface", &iface, "audit", toml]);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
 }
