@@ -236,6 +236,17 @@ impl Drop for Background {
     }
 }
 
+/// The README line as a process running beside the test, its output dropped, killed at the end.
+fn background(line: &str, dir: &Path, bus: &str) -> Background {
+    Background(
+        command(line, dir, bus, 0)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    )
+}
+
 /// Waits until node `node` answers an SDO read of 0x1000 on `bus`.
 fn wait_for_node(bus: &str, node: &str) {
     for _ in 0..50 {
@@ -380,13 +391,7 @@ fn two_terminals_on_the_udp_bus() {
     let dir = workdir("udp");
     let sim = readme("canopen --iface udp simulate eds/burkert-generic.eds --node-id 5");
     let read = readme("canopen --iface udp sdo read 5 0x1008");
-    let _sim = Background(
-        command(&sim.text, &dir, &bus, 0)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let _sim = background(&sim.text, &dir, &bus);
     wait_for_node(&bus, "5");
     assert_eq!(ok(&read.text, &dir, &bus), "Buerkert generic device\n");
 }
@@ -405,13 +410,7 @@ fn lss_commissioning() {
     let bus = common::udp_bus(2);
     let dir = workdir("lss");
     let l: Vec<String> = LSS.iter().map(|l| readme(l).text).collect();
-    let slaves = Background(
-        command(&l[0], &dir, &bus, 0)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let slaves = background(&l[0], &dir, &bus);
     std::thread::sleep(Duration::from_millis(500));
     let found = ok(&l[1], &dir, &bus);
     assert_eq!(
@@ -431,17 +430,10 @@ fn lss_commissioning() {
     assert_eq!(ids, ["2", "3"], "{assigned}");
     drop(slaves);
     // "the one slave on the bus".
-    let _one = Background(
-        command(
-            "canopen --iface can0 lss --unconfigured 1 --real-slaves simulate",
-            &dir,
-            &bus,
-            0,
-        )
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap(),
+    let _one = background(
+        "canopen --iface can0 lss --unconfigured 1 --real-slaves simulate",
+        &dir,
+        &bus,
     );
     std::thread::sleep(Duration::from_millis(500));
     ok(&l[3], &dir, &bus);
@@ -577,13 +569,7 @@ fn a_cpos_over_devicenet() {
     let bus = common::udp_bus(4);
     let dir = workdir("cpos");
     let l: Vec<String> = CPOS.iter().map(|l| readme(l).text).collect();
-    let _sim = Background(
-        command(&l[0], &dir, &bus, 0)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let _sim = background(&l[0], &dir, &bus);
     std::thread::sleep(Duration::from_millis(500));
     let mut monitor = command(&l[5], &dir, &bus, 0)
         .stdout(Stdio::piped())
@@ -691,13 +677,7 @@ fn a_drive() {
     let l: Vec<String> = DRIVE.iter().map(|l| readme(l).text).collect();
     let moved = ok(&l[0], &dir, &bus);
     assert!(moved.contains("target reached at position 4000"), "{moved}");
-    let _drive = Background(
-        command(&l[1], &dir, &bus, 0)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let _drive = background(&l[1], &dir, &bus);
     wait_for_node(&bus, "5");
     // Each line's comment says what it prints.
     let expect = [
