@@ -151,7 +151,7 @@ fuzz_target!(|ops: Vec<Op>| {
     let net = Network::new(bus.endpoint());
     let mut dev: StationId<SimDevice> = bus.attach(device());
     let injector = bus.attach(Injector::default());
-    let _ = net.run_for(Duration::from_millis(2));
+    let _ = net.run_for(Duration::from_millis(2)).wait();
     let sdo = || net.node(node()).sdo().timeout(TIMEOUT);
     let mut clean = true;
     let mut in_flight: Vec<InFlight> = Vec::new();
@@ -197,8 +197,8 @@ fuzz_target!(|ops: Vec<Op>| {
                 }
                 let data = payload(len, salt);
                 let m = method(m);
-                let wrote = sdo().method(m).write(TEXT, data.clone());
-                let read = sdo().method(m).read(TEXT);
+                let wrote = sdo().method(m).write(TEXT, data.clone()).wait();
+                let read = sdo().method(m).read(TEXT).wait();
                 if clean {
                     assert!(wrote.is_ok(), "clean write failed: {wrote:?}");
                     let read = read.expect("clean read failed");
@@ -216,7 +216,7 @@ fuzz_target!(|ops: Vec<Op>| {
                 }
             }
             Op::Step(us) => {
-                let _ = net.run_for(Duration::from_micros(u64::from(us)));
+                let _ = net.run_for(Duration::from_micros(u64::from(us))).wait();
             }
             Op::Inject { id, data } => {
                 let id = CanId::standard(id & 0x7FF).expect("11-bit identifier");
@@ -252,7 +252,7 @@ fuzz_target!(|ops: Vec<Op>| {
     let allowance =
         net.now() + (TIMEOUT + LONGEST_TRANSFER).saturating_mul(MAX_IN_FLIGHT as u64 + 2);
     loop {
-        let _ = net.run_until((net.now() + SETTLE_SLICE).min(allowance));
+        let _ = net.run_until((net.now() + SETTLE_SLICE).min(allowance)).wait();
         let o = net.occupancy();
         let settled = in_flight.iter().all(InFlight::is_done)
             && o.requests <= in_flight.len()
@@ -274,8 +274,8 @@ fuzz_target!(|ops: Vec<Op>| {
     // The stack is still usable: a fresh device answers.
     let _ = bus.detach(dev);
     bus.attach(device());
-    let _ = net.run_for(Duration::from_millis(5));
-    let r = net.node(node()).sdo().timeout(TIMEOUT).read((0x1000, 0));
+    let _ = net.run_for(Duration::from_millis(5)).wait();
+    let r = net.node(node()).sdo().timeout(TIMEOUT).read((0x1000, 0)).wait();
     assert!(
         r.is_ok(),
         "the master is unusable after the sequence: {r:?}"

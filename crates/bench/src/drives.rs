@@ -193,6 +193,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
         bus.attach(device);
         node.nmt()
             .wait_for_bootup(Duration::from_secs(1))
+            .wait()
             .map_err(|e| err("boot-up", e))?;
         models.push(model);
         drives.push(Drive::new(node));
@@ -209,10 +210,12 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
         for (tpdo, base) in [(0x1801u16, 0x280u32), (0x1802, 0x380), (0x1803, 0x480)] {
             sdo()
                 .write((tpdo, 1u8), cob_off | (base + n))
+                .wait()
                 .map_err(|e| err("TPDO off", e))?;
         }
         sdo()
             .write((0x1801u16, 2u8), cfg.tpdo_every)
+            .wait()
             .map_err(|e| err("TPDO2 type", e))?;
         d.enable().map_err(|e| err("enable", e))?;
     }
@@ -303,7 +306,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
                 s.set_target(t).map_err(|e| err("set_target", e))?;
                 sent[k].push(t);
             }
-            net.run_for(cfg.period).map_err(|e| err("run", e))?;
+            net.run_for(cfg.period).wait().map_err(|e| err("run", e))?;
             following_errors(&mut max_fe);
         }
         let master_block = thread_cpu_seconds() - cpu0;
@@ -333,7 +336,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
         let mut next = last_sync - sync_time + cfg.period;
         net.stop_sync();
         // The last cycle's RPDOs may still be on their way: up to the next SYNC they count.
-        net.run_until(next).map_err(|e| err("run", e))?;
+        net.run_until(next).wait().map_err(|e| err("run", e))?;
         while let Ok(Some(r)) = tap.try_recv() {
             if let Received::Frame { frame, at } = r {
                 frames.push((frame, at));
@@ -343,7 +346,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
         for _ in 0..n {
             i += 1;
             // The master keeps receiving (it decodes the TPDOs as in its own blocks).
-            net.run_until(next).map_err(|e| err("run", e))?;
+            net.run_until(next).wait().map_err(|e| err("run", e))?;
             raw.send(&sync).map_err(|e| err("send", e))?;
             for (k, id) in rpdo_ids.iter().enumerate() {
                 let t = target(&traj, starts[k], k, i);
@@ -353,7 +356,7 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
             next += cfg.period;
             following_errors(&mut max_fe);
         }
-        net.run_until(next).map_err(|e| err("run", e))?;
+        net.run_until(next).wait().map_err(|e| err("run", e))?;
         let bare_block = thread_cpu_seconds() - cpu0;
         cpu_bare += bare_block;
         pairs.push((master_block - bare_block) / f64::from(n));
@@ -443,12 +446,13 @@ fn stagger_tpdo2(
                 d.node()
                     .sdo()
                     .write((0x1801u16, 1u8), flag | u32::from(cob))
+                    .wait()
                     .map_err(|e| err("TPDO2 valid", e))
             };
             set(true)?;
             let mut phase = None;
             for _ in 0..every + 4 {
-                net.run_for(cfg.period).map_err(|e| err("run", e))?;
+                net.run_for(cfg.period).wait().map_err(|e| err("run", e))?;
                 while let Ok(Some(r)) = tap.try_recv() {
                     if let Received::Frame { frame, .. } = r {
                         match frame.cob_id() {
@@ -473,6 +477,7 @@ fn stagger_tpdo2(
             // A different wait each time, so the next try lands on another SYNC.
             let wait = cfg.period.as_micros() * (attempt as u64 % every as u64 + 1);
             net.run_for(Duration::from_micros(wait))
+                .wait()
                 .map_err(|e| err("run", e))?;
         }
         if !placed {

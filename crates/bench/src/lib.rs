@@ -270,7 +270,7 @@ pub fn run_workload(
     };
     let expedited = measure("expedited read", &mut || {
         for _ in 0..expedited {
-            let got = node.sdo().read(EXPEDITED_ENTRY)?;
+            let got = node.sdo().read(EXPEDITED_ENTRY).wait()?;
             if got != EXPEDITED_VALUE.to_le_bytes() {
                 return Err(BenchError(format!("expedited read returned {got:02x?}")));
             }
@@ -278,10 +278,10 @@ pub fn run_workload(
         Ok((expedited, 4 * expedited as usize))
     })?;
     let segmented = measure("segmented upload", &mut || {
-        check_large(node.sdo().read(LARGE_ENTRY)?, "segmented")
+        check_large(node.sdo().read(LARGE_ENTRY).wait()?, "segmented")
     })?;
     let block = measure("block upload", &mut || {
-        check_large(node.sdo().block(true).read(LARGE_ENTRY)?, "block")
+        check_large(node.sdo().block(true).read(LARGE_ENTRY).wait()?, "block")
     })?;
     settle()?;
     Ok([expedited, segmented, block])
@@ -302,12 +302,12 @@ pub fn in_memory(
     net.set_transfer_gap(canola_frame::Duration::ZERO);
     bus.attach(device(node, large_len));
     let n = net.node(node);
-    n.sdo().write((0x1017, 0), 0u16)?;
+    n.sdo().write((0x1017, 0), 0u16).wait()?;
     let stats = || {
         let s = bus.stats();
         (s.frames, s.busy.as_micros() as f64 / 1e6)
     };
-    let settle = || Ok(net.run_for(canola_frame::Duration::from_millis(5))?);
+    let settle = || Ok(net.run_for(canola_frame::Duration::from_millis(5)).wait()?);
     run_workload(&n, expedited, large_len, &stats, &|| (0.0, 0), &settle)
 }
 

@@ -602,7 +602,7 @@ pub fn run(
     }
     let events: Receiver<NetworkEvent> = net.subscribe();
     net.nmt_all(canola::CommandSpecifier::Start)?;
-    net.run_for(Duration::from_millis(10))?;
+    net.run_for(Duration::from_millis(10)).wait()?;
     let _ = events.try_iter().count();
 
     let mut tracker = Tracker {
@@ -641,7 +641,7 @@ pub fn run(
     let mut t = start;
     while t < end {
         t = (t + config.sync_period).min(end);
-        net.run_until(t)?;
+        net.run_until(t).wait()?;
         for e in events.try_iter() {
             tracker.take(&mut report, e);
         }
@@ -657,7 +657,7 @@ pub fn run(
     let stats1 = rig.bus.stats();
     // Let the last SYNC's PDOs and the SDO transfers in flight finish.
     jobs.clear();
-    net.run_for(Duration::from_millis(50))?;
+    net.run_for(Duration::from_millis(50)).wait()?;
     for e in events.try_iter() {
         tracker.take(&mut report, e);
     }

@@ -24,7 +24,11 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
     let valve = BurkertNode::new(net.add_node_with_dictionary(id, (**generic_od()).clone()));
     let dev = bus.attach(BurkertDevice::new(id));
     bus.with_station(dev, |d| d.pin_sensor(1, 4.25));
-    valve.node().nmt().wait_for_bootup(Duration::from_secs(1))?;
+    valve
+        .node()
+        .nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .wait()?;
 
     let (description, status) = valve.read_description_and_status()?;
     println!(
@@ -41,7 +45,7 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
     let tpdo = valve.map_sensor_values_to_tpdo(1, &[1], None)?;
     let events = net.subscribe();
     valve.node().nmt().start()?;
-    net.run_for(Duration::from_secs(3))?;
+    net.run_for(Duration::from_secs(3)).wait()?;
     let mut count = 0;
     for event in events.try_iter() {
         if let Some(Ok(values)) = tpdo.from_event(&event) {

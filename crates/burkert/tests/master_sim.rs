@@ -56,7 +56,11 @@ impl Rig {
     }
 
     fn run(&self, ms: u64) {
-        self.m.net.run_for(Duration::from_millis(ms)).unwrap();
+        self.m
+            .net
+            .run_for(Duration::from_millis(ms))
+            .wait()
+            .unwrap();
     }
 
     /// Frames seen on the bus so far (by the passive tap endpoint).
@@ -222,11 +226,11 @@ fn ne107_status_is_pdo_mappable_and_sent_on_change() {
     let r = Rig::new(5);
     let sdo = || r.m.node.node().sdo();
     // TPDO2 carries 0x2004 sub 1 (UNSIGNED8), the CiA 301 remap sequence by hand.
-    sdo().write((0x1801, 1), 0x8000_0285u32).unwrap();
-    sdo().write((0x1A01, 0), 0u8).unwrap();
-    sdo().write((0x1A01, 1), 0x2004_0108u32).unwrap();
-    sdo().write((0x1A01, 0), 1u8).unwrap();
-    sdo().write((0x1801, 1), 0x0000_0285u32).unwrap();
+    sdo().write((0x1801, 1), 0x8000_0285u32).wait().unwrap();
+    sdo().write((0x1A01, 0), 0u8).wait().unwrap();
+    sdo().write((0x1A01, 1), 0x2004_0108u32).wait().unwrap();
+    sdo().write((0x1A01, 0), 1u8).wait().unwrap();
+    sdo().write((0x1801, 1), 0x0000_0285u32).wait().unwrap();
     let events = r.m.net.subscribe();
     r.m.node.node().nmt().start().unwrap();
     r.run(100);
@@ -286,7 +290,7 @@ fn sub_objects_a_device_lacks_are_none_and_integer_sensors_follow_the_eds() {
     assert_eq!(tpdo.mapping().bit_len(), 16 + 32);
     let events = net.subscribe();
     node.node().nmt().start().unwrap();
-    net.run_for(Duration::from_millis(700)).unwrap();
+    net.run_for(Duration::from_millis(700)).wait().unwrap();
     let got: Vec<_> = events
         .try_iter()
         .filter_map(|e| tpdo.from_event(&e))

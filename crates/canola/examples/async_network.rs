@@ -57,7 +57,7 @@ async fn run() -> Result<(), Box<dyn std::error::Error>> {
 
     let report = net
         .lss()
-        .assign_all_async(AssignConfig::with_pool(NodeIdPool::range(
+        .assign_all(AssignConfig::with_pool(NodeIdPool::range(
             NodeId::new(10)?,
             NodeId::MAX,
         )))
@@ -66,7 +66,7 @@ async fn run() -> Result<(), Box<dyn std::error::Error>> {
         println!("LSS: serial number {} is node {id}", a.serial_number);
     }
 
-    let found = net.scan_async(Duration::from_millis(50)).await?;
+    let found = net.scan(Duration::from_millis(50)).await?;
     for s in &found {
         println!(
             "scan: node {} vendor {:#010x} serial {:?}",
@@ -77,24 +77,24 @@ async fn run() -> Result<(), Box<dyn std::error::Error>> {
     // Each node: faster heartbeats (by name, typed by the EDS), start, wait until it says so.
     for s in &found {
         let node = net.add_node_with_dictionary(s.node, od.clone());
-        node.sdo().set_async("Producer heartbeat time", 50).await?;
+        node.sdo().set("Producer heartbeat time", 50).await?;
         let nmt = node.nmt();
-        nmt.start_async().await?;
-        nmt.wait_for_state_async(NmtState::Operational, Duration::from_secs(1))
+        nmt.start()?;
+        nmt.wait_for_state(NmtState::Operational, Duration::from_secs(1))
             .await?;
     }
 
     // Reads to different nodes run at once.
     let reads = found.iter().map(|s| {
         let sdo = net.node(s.node).sdo();
-        tokio::spawn(async move { sdo.get_async("Manufacturer device name").await })
+        tokio::spawn(async move { sdo.get("Manufacturer device name").await })
     });
     for r in reads {
         println!("device name: {}", r.await??);
     }
 
     // A read nobody answers, given up after 20 ms: dropping it aborts the transfer.
-    let absent = net.node(NodeId::new(99)?).sdo().read_async((0x1000, 0));
+    let absent = net.node(NodeId::new(99)?).sdo().read((0x1000, 0));
     let r = tokio::time::timeout(std::time::Duration::from_millis(20), absent).await;
     println!(
         "node 99: {}",

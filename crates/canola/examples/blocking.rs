@@ -16,23 +16,24 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let nmt = node.nmt();
     bus.attach(SimDevice::from_eds(id, EDS)?); // the device powers on
 
-    nmt.wait_for_bootup(Duration::from_secs(1))?;
+    nmt.wait_for_bootup(Duration::from_secs(1)).wait()?;
     println!("node {id} booted");
     println!(
         "device name: {}",
-        node.sdo().get("Manufacturer device name")?
+        node.sdo().get("Manufacturer device name").wait()?
     );
     println!(
         "vendor-ID: {}",
-        node.sdo().get("Identity object.Vendor ID")?
+        node.sdo().get("Identity object.Vendor ID").wait()?
     );
-    node.sdo().set("Producer heartbeat time", 200)?; // sent as the UNSIGNED16 it is
+    node.sdo().set("Producer heartbeat time", 200).wait()?; // sent as the UNSIGNED16 it is
     println!(
         "heartbeat: {} ms",
-        node.sdo().get("Producer heartbeat time")?
+        node.sdo().get("Producer heartbeat time").wait()?
     );
     nmt.start()?;
-    nmt.wait_for_state(NmtState::Operational, Duration::from_secs(1))?;
+    nmt.wait_for_state(NmtState::Operational, Duration::from_secs(1))
+        .wait()?;
     println!("node {id} is {}", nmt.state().ok_or("no state")?);
     Ok(())
 }

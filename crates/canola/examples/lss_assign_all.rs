@@ -23,14 +23,14 @@ fn run() -> Result<Vec<u8>, Box<dyn std::error::Error>> {
         bus.attach(SimDevice::unconfigured(od.clone(), address));
     }
     let pool = NodeIdPool::range(NodeId::new(20)?, NodeId::new(30)?);
-    let report = net.lss().assign_all(AssignConfig::with_pool(pool))?;
+    let report = net.lss().assign_all(AssignConfig::with_pool(pool)).wait()?;
     for id in report.skipped.iter() {
         println!("node-ID {id} is in use on the bus: not handed out");
     }
-    net.run_for(Duration::from_millis(10))?; // the boot-ups
+    net.run_for(Duration::from_millis(10)).wait()?; // the boot-ups
     let mut given = Vec::new();
     for (address, id) in report.assigned() {
-        let serial = net.node(id).sdo().read((0x1018, 4))?;
+        let serial = net.node(id).sdo().read((0x1018, 4)).wait()?;
         println!(
             "serial {} -> node {id} (reads back serial {:?})",
             address.serial_number, serial

@@ -23,14 +23,14 @@ fn run() -> Result<usize, Box<dyn std::error::Error>> {
     let events = net.subscribe();
     let mut batches = net.subscribe_pdos();
     net.node(id).nmt().start()?; // TPDOs flow in Operational
-    net.run_for(Duration::from_millis(100))?;
+    net.run_for(Duration::from_millis(100)).wait()?;
 
     // A new sensor reading on the device; its TPDO carries it.
     let now = bus.now();
     bus.with_station(device, |d| {
         d.set_value(now, 0x2500, 1, 21.75f32.to_le_bytes())
     });
-    net.run_for(Duration::from_millis(500))?;
+    net.run_for(Duration::from_millis(500)).wait()?;
 
     let mut received = 0;
     for ev in events.try_iter() {

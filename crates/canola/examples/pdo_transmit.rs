@@ -19,7 +19,7 @@ fn run() -> Result<(f32, usize), Box<dyn std::error::Error>> {
     let events = net.subscribe();
 
     // TPDO1: as python-canopen's node.tpdo.read() / save().
-    let mut tpdos = node.tpdo().read()?;
+    let mut tpdos = node.tpdo().read().wait()?;
     for p in tpdos.iter() {
         let mapped: Vec<_> = p.mapped.iter().filter_map(|m| m.name.clone()).collect();
         println!(
@@ -38,10 +38,10 @@ fn run() -> Result<(f32, usize), Box<dyn std::error::Error>> {
         t1.clear();
         t1.map("Sensor Value 1.Value")?;
     }
-    node.tpdo().save(&mut tpdos)?;
+    node.tpdo().save(&mut tpdos).wait()?;
 
     // RPDOs: the master produces them.
-    let rpdos = node.rpdo().read()?;
+    let rpdos = node.rpdo().read().wait()?;
     let (Some(r1), Some(r2)) = (rpdos.get(1), rpdos.get(2)) else {
         return Err("the device has no RPDO1/RPDO2".into());
     };
@@ -59,15 +59,16 @@ fn run() -> Result<(f32, usize), Box<dyn std::error::Error>> {
             ("Control Value 1.Value", f32::from(step) * 0.5),
             ("Control Value 2.Value", -1.0),
         ])?;
-        net.run_for(Duration::from_millis(2))?;
+        net.run_for(Duration::from_millis(2)).wait()?;
     }
-    net.run_for(Duration::from_millis(300))?;
+    net.run_for(Duration::from_millis(300)).wait()?;
 
-    let got = node.sdo().get("Control Value 1.Value")?;
+    let got = node.sdo().get("Control Value 1.Value").wait()?;
     println!("device: Control Value 1 = {got}");
     let at_device = f32::from_le_bytes(
         node.sdo()
-            .read((0x2540, 1))?
+            .read((0x2540, 1))
+            .wait()?
             .try_into()
             .map_err(|_| "REAL32 has four bytes")?,
     );

@@ -30,8 +30,8 @@
 //! let bus = MemoryBus::new(); // virtual clock: deterministic
 //! let net = Network::new(bus.endpoint());
 //! bus.attach(SimDevice::from_eds(node, eds).unwrap());
-//! net.node(node).sdo().write((0x1017, 0), 100u16).unwrap();
-//! assert_eq!(net.node(node).sdo().read((0x1017, 0)).unwrap(), 100u16.to_le_bytes());
+//! net.node(node).sdo().write((0x1017, 0), 100u16).wait().unwrap();
+//! assert_eq!(net.node(node).sdo().read((0x1017, 0)).wait().unwrap(), 100u16.to_le_bytes());
 //! net.node(node).nmt().start().unwrap();
 //! ```
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -76,11 +76,11 @@ pub use describe::{BusDictionary, DecodedPdo, Description, Monitor, PdoValue, de
 pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
-pub use network::{Network, Nmt, Node, ParameterGroup, Pending, Sdo, SdoValue};
+pub use network::{Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue};
 pub use pdo_access::{
     MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
 };
-pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber};
+pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber, Recv};
 pub use restricted::restricted_cob_id;
 pub use scan::{Identity, ScannedNode};
 pub use sim::{DeviceHook, HookActions, SimDevice, Values};

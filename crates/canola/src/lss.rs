@@ -9,7 +9,8 @@
 use canola_frame::{Instant, NodeId};
 
 use crate::error::Error;
-use crate::network::Network;
+use crate::network::operation;
+use crate::network::{Network, Operation};
 
 // The CiA 305 vocabulary (addresses, bit timings, node-ID pools, the wire messages and the slave
 // machine), so `canola::lss` is the one LSS import of an application.
@@ -37,28 +38,33 @@ impl Lss {
     fn run<M>(
         &self,
         mut machine: M,
-        start: impl FnOnce(&mut M, Instant) -> Result<(), LssError>,
-    ) -> Result<<M::Output as LssOutput>::Value, Error>
+        start: impl FnOnce(&mut M, Instant) -> Result<(), LssError> + Send + 'static,
+    ) -> Operation<'static, <M::Output as LssOutput>::Value>
     where
         M: LssMachine + crate::machine::lss::HearsNodeIds + Send + 'static,
         M::Output: LssOutput,
+        <M::Output as LssOutput>::Value: Send,
     {
-        let now = self.net.now();
-        start(&mut machine, now).map_err(Error::Lss)?;
-        self.net.core().start_lss(Box::new(machine));
-        let result = self.net.wait_for(|c| c.take_lss_result())?;
-        // A machine that ends on a request without an answer (switch mode global) finishes
-        // when it queues it: put it on the bus before returning.
-        self.net.flush()?;
-        let outcome = result.map_err(Error::Lss)?;
-        // Another thread's LSS job started meanwhile replaces this one, and its result of
-        // another kind is what arrived.
-        M::Output::from_outcome(outcome).ok_or(Error::Lss(LssError::Busy))
+        let net = self.net.clone();
+        Operation::new(async move {
+            operation::catch_up(&net)?;
+            let now = net.now();
+            start(&mut machine, now).map_err(Error::Lss)?;
+            net.core().start_lss(Box::new(machine));
+            let result = operation::until(&net, None, |c| c.take_lss_result()).await?;
+            // A machine that ends on a request without an answer (switch mode global) finishes
+            // when it queues it: put it on the bus before returning.
+            operation::flush(&net).await?;
+            let outcome = result.map_err(Error::Lss)?;
+            // Another thread's LSS job started meanwhile replaces this one, and its result of
+            // another kind is what arrived.
+            M::Output::from_outcome(outcome).ok_or(Error::Lss(LssError::Busy))
+        })
     }
 
     /// Runs a procedure of LSS services (e.g. [`Procedure::assign_node_id`],
     /// [`Procedure::change_bit_rate`], [`Procedure::inquire_all`]).
-    pub fn procedure(&self, procedure: Procedure) -> Result<ServiceReport, Error> {
+    pub fn procedure(&self, procedure: Procedure) -> Operation<'static, ServiceReport> {
         self.procedure_with(MasterConfig::default(), procedure)
     }
 
@@ -67,17 +73,17 @@ impl Lss {
         &self,
         config: MasterConfig,
         procedure: Procedure,
-    ) -> Result<ServiceReport, Error> {
+    ) -> Operation<'static, ServiceReport> {
         self.run(LssMaster::new(config), |m, now| m.start(now, procedure))
     }
 
     /// Fastscan: finds one unconfigured slave and leaves it in configuration state.
-    pub fn fastscan(&self, config: FastscanConfig) -> Result<Option<LssAddress>, Error> {
+    pub fn fastscan(&self, config: FastscanConfig) -> Operation<'static, Option<LssAddress>> {
         self.run(Fastscan::new(config), |m, now| m.start(now))
     }
 
     /// Finds every unconfigured slave, in ascending LSS address order.
-    pub fn discover_all(&self, config: FastscanConfig) -> Result<Vec<LssAddress>, Error> {
+    pub fn discover_all(&self, config: FastscanConfig) -> Operation<'static, Vec<LssAddress>> {
         self.run(DiscoverAll::new(config), |m, now| m.start(now))
     }
 
@@ -90,16 +96,25 @@ impl Lss {
     /// every boot-up, heartbeat and guarding answer heard takes its node-ID out too. Each
     /// node-ID of the pool or the table found in use is listed in
     /// [`AssignReport::skipped`], the conflicts to report.
-    pub fn assign_all(&self, mut config: AssignConfig) -> Result<AssignReport, Error> {
-        let candidates = Self::candidates(&config);
-        let found = self.nodes_in_use(candidates, config.services.response_timeout)?;
-        for id in found.iter() {
-            config.in_use.insert(id);
-        }
-        let in_use = config.in_use;
-        let mut report = self.run(AssignAll::new(config), |m, now| m.start(now))?;
-        list_conflicts(&mut report, candidates, in_use);
-        Ok(report)
+    pub fn assign_all(&self, mut config: AssignConfig) -> Operation<'static, AssignReport> {
+        let lss = self.clone();
+        Operation::new(async move {
+            let candidates = Self::candidates(&config);
+            let found = lss
+                .nodes_in_use(candidates, config.services.response_timeout)
+                .into_body()
+                .await?;
+            for id in found.iter() {
+                config.in_use.insert(id);
+            }
+            let in_use = config.in_use;
+            let mut report = lss
+                .run(AssignAll::new(config), |m, now| m.start(now))
+                .into_body()
+                .await?;
+            list_conflicts(&mut report, candidates, in_use);
+            Ok(report)
+        })
     }
 
     /// The node-IDs of `candidates` in use on the bus: those heard since the network started
@@ -110,14 +125,21 @@ impl Lss {
         &self,
         candidates: NodeIdPool,
         timeout: impl Into<canola_frame::Duration>,
-    ) -> Result<NodeIdPool, Error> {
-        let (mut in_use, pending) = self.probe(candidates, timeout.into());
-        for (id, p) in pending {
-            if answered(p.wait())? || self.heard(id) {
-                in_use.insert(id);
+    ) -> Operation<'static, NodeIdPool> {
+        let lss = self.clone();
+        let timeout = timeout.into();
+        Operation::new(async move {
+            operation::catch_up(&lss.net)?;
+            let (mut in_use, pending) = lss.probe(candidates, timeout);
+            let (ids, reqs): (Vec<NodeId>, Vec<operation::Req>) = pending.into_iter().unzip();
+            let results = operation::wait_requests(&lss.net, reqs).await;
+            for (id, r) in ids.into_iter().zip(results) {
+                if answered(r.map(|c| c.data))? || lss.heard(id) {
+                    in_use.insert(id);
+                }
             }
-        }
-        Ok(in_use)
+            Ok(in_use)
+        })
     }
 
     /// Whether anything was heard from node `id` since the network started.
@@ -131,14 +153,14 @@ impl Lss {
         &self,
         candidates: NodeIdPool,
         timeout: canola_frame::Duration,
-    ) -> (NodeIdPool, Vec<Probe>) {
+    ) -> (NodeIdPool, Vec<(NodeId, operation::Req)>) {
         let in_use: NodeIdPool = candidates.iter().filter(|id| self.heard(*id)).collect();
         let pending = candidates
             .iter()
             .filter(|id| !in_use.contains(*id))
-            .map(|id| {
+            .filter_map(|id| {
                 let read = self.net.node(id).sdo().timeout(timeout);
-                (id, read.submit_read((0x1000, 0)))
+                Some((id, read.submit_read((0x1000, 0)).into_req()?))
             })
             .collect();
         (in_use, pending)
@@ -154,9 +176,6 @@ impl Lss {
         candidates
     }
 }
-
-/// A probe read of node-ID's device type (0x1000) under way.
-pub(crate) type Probe = (NodeId, crate::Pending<Vec<u8>>);
 
 /// Whether a probe read was answered (data, an abort, or a broken answer: a node is there).
 /// A failed transport is an error: nothing can be said.
@@ -217,17 +236,25 @@ mod tests {
         for n in [1, 2, 20] {
             let (_bus, net) = bus(n, StoreSupport::Supported);
             let pool = NodeIdPool::range(NodeId::new(2).unwrap(), NodeId::MAX);
-            let report = net.lss().assign_all(AssignConfig::with_pool(pool)).unwrap();
+            let report = net
+                .lss()
+                .assign_all(AssignConfig::with_pool(pool))
+                .wait()
+                .unwrap();
             assert_eq!(report.stopped, None);
             let assigned: Vec<_> = report.assigned().collect();
             assert_eq!(assigned.len(), n as usize, "{report:?}");
-            net.run_for(Duration::from_millis(10)).unwrap();
+            net.run_for(Duration::from_millis(10)).wait().unwrap();
             for (a, id) in assigned {
-                let serial = net.node(id).sdo().read((0x1018, 4)).unwrap();
+                let serial = net.node(id).sdo().read((0x1018, 4)).wait().unwrap();
                 assert_eq!(serial, a.serial_number.to_le_bytes());
             }
             // Nobody is left to find.
-            let again = net.lss().discover_all(FastscanConfig::default()).unwrap();
+            let again = net
+                .lss()
+                .discover_all(FastscanConfig::default())
+                .wait()
+                .unwrap();
             assert!(again.is_empty(), "{again:?}");
         }
     }
@@ -264,11 +291,15 @@ mod tests {
         for id in [5, 6] {
             bus.attach(SimDevice::from_eds(NodeId::new(id).unwrap(), EDS).unwrap());
         }
-        net.run_for(Duration::from_millis(10)).unwrap();
+        net.run_for(Duration::from_millis(10)).wait().unwrap();
         Nmt::all(&net).start().unwrap();
-        net.run_for(Duration::from_millis(10)).unwrap();
+        net.run_for(Duration::from_millis(10)).wait().unwrap();
         let pool = NodeIdPool::range(NodeId::new(4).unwrap(), NodeId::new(10).unwrap());
-        let report = net.lss().assign_all(AssignConfig::with_pool(pool)).unwrap();
+        let report = net
+            .lss()
+            .assign_all(AssignConfig::with_pool(pool))
+            .wait()
+            .unwrap();
         let given: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
         assert_eq!(given, [4, 7, 8], "{report:?}");
         let skipped: Vec<u8> = report.skipped.iter().map(|id| id.get()).collect();
@@ -288,7 +319,7 @@ mod tests {
         let pool = NodeIdPool::range(NodeId::new(4).unwrap(), NodeId::new(10).unwrap());
         let report = net
             .lss()
-            .assign_all_async(AssignConfig::with_pool(pool))
+            .assign_all(AssignConfig::with_pool(pool))
             .await
             .unwrap();
         let given: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
@@ -308,7 +339,11 @@ mod tests {
             out: None,
         });
         let pool = NodeIdPool::range(NodeId::new(4).unwrap(), NodeId::new(10).unwrap());
-        let report = net.lss().assign_all(AssignConfig::with_pool(pool)).unwrap();
+        let report = net
+            .lss()
+            .assign_all(AssignConfig::with_pool(pool))
+            .wait()
+            .unwrap();
         let given: Vec<u8> = report.assigned().map(|(_, id)| id.get()).collect();
         assert_eq!(given, [4, 6, 7], "{report:?}");
         assert!(
@@ -320,7 +355,11 @@ mod tests {
     #[test]
     fn discover_all_of_real_slaves_ends_and_finds_each_once() {
         let (_bus, net) = bus(5, StoreSupport::Supported);
-        let found = net.lss().discover_all(FastscanConfig::default()).unwrap();
+        let found = net
+            .lss()
+            .discover_all(FastscanConfig::default())
+            .wait()
+            .unwrap();
         let want: Vec<_> = (0..5).map(address).collect();
         assert_eq!(found, want);
     }
@@ -332,10 +371,11 @@ mod tests {
         let report = net
             .lss()
             .procedure(Procedure::assign_node_id(id, true))
+            .wait()
             .unwrap();
         assert_eq!(report.stored, Some(false));
-        net.run_for(Duration::from_millis(10)).unwrap();
-        let serial = net.node(id).sdo().read((0x1018, 4)).unwrap();
+        net.run_for(Duration::from_millis(10)).wait().unwrap();
+        let serial = net.node(id).sdo().read((0x1018, 4)).wait().unwrap();
         assert_eq!(serial, address(0).serial_number.to_le_bytes());
     }
 
@@ -347,6 +387,7 @@ mod tests {
             .procedure(Procedure::single(Step::SwitchModeGlobal(
                 Mode::Configuration,
             )))
+            .wait()
             .unwrap();
         use crate::transport::{Received, Transport};
         let now = tap.now();

@@ -60,7 +60,7 @@ struct Record {
 /// bus.attach(SimDevice::from_eds(id, &eds[..]).unwrap());
 /// let mut pdos = net.subscribe_pdos();
 /// node.nmt().start().unwrap(); // the device sends its TPDOs when it starts
-/// net.run_for(Duration::from_millis(10)).unwrap();
+/// net.run_for(Duration::from_millis(10)).wait().unwrap();
 /// for p in pdos.try_recv().unwrap() {
 ///     println!("node {} TPDO{}: {:?}", p.node, p.number, p.values);
 /// }
@@ -260,7 +260,7 @@ impl PdoPublisher {
         true
     }
 
-    /// Wakes the subscriber if it waits (blocked in `recv`, or awaiting `recv_async`).
+    /// Wakes the subscriber if it waits (blocked in `recv().wait()`, or awaiting `recv()`).
     pub(crate) fn wake(&self) {
         if self.queue.waiting.load(Ordering::SeqCst) > 0 {
             self.queue.ready.notify_all();
@@ -334,16 +334,10 @@ impl PdoSubscriber {
         })
     }
 
-    /// Waits for PDOs; an error only when none will come (the network is gone).
-    pub fn recv(&mut self) -> Result<&PdoBatch, RecvError> {
-        loop {
-            match self.recv_timeout(std::time::Duration::from_secs(3600)) {
-                Ok(_) => break,
-                Err(RecvTimeoutError::Timeout) => {}
-                Err(RecvTimeoutError::Disconnected) => return Err(RecvError),
-            }
-        }
-        Ok(&self.mine)
+    /// Waits for PDOs: `.wait()` blocks the thread, `.await` (`tokio` feature) waits without
+    /// blocking the runtime. An error only when none will come (the network is gone).
+    pub fn recv(&mut self) -> Recv<'_> {
+        Recv { subscriber: self }
     }
 
     /// Waits up to `timeout` for PDOs.
@@ -375,28 +369,55 @@ impl PdoSubscriber {
             queue.waiting.fetch_sub(1, Ordering::SeqCst);
         }
     }
+}
 
-    /// The async twin of [`recv`](Self::recv) (`tokio` feature): waits without blocking the
-    /// runtime's thread.
-    #[cfg(feature = "tokio")]
-    #[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
-    pub async fn recv_async(&mut self) -> Result<&PdoBatch, RecvError> {
-        let Self { queue, mine } = self;
+/// A wait for the next batch of a [`PdoSubscriber`] ([`PdoSubscriber::recv`]): finished by
+/// [`wait`](Self::wait) or by `.await`.
+#[must_use = "a receive does nothing until it is waited on or awaited"]
+#[derive(Debug)]
+pub struct Recv<'a> {
+    subscriber: &'a mut PdoSubscriber,
+}
+
+impl<'a> Recv<'a> {
+    /// Blocks the thread until PDOs come.
+    pub fn wait(self) -> Result<&'a PdoBatch, RecvError> {
+        let subscriber = self.subscriber;
         loop {
-            {
-                let mut shared = queue.lock();
-                if take(&mut shared, mine) {
-                    break;
-                }
-                if shared.closed {
-                    return Err(RecvError);
-                }
+            match subscriber.recv_timeout(std::time::Duration::from_secs(3600)) {
+                Ok(_) => break,
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return Err(RecvError),
             }
-            // A hand-over between the look above and this wait leaves a permit: no wake-up
-            // is lost.
-            queue.notify.notified().await;
         }
-        Ok(mine)
+        Ok(&subscriber.mine)
+    }
+}
+
+#[cfg(feature = "tokio")]
+impl<'a> std::future::IntoFuture for Recv<'a> {
+    type Output = Result<&'a PdoBatch, RecvError>;
+    type IntoFuture = std::pin::Pin<Box<dyn Future<Output = Self::Output> + Send + 'a>>;
+
+    fn into_future(self) -> Self::IntoFuture {
+        let PdoSubscriber { queue, mine } = self.subscriber;
+        Box::pin(async move {
+            loop {
+                {
+                    let mut shared = queue.lock();
+                    if take(&mut shared, mine) {
+                        break;
+                    }
+                    if shared.closed {
+                        return Err(RecvError);
+                    }
+                }
+                // A hand-over between the look above and this wait leaves a permit: no
+                // wake-up is lost.
+                queue.notify.notified().await;
+            }
+            Ok(&*mine)
+        })
     }
 }
 
@@ -447,7 +468,7 @@ mod tests {
             std::thread::spawn(move || {
                 let mut got = Vec::new();
                 while got.len() < count as usize {
-                    got.extend(counters(s.recv().expect("not disconnected")));
+                    got.extend(counters(s.recv().wait().expect("not disconnected")));
                 }
                 done.send(got)
             });
@@ -473,7 +494,7 @@ mod tests {
         push(&mut p, 7);
         assert!(p.flush(true));
         drop(p);
-        assert_eq!(counters(s.recv().expect("the pending batch")), [7]);
-        assert_eq!(s.recv().unwrap_err(), RecvError);
+        assert_eq!(counters(s.recv().wait().expect("the pending batch")), [7]);
+        assert_eq!(s.recv().wait().unwrap_err(), RecvError);
     }
 }

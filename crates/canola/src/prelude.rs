@@ -14,11 +14,11 @@
 //! let id = NodeId::new(5).unwrap();
 //! let node = net.add_node_with_dictionary(id, canola::od::parse(&eds[..]).unwrap().od);
 //! bus.attach(SimDevice::from_eds(id, &eds[..]).unwrap());
-//! node.nmt().wait_for_bootup(StdDuration::from_secs(1)).unwrap();
-//! node.sdo().set("Producer heartbeat time", 250).unwrap();
-//! assert_eq!(node.sdo().get("Producer heartbeat time").unwrap(), Value::Unsigned16(250));
+//! node.nmt().wait_for_bootup(StdDuration::from_secs(1)).wait().unwrap();
+//! node.sdo().set("Producer heartbeat time", 250).wait().unwrap();
+//! assert_eq!(node.sdo().get("Producer heartbeat time").wait().unwrap(), Value::Unsigned16(250));
 //! node.nmt().start().unwrap();
-//! node.nmt().wait_for_state(NmtState::Operational, StdDuration::from_secs(1)).unwrap();
+//! node.nmt().wait_for_state(NmtState::Operational, StdDuration::from_secs(1)).wait().unwrap();
 //! ```
 
 pub use crate::{

@@ -6,7 +6,8 @@
 
 use canola_frame::{Duration, NodeId};
 
-use crate::network::Network;
+use crate::network::operation::{self, Req};
+use crate::network::{Network, Operation};
 
 /// The identity object (0x1018) of a node: sub-index 1 (vendor-ID) is mandatory, the others
 /// are `None` when the node does not implement them.
@@ -58,37 +59,39 @@ fn u32_of(bytes: &[u8]) -> Option<u32> {
 
 impl Network {
     /// The nodes that answer an SDO read of 0x1018:01 within `timeout`, in node-ID order, with
-    /// their identity (sub-indices 2..=4 read from each node found).
-    pub fn scan(&self, timeout: impl Into<Duration>) -> Vec<ScannedNode> {
+    /// their identity (sub-indices 2..=4 read from each node found, all at once). Dropping the
+    /// operation cancels the reads.
+    pub fn scan(&self, timeout: impl Into<Duration>) -> Operation<'static, Vec<ScannedNode>> {
         let timeout: Duration = timeout.into();
-        let pending: Vec<_> = NodeId::all()
-            .map(|n| {
-                (
-                    n,
-                    self.node(n).sdo().timeout(timeout).submit_read((0x1018, 1)),
-                )
-            })
-            .collect();
-        let found: Vec<_> = pending
-            .into_iter()
-            .filter_map(|(n, p)| Some((n, p.wait().ok().as_deref().and_then(u32_of)?)))
-            .collect();
-        found
-            .into_iter()
-            .map(|(node, vendor_id)| {
-                let rest: Vec<_> = (2..=4u8)
-                    .map(|s| {
-                        self.node(node)
-                            .sdo()
-                            .timeout(timeout)
-                            .submit_read((0x1018, s))
-                    })
-                    .collect();
-                let mut rest = rest
-                    .into_iter()
-                    .map(|p| p.wait().ok().as_deref().and_then(u32_of));
-                let mut next = || rest.next().flatten();
-                ScannedNode {
+        let net = self.clone();
+        Operation::new(async move {
+            operation::catch_up(&net)?;
+            let read = |node: NodeId, sub: u8| {
+                net.node(node)
+                    .sdo()
+                    .timeout(timeout)
+                    .submit_read((0x1018, sub))
+                    .into_req()
+            };
+            let first: Vec<Req> = NodeId::all().filter_map(|n| read(n, 1)).collect();
+            let found: Vec<(NodeId, u32)> = operation::wait_requests(&net, first.clone())
+                .await
+                .into_iter()
+                .zip(&first)
+                .filter_map(|(r, req)| Some((req.node, u32_of(&r.ok()?.data)?)))
+                .collect();
+            let rest: Vec<Req> = found
+                .iter()
+                .flat_map(|&(node, _)| (2..=4u8).filter_map(move |s| read(node, s)))
+                .collect();
+            let mut values = operation::wait_requests(&net, rest)
+                .await
+                .into_iter()
+                .map(|r| r.ok().as_ref().and_then(|c| u32_of(&c.data)));
+            let mut next = || values.next().flatten();
+            Ok(found
+                .into_iter()
+                .map(|(node, vendor_id)| ScannedNode {
                     node,
                     identity: Identity {
                         vendor_id,
@@ -96,8 +99,8 @@ impl Network {
                         revision: next(),
                         serial: next(),
                     },
-                }
-            })
-            .collect()
+                })
+                .collect())
+        })
     }
 }

@@ -12,6 +12,7 @@
 use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 
 use crate::error::Error;
+use crate::network::Operation;
 use crate::network::Sdo;
 
 /// An object by name (as the node's dictionary spells it, any case) or by address.
@@ -216,9 +217,11 @@ impl Sdo {
 
     /// Reads an object by name or address and decodes it with its type in the node's
     /// dictionary (`node.sdo().get("Producer heartbeat time")`).
-    pub fn get<'k>(self, key: impl Into<ObjectKey<'k>>) -> Result<Value, Error> {
-        let at = self.resolve(key)?;
-        self.read_value(at)
+    pub fn get<'k>(self, key: impl Into<ObjectKey<'k>>) -> Operation<'static, Value> {
+        match self.resolve(key) {
+            Ok(at) => self.read_value(at),
+            Err(e) => Operation::ready(Err(e)),
+        }
     }
 
     /// Writes an object by name or address, the value converted to the object's type in the
@@ -229,13 +232,15 @@ impl Sdo {
         self,
         key: impl Into<ObjectKey<'k>>,
         value: impl Into<WriteValue>,
-    ) -> Result<(), Error> {
-        let (at, typed) = self.typed_write(key, value)?;
-        self.write(at, typed)
+    ) -> Operation<'static, ()> {
+        match self.typed_write(key, value) {
+            Ok((at, typed)) => self.write(at, typed),
+            Err(e) => Operation::ready(Err(e)),
+        }
     }
 
     /// The address `key` names and `value` converted to its type: what [`set`](Self::set)
-    /// writes (the async twin shares it).
+    /// writes.
     pub(crate) fn typed_write<'k>(
         &self,
         key: impl Into<ObjectKey<'k>>,

@@ -26,13 +26,13 @@ async fn async_reads_and_writes_run_in_parallel() {
     for id in [5, 6] {
         bus.attach(SimDevice::from_eds(n(id), EDS).unwrap());
     }
-    let a = net.node(n(5)).sdo().write_async((0x1017, 0), 123u16);
-    let b = net.node(n(6)).sdo().read_async((0x1018, 1));
+    let a = net.node(n(5)).sdo().write((0x1017, 0), 123u16);
+    let b = net.node(n(6)).sdo().read((0x1018, 1));
     let (a, b) = tokio::join!(a, b);
     a.unwrap();
     assert_eq!(b.unwrap(), 0x39u32.to_le_bytes());
     assert_eq!(
-        net.node(n(5)).sdo().read_async((0x1017, 0)).await.unwrap(),
+        net.node(n(5)).sdo().read((0x1017, 0)).await.unwrap(),
         123u16.to_le_bytes()
     );
 }
@@ -47,7 +47,7 @@ async fn dropping_the_future_sends_an_abort_and_frees_the_node() {
         .node(n(5))
         .sdo()
         .timeout(Duration::from_secs(10))
-        .read_async((0x1018, 1));
+        .read((0x1018, 1));
     let r = tokio::time::timeout(std::time::Duration::from_millis(50), fut).await;
     assert!(r.is_err(), "the read cannot finish without a device");
     // The abort goes out promptly.
@@ -67,7 +67,7 @@ async fn dropping_the_future_sends_an_abort_and_frees_the_node() {
     // The node is free: the next request completes once a device is there.
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
     assert_eq!(
-        net.node(n(5)).sdo().read_async((0x1017, 0)).await.unwrap(),
+        net.node(n(5)).sdo().read((0x1017, 0)).await.unwrap(),
         500u16.to_le_bytes()
     );
 }
@@ -108,7 +108,7 @@ async fn a_tokio_timeout_around_a_read_on_the_virtual_bus_fires_first_and_aborts
         .node(n(5))
         .sdo()
         .timeout(Duration::from_secs(10))
-        .read_async((0x1018, 1));
+        .read((0x1018, 1));
     let r = tokio::time::timeout(std::time::Duration::from_millis(50), read).await;
     assert!(r.is_err(), "the tokio timeout fires before the SDO timeout");
     assert_eq!(t0.elapsed(), std::time::Duration::from_millis(50));
@@ -120,7 +120,7 @@ async fn a_tokio_timeout_around_a_read_on_the_virtual_bus_fires_first_and_aborts
     assert_eq!(&abort.data()[4..8], &0x0800_0000u32.to_le_bytes());
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
     assert_eq!(
-        net.node(n(5)).sdo().read_async((0x1017, 0)).await.unwrap(),
+        net.node(n(5)).sdo().read((0x1017, 0)).await.unwrap(),
         500u16.to_le_bytes()
     );
 }
@@ -134,7 +134,7 @@ async fn an_unanswered_read_times_out_after_its_timeout_of_tokio_time() {
         .node(n(7))
         .sdo()
         .timeout(Duration::from_secs(10))
-        .read_async((0x1000, 0))
+        .read((0x1000, 0))
         .await;
     match r {
         Err(Error::Sdo(e)) => assert!(e.to_string().contains("time"), "{e}"),
@@ -154,16 +154,16 @@ async fn blocking_steps_jump_ahead_and_the_async_side_goes_on_from_there() {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
-    net.node(n(5)).sdo().read_async((0x1017, 0)).await.unwrap();
+    net.node(n(5)).sdo().read((0x1017, 0)).await.unwrap();
     // The stepping API still jumps virtual time at once (no tokio time passes).
     let t0 = tokio::time::Instant::now();
     let before = net.now();
-    net.run_for(Duration::from_secs(3)).unwrap();
+    net.run_for(Duration::from_secs(3)).wait().unwrap();
     assert_eq!(t0.elapsed(), std::time::Duration::ZERO);
     assert!(net.now() >= before + Duration::from_secs(3));
     // Async time goes on from there, never back.
     let mid = net.now();
-    net.run_for_async(Duration::from_millis(200)).await.unwrap();
+    net.run_for(Duration::from_millis(200)).await.unwrap();
     assert_eq!(t0.elapsed(), std::time::Duration::from_millis(200));
     assert!(net.now() >= mid + Duration::from_millis(200));
 }
@@ -175,41 +175,37 @@ async fn nmt_commands_and_state_waits() {
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
     // The device's first boot-up is received; boot-ups count for waits from `add_node`, so
     // a wait after it waits for the next one.
-    net.run_for_async(Duration::from_millis(1)).await.unwrap();
+    net.run_for(Duration::from_millis(1)).await.unwrap();
     let nmt = net.add_node(n(5)).nmt();
     // Nothing happened since the node was added: a boot-up wait times out on tokio's clock.
     let t0 = tokio::time::Instant::now();
-    match nmt.wait_for_bootup_async(Duration::from_millis(200)).await {
+    match nmt.wait_for_bootup(Duration::from_millis(200)).await {
         Err(Error::Timeout(_)) => {}
         other => panic!("{other:?}"),
     }
     assert_eq!(t0.elapsed(), std::time::Duration::from_millis(200));
     // Reset, then the boot-up (counted, not missed even if a heartbeat follows at once).
-    nmt.reset_node_async().await.unwrap();
-    nmt.wait_for_bootup_async(Duration::from_secs(1))
-        .await
-        .unwrap();
-    nmt.start_async().await.unwrap();
+    nmt.reset_node().unwrap();
+    nmt.wait_for_bootup(Duration::from_secs(1)).await.unwrap();
+    nmt.start().unwrap();
     // Heartbeats every 500 ms (0x1017 default) report the new state.
     // std's Duration works as well.
-    nmt.wait_for_state_async(NmtState::Operational, std::time::Duration::from_secs(1))
+    nmt.wait_for_state(NmtState::Operational, std::time::Duration::from_secs(1))
         .await
         .unwrap();
     assert_eq!(nmt.state(), Some(NmtState::Operational));
-    nmt.stop_async().await.unwrap();
-    nmt.wait_for_state_async(NmtState::Stopped, Duration::from_secs(1))
+    nmt.stop().unwrap();
+    nmt.wait_for_state(NmtState::Stopped, Duration::from_secs(1))
         .await
         .unwrap();
-    net.nmt_all_async(CommandSpecifier::EnterPreOperational)
-        .await
-        .unwrap();
-    nmt.wait_for_state_async(NmtState::PreOperational, Duration::from_secs(1))
+    net.nmt_all(CommandSpecifier::EnterPreOperational).unwrap();
+    nmt.wait_for_state(NmtState::PreOperational, Duration::from_secs(1))
         .await
         .unwrap();
     // Waits are per node.
     assert!(matches!(
         canola::Nmt::all(&net)
-            .wait_for_state_async(NmtState::Operational, Duration::from_secs(1))
+            .wait_for_state(NmtState::Operational, Duration::from_secs(1))
             .await,
         Err(Error::InvalidRequest(_))
     ));
@@ -223,25 +219,22 @@ async fn typed_access_by_name() {
     bus.attach(SimDevice::new(n(5), od.clone()));
     let node = net.add_node_with_dictionary(n(5), od);
     node.sdo()
-        .set_async("Producer heartbeat time", 200)
+        .set("Producer heartbeat time", 200)
         .await
         .unwrap();
     // Two bytes went out: the UNSIGNED16 reads back as itself.
     assert_eq!(
-        node.sdo().read_async((0x1017, 0)).await.unwrap(),
+        node.sdo().read((0x1017, 0)).await.unwrap(),
         200u16.to_le_bytes()
     );
     assert_eq!(
-        node.sdo()
-            .get_async("producer heartbeat TIME")
-            .await
-            .unwrap(),
+        node.sdo().get("producer heartbeat TIME").await.unwrap(),
         Value::Unsigned16(200)
     );
     // A value that does not fit fails before anything is sent.
     let e = node
         .sdo()
-        .set_async("Producer heartbeat time", 70_000)
+        .set("Producer heartbeat time", 70_000)
         .await
         .unwrap_err();
     assert!(matches!(e, Error::Value { .. }), "{e}");
@@ -255,14 +248,14 @@ async fn scan_finds_the_nodes_in_one_timeout() {
         bus.attach(SimDevice::from_eds(n(id), EDS).unwrap());
     }
     let t0 = tokio::time::Instant::now();
-    let found = net.scan_async(Duration::from_millis(100)).await.unwrap();
+    let found = net.scan(Duration::from_millis(100)).await.unwrap();
     let ids: Vec<u8> = found.iter().map(|s| s.node.get()).collect();
     assert_eq!(ids, [3, 9, 120]);
     assert!(found.iter().all(|s| s.identity.vendor_id == 0x39));
     // All 127 reads ran at once: one response timeout, not 124 of them.
     assert!(t0.elapsed() < std::time::Duration::from_millis(300));
     // The same as the blocking scan.
-    assert_eq!(net.scan(Duration::from_millis(100)), found);
+    assert_eq!(net.scan(Duration::from_millis(100)).wait().unwrap(), found);
 }
 
 #[tokio::test(start_paused = true)]
@@ -270,7 +263,7 @@ async fn dropping_a_scan_cancels_its_reads() {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     let mut tap = bus.endpoint();
-    let scan = net.scan_async(Duration::from_secs(5));
+    let scan = net.scan(Duration::from_secs(5));
     assert!(
         tokio::time::timeout(std::time::Duration::from_millis(20), scan)
             .await
@@ -302,27 +295,21 @@ async fn lss_services_and_assign_all() {
     }
     let lss = net.lss();
     // Fastscan finds the lowest address and leaves it in configuration state.
-    let one = lss.fastscan_async(FastscanConfig::default()).await.unwrap();
+    let one = lss.fastscan(FastscanConfig::default()).await.unwrap();
     assert!(one.is_some());
-    lss.procedure_async(Procedure::single(Step::SwitchModeGlobal(Mode::Waiting)))
+    lss.procedure(Procedure::single(Step::SwitchModeGlobal(Mode::Waiting)))
         .await
         .unwrap();
-    let found = lss
-        .discover_all_async(FastscanConfig::default())
-        .await
-        .unwrap();
+    let found = lss.discover_all(FastscanConfig::default()).await.unwrap();
     assert_eq!(found, (0..3).map(lss_address).collect::<Vec<_>>());
     let pool = NodeIdPool::range(n(10), NodeId::MAX);
-    let report = lss
-        .assign_all_async(AssignConfig::with_pool(pool))
-        .await
-        .unwrap();
+    let report = lss.assign_all(AssignConfig::with_pool(pool)).await.unwrap();
     let assigned: Vec<_> = report.assigned().collect();
     assert_eq!(assigned.len(), 3, "{report:?}");
-    net.run_for_async(Duration::from_millis(10)).await.unwrap();
+    net.run_for(Duration::from_millis(10)).await.unwrap();
     for (a, id) in assigned {
         assert_eq!(
-            net.node(id).sdo().read_async((0x1018, 4)).await.unwrap(),
+            net.node(id).sdo().read((0x1018, 4)).await.unwrap(),
             a.serial_number.to_le_bytes()
         );
     }
@@ -391,7 +378,7 @@ async fn events_reach_every_subscriber_and_lag_is_reported_not_hidden() {
     // Four times slower than the producer.
     let slow = tokio::spawn(collect(slow, std::time::Duration::from_millis(4)));
     // The driver: N ms of frames, then the network goes and the streams end.
-    net.run_for_async(Duration::from_millis(u64::from(N) + 10))
+    net.run_for(Duration::from_millis(u64::from(N) + 10))
         .await
         .unwrap();
     drop(net);
@@ -425,7 +412,7 @@ async fn a_lagged_item_stands_where_the_events_were_lost() {
         tap.send(&CanFrame::new(CanId::standard(0x181).unwrap(), &i.to_le_bytes()).unwrap())
             .unwrap();
     }
-    net.run_for_async(Duration::from_millis(1)).await.unwrap();
+    net.run_for(Duration::from_millis(1)).await.unwrap();
     let mut seen = Vec::new();
     while let Some(item) = events.try_next() {
         seen.push(match item {
@@ -447,24 +434,22 @@ async fn waits_on_a_real_clock_bus_and_a_dropped_wait_ends() {
     assert!(!net.is_virtual_clock());
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
     let nmt = net.node(n(5)).nmt();
-    nmt.reset_node_async().await.unwrap();
-    nmt.wait_for_bootup_async(Duration::from_secs(2))
-        .await
-        .unwrap();
+    nmt.reset_node().unwrap();
+    nmt.wait_for_bootup(Duration::from_secs(2)).await.unwrap();
     // A wait that cannot end, dropped by a timeout: the blocking wait stops, the network goes
     // on serving requests.
-    let never = nmt.wait_for_state_async(NmtState::Stopped, Duration::from_secs(30));
+    let never = nmt.wait_for_state(NmtState::Stopped, Duration::from_secs(30));
     assert!(
         tokio::time::timeout(std::time::Duration::from_millis(30), never)
             .await
             .is_err()
     );
-    let found = net.scan_async(Duration::from_millis(200)).await.unwrap();
+    let found = net.scan(Duration::from_millis(200)).await.unwrap();
     assert_eq!(found.len(), 1);
     assert_eq!(found[0].node, n(5));
     let mut events = net.events();
-    nmt.start_async().await.unwrap();
-    nmt.wait_for_state_async(NmtState::Operational, Duration::from_secs(2))
+    nmt.start().unwrap();
+    nmt.wait_for_state(NmtState::Operational, Duration::from_secs(2))
         .await
         .unwrap();
     let mut saw_change = false;
@@ -509,7 +494,7 @@ async fn the_driver_on_a_virtual_bus_keeps_it_at_tokio_time() {
     // Requests work beside the driver.
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
     assert_eq!(
-        net.node(n(5)).sdo().read_async((0x1018, 1)).await.unwrap(),
+        net.node(n(5)).sdo().read((0x1018, 1)).await.unwrap(),
         0x39u32.to_le_bytes()
     );
     // Stopped, the bus stands still.
@@ -563,7 +548,7 @@ async fn streamed_upload_and_download() {
     let n_bytes = net
         .node(n(5))
         .sdo()
-        .upload_to_async((0x1008, 0), out.clone())
+        .upload_to((0x1008, 0), out.clone())
         .await
         .unwrap();
     assert_eq!(&out.bytes.lock().unwrap()[..], b"Buerkert generic device");
@@ -576,19 +561,19 @@ async fn streamed_upload_and_download() {
     let e = net
         .node(n(5))
         .sdo()
-        .upload_to_async((0x1008, 0), bad)
+        .upload_to((0x1008, 0), bad)
         .await
         .unwrap_err();
     assert!(e.to_string().contains("disk full"), "{e}");
     let sent = net
         .node(n(5))
         .sdo()
-        .download_from_async((0x1017, 0), 300u16.to_le_bytes().to_vec())
+        .download_from((0x1017, 0), &300u16.to_le_bytes()[..])
         .await
         .unwrap();
     assert_eq!(sent, 2);
     assert_eq!(
-        net.node(n(5)).sdo().read_async((0x1017, 0)).await.unwrap(),
+        net.node(n(5)).sdo().read((0x1017, 0)).await.unwrap(),
         300u16.to_le_bytes()
     );
 }
@@ -636,8 +621,8 @@ async fn waiting_futures_on_a_virtual_bus_in_real_time_sleep_rather_than_spin() 
     net.start_driver_on_runtime();
     let nmt = net.node(n(5)).nmt();
     let (a, b) = tokio::join!(
-        nmt.wait_for_state_async(NmtState::Stopped, Duration::from_millis(300)),
-        net.run_for_async(Duration::from_millis(300)),
+        nmt.wait_for_state(NmtState::Stopped, Duration::from_millis(300)),
+        net.run_for(Duration::from_millis(300)),
     );
     assert!(matches!(a, Err(Error::Timeout(_))), "{a:?}");
     b.unwrap();
@@ -648,7 +633,7 @@ async fn waiting_futures_on_a_virtual_bus_in_real_time_sleep_rather_than_spin() 
     assert!(calls < 5_000, "{calls} receive calls");
 }
 
-/// The PDO services' async twins, each in a spawned task (so their futures are `Send`): TPDO1
+/// The PDO services awaited, each in a spawned task (so their futures are `Send`): TPDO1
 /// read, changed and saved (the device then sends it from the new COB-ID and the master decodes
 /// it), RPDO1 read, started and set; the device takes the value.
 #[tokio::test(start_paused = true)]
@@ -659,51 +644,46 @@ async fn pdo_services_async() {
     let od = canola::od::parse(EDS).unwrap().od;
     let device = bus.attach(SimDevice::new(n(5), od.clone()));
     let node = net.add_node_with_dictionary(n(5), od);
-    node.sdo().write_async((0x1017, 0), 0u16).await.unwrap();
+    node.sdo().write((0x1017, 0), 0u16).await.unwrap();
     let events = net.subscribe();
 
     let tpdo = node.tpdo();
     let saved = tokio::spawn(async move {
-        let mut set = tpdo.read_async().await?;
+        let mut set = tpdo.read().await?;
         let t1 = set.get_mut(1).expect("TPDO1");
         t1.set_can_id(CanId::standard(0x1F0).unwrap());
         t1.set_event_timer(Duration::from_millis(20))?;
-        tpdo.save_async(&mut set).await?;
+        tpdo.save(&mut set).await?;
         Ok::<_, canola::Error>(set)
     })
     .await
     .unwrap()
     .unwrap();
     assert!(!saved.get(1).unwrap().is_changed());
-    assert_eq!(node.tpdo().read_async().await.unwrap(), saved);
+    assert_eq!(node.tpdo().read().await.unwrap(), saved);
     assert_eq!(
-        node.sdo().read_async((0x1800, 1)).await.unwrap(),
+        node.sdo().read((0x1800, 1)).await.unwrap(),
         0x1F0u32.to_le_bytes()
     );
 
     let rpdo = node.rpdo();
     let tx = tokio::spawn(async move {
-        let set = rpdo.read_async().await?;
-        let tx = rpdo
-            .start_async(set.get(1).expect("RPDO1"), Transmission::on_change())
-            .await?;
-        tx.set_async("Control Value 1.Value", 12.5f32).await?;
+        let set = rpdo.read().await?;
+        let tx = rpdo.start(set.get(1).expect("RPDO1"), Transmission::on_change())?;
+        tx.set("Control Value 1.Value", 12.5f32)?;
         Ok::<_, canola::Error>(tx)
     })
     .await
     .unwrap()
     .unwrap();
-    node.nmt().start_async().await.unwrap();
-    tx.trigger_async().await.unwrap();
-    net.run_for_async(Duration::from_millis(50)).await.unwrap();
+    node.nmt().start().unwrap();
+    tx.trigger().unwrap();
+    net.run_for(Duration::from_millis(50)).await.unwrap();
     let held = bus
         .with_station(device, |d| d.values().get(0x2540, 1).map(<[u8]>::to_vec))
         .unwrap();
     assert_eq!(held.as_deref(), Some(&12.5f32.to_le_bytes()[..]));
-    assert!(
-        tx.set_async((0x2500, 1), 1.0f32).await.is_err(),
-        "not mapped"
-    );
+    assert!(tx.set((0x2500, 1), 1.0f32).is_err(), "not mapped");
 
     // The device sends TPDO1 from 0x1F0 now: decoded only because the master followed.
     let decoded = events.try_iter().any(|e| {
@@ -713,7 +693,7 @@ async fn pdo_services_async() {
     assert!(decoded, "TPDO1 decoded from its new COB-ID");
 }
 
-/// `PdoSubscriber::recv_async`: with the driver on the runtime, a task awaiting PDO batches
+/// `PdoSubscriber::recv` awaited: with the driver on the runtime, a task awaiting PDO batches
 /// gets the device's TPDOs decoded, and the end when the network is gone.
 #[tokio::test(start_paused = true)]
 async fn pdo_batches_async() {
@@ -723,13 +703,13 @@ async fn pdo_batches_async() {
     let od = canola::od::parse(EDS).unwrap().od;
     bus.attach(SimDevice::new(n(5), od.clone()));
     let node = net.add_node_with_dictionary(n(5), od);
-    node.sdo().write_async((0x1017, 0), 0u16).await.unwrap();
+    node.sdo().write((0x1017, 0), 0u16).await.unwrap();
     let mut pdos = net.subscribe_pdos();
     net.start_driver_on_runtime();
-    node.nmt().start_async().await.unwrap();
+    node.nmt().start().unwrap();
     let reader = tokio::spawn(async move {
         let mut decoded = Vec::new();
-        while let Ok(batch) = pdos.recv_async().await {
+        while let Ok(batch) = pdos.recv().await {
             decoded.extend(
                 batch
                     .iter()

@@ -81,7 +81,10 @@ fn short_steps_pass_their_clock_reading_on() {
     let node = net.node(NodeId::new(5).unwrap());
     let before = shared.readings.load(Ordering::SeqCst);
     for _ in 0..40 {
-        assert_eq!(node.sdo().read((0x1018, 1)).unwrap(), [0x39, 0, 0, 0]);
+        assert_eq!(
+            node.sdo().read((0x1018, 1)).wait().unwrap(),
+            [0x39, 0, 0, 0]
+        );
     }
     let readings = shared.readings.load(Ordering::SeqCst) - before;
     // One step per read; a fresh reading every eighth step (seven reused in a row).
@@ -96,14 +99,14 @@ fn a_timer_falling_due_between_short_steps_fires_within_a_few_of_them() {
     net.start_sync(Duration::from_millis(1));
     // Steps at 0 ms: whatever SYNC is due at the start goes out.
     for _ in 0..8 {
-        node.sdo().read((0x1018, 1)).unwrap();
+        node.sdo().read((0x1018, 1)).wait().unwrap();
     }
     let at_start = syncs(&shared);
     // The next SYNC falls due; the reads go on, each a short step.
     shared.now.store(1_500, Ordering::SeqCst);
     let mut steps = 0;
     while syncs(&shared) == at_start {
-        node.sdo().read((0x1018, 1)).unwrap();
+        node.sdo().read((0x1018, 1)).wait().unwrap();
         steps += 1;
         assert!(
             steps <= 8,

@@ -43,7 +43,11 @@ fn events_flow_with_no_call_from_the_application() {
     let bus = real_time_bus();
     let net = Network::new(bus.endpoint());
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
-    net.node(n(5)).sdo().write((0x1017, 0), 20u16).unwrap();
+    net.node(n(5))
+        .sdo()
+        .write((0x1017, 0), 20u16)
+        .wait()
+        .unwrap();
     // Monitored: every heartbeat past the first is silent unless the state changes, so watch
     // loss and recovery instead: a consumer time shorter than the period loses and regains.
     net.monitor_heartbeat(n(5), Duration::from_millis(10));
@@ -64,7 +68,7 @@ fn events_flow_with_no_call_from_the_application() {
     // Requests still work (the waiting thread drives, the driver steps aside).
     for _ in 0..50 {
         assert_eq!(
-            net.node(n(5)).sdo().read((0x1018, 1)).unwrap(),
+            net.node(n(5)).sdo().read((0x1018, 1)).wait().unwrap(),
             0x39u32.to_le_bytes()
         );
     }
@@ -76,7 +80,7 @@ fn events_flow_with_no_call_from_the_application() {
     assert_eq!(heartbeats(&rx, StdDuration::from_millis(150)), 0);
 
     // The explicit mode goes on.
-    net.run_for(Duration::from_millis(100)).unwrap();
+    net.run_for(Duration::from_millis(100)).wait().unwrap();
     assert!(rx.try_iter().count() > 0);
 }
 
@@ -148,7 +152,7 @@ fn a_dead_transport_is_an_event_and_an_error() {
         other => panic!("expected the driver's error, got {other:?}"),
     }
     // A request now fails with the transport's error instead of hanging.
-    let e = net.node(n(5)).sdo().read((0x1018, 1)).unwrap_err();
+    let e = net.node(n(5)).sdo().read((0x1018, 1)).wait().unwrap_err();
     assert!(e.to_string().contains("closed"), "{e}");
 }
 
@@ -170,7 +174,7 @@ async fn the_driver_runs_on_the_callers_runtime() {
         NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: n(5) })
     );
     assert_eq!(
-        net.node(n(5)).sdo().read_async((0x1018, 1)).await.unwrap(),
+        net.node(n(5)).sdo().read((0x1018, 1)).await.unwrap(),
         0x39u32.to_le_bytes()
     );
     net.stop_driver().unwrap();

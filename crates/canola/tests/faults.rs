@@ -51,7 +51,7 @@ fn rig(faults: Faults, big: usize) -> (MemoryBus, Network, StationId<SimDevice>)
     let bus = bus(Faults::none());
     let net = Network::new(bus.endpoint());
     let dev = bus.attach(device(big));
-    net.run_for(Duration::from_millis(5)).unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
     bus.set_faults(faults);
     (bus, net, dev)
 }
@@ -62,7 +62,7 @@ fn run_until_true(net: &Network, mut cond: impl FnMut() -> bool) {
         if cond() {
             return;
         }
-        net.run_for(Duration::from_micros(200)).unwrap();
+        net.run_for(Duration::from_micros(200)).wait().unwrap();
     }
     panic!("condition never held");
 }
@@ -100,7 +100,7 @@ fn power_cycle(
     big: usize,
 ) -> (StationId<SimDevice>, Instant) {
     bus.detach(dev).unwrap();
-    net.run_for(OFF).unwrap();
+    net.run_for(OFF).wait().unwrap();
     (bus.attach(device(big)), net.now())
 }
 
@@ -126,7 +126,7 @@ fn assert_ended_by_the_boot_up(
         "ended at {ended:?}, not in {window:?}"
     );
     // Let whatever the master still queued reach the bus before looking.
-    net.run_for(Duration::from_millis(5)).unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
     let mut aborts = 0;
     while let Some(r) = tap.try_recv().unwrap() {
         if let canola::Received::Frame { frame, .. } = r
@@ -169,9 +169,15 @@ fn power_cycle_during_a_block_upload_ends_it_naming_the_boot_up_and_the_next_req
     let soon = booted + Duration::from_millis(2);
     assert_ended_by_the_boot_up(&e, ended, (booted, soon), &net, &mut tap);
     // The next request works, and so does the whole upload again.
-    let v = net.node(n(NODE)).sdo().read((0x1000, 0)).unwrap();
+    let v = net.node(n(NODE)).sdo().read((0x1000, 0)).wait().unwrap();
     assert_eq!(v, 0x0002_0191u32.to_le_bytes());
-    let all = net.node(n(NODE)).sdo().block(true).read(BIG).unwrap();
+    let all = net
+        .node(n(NODE))
+        .sdo()
+        .block(true)
+        .read(BIG)
+        .wait()
+        .unwrap();
     assert_eq!(all, payload(LEN, 0));
 }
 
@@ -209,8 +215,12 @@ fn power_cycle_during_a_segmented_download_ends_it_naming_the_boot_up_and_the_ne
         .sdo()
         .method(Method::Segmented)
         .write(BIG, payload(LEN, 9))
+        .wait()
         .unwrap();
-    assert_eq!(net.node(n(NODE)).sdo().read(BIG).unwrap(), payload(LEN, 9));
+    assert_eq!(
+        net.node(n(NODE)).sdo().read(BIG).wait().unwrap(),
+        payload(LEN, 9)
+    );
 }
 
 #[test]
@@ -247,15 +257,16 @@ fn power_cycle_during_expedited_transfers_ends_them_naming_the_boot_up_and_the_n
         assert_ended_by_the_boot_up(&e, ended, window, &net, &mut tap);
         // The rebooted device kept its factory value; the next requests work.
         assert_eq!(
-            net.node(n(NODE)).sdo().read((0x2000, 0)).unwrap(),
+            net.node(n(NODE)).sdo().read((0x2000, 0)).wait().unwrap(),
             0x1234_5678u32.to_le_bytes()
         );
         net.node(n(NODE))
             .sdo()
             .write((0x2000, 0), 0x0BAD_CAFEu32.to_le_bytes().to_vec())
+            .wait()
             .unwrap();
         assert_eq!(
-            net.node(n(NODE)).sdo().read((0x2000, 0)).unwrap(),
+            net.node(n(NODE)).sdo().read((0x2000, 0)).wait().unwrap(),
             0x0BAD_CAFEu32.to_le_bytes()
         );
     }
@@ -269,12 +280,12 @@ fn a_boot_up_before_the_first_answer_does_not_end_the_transfer() {
     bus.detach(dev).unwrap();
     let mut device_side = bus.endpoint();
     let p = net.node(n(NODE)).sdo().submit_read((0x1000, 0));
-    net.run_for(Duration::from_millis(2)).unwrap();
+    net.run_for(Duration::from_millis(2)).wait().unwrap();
     let id = |raw| CanId::standard(raw).unwrap();
     device_side
         .send(&CanFrame::new(id(0x705), &[0x00]).unwrap())
         .unwrap();
-    net.run_for(Duration::from_millis(2)).unwrap();
+    net.run_for(Duration::from_millis(2)).wait().unwrap();
     device_side
         .send(&CanFrame::new(id(0x585), &[0x43, 0x00, 0x10, 0x00, 0x91, 0x01, 0x02, 0x00]).unwrap())
         .unwrap();
@@ -320,14 +331,14 @@ fn loss_and_duplication_give_correct_data_or_a_clean_error_never_wrong_data() {
             match *op {
                 Op::Upload(method) => {
                     // A 4-byte object (expedited) and the 200-byte one (segmented or block).
-                    match sdo().read((0x2000, 0)) {
+                    match sdo().read((0x2000, 0)).wait() {
                         Ok(v) => {
                             assert_eq!(v, 0x1234_5678u32.to_le_bytes(), "seed {seed}");
                             ok += 1;
                         }
                         Err(e) => *failed.entry(kind_text(&e)).or_default() += 1,
                     }
-                    match sdo().method(method).read(BIG) {
+                    match sdo().method(method).read(BIG).wait() {
                         Ok(v) => {
                             assert_eq!(v, current, "seed {seed} {op:?}: wrong data");
                             ok += 1;
@@ -337,9 +348,9 @@ fn loss_and_duplication_give_correct_data_or_a_clean_error_never_wrong_data() {
                 }
                 Op::Download(method, len) => {
                     let new = payload(len, (seed as u8).wrapping_add(i as u8));
-                    let r = sdo().method(method).write(BIG, new.clone());
+                    let r = sdo().method(method).write(BIG, new.clone()).wait();
                     // Let late and duplicated frames settle before looking at the device.
-                    net.run_for(Duration::from_millis(20)).unwrap();
+                    net.run_for(Duration::from_millis(20)).wait().unwrap();
                     let stored = bus
                         .with_station(dev, |d| d.values().get(BIG.0, BIG.1).map(<[u8]>::to_vec))
                         .unwrap()
@@ -427,6 +438,7 @@ fn a_babbling_node_on_0x001_the_master_keeps_its_deadlines() {
         .sdo()
         .timeout(timeout)
         .read((0x1000, 0))
+        .wait()
         .unwrap_err();
     let waited = net.now() - t0;
     // The request (0x605) never wins arbitration against 0x001: the response timeout fires on
@@ -448,9 +460,9 @@ fn a_babbling_node_on_0x001_the_master_keeps_its_deadlines() {
     assert!(load > 0.99, "{load}");
     // Quiet again: the next request works.
     bus.detach(babbler).unwrap();
-    net.run_for(Duration::from_millis(5)).unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
     assert_eq!(
-        net.node(n(NODE)).sdo().read((0x1000, 0)).unwrap(),
+        net.node(n(NODE)).sdo().read((0x1000, 0)).wait().unwrap(),
         0x0002_0191u32.to_le_bytes()
     );
 }
@@ -469,7 +481,7 @@ fn a_request_that_never_left_a_full_transmit_queue_is_withdrawn_with_its_abort()
     });
     let net = Network::new(bus.endpoint());
     let _dev = bus.attach(device(16));
-    net.run_for(Duration::from_millis(5)).unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
     let mut tap = bus.endpoint();
     let babbler = bus.attach(Babbler {
         period: Duration::from_micros(100),
@@ -487,6 +499,7 @@ fn a_request_that_never_left_a_full_transmit_queue_is_withdrawn_with_its_abort()
         .sdo()
         .timeout(timeout)
         .read((0x1000, 0))
+        .wait()
         .unwrap_err();
     let waited = net.now() - t0;
     assert_eq!(kind(&e), ErrorKind::Timeout, "{e}");
@@ -495,7 +508,7 @@ fn a_request_that_never_left_a_full_transmit_queue_is_withdrawn_with_its_abort()
     // Quiet again (once the babbler's backlog has drained): the 0x7FF frame goes, and no SDO
     // frame of the timed-out request follows it.
     bus.detach(babbler).unwrap();
-    net.run_for(Duration::from_millis(50)).unwrap();
+    net.run_for(Duration::from_millis(50)).wait().unwrap();
     let (mut filler, mut sdo) = (0, 0);
     while let Some(r) = tap.try_recv().unwrap() {
         if let canola::Received::Frame { frame, .. } = r {
@@ -509,7 +522,7 @@ fn a_request_that_never_left_a_full_transmit_queue_is_withdrawn_with_its_abort()
     assert_eq!((filler, sdo), (1, 0));
     // The next request works.
     assert_eq!(
-        net.node(n(NODE)).sdo().read((0x1000, 0)).unwrap(),
+        net.node(n(NODE)).sdo().read((0x1000, 0)).wait().unwrap(),
         0x0002_0191u32.to_le_bytes()
     );
 }
@@ -525,12 +538,13 @@ fn a_block_download_through_a_transmit_queue_of_two_frames_arrives_whole() {
     });
     let net = Network::new(bus.endpoint());
     let dev = bus.attach(device(16));
-    net.run_for(Duration::from_millis(5)).unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
     let data = payload(3000, 3);
     net.node(n(NODE))
         .sdo()
         .method(Method::Block)
         .write(BIG, data.clone())
+        .wait()
         .unwrap();
     let stored = bus
         .with_station(dev, |d| d.values().get(BIG.0, BIG.1).map(<[u8]>::to_vec))
@@ -594,7 +608,7 @@ fn scripted(
 
 /// The abort the client put on the bus last (command 0x80), if any, once the bus carried it.
 fn last_abort(net: &Network, requests: &Requests) -> Option<u32> {
-    net.run_for(Duration::from_millis(1)).unwrap();
+    net.run_for(Duration::from_millis(1)).wait().unwrap();
     requests
         .lock()
         .unwrap()
@@ -618,6 +632,7 @@ fn a_response_with_the_wrong_multiplexer_is_ignored_and_the_request_times_out() 
         .sdo()
         .timeout(TIMEOUT)
         .read((0x1000, 0))
+        .wait()
         .unwrap_err();
     println!("wrong multiplexer: {e}");
     assert_eq!(kind(&e), ErrorKind::Timeout, "{e}");
@@ -637,6 +652,7 @@ fn a_segment_with_the_wrong_toggle_bit_aborts_with_0x05030000() {
         .sdo()
         .timeout(TIMEOUT)
         .read((0x2001, 0))
+        .wait()
         .unwrap_err();
     println!("wrong toggle: {e}");
     assert_eq!(kind(&e), ErrorKind::Protocol(Violation::Toggle), "{e}");
@@ -657,6 +673,7 @@ fn segments_beyond_the_announced_size_abort_with_0x06070012() {
         .sdo()
         .timeout(TIMEOUT)
         .read((0x2001, 0))
+        .wait()
         .unwrap_err();
     println!("oversized segments: {e}");
     assert_eq!(
@@ -697,6 +714,7 @@ fn a_block_upload_whose_crc_does_not_match_aborts_with_0x05040004() {
         .block(true)
         .timeout(TIMEOUT)
         .read((0x2001, 0))
+        .wait()
         .unwrap_err();
     println!("block CRC: {e}");
     assert_eq!(
@@ -731,7 +749,7 @@ fn a_reboot_under_a_block_download_with_requests_queued_behind_ends_every_one() 
     let bus = bus(Faults::none());
     let net = Network::new(bus.endpoint());
     let dev = bus.attach(SimDevice::from_eds(n(NODE), EDS).unwrap());
-    net.run_for(Duration::from_millis(2)).unwrap();
+    net.run_for(Duration::from_millis(2)).wait().unwrap();
     // Off and on again at once, as the fuzz target does.
     let reboot = |dev| {
         bus.detach(dev).unwrap();
@@ -741,7 +759,7 @@ fn a_reboot_under_a_block_download_with_requests_queued_behind_ends_every_one() 
     let sdo = || net.node(n(NODE)).sdo().timeout(TIMEOUT);
     let first = sdo().method(Method::Block).submit_read((0x1018, 0));
     let big = sdo().method(Method::Block).submit_write(BIG, text(415, 48));
-    net.run_for(Duration::from_micros(3014)).unwrap();
+    net.run_for(Duration::from_micros(3014)).wait().unwrap();
     drop(first);
     let mut reads = vec![sdo().method(Method::Block).submit_read((0x1017, 0))];
     let small = sdo().method(Method::Block).submit_write(BIG, text(97, 105));
@@ -785,7 +803,7 @@ fn a_reboot_under_a_block_download_with_requests_queued_behind_ends_every_one() 
     // 0x1017 is 100 ms in the rig's EDS.
     assert_eq!(last.wait().unwrap(), 100u16.to_le_bytes());
     assert_eq!(
-        sdo().read((0x1000, 0)).unwrap().len(),
+        sdo().read((0x1000, 0)).wait().unwrap().len(),
         4,
         "the stack still reads the device"
     );
@@ -804,7 +822,7 @@ fn the_requests_after_a_cancelled_block_upload_ignore_its_leftover_segments() {
     let upload = sdo().method(Method::Block).submit_read(BIG);
     let queued = sdo().method(Method::Segmented).submit_read((0x1000, 0));
     // About 40 segments into the first sub-block of 127 (111 µs a frame at 1 Mbit/s).
-    net.run_for(Duration::from_micros(5396)).unwrap();
+    net.run_for(Duration::from_micros(5396)).wait().unwrap();
     assert!(!upload.is_done());
     drop(upload);
     assert_eq!(
@@ -817,7 +835,11 @@ fn the_requests_after_a_cancelled_block_upload_ignore_its_leftover_segments() {
         .enumerate()
     {
         let data = payload(377, i as u8);
-        sdo().method(method).write(BIG, data.clone()).unwrap();
-        assert_eq!(sdo().method(method).read(BIG).unwrap(), data);
+        sdo()
+            .method(method)
+            .write(BIG, data.clone())
+            .wait()
+            .unwrap();
+        assert_eq!(sdo().method(method).read(BIG).wait().unwrap(), data);
     }
 }

@@ -151,7 +151,7 @@ fn requests_over(plan: Plan, transport_text: &str) -> (Outcome, Arc<Counts>) {
     let (t, plan_handle, counts) = Flaky::new(bus.endpoint(), Plan::default());
     let net = Network::new(t);
     bus.attach(SimDevice::from_eds(n(NODE), EDS).unwrap());
-    net.run_for(Duration::from_millis(10)).unwrap();
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
     *plan_handle.lock().unwrap() = plan;
 
     let node = net.node(n(NODE));
@@ -183,7 +183,10 @@ fn requests_over(plan: Plan, transport_text: &str) -> (Outcome, Arc<Counts>) {
     }
     // The faults end: the next request works.
     *plan_handle.lock().unwrap() = Plan::default();
-    let last = sdo().read((0x2001, 0)).expect("a request after the faults");
+    let last = sdo()
+        .read((0x2001, 0))
+        .wait()
+        .expect("a request after the faults");
     assert_eq!(last.to_vec(), value);
     (out, counts)
 }
@@ -272,7 +275,11 @@ fn the_driver_rides_out_transient_send_errors_and_stops_cleanly_on_an_io_error()
     bus.attach(SimDevice::from_eds(n(NODE), EDS).unwrap());
     // A consumer time shorter than the 20 ms heartbeat period: every heartbeat is a loss and a
     // recovery, so events flow as long as the driver receives.
-    net.node(n(NODE)).sdo().write((0x1017, 0), 20u16).unwrap();
+    net.node(n(NODE))
+        .sdo()
+        .write((0x1017, 0), 20u16)
+        .wait()
+        .unwrap();
     net.monitor_heartbeat(n(NODE), Duration::from_millis(10));
     let rx = net.subscribe();
     net.start_driver().unwrap();
@@ -284,7 +291,7 @@ fn the_driver_rides_out_transient_send_errors_and_stops_cleanly_on_an_io_error()
         ..Plan::default()
     };
     for _ in 0..30 {
-        let _ = net.node(n(NODE)).sdo().read((0x1018, 1));
+        let _ = net.node(n(NODE)).sdo().read((0x1018, 1)).wait();
     }
     assert!(counts.send_failures.load(Ordering::SeqCst) >= 10);
     assert!(
@@ -325,6 +332,7 @@ fn the_driver_rides_out_transient_send_errors_and_stops_cleanly_on_an_io_error()
         .node(n(NODE))
         .sdo()
         .read((0x1018, 1))
+        .wait()
         .expect("a read after the driver ended");
     assert_eq!(v, 0x0ABCu32.to_le_bytes());
     // A restarted driver runs again.

@@ -51,11 +51,20 @@ fn logbook(len: usize) -> Vec<u8> {
 fn expedited_read_and_write() {
     let r = rig(&[5]);
     let node = r.net.node(n(5));
-    assert_eq!(node.sdo().read((0x1018, 1)).unwrap(), 0x39u32.to_le_bytes());
-    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 500u16.to_le_bytes());
-    node.sdo().write((0x1017, 0), 100u16).unwrap();
-    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 100u16.to_le_bytes());
-    let v = node.sdo().read_value((0x1017, 0)).unwrap();
+    assert_eq!(
+        node.sdo().read((0x1018, 1)).wait().unwrap(),
+        0x39u32.to_le_bytes()
+    );
+    assert_eq!(
+        node.sdo().read((0x1017, 0)).wait().unwrap(),
+        500u16.to_le_bytes()
+    );
+    node.sdo().write((0x1017, 0), 100u16).wait().unwrap();
+    assert_eq!(
+        node.sdo().read((0x1017, 0)).wait().unwrap(),
+        100u16.to_le_bytes()
+    );
+    let v = node.sdo().read_value((0x1017, 0)).wait().unwrap();
     assert_eq!(v, canola_od::Value::Unsigned16(100));
     assert_eq!(
         r.bus
@@ -69,14 +78,15 @@ fn segmented_read_and_write() {
     let r = rig(&[5]);
     let node = r.net.node(n(5));
     assert_eq!(
-        node.sdo().read((0x1008, 0)).unwrap(),
+        node.sdo().read((0x1008, 0)).wait().unwrap(),
         b"Buerkert generic device"
     );
     node.sdo()
         .write((0x2002, 2), "Hall 3, line 7, valve island A")
+        .wait()
         .unwrap();
     assert_eq!(
-        node.sdo().read((0x2002, 2)).unwrap(),
+        node.sdo().read((0x2002, 2)).wait().unwrap(),
         b"Hall 3, line 7, valve island A"
     );
 }
@@ -98,6 +108,7 @@ fn block_upload_and_download_with_progress() {
         .block(true)
         .on_progress(move |p| seen2.lock().unwrap().push((p.done, p.total)))
         .read((0x2003, 4))
+        .wait()
         .unwrap();
     assert_eq!(got, data);
     let seen = seen.lock().unwrap();
@@ -116,7 +127,11 @@ fn block_upload_and_download_with_progress() {
             Ok(())
         }
     }
-    let len = node.sdo().upload_to((0x2003, 4), W(buf.clone())).unwrap();
+    let len = node
+        .sdo()
+        .upload_to((0x2003, 4), W(buf.clone()))
+        .wait()
+        .unwrap();
     assert_eq!(len, 5000);
     assert_eq!(*buf.lock().unwrap(), data);
 
@@ -125,23 +140,27 @@ fn block_upload_and_download_with_progress() {
         .sdo()
         .block(true)
         .download_from((0x2002, 3), text.as_slice())
+        .wait()
         .unwrap();
     assert_eq!(len, 3000);
-    assert_eq!(node.sdo().block(true).read((0x2002, 3)).unwrap(), text);
+    assert_eq!(
+        node.sdo().block(true).read((0x2002, 3)).wait().unwrap(),
+        text
+    );
 }
 
 #[test]
 fn abort_is_explained_with_node_object_and_meaning() {
     let r = rig(&[5]);
     let node = r.net.node(n(5));
-    let e = node.sdo().read((0x1234, 0)).unwrap_err();
+    let e = node.sdo().read((0x1234, 0)).wait().unwrap_err();
     assert_eq!(e.server_abort(), Some(AbortCode::OBJECT_DOES_NOT_EXIST));
     let text = e.to_string();
     assert!(text.contains("node 5"), "{text}");
     assert!(text.contains("0x1234"), "{text}");
     assert!(text.contains("0x06020000"), "{text}");
     // Read-only object: the dictionary name appears.
-    let e = node.sdo().write((0x1008, 0), "x").unwrap_err();
+    let e = node.sdo().write((0x1008, 0), "x").wait().unwrap_err();
     assert_eq!(e.server_abort(), Some(AbortCode::READ_ONLY));
     assert!(e.to_string().contains("Manufacturer Device Name"), "{e}");
 }
@@ -154,6 +173,7 @@ fn no_device_times_out_cleanly() {
         .sdo()
         .timeout(Duration::from_millis(100))
         .read((0x1000, 0))
+        .wait()
         .unwrap_err();
     match e {
         Error::Sdo(s) => {
@@ -209,8 +229,9 @@ fn threads_share_one_network() {
                     net.node(n(id))
                         .sdo()
                         .write((0x1017, 0), i + u16::from(id))
+                        .wait()
                         .unwrap();
-                    let v = net.node(n(id)).sdo().read((0x1017, 0)).unwrap();
+                    let v = net.node(n(id)).sdo().read((0x1017, 0)).wait().unwrap();
                     assert_eq!(v, (i + u16::from(id)).to_le_bytes());
                 }
             })
@@ -228,9 +249,9 @@ fn cancel_sends_abort_and_late_response_is_ignored() {
     // Slow the device down: detach it, so the request gets no answer.
     let dev = r.bus.detach(r.devices[0]).unwrap();
     let pending = r.net.node(n(5)).sdo().submit_read((0x1018, 1));
-    r.net.run_for(Duration::from_millis(10)).unwrap();
+    r.net.run_for(Duration::from_millis(10)).wait().unwrap();
     drop(pending); // cancel
-    r.net.run_for(Duration::from_millis(10)).unwrap();
+    r.net.run_for(Duration::from_millis(10)).wait().unwrap();
     let mut frames = Vec::new();
     while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
         frames.push(frame);
@@ -266,7 +287,7 @@ fn boot_up_nmt_and_heartbeat_loss_and_recovery() {
     let events = net.subscribe();
     net.monitor_heartbeat(n(5), Duration::from_millis(750));
     let dev = bus.attach(device(5));
-    net.run_for(Duration::from_millis(100)).unwrap();
+    net.run_for(Duration::from_millis(100)).wait().unwrap();
     let ev = drain(&events);
     assert!(
         ev.contains(&NetworkEvent::Heartbeat(HeartbeatEvent::BootUp {
@@ -275,7 +296,7 @@ fn boot_up_nmt_and_heartbeat_loss_and_recovery() {
         "{ev:?}"
     );
     net.node(n(5)).nmt().start().unwrap();
-    net.run_for(Duration::from_millis(600)).unwrap();
+    net.run_for(Duration::from_millis(600)).wait().unwrap();
     assert_eq!(
         bus.with_station(dev, |d| d.state()),
         Some(DeviceState::Operational)
@@ -286,7 +307,7 @@ fn boot_up_nmt_and_heartbeat_loss_and_recovery() {
     );
     // The device disappears: loss after 750 ms without heartbeat.
     let d = bus.detach(dev).unwrap();
-    net.run_for(Duration::from_secs(2)).unwrap();
+    net.run_for(Duration::from_secs(2)).wait().unwrap();
     let ev = drain(&events);
     assert!(
         ev.iter().any(|e| matches!(e, NetworkEvent::Heartbeat(HeartbeatEvent::Lost { node, .. }) if *node == n(5))),
@@ -294,7 +315,7 @@ fn boot_up_nmt_and_heartbeat_loss_and_recovery() {
     );
     // It comes back (same state, no reboot): recovery.
     bus.attach(d);
-    net.run_for(Duration::from_secs(1)).unwrap();
+    net.run_for(Duration::from_secs(1)).wait().unwrap();
     let ev = drain(&events);
     assert!(
         ev.iter().any(|e| matches!(e, NetworkEvent::Heartbeat(HeartbeatEvent::Recovered { node, .. }) if *node == n(5))),
@@ -312,7 +333,7 @@ fn emcy_reaches_subscribers() {
             d.signal_emcy(now, Emcy::new(EmcyCode(0x4210), ErrorRegister(0x09)))
         })
         .unwrap();
-    r.net.run_for(Duration::from_millis(10)).unwrap();
+    r.net.run_for(Duration::from_millis(10)).wait().unwrap();
     let ev = drain(&r.events_or(events));
     assert!(
         ev.iter().any(|e| matches!(e, NetworkEvent::Emcy(x) if x.node == n(5) && x.emcy.code == EmcyCode(0x4210))),
@@ -331,15 +352,18 @@ fn nmt_reset_node_reboots_with_defaults() {
     let r = rig(&[5]);
     let events = r.net.subscribe();
     let node = r.net.node(n(5));
-    node.sdo().write((0x1017, 0), 200u16).unwrap();
+    node.sdo().write((0x1017, 0), 200u16).wait().unwrap();
     node.nmt().reset_node().unwrap();
-    r.net.run_for(Duration::from_millis(50)).unwrap();
+    r.net.run_for(Duration::from_millis(50)).wait().unwrap();
     assert!(
         drain(&events).contains(&NetworkEvent::Heartbeat(HeartbeatEvent::BootUp {
             node: n(5)
         }))
     );
-    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 500u16.to_le_bytes());
+    assert_eq!(
+        node.sdo().read((0x1017, 0)).wait().unwrap(),
+        500u16.to_le_bytes()
+    );
 }
 
 /// Every SDO method under 5 % drop and 5 % duplication: correct data or a clean error.
@@ -372,28 +396,34 @@ fn sdo_under_drop_and_duplication() {
                 node.sdo()
                     .timeout(t)
                     .write((0x1017, 0), 100 + i)
+                    .wait()
                     .map(|_| ()),
                 node.sdo()
                     .timeout(t)
                     .read((0x1018, 1))
+                    .wait()
                     .map(|v| assert_eq!(v, 0x39u32.to_le_bytes())),
                 node.sdo()
                     .timeout(t)
                     .read((0x1008, 0))
+                    .wait()
                     .map(|v| assert_eq!(v, b"Buerkert generic device")),
                 node.sdo()
                     .timeout(t)
                     .write((0x2002, 2), "segmented location text")
+                    .wait()
                     .map(|_| ()),
                 node.sdo()
                     .timeout(t)
                     .block(true)
                     .read((0x2003, 4))
+                    .wait()
                     .map(|v| assert_eq!(v, data)),
                 node.sdo()
                     .timeout(t)
                     .block(true)
                     .write((0x2002, 3), logbook(300))
+                    .wait()
                     .map(|_| ()),
             ];
             for res in results {
@@ -417,7 +447,10 @@ fn sdo_under_drop_and_duplication() {
         );
         // After faults, a clean read still works and returns the right data.
         r.bus.set_faults(Faults::none());
-        assert_eq!(node.sdo().read((0x1018, 1)).unwrap(), 0x39u32.to_le_bytes());
+        assert_eq!(
+            node.sdo().read((0x1018, 1)).wait().unwrap(),
+            0x39u32.to_le_bytes()
+        );
     }
 }
 
@@ -444,6 +477,7 @@ fn timing_model_bus_works_end_to_end() {
             .sdo()
             .block(true)
             .read((0x2003, 4))
+            .wait()
             .unwrap(),
         data
     );
@@ -462,27 +496,36 @@ fn lss_assign_all_then_the_devices_boot_and_answer_sdo() {
     let b = LssAddress::new(0x39, 0x0100_0001, 1, 2002);
     let da = bus.attach(SimDevice::unconfigured(od(), a));
     let db = bus.attach(SimDevice::unconfigured(od(), b));
-    net.run_for(Duration::from_millis(100)).unwrap();
+    net.run_for(Duration::from_millis(100)).wait().unwrap();
     assert!(
         drain(&events).is_empty(),
         "unconfigured devices stay silent"
     );
 
     // Fastscan finds one of them.
-    let found = net.lss().fastscan(FastscanConfig::default()).unwrap();
+    let found = net
+        .lss()
+        .fastscan(FastscanConfig::default())
+        .wait()
+        .unwrap();
     assert!(found == Some(a) || found == Some(b), "{found:?}");
     // Leave configuration state again for the workflow.
     net.lss()
         .procedure(Procedure::single(canola_lss::Step::SwitchModeGlobal(
             canola_lss::Mode::Waiting,
         )))
+        .wait()
         .unwrap();
 
     let pool = NodeIdPool::range(n(20), n(30));
-    let report = net.lss().assign_all(AssignConfig::with_pool(pool)).unwrap();
+    let report = net
+        .lss()
+        .assign_all(AssignConfig::with_pool(pool))
+        .wait()
+        .unwrap();
     let assigned: Vec<_> = report.assigned().collect();
     assert_eq!(assigned.len(), 2, "{report:?}");
-    net.run_for(Duration::from_millis(10)).unwrap();
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
     let boots: Vec<_> = drain(&events)
         .into_iter()
         .filter_map(|e| match e {
@@ -492,7 +535,7 @@ fn lss_assign_all_then_the_devices_boot_and_answer_sdo() {
         .collect();
     assert_eq!(boots.len(), 2, "{boots:?}");
     for (addr, id) in assigned {
-        let serial = net.node(id).sdo().read((0x1018, 4)).unwrap();
+        let serial = net.node(id).sdo().read((0x1018, 4)).wait().unwrap();
         assert_eq!(serial, addr.serial_number.to_le_bytes());
     }
     assert!(bus.with_station(da, |d| d.is_configured()).unwrap());
@@ -503,13 +546,13 @@ fn lss_assign_all_then_the_devices_boot_and_answer_sdo() {
 fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     let r = rig(&[5]);
     let events = r.net.subscribe();
-    r.net.run_for(Duration::from_secs(2)).unwrap();
+    r.net.run_for(Duration::from_secs(2)).wait().unwrap();
     assert!(
         !drain(&events).iter().any(|e| e.pdo_data().is_some()),
         "no PDOs in Pre-operational"
     );
     r.net.node(n(5)).nmt().start().unwrap();
-    r.net.run_for(Duration::from_millis(2100)).unwrap();
+    r.net.run_for(Duration::from_millis(2100)).wait().unwrap();
     let pdos: Vec<_> = drain(&events)
         .into_iter()
         .filter_map(|e| match e {
@@ -541,7 +584,7 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
             d.set_value(now, 0x2500, 1, 12.5f32.to_le_bytes())
         })
         .unwrap();
-    r.net.run_for(Duration::from_millis(600)).unwrap();
+    r.net.run_for(Duration::from_millis(600)).wait().unwrap();
     let seen = drain(&events).into_iter().any(|e| {
         matches!(&e, NetworkEvent::PdoValues { number: 1, values, .. }
             if values.first().map(|v| &v.1) == Some(&canola::Value::Real32(12.5)))
@@ -555,7 +598,7 @@ fn pdos_flow_when_operational_and_decode_through_the_dictionary() {
     )
     .unwrap();
     r.net.send(frame).unwrap();
-    r.net.run_for(Duration::from_millis(5)).unwrap();
+    r.net.run_for(Duration::from_millis(5)).wait().unwrap();
     let got = r
         .bus
         .with_station(r.devices[0], |d| {
@@ -570,7 +613,7 @@ fn sync_producer_runs_on_the_network_clock() {
     let r = rig(&[]);
     let mut tap = r.bus.endpoint();
     r.net.start_sync(Duration::from_millis(10));
-    r.net.run_for(Duration::from_millis(95)).unwrap();
+    r.net.run_for(Duration::from_millis(95)).wait().unwrap();
     let mut times = Vec::new();
     while let Ok(Some(Received::Frame { frame, at })) = tap.try_recv() {
         if frame.cob_id() == Some(0x80) {
@@ -592,14 +635,15 @@ fn remap_a_tpdo_by_sdo_and_decode_it() {
     let mapping = Mapping::from_raw(&[0x2004_0108, 0x2500_0120]).unwrap();
     let comm = CommParams::event_driven(0x385).with_event_timer(100);
     node.remap_pdo(Direction::Transmit, 3, comm, mapping)
+        .wait()
         .unwrap();
-    assert_eq!(node.sdo().read((0x1A02, 0)).unwrap(), [2]);
+    assert_eq!(node.sdo().read((0x1A02, 0)).wait().unwrap(), [2]);
     assert_eq!(
-        node.sdo().read((0x1A02, 2)).unwrap(),
+        node.sdo().read((0x1A02, 2)).wait().unwrap(),
         0x2500_0120u32.to_le_bytes()
     );
     node.nmt().start().unwrap();
-    r.net.run_for(Duration::from_millis(350)).unwrap();
+    r.net.run_for(Duration::from_millis(350)).wait().unwrap();
     let tpdo3: Vec<_> = drain(&events)
         .into_iter()
         .filter_map(|e| match e {
@@ -627,12 +671,16 @@ fn typed_entries_from_generated_code() {
     const VENDOR_ID: Entry<u32> = Entry::new(0x1018, 1, DataType::Unsigned32);
     let r = rig(&[5]);
     let node = r.net.node(n(5));
-    assert_eq!(node.sdo().read_entry(&VENDOR_ID).unwrap(), 0x39);
+    assert_eq!(node.sdo().read_entry(&VENDOR_ID).wait().unwrap(), 0x39);
     node.sdo()
         .write_entry(&PRODUCER_HEARTBEAT_TIME, &250)
+        .wait()
         .unwrap();
     assert_eq!(
-        node.sdo().read_entry(&PRODUCER_HEARTBEAT_TIME).unwrap(),
+        node.sdo()
+            .read_entry(&PRODUCER_HEARTBEAT_TIME)
+            .wait()
+            .unwrap(),
         250
     );
 }
@@ -643,9 +691,14 @@ fn node_guarding_loss_and_recovery() {
     let r = rig(&[5]);
     let events = r.net.subscribe();
     // Heartbeats off, so only guarding tells whether the node is there.
-    r.net.node(n(5)).sdo().write((0x1017, 0), 0u16).unwrap();
+    r.net
+        .node(n(5))
+        .sdo()
+        .write((0x1017, 0), 0u16)
+        .wait()
+        .unwrap();
     r.net.guard_node(n(5), Duration::from_millis(100), 3);
-    r.net.run_for(Duration::from_secs(1)).unwrap();
+    r.net.run_for(Duration::from_secs(1)).wait().unwrap();
     let ev = drain(&events);
     assert!(
         !ev.iter()
@@ -653,12 +706,12 @@ fn node_guarding_loss_and_recovery() {
         "{ev:?}"
     );
     let dev = r.bus.detach(r.devices[0]).unwrap();
-    r.net.run_for(Duration::from_secs(1)).unwrap();
+    r.net.run_for(Duration::from_secs(1)).wait().unwrap();
     assert!(drain(&events).iter().any(
         |e| matches!(e, NetworkEvent::Guarding(GuardingEvent::Lost { node, .. }) if *node == n(5))
     ));
     r.bus.attach(dev);
-    r.net.run_for(Duration::from_millis(500)).unwrap();
+    r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     let ev = drain(&events);
     assert!(
         ev.iter()
@@ -698,13 +751,18 @@ fn transfer_gap_is_settable() {
             &[5],
         );
         // No heartbeats from the device: only SDO frames on the bus.
-        r.net.node(n(5)).sdo().write((0x1017, 0), 0u16).unwrap();
+        r.net
+            .node(n(5))
+            .sdo()
+            .write((0x1017, 0), 0u16)
+            .wait()
+            .unwrap();
         if let Some(g) = gap {
             r.net.set_transfer_gap(g);
         }
         let start = r.net.now();
         for _ in 0..100 {
-            r.net.node(n(5)).sdo().read((0x1000, 0)).unwrap();
+            r.net.node(n(5)).sdo().read((0x1000, 0)).wait().unwrap();
         }
         r.net.now() - start
     };
@@ -745,17 +803,18 @@ fn boolean_tpdo_with_one_bit_and_with_eight_bits() {
             CommParams::event_driven(0x385),
             mapping,
         )
+        .wait()
         .unwrap();
         assert_eq!(
-            node.sdo().read((0x1A02, 1)).unwrap(),
+            node.sdo().read((0x1A02, 1)).wait().unwrap(),
             (0x2100_0000 | bits).to_le_bytes()
         );
         node.nmt().start().unwrap();
-        net.run_for(Duration::from_millis(20)).unwrap();
+        net.run_for(Duration::from_millis(20)).wait().unwrap();
         let now = bus.now();
         bus.with_station(device, |d| d.set_value(now, 0x2100, 0, [1u8]))
             .unwrap();
-        net.run_for(Duration::from_millis(20)).unwrap();
+        net.run_for(Duration::from_millis(20)).wait().unwrap();
         let decoded: Vec<_> = drain(&events)
             .into_iter()
             .filter_map(|e| match e {
@@ -815,8 +874,12 @@ fn sdo_on_a_second_server_channel() {
     node.sdo()
         .channel(second)
         .write((0x1017, 0), 250u16)
+        .wait()
         .unwrap();
-    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 250u16.to_le_bytes());
+    assert_eq!(
+        node.sdo().read((0x1017, 0)).wait().unwrap(),
+        250u16.to_le_bytes()
+    );
     let mut ids = Vec::new();
     while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
         ids.push(frame.cob_id().unwrap());
@@ -832,6 +895,7 @@ fn sdo_on_a_second_server_channel() {
         .channel(third)
         .timeout(Duration::from_millis(50))
         .read((0x1018, 1))
+        .wait()
         .unwrap_err();
     assert!(
         matches!(
@@ -843,10 +907,10 @@ fn sdo_on_a_second_server_channel() {
         ),
         "{err}"
     );
-    node.sdo().write((0x1202, 1), 0x6A6u32).unwrap();
-    node.sdo().write((0x1202, 2), 0x6B6u32).unwrap();
+    node.sdo().write((0x1202, 1), 0x6A6u32).wait().unwrap();
+    node.sdo().write((0x1202, 2), 0x6B6u32).wait().unwrap();
     assert_eq!(
-        node.sdo().channel(third).read((0x1018, 1)).unwrap(),
+        node.sdo().channel(third).read((0x1018, 1)).wait().unwrap(),
         0x39u32.to_le_bytes()
     );
 }

@@ -19,27 +19,35 @@ fn reset_then_wait_for_bootup_and_states_of_the_simulator() {
     let nmt = net.node(n(5)).nmt();
     assert_eq!(nmt.state(), None);
     bus.attach(SimDevice::from_eds(n(5), EDS).unwrap());
-    nmt.wait_for_bootup(Duration::from_secs(1)).unwrap();
+    nmt.wait_for_bootup(Duration::from_secs(1)).wait().unwrap();
     // The device's heartbeat (0x1017 = 500 ms in this EDS) follows.
     nmt.wait_for_state(NmtState::PreOperational, Duration::from_secs(1))
+        .wait()
         .unwrap();
     nmt.start().unwrap();
     nmt.wait_for_state(NmtState::Operational, Duration::from_secs(1))
+        .wait()
         .unwrap();
     assert_eq!(nmt.state(), Some(NmtState::Operational));
 
     nmt.reset_node().unwrap();
     // Let the boot-up and the next heartbeat both arrive before anyone waits.
-    net.run_for(Duration::from_secs(2)).unwrap();
+    net.run_for(Duration::from_secs(2)).wait().unwrap();
     assert_eq!(nmt.state(), Some(NmtState::PreOperational));
-    nmt.wait_for_bootup(Duration::from_millis(10)).unwrap();
+    nmt.wait_for_bootup(Duration::from_millis(10))
+        .wait()
+        .unwrap();
     // That boot-up is consumed: a second wait times out (on the virtual clock).
     let t0 = net.now();
-    let e = nmt.wait_for_bootup(Duration::from_millis(300)).unwrap_err();
+    let e = nmt
+        .wait_for_bootup(Duration::from_millis(300))
+        .wait()
+        .unwrap_err();
     assert!(matches!(e, Error::Timeout(_)), "{e}");
     assert!(net.now() >= t0 + Duration::from_millis(300));
     let e = nmt
         .wait_for_state(NmtState::Stopped, Duration::from_millis(100))
+        .wait()
         .unwrap_err();
     assert!(e.to_string().contains("not Stopped"), "{e}");
 }
@@ -55,17 +63,29 @@ fn a_bootup_followed_at_once_by_a_heartbeat_is_not_missed() {
     let id = CanId::standard(0x709).unwrap();
     other.send(&CanFrame::new(id, &[0x00]).unwrap()).unwrap();
     other.send(&CanFrame::new(id, &[0x7F]).unwrap()).unwrap();
-    net.run_for(Duration::from_millis(1)).unwrap();
+    net.run_for(Duration::from_millis(1)).wait().unwrap();
     assert_eq!(nmt.state(), Some(NmtState::PreOperational));
-    nmt.wait_for_bootup(Duration::from_millis(50)).unwrap();
+    nmt.wait_for_bootup(Duration::from_millis(50))
+        .wait()
+        .unwrap();
     // A handle made after the boot-up waits for the next one.
     let later = net.node(n(9)).nmt();
-    assert!(later.wait_for_bootup(Duration::from_millis(50)).is_err());
+    assert!(
+        later
+            .wait_for_bootup(Duration::from_millis(50))
+            .wait()
+            .is_err()
+    );
     other.send(&CanFrame::new(id, &[0x00]).unwrap()).unwrap();
-    later.wait_for_bootup(Duration::from_millis(50)).unwrap();
+    later
+        .wait_for_bootup(Duration::from_millis(50))
+        .wait()
+        .unwrap();
     assert_eq!(later.state(), Some(NmtState::BootUp));
     assert!(matches!(
-        canola::Nmt::all(&net).wait_for_bootup(Duration::from_millis(1)),
+        canola::Nmt::all(&net)
+            .wait_for_bootup(Duration::from_millis(1))
+            .wait(),
         Err(Error::InvalidRequest(_))
     ));
 }
@@ -83,17 +103,20 @@ fn a_bootup_that_arrived_before_the_handle_was_made_is_not_lost() {
     net.node(n(5))
         .nmt()
         .wait_for_bootup(Duration::from_secs(1))
+        .wait()
         .unwrap();
     // Node 6 booted while node 5 was waited for.
     net.node(n(6))
         .nmt()
         .wait_for_bootup(Duration::from_millis(100))
+        .wait()
         .unwrap();
     // Consumed: the next wait, on any handle, waits for the next boot-up.
     assert!(
         net.node(n(6))
             .nmt()
             .wait_for_bootup(Duration::from_millis(100))
+            .wait()
             .is_err()
     );
 
@@ -102,10 +125,12 @@ fn a_bootup_that_arrived_before_the_handle_was_made_is_not_lost() {
     net.node(n(5))
         .nmt()
         .wait_for_bootup(Duration::from_secs(1))
+        .wait()
         .unwrap();
     net.node(n(6))
         .nmt()
         .wait_for_bootup(Duration::from_millis(100))
+        .wait()
         .unwrap();
 }
 
@@ -115,12 +140,13 @@ fn a_bootup_before_add_node_does_not_count() {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     bus.attach(SimDevice::from_eds(n(7), EDS).unwrap());
-    net.run_for(Duration::from_millis(10)).unwrap();
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
     assert_eq!(net.last_state(n(7)), Some(NmtState::BootUp));
     let node = net.add_node(n(7));
     assert!(
         node.nmt()
             .wait_for_bootup(Duration::from_millis(50))
+            .wait()
             .is_err()
     );
 }

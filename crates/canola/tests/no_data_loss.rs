@@ -32,6 +32,7 @@ fn a_failing_flush_fails_the_upload() {
         .node(id)
         .sdo()
         .upload_to((0x1008, 0), BufWriter::new(Full))
+        .wait()
         .unwrap_err();
     let Error::Sdo(e) = &e else {
         panic!("expected an SDO error, got {e}");
@@ -41,11 +42,16 @@ fn a_failing_flush_fails_the_upload() {
         "{e}"
     );
     // Unbuffered, the first write fails and the transfer is aborted.
-    let e = net.node(id).sdo().upload_to((0x1008, 0), Full).unwrap_err();
+    let e = net
+        .node(id)
+        .sdo()
+        .upload_to((0x1008, 0), Full)
+        .wait()
+        .unwrap_err();
     assert!(e.to_string().contains("no space left"), "{e}");
     // The node is free for the next request.
     assert_eq!(
-        net.node(id).sdo().read((0x1008, 0)).unwrap(),
+        net.node(id).sdo().read((0x1008, 0)).wait().unwrap(),
         b"Buerkert generic device"
     );
 }

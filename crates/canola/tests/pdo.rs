@@ -47,7 +47,11 @@ fn rig(with_dictionary: bool) -> Rig {
         net.add_node(n(5));
     }
     // No heartbeats: the bus carries only what the tests look at.
-    net.node(n(5)).sdo().write((0x1017, 0), 0u16).unwrap();
+    net.node(n(5))
+        .sdo()
+        .write((0x1017, 0), 0u16)
+        .wait()
+        .unwrap();
     Rig {
         bus,
         net,
@@ -90,7 +94,7 @@ fn decoded(events: &[NetworkEvent], tpdo: u8) -> Vec<Vec<(ObjectAddress, Value)>
 }
 
 fn device_value(r: &Rig, index: u16, sub: u8) -> Vec<u8> {
-    r.net.node(n(5)).sdo().read((index, sub)).unwrap()
+    r.net.node(n(5)).sdo().read((index, sub)).wait().unwrap()
 }
 
 #[test]
@@ -98,9 +102,9 @@ fn read_tpdos_and_rpdos_with_the_dictionary() {
     let r = rig(true);
     let node = r.net.node(n(5));
     // Changed on the device behind the dictionary's back: read() asks the node, not the EDS.
-    node.sdo().write((0x1801, 5), 250u16).unwrap();
+    node.sdo().write((0x1801, 5), 250u16).wait().unwrap();
 
-    let tpdos = node.tpdo().read().unwrap();
+    let tpdos = node.tpdo().read().wait().unwrap();
     assert_eq!(tpdos.direction(), Direction::Transmit);
     assert_eq!(tpdos.len(), 4);
     let t1 = tpdos.get(1).unwrap();
@@ -129,7 +133,7 @@ fn read_tpdos_and_rpdos_with_the_dictionary() {
     );
     assert!(tpdos.get(5).is_none());
 
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     assert_eq!(rpdos.len(), 4);
     let r1 = rpdos.get(1).unwrap();
     assert_eq!(r1.comm.cob_id, PdoCobId(0x205));
@@ -147,14 +151,14 @@ fn read_tpdos_and_rpdos_with_the_dictionary() {
 fn read_without_a_dictionary_probes_the_node() {
     let r = rig(false);
     let node = r.net.node(n(5));
-    let tpdos = node.tpdo().read().unwrap();
+    let tpdos = node.tpdo().read().wait().unwrap();
     assert_eq!(tpdos.len(), 4);
     let t1 = tpdos.get(1).unwrap();
     // Sub 3 and 5 answered, sub 6 aborted with "sub-index does not exist".
     assert!(t1.has_inhibit_time() && t1.has_event_timer() && !t1.has_sync_start());
     assert_eq!(t1.mapped[0].addr, a(0x2500, 1));
     assert_eq!(t1.mapped[0].name, None);
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     assert!(!rpdos.get(1).unwrap().has_event_timer());
     // Mapping by name needs the dictionary; by address and length it does not.
     let mut rpdos = rpdos;
@@ -162,7 +166,7 @@ fn read_without_a_dictionary_probes_the_node() {
     assert!(p.map("Control Value 1.Value").is_err());
     p.clear();
     p.map_entry(a(0x2540, 1), 32);
-    node.rpdo().save(&mut rpdos).unwrap();
+    node.rpdo().save(&mut rpdos).wait().unwrap();
     assert_eq!(device_value(&r, 0x1600, 0), [1]);
 }
 
@@ -193,7 +197,7 @@ fn save_uses_the_cia301_sequence_and_the_master_follows_the_new_cob_id() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
     let events = r.net.subscribe();
-    let mut tpdos = node.tpdo().read().unwrap();
+    let mut tpdos = node.tpdo().read().wait().unwrap();
     let t1 = tpdos.get_mut(1).unwrap();
     t1.set_can_id(CanId::standard(0x1F0).unwrap());
     t1.set_inhibit_time(Duration::from_millis(0)).unwrap();
@@ -205,7 +209,7 @@ fn save_uses_the_cia301_sequence_and_the_master_follows_the_new_cob_id() {
     t1.map("Sensor Value 1.Value").unwrap();
     assert!(t1.is_changed());
     frames(&mut r.tap);
-    node.tpdo().save(&mut tpdos).unwrap();
+    node.tpdo().save(&mut tpdos).wait().unwrap();
     let writes = sdo_writes(&frames(&mut r.tap));
     assert_eq!(
         writes,
@@ -224,20 +228,20 @@ fn save_uses_the_cia301_sequence_and_the_master_follows_the_new_cob_id() {
     );
     assert!(!tpdos.get(1).unwrap().is_changed());
     // A second save has nothing to write.
-    node.tpdo().save(&mut tpdos).unwrap();
+    node.tpdo().save(&mut tpdos).wait().unwrap();
     assert!(sdo_writes(&frames(&mut r.tap)).is_empty());
     // Read back: the node holds what was saved.
-    assert_eq!(node.tpdo().read().unwrap(), tpdos);
+    assert_eq!(node.tpdo().read().wait().unwrap(), tpdos);
 
     node.nmt().start().unwrap();
-    r.net.run_for(Duration::from_millis(350)).unwrap();
+    r.net.run_for(Duration::from_millis(350)).wait().unwrap();
     let now = r.bus.now();
     r.bus
         .with_station(r.device, |d| {
             d.set_value(now, 0x2500, 1, 21.5f32.to_le_bytes())
         })
         .unwrap();
-    r.net.run_for(Duration::from_millis(50)).unwrap();
+    r.net.run_for(Duration::from_millis(50)).wait().unwrap();
     let seen = frames(&mut r.tap);
     assert!(on(&seen, 0x185).is_empty(), "nothing on the old COB-ID");
     assert!(on(&seen, 0x1F0).len() >= 4, "{seen:?}");
@@ -254,18 +258,24 @@ fn read_makes_the_master_decode_a_tpdo_configured_elsewhere() {
     let node = r.net.node(n(5));
     let events = r.net.subscribe();
     // Configured by another tool (raw SDO writes): TPDO2 on 0x2F1, every 20 ms.
-    node.sdo().write((0x1801, 1), 0x8000_02F1u32).unwrap();
-    node.sdo().write((0x1801, 3), 0u16).unwrap();
-    node.sdo().write((0x1801, 5), 20u16).unwrap();
-    node.sdo().write((0x1801, 1), 0x0000_02F1u32).unwrap();
+    node.sdo()
+        .write((0x1801, 1), 0x8000_02F1u32)
+        .wait()
+        .unwrap();
+    node.sdo().write((0x1801, 3), 0u16).wait().unwrap();
+    node.sdo().write((0x1801, 5), 20u16).wait().unwrap();
+    node.sdo()
+        .write((0x1801, 1), 0x0000_02F1u32)
+        .wait()
+        .unwrap();
     node.nmt().start().unwrap();
-    r.net.run_for(Duration::from_millis(100)).unwrap();
+    r.net.run_for(Duration::from_millis(100)).wait().unwrap();
     assert!(!on(&frames(&mut r.tap), 0x2F1).is_empty());
     assert!(decoded(&drain(&events), 2).is_empty(), "unknown COB-ID");
 
-    let tpdos = node.tpdo().read().unwrap();
+    let tpdos = node.tpdo().read().wait().unwrap();
     assert_eq!(tpdos.get(2).unwrap().comm.cob_id, PdoCobId(0x2F1));
-    r.net.run_for(Duration::from_millis(100)).unwrap();
+    r.net.run_for(Duration::from_millis(100)).wait().unwrap();
     let events = drain(&events);
     let got = decoded(&events, 2);
     assert!(got.len() >= 4, "{events:?}");
@@ -285,19 +295,19 @@ fn a_tpdo_on_a_29_bit_identifier() {
     let r = rig(true);
     let node = r.net.node(n(5));
     let events = r.net.subscribe();
-    let mut tpdos = node.tpdo().read().unwrap();
+    let mut tpdos = node.tpdo().read().wait().unwrap();
     let t3 = tpdos.get_mut(3).unwrap();
     t3.set_can_id(CanId::extended(0x0123_4567).unwrap());
     t3.set_inhibit_time(Duration::ZERO).unwrap();
     t3.set_event_timer(Duration::from_millis(10)).unwrap();
     t3.set_enabled(true);
-    node.tpdo().save(&mut tpdos).unwrap();
+    node.tpdo().save(&mut tpdos).wait().unwrap();
     assert_eq!(
         device_value(&r, 0x1802, 1),
         (0x2000_0000u32 | 0x0123_4567).to_le_bytes()
     );
     node.nmt().start().unwrap();
-    r.net.run_for(Duration::from_millis(100)).unwrap();
+    r.net.run_for(Duration::from_millis(100)).wait().unwrap();
     assert!(decoded(&drain(&events), 3).len() >= 5);
 }
 
@@ -305,28 +315,28 @@ fn a_tpdo_on_a_29_bit_identifier() {
 fn save_checks_the_mapping_before_sending_anything() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
-    let mut tpdos = node.tpdo().read().unwrap();
+    let mut tpdos = node.tpdo().read().wait().unwrap();
     let t1 = tpdos.get_mut(1).unwrap();
     t1.clear();
     t1.map("Producer heartbeat time").unwrap(); // not PDO-mappable
     frames(&mut r.tap);
-    let e = node.tpdo().save(&mut tpdos).unwrap_err();
+    let e = node.tpdo().save(&mut tpdos).wait().unwrap_err();
     assert!(e.to_string().contains("not PDO-mappable"), "{e}");
     assert!(sdo_writes(&frames(&mut r.tap)).is_empty());
     assert_eq!(device_value(&r, 0x1800, 1), 0x185u32.to_le_bytes());
 
-    let mut rpdos = node.rpdo().read().unwrap();
+    let mut rpdos = node.rpdo().read().wait().unwrap();
     let p = rpdos.get_mut(1).unwrap();
     assert!(
         p.set_inhibit_time(Duration::from_millis(1)).is_err(),
         "no sub 3"
     );
-    let mut tpdos = node.tpdo().read().unwrap();
+    let mut tpdos = node.tpdo().read().wait().unwrap();
     let t1 = tpdos.get_mut(1).unwrap();
     assert!(t1.set_inhibit_time(Duration::from_micros(150)).is_err());
     assert!(t1.set_event_timer(Duration::from_secs(70)).is_err());
     assert!(
-        node.tpdo().save(&mut rpdos).is_err(),
+        node.tpdo().save(&mut rpdos).wait().is_err(),
         "RPDOs saved as TPDOs"
     );
 }
@@ -337,20 +347,20 @@ fn rpdo_on_change_reaches_the_device() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
     node.nmt().start().unwrap();
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     let tx = node
         .rpdo()
         .start(rpdos.get(1).unwrap(), Transmission::on_change())
         .unwrap();
     frames(&mut r.tap);
     tx.set("Control Value 1.Value", 12.5f32).unwrap();
-    r.net.run_for(Duration::from_millis(5)).unwrap();
+    r.net.run_for(Duration::from_millis(5)).wait().unwrap();
     tx.set_many([((0x2540, 1), 1.25f32), ((0x2541, 1), -3.0f32)])
         .unwrap();
-    r.net.run_for(Duration::from_millis(5)).unwrap();
+    r.net.run_for(Duration::from_millis(5)).wait().unwrap();
     // Unchanged: no frame.
     tx.set((0x2541, 1), -3.0f32).unwrap();
-    r.net.run_for(Duration::from_millis(5)).unwrap();
+    r.net.run_for(Duration::from_millis(5)).wait().unwrap();
     let sent = on(&frames(&mut r.tap), 0x205);
     let mut first = 12.5f32.to_le_bytes().to_vec();
     first.extend(0f32.to_le_bytes());
@@ -370,12 +380,12 @@ fn rpdo_on_change_reaches_the_device() {
     assert!(tx.set((0x2540, 1), 2.0f32).is_err(), "stopped");
     assert!(tx.trigger().is_err());
     assert!(tx.stop().is_err());
-    r.net.run_for(Duration::from_millis(5)).unwrap();
+    r.net.run_for(Duration::from_millis(5)).wait().unwrap();
     assert!(on(&frames(&mut r.tap), 0x205).is_empty());
     assert!(
         node.rpdo()
             .start(
-                node.tpdo().read().unwrap().get(1).unwrap(),
+                node.tpdo().read().wait().unwrap().get(1).unwrap(),
                 Transmission::on_change()
             )
             .is_err(),
@@ -388,7 +398,7 @@ fn rpdo_inhibit_time_is_enforced() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
     node.nmt().start().unwrap();
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     let tx = node
         .rpdo()
         .start(
@@ -401,9 +411,9 @@ fn rpdo_inhibit_time_is_enforced() {
     // A new value every millisecond for 100 ms.
     for i in 0..100 {
         tx.set((0x2540, 1), i as f32).unwrap();
-        r.net.run_for(Duration::from_millis(1)).unwrap();
+        r.net.run_for(Duration::from_millis(1)).wait().unwrap();
     }
-    r.net.run_for(Duration::from_millis(20)).unwrap();
+    r.net.run_for(Duration::from_millis(20)).wait().unwrap();
     let sent = on(&frames(&mut r.tap), 0x205);
     let times: Vec<u64> = sent.iter().map(|(t, _)| (*t - start).as_micros()).collect();
     assert!(
@@ -422,7 +432,7 @@ fn rpdo_event_timer_cadence() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
     node.nmt().start().unwrap();
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     let tx = node
         .rpdo()
         .start(
@@ -433,7 +443,7 @@ fn rpdo_event_timer_cadence() {
     tx.set("Control Value 3.Value", 7.0f32).unwrap();
     frames(&mut r.tap);
     let start = r.net.now();
-    r.net.run_for(Duration::from_millis(505)).unwrap();
+    r.net.run_for(Duration::from_millis(505)).wait().unwrap();
     let sent = on(&frames(&mut r.tap), 0x305);
     let times: Vec<u64> = sent
         .iter()
@@ -450,20 +460,20 @@ fn rpdo_on_the_masters_sync() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
     node.nmt().start().unwrap();
-    let mut rpdos = node.rpdo().read().unwrap();
+    let mut rpdos = node.rpdo().read().wait().unwrap();
     // The node takes RPDO1 at the SYNC after it arrives (type 1).
     rpdos
         .get_mut(1)
         .unwrap()
         .set_transmission_type(TransmissionType::SyncCyclic(1));
-    node.rpdo().save(&mut rpdos).unwrap();
+    node.rpdo().save(&mut rpdos).wait().unwrap();
     let tx = node
         .rpdo()
         .start(rpdos.get(1).unwrap(), Transmission::every_nth_sync(2))
         .unwrap();
     tx.set((0x2540, 1), 4.5f32).unwrap();
     frames(&mut r.tap);
-    r.net.run_for(Duration::from_millis(5)).unwrap();
+    r.net.run_for(Duration::from_millis(5)).wait().unwrap();
     assert!(
         on(&frames(&mut r.tap), 0x205).is_empty(),
         "no SYNC, no frame"
@@ -471,7 +481,7 @@ fn rpdo_on_the_masters_sync() {
     assert_eq!(device_value(&r, 0x2540, 1), 0f32.to_le_bytes());
 
     r.net.start_sync(Duration::from_millis(10));
-    r.net.run_for(Duration::from_millis(95)).unwrap();
+    r.net.run_for(Duration::from_millis(95)).wait().unwrap();
     r.net.stop_sync();
     let seen = frames(&mut r.tap);
     let syncs = on(&seen, 0x080);
@@ -495,16 +505,16 @@ fn rpdo_sync_after_change_sends_once() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
     node.nmt().start().unwrap();
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     let tx = node
         .rpdo()
         .start(rpdos.get(1).unwrap(), Transmission::on_sync_after_change())
         .unwrap();
     r.net.start_sync(Duration::from_millis(10));
     tx.set((0x2540, 1), 1.0f32).unwrap();
-    r.net.run_for(Duration::from_millis(45)).unwrap();
+    r.net.run_for(Duration::from_millis(45)).wait().unwrap();
     tx.trigger().unwrap();
-    r.net.run_for(Duration::from_millis(40)).unwrap();
+    r.net.run_for(Duration::from_millis(40)).wait().unwrap();
     let sent = on(&frames(&mut r.tap), 0x205);
     assert_eq!(
         sent.len(),
@@ -518,7 +528,7 @@ fn a_transmitted_rpdo_follows_a_saved_cob_id() {
     let mut r = rig(true);
     let node = r.net.node(n(5));
     node.nmt().start().unwrap();
-    let mut rpdos = node.rpdo().read().unwrap();
+    let mut rpdos = node.rpdo().read().wait().unwrap();
     let tx = node
         .rpdo()
         .start(rpdos.get(1).unwrap(), Transmission::on_change())
@@ -527,14 +537,14 @@ fn a_transmitted_rpdo_follows_a_saved_cob_id() {
     r1.set_can_id(CanId::standard(0x222).unwrap());
     r1.clear();
     r1.map("Control Value 2.Value").unwrap();
-    node.rpdo().save(&mut rpdos).unwrap();
+    node.rpdo().save(&mut rpdos).wait().unwrap();
     frames(&mut r.tap);
     assert!(
         tx.set("Control Value 1.Value", 8.0f32).is_err(),
         "no longer mapped"
     );
     tx.set("Control Value 2.Value", 8.0f32).unwrap();
-    r.net.run_for(Duration::from_millis(5)).unwrap();
+    r.net.run_for(Duration::from_millis(5)).wait().unwrap();
     let seen = frames(&mut r.tap);
     assert!(on(&seen, 0x205).is_empty());
     let sent: Vec<_> = on(&seen, 0x222).into_iter().map(|(_, d)| d).collect();
@@ -560,7 +570,7 @@ fn rpdo_cyclic_with_the_background_driver() {
     let node = net.add_node_with_dictionary(n(5), od());
     net.start_driver().unwrap();
     node.nmt().start().unwrap();
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     let tx = node
         .rpdo()
         .start(
@@ -570,7 +580,10 @@ fn rpdo_cyclic_with_the_background_driver() {
         .unwrap();
     tx.set((0x2540, 1), 3.0f32).unwrap();
     std::thread::sleep(std::time::Duration::from_millis(200));
-    assert_eq!(node.sdo().read((0x2540, 1)).unwrap(), 3.0f32.to_le_bytes());
+    assert_eq!(
+        node.sdo().read((0x2540, 1)).wait().unwrap(),
+        3.0f32.to_le_bytes()
+    );
     net.stop_driver().unwrap();
     // The tap received while the bus ran; count what it holds.
     let mut count = 0;
@@ -604,14 +617,14 @@ fn pdo_callbacks_see_what_the_events_carry() {
                 .push((p.node, p.number, p.data.to_vec(), p.values.to_vec()));
         });
         r.net.node(n(5)).nmt().start().unwrap();
-        r.net.run_for(Duration::from_millis(20)).unwrap();
+        r.net.run_for(Duration::from_millis(20)).wait().unwrap();
         let now = r.bus.now();
         r.bus
             .with_station(r.device, |d| {
                 d.set_value(now, 0x2500, 1, 21.5f32.to_le_bytes())
             })
             .unwrap();
-        r.net.run_for(Duration::from_millis(1200)).unwrap();
+        r.net.run_for(Duration::from_millis(1200)).wait().unwrap();
         let from_events: Seen = drain(&events)
             .iter()
             .filter_map(|e| {
@@ -635,7 +648,7 @@ fn pdo_callbacks_see_what_the_events_carry() {
         }
         assert!(r.net.remove_pdo_callback(id));
         assert!(!r.net.remove_pdo_callback(id));
-        r.net.run_for(Duration::from_millis(1200)).unwrap();
+        r.net.run_for(Duration::from_millis(1200)).wait().unwrap();
         assert!(seen.lock().unwrap().is_empty());
         assert!(drain(&events).iter().any(|e| e.pdo_data().is_some()));
     }
@@ -670,7 +683,7 @@ fn pdo_batches_carry_what_the_callback_sees() {
                     d.set_value(now, 0x2500, 1, value.to_le_bytes())
                 })
                 .unwrap();
-            r.net.run_for(Duration::from_millis(700)).unwrap();
+            r.net.run_for(Duration::from_millis(700)).wait().unwrap();
             // Several steps' PDOs in one batch, read as the callback's views.
             let batch = first.try_recv().unwrap();
             assert_eq!(batch.iter().len(), batch.len());
@@ -767,12 +780,13 @@ fn a_step_that_leaves_a_backlog_wakes_a_blocked_batch_subscriber() {
         // Blocks for up to an hour: a missed wake-up shows as no result below.
         let batch = pdos
             .recv()
+            .wait()
             .map(|b| b.iter().map(|p| p.data[0]).collect::<Vec<_>>());
         done.send(batch)
     });
     // Let the reader block first (were it late, it would find the batch without a wake-up).
     std::thread::sleep(std::time::Duration::from_millis(100));
-    net.run_until(net.now()).unwrap();
+    net.run_until(net.now()).wait().unwrap();
     let got = result
         .recv_timeout(std::time::Duration::from_secs(20))
         .expect("the blocked subscriber was woken")

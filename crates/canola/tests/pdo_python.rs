@@ -95,7 +95,7 @@ fn pdos_with_python_canopen_as_the_device() {
     let node = net.add_node_with_dictionary(id, od);
     let events = net.subscribe();
 
-    let mut tpdos = node.tpdo().read().unwrap();
+    let mut tpdos = node.tpdo().read().wait().unwrap();
     let t1 = tpdos.get_mut(1).unwrap();
     assert_eq!(t1.comm.cob_id, PdoCobId(0x185));
     assert_eq!(t1.transmission_type(), TransmissionType::EventManufacturer);
@@ -108,9 +108,9 @@ fn pdos_with_python_canopen_as_the_device() {
     t1.map("Device Status Object.Device Status NamurNe107")
         .unwrap();
     t1.map("Sensor Value 1.Value").unwrap();
-    node.tpdo().save(&mut tpdos).unwrap();
+    node.tpdo().save(&mut tpdos).wait().unwrap();
 
-    let rpdos = node.rpdo().read().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
     assert_eq!(rpdos.get(1).unwrap().comm.cob_id, PdoCobId(0x205));
     let rpdo1 = node
         .rpdo()

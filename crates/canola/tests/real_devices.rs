@@ -29,7 +29,7 @@ fn rig() -> (MemoryBus, Network) {
 fn the_quirk_sends_42_and_four_bytes() {
     let (bus, net) = rig();
     let mut tap = bus.endpoint();
-    let raw = net.node(n(5)).sdo().read((0x1017, 0)).unwrap();
+    let raw = net.node(n(5)).sdo().read((0x1017, 0)).wait().unwrap();
     // The raw read hands back what the device sent: all four bytes.
     assert_eq!(raw.len(), 4);
     assert_eq!(raw[..2], 500u16.to_le_bytes());
@@ -53,21 +53,27 @@ fn typed_reads_take_the_type_length_of_an_answer_without_size() {
     let sdo = || net.node(n(5)).sdo();
     // UNSIGNED16 (producer heartbeat time) and UNSIGNED8 (error register).
     assert_eq!(
-        sdo().read_value((0x1017, 0)).unwrap(),
+        sdo().read_value((0x1017, 0)).wait().unwrap(),
         Value::Unsigned16(500)
     );
-    assert_eq!(sdo().get((0x1017, 0)).unwrap(), Value::Unsigned16(500));
     assert_eq!(
-        sdo().read_as((0x1001, 0), DataType::Unsigned8).unwrap(),
+        sdo().get((0x1017, 0)).wait().unwrap(),
+        Value::Unsigned16(500)
+    );
+    assert_eq!(
+        sdo()
+            .read_as((0x1001, 0), DataType::Unsigned8)
+            .wait()
+            .unwrap(),
         Value::Unsigned8(0)
     );
     let hb: Entry<u16> = Entry::new(0x1017, 0, DataType::Unsigned16);
-    assert_eq!(sdo().read_entry(&hb).unwrap(), 500);
+    assert_eq!(sdo().read_entry(&hb).wait().unwrap(), 500);
     let reg: Entry<u8> = Entry::new(0x1001, 0, DataType::Unsigned8);
-    assert_eq!(sdo().read_entry(&reg).unwrap(), 0);
+    assert_eq!(sdo().read_entry(&reg).wait().unwrap(), 0);
     // A four-byte type is unchanged.
     assert_eq!(
-        sdo().read_value((0x1018, 1)).unwrap(),
+        sdo().read_value((0x1018, 1)).wait().unwrap(),
         Value::Unsigned32(0x39)
     );
 }
@@ -78,11 +84,11 @@ async fn async_typed_reads_take_the_type_length_too() {
     let (_bus, net) = rig();
     let sdo = || net.node(n(5)).sdo();
     assert_eq!(
-        sdo().read_value_async((0x1017, 0)).await.unwrap(),
+        sdo().read_value((0x1017, 0)).await.unwrap(),
         Value::Unsigned16(500)
     );
     let reg: Entry<u8> = Entry::new(0x1001, 0, DataType::Unsigned8);
-    assert_eq!(sdo().read_entry_async(&reg).await.unwrap(), 0);
+    assert_eq!(sdo().read_entry(&reg).await.unwrap(), 0);
 }
 
 /// A device that answers an expedited upload with a frame only as long as its data (DLC 5:
@@ -114,9 +120,12 @@ fn an_expedited_answer_shorter_than_eight_bytes_is_taken() {
     let net = Network::new(bus.endpoint());
     bus.attach(ShortAnswers { out: None });
     let sdo = || net.node(n(5)).sdo().timeout(Duration::from_millis(100));
-    assert_eq!(sdo().read((0x1400, 2)).unwrap(), [0xFE]);
+    assert_eq!(sdo().read((0x1400, 2)).wait().unwrap(), [0xFE]);
     assert_eq!(
-        sdo().read_as((0x1400, 2), DataType::Unsigned8).unwrap(),
+        sdo()
+            .read_as((0x1400, 2), DataType::Unsigned8)
+            .wait()
+            .unwrap(),
         Value::Unsigned8(0xFE)
     );
 }

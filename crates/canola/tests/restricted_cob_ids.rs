@@ -30,7 +30,7 @@ fn the_simulated_device_refuses_a_restricted_cob_id_by_sdo() {
         (0x1400, 1, 0x0000_0605),         // RPDO1 on node 5's SDO request identifier
         (0x1005, 0, 0x0000_0001),         // SYNC on 0x001
     ] {
-        let e = sdo().write((index, sub), value).unwrap_err();
+        let e = sdo().write((index, sub), value).wait().unwrap_err();
         assert_eq!(
             e.server_abort().map(|a| a.get()),
             Some(0x0609_0030),
@@ -38,22 +38,22 @@ fn the_simulated_device_refuses_a_restricted_cob_id_by_sdo() {
         );
     }
     // Still the EDS values.
-    let cob = sdo().read((0x1800, 1)).unwrap();
+    let cob = sdo().read((0x1800, 1)).wait().unwrap();
     assert_ne!(u32::from_le_bytes(cob.try_into().unwrap()) & 0x7FF, 0);
     // Switching a PDO off (bit 31) and an allowed identifier pass.
-    sdo().write((0x1800, 1), 0x8000_0185u32).unwrap();
-    sdo().write((0x1800, 1), 0x0000_01F0u32).unwrap();
+    sdo().write((0x1800, 1), 0x8000_0185u32).wait().unwrap();
+    sdo().write((0x1800, 1), 0x0000_01F0u32).wait().unwrap();
 }
 
 #[test]
 fn the_master_refuses_to_remap_a_pdo_onto_a_restricted_cob_id() {
     let (_bus, net) = rig();
     let node = net.node(n(5));
-    let mut tpdos = node.tpdo().read().unwrap();
-    let before = node.sdo().read((0x1800, 1)).unwrap();
+    let mut tpdos = node.tpdo().read().wait().unwrap();
+    let before = node.sdo().read((0x1800, 1)).wait().unwrap();
     let t1 = tpdos.get_mut(1).unwrap();
     t1.set_can_id(CanId::standard(0x000).unwrap());
-    let e = node.tpdo().save(&mut tpdos).unwrap_err();
+    let e = node.tpdo().save(&mut tpdos).wait().unwrap_err();
     match &e {
         Error::RestrictedCobId {
             node: id,
@@ -72,7 +72,7 @@ fn the_master_refuses_to_remap_a_pdo_onto_a_restricted_cob_id() {
         "{text}"
     );
     // Nothing was written: the PDO is as it was.
-    assert_eq!(node.sdo().read((0x1800, 1)).unwrap(), before);
+    assert_eq!(node.sdo().read((0x1800, 1)).wait().unwrap(), before);
 }
 
 /// An EDS whose TPDO1 COB-ID does not parse (`$NODEID+0xZZ`): kept as text it would put the
@@ -121,7 +121,7 @@ fn from_eds_with_hands_back_the_warnings() {
 fn the_master_does_not_transmit_an_rpdo_on_a_restricted_cob_id() {
     let (_bus, net) = rig();
     let node = net.node(n(5));
-    let mut rpdos = node.rpdo().read().unwrap();
+    let mut rpdos = node.rpdo().read().wait().unwrap();
     // As read from a device whose RPDO1 COB-ID is the NMT identifier.
     rpdos
         .get_mut(1)
@@ -153,9 +153,11 @@ fn a_simulated_device_does_not_send_a_tpdo_on_a_restricted_cob_id() {
     let net = Network::new(bus.endpoint());
     let mut tap = bus.endpoint();
     bus.attach(SimDevice::from_eds(n(5), text.as_bytes()).unwrap());
-    net.run_for(canola::Duration::from_millis(10)).unwrap();
+    net.run_for(canola::Duration::from_millis(10))
+        .wait()
+        .unwrap();
     net.node(n(5)).nmt().start().unwrap();
-    net.run_for(canola::Duration::from_secs(3)).unwrap();
+    net.run_for(canola::Duration::from_secs(3)).wait().unwrap();
     let until = tap.now() + canola::Duration::from_millis(1);
     let mut on_nmt = Vec::new();
     while let Ok(Some(r)) = tap.recv_until(until) {

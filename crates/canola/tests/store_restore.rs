@@ -51,44 +51,48 @@ fn abort(e: &canola::Error) -> Option<AbortCode> {
 
 fn reset(node: &canola::Node) {
     node.nmt().reset_node().unwrap();
-    node.nmt().wait_for_bootup(Duration::from_secs(1)).unwrap();
+    node.nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .wait()
+        .unwrap();
 }
 
 #[test]
 fn stored_parameters_survive_a_reset_and_defaults_come_back() {
     let (_bus, _net, node) = setup(STORING_EDS.as_bytes());
-    node.sdo().write((0x2000, 0), 321u16).unwrap();
-    node.sdo().write((0x1017, 0), 250u16).unwrap();
+    node.sdo().write((0x2000, 0), 321u16).wait().unwrap();
+    node.sdo().write((0x1017, 0), 250u16).wait().unwrap();
     // Not stored: a reset node brings the stored (here: default) values back.
     reset(&node);
-    assert_eq!(node.read_typed::<u16>((0x2000, 0)).unwrap(), 100);
-    node.sdo().write((0x2000, 0), 321u16).unwrap();
-    node.sdo().write((0x1017, 0), 250u16).unwrap();
-    node.store_parameters().unwrap();
+    assert_eq!(node.read_typed::<u16>((0x2000, 0)).wait().unwrap(), 100);
+    node.sdo().write((0x2000, 0), 321u16).wait().unwrap();
+    node.sdo().write((0x1017, 0), 250u16).wait().unwrap();
+    node.store_parameters().wait().unwrap();
     // The write of `save` does not change what the sub-index reads (its capabilities).
-    assert_eq!(node.read_typed::<u32>((0x1010, 1)).unwrap(), 1);
+    assert_eq!(node.read_typed::<u32>((0x1010, 1)).wait().unwrap(), 1);
     reset(&node);
-    assert_eq!(node.read_typed::<u16>((0x2000, 0)).unwrap(), 321);
-    assert_eq!(node.read_typed::<u16>((0x1017, 0)).unwrap(), 250);
+    assert_eq!(node.read_typed::<u16>((0x2000, 0)).wait().unwrap(), 321);
+    assert_eq!(node.read_typed::<u16>((0x1017, 0)).wait().unwrap(), 250);
     // Restore the communication parameters only: 0x1017 back to default, 0x2000 kept.
     node.restore_defaults_of(ParameterGroup::Communication)
+        .wait()
         .unwrap();
     // Still the current values until the reset.
-    assert_eq!(node.read_typed::<u16>((0x1017, 0)).unwrap(), 250);
+    assert_eq!(node.read_typed::<u16>((0x1017, 0)).wait().unwrap(), 250);
     reset(&node);
-    assert_eq!(node.read_typed::<u16>((0x1017, 0)).unwrap(), 0);
-    assert_eq!(node.read_typed::<u16>((0x2000, 0)).unwrap(), 321);
-    node.restore_defaults().unwrap();
+    assert_eq!(node.read_typed::<u16>((0x1017, 0)).wait().unwrap(), 0);
+    assert_eq!(node.read_typed::<u16>((0x2000, 0)).wait().unwrap(), 321);
+    node.restore_defaults().wait().unwrap();
     reset(&node);
-    assert_eq!(node.read_typed::<u16>((0x2000, 0)).unwrap(), 100);
+    assert_eq!(node.read_typed::<u16>((0x2000, 0)).wait().unwrap(), 100);
 }
 
 #[test]
 fn a_wrong_signature_and_a_device_without_storage_are_refused() {
     let (_bus, _net, node) = setup(STORING_EDS.as_bytes());
     // CiA 301: a wrong signature is refused with 0x08000020 and nothing is stored.
-    node.sdo().write((0x2000, 0), 321u16).unwrap();
-    let e = node.sdo().write((0x1010, 1), *b"load").unwrap_err();
+    node.sdo().write((0x2000, 0), 321u16).wait().unwrap();
+    let e = node.sdo().write((0x1010, 1), *b"load").wait().unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::CANNOT_STORE), "{e}");
     // The object as every message writes an address.
     assert!(
@@ -96,21 +100,22 @@ fn a_wrong_signature_and_a_device_without_storage_are_refused() {
             .starts_with("node 5, object 0x1010:01: SDO abort 0x08000020"),
         "{e}"
     );
-    let e = node.sdo().write((0x1011, 1), *b"save").unwrap_err();
+    let e = node.sdo().write((0x1011, 1), *b"save").wait().unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::CANNOT_STORE), "{e}");
     reset(&node);
-    assert_eq!(node.read_typed::<u16>((0x2000, 0)).unwrap(), 100);
+    assert_eq!(node.read_typed::<u16>((0x2000, 0)).wait().unwrap(), 100);
     // A sub-index the device does not have.
     let e = node
         .store_parameters_of(ParameterGroup::Other(9))
+        .wait()
         .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::SUBINDEX_DOES_NOT_EXIST), "{e}");
 
     // The Bürkert device has no 0x1010: the abort says storing is not supported.
     let eds = include_bytes!("../../../eds/burkert-generic.eds");
     let (_bus, _net, node) = setup(eds);
-    let e = node.store_parameters().unwrap_err();
+    let e = node.store_parameters().wait().unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::OBJECT_DOES_NOT_EXIST), "{e}");
-    let e = node.restore_defaults().unwrap_err();
+    let e = node.restore_defaults().wait().unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::OBJECT_DOES_NOT_EXIST), "{e}");
 }

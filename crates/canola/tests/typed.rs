@@ -24,19 +24,19 @@ fn read_by_name_and_by_address() {
     let (_bus, net) = rig();
     let node = net.node(n(5));
     assert_eq!(
-        node.sdo().get("Producer heartbeat time").unwrap(),
+        node.sdo().get("Producer heartbeat time").wait().unwrap(),
         Value::Unsigned16(500)
     );
     assert_eq!(
-        node.sdo().get("identity object.vendor id").unwrap(),
+        node.sdo().get("identity object.vendor id").wait().unwrap(),
         Value::Unsigned32(0x39)
     );
     assert_eq!(
-        node.sdo().get((0x1018, 1)).unwrap(),
+        node.sdo().get((0x1018, 1)).wait().unwrap(),
         Value::Unsigned32(0x39)
     );
     assert_eq!(
-        node.sdo().get("Manufacturer device name").unwrap(),
+        node.sdo().get("Manufacturer device name").wait().unwrap(),
         Value::VisibleString(b"Buerkert generic device".to_vec())
     );
 }
@@ -47,20 +47,33 @@ fn read_by_name_and_by_address() {
 fn writes_are_typed_by_the_dictionary() {
     let (_bus, net) = rig();
     let node = net.node(n(5));
-    let untyped = node.sdo().write((0x1017, 0), 200).unwrap_err();
+    let untyped = node.sdo().write((0x1017, 0), 200).wait().unwrap_err();
     assert_eq!(
         untyped.server_abort().map(|a| a.get()),
         Some(0x0607_0012),
         "{untyped}"
     );
-    node.sdo().set("Producer heartbeat time", 200).unwrap();
-    assert_eq!(node.sdo().read((0x1017, 0)).unwrap(), 200u16.to_le_bytes());
-    node.sdo().set((0x1017, 0), 300u64).unwrap();
-    assert_eq!(node.sdo().get((0x1017, 0)).unwrap(), Value::Unsigned16(300));
+    node.sdo()
+        .set("Producer heartbeat time", 200)
+        .wait()
+        .unwrap();
+    assert_eq!(
+        node.sdo().read((0x1017, 0)).wait().unwrap(),
+        200u16.to_le_bytes()
+    );
+    node.sdo().set((0x1017, 0), 300u64).wait().unwrap();
+    assert_eq!(
+        node.sdo().get((0x1017, 0)).wait().unwrap(),
+        Value::Unsigned16(300)
+    );
     node.sdo()
         .set("Producer Heartbeat Time", Value::Unsigned32(400))
+        .wait()
         .unwrap();
-    assert_eq!(node.sdo().get((0x1017, 0)).unwrap(), Value::Unsigned16(400));
+    assert_eq!(
+        node.sdo().get((0x1017, 0)).wait().unwrap(),
+        Value::Unsigned16(400)
+    );
 }
 
 #[test]
@@ -77,6 +90,7 @@ fn values_that_do_not_fit_fail_before_anything_is_sent() {
         let e = node
             .sdo()
             .set("Producer heartbeat time", value)
+            .wait()
             .unwrap_err();
         let Error::Value {
             node: at,
@@ -94,11 +108,11 @@ fn values_that_do_not_fit_fail_before_anything_is_sent() {
     }
     assert_eq!(bus.stats(), before, "nothing was sent");
 
-    let e = node.sdo().get("No such thing").unwrap_err();
+    let e = node.sdo().get("No such thing").wait().unwrap_err();
     assert!(matches!(e, Error::UnknownObject { .. }), "{e}");
-    let e = node.sdo().get("Identity Object").unwrap_err();
+    let e = node.sdo().get("Identity Object").wait().unwrap_err();
     assert!(e.to_string().contains("array or record"), "{e}");
     // A node without a dictionary has no names.
-    let e = net.node(n(6)).sdo().get("Device type").unwrap_err();
+    let e = net.node(n(6)).sdo().get("Device type").wait().unwrap_err();
     assert!(e.to_string().contains("without a dictionary"), "{e}");
 }

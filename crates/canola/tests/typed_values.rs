@@ -37,20 +37,20 @@ fn typed_reads_on_the_node_handle() {
     bus.attach(SimDevice::from_eds(id, EDS).unwrap());
     // No dictionary: the communication profile's types.
     let node = net.node(id);
-    assert_eq!(node.read_typed::<u16>((0x1017, 0)).unwrap(), 500);
-    assert_eq!(node.read_typed::<u32>((0x1018, 1)).unwrap(), 0x39);
+    assert_eq!(node.read_typed::<u16>((0x1017, 0)).wait().unwrap(), 500);
+    assert_eq!(node.read_typed::<u32>((0x1018, 1)).wait().unwrap(), 0x39);
     assert_eq!(
-        node.read_typed::<String>((0x1008, 0)).unwrap(),
+        node.read_typed::<String>((0x1008, 0)).wait().unwrap(),
         "Buerkert generic device"
     );
     // 500 does not fit: an error naming the object, not a truncated number.
-    let e = node.read_typed::<u8>((0x1017, 0)).unwrap_err();
+    let e = node.read_typed::<u8>((0x1017, 0)).wait().unwrap_err();
     assert!(e.to_string().contains("0x1017"), "{e}");
     // A manufacturer object without a dictionary: the Rust type's own CANopen type.
-    assert_eq!(node.read_typed::<u32>((0x2120, 0)).unwrap(), 0);
+    assert_eq!(node.read_typed::<u32>((0x2120, 0)).wait().unwrap(), 0);
     // With a dictionary: its type (REAL32 for a sensor value).
     let node = net.add_node_with_dictionary(id, canola::od::parse(EDS).unwrap().od);
-    assert_eq!(node.read_typed::<f32>((0x2500, 6)).unwrap(), 0.01);
+    assert_eq!(node.read_typed::<f32>((0x2500, 6)).wait().unwrap(), 0.01);
 }
 
 #[test]
@@ -74,7 +74,7 @@ fn pdo_values_by_name() {
     });
     let mut pdos = net.subscribe_pdos();
     node.nmt().start().unwrap();
-    net.run_for(Duration::from_millis(50)).unwrap();
+    net.run_for(Duration::from_millis(50)).wait().unwrap();
     let seen = seen.lock().unwrap();
     assert!(!seen.is_empty());
     assert!(

@@ -19,7 +19,10 @@ fn run() -> Result<i32, Box<dyn std::error::Error>> {
     let id = NodeId::new(5)?;
     let (device, _model) = simulated_drive(id, EDS, SimDrive::default())?;
     bus.attach(device);
-    net.node(id).nmt().wait_for_bootup(Duration::from_secs(1))?;
+    net.node(id)
+        .nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .wait()?;
 
     let drive = Drive::new(net.node(id));
     drive.set_mode(ModeOfOperation::ProfilePosition)?; // confirmed by 0x6061

@@ -26,7 +26,10 @@ fn rig(config: SimConfig) -> Rig {
     let node = net.add_node(id);
     let (device, model) = simulated_drive(id, EDS, SimDrive::new(config)).unwrap();
     bus.attach(device);
-    node.nmt().wait_for_bootup(Duration::from_secs(1)).unwrap();
+    node.nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .wait()
+        .unwrap();
     let drive = Drive::new(node);
     Rig {
         bus,
@@ -82,7 +85,7 @@ fn quick_stop_ends_in_switch_on_disabled_with_605a_2() {
     let r = rig(SimConfig::default());
     r.drive.enable().unwrap();
     r.drive.set_velocity(20_000).unwrap();
-    r.net.run_for(Duration::from_millis(200)).unwrap();
+    r.net.run_for(Duration::from_millis(200)).wait().unwrap();
     assert_eq!(r.drive.quick_stop().unwrap(), State::SwitchOnDisabled);
     assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
     assert!(r.model.lock().unwrap().velocity().abs() < 1.0);
@@ -91,10 +94,15 @@ fn quick_stop_ends_in_switch_on_disabled_with_605a_2() {
 #[test]
 fn quick_stop_stays_active_with_605a_6_and_transition_16_enables_again() {
     let r = rig(SimConfig::default());
-    r.drive.node().sdo().write((0x605A, 0), 6i16).unwrap();
+    r.drive
+        .node()
+        .sdo()
+        .write((0x605A, 0), 6i16)
+        .wait()
+        .unwrap();
     r.drive.enable().unwrap();
     assert_eq!(r.drive.quick_stop().unwrap(), State::QuickStopActive);
-    r.net.run_for(Duration::from_millis(300)).unwrap();
+    r.net.run_for(Duration::from_millis(300)).wait().unwrap();
     assert_eq!(r.drive.state().unwrap(), State::QuickStopActive);
     // Transition 16: 0x000F in quick stop active.
     assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
@@ -160,7 +168,7 @@ fn modes_work_without_0x6502() {
         supported_modes: None,
         ..SimConfig::default()
     });
-    let e = r.drive.node().sdo().read((0x6502, 0)).unwrap_err();
+    let e = r.drive.node().sdo().read((0x6502, 0)).wait().unwrap_err();
     assert_eq!(abort_code(&DriveError::Sdo(e)), Some(0x0602_0000));
     r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
     r.drive.enable().unwrap();
@@ -179,7 +187,7 @@ fn homing_from_switch_on_disabled_selects_the_mode_and_asks_for_enable() {
     // python-canopen #244: homing mode can be chosen in switch on disabled; the power state is
     // not changed behind the caller's back, and homing itself needs operation enabled.
     let r = rig(SimConfig::default());
-    r.net.run_for(Duration::from_millis(50)).unwrap();
+    r.net.run_for(Duration::from_millis(50)).wait().unwrap();
     assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
     match r.drive.home(Some(19)) {
         Err(DriveError::NotEnabled { state, .. }) => assert_eq!(state, State::SwitchOnDisabled),
@@ -203,7 +211,7 @@ fn safe_torque_off_at_start_up_leaves_the_drive_usable_but_not_enabled() {
         safe_torque_off: true,
         ..SimConfig::default()
     });
-    r.net.run_for(Duration::from_millis(50)).unwrap();
+    r.net.run_for(Duration::from_millis(50)).wait().unwrap();
     assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
     r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
     match r.drive.enable() {
@@ -288,7 +296,7 @@ fn rpdo_controlwords_reach_the_drive_and_tpdos_carry_its_statusword() {
     // The drive behind the device's PDOs: RPDO1 = controlword + mode, TPDO1 = statusword + mode
     // display (event-driven), as the EDS maps them.
     let r = rig(SimConfig::default());
-    r.net.run_for(Duration::from_millis(50)).unwrap();
+    r.net.run_for(Duration::from_millis(50)).wait().unwrap();
     r.drive.node().nmt().start().unwrap();
     let events = r.net.subscribe();
     let rpdo = CanId::standard(0x205).unwrap();
@@ -297,7 +305,7 @@ fn rpdo_controlwords_reach_the_drive_and_tpdos_carry_its_statusword() {
         r.net
             .send(CanFrame::new(rpdo, &[lo, hi, 1]).unwrap())
             .unwrap();
-        r.net.run_for(Duration::from_millis(20)).unwrap();
+        r.net.run_for(Duration::from_millis(20)).wait().unwrap();
     }
     assert_eq!(r.model.lock().unwrap().state(), State::OperationEnabled);
     assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
@@ -325,7 +333,7 @@ fn a_set_point_edge_sent_by_two_back_to_back_rpdos_is_not_lost() {
     r.drive.enable().unwrap();
     r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
     r.drive.node().nmt().start().unwrap();
-    r.net.run_for(Duration::from_millis(10)).unwrap();
+    r.net.run_for(Duration::from_millis(10)).wait().unwrap();
     let rpdo2 = CanId::standard(0x305).unwrap();
     for cw in [0x001Fu16, 0x000F] {
         let mut data = cw.to_le_bytes().to_vec();
@@ -344,16 +352,16 @@ fn halt_stops_profile_velocity_in_operation_enabled_and_release_runs_again() {
     let r = rig(SimConfig::default());
     r.drive.enable().unwrap();
     r.drive.set_velocity(10_000).unwrap();
-    r.net.run_for(Duration::from_millis(500)).unwrap();
+    r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     let moving = r.model.lock().unwrap().velocity();
     assert!((moving - 10_000.0).abs() < 200.0, "{moving}");
     r.drive.halt(true).unwrap();
-    r.net.run_for(Duration::from_millis(500)).unwrap();
+    r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     assert!(r.model.lock().unwrap().velocity().abs() < 1.0);
     // Halt keeps the drive enabled (0x605D = 1: slow down and stay).
     assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
     r.drive.halt(false).unwrap();
-    r.net.run_for(Duration::from_millis(500)).unwrap();
+    r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     assert!(r.model.lock().unwrap().velocity() > 5_000.0);
 }
 
@@ -362,7 +370,7 @@ fn profile_torque_accelerates_the_motor_and_shows_in_the_status() {
     let r = rig(SimConfig::default());
     r.drive.enable().unwrap();
     r.drive.set_torque(100).unwrap();
-    r.net.run_for(Duration::from_millis(200)).unwrap();
+    r.net.run_for(Duration::from_millis(200)).wait().unwrap();
     let s = r.drive.status().unwrap();
     assert_eq!(s.mode, ModeOfOperation::ProfileTorque);
     assert_eq!(s.state, Some(State::OperationEnabled));
@@ -376,7 +384,7 @@ fn enable_from_fault_resets_it_on_a_rising_edge_of_bit_7() {
     let r = rig(SimConfig::default());
     r.drive.enable().unwrap();
     r.model.lock().unwrap().inject_fault(SimFault::OverCurrent);
-    r.net.run_for(Duration::from_millis(200)).unwrap();
+    r.net.run_for(Duration::from_millis(200)).wait().unwrap();
     assert_eq!(r.drive.state().unwrap(), State::Fault);
     assert_eq!(r.drive.error_code().unwrap().0, 0x2310);
     // The last controlword had bit 7 clear (0x000F): the planner's reset sends 0x0080 at once.
@@ -404,7 +412,7 @@ fn halt_outside_operation_enabled_is_refused_without_a_controlword() {
         Err(DriveError::NotEnabled { state, .. }) => assert_eq!(state, State::ReadyToSwitchOn),
         other => panic!("{other:?}"),
     }
-    r.net.run_for(Duration::from_millis(20)).unwrap();
+    r.net.run_for(Duration::from_millis(20)).wait().unwrap();
     assert_eq!(r.drive.state().unwrap(), State::ReadyToSwitchOn);
 }
 
@@ -416,7 +424,7 @@ fn a_drive_handle_sends_nothing_at_set_up_and_forces_no_nmt_state() {
     let r = rig(SimConfig::default());
     let mut tap = r.bus.endpoint();
     let absent = Drive::new(r.net.node(NodeId::new(9).unwrap()));
-    r.net.run_for(Duration::from_millis(10)).unwrap();
+    r.net.run_for(Duration::from_millis(10)).wait().unwrap();
     let e = absent.state().unwrap_err();
     assert!(matches!(e, DriveError::Sdo(_)), "{e}");
     assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
@@ -434,11 +442,12 @@ fn the_statusword_is_read_fresh_without_any_tpdo() {
     // bit 31), every step still sees the drive's present state.
     let r = rig(SimConfig::default());
     let sdo = r.drive.node().sdo();
-    let cob = u32::from_le_bytes(sdo.read((0x1800, 1)).unwrap().try_into().unwrap());
+    let cob = u32::from_le_bytes(sdo.read((0x1800, 1)).wait().unwrap().try_into().unwrap());
     r.drive
         .node()
         .sdo()
         .write((0x1800, 1), cob | 0x8000_0000)
+        .wait()
         .unwrap();
     r.drive.node().nmt().start().unwrap();
     let events = r.net.subscribe();
@@ -482,6 +491,7 @@ fn two_axes_of_one_device_are_commanded_apart() {
     net.node(id)
         .nmt()
         .wait_for_bootup(Duration::from_secs(1))
+        .wait()
         .unwrap();
     let a0 = Drive::new(net.node(id));
     let a1 = Drive::on_axis(net.node(id), 1);
@@ -507,7 +517,10 @@ fn actual_values_come_from_sync_tpdos_when_followed_and_by_sdo_when_stale() {
     let node = net.add_node_with_dictionary(id, canola::od::parse(EDS).unwrap().od);
     let (device, _model) = simulated_drive(id, EDS, SimDrive::default()).unwrap();
     bus.attach(device);
-    node.nmt().wait_for_bootup(Duration::from_secs(1)).unwrap();
+    node.nmt()
+        .wait_for_bootup(Duration::from_secs(1))
+        .wait()
+        .unwrap();
     node.nmt().start().unwrap();
     net.start_sync(Duration::from_millis(10)); // TPDO2 (statusword, 0x6064) on each SYNC
     let drive = Drive::new(node);
@@ -519,7 +532,7 @@ fn actual_values_come_from_sync_tpdos_when_followed_and_by_sdo_when_stale() {
             ..Move::default()
         })
         .unwrap();
-    net.run_for(Duration::from_millis(30)).unwrap();
+    net.run_for(Duration::from_millis(30)).wait().unwrap();
     let uploads_of_6064 = |tap: &mut canola::Endpoint| {
         let mut n = 0;
         while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
@@ -533,7 +546,7 @@ fn actual_values_come_from_sync_tpdos_when_followed_and_by_sdo_when_stale() {
     assert!((drive.position().unwrap() - 2_000).abs() <= 10);
     assert_eq!(uploads_of_6064(&mut tap), 0, "served from TPDO2");
     net.stop_sync();
-    net.run_for(Duration::from_millis(100)).unwrap();
+    net.run_for(Duration::from_millis(100)).wait().unwrap();
     assert!((drive.position().unwrap() - 2_000).abs() <= 10);
     assert_eq!(uploads_of_6064(&mut tap), 1, "stale: read by SDO");
 }
@@ -561,15 +574,15 @@ fn a_csp_stream_on_sync_moves_the_drive_without_a_jump() {
     assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::CyclicSyncPosition);
     assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
     // No jump to 0 when the mode switched: the first target was the actual position.
-    r.net.run_for(Duration::from_millis(20)).unwrap();
+    r.net.run_for(Duration::from_millis(20)).wait().unwrap();
     assert!((r.model.lock().unwrap().position() - 500.0).abs() <= 10.0);
     let mut farthest: f64 = 0.0;
     for i in 1..=300 {
         stream.set_target(500 + i * 10).unwrap();
-        r.net.run_for(Duration::from_millis(1)).unwrap();
+        r.net.run_for(Duration::from_millis(1)).wait().unwrap();
         farthest = farthest.max(r.model.lock().unwrap().position());
     }
-    r.net.run_for(Duration::from_millis(500)).unwrap();
+    r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     let pos = r.drive.position().unwrap();
     assert!((pos - 3_500).abs() <= 20, "{pos} {farthest}");
     assert!(
@@ -600,6 +613,7 @@ fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
         net.node(id)
             .nmt()
             .wait_for_bootup(Duration::from_secs(1))
+            .wait()
             .unwrap();
         drives.push(Drive::new(net.node(id)));
     }
@@ -624,7 +638,7 @@ fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
         for (k, s) in streams.iter().enumerate() {
             s.set_target(i * 10 * (k as i32 + 1)).unwrap();
         }
-        net.run_for(Duration::from_millis(1)).unwrap();
+        net.run_for(Duration::from_millis(1)).wait().unwrap();
     }
     net.stop_sync();
     // Between two SYNCs: RPDO4 of node 5 (0x505) and of node 6 (0x506), once each.
@@ -647,7 +661,7 @@ fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
         ids.sort_unstable();
         assert_eq!(ids, [0x505, 0x506], "{cycles:?}");
     }
-    net.run_for(Duration::from_millis(500)).unwrap();
+    net.run_for(Duration::from_millis(500)).wait().unwrap();
     assert!((drives[0].position().unwrap() - 1_000).abs() <= 20);
     assert!((drives[1].position().unwrap() - 2_000).abs() <= 20);
 }

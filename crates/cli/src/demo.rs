@@ -94,7 +94,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         n6,
         od.clone(),
     ));
-    net.run_for(Duration::from_millis(10))?;
+    net.run_for(Duration::from_millis(10)).wait()?;
     show_traffic(&mut tap, &mut monitor, 10);
     for ev in events.try_iter() {
         if let NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node }) = ev {
@@ -109,14 +109,14 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         "   an unconfigured device (LSS address {addr}) is powered on: it stays silent"
     ));
     let pool = NodeIdPool::range(n7, n7);
-    let report = net.lss().assign_all(AssignConfig::with_pool(pool))?;
+    let report = net.lss().assign_all(AssignConfig::with_pool(pool)).wait()?;
     for e in &report.entries {
         outln(&format!("   assigned {e}"));
     }
-    net.run_for(Duration::from_millis(5))?;
+    net.run_for(Duration::from_millis(5)).wait()?;
     show_traffic(&mut tap, &mut monitor, 6);
     net.add_node_with_dictionary(n7, od.clone());
-    let serial = net.node(n7).sdo().read((0x1018, 4))?;
+    let serial = net.node(n7).sdo().read((0x1018, 4)).wait()?;
     outln(&format!(
         "   node 7 answers SDO: serial number {:#010x}",
         serial
@@ -133,13 +133,13 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         };
         outln(&format!(
             "   node {n}: vendor-ID {:#010x}, product {:#010x}, revision {:#010x}, serial {:#010x}",
-            u(sdo(1)?),
-            u(sdo(2)?),
-            u(sdo(3)?),
-            u(sdo(4)?)
+            u(sdo(1).wait()?),
+            u(sdo(2).wait()?),
+            u(sdo(3).wait()?),
+            u(sdo(4).wait()?)
         ));
     }
-    let name = net.node(n5).sdo().read((0x1008, 0))?;
+    let name = net.node(n5).sdo().read((0x1008, 0)).wait()?;
     outln(&format!(
         "   device name (0x1008, a segmented upload): \"{}\"",
         String::from_utf8_lossy(&name)
@@ -148,12 +148,12 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
 
     step("3. Heartbeat configuration: producer time 0x1017 = 100 ms, master consumes it");
     for n in [n5, n6] {
-        net.node(n).sdo().write((0x1017, 0), 100u16)?;
+        net.node(n).sdo().write((0x1017, 0), 100u16).wait()?;
         net.monitor_heartbeat(n, Duration::from_millis(250));
     }
     outln(&format!(
         "   node 5 0x1017 now reads {} ms",
-        net.node(n5).sdo().read_value((0x1017, 0))?
+        net.node(n5).sdo().read_value((0x1017, 0)).wait()?
     ));
     show_traffic(&mut tap, &mut monitor, 4);
 
@@ -163,7 +163,8 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     let mapping = Mapping::from_raw(&[0x2004_0108, 0x2500_0120])?;
     let comm = CommParams::event_driven(0x386).with_event_timer(500);
     net.node(n6)
-        .remap_pdo(Direction::Transmit, 3, comm, mapping)?;
+        .remap_pdo(Direction::Transmit, 3, comm, mapping)
+        .wait()?;
     outln(
         "   (disable TPDO3, clear mapping, write entries, set count, set parameters, enable: by SDO)",
     );
@@ -171,7 +172,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
 
     step("4. Start: NMT Start to all nodes, heartbeats now say Operational");
     net.nmt_all(CommandSpecifier::Start)?;
-    net.run_for(Duration::from_millis(250))?;
+    net.run_for(Duration::from_millis(250)).wait()?;
     show_traffic(&mut tap, &mut monitor, 8);
     for n in [n5, n6] {
         let state = net
@@ -184,12 +185,12 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
         "4b. Live PDO values, decoded through each node's EDS mapping; a new reading of node 5 sensor 1 goes out on change",
     );
     for _ in events.try_iter() {}
-    net.run_for(Duration::from_millis(700))?;
+    net.run_for(Duration::from_millis(700)).wait()?;
     let now = bus.now();
     bus.with_station(dev5, |d| {
         d.set_value(now, 0x2500, 1, 21.75f32.to_le_bytes())
     });
-    net.run_for(Duration::from_millis(800))?;
+    net.run_for(Duration::from_millis(800)).wait()?;
     let mut shown = 0;
     for ev in events.try_iter() {
         if let NetworkEvent::PdoValues {
@@ -214,8 +215,9 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     step("5. A segmented download: location text into 0x2002:02");
     net.node(n6)
         .sdo()
-        .write((0x2002, 2), "Hall 3 / line 7 / valve island A")?;
-    let back = net.node(n6).sdo().read((0x2002, 2))?;
+        .write((0x2002, 2), "Hall 3 / line 7 / valve island A")
+        .wait()?;
+    let back = net.node(n6).sdo().read((0x2002, 2)).wait()?;
     outln(&format!(
         "   read back: \"{}\"",
         String::from_utf8_lossy(&back)
@@ -237,7 +239,8 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
                 ));
             }
         })
-        .read((0x2003, 4))?;
+        .read((0x2003, 4))
+        .wait()?;
     outln(&format!(
         "   {} bytes in {} of bus time; first line: {}",
         data.len(),
@@ -247,11 +250,11 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     show_traffic(&mut tap, &mut monitor, 8);
 
     step("7. An SDO abort, explained: reading an object the device does not have");
-    match net.node(n5).sdo().read((0x6000, 1)) {
+    match net.node(n5).sdo().read((0x6000, 1)).wait() {
         Ok(_) => outln("   (unexpectedly answered)"),
         Err(e) => outln(&format!("   {e}")),
     }
-    match net.node(n5).sdo().write((0x1018, 1), 0x1234u32) {
+    match net.node(n5).sdo().write((0x1018, 1), 0x1234u32).wait() {
         Ok(_) => outln("   (unexpectedly written)"),
         Err(e) => outln(&format!("   {e}")),
     }
@@ -263,18 +266,18 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
     bus.with_station(dev6, |d| {
         d.raise(canola_burkert::Ne107Status::MaintenanceRequired)
     });
-    let status = net.node(n6).sdo().read((0x2004, 1))?;
+    let status = net.node(n6).sdo().read((0x2004, 1)).wait()?;
     let raw = status.first().copied().unwrap_or(0);
     let meaning = canola_burkert::Ne107Status::from_u8(raw & 0x0F).meaning_en();
     outln(&format!(
         "   the device raised an event; 0x2004:01 reads {raw} = {meaning}"
     ));
-    net.node(n6).sdo().write((0x2101, 1), 1u8)?;
+    net.node(n6).sdo().write((0x2101, 1), 1u8).wait()?;
     outln(&format!(
         "   wrote 0x2101:01 = 1: the device is locating (LED flashing): {}",
         bus.with_station(dev6, |d| d.locating()).unwrap_or(false)
     ));
-    net.node(n6).sdo().write((0x2101, 1), 0u8)?;
+    net.node(n6).sdo().write((0x2101, 1), 0u8).wait()?;
     show_traffic(&mut tap, &mut monitor, 4);
     // The Bürkert view of the same device (canola_burkert::BurkertNode): the whole status in
     // one batch of SDO reads with the LED drawn, a locate (honouring "0 before 1"), and the
@@ -294,7 +297,7 @@ fn walk() -> Result<(), Box<dyn std::error::Error>> {
 
     step("8. NMT Stop to node 6: its heartbeat reports Stopped");
     net.node(n6).nmt().stop()?;
-    net.run_for(Duration::from_millis(300))?;
+    net.run_for(Duration::from_millis(300)).wait()?;
     for ev in events.try_iter() {
         if let NetworkEvent::Heartbeat(h) = ev {
             outln(&format!("   event: {h}"));

@@ -224,6 +224,7 @@ fn in_use_check(lss: &canola::Lss, id: NodeId, force: bool) -> Result<(), String
     let one: NodeIdPool = std::iter::once(id).collect();
     let in_use = lss
         .nodes_in_use(one, Duration::from_millis(IN_USE_TIMEOUT_MS))
+        .wait()
         .map_err(|e| e.to_string())?;
     if in_use.contains(id) {
         return Err(format!(
@@ -332,12 +333,14 @@ fn running(mem: &MemoryBus, net: &canola::Network, ids: &[u8]) -> Result<(), Str
     }
     // Boot-ups, then NMT start of each, then their first heartbeats.
     net.run_for(Duration::from_millis(10))
+        .wait()
         .map_err(|e| e.to_string())?;
     for &id in ids {
         let node = NodeId::new(id).map_err(|e| e.to_string())?;
         net.node(node).nmt().start().map_err(|e| e.to_string())?;
     }
     net.run_for(Duration::from_millis(10))
+        .wait()
         .map_err(|e| e.to_string())
 }
 
@@ -425,6 +428,7 @@ fn command(
                 other => return fail(format!("mode `{other}`: use config or waiting")),
             };
             lss.procedure(proc1(Step::SwitchModeGlobal(m)))
+                .wait()
                 .map(|_| json!({"ok": true}))
                 .map_err(|e| e.to_string())
         }
@@ -440,6 +444,7 @@ fn command(
                     .procedure(proc1(Step::SwitchModeSelective(LssAddress::new(
                         v, p, r, s,
                     ))))
+                    .wait()
                     .map(|_| json!({"ok": true}))
                     .map_err(|e| e.to_string()),
                 _ => Err("address parts must be numbers (0x hex or decimal)".into()),
@@ -454,6 +459,7 @@ fn command(
                 Err(e) => Err(e),
                 Ok(()) => lss
                     .procedure(Procedure::assign_node_id(n, !no_store))
+                    .wait()
                     .map(|r| {
                         let stored = r.stored == Some(true);
                         if !g.json {
@@ -482,6 +488,7 @@ fn command(
             {
                 Some(rate) => lss
                     .procedure(Procedure::change_bit_rate(BitTiming::standard(rate), delay))
+                    .wait()
                     .map(|_| {
                         if !g.json {
                             outln(&format!("bit rate {kbit} kbit/s configured"));
@@ -494,10 +501,12 @@ fn command(
         }
         MasterCommand::Store => lss
             .procedure(proc1(Step::StoreConfiguration))
+            .wait()
             .map(|_| json!({"ok": true}))
             .map_err(|e| e.to_string()),
         MasterCommand::Inquire => lss
             .procedure(Procedure::inquire_all())
+            .wait()
             .map(|r| {
                 if !g.json {
                     let id = r
@@ -511,6 +520,7 @@ fn command(
             .map_err(|e| e.to_string()),
         MasterCommand::IdentifyNonConfigured => lss
             .procedure(proc1(Step::IdentifyNonConfigured))
+            .wait()
             .map(|r| {
                 if !g.json {
                     outln(if r.present == Some(true) {
@@ -524,6 +534,7 @@ fn command(
             .map_err(|e| e.to_string()),
         MasterCommand::Fastscan => lss
             .fastscan(fastscan)
+            .wait()
             .map(|a| {
                 if !g.json {
                     outln(&a.as_ref().map_or(NONE_ANSWERED.into(), |a| {
@@ -535,6 +546,7 @@ fn command(
             .map_err(|e| e.to_string()),
         MasterCommand::DiscoverAll => lss
             .discover_all(fastscan)
+            .wait()
             .map(|l| {
                 if !g.json {
                     if l.is_empty() {
@@ -552,6 +564,7 @@ fn command(
                 let mut config = AssignConfig::with_pool(NodeIdPool::range(f, l));
                 config.fastscan = fastscan;
                 lss.assign_all(config)
+                    .wait()
                     .map(|rep| {
                         if !g.json {
                             for id in rep.skipped.iter() {

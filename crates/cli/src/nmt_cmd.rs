@@ -151,7 +151,7 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
                 (state_name(state), nmt.wait_for_state(state, left))
             }
         };
-        match r {
+        match r.wait() {
             Ok(()) => confirmed.push((node, want)),
             Err(canola::Error::Timeout(_)) => {
                 missing.push(unconfirmed(&net, node, &want, args.timeout))
@@ -203,7 +203,7 @@ fn run_state(listen: f64, opts: &BusOpts, g: Global) -> ExitCode {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
-    if let Err(e) = net.run_for(seconds(listen)) {
+    if let Err(e) = net.run_for(seconds(listen)).wait() {
         return fail(e);
     }
     let now = net.now();
@@ -236,7 +236,10 @@ pub(crate) fn run_scan(opts: &BusOpts, g: Global) -> ExitCode {
         Ok(b) => b,
         Err(e) => return fail(e),
     };
-    let found = net.scan(Duration::from_millis(200));
+    let found = match net.scan(Duration::from_millis(200)).wait() {
+        Ok(found) => found,
+        Err(e) => return fail(e.to_string()),
+    };
     // Decimal like every command's values; `--hex` zero-padded hex.
     let fmt = |v: Option<u32>| v.map_or("-".to_string(), |v| g.u32(v));
     if g.json {

@@ -404,7 +404,7 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
         } => {
             let entry = address(net, node, &object, sub)?;
             let Some(dt) = data_type_of(net, node, entry, ty) else {
-                let bytes = net.node(node).sdo().block(block).read(entry)?;
+                let bytes = net.node(node).sdo().block(block).read(entry).wait()?;
                 let note = format!(
                     "node {node}, object {entry}: type unknown (not a CiA 301 communication \
                      object; give --type or --eds {node}=FILE), printed as its bytes in hex"
@@ -421,7 +421,12 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
                 }
                 return Ok(ExitCode::SUCCESS);
             };
-            let value = net.node(node).sdo().block(block).read_as(entry, dt)?;
+            let value = net
+                .node(node)
+                .sdo()
+                .block(block)
+                .read_as(entry, dt)
+                .wait()?;
             if g.json {
                 let mut v = addr_json(node, entry);
                 v["raw"] = json!(hex(&value.to_le_bytes()));
@@ -453,7 +458,11 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             };
             let bytes =
                 parse_value(dt, value).map_err(|e| format!("node {node}, object {entry}: {e}"))?;
-            net.node(node).sdo().block(block).write(entry, bytes)?;
+            net.node(node)
+                .sdo()
+                .block(block)
+                .write(entry, bytes)
+                .wait()?;
             if g.json {
                 outln(&with(addr_json(node, entry), "ok", json!(true)));
             }
@@ -476,7 +485,8 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
                 .upload_to(
                     entry,
                     std::io::BufWriter::new(file.writer().map_err(Failure::Local)?),
-                );
+                )
+                .wait();
             bar.finish(r.as_ref().ok().copied());
             let n = r?;
             file.commit().map_err(Failure::Local)?;
@@ -502,7 +512,8 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
                 .sdo()
                 .block(block)
                 .on_progress(bar.callback())
-                .download_from(entry, f);
+                .download_from(entry, f)
+                .wait();
             bar.finish(r.as_ref().ok().copied());
             let n = r?;
             if g.json {

@@ -59,7 +59,7 @@ pub(crate) fn run(args: StoreArgs, restore: bool, opts: &BusOpts, g: Global) -> 
     } else {
         node.store_parameters_of(group)
     };
-    if let Err(e) = r {
+    if let Err(e) = r.wait() {
         return fail_op(&e);
     }
     let name = args

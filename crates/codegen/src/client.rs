@@ -132,7 +132,10 @@ impl Generator<'_> {
             let _ = writeln!(out, "        node: {facade}::Node,");
             let _ = writeln!(out, "        entry: {krate}::Entry<T>,");
             let _ = writeln!(out, "    }}\n");
-            let _ = writeln!(out, "    impl<T: {krate}::EntryValue> {handle}<T> {{");
+            let _ = writeln!(
+                out,
+                "    impl<T: {krate}::EntryValue + 'static> {handle}<T> {{"
+            );
             let _ = writeln!(out, "        /// The handle of `entry` on `node`.");
             let _ = writeln!(
                 out,
@@ -151,21 +154,21 @@ impl Generator<'_> {
             if read {
                 let _ = writeln!(
                     out,
-                    "\n        /// Reads the object (SDO upload) and decodes it as its data type."
+                    "\n        /// Reads the object (SDO upload) and decodes it as its data type: `.wait()` or `.await`."
                 );
                 let _ = writeln!(
                     out,
-                    "        pub fn read(&self) -> Result<T, {facade}::Error> {{\n            self.node.sdo().read_entry(&self.entry)\n        }}"
+                    "        pub fn read(&self) -> {facade}::Operation<'static, T> {{\n            self.node.sdo().read_entry(&self.entry)\n        }}"
                 );
             }
             if write {
                 let _ = writeln!(
                     out,
-                    "\n        /// Writes the object (SDO download), encoded as its data type."
+                    "\n        /// Writes the object (SDO download), encoded as its data type: `.wait()` or `.await`."
                 );
                 let _ = writeln!(
                     out,
-                    "        pub fn write(&self, value: T) -> Result<(), {facade}::Error> {{\n            self.node.sdo().write_entry(&self.entry, &value)\n        }}"
+                    "        pub fn write(&self, value: T) -> {facade}::Operation<'static, ()> {{\n            self.node.sdo().write_entry(&self.entry, &value)\n        }}"
                 );
             }
             let _ = writeln!(out, "    }}\n");

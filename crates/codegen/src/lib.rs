@@ -32,8 +32,8 @@
 //! include!(concat!(env!("OUT_DIR"), "/my-device.rs"));
 //!
 //! let node = network.node(node_id);
-//! let vendor: u32 = node.sdo().read_entry(&identity::VENDOR_ID)?;
-//! node.sdo().write_entry(&PRODUCER_HEARTBEAT_TIME, &1000)?;
+//! let vendor: u32 = node.sdo().read_entry(&identity::VENDOR_ID).wait()?;
+//! node.sdo().write_entry(&PRODUCER_HEARTBEAT_TIME, &1000).wait()?;
 //! ```
 //!
 //! # PDO structs and the typed client

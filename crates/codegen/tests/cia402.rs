@@ -35,7 +35,7 @@ fn the_position_tpdo_decodes_into_its_struct() {
         d.set_value(now, 0x6064, 0, (-123_456i32).to_le_bytes());
     });
     net.start_sync(Duration::from_millis(5));
-    net.run_for(Duration::from_millis(20)).unwrap();
+    net.run_for(Duration::from_millis(20)).wait().unwrap();
 
     let id = Tpdo2::cob_id(node()).unwrap().can_id().unwrap();
     assert_eq!(id.as_raw(), 0x280 + 3);
@@ -67,7 +67,7 @@ fn the_target_rpdo_built_by_its_struct_reaches_the_device_and_the_client_reads_i
     bus.attach(SimDevice::from_eds(node(), EDS).unwrap());
     let dev = Device::new(net.node(node()));
     net.node(node()).nmt().start().unwrap();
-    net.run_for(Duration::from_millis(10)).unwrap();
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
 
     let frame = Rpdo2 {
         controlword: 0x000F,
@@ -81,15 +81,15 @@ fn the_target_rpdo_built_by_its_struct_reaches_the_device_and_the_client_reads_i
     // RPDO2 is synchronous (type 1): the device takes it on the next SYNC.
     raw.send(&CanFrame::new(CanId::standard(0x080).unwrap(), &[]).unwrap())
         .unwrap();
-    net.run_for(Duration::from_millis(10)).unwrap();
-    assert_eq!(dev.controlword().read().unwrap(), 0x000F);
-    assert_eq!(dev.target_position().read().unwrap(), -5_000);
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
+    assert_eq!(dev.controlword().read().wait().unwrap(), 0x000F);
+    assert_eq!(dev.target_position().read().wait().unwrap(), -5_000);
 
     // Typed objects of the profile through the client.
-    dev.modes_of_operation().write(8).unwrap();
-    assert_eq!(dev.modes_of_operation().read().unwrap(), 8i8);
+    dev.modes_of_operation().write(8).wait().unwrap();
+    assert_eq!(dev.modes_of_operation().read().wait().unwrap(), 8i8);
     assert_eq!(
-        dev.device_type().read().unwrap() & 0xFFFF,
+        dev.device_type().read().wait().unwrap() & 0xFFFF,
         402,
         "0x1000 names the profile"
     );

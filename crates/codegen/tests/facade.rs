@@ -39,7 +39,7 @@ fn tpdos_from_the_simulator_decode_into_the_structs() {
         d.set_value(now, 0x2003, 0, 21.75f32.to_le_bytes());
         d.set_value(now, 0x2005, 0, *b"OK");
     });
-    net.run_for(Duration::from_millis(350)).unwrap();
+    net.run_for(Duration::from_millis(350)).wait().unwrap();
 
     let want1 = Tpdo1 {
         valve_open: true,
@@ -103,7 +103,7 @@ fn an_rpdo_built_by_its_struct_reaches_the_device_and_the_client_reads_it_back()
     bus.attach(SimDevice::from_eds(node(), EDS).unwrap());
     let dev = Device::new(net.node(node()));
     net.node(node()).nmt().start().unwrap();
-    net.run_for(Duration::from_millis(10)).unwrap();
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
 
     let rpdo = Rpdo1 {
         setpoint_1: -300,
@@ -113,10 +113,10 @@ fn an_rpdo_built_by_its_struct_reaches_the_device_and_the_client_reads_it_back()
     assert_eq!(frame.id().as_raw(), 0x200 + 0x2A);
     assert_eq!(frame.data(), [0xD4, 0xFE, 0xB0, 0x04]);
     raw.send(&frame).unwrap();
-    net.run_for(Duration::from_millis(10)).unwrap();
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
 
-    assert_eq!(dev.setpoints().setpoint_1().read().unwrap(), -300);
-    assert_eq!(dev.setpoints().setpoint_2().read().unwrap(), 1200);
+    assert_eq!(dev.setpoints().setpoint_1().read().wait().unwrap(), -300);
+    assert_eq!(dev.setpoints().setpoint_2().read().wait().unwrap(), 1200);
 }
 
 #[test]
@@ -126,32 +126,38 @@ fn the_client_reads_and_writes_typed_objects() {
     bus.attach(SimDevice::from_eds(node(), EDS).unwrap());
     let dev = Device::new(net.node(node()));
 
-    assert_eq!(dev.producer_heartbeat_time().read().unwrap(), 0);
-    dev.producer_heartbeat_time().write(200).unwrap();
-    assert_eq!(dev.producer_heartbeat_time().read().unwrap(), 200);
+    assert_eq!(dev.producer_heartbeat_time().read().wait().unwrap(), 0);
+    dev.producer_heartbeat_time().write(200).wait().unwrap();
+    assert_eq!(dev.producer_heartbeat_time().read().wait().unwrap(), 200);
     // A u16 object goes out as two bytes: the raw read shows the device holds exactly that.
     assert_eq!(
-        net.node(node()).sdo().read((0x1017, 0)).unwrap(),
+        net.node(node()).sdo().read((0x1017, 0)).wait().unwrap(),
         200u16.to_le_bytes()
     );
-    assert_eq!(dev.identity_object().vendor_id().read().unwrap(), 0xFFF);
-    assert_eq!(dev.identity_object().serial_number().read().unwrap(), 7);
     assert_eq!(
-        dev.manufacturer_device_name().read().unwrap(),
+        dev.identity_object().vendor_id().read().wait().unwrap(),
+        0xFFF
+    );
+    assert_eq!(
+        dev.identity_object().serial_number().read().wait().unwrap(),
+        7
+    );
+    assert_eq!(
+        dev.manufacturer_device_name().read().wait().unwrap(),
         "PDO test device"
     );
     // The TPDO1 event timer through the record's client.
     let timer = dev.tpdo1_communication_parameter().event_timer();
-    assert_eq!(timer.read().unwrap(), 100);
-    timer.write(250).unwrap();
-    assert_eq!(timer.read().unwrap(), 250);
+    assert_eq!(timer.read().wait().unwrap(), 100);
+    timer.write(250).wait().unwrap();
+    assert_eq!(timer.read().wait().unwrap(), 250);
     assert_eq!(
         timer.entry().address(),
         canola::ObjectAddress::new(0x1800, 5)
     );
     // A node that does not answer: the facade's SDO error, naming node and object.
     let absent = Device::new(net.node(NodeId::new(9).unwrap()));
-    let err = absent.producer_heartbeat_time().read().unwrap_err();
+    let err = absent.producer_heartbeat_time().read().wait().unwrap_err();
     assert!(matches!(err, canola::Error::Sdo(_)), "{err}");
 }
 

@@ -110,7 +110,7 @@ pub(crate) fn read(
         .timeout(s.timeout)
         .block(s.block)
         .upload_to((index, sub), sink);
-    if let Err(e) = r {
+    if let Err(e) = r.wait() {
         return error_reply(&e);
     }
     let bytes = std::mem::take(
@@ -139,6 +139,7 @@ pub(crate) fn write(
         .timeout(s.timeout)
         .block(s.block)
         .write((index, sub), value.to_le_bytes())
+        .wait()
     {
         Ok(()) => Reply::Ok,
         Err(e) => error_reply(&e),
@@ -184,6 +185,7 @@ fn address_text(a: &LssAddress) -> String {
 fn step(net: &Network, step: Step) -> Result<canola_lss::ServiceReport, Reply> {
     net.lss()
         .procedure(Procedure::single(step))
+        .wait()
         .map_err(|e| error_reply(&e))
 }
 
@@ -229,7 +231,8 @@ pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
                 Err(e) => e,
             }
         }
-        Command::LssInquireAddr(None) => match net.lss().procedure(Procedure::inquire_all()) {
+        Command::LssInquireAddr(None) => match net.lss().procedure(Procedure::inquire_all()).wait()
+        {
             Ok(r) => match r.address() {
                 Some(a) => Reply::Text(address_text(&a)),
                 None => Reply::Error(ErrorCode::TIMEOUT),
@@ -249,7 +252,7 @@ pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
             if let Some(ms) = timeout.filter(|&ms| ms != 0) {
                 cfg.response_timeout = Duration::from_millis(ms.into());
             }
-            match net.lss().fastscan(cfg) {
+            match net.lss().fastscan(cfg).wait() {
                 Ok(Some(a)) => Reply::Text(address_text(&a)),
                 Ok(None) => Reply::Error(ErrorCode::TIMEOUT),
                 Err(e) => error_reply(&e),
@@ -298,7 +301,7 @@ fn all_nodes(net: &Network, args: Option<AllNodes>) -> Reply {
         return Reply::Error(ErrorCode::UNSUPPORTED_NODE);
     };
     cfg.pool = NodeIdPool::range(first, last);
-    match net.lss().assign_all(cfg) {
+    match net.lss().assign_all(cfg).wait() {
         Ok(report) => {
             let mut lines: Vec<String> = report
                 .assigned()

@@ -131,7 +131,7 @@ pub fn audit_with(
         if !running {
             break;
         }
-        if net.run_for(TICK).is_err() {
+        if net.run_for(TICK).wait().is_err() {
             // A failed transport fails every request, which the next poll reports.
             std::thread::sleep(std::time::Duration::from_millis(1));
         }

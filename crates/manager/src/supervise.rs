@@ -95,6 +95,6 @@ pub fn supervise(
                 *old = new;
             }
         }
-        let _ = net.run_for(Duration::from_millis(1));
+        let _ = net.run_for(Duration::from_millis(1)).wait();
     }
 }

@@ -32,7 +32,7 @@ fn node(n: u8) -> NodeId {
 }
 
 fn u32_at(net: &Network, n: u8, index: u16, sub: u8) -> u32 {
-    let b = net.node(node(n)).sdo().read((index, sub)).unwrap();
+    let b = net.node(node(n)).sdo().read((index, sub)).wait().unwrap();
     let mut a = [0; 4];
     a[..b.len()].copy_from_slice(&b);
     u32::from_le_bytes(a)
@@ -83,7 +83,9 @@ fn three_slaves_boot_configure_and_start() {
             );
         }
     }
-    net.run_for(canola::Duration::from_millis(300)).unwrap();
+    net.run_for(canola::Duration::from_millis(300))
+        .wait()
+        .unwrap();
     for n in [5, 6, 7] {
         assert_eq!(net.last_state(node(n)), Some(NmtState::Operational));
     }
@@ -115,7 +117,9 @@ fn absent_mandatory_slave_stops_the_start() {
     // No start-all: the others booted but stay pre-operational.
     assert_eq!(report.slaves[0].status, SlaveStatus::PreOperational);
     assert_eq!(report.slaves[2].status, SlaveStatus::PreOperational);
-    net.run_for(canola::Duration::from_millis(300)).unwrap();
+    net.run_for(canola::Duration::from_millis(300))
+        .wait()
+        .unwrap();
     assert_eq!(net.last_state(node(5)), Some(NmtState::PreOperational));
 }
 
@@ -131,7 +135,9 @@ fn absent_optional_slave_does_not_stop_the_others() {
     assert_eq!(report.slaves[2].error_code, Some(BootErrorCode::B));
     assert_eq!(report.slaves[0].status, SlaveStatus::Operational);
     assert_eq!(report.slaves[1].status, SlaveStatus::Operational);
-    net.run_for(canola::Duration::from_millis(300)).unwrap();
+    net.run_for(canola::Duration::from_millis(300))
+        .wait()
+        .unwrap();
     assert_eq!(net.last_state(node(6)), Some(NmtState::Operational));
 }
 

@@ -30,7 +30,7 @@ fn node(n: u8) -> NodeId {
 }
 
 fn u32_at(net: &Network, n: u8, index: u16, sub: u8) -> u32 {
-    let b = net.node(node(n)).sdo().read((index, sub)).unwrap();
+    let b = net.node(node(n)).sdo().read((index, sub)).wait().unwrap();
     let mut a = [0; 4];
     a[..b.len()].copy_from_slice(&b);
     u32::from_le_bytes(a)
@@ -79,9 +79,9 @@ keep_alive = true
     for s in &config.slaves {
         bus.attach(SimDevice::new(s.node_id, s.dictionary.clone()));
     }
-    net.run_for(Duration::from_millis(50)).unwrap();
+    net.run_for(Duration::from_millis(50)).wait().unwrap();
     net.node(node(5)).nmt().start().unwrap();
-    net.run_for(Duration::from_millis(250)).unwrap();
+    net.run_for(Duration::from_millis(250)).wait().unwrap();
     assert_eq!(net.last_state(node(5)), Some(NmtState::Operational));
 
     let mut tap = bus.endpoint();

@@ -47,6 +47,7 @@ fn u32_at(net: &Network, index: u16, sub: u8) -> u32 {
         .node(NodeId::new(5).unwrap())
         .sdo()
         .read((index, sub))
+        .wait()
         .unwrap();
     let mut a = [0; 4];
     a[..b.len()].copy_from_slice(&b);

@@ -198,7 +198,9 @@ fn link_down_during_a_block_upload_ends_it_clearly_and_the_network_recovers() {
         pulled.load(Ordering::SeqCst),
         "the transfer ended before 8 KiB: {result:?}"
     );
-    let err = result.expect_err("a block upload interrupted by a downed link must fail");
+    let err = result
+        .wait()
+        .expect_err("a block upload interrupted by a downed link must fail");
     let text = err.to_string();
     eprintln!("the interrupted transfer ended with: {text}");
     // Whether the master was sending (a block acknowledgement) or waiting when the link went,
@@ -216,14 +218,14 @@ fn link_down_during_a_block_upload_ends_it_clearly_and_the_network_recovers() {
     // The link returns: the network recovers without being rebuilt.
     set_link(true);
     let sdo = || n.sdo().timeout(Duration::from_secs(2));
-    let mut first = sdo().read((0x1018, 1));
+    let mut first = sdo().read((0x1018, 1)).wait();
     for _ in 0..5 {
         // The simulator may still be finishing the interrupted transfer (its own timeout).
         if first.is_ok() {
             break;
         }
         eprintln!("first read after the link returned: {first:?}");
-        first = sdo().read((0x1018, 1));
+        first = sdo().read((0x1018, 1)).wait();
     }
     assert_eq!(
         first.expect("expedited read after recovery"),
@@ -233,6 +235,7 @@ fn link_down_during_a_block_upload_ends_it_clearly_and_the_network_recovers() {
         sdo()
             .block(true)
             .read((0x2001, 0))
+            .wait()
             .expect("block upload after recovery"),
         data
     );

@@ -31,7 +31,7 @@ fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
 
     let net = Network::new(SocketCan::open(&vcan_tests::interface()).expect("open the socket"));
     let events = net.subscribe();
-    net.run_for(Duration::from_millis(300)).unwrap();
+    net.run_for(Duration::from_millis(300)).wait().unwrap();
     let early: Vec<NetworkEvent> = events.try_iter().collect();
     assert!(
         !early
@@ -54,6 +54,7 @@ fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
     let found: BTreeSet<LssAddress> = net
         .lss()
         .discover_all(scan)
+        .wait()
         .expect("Fastscan discovery")
         .into_iter()
         .collect();
@@ -62,7 +63,7 @@ fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
 
     let mut config = AssignConfig::with_pool(NodeIdPool::range(node(0x50), node(0x5F)));
     config.fastscan = scan;
-    let report = net.lss().assign_all(config).expect("assign all");
+    let report = net.lss().assign_all(config).wait().expect("assign all");
     let assigned: Vec<(LssAddress, canola_frame::NodeId)> = report.assigned().collect();
     assert_eq!(assigned.len(), 3, "{report:?}");
     let ids: BTreeSet<u8> = assigned.iter().map(|(_, id)| id.get()).collect();
@@ -72,7 +73,7 @@ fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
     let deadline = net.now() + Duration::from_secs(10);
     let mut booted = BTreeSet::new();
     while booted.len() < 3 && net.now() < deadline {
-        net.run_for(Duration::from_millis(50)).unwrap();
+        net.run_for(Duration::from_millis(50)).wait().unwrap();
         for e in events.try_iter() {
             if let NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: n }) = e {
                 booted.insert(n.get());
@@ -86,6 +87,7 @@ fn fastscan_finds_every_unconfigured_device_and_assign_all_commissions_them() {
             .sdo()
             .timeout(Duration::from_secs(5))
             .read((0x1018, 4))
+            .wait()
             .expect("SDO to a commissioned device");
         assert_eq!(serial, address.serial_number.to_le_bytes(), "node {id}");
     }

@@ -47,34 +47,47 @@ fn master_against_python_canopen_local_node() {
     let sdo = || n.sdo().timeout(Duration::from_secs(5));
     // Expedited uploads.
     assert_eq!(
-        sdo().read((0x1000, 0)).unwrap(),
+        sdo().read((0x1000, 0)).wait().unwrap(),
         0x0002_0191u32.to_le_bytes()
     );
-    assert_eq!(sdo().read((0x1018, 1)).unwrap(), 0x0ABCu32.to_le_bytes());
-    assert_eq!(sdo().read((0x2002, 3)).unwrap(), (-32768i16).to_le_bytes());
+    assert_eq!(
+        sdo().read((0x1018, 1)).wait().unwrap(),
+        0x0ABCu32.to_le_bytes()
+    );
+    assert_eq!(
+        sdo().read((0x2002, 3)).wait().unwrap(),
+        (-32768i16).to_le_bytes()
+    );
     // Segmented upload.
     assert_eq!(
-        sdo().read((0x1008, 0)).unwrap(),
+        sdo().read((0x1008, 0)).wait().unwrap(),
         b"canopen-rs vcan test device"
     );
     // Segmented download, read back.
     let text = "written by the canopen-rs master, segmented, to python-canopen";
-    sdo().write((0x2001, 0), text).unwrap();
-    assert_eq!(sdo().read((0x2001, 0)).unwrap(), text.as_bytes());
+    sdo().write((0x2001, 0), text).wait().unwrap();
+    assert_eq!(sdo().read((0x2001, 0)).wait().unwrap(), text.as_bytes());
     // The server's abort code reaches the caller.
-    let e = sdo().read((0x5FFF, 0)).unwrap_err();
+    let e = sdo().read((0x5FFF, 0)).wait().unwrap_err();
     assert_eq!(e.server_abort(), Some(AbortCode(0x0602_0000)), "{e}");
     // python-canopen's LocalNode has no block transfer. To a block upload request it answers
     // with a plain upload response (the protocol switch CiA 301 allows); the master follows.
     assert_eq!(
-        sdo().block(true).read((0x1008, 0)).unwrap(),
+        sdo().block(true).read((0x1008, 0)).wait().unwrap(),
         b"canopen-rs vcan test device"
     );
     // A block download it refuses with an abort: the request ends with that error, not a hang,
     // and the next transfer works.
-    let e = sdo().block(true).write((0x2001, 0), text).unwrap_err();
+    let e = sdo()
+        .block(true)
+        .write((0x2001, 0), text)
+        .wait()
+        .unwrap_err();
     assert_eq!(e.server_abort(), Some(AbortCode(0x0504_0001)), "{e}");
-    assert_eq!(sdo().read((0x1018, 2)).unwrap(), 0x42u32.to_le_bytes());
+    assert_eq!(
+        sdo().read((0x1018, 2)).wait().unwrap(),
+        0x42u32.to_le_bytes()
+    );
 
     // NMT start, seen in the heartbeat.
     n.nmt().start().unwrap();
@@ -95,9 +108,9 @@ fn master_against_python_canopen_local_node() {
         "TPDO1 with the EDS default",
         |e| pdo_from(e, ID) == Some(0x1234_5678u32.to_le_bytes().to_vec()),
     );
-    sdo().write((0x2000, 0), 0xCAFE_BABEu32).unwrap();
+    sdo().write((0x2000, 0), 0xCAFE_BABEu32).wait().unwrap();
     assert_eq!(
-        sdo().read((0x2000, 0)).unwrap(),
+        sdo().read((0x2000, 0)).wait().unwrap(),
         0xCAFE_BABEu32.to_le_bytes()
     );
     wait_event(

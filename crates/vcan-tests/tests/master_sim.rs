@@ -48,41 +48,45 @@ fn every_sdo_method_against_the_simulator() {
 
     // Expedited upload and download.
     assert_eq!(
-        n.sdo().read((0x1000, 0)).unwrap(),
+        n.sdo().read((0x1000, 0)).wait().unwrap(),
         0x0002_0191u32.to_le_bytes()
     );
-    assert_eq!(n.sdo().read((0x1018, 1)).unwrap(), 0x0ABCu32.to_le_bytes());
-    n.sdo().write((0x2000, 0), 0xCAFE_BABEu32).unwrap();
     assert_eq!(
-        n.sdo().read((0x2000, 0)).unwrap(),
+        n.sdo().read((0x1018, 1)).wait().unwrap(),
+        0x0ABCu32.to_le_bytes()
+    );
+    n.sdo().write((0x2000, 0), 0xCAFE_BABEu32).wait().unwrap();
+    assert_eq!(
+        n.sdo().read((0x2000, 0)).wait().unwrap(),
         0xCAFE_BABEu32.to_le_bytes()
     );
     assert_eq!(
-        n.sdo().read((0x2002, 3)).unwrap(),
+        n.sdo().read((0x2002, 3)).wait().unwrap(),
         (-32768i16).to_le_bytes()
     );
 
     // Segmented upload and download.
     assert_eq!(
-        n.sdo().read((0x1008, 0)).unwrap(),
+        n.sdo().read((0x1008, 0)).wait().unwrap(),
         b"canopen-rs vcan test device"
     );
     let text = "segmented download through the kernel CAN stack, then read back";
-    n.sdo().write((0x2001, 0), text).unwrap();
-    assert_eq!(n.sdo().read((0x2001, 0)).unwrap(), text.as_bytes());
+    n.sdo().write((0x2001, 0), text).wait().unwrap();
+    assert_eq!(n.sdo().read((0x2001, 0)).wait().unwrap(), text.as_bytes());
 
     // Block download and upload of 4 KiB (several blocks of up to 127 segments).
     let data: Vec<u8> = (0..4096u32).map(|i| b'A' + (i % 26) as u8).collect();
     n.sdo()
         .block(true)
         .write((0x2001, 0), data.as_slice())
+        .wait()
         .unwrap();
-    assert_eq!(n.sdo().block(true).read((0x2001, 0)).unwrap(), data);
+    assert_eq!(n.sdo().block(true).read((0x2001, 0)).wait().unwrap(), data);
     // And the same value by segmented upload, to cross-check the block path.
-    assert_eq!(n.sdo().read((0x2001, 0)).unwrap(), data);
+    assert_eq!(n.sdo().read((0x2001, 0)).wait().unwrap(), data);
     // Block upload of an object shorter than one block (the server may switch protocols).
     assert_eq!(
-        n.sdo().block(true).read((0x1008, 0)).unwrap(),
+        n.sdo().block(true).read((0x1008, 0)).wait().unwrap(),
         b"canopen-rs vcan test device"
     );
 
@@ -90,9 +94,10 @@ fn every_sdo_method_against_the_simulator() {
     n.sdo()
         .method(Method::Segmented)
         .write((0x2003, 0), 0x0102_0304u32)
+        .wait()
         .unwrap();
     assert_eq!(
-        n.sdo().read((0x2003, 0)).unwrap(),
+        n.sdo().read((0x2003, 0)).wait().unwrap(),
         0x0102_0304u32.to_le_bytes()
     );
 
@@ -110,23 +115,25 @@ fn every_sdo_method_against_the_simulator() {
         .sdo()
         .block(true)
         .download_from((0x2001, 0), streamed.as_slice())
+        .wait()
         .unwrap();
     assert_eq!(sent, 3000);
     let sink = Shared::default();
-    let got = n.sdo().upload_to((0x2001, 0), sink.clone()).unwrap();
+    let got = n.sdo().upload_to((0x2001, 0), sink.clone()).wait().unwrap();
     assert_eq!(got, 3000);
     assert_eq!(*sink.0.lock().unwrap(), streamed);
     let sink = Shared::default();
     n.sdo()
         .block(true)
         .upload_to((0x2001, 0), sink.clone())
+        .wait()
         .unwrap();
     assert_eq!(*sink.0.lock().unwrap(), streamed);
 
     // Aborts carry the server's code.
-    let e = n.sdo().read((0x5FFF, 0)).unwrap_err();
+    let e = n.sdo().read((0x5FFF, 0)).wait().unwrap_err();
     assert_eq!(e.server_abort(), Some(AbortCode(0x0602_0000)), "{e}");
-    let e = n.sdo().write((0x1000, 0), 1u32).unwrap_err();
+    let e = n.sdo().write((0x1000, 0), 1u32).wait().unwrap_err();
     assert!(
         e.server_abort().is_some(),
         "writing a read-only object: {e}"
@@ -177,7 +184,7 @@ fn boot_up_nmt_start_heartbeat_loss_and_recovery() {
     );
     // And it still serves SDO.
     assert_eq!(
-        net.node(node(0x42)).sdo().read((0x1018, 4)).unwrap(),
+        net.node(node(0x42)).sdo().read((0x1018, 4)).wait().unwrap(),
         0x00C0_FFEEu32.to_le_bytes()
     );
 }
@@ -256,7 +263,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
     assert_eq!(data, 0x1234_5678u32.to_le_bytes());
 
     // A value written by SDO goes out in the following TPDOs.
-    n.sdo().write((0x2000, 0), 0xCAFE_BABEu32).unwrap();
+    n.sdo().write((0x2000, 0), 0xCAFE_BABEu32).wait().unwrap();
     wait_event(
         &net,
         &events,
@@ -279,8 +286,9 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         CommParams::event_driven(0x180 + u16::from(ID)).with_event_timer(100),
         Mapping::from_raw(&[0x2000_0020, 0x2002_0210]).unwrap(),
     )
+    .wait()
     .unwrap();
-    assert_eq!(n.sdo().read((0x1A00, 0)).unwrap(), [2]);
+    assert_eq!(n.sdo().read((0x1A00, 0)).wait().unwrap(), [2]);
     let two = |v: i16| {
         vec![
             (
@@ -315,7 +323,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         |e| tpdo1_values(e, ID) == Some(two(-321)),
     );
     assert_eq!(
-        n.sdo().read((0x2003, 0)).unwrap(),
+        n.sdo().read((0x2003, 0)).wait().unwrap(),
         0x1357_2468u32.to_le_bytes()
     );
 
@@ -336,6 +344,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         .sdo()
         .timeout(Duration::from_millis(500))
         .read((0x1000, 0))
+        .wait()
         .expect_err("no SDO in Stopped");
     assert!(e.to_string().contains("no response"), "{e}");
 
@@ -349,7 +358,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         |e| state_changed(e, ID, NmtState::PreOperational),
     );
     assert_eq!(
-        n.sdo().read((0x2000, 0)).unwrap(),
+        n.sdo().read((0x2000, 0)).wait().unwrap(),
         0xCAFE_BABEu32.to_le_bytes()
     );
     let late = events_during(&net, &events, Duration::from_millis(600), |e| {
@@ -367,7 +376,7 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         |e| *e == NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: node(ID) }),
     );
     assert_eq!(
-        n.sdo().read((0x2000, 0)).unwrap(),
+        n.sdo().read((0x2000, 0)).wait().unwrap(),
         0xCAFE_BABEu32.to_le_bytes()
     );
 
@@ -381,10 +390,10 @@ fn nmt_commands_and_pdo_events_against_the_simulator() {
         |e| *e == NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: node(ID) }),
     );
     assert_eq!(
-        n.sdo().read((0x2000, 0)).unwrap(),
+        n.sdo().read((0x2000, 0)).wait().unwrap(),
         0x1234_5678u32.to_le_bytes()
     );
-    assert_eq!(n.sdo().read((0x1A00, 0)).unwrap(), [1]);
+    assert_eq!(n.sdo().read((0x1A00, 0)).wait().unwrap(), [1]);
     // After the boot-up, the heartbeats say Pre-operational.
     wait_event(
         &net,

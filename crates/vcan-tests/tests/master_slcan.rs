@@ -97,7 +97,7 @@ fn attach() -> Attached {
 fn wait_bus_event(net: &Network, events: &mpsc::Receiver<NetworkEvent>, want: BusEvent) {
     let until = StdInstant::now() + std::time::Duration::from_secs(20);
     loop {
-        match net.run_for(Duration::from_millis(50)) {
+        match net.run_for(Duration::from_millis(50)).wait() {
             Ok(()) | Err(canola::Error::Transport(TransportError::InterfaceDown)) => {}
             Err(e) => panic!("drive the network: {e}"),
         }
@@ -147,28 +147,38 @@ fn master_on_slcan_against_the_kernel_driver_and_python_canopen() {
     let sdo = || n.sdo().timeout(Duration::from_secs(5));
     // Expedited and segmented uploads.
     assert_eq!(
-        sdo().read((0x1000, 0)).unwrap(),
+        sdo().read((0x1000, 0)).wait().unwrap(),
         0x0002_0191u32.to_le_bytes()
     );
-    assert_eq!(sdo().read((0x1018, 1)).unwrap(), 0x0ABCu32.to_le_bytes());
     assert_eq!(
-        sdo().read((0x1008, 0)).unwrap(),
+        sdo().read((0x1018, 1)).wait().unwrap(),
+        0x0ABCu32.to_le_bytes()
+    );
+    assert_eq!(
+        sdo().read((0x1008, 0)).wait().unwrap(),
         b"canopen-rs vcan test device"
     );
     // Expedited and segmented downloads, read back.
-    sdo().write((0x2002, 1), -1234i16).unwrap();
-    assert_eq!(sdo().read((0x2002, 1)).unwrap(), (-1234i16).to_le_bytes());
+    sdo().write((0x2002, 1), -1234i16).wait().unwrap();
+    assert_eq!(
+        sdo().read((0x2002, 1)).wait().unwrap(),
+        (-1234i16).to_le_bytes()
+    );
     let text = "over slcan: the kernel driver between master and python-canopen";
-    sdo().write((0x2001, 0), text).unwrap();
-    assert_eq!(sdo().read((0x2001, 0)).unwrap(), text.as_bytes());
-    let e = sdo().read((0x5FFF, 0)).unwrap_err();
+    sdo().write((0x2001, 0), text).wait().unwrap();
+    assert_eq!(sdo().read((0x2001, 0)).wait().unwrap(), text.as_bytes());
+    let e = sdo().read((0x5FFF, 0)).wait().unwrap_err();
     assert_eq!(e.server_abort(), Some(AbortCode(0x0602_0000)), "{e}");
     // Block: the protocol switch to a plain upload, and a refused block download.
     assert_eq!(
-        sdo().block(true).read((0x1008, 0)).unwrap(),
+        sdo().block(true).read((0x1008, 0)).wait().unwrap(),
         b"canopen-rs vcan test device"
     );
-    let e = sdo().block(true).write((0x2001, 0), text).unwrap_err();
+    let e = sdo()
+        .block(true)
+        .write((0x2001, 0), text)
+        .wait()
+        .unwrap_err();
     assert_eq!(e.server_abort(), Some(AbortCode(0x0504_0001)), "{e}");
 
     // NMT start, seen in the heartbeat.
@@ -185,7 +195,7 @@ fn master_on_slcan_against_the_kernel_driver_and_python_canopen() {
     wait_event(&net, &events, Duration::from_secs(10), "TPDO1", |e| {
         pdo_from(e) == Some(0x1234_5678u32.to_le_bytes().to_vec())
     });
-    sdo().write((0x2000, 0), 0xCAFE_BABEu32).unwrap();
+    sdo().write((0x2000, 0), 0xCAFE_BABEu32).wait().unwrap();
     wait_event(
         &net,
         &events,
@@ -200,13 +210,16 @@ fn master_on_slcan_against_the_kernel_driver_and_python_canopen() {
         .unwrap();
     let until = StdInstant::now() + std::time::Duration::from_secs(10);
     loop {
-        if sdo().read((0x2003, 0)).unwrap() == 0x0BAD_F00Du32.to_le_bytes() {
+        if sdo().read((0x2003, 0)).wait().unwrap() == 0x0BAD_F00Du32.to_le_bytes() {
             break;
         }
         assert!(StdInstant::now() < until, "the RPDO was not applied");
-        net.run_for(Duration::from_millis(100)).unwrap();
+        net.run_for(Duration::from_millis(100)).wait().unwrap();
     }
-    assert_eq!(sdo().read((0x2002, 2)).unwrap(), 777i16.to_le_bytes());
+    assert_eq!(
+        sdo().read((0x2002, 2)).wait().unwrap(),
+        777i16.to_le_bytes()
+    );
     assert_eq!(stats.bad_input(), 0, "the kernel's lines all decoded");
 
     // The pty dropped: slcan0 goes, the transport reports the adapter gone, sends fail.
@@ -225,6 +238,7 @@ fn master_on_slcan_against_the_kernel_driver_and_python_canopen() {
         n.sdo()
             .timeout(Duration::from_millis(500))
             .read((0x1000, 0))
+            .wait()
             .is_err()
     );
     let until = StdInstant::now() + std::time::Duration::from_secs(20);
@@ -250,7 +264,7 @@ fn master_on_slcan_against_the_kernel_driver_and_python_canopen() {
         |e| *e == NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node: node(ID) }),
     );
     assert_eq!(
-        sdo().read((0x1008, 0)).unwrap(),
+        sdo().read((0x1008, 0)).wait().unwrap(),
         b"canopen-rs vcan test device"
     );
     let status = device.stop();

@@ -211,7 +211,9 @@ fn a_network_nobody_drives_reports_the_overflow_and_it_equals_the_pdo_gaps() {
         _ => {}
     };
     // Driven again: it reads what the queue kept ...
-    net.run_for(Duration::from_millis(500)).expect("drive");
+    net.run_for(Duration::from_millis(500))
+        .wait()
+        .expect("drive");
     for e in events.try_iter() {
         take(e, &mut d, &mut done);
     }
@@ -221,7 +223,9 @@ fn a_network_nobody_drives_reports_the_overflow_and_it_equals_the_pdo_gaps() {
         if done {
             break;
         }
-        net.run_for(Duration::from_millis(100)).expect("drive");
+        net.run_for(Duration::from_millis(100))
+            .wait()
+            .expect("drive");
         for e in events.try_iter() {
             take(e, &mut d, &mut done);
         }

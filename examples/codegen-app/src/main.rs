@@ -27,21 +27,21 @@ fn run() -> Result<Outcome, Box<dyn std::error::Error>> {
 
     // Typed SDO: one method per object; `write(200)` sends the two bytes of an UNSIGNED16, and
     // a read-only object has no `write` at all.
-    let vendor = dev.identity_object().vendor_id().read()?;
-    dev.producer_heartbeat_time().write(200)?;
-    let heartbeat = dev.producer_heartbeat_time().read()?;
+    let vendor = dev.identity_object().vendor_id().read().wait()?;
+    dev.producer_heartbeat_time().write(200).wait()?;
+    let heartbeat = dev.producer_heartbeat_time().read().wait()?;
     println!("node {id}: vendor {vendor:#010x}, heartbeat {heartbeat} ms");
 
     let events = net.subscribe();
     net.node(id).nmt().start()?; // TPDOs flow in Operational
-    net.run_for(Duration::from_millis(100))?;
+    net.run_for(Duration::from_millis(100)).wait()?;
     // New sensor readings in the device; its TPDO1 maps the first two.
     let now = bus.now();
     bus.with_station(device, |d| {
         d.set_value(now, 0x2500, 1, 21.75f32.to_le_bytes());
         d.set_value(now, 0x2501, 1, 3.5f32.to_le_bytes());
     });
-    net.run_for(Duration::from_millis(500))?;
+    net.run_for(Duration::from_millis(500)).wait()?;
     let mut tpdo1 = None;
     for ev in events.try_iter() {
         if let NetworkEvent::Pdo {
@@ -66,8 +66,8 @@ fn run() -> Result<Outcome, Box<dyn std::error::Error>> {
         control_value_2_value: -1.0,
     };
     net.send(rpdo1.to_frame(id)?)?;
-    net.run_for(Duration::from_millis(10))?;
-    let control_value_1 = dev.control_value_1().value().read()?;
+    net.run_for(Duration::from_millis(10)).wait()?;
+    let control_value_1 = dev.control_value_1().value().read().wait()?;
     println!("control value 1 on the device: {control_value_1}");
 
     Ok(Outcome {

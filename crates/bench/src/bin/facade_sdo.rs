@@ -159,14 +159,16 @@ fn network(count: u32, clock: ClockMode, driver: bool) -> Cost {
     device.values_mut().set(0x1017, 0, 0u16.to_le_bytes());
     bus.attach(device);
     net.set_transfer_gap(Duration::ZERO);
-    net.run_for(Duration::from_millis(10)).expect("boot-up");
+    net.run_for(Duration::from_millis(10))
+        .wait()
+        .expect("boot-up");
     if driver {
         net.start_driver().expect("driver thread");
     }
     let node = net.node(id);
     let t0 = Span::start();
     for _ in 0..count {
-        let v = node.sdo().read((0x1018, 1)).expect("read");
+        let v = node.sdo().read((0x1018, 1)).wait().expect("read");
         assert_eq!(v, 0x39u32.to_le_bytes());
     }
     let ns = t0.per(count);

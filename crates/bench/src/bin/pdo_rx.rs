@@ -175,7 +175,7 @@ fn stepping(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
     let mut check = Checker::new(nodes);
     let t0 = process_cpu_ns();
     while check.seen < frames.len() {
-        net.run_until(net.now()).expect("replay never fails");
+        net.run_until(net.now()).wait().expect("replay never fails");
         for e in rx.try_iter() {
             check.take(&e);
         }
@@ -195,7 +195,7 @@ fn callback(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
     });
     let t0 = process_cpu_ns();
     while seen.load(Ordering::Relaxed) < frames.len() {
-        net.run_until(net.now()).expect("replay never fails");
+        net.run_until(net.now()).wait().expect("replay never fails");
     }
     (process_cpu_ns() - t0) / frames.len() as f64
 }
@@ -208,7 +208,7 @@ fn batch_stepping(nodes: u8, frames: &Arc<Vec<CanFrame>>) -> f64 {
     let mut check = Checker::new(nodes);
     let t0 = process_cpu_ns();
     while check.seen < frames.len() {
-        net.run_until(net.now()).expect("replay never fails");
+        net.run_until(net.now()).wait().expect("replay never fails");
         if let Ok(batch) = pdos.try_recv() {
             for p in batch {
                 check.check(p.node, p.number, p.values);

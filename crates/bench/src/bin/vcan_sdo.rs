@@ -400,9 +400,9 @@ fn master(
     net.set_transfer_gap(Duration::ZERO);
     let n = net.node(node);
     // Heartbeat off: only SDO frames on the bus during both runs. Also proves the device serves.
-    n.sdo().write((0x1017, 0), 0u16)?;
+    n.sdo().write((0x1017, 0), 0u16).wait()?;
     let stats = || (0, 0.0);
-    let settle = || Ok(net.run_for(Duration::from_millis(20))?);
+    let settle = || Ok(net.run_for(Duration::from_millis(20)).wait()?);
     run_workload(&n, args.count, args.size, &stats, &|| sim.usage(), &settle)
 }
 

@@ -178,12 +178,12 @@ impl BurkertNode {
 
     /// Reads one entry and decodes it with its generated type.
     pub fn read<T: EntryValue>(&self, e: Entry<T>) -> Result<T, Error> {
-        self.node.sdo().read_entry(&e)
+        self.node.sdo().read_entry(&e).wait()
     }
 
     /// Encodes a value with its generated type and writes it.
     pub fn write<T: EntryValue>(&self, e: Entry<T>, value: &T) -> Result<(), Error> {
-        self.node.sdo().write_entry(&e, value)
+        self.node.sdo().write_entry(&e, value).wait()
     }
 
     /// Submits every read together (the master queues them on the node and runs them back to
@@ -275,11 +275,15 @@ impl BurkertNode {
         self.node
             .sdo()
             .write(addr(&user::LOCATION_INFORMATION), text)
+            .wait()
     }
 
     /// Writes the user description (0x2002 sub 3).
     pub fn set_user_description(&self, text: &str) -> Result<(), Error> {
-        self.node.sdo().write(addr(&user::USER_DESCRIPTION), text)
+        self.node
+            .sdo()
+            .write(addr(&user::USER_DESCRIPTION), text)
+            .wait()
     }
 
     /// Writes the displayed device name (0x2002 sub 4).
@@ -287,6 +291,7 @@ impl BurkertNode {
         self.node
             .sdo()
             .write(addr(&user::DISPLAYED_DEVICE_NAME), text)
+            .wait()
     }
 
     /// Writes the static node-ID (0x2002 sub 5; 0 = none).
@@ -370,7 +375,8 @@ impl BurkertNode {
             .sdo()
             .block(block)
             .on_progress(p.callback())
-            .upload_to(addr(&e), out)?;
+            .upload_to(addr(&e), out)
+            .wait()?;
         p.finish(self.id(), addr(&e), n);
         Ok(n)
     }
@@ -388,7 +394,8 @@ impl BurkertNode {
             .sdo()
             .block(block)
             .on_progress(p.callback())
-            .read(addr(&e))?;
+            .read(addr(&e))
+            .wait()?;
         p.finish(self.id(), addr(&e), data.len() as u64);
         Ok(data)
     }
@@ -536,7 +543,8 @@ impl BurkertNode {
             }
         });
         self.node
-            .remap_pdo(direction, u16::from(number), comm, mapping.clone())?;
+            .remap_pdo(direction, u16::from(number), comm, mapping.clone())
+            .wait()?;
         Ok((mapping, comm.cob_id.0))
     }
 
@@ -641,7 +649,7 @@ impl BurkertNode {
         let od = self.dictionary();
         let (e, dt) = self.value_entry(&od, base, number)?;
         let a = ObjectAddress::new(e.index(), SUB_VALUE);
-        let bytes = self.node.sdo().read(a)?;
+        let bytes = self.node.sdo().read(a).wait()?;
         canola_od::Value::from_le_bytes(dt, &bytes).map_err(|err| undefined(self.id(), a, err))
     }
 }

@@ -97,6 +97,7 @@ impl Master {
         while self.net.now() < deadline {
             self.net
                 .run_for(Duration::from_millis(50))
+                .wait()
                 .expect("drive the network");
             while let Ok(e) = self.events.try_recv() {
                 let hit = want(&e);
@@ -140,6 +141,7 @@ impl Master {
         while self.net.now() < deadline {
             self.net
                 .run_for(Duration::from_millis(50))
+                .wait()
                 .expect("drive the network");
             got.extend(self.events.try_iter());
         }
@@ -313,9 +315,21 @@ pub(crate) fn termination_and_bus_mode(m: &mut Master, dev: &impl Device) {
     assert_eq!(c.bus_mode, Some(BusMode::CanOpen));
     assert_eq!(dev.with(|d| d.values().get_u64(0x2001, 0x0B)), Some(1));
     assert_eq!(dev.with(|d| d.values().get_u64(0x2001, 3)), Some(0));
-    let e = m.node.node().sdo().write((0x2001, 0x0B), 2u8).unwrap_err();
+    let e = m
+        .node
+        .node()
+        .sdo()
+        .write((0x2001, 0x0B), 2u8)
+        .wait()
+        .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
-    let e = m.node.node().sdo().write((0x2001, 3), 7u8).unwrap_err();
+    let e = m
+        .node
+        .node()
+        .sdo()
+        .write((0x2001, 3), 7u8)
+        .wait()
+        .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
 
     dev.with(|d| d.values_mut().set(0x2001, 0x0B, vec![9]));
@@ -391,7 +405,13 @@ pub(crate) fn led_mode_and_colours(m: &mut Master, dev: &impl Device) {
     m.node.set_led_mode(LedMode::Off).unwrap();
     assert_eq!(dev.with(|d| d.led().colour), LedColour::OFF);
 
-    let e = m.node.node().sdo().write((0x2120, 0), 5u32).unwrap_err();
+    let e = m
+        .node
+        .node()
+        .sdo()
+        .write((0x2120, 0), 5u32)
+        .wait()
+        .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
     let text = e.to_string();
     assert!(text.contains(&format!("node {}", m.id().get())), "{text}");
@@ -402,6 +422,7 @@ pub(crate) fn led_mode_and_colours(m: &mut Master, dev: &impl Device) {
         .node()
         .sdo()
         .write((0x2122, 0), 0x1000_0007u32)
+        .wait()
         .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
     assert_eq!(m.node.read_led_config().unwrap().mode, LedMode::Off);
@@ -422,7 +443,7 @@ pub(crate) fn locating_needs_a_zero_before_restart(m: &mut Master, dev: &impl De
     assert!(m.node.locating().unwrap(), "the object still reads 1");
 
     // A 1 written over the standing 1 starts nothing (the manual's rule) ...
-    m.node.node().sdo().write((0x2101, 1), 1u8).unwrap();
+    m.node.node().sdo().write((0x2101, 1), 1u8).wait().unwrap();
     assert!(!dev.with(|d| d.locating()));
     // ... start_locating sets it back to 0 first, so it does start.
     m.node.start_locating().unwrap();
@@ -430,7 +451,13 @@ pub(crate) fn locating_needs_a_zero_before_restart(m: &mut Master, dev: &impl De
     m.node.stop_locating().unwrap();
     assert!(!dev.with(|d| d.locating()));
     assert!(!m.node.locating().unwrap());
-    let e = m.node.node().sdo().write((0x2101, 1), 2u8).unwrap_err();
+    let e = m
+        .node
+        .node()
+        .sdo()
+        .write((0x2101, 1), 2u8)
+        .wait()
+        .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
 }
 
@@ -468,7 +495,13 @@ pub(crate) fn maintenance(m: &mut Master, dev: &impl Device) {
     dev.with(|d| d.clear(Ne107Status::DiagnosisActive));
     assert_eq!(m.node.ne107().unwrap(), Ne107Status::DiagnosisInactive);
     assert_eq!(dev.with(|d| d.led().colour), PredefinedColour::White.into());
-    let e = m.node.node().sdo().write((0x210A, 1), 2u8).unwrap_err();
+    let e = m
+        .node
+        .node()
+        .sdo()
+        .write((0x210A, 1), 2u8)
+        .wait()
+        .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
 }
 
@@ -536,7 +569,13 @@ pub(crate) fn bit_rate(m: &mut Master, dev: &impl Device) {
     // Not offered by Bürkert: refused before any write, and by the device when written raw.
     let e = m.node.set_bit_rate(BitRate::Kbit800).unwrap_err();
     assert!(matches!(e, Error::Value { .. }), "{e}");
-    let e = m.node.node().sdo().write((0x2001, 1), 5u8).unwrap_err();
+    let e = m
+        .node
+        .node()
+        .sdo()
+        .write((0x2001, 1), 5u8)
+        .wait()
+        .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
     assert_eq!(dev.with(|d| d.values().get_u64(0x2001, 1)), Some(4));
 
@@ -552,7 +591,7 @@ pub(crate) fn bit_rate(m: &mut Master, dev: &impl Device) {
         c.can_operation_status,
         Some(CanOperationStatus::PreOperational)
     );
-    assert_eq!(m.node.node().sdo().read((0x2001, 4)).unwrap(), [0]);
+    assert_eq!(m.node.node().sdo().read((0x2001, 4)).wait().unwrap(), [0]);
     let log = String::from_utf8(m.node.read_logbook(true, |_| {}).unwrap()).unwrap();
     assert!(log.contains("bit rate 125 kbit/s stored"), "{log}");
     let reset = format!("communication reset, node-ID {}", id.get());
@@ -568,6 +607,7 @@ pub(crate) fn bit_rate(m: &mut Master, dev: &impl Device) {
             canola_lss::BitRate::Kbit250.into(),
             20,
         ))
+        .wait()
         .unwrap();
     // The device's two switch delays run from when it handled activate bit timing, the
     // master's from when it sent it: on a real bus the device may still be silent when the
@@ -580,6 +620,7 @@ pub(crate) fn bit_rate(m: &mut Master, dev: &impl Device) {
             BitTiming { table: 1, index: 0 },
             20,
         ))
+        .wait()
         .unwrap_err();
     assert!(
         matches!(
@@ -602,6 +643,7 @@ pub(crate) fn bit_rate(m: &mut Master, dev: &impl Device) {
                 ))
                 .unwrap(),
         )
+        .wait()
         .unwrap();
     assert_eq!(m.node.read_communication().unwrap().address, Some(id.get()));
 }
@@ -643,7 +685,13 @@ pub(crate) fn device_reset(m: &mut Master, dev: &impl Device) {
         let log = String::from_utf8(m.node.read_logbook(block, |_| {}).unwrap()).unwrap();
         assert!(log.contains(&logged), "{log}");
     }
-    let e = m.node.node().sdo().write((0x2001, 4), 3u8).unwrap_err();
+    let e = m
+        .node
+        .node()
+        .sdo()
+        .write((0x2001, 4), 3u8)
+        .wait()
+        .unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::INVALID_VALUE), "{e}");
 }
 
@@ -669,10 +717,10 @@ pub(crate) fn node_id_change(m: &mut Master, dev: &impl Device, new: NodeId, new
     // Profile settings survive; communication objects follow the new node-ID.
     assert_eq!(moved.read_led_config().unwrap().mode, LedMode::FixedColour);
     assert_eq!(
-        moved.node().sdo().read((0x1800, 1)).unwrap(),
+        moved.node().sdo().read((0x1800, 1)).wait().unwrap(),
         (0x180u32 + u32::from(new.get())).to_le_bytes()
     );
-    assert_eq!(moved.node().sdo().read((0x2001, 4)).unwrap(), [0]);
+    assert_eq!(moved.node().sdo().read((0x2001, 4)).wait().unwrap(), [0]);
     // The old node-ID is silent.
     let e = m
         .node
@@ -680,6 +728,7 @@ pub(crate) fn node_id_change(m: &mut Master, dev: &impl Device, new: NodeId, new
         .sdo()
         .timeout(Duration::from_millis(300))
         .read((0x1000, 0))
+        .wait()
         .unwrap_err();
     assert!(e.to_string().contains("no response"), "{e}");
 
@@ -702,7 +751,7 @@ pub(crate) fn node_id_by_lss(m: &mut Master, dev: &impl Device, new: NodeId, pro
     let old = m.id();
     m.net.monitor_heartbeat(new, Duration::from_millis(2_000));
     m.node.set_led_mode(LedMode::Off).unwrap();
-    m.net.lss().procedure(procedure).unwrap();
+    m.net.lss().procedure(procedure).wait().unwrap();
     // Pending until a reset: still on the old node-ID.
     assert_eq!(
         m.node.read_communication().unwrap().address,
@@ -847,9 +896,9 @@ pub(crate) fn sensor_values_in_tpdos(m: &mut Master, dev: &impl Device) -> usize
 /// refused by the device when the mapping is enabled.
 pub(crate) fn non_mappable_refused(m: &Master, index: u16) {
     let sdo = || m.node.node().sdo();
-    sdo().write((index, 0), 0u8).unwrap();
-    sdo().write((index, 1), 0x2500_0620u32).unwrap(); // precision: not PDO-mappable
-    let e = sdo().write((index, 0), 1u8).unwrap_err();
+    sdo().write((index, 0), 0u8).wait().unwrap();
+    sdo().write((index, 1), 0x2500_0620u32).wait().unwrap(); // precision: not PDO-mappable
+    let e = sdo().write((index, 0), 1u8).wait().unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::NOT_MAPPABLE), "{e}");
 }
 

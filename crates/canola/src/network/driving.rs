@@ -394,15 +394,22 @@ impl Network {
 
     /// Drives the network until `done` returns a value (whoever waits drives; see the module
     /// docs).
-    pub(crate) fn wait_for<T>(
+    pub(crate) fn wait_for<T>(&self, done: impl FnMut(&mut Core) -> Option<T>) -> Result<T, Error> {
+        self.wait_for_by(None, done)
+    }
+
+    /// [`wait_for`](Self::wait_for) where `done` may change by time alone at `deadline` (a
+    /// wait's timeout): no driving step waits past it, so a virtual clock stops there.
+    pub(crate) fn wait_for_by<T>(
         &self,
+        deadline: Option<Instant>,
         mut done: impl FnMut(&mut Core) -> Option<T>,
     ) -> Result<T, Error> {
         loop {
             match self.inner.io.try_lock() {
                 Ok(mut io) => {
                     self.count_waiter_step();
-                    if let (_, Some(r)) = self.step_checking(&mut io, None, None, &mut done)? {
+                    if let (_, Some(r)) = self.step_checking(&mut io, deadline, None, &mut done)? {
                         return Ok(r);
                     }
                 }

@@ -8,6 +8,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak, mpsc};
 use canola_frame::{CanFrame, Duration, Instant, NodeId};
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget, SyncConfig};
 
+use super::operation::{self, Operation};
 use crate::error::Error;
 use crate::machine::{Core, NetworkEvent};
 use crate::transport::Transport;
@@ -289,28 +290,79 @@ impl Network {
         self.core().stop_sync();
     }
 
-    /// Sends an NMT command to every node.
+    /// Sends an NMT command to every node (queued, and sent as [`send`](Self::send) says).
     pub fn nmt_all(&self, cmd: CommandSpecifier) -> Result<(), Error> {
+        self.catch_up_on_runtime()?;
         self.core().nmt(cmd, NmtTarget::All);
-        self.flush()
+        self.send_queued_now()
     }
 
-    /// Sends a raw frame.
+    /// Sends a raw frame: at once when the transport is free, else in the step of whoever
+    /// drives it now (a waiting call, the background driver), which is woken for it. Never
+    /// waits, so it serves blocking and async callers alike. An error is the transport's
+    /// refusal of a frame sent here at once.
     pub fn send(&self, frame: CanFrame) -> Result<(), Error> {
+        self.catch_up_on_runtime()?;
         self.core().send_raw(frame);
-        self.flush()
+        self.send_queued_now()
     }
 
-    /// Drives the network for `d` (receives, dispatches events, runs timers). On a virtual-clock
-    /// bus this advances simulated time.
-    pub fn run_for(&self, d: impl Into<Duration>) -> Result<(), Error> {
+    /// On a tokio runtime (`tokio` feature), brings a virtual-clock bus up to tokio's time (see
+    /// [`crate::asynch`]), so what is queued next is stamped with the time the application
+    /// sees. Nothing to do otherwise.
+    pub(crate) fn catch_up_on_runtime(&self) -> Result<(), Error> {
+        #[cfg(feature = "tokio")]
+        if tokio::runtime::Handle::try_current().is_ok() {
+            return super::tokio_driving::catch_up(self);
+        }
+        Ok(())
+    }
+
+    /// Puts what the core has queued on the bus if the transport is free (see
+    /// [`send`](Self::send)).
+    pub(crate) fn send_queued_now(&self) -> Result<(), Error> {
+        let mut io = match self.inner.io.try_lock() {
+            Ok(io) => io,
+            Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner(),
+            Err(std::sync::TryLockError::WouldBlock) => {
+                self.wake();
+                return Ok(());
+            }
+        };
+        let now = io.now();
+        {
+            let mut c = self.core();
+            c.handle_timeout(now);
+            c.take_transmit(&mut io.out);
+        }
+        self.send_queued(&mut io, now, None)?;
+        drop(io);
+        self.notify();
+        Ok(())
+    }
+
+    /// Drives the network for `d` (receives, dispatches events, runs timers). On a
+    /// virtual-clock bus this advances simulated time (awaited: on tokio's clock, see
+    /// [`crate::asynch`]).
+    pub fn run_for(&self, d: impl Into<Duration>) -> Operation<'static, ()> {
         let d: Duration = d.into();
-        let until = self.now() + d;
-        self.run_until(until)
+        let net = self.clone();
+        Operation::new(async move {
+            operation::catch_up(&net)?;
+            let until = net.now() + d;
+            operation::run_until(&net, until).await
+        })
     }
 
     /// Drives the network until `until` on its clock.
-    pub fn run_until(&self, until: Instant) -> Result<(), Error> {
+    pub fn run_until(&self, until: Instant) -> Operation<'static, ()> {
+        let net = self.clone();
+        Operation::new(async move { operation::run_until(&net, until).await })
+    }
+
+    /// The blocking form of [`run_until`](Self::run_until): steps up to `until` exactly, and
+    /// once more at `until` for what is due then.
+    pub(crate) fn step_until(&self, until: Instant) -> Result<(), Error> {
         loop {
             let mut io = relock(self.inner.io.lock());
             if io.now() >= until {

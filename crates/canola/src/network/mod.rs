@@ -43,8 +43,12 @@
 pub(crate) mod driving;
 pub(crate) mod handle;
 pub(crate) mod node;
+pub(crate) mod operation;
 pub(crate) mod request;
+#[cfg(feature = "tokio")]
+pub(crate) mod tokio_driving;
 
 pub use handle::{DEFAULT_SDO_TIMEOUT, Network};
 pub use node::{Nmt, Node, ParameterGroup};
+pub use operation::Operation;
 pub use request::{Pending, Sdo, SdoValue};

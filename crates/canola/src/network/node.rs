@@ -9,6 +9,7 @@ use canola_od::ObjectDictionary;
 use canola_sdo::{Method, SdoCobIds};
 
 use super::handle::{DEFAULT_SDO_TIMEOUT, Network};
+use super::operation::{self, Operation};
 use super::request::Sdo;
 use crate::error::Error;
 
@@ -106,13 +107,13 @@ impl Node {
     /// Stores all parameters in the device's non-volatile memory: writes the signature `save`
     /// to 0x1010:01 (CiA 301 §7.5.2.13). A device that cannot store answers with an abort,
     /// the error here: 0x06020000 when it has no 0x1010, 0x08000020 when it refuses.
-    pub fn store_parameters(&self) -> Result<(), Error> {
+    pub fn store_parameters(&self) -> Operation<'static, ()> {
         self.store_parameters_of(ParameterGroup::All)
     }
 
     /// Stores one group of parameters (0x1010 at the group's sub-index), see
     /// [`store_parameters`](Self::store_parameters).
-    pub fn store_parameters_of(&self, group: ParameterGroup) -> Result<(), Error> {
+    pub fn store_parameters_of(&self, group: ParameterGroup) -> Operation<'static, ()> {
         self.sdo().write((0x1010, group.sub_index()), *b"save")
     }
 
@@ -120,23 +121,23 @@ impl Node {
     /// (CiA 301 §7.5.2.14). The defaults take effect at the device's next reset (NMT reset
     /// node; reset communication for the communication parameters). Errors as for
     /// [`store_parameters`](Self::store_parameters).
-    pub fn restore_defaults(&self) -> Result<(), Error> {
+    pub fn restore_defaults(&self) -> Operation<'static, ()> {
         self.restore_defaults_of(ParameterGroup::All)
     }
 
     /// Restores one group of parameters (0x1011 at the group's sub-index), see
     /// [`restore_defaults`](Self::restore_defaults).
-    pub fn restore_defaults_of(&self, group: ParameterGroup) -> Result<(), Error> {
+    pub fn restore_defaults_of(&self, group: ParameterGroup) -> Operation<'static, ()> {
         self.sdo().write((0x1011, group.sub_index()), *b"load")
     }
 
     /// Reads an object as a Rust value with the default SDO client: `read_typed::<u16>((0x1017,
     /// 0))` is 500 on a device with a 500 ms heartbeat. See [`Sdo::read_typed`] for how the
     /// object's type is found.
-    pub fn read_typed<T: canola_od::ValueType>(
+    pub fn read_typed<'t, T: canola_od::ValueType + 't>(
         &self,
         entry: impl Into<canola_od::ObjectAddress>,
-    ) -> Result<T, Error> {
+    ) -> Operation<'t, T> {
         self.sdo().read_typed(entry)
     }
 }
@@ -171,11 +172,11 @@ impl Nmt {
         Self::new(net, NmtTarget::All)
     }
 
+    /// Queues `cmd` and puts it on the bus (see [`Network::send`]).
     fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
-        let mut core = self.net.core();
-        core.nmt(cmd, self.target);
-        drop(core);
-        self.net.flush()
+        self.net.catch_up_on_runtime()?;
+        self.net.core().nmt(cmd, self.target);
+        self.net.send_queued_now()
     }
 
     fn node(&self) -> Result<NodeId, Error> {
@@ -198,23 +199,29 @@ impl Nmt {
 
     /// Waits (driving the network) for a boot-up of the node not accounted for yet (see the
     /// type's docs), and accounts for it. Times out after `timeout` on the network's clock.
-    pub fn wait_for_bootup(&self, timeout: impl Into<Duration>) -> Result<(), Error> {
+    pub fn wait_for_bootup(&self, timeout: impl Into<Duration>) -> Operation<'static, ()> {
         let timeout: Duration = timeout.into();
-        let node = self.node()?;
-        let deadline = self.net.now() + timeout;
-        self.net.wait_for(|c| {
-            let boots = c.boot_count(node);
-            if boots > c.boots_taken(node) {
-                c.take_boots(node, boots);
-                Some(Ok(()))
-            } else if c.now() >= deadline {
-                Some(Err(Error::Timeout(format!(
-                    "no boot-up from node {node} within {timeout}"
-                ))))
-            } else {
-                None
-            }
-        })?
+        let net = self.net.clone();
+        let node = self.node();
+        Operation::new(async move {
+            let node = node?;
+            operation::catch_up(&net)?;
+            let deadline = net.now() + timeout;
+            operation::until(&net, Some(deadline), move |c| {
+                let boots = c.boot_count(node);
+                if boots > c.boots_taken(node) {
+                    c.take_boots(node, boots);
+                    Some(Ok(()))
+                } else if c.now() >= deadline {
+                    Some(Err(Error::Timeout(format!(
+                        "no boot-up from node {node} within {timeout}"
+                    ))))
+                } else {
+                    None
+                }
+            })
+            .await?
+        })
     }
 
     /// Waits (driving the network) until the node reports `state`; returns at once if it is in
@@ -223,22 +230,31 @@ impl Nmt {
         &self,
         state: NmtState,
         timeout: impl Into<Duration>,
-    ) -> Result<(), Error> {
+    ) -> Operation<'static, ()> {
         let timeout: Duration = timeout.into();
-        let node = self.node()?;
-        let deadline = self.net.now() + timeout;
-        self.net.wait_for(|c| {
-            if c.last_state(node) == Some(state) {
-                Some(Ok(()))
-            } else if c.now() >= deadline {
-                Some(Err(Error::Timeout(format!(
-                    "node {node} not {state} within {timeout}"
-                ))))
-            } else {
-                None
-            }
-        })?
+        let net = self.net.clone();
+        let node = self.node();
+        Operation::new(async move {
+            let node = node?;
+            operation::catch_up(&net)?;
+            let deadline = net.now() + timeout;
+            operation::until(&net, Some(deadline), move |c| {
+                if c.last_state(node) == Some(state) {
+                    Some(Ok(()))
+                } else if c.now() >= deadline {
+                    Some(Err(Error::Timeout(format!(
+                        "node {node} not {state} within {timeout}"
+                    ))))
+                } else {
+                    None
+                }
+            })
+            .await?
+        })
     }
+
+    // The commands are unconfirmed (CiA 301 §7.2.8.3.1): each is queued and sent at once when
+    // the transport is free, else by whoever drives it next; nothing waits.
 
     /// Start remote node (to Operational).
     pub fn start(&self) -> Result<(), Error> {

@@ -8,16 +8,19 @@ use canola_od::{DataType, Value};
 use canola_sdo::{Method, SdoCobIds};
 
 use super::handle::Network;
-use crate::error::{Error, SdoError, SdoErrorKind};
+use super::operation::{self, Operation};
+use crate::error::{Error, SdoError};
 use crate::machine::{
     Completion, DownSource, Op, ProgressFn, RequestId, SdoRequest, TransferProgress, UpSink,
 };
 use canola_od::ObjectAddress;
 
 /// A request in flight, typed by what it produces: `Pending<Vec<u8>>` for an upload into
-/// memory, `Pending<()>` for a download, `Pending<u64>` (bytes) for a streamed upload. Waiting
-/// drives the network; dropping it cancels the request (a running transfer is aborted on the bus
-/// with 0x08000000).
+/// memory, `Pending<()>` for a download, `Pending<u64>` (bytes) for a streamed upload. Unlike an
+/// [`Operation`], it runs from the moment it is made (several run at once, one per node and
+/// channel). [`wait`](Self::wait) drives the network until it ends; `.await` (`tokio` feature)
+/// waits without blocking. Dropping it cancels the request (a running transfer is aborted on the
+/// bus with 0x08000000).
 #[must_use = "dropping a pending request cancels it"]
 pub struct Pending<T = Vec<u8>> {
     pub(crate) net: Network,
@@ -63,6 +66,17 @@ impl<T> Pending<T> {
         self.id.is_none_or(|id| self.net.core().is_done(id))
     }
 
+    /// The request, taken out of this handle: its drop no longer cancels it (the operation
+    /// that waits for it does). `None` when it no longer runs.
+    pub(crate) fn into_req(mut self) -> Option<operation::Req> {
+        let id = self.id.take()?;
+        Some(operation::Req {
+            id,
+            node: self.node,
+            entry: self.entry,
+        })
+    }
+
     /// Cancels the request (same as dropping it).
     pub fn cancel(mut self) {
         if let Some(id) = self.id.take() {
@@ -72,12 +86,31 @@ impl<T> Pending<T> {
 
     /// The error of a request that no longer runs.
     pub(crate) fn cancelled(&self) -> SdoError {
-        SdoError {
-            node: self.node,
-            entry: self.entry,
-            name: None,
-            kind: SdoErrorKind::Cancelled,
-        }
+        operation::cancelled(self.node, self.entry)
+    }
+}
+
+/// `.await` a pending request (`tokio` feature): the same request, waited for without
+/// blocking the runtime; dropping the future cancels it.
+#[cfg(feature = "tokio")]
+impl<T: Send + 'static> std::future::IntoFuture for Pending<T> {
+    type Output = Result<T, SdoError>;
+    type IntoFuture =
+        std::pin::Pin<Box<dyn std::future::Future<Output = Result<T, SdoError>> + Send>>;
+
+    fn into_future(mut self) -> Self::IntoFuture {
+        let id = self.id.take();
+        let (net, node, entry, output) = (self.net.clone(), self.node, self.entry, self.output);
+        Box::pin(async move {
+            let Some(id) = id else {
+                return Err(operation::cancelled(node, entry));
+            };
+            let req = operation::Req { id, node, entry };
+            let mut r = operation::wait_requests(&net, vec![req]).await;
+            r.pop()
+                .unwrap_or_else(|| Err(operation::cancelled(node, entry)))
+                .map(output)
+        })
     }
 }
 
@@ -244,16 +277,16 @@ impl Sdo {
         (self.net, req)
     }
 
-    /// Runs a request to its end on this thread (see [`Network::run`]): what
-    /// [`request`](Self::request) then [`Pending::wait`] do, for the blocking calls.
-    fn run<T>(
+    /// The operation that runs `op` on `entry` to its end and takes `output` from its
+    /// completion.
+    fn transfer<T: Send + 'static>(
         self,
         entry: ObjectAddress,
         op: Op,
         output: fn(Completion) -> T,
-    ) -> Result<T, SdoError> {
+    ) -> Operation<'static, T> {
         let (net, req) = self.into_request(entry, op);
-        net.run(req).map(output)
+        Operation::new(async move { Ok(operation::run_request(&net, req).await.map(output)?) })
     }
 
     /// Starts an upload into memory without waiting.
@@ -271,38 +304,34 @@ impl Sdo {
     }
 
     /// Reads an object's bytes (SDO upload).
-    pub fn read(self, entry: impl Into<ObjectAddress>) -> Result<Vec<u8>, Error> {
-        Ok(self.run(entry.into(), upload_to_memory(), |c| c.data)?)
+    pub fn read(self, entry: impl Into<ObjectAddress>) -> Operation<'static, Vec<u8>> {
+        self.transfer(entry.into(), upload_to_memory(), |c| c.data)
     }
 
-    /// Starts an upload for a typed read: the bytes, and whether the server answered
-    /// expedited without the size indicated (see [`Upload`]).
-    #[cfg(feature = "tokio")]
-    pub(crate) fn submit_read_upload(self, entry: ObjectAddress) -> Pending<Upload> {
-        self.request(entry, upload_to_memory(), Upload::from)
+    /// An upload for a typed read: the bytes, and whether the server answered expedited
+    /// without the size indicated (see [`Upload`]).
+    fn read_upload(self, entry: ObjectAddress) -> Operation<'static, Upload> {
+        self.transfer(entry, upload_to_memory(), Upload::from)
     }
 
-    /// [`submit_read_upload`](Self::submit_read_upload) run to its end on this thread.
-    fn read_upload(self, entry: ObjectAddress) -> Result<Upload, Error> {
-        Ok(self.run(entry, upload_to_memory(), Upload::from)?)
+    /// The type the node's dictionary gives `entry`, if it has one that describes it.
+    fn dictionary_type(&self, entry: ObjectAddress) -> Option<DataType> {
+        self.net
+            .core()
+            .dictionary(self.node)
+            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
     }
 
     /// Reads an object and decodes it with the type from the node's dictionary.
-    pub fn read_value(self, entry: impl Into<ObjectAddress>) -> Result<Value, Error> {
+    pub fn read_value(self, entry: impl Into<ObjectAddress>) -> Operation<'static, Value> {
         let entry = entry.into();
-        let node = self.node;
-        let data_type = self
-            .net
-            .core()
-            .dictionary(node)
-            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type));
-        match data_type {
+        match self.dictionary_type(entry) {
             Some(t) => self.read_as(entry, t),
-            None => Err(Error::Value {
-                node,
+            None => Operation::ready(Err(Error::Value {
+                node: self.node,
                 entry,
                 message: "the node's dictionary does not describe this object".into(),
-            }),
+            })),
         }
     }
 
@@ -311,24 +340,24 @@ impl Sdo {
     /// profile object, else `T`'s own CANopen type (`u16` is UNSIGNED16), then converted to
     /// `T` ([`TryFrom<Value>`](canola_od::ValueType)). A value that `T` cannot hold (500 read
     /// as `u8`) is an [`Error::Value`] naming the object, never a truncated number.
-    pub fn read_typed<T: canola_od::ValueType>(
+    pub fn read_typed<'t, T: canola_od::ValueType + 't>(
         self,
         entry: impl Into<ObjectAddress>,
-    ) -> Result<T, Error> {
+    ) -> Operation<'t, T> {
         let entry = entry.into();
         let node = self.node;
         let data_type = self
-            .net
-            .core()
-            .dictionary(node)
-            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
+            .dictionary_type(entry)
             .or_else(|| canola_od::profile::communication_type(entry.index, entry.sub_index))
             .unwrap_or(T::DATA_TYPE);
-        let value = self.read_as(entry, data_type)?;
-        T::try_from(value).map_err(|e| Error::Value {
-            node,
-            entry,
-            message: e.to_string(),
+        let read = self.read_as(entry, data_type);
+        Operation::new(async move {
+            let value = read.into_body().await?;
+            T::try_from(value).map_err(|e| Error::Value {
+                node,
+                entry,
+                message: e.to_string(),
+            })
         })
     }
 
@@ -337,20 +366,23 @@ impl Sdo {
         self,
         entry: impl Into<ObjectAddress>,
         data_type: DataType,
-    ) -> Result<Value, Error> {
+    ) -> Operation<'static, Value> {
         let entry = entry.into();
         let node = self.node;
-        self.read_upload(entry)?.decode(node, entry, data_type)
+        let upload = self.read_upload(entry);
+        Operation::new(async move { upload.into_body().await?.decode(node, entry, data_type) })
     }
 
     /// Reads a typed entry (from generated code: `canola_od::Entry<T>`) and decodes it.
-    pub fn read_entry<T: canola_od::EntryValue>(
+    pub fn read_entry<'t, T: canola_od::EntryValue + 't>(
         self,
         entry: &canola_od::Entry<T>,
-    ) -> Result<T, Error> {
+    ) -> Operation<'t, T> {
         let at = ObjectAddress::new(entry.index(), entry.sub_index());
         let node = self.node;
-        decode_entry(node, entry, &self.read_upload(at)?)
+        let entry = *entry;
+        let upload = self.read_upload(at);
+        Operation::new(async move { decode_entry(node, &entry, &upload.into_body().await?) })
     }
 
     /// Writes a typed entry (from generated code: `canola_od::Entry<T>`).
@@ -358,47 +390,55 @@ impl Sdo {
         self,
         entry: &canola_od::Entry<T>,
         value: &T,
-    ) -> Result<(), Error> {
-        let (at, bytes) = encode_entry(self.node, entry, value)?;
-        self.write(at, bytes)
+    ) -> Operation<'static, ()> {
+        match encode_entry(self.node, entry, value) {
+            Ok((at, bytes)) => self.write(at, bytes),
+            Err(e) => Operation::ready(Err(e)),
+        }
     }
 
     /// Writes an object (SDO download).
-    pub fn write(self, entry: impl Into<ObjectAddress>, value: impl SdoValue) -> Result<(), Error> {
-        Ok(self.run(entry.into(), download(value), |_| ())?)
+    pub fn write(
+        self,
+        entry: impl Into<ObjectAddress>,
+        value: impl SdoValue,
+    ) -> Operation<'static, ()> {
+        self.transfer(entry.into(), download(value), |_| ())
     }
 
     /// Uploads an object into `writer`, streaming as segments arrive, and flushes it at the
     /// end. Returns the byte count; a write or the final flush failing is an error
-    /// ([`SdoErrorKind::Io`]), so no data is lost silently.
+    /// ([`SdoErrorKind::Io`](crate::SdoErrorKind::Io)), so no data is lost silently. The writer is called from whatever
+    /// drives the network (the waiting thread, the background driver, or tokio's blocking
+    /// pool when awaited on a real clock).
     pub fn upload_to(
         self,
         entry: impl Into<ObjectAddress>,
         writer: impl Write + Send + 'static,
-    ) -> Result<u64, Error> {
+    ) -> Operation<'static, u64> {
         let sink = UpSink::Stream {
             w: Box::new(writer),
             written: 0,
             error: None,
         };
-        Ok(self
-            .request(entry.into(), Op::Upload(sink), |c| c.transferred)
-            .wait()?)
+        self.transfer(entry.into(), Op::Upload(sink), |c| c.transferred)
     }
 
-    /// Downloads the whole content of `reader` into an object. Returns the byte count.
+    /// Downloads the whole content of `reader` into an object. Returns the byte count. The
+    /// reader is read to its end at once, before the operation starts (from async code, pass
+    /// the bytes: `&data[..]` is a reader).
     pub fn download_from(
         self,
         entry: impl Into<ObjectAddress>,
         mut reader: impl Read,
-    ) -> Result<u64, Error> {
+    ) -> Operation<'static, u64> {
         let mut data = Vec::new();
-        reader.read_to_end(&mut data)?;
-        Ok(self
-            .request(entry.into(), Op::Download(DownSource(data)), |c| {
-                c.transferred
-            })
-            .wait()?)
+        if let Err(e) = reader.read_to_end(&mut data) {
+            return Operation::ready(Err(e.into()));
+        }
+        self.transfer(entry.into(), Op::Download(DownSource(data)), |c| {
+            c.transferred
+        })
     }
 }
 

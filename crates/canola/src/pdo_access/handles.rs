@@ -4,10 +4,10 @@
 use canola_pdo::{CommParams, Direction, PdoConfig};
 
 use crate::error::Error;
-use crate::network::Node;
+use crate::network::{Node, Operation};
 
 use super::params::{PdoParameters, PdoSet, event_millis, inhibit_units};
-use super::sequence::{Port, read_set, save_set};
+use super::sequence::{read_set, save_set};
 use super::transmit::{RpdoSender, Transmission};
 
 impl Node {
@@ -35,17 +35,17 @@ impl Tpdos {
     /// Reads every TPDO's parameters by SDO (the PDOs the node's dictionary lists; without a
     /// dictionary TPDO1..4, those that exist). The master decodes each valid TPDO from its
     /// COB-ID and with its mapping from now on.
-    pub fn read(&self) -> Result<PdoSet, Error> {
-        let port = Port::Blocking(&self.node);
-        port.run(read_set(port, Direction::Transmit))
+    pub fn read(&self) -> Operation<'static, PdoSet> {
+        let node = self.node.clone();
+        Operation::new(async move { read_set(&node, Direction::Transmit).await })
     }
 
     /// Writes the TPDOs changed since they were read (see the module docs for the sequence);
     /// the master's decoding follows. Stops at the first failure (the PDOs saved before it
     /// stay saved, the failed one is left invalid on the node as the sequence leaves it).
-    pub fn save(&self, set: &mut PdoSet) -> Result<(), Error> {
-        let port = Port::Blocking(&self.node);
-        port.run(save_set(port, Direction::Transmit, set))
+    pub fn save<'a>(&self, set: &'a mut PdoSet) -> Operation<'a, ()> {
+        let node = self.node.clone();
+        Operation::new(async move { save_set(&node, Direction::Transmit, set).await })
     }
 }
 
@@ -59,36 +59,35 @@ impl Rpdos {
     /// Reads every RPDO's parameters by SDO (the PDOs the node's dictionary lists; without a
     /// dictionary RPDO1..4, those that exist). RPDOs the master transmits follow the COB-ID
     /// and mapping read.
-    pub fn read(&self) -> Result<PdoSet, Error> {
-        let port = Port::Blocking(&self.node);
-        port.run(read_set(port, Direction::Receive))
+    pub fn read(&self) -> Operation<'static, PdoSet> {
+        let node = self.node.clone();
+        Operation::new(async move { read_set(&node, Direction::Receive).await })
     }
 
     /// Writes the RPDOs changed since they were read (as [`Tpdos::save`]); RPDOs the master
     /// transmits follow the new COB-ID and mapping.
-    pub fn save(&self, set: &mut PdoSet) -> Result<(), Error> {
-        let port = Port::Blocking(&self.node);
-        port.run(save_set(port, Direction::Receive, set))
+    pub fn save<'a>(&self, set: &'a mut PdoSet) -> Operation<'a, ()> {
+        let node = self.node.clone();
+        Operation::new(async move { save_set(&node, Direction::Receive, set).await })
     }
 
     /// Transmits the node's RPDO `pdo` (its COB-ID and mapping, from [`read`](Self::read))
     /// from the master as `how` says, until [`RpdoSender::stop`]. Mapped values start at zero;
     /// set them through the returned sender. Starting an RPDO that is being transmitted
     /// replaces its transmission parameters. The master's engine holds four transmitted RPDOs
-    /// per node.
+    /// per node. Nothing waits: the first frame is sent as [`Network::send`] says.
+    ///
+    /// [`Network::send`]: crate::Network::send
     pub fn start(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
+        self.node.net.catch_up_on_runtime()?;
         let sender = self.engage(pdo, how)?;
-        self.node.net.flush()?;
+        self.node.net.send_queued_now()?;
         Ok(sender)
     }
 
     /// [`start`](Self::start) without sending: the RPDO is in the master's engine, its first
     /// frame queued.
-    pub(super) fn engage(
-        &self,
-        pdo: &PdoParameters,
-        how: Transmission,
-    ) -> Result<RpdoSender, Error> {
+    fn engage(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
         if pdo.direction != Direction::Receive {
             return Err(pdo.error("the master transmits a node's RPDOs, not its TPDOs".into()));
         }

@@ -16,11 +16,8 @@
 //!   network's own driving (background driver, waiting calls, `run_for`) sends the frames.
 //!
 //! Files by job: `params` (the parameters and their set), `handles` ([`Tpdos`], [`Rpdos`]),
-//! `transmit` ([`Transmission`], [`RpdoSender`]), `sequence` (the SDO sequences behind them),
-//! `asynch` (their async twins).
+//! `transmit` ([`Transmission`], [`RpdoSender`]), `sequence` (the SDO sequences behind them).
 
-#[cfg(feature = "tokio")]
-mod asynch;
 mod handles;
 mod params;
 mod sequence;

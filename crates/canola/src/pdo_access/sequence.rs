@@ -1,7 +1,6 @@
-//! The SDO sequences behind the PDO handles, written once for the blocking and the async API
-//! over a [`Port`]: reading a direction's PDOs, saving the changed ones the CiA 301 way
-//! (invalidate, clear the mapping, entries, count, parameters, COB-ID), and
-//! [`Node::remap_pdo`].
+//! The SDO sequences behind the PDO handles, as straight-line async code over the node's SDO
+//! operations: reading a direction's PDOs, saving the changed ones the CiA 301 way (invalidate,
+//! clear the mapping, entries, count, parameters, COB-ID), and [`Node::remap_pdo`].
 
 use std::sync::Arc;
 
@@ -13,7 +12,7 @@ use canola_pdo::{
 use canola_sdo::AbortCode;
 
 use crate::error::Error;
-use crate::network::Node;
+use crate::network::{Node, Operation};
 
 use super::params::{MappedVariable, PdoParameters, PdoSet, Present, kind_name, name_of};
 
@@ -36,87 +35,34 @@ pub(super) fn follow(node: &Node, p: &PdoParameters) {
     }
 }
 
-/// How the PDO services reach a node's objects: by the blocking SDO calls, or by their async
-/// twins. The services are written once, as async functions over a port; with the blocking
-/// port every await is ready at once, so [`Port::run`] completes them in one poll.
-#[derive(Clone, Copy)]
-pub(super) enum Port<'a> {
-    Blocking(&'a Node),
-    #[cfg(feature = "tokio")]
-    Async(&'a Node),
+/// Reads a 32-bit value (or fewer bits, zero-extended) of the node.
+async fn read_u32(node: &Node, index: u16, sub: u8) -> Result<u32, Error> {
+    node.sdo()
+        .read(ObjectAddress::new(index, sub))
+        .into_body()
+        .await
+        .map(|b| le_u32(&b))
 }
 
-impl Port<'_> {
-    pub(super) fn node(&self) -> &Node {
-        match self {
-            Port::Blocking(node) => node,
-            #[cfg(feature = "tokio")]
-            Port::Async(node) => node,
-        }
+/// An optional sub-index: per the dictionary when there is one, else as the node answers.
+async fn read_optional(
+    node: &Node,
+    od: Option<&ObjectDictionary>,
+    index: u16,
+    sub: u8,
+) -> Result<Option<u32>, Error> {
+    if let Some(od) = od
+        && od.sub(index, sub).is_none()
+    {
+        return Ok(None);
     }
-
-    pub(super) async fn read(&self, addr: ObjectAddress) -> Result<Vec<u8>, Error> {
-        match self {
-            Port::Blocking(node) => node.sdo().read(addr),
-            #[cfg(feature = "tokio")]
-            Port::Async(node) => node.sdo().read_async(addr).await,
-        }
-    }
-
-    pub(super) async fn write(&self, addr: ObjectAddress, bytes: &[u8]) -> Result<(), Error> {
-        match self {
-            Port::Blocking(node) => node.sdo().write(addr, bytes),
-            #[cfg(feature = "tokio")]
-            Port::Async(node) => node.sdo().write_async(addr, bytes).await,
-        }
-    }
-
-    pub(super) async fn read_u32(&self, index: u16, sub: u8) -> Result<u32, Error> {
-        self.read(ObjectAddress::new(index, sub))
-            .await
-            .map(|b| le_u32(&b))
-    }
-
-    /// An optional sub-index: per the dictionary when there is one, else as the node answers.
-    pub(super) async fn read_optional(
-        &self,
-        od: Option<&ObjectDictionary>,
-        index: u16,
-        sub: u8,
-    ) -> Result<Option<u32>, Error> {
-        if let Some(od) = od
-            && od.sub(index, sub).is_none()
-        {
-            return Ok(None);
-        }
-        match self.read_u32(index, sub).await {
-            Ok(v) => Ok(Some(v)),
-            Err(e) if absent(&e) => Ok(None),
-            Err(e) => Err(e),
-        }
-    }
-
-    /// Completes a service on the blocking port: one poll, every SDO call in it has blocked
-    /// until done.
-    pub(super) fn run<T>(
-        self,
-        service: impl Future<Output = Result<T, Error>>,
-    ) -> Result<T, Error> {
-        let mut service = std::pin::pin!(service);
-        let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
-        match service.as_mut().poll(&mut cx) {
-            std::task::Poll::Ready(r) => r,
-            // Only the async port's calls can be pending, and `run` is for the blocking one.
-            std::task::Poll::Pending => Err(Error::Driver(
-                "a PDO service on the blocking port did not complete".into(),
-            )),
-        }
+    match read_u32(node, index, sub).await {
+        Ok(v) => Ok(Some(v)),
+        Err(e) if absent(&e) => Ok(None),
+        Err(e) => Err(e),
     }
 }
 
-/// The async twins of the PDO services (`tokio` feature; see the `asynch` module). Dropping one
-/// of these futures cancels the SDO transfer it is in; a `save` dropped half-way leaves the PDO
-/// as far as the sequence got (invalid on the node until saved again).
 impl Node {
     /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
     /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
@@ -129,7 +75,7 @@ impl Node {
         number: u16,
         comm: canola_pdo::CommParams,
         mapping: canola_pdo::Mapping,
-    ) -> Result<(), Error> {
+    ) -> Operation<'static, ()> {
         let n = number.saturating_sub(1);
         let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
         // With a dictionary, write only the sub-indices the node has.
@@ -144,7 +90,8 @@ impl Node {
                 .sub(direction.mapping_index(n), 0)
                 .is_none_or(|s| s.access.is_writable());
         }
-        configure(self, direction, n, &comm, mapping, &remote)
+        let node = self.clone();
+        Operation::new(async move { configure(&node, direction, n, &comm, mapping, &remote).await })
     }
 }
 
@@ -163,8 +110,7 @@ pub(super) fn le_u32(bytes: &[u8]) -> u32 {
     u32::from_le_bytes(b)
 }
 
-pub(super) async fn read_set(port: Port<'_>, direction: Direction) -> Result<PdoSet, Error> {
-    let node = port.node();
+pub(super) async fn read_set(node: &Node, direction: Direction) -> Result<PdoSet, Error> {
     let od = node.dictionary();
     let numbers: Vec<u16> = match od.as_deref() {
         Some(od) => (0..canola_pdo::comm::MAX_PDOS_PER_DIRECTION)
@@ -177,7 +123,7 @@ pub(super) async fn read_set(port: Port<'_>, direction: Direction) -> Result<Pdo
     };
     let mut pdos = Vec::new();
     for n in numbers {
-        if let Some(p) = read_pdo(port, od.clone(), direction, n).await? {
+        if let Some(p) = read_pdo(node, od.clone(), direction, n).await? {
             pdos.push(p);
         }
     }
@@ -188,29 +134,29 @@ pub(super) async fn read_set(port: Port<'_>, direction: Direction) -> Result<Pdo
 }
 
 /// Reads PDO `n` (0-based); `None` when the node does not have it.
-pub(super) async fn read_pdo(
-    port: Port<'_>,
+async fn read_pdo(
+    node: &Node,
     od: Option<Arc<ObjectDictionary>>,
     direction: Direction,
     n: u16,
 ) -> Result<Option<PdoParameters>, Error> {
     let (ci, mi) = (direction.comm_index(n), direction.mapping_index(n));
-    let cob_id = match port.read_u32(ci, 1).await {
+    let cob_id = match read_u32(node, ci, 1).await {
         Ok(v) => PdoCobId(v),
         Err(e) if od.is_none() && absent(&e) => return Ok(None),
         Err(e) => return Err(e),
     };
-    let transmission_type = TransmissionType::from_code(port.read_u32(ci, 2).await? as u8);
-    let inhibit = port.read_optional(od.as_deref(), ci, 3).await?;
-    let event = port.read_optional(od.as_deref(), ci, 5).await?;
-    let sync = port.read_optional(od.as_deref(), ci, 6).await?;
-    let count = port.read_u32(mi, 0).await?;
+    let transmission_type = TransmissionType::from_code(read_u32(node, ci, 2).await? as u8);
+    let inhibit = read_optional(node, od.as_deref(), ci, 3).await?;
+    let event = read_optional(node, od.as_deref(), ci, 5).await?;
+    let sync = read_optional(node, od.as_deref(), ci, 6).await?;
+    let count = read_u32(node, mi, 0).await?;
     let mut entries = Vec::new();
     let mpdo = if count > 64 {
         Some(count as u8)
     } else {
         for sub in 1..=count as u8 {
-            entries.push(port.read_u32(mi, sub).await?);
+            entries.push(read_u32(node, mi, sub).await?);
         }
         None
     };
@@ -249,17 +195,16 @@ pub(super) async fn read_pdo(
         },
         mpdo,
         saved: (comm, entries),
-        node: port.node().id,
+        node: node.id,
         od,
     }))
 }
 
 pub(super) async fn save_set(
-    port: Port<'_>,
+    node: &Node,
     direction: Direction,
     set: &mut PdoSet,
 ) -> Result<(), Error> {
-    let node = port.node();
     if set.direction != direction {
         return Err(Error::InvalidRequest(format!(
             "a set of {}s cannot be saved as {}s",
@@ -291,7 +236,7 @@ pub(super) async fn save_set(
             has_event_timer: p.present.event_timer,
             has_sync_start: p.present.sync_start,
         };
-        configure_with(port, direction, p.number - 1, &p.comm, mapping, &remote).await?;
+        configure(node, direction, p.number - 1, &p.comm, mapping, &remote).await?;
         p.saved = (p.comm, p.raw_entries().collect());
     }
     Ok(())
@@ -301,7 +246,7 @@ pub(super) async fn save_set(
 /// from `canola_pdo::remap`), then makes the master follow: a TPDO is decoded with the new
 /// mapping, a transmitted RPDO uses the new COB-ID and mapping. [`Node::remap_pdo`] and
 /// `save()` both come here.
-pub(crate) fn configure(
+async fn configure(
     node: &Node,
     direction: Direction,
     n: u16,
@@ -309,25 +254,6 @@ pub(crate) fn configure(
     mapping: Mapping,
     remote: &RemoteObjects<'_>,
 ) -> Result<(), Error> {
-    Port::Blocking(node).run(configure_with(
-        Port::Blocking(node),
-        direction,
-        n,
-        comm,
-        mapping,
-        remote,
-    ))
-}
-
-pub(super) async fn configure_with(
-    port: Port<'_>,
-    direction: Direction,
-    n: u16,
-    comm: &CommParams,
-    mapping: Mapping,
-    remote: &RemoteObjects<'_>,
-) -> Result<(), Error> {
-    let node = port.node();
     let steps =
         canola_pdo::remap(direction, n, comm, &mapping, remote).map_err(|e| Error::Value {
             node: node.id,
@@ -346,7 +272,9 @@ pub(super) async fn configure_with(
         }
     }
     for step in &steps {
-        port.write(ObjectAddress::new(step.index, step.subindex), step.value())
+        node.sdo()
+            .write(ObjectAddress::new(step.index, step.subindex), step.value())
+            .into_body()
             .await?;
     }
     let mapping = match node.dictionary() {

@@ -118,16 +118,14 @@ impl RpdoSender {
         K: Into<ObjectKey<'k>>,
         V: Into<WriteValue>,
     {
+        self.node.net.catch_up_on_runtime()?;
         self.stage(values)?;
-        self.node.net.flush()
+        self.node.net.send_queued_now()
     }
 
     /// Gives the engine the new values of [`set_many`](Self::set_many); the frames they cause
     /// are queued, not sent.
-    pub(super) fn stage<'k, K, V>(
-        &self,
-        values: impl IntoIterator<Item = (K, V)>,
-    ) -> Result<(), Error>
+    fn stage<'k, K, V>(&self, values: impl IntoIterator<Item = (K, V)>) -> Result<(), Error>
     where
         K: Into<ObjectKey<'k>>,
         V: Into<WriteValue>,
@@ -172,11 +170,12 @@ impl RpdoSender {
     /// Sends the RPDO now (event-driven: after its inhibit time; type 0: at the next SYNC),
     /// changed or not.
     pub fn trigger(&self) -> Result<(), Error> {
+        self.node.net.catch_up_on_runtime()?;
         self.queue_trigger()?;
-        self.node.net.flush()
+        self.node.net.send_queued_now()
     }
 
-    pub(super) fn queue_trigger(&self) -> Result<(), Error> {
+    fn queue_trigger(&self) -> Result<(), Error> {
         let now = self.node.net.now();
         let mut core = self.node.net.core();
         core.set_now(now);

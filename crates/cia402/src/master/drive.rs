@@ -259,7 +259,7 @@ impl Drive {
         e: canola::od::Entry<T>,
     ) -> Result<[u8; N], DriveError> {
         let at = self.at(e);
-        let data = self.node.sdo().read(at)?;
+        let data = self.node.sdo().read(at).wait()?;
         let mut out = [0u8; N];
         let n = data.len().min(N);
         out[..n].copy_from_slice(&data[..n]);
@@ -398,7 +398,10 @@ impl Drive {
 
     /// Writes the controlword 0x6040.
     pub fn write_controlword(&self, cw: Controlword) -> Result<(), DriveError> {
-        self.node.sdo().write(self.at(obj::CONTROLWORD), cw.raw())?;
+        self.node
+            .sdo()
+            .write(self.at(obj::CONTROLWORD), cw.raw())
+            .wait()?;
         *self.last_cw.lock().unwrap_or_else(|p| p.into_inner()) = Some(cw);
         Ok(())
     }
@@ -424,7 +427,7 @@ impl Drive {
     }
 
     fn sleep(&self) -> Result<(), DriveError> {
-        self.node.network().run_for(self.timeouts.poll)?;
+        self.node.network().run_for(self.timeouts.poll).wait()?;
         Ok(())
     }
 
@@ -612,7 +615,8 @@ impl Drive {
         }
         self.node
             .sdo()
-            .write(self.at(obj::MODES_OF_OPERATION), mode.code())?;
+            .write(self.at(obj::MODES_OF_OPERATION), mode.code())
+            .wait()?;
         let start = self.node.network().now();
         loop {
             let now_mode = self.mode()?;
@@ -652,11 +656,15 @@ impl Drive {
         self.require_enabled()?;
         self.set_mode(ModeOfOperation::ProfilePosition)?;
         if let Some(v) = m.velocity {
-            self.node.sdo().write(self.at(obj::PROFILE_VELOCITY), v)?;
+            self.node
+                .sdo()
+                .write(self.at(obj::PROFILE_VELOCITY), v)
+                .wait()?;
         }
         self.node
             .sdo()
-            .write(self.at(obj::TARGET_POSITION), m.target)?;
+            .write(self.at(obj::TARGET_POSITION), m.target)
+            .wait()?;
         let base = Controlword::from_raw(0x000F)
             .with(0x0040, m.relative)
             .with(0x0020, m.immediate);
@@ -755,7 +763,8 @@ impl Drive {
         self.set_mode(ModeOfOperation::ProfileVelocity)?;
         self.node
             .sdo()
-            .write(self.at(obj::TARGET_VELOCITY), velocity)?;
+            .write(self.at(obj::TARGET_VELOCITY), velocity)
+            .wait()?;
         self.release_halt()
     }
 
@@ -763,7 +772,10 @@ impl Drive {
     /// drive is enabled. Does not enable the drive.
     pub fn set_torque(&self, torque: i16) -> Result<(), DriveError> {
         self.set_mode(ModeOfOperation::ProfileTorque)?;
-        self.node.sdo().write(self.at(obj::TARGET_TORQUE), torque)?;
+        self.node
+            .sdo()
+            .write(self.at(obj::TARGET_TORQUE), torque)
+            .wait()?;
         self.release_halt()
     }
 
@@ -783,7 +795,10 @@ impl Drive {
     pub fn home(&self, method: Option<i8>) -> Result<i32, DriveError> {
         self.set_mode(ModeOfOperation::Homing)?;
         if let Some(m) = method {
-            self.node.sdo().write(self.at(obj::HOMING_METHOD), m)?;
+            self.node
+                .sdo()
+                .write(self.at(obj::HOMING_METHOD), m)
+                .wait()?;
         }
         self.require_enabled()?;
         let base = Controlword::from_raw(0x000F);
@@ -896,10 +911,14 @@ impl Drive {
             DriveError::Cyclic(format!("a period of {period} does not fit 0x60C2"))
         })?;
         let sdo = || self.node.sdo();
-        sdo().write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)?;
-        sdo().write(self.at(obj::INTERPOLATION_TIME_INDEX), ip.index)?;
+        sdo()
+            .write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)
+            .wait()?;
+        sdo()
+            .write(self.at(obj::INTERPOLATION_TIME_INDEX), ip.index)
+            .wait()?;
         let rpdos = self.node.rpdo();
-        let mut set = rpdos.read()?;
+        let mut set = rpdos.read().wait()?;
         let p = set
             .get_mut(rpdo)
             .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
@@ -907,7 +926,7 @@ impl Drive {
         p.map_entry(canola::ObjectAddress::new(target.0, target.1), bits);
         p.set_transmission_type(canola::pdo::TransmissionType::SyncCyclic(1));
         p.set_enabled(true);
-        rpdos.save(&mut set)?;
+        rpdos.save(&mut set).wait()?;
         let p = set
             .get(rpdo)
             .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
@@ -915,8 +934,8 @@ impl Drive {
         sender.set(target, first)?;
         // Also by SDO, so the target is in place before the mode switch whatever the SYNC does.
         match bits {
-            16 => sdo().write(target, first as i16)?,
-            _ => sdo().write(target, first as i32)?,
+            16 => sdo().write(target, first as i16).wait()?,
+            _ => sdo().write(target, first as i32).wait()?,
         }
         self.set_mode(mode)?;
         Ok(CyclicStream {

@@ -1364,7 +1364,7 @@ pub mod client {
         entry: ::canola::od::Entry<T>,
     }
 
-    impl<T: ::canola::od::EntryValue> ReadOnly<T> {
+    impl<T: ::canola::od::EntryValue + 'static> ReadOnly<T> {
         /// The handle of `entry` on `node`.
         pub fn new(node: ::canola::Node, entry: ::canola::od::Entry<T>) -> Self {
             Self { node, entry }
@@ -1375,8 +1375,8 @@ pub mod client {
             self.entry
         }
 
-        /// Reads the object (SDO upload) and decodes it as its data type.
-        pub fn read(&self) -> Result<T, ::canola::Error> {
+        /// Reads the object (SDO upload) and decodes it as its data type: `.wait()` or `.await`.
+        pub fn read(&self) -> ::canola::Operation<'static, T> {
             self.node.sdo().read_entry(&self.entry)
         }
     }
@@ -1388,7 +1388,7 @@ pub mod client {
         entry: ::canola::od::Entry<T>,
     }
 
-    impl<T: ::canola::od::EntryValue> WriteOnly<T> {
+    impl<T: ::canola::od::EntryValue + 'static> WriteOnly<T> {
         /// The handle of `entry` on `node`.
         pub fn new(node: ::canola::Node, entry: ::canola::od::Entry<T>) -> Self {
             Self { node, entry }
@@ -1399,8 +1399,8 @@ pub mod client {
             self.entry
         }
 
-        /// Writes the object (SDO download), encoded as its data type.
-        pub fn write(&self, value: T) -> Result<(), ::canola::Error> {
+        /// Writes the object (SDO download), encoded as its data type: `.wait()` or `.await`.
+        pub fn write(&self, value: T) -> ::canola::Operation<'static, ()> {
             self.node.sdo().write_entry(&self.entry, &value)
         }
     }
@@ -1412,7 +1412,7 @@ pub mod client {
         entry: ::canola::od::Entry<T>,
     }
 
-    impl<T: ::canola::od::EntryValue> ReadWrite<T> {
+    impl<T: ::canola::od::EntryValue + 'static> ReadWrite<T> {
         /// The handle of `entry` on `node`.
         pub fn new(node: ::canola::Node, entry: ::canola::od::Entry<T>) -> Self {
             Self { node, entry }
@@ -1423,13 +1423,13 @@ pub mod client {
             self.entry
         }
 
-        /// Reads the object (SDO upload) and decodes it as its data type.
-        pub fn read(&self) -> Result<T, ::canola::Error> {
+        /// Reads the object (SDO upload) and decodes it as its data type: `.wait()` or `.await`.
+        pub fn read(&self) -> ::canola::Operation<'static, T> {
             self.node.sdo().read_entry(&self.entry)
         }
 
-        /// Writes the object (SDO download), encoded as its data type.
-        pub fn write(&self, value: T) -> Result<(), ::canola::Error> {
+        /// Writes the object (SDO download), encoded as its data type: `.wait()` or `.await`.
+        pub fn write(&self, value: T) -> ::canola::Operation<'static, ()> {
             self.node.sdo().write_entry(&self.entry, &value)
         }
     }

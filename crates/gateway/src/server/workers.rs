@@ -235,7 +235,7 @@ pub(super) fn drive(shared: &Shared, period: std::time::Duration) {
     while !shared.stop.load(Ordering::SeqCst) {
         let start = std::time::Instant::now();
         if shared.active.load(Ordering::SeqCst) == 0 {
-            let _ = shared.net.run_for(step);
+            let _ = shared.net.run_for(step).wait();
         }
         if let Some(rest) = period.checked_sub(start.elapsed()) {
             std::thread::sleep(rest);

@@ -41,6 +41,7 @@ pub fn wait_event(
     let mut seen = Vec::new();
     while net.now() < deadline {
         net.run_for(Duration::from_millis(50))
+            .wait()
             .expect("drive the network");
         for e in events.try_iter() {
             if want(&e) {
@@ -61,7 +62,7 @@ pub fn events_during(
     span: Duration,
     want: impl Fn(&NetworkEvent) -> bool,
 ) -> Vec<NetworkEvent> {
-    net.run_for(span).expect("drive the network");
+    net.run_for(span).wait().expect("drive the network");
     events.try_iter().filter(|e| want(e)).collect()
 }
 

@@ -23,11 +23,10 @@ use std::sync::{Arc, Mutex, Weak};
 
 use canola_frame::Instant;
 
+use super::driving::drive;
+use super::handle::{Inner, Network};
 use crate::error::Error;
 use crate::machine::Core;
-use crate::network::Network;
-use crate::network::driving::drive;
-use crate::network::handle::Inner;
 use crate::transport::TransportError;
 
 /// Steps taken in one go before the future yields to the runtime.
@@ -99,11 +98,6 @@ pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
         catch_up_once(net, None)?;
     }
     Ok(())
-}
-
-/// Whether the network's transport runs on a virtual clock.
-pub(crate) fn is_virtual(net: &Network) -> bool {
-    net.reactor().virtual_clock
 }
 
 /// Waits until `done` returns a value, driving the network meanwhile (see the module docs).
