@@ -102,7 +102,6 @@ impl Lss {
             let candidates = Self::candidates(&config);
             let found = lss
                 .nodes_in_use(candidates, config.services.response_timeout)
-                .into_body()
                 .await?;
             for id in found.iter() {
                 config.in_use.insert(id);
@@ -110,7 +109,6 @@ impl Lss {
             let in_use = config.in_use;
             let mut report = lss
                 .run(AssignAll::new(config), |m, now| m.start(now))
-                .into_body()
                 .await?;
             list_conflicts(&mut report, candidates, in_use);
             Ok(report)

@@ -38,39 +38,68 @@ use crate::machine::{Completion, Core, RequestId, SdoRequest, Taken};
 /// Dropping it unfinished, or dropping its future, cancels it (a running SDO transfer is
 /// aborted on the bus). The lifetime is that of what the operation borrows (a [`PdoSet`]
 /// being saved); most operations borrow nothing and are `'static`, so their futures can be
-/// spawned.
+/// spawned. `E` is the error: this crate's [`Error`], or a profile's own (a CiA 402 drive's).
+///
+/// Other crates write their multi-step operations the same way, once, with
+/// [`Operation::new`]: an async block that awaits this crate's operations. Without the `tokio`
+/// feature every operation waits by blocking, awaited or not.
 ///
 /// [`PdoSet`]: crate::PdoSet
 #[must_use = "an operation does nothing until it is waited on or awaited"]
-pub struct Operation<'a, T> {
-    body: Pin<Box<dyn Future<Output = Result<T, Error>> + Send + 'a>>,
+pub struct Operation<'a, T, E = Error> {
+    body: Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>,
 }
 
-impl<T> core::fmt::Debug for Operation<'_, T> {
+impl<T, E> core::fmt::Debug for Operation<'_, T, E> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Operation").finish_non_exhaustive()
     }
 }
 
-impl<'a, T> Operation<'a, T> {
-    /// The operation whose body is `body` (the crate's operations are written as async blocks
-    /// over this module's primitives).
-    pub(crate) fn new(body: impl Future<Output = Result<T, Error>> + Send + 'a) -> Self {
+impl<'a, T, E> Operation<'a, T, E> {
+    /// The operation whose body is `body`: an async block that awaits operations of this
+    /// crate (and [`Pending`](crate::Pending) requests), in order, as straight-line code. It
+    /// must await nothing tied to one runtime (a tokio timer): [`wait`](Self::wait) runs it
+    /// on the calling thread. Wait on the bus with [`Network::run_for`](crate::Network::run_for).
+    ///
+    /// ```
+    /// use canola::{Error, MemoryBus, Network, NodeId, Operation, SimDevice};
+    ///
+    /// /// The heartbeat time, doubled, written back: one operation of two transfers.
+    /// fn double_heartbeat(node: canola::Node) -> Operation<'static, u16> {
+    ///     Operation::new(async move {
+    ///         let ms: u16 = node.read_typed((0x1017, 0)).await?;
+    ///         node.sdo().write((0x1017, 0), ms * 2).await?;
+    ///         Ok::<_, Error>(ms * 2)
+    ///     })
+    /// }
+    ///
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// let bus = MemoryBus::new();
+    /// let net = Network::new(bus.endpoint());
+    /// let id = NodeId::new(5)?;
+    /// bus.attach(SimDevice::from_eds(id, &include_bytes!("../../../../eds/burkert-generic.eds")[..])?);
+    /// assert_eq!(double_heartbeat(net.node(id)).wait()?, 1000);
+    /// # Ok(())
+    /// # }
+    /// ```
+    pub fn new(body: impl Future<Output = Result<T, E>> + Send + 'a) -> Self {
         Self {
             body: Box::pin(body),
         }
     }
 
     /// An operation that ends at once with `r` (an argument already found wrong).
-    pub(crate) fn ready(r: Result<T, Error>) -> Self
+    pub fn ready(r: Result<T, E>) -> Self
     where
         T: Send + 'a,
+        E: Send + 'a,
     {
         Self::new(async move { r })
     }
 
     /// Finishes the operation on this thread, driving the network until it ends.
-    pub fn wait(self) -> Result<T, Error> {
+    pub fn wait(self) -> Result<T, E> {
         let _mode = BlockingMode::enter();
         let waker = Waker::from(Arc::new(ThreadWaker(std::thread::current())));
         let mut cx = Context::from_waker(&waker);
@@ -84,17 +113,13 @@ impl<'a, T> Operation<'a, T> {
             }
         }
     }
-
-    /// The body as a future, for operations made of other operations.
-    pub(crate) fn into_body(self) -> Pin<Box<dyn Future<Output = Result<T, Error>> + Send + 'a>> {
-        self.body
-    }
 }
 
-#[cfg(feature = "tokio")]
-impl<'a, T> std::future::IntoFuture for Operation<'a, T> {
-    type Output = Result<T, Error>;
-    type IntoFuture = Pin<Box<dyn Future<Output = Result<T, Error>> + Send + 'a>>;
+/// `.await` an operation: with the `tokio` feature it waits on tokio without blocking (see the
+/// `asynch` module); without it, it blocks as [`Operation::wait`] does.
+impl<'a, T, E> std::future::IntoFuture for Operation<'a, T, E> {
+    type Output = Result<T, E>;
+    type IntoFuture = Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>;
 
     fn into_future(self) -> Self::IntoFuture {
         self.body

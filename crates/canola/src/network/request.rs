@@ -90,9 +90,9 @@ impl<T> Pending<T> {
     }
 }
 
-/// `.await` a pending request (`tokio` feature): the same request, waited for without
-/// blocking the runtime; dropping the future cancels it.
-#[cfg(feature = "tokio")]
+/// `.await` a pending request: the same request, waited for without blocking the runtime
+/// (`tokio` feature; without it, awaiting blocks as [`Pending::wait`] does); dropping the
+/// future cancels it.
 impl<T: Send + 'static> std::future::IntoFuture for Pending<T> {
     type Output = Result<T, SdoError>;
     type IntoFuture =
@@ -352,7 +352,7 @@ impl Sdo {
             .unwrap_or(T::DATA_TYPE);
         let read = self.read_as(entry, data_type);
         Operation::new(async move {
-            let value = read.into_body().await?;
+            let value = read.await?;
             T::try_from(value).map_err(|e| Error::Value {
                 node,
                 entry,
@@ -370,7 +370,7 @@ impl Sdo {
         let entry = entry.into();
         let node = self.node;
         let upload = self.read_upload(entry);
-        Operation::new(async move { upload.into_body().await?.decode(node, entry, data_type) })
+        Operation::new(async move { upload.await?.decode(node, entry, data_type) })
     }
 
     /// Reads a typed entry (from generated code: `canola_od::Entry<T>`) and decodes it.
@@ -382,7 +382,7 @@ impl Sdo {
         let node = self.node;
         let entry = *entry;
         let upload = self.read_upload(at);
-        Operation::new(async move { decode_entry(node, &entry, &upload.into_body().await?) })
+        Operation::new(async move { decode_entry(node, &entry, &upload.await?) })
     }
 
     /// Writes a typed entry (from generated code: `canola_od::Entry<T>`).

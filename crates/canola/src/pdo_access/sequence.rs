@@ -39,7 +39,6 @@ pub(super) fn follow(node: &Node, p: &PdoParameters) {
 async fn read_u32(node: &Node, index: u16, sub: u8) -> Result<u32, Error> {
     node.sdo()
         .read(ObjectAddress::new(index, sub))
-        .into_body()
         .await
         .map(|b| le_u32(&b))
 }
@@ -274,7 +273,6 @@ async fn configure(
     for step in &steps {
         node.sdo()
             .write(ObjectAddress::new(step.index, step.subindex), step.value())
-            .into_body()
             .await?;
     }
     let mapping = match node.dictionary() {
