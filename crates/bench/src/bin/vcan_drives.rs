@@ -9,8 +9,10 @@
 //!   given: under emulation, eight drive models taking 9 000 frames a second keep a vCPU busy
 //!   and starve both senders alike (the windows then measure the guest's load, not the
 //!   senders).
-//! * This master: `canola::Network` over `canola::socketcan::SocketCan` with its background
-//!   driver thread; each drive enabled and put in csp by `Drive::start_cyclic` (RPDO4 with
+//! * This master, twice (each time with a drives' process of its own): `canola::Network` over
+//!   `canola::socketcan::SocketCan` with its background driver thread, first with the
+//!   transport's default waits (the socket's receive timeout, rounded up to the kernel's tick),
+//!   then with precise waits (`SocketCan::with_precise_waits`: `ppoll`); each drive enabled and put in csp by `Drive::start_cyclic` (RPDO4 with
 //!   0x607A alone, transmission type 1), the SYNC produced by `Network::start_sync`, so the PDO
 //!   engine sends the eight RPDOs after every SYNC. An application thread sets a new target
 //!   for every drive about once a millisecond (`CyclicStream::set_target`), as a csp
@@ -26,12 +28,14 @@
 //!
 //! Printed per side: the SYNCs in the window, the intervals between consecutive SYNCs (p50,
 //! p99, max, min), how far they stray from the period (p99 and max of |interval − period|),
-//! the RPDOs between two SYNCs (cycles with exactly one of every drive, the fewest and most),
+//! the RPDOs between two SYNCs (cycles with exactly one of every drive, the fewest and most;
+//! frames in the order of their stamps, and how many the receiver got out of that order: vcan
+//! delivers a frame from the input backlog of the vCPU that sent it),
 //! and the CPU time per cycle of the sender (this process's threads but the one reading
 //! candump's lines; python-canopen's whole process) and of the drives' process when it runs
 //! (`/proc/PID/stat`).
-//! The last line is `vcan_drives: canola p50 .. p99 .. max .. | python-canopen p50 .. p99 ..
-//! max .. (µs)`.
+//! The last line is `vcan_drives: canola p50 .. p99 .. max .. | canola precise p50 .. p99 ..
+//! max .. | python-canopen p50 .. p99 .. max .. (µs)`.
 //!
 //! The figures are measured, not judged (the guest is emulated on a shared machine): the run
 //! fails only when a side could not run, or its window holds fewer than 100 SYNCs.
@@ -361,6 +365,8 @@ struct Figures {
     cycles: usize,
     complete: usize,
     rpdos: (usize, usize),
+    /// Frames the receiver got before one stamped earlier.
+    reordered: usize,
     cpu_per_cycle_us: f64,
     /// `None`: the drives' process was not running.
     drives_cpu_per_cycle_us: Option<f64>,
@@ -378,10 +384,15 @@ fn figures(
     period_us: i64,
     (cpu, drives_cpu): (f64, Option<f64>),
 ) -> Result<Figures, String> {
-    let inside: Vec<&(i64, u16)> = frames
+    let mut inside: Vec<&(i64, u16)> = frames
         .iter()
         .filter(|(t, _)| (window.0..=window.1).contains(t))
         .collect();
+    // The kernel stamps a vcan frame on the CPU that sent it and delivers it from that CPU's
+    // input backlog: frames sent from two vCPUs can reach the receiver out of order. Their
+    // stamps give the order they were sent in.
+    let reordered = inside.windows(2).filter(|w| w[1].0 < w[0].0).count();
+    inside.sort_by_key(|(t, _)| *t);
     let syncs: Vec<i64> = inside
         .iter()
         .filter(|(_, id)| *id == 0x080)
@@ -432,6 +443,7 @@ fn figures(
         cycles: per_cycle.len(),
         complete,
         rpdos,
+        reordered,
         cpu_per_cycle_us: cpu * 1e6 / syncs.len() as f64,
         drives_cpu_per_cycle_us: drives_cpu.map(|c| c * 1e6 / syncs.len() as f64),
     })
@@ -598,12 +610,12 @@ fn print_table(period_us: u64, rows: &[(&str, &Figures)]) {
         "SYNC intervals on the receiver (kernel timestamps, µs; period {period_us} µs), RPDOs per cycle, sender CPU:"
     );
     println!(
-        "| sender | SYNCs | p50 | p99 | max | min | p99 |Δ| | max |Δ| | cycles with every RPDO | RPDOs per cycle | sender CPU per cycle | drives' CPU per cycle |"
+        "| sender | SYNCs | p50 | p99 | max | min | p99 |Δ| | max |Δ| | cycles with every RPDO | RPDOs per cycle | received out of order | sender CPU per cycle | drives' CPU per cycle |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for (name, f) in rows {
         println!(
-            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} of {} | {}..{} | {:.0} µs | {} |",
+            "| {name} | {} | {} | {} | {} | {} | {} | {} | {} of {} | {}..{} | {} | {:.0} µs | {} |",
             f.syncs,
             f.p50,
             f.p99,
@@ -615,6 +627,7 @@ fn print_table(period_us: u64, rows: &[(&str, &Figures)]) {
             f.cycles,
             f.rpdos.0,
             f.rpdos.1,
+            f.reordered,
             f.cpu_per_cycle_us,
             f.drives_cpu_per_cycle_us
                 .map_or("stopped".into(), |c| format!("{c:.0} µs"))
