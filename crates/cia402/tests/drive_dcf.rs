@@ -1,8 +1,8 @@
 //! PDO mappings of the cyclic modes taken from a DCF: DCFs derived from `eds/cia402-servo.eds`
 //! (the EDS parsed, PDO parameter values changed, written out as a DCF for node 5 and parsed
 //! back), the `Drive` streaming csp through the DCF's PDOs to the simulated drive on the
-//! in-memory bus, and DCFs whose PDOs cannot serve the mode giving clear errors before anything
-//! is written.
+//! in-memory bus (also after `canola-manager`'s CiA 302 boot wrote that DCF), and DCFs whose
+//! PDOs cannot serve the mode giving clear errors before anything is written.
 
 use std::sync::{Arc, Mutex};
 
@@ -219,6 +219,31 @@ fn a_csp_stream_runs_on_the_dcf_mapping() {
     r.net.run_for(Duration::from_millis(20)).unwrap();
     assert_eq!(drive.state().unwrap(), State::OperationEnabled);
     stream.stop().unwrap();
+
+    // Started again (as after a CiA 302 boot that wrote this DCF): the device holds the DCF's
+    // PDOs already, so no PDO parameter is written again.
+    let _ = frames(&mut tap);
+    let again = drive
+        .start_cyclic_from_dcf(
+            ModeOfOperation::CyclicSyncPosition,
+            &pdos,
+            Duration::from_millis(1),
+        )
+        .unwrap();
+    r.net.run_for(Duration::from_millis(10)).unwrap();
+    let pdo_writes = frames(&mut tap)
+        .iter()
+        .filter(|(id, d)| {
+            let index = d.get(1..3).map(|b| u16::from_le_bytes([b[0], b[1]]));
+            *id == 0x605
+                && d.first().is_some_and(|b| b & 0xE0 == 0x20)
+                && index.is_some_and(|i| (0x1400..=0x1BFF).contains(&i))
+        })
+        .count();
+    assert_eq!(pdo_writes, 0);
+    again.set_target(3_100).unwrap();
+    r.net.run_for(Duration::from_millis(300)).unwrap();
+    assert!((r.model.lock().unwrap().position() - 3_100.0).abs() <= 20.0);
 }
 
 #[test]
@@ -322,4 +347,75 @@ fn axis_1_looks_for_its_objects_800h_higher() {
         matches!(e, DcfPdoError::Missing { index: 0x687A, .. }),
         "{e}"
     );
+}
+
+#[test]
+fn after_a_cia_302_boot_of_the_dcf_the_stream_writes_no_pdo_parameter() {
+    // The DCF as a configuration tool writes it: `ParameterValue`s on the entries it configures
+    // (the PDOs of `csp_dcf`), the EDS's defaults elsewhere.
+    let mut od = canola::od::parse(EDS).unwrap().od;
+    set(&mut od, 0x1401, 2, Value::Unsigned8(255));
+    map(&mut od, 0x1602, &[0x607A_0020, 0x6040_0010]);
+    set(&mut od, 0x1402, 2, Value::Unsigned8(1));
+    set(&mut od, 0x1403, 1, Value::Unsigned32(0x8000_0505));
+    set(&mut od, 0x1801, 1, Value::Unsigned32(0x8000_0285));
+    map(&mut od, 0x1A02, &[0x6064_0020, 0x6041_0010]);
+    set(&mut od, 0x1802, 2, Value::Unsigned8(1));
+    set(&mut od, 0x1803, 1, Value::Unsigned32(0x8000_0485));
+    let text = canola::od::write_eds(&od);
+    let config = canola_manager::NetworkConfig::parse_with_files(
+        "[[slave]]\nnode_id = 5\ndcf = \"drive5.dcf\"\nmandatory = true\n",
+        std::path::Path::new("net.toml"),
+        &|_| Ok(text.clone().into_bytes()),
+    )
+    .unwrap();
+
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let id = NodeId::new(NODE).unwrap();
+    let (device, model) = simulated_drive(id, EDS, SimDrive::default()).unwrap();
+    bus.attach(device);
+    let report = canola_manager::boot(&net, &config);
+    assert!(report.mandatory_ok, "{report:?}");
+    assert_eq!(
+        report.slaves[0].status,
+        canola_manager::SlaveStatus::Operational
+    );
+    let node = net.node(id);
+    assert_eq!(
+        read_u32(&node, 0x1602, 1),
+        0x607A_0020,
+        "the boot wrote RPDO3"
+    );
+
+    let pdos = DcfPdos::parse(text.as_bytes(), id).unwrap();
+    let drive = Drive::new(node);
+    drive.enable().unwrap();
+    net.start_sync(Duration::from_millis(1));
+    let mut tap = bus.endpoint();
+    let stream = drive
+        .start_cyclic_from_dcf(
+            ModeOfOperation::CyclicSyncPosition,
+            &pdos,
+            Duration::from_millis(1),
+        )
+        .unwrap();
+    for i in 1..=100 {
+        stream.set_target(i * 10).unwrap();
+        net.run_for(Duration::from_millis(1)).unwrap();
+    }
+    net.run_for(Duration::from_millis(300)).unwrap();
+    let seen = frames(&mut tap);
+    let pdo_writes = seen
+        .iter()
+        .filter(|(id, d)| {
+            let index = d.get(1..3).map(|b| u16::from_le_bytes([b[0], b[1]]));
+            *id == 0x605
+                && d.first().is_some_and(|b| b & 0xE0 == 0x20)
+                && index.is_some_and(|i| (0x1400..=0x1BFF).contains(&i))
+        })
+        .count();
+    assert_eq!(pdo_writes, 0, "the boot configured them");
+    assert!(seen.iter().any(|(id, d)| *id == 0x405 && d.len() == 6));
+    assert!((model.lock().unwrap().position() - 1_000.0).abs() <= 20.0);
 }
