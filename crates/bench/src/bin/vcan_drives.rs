@@ -720,3 +720,49 @@ fn main() -> ExitCode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candump_lines_give_stamp_and_identifier() {
+        assert_eq!(
+            parse_candump("(1701590000.123456) vcan0 080#"),
+            Some((1_701_590_000_123_456, 0x080))
+        );
+        assert_eq!(
+            parse_candump("(1701590000.000010) vcan0 505#E8030000"),
+            Some((1_701_590_000_000_010, 0x505))
+        );
+        assert_eq!(parse_candump("(1701590000.12345) vcan0 080#"), None);
+        assert_eq!(parse_candump("garbage"), None);
+        assert_eq!(parse_candump("(1.000000) vcan0 XYZ#00"), None);
+    }
+
+    /// SYNCs every 1000 µs but one 1500 µs late, two drives' RPDOs after each SYNC except in
+    /// one cycle that misses drive 2; one frame delivered out of its stamp's order.
+    #[test]
+    fn figures_sort_by_stamp_and_count_complete_cycles() {
+        let mut frames = Vec::new();
+        let mut t = 0i64;
+        for k in 0..200 {
+            t += if k == 100 { 1500 } else { 1000 };
+            frames.push((t, 0x080));
+            frames.push((t + 100, 0x501));
+            if k != 50 {
+                frames.push((t + 200, 0x502));
+            }
+        }
+        frames.swap(10, 11); // received out of order
+        let f = figures(&frames, (0, t + 300), 2, 1000, (0.2, None)).unwrap();
+        assert_eq!(f.syncs, 200);
+        assert_eq!((f.p50, f.max, f.min), (1000, 1500, 1000));
+        assert_eq!((f.dev_max, f.reordered), (500, 1));
+        // 199 cycles between SYNCs; the one of k = 50 lacks drive 2.
+        assert_eq!((f.cycles, f.complete, f.rpdos), (199, 198, (1, 2)));
+        assert!((f.cpu_per_cycle_us - 1000.0).abs() < 1e-9);
+        // Too few SYNCs is an error, not figures.
+        assert!(figures(&frames[..30], (0, t), 2, 1000, (0.0, None)).is_err());
+    }
+}
