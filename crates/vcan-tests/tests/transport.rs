@@ -101,3 +101,32 @@ fn receive_deadline_passes_without_traffic() {
         "recv_until returned None before its deadline"
     );
 }
+
+#[test]
+#[ignore = "needs vcan0: run by tests/vcan/run-all"]
+fn precise_waits_receive_in_order_and_end_at_the_deadline() {
+    // The ppoll path of `recv_until` (`SocketCan::with_precise_waits`): frames that arrive
+    // during a wait are returned in order, and an empty wait ends at its deadline, not before.
+    let mut t = SocketCan::open(&interface())
+        .expect("open the transport")
+        .with_precise_waits(true);
+    let peer = open().expect("open the peer socket");
+    for n in 0u8..20 {
+        let f = socketcan::CanFrame::new(StandardId::new(0x5A7).expect("id"), &[n]).expect("frame");
+        peer.write_frame(&f).expect("peer sends");
+        let (got, _) = next_frame_with_id(&mut t, 0x5A7);
+        assert_eq!(got.data(), &[n]);
+    }
+    for wait_us in [300u64, 1_000, 2_500, 20_000] {
+        let deadline = t.now() + Duration::from_micros(wait_us);
+        while let Some(r) = t.recv_until(deadline).expect("recv") {
+            if let Received::Frame { frame, .. } = r {
+                assert_ne!(frame.id().as_standard(), Some(0x7E6));
+            }
+        }
+        assert!(
+            t.now() >= deadline,
+            "recv_until returned None before its deadline ({wait_us} µs)"
+        );
+    }
+}

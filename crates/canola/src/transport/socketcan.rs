@@ -24,6 +24,13 @@
 //! when the deadlines keep the same distance (the master's drive slice, the simulator's loop).
 //! A deadline that has passed is a non-blocking read (`MSG_DONTWAIT`).
 //!
+//! Precise waits ([`SocketCan::set_precise_waits`], off by default): `ppoll` with the time
+//! left, on the kernel's high-resolution timers, then a non-blocking read. A wait then ends
+//! within the timer slack (50 µs) of its deadline instead of up to a tick late, at the cost
+//! above per wait. A master producing the SYNC at 1 kHz needs it on a kernel with `HZ=250`:
+//! with tick-rounded waits its SYNC intervals are 4 to 8 ms (`vcan_drives` in
+//! `crates/bench` measures both).
+//!
 //! CAN FD: [`SocketCan::open_fd`] also asks for CAN FD frames (`CAN_RAW_FD_FRAMES`, what
 //! `socketcan::CanFdSocket` sets). The master's protocols run on classic frames, so an FD frame
 //! is reported as [`BusEvent::FdFrame`] (for `canopen record` and `monitor`), not as a frame.
@@ -105,6 +112,8 @@ pub struct SocketCan {
     events: VecDeque<Received>,
     /// The receive timeout set on the socket (`None`: the kernel's default, none).
     read_timeout: Option<std::time::Duration>,
+    /// Wait with `ppoll` (high-resolution timer) instead of the receive timeout.
+    precise: bool,
 }
 
 impl core::fmt::Debug for SocketCan {
@@ -235,7 +244,38 @@ impl SocketCan {
             down: false,
             events: VecDeque::new(),
             read_timeout: None,
+            precise: false,
         })
+    }
+
+    /// Whether [`Transport::recv_until`] waits with `ppoll` on a high-resolution timer, so it
+    /// returns within the timer slack of its deadline (see the module docs), instead of the
+    /// socket's receive timeout, which the kernel rounds up to its tick. Off by default.
+    pub fn set_precise_waits(&mut self, on: bool) {
+        self.precise = on;
+    }
+
+    /// The transport with precise waits on or off (see
+    /// [`set_precise_waits`](Self::set_precise_waits)).
+    pub fn with_precise_waits(mut self, on: bool) -> Self {
+        self.precise = on;
+        self
+    }
+
+    /// Waits with `ppoll` until the socket is readable or `wait` has passed; then one
+    /// non-blocking read.
+    fn poll_wait(&mut self, wait: std::time::Duration) -> Result<(), TransportError> {
+        use nix::poll::{PollFd, PollFlags, ppoll};
+        use std::os::fd::AsFd;
+        let ready = {
+            let mut fds = [PollFd::new(self.socket.as_fd(), PollFlags::POLLIN)];
+            ppoll(&mut fds, Some(nix::sys::time::TimeSpec::from(wait)), None)
+        };
+        match ready {
+            Ok(0) | Err(nix::errno::Errno::EINTR) => Ok(()),
+            Ok(_) => self.read_one(MsgFlags::MSG_DONTWAIT).map(|_| ()),
+            Err(e) => Err(std::io::Error::from(e).into()),
+        }
     }
 
     /// Opens `iface` as [`open`](Self::open) does and also receives CAN FD frames, as
@@ -408,6 +448,10 @@ impl Transport for SocketCan {
                 // Something already queued?
                 self.read_one(MsgFlags::MSG_DONTWAIT)?;
                 return Ok(self.events.pop_front());
+            }
+            if self.precise {
+                self.poll_wait((deadline - now).into())?;
+                continue;
             }
             self.set_wait((deadline - now).into())?;
             self.read_one(MsgFlags::empty())?;

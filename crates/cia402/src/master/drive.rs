@@ -18,6 +18,7 @@ use std::sync::{Arc, Mutex};
 
 use canola::{Duration, Node};
 
+use super::dcf::{DcfPdo, DcfPdoError, DcfPdos};
 use crate::mode::{HomingStatus, ModeOfOperation};
 use crate::objects::{self as obj, ErrorCode, QuickStopOption};
 use crate::state::{PlanError, Planner, State, Transition};
@@ -105,6 +106,9 @@ pub enum DriveError {
     /// A cyclic stream needs csp, csv or cst.
     #[error("{0:?} is not a cyclic synchronous mode (csp, csv, cst)")]
     NotCyclic(ModeOfOperation),
+    /// The DCF's PDOs cannot serve the mode (see [`Drive::start_cyclic_from_dcf`]).
+    #[error(transparent)]
+    Dcf(#[from] DcfPdoError),
     /// The node has no such RPDO, or its period does not fit 0x60C2.
     #[error("cannot set up the cyclic stream: {0}")]
     Cyclic(String),
@@ -174,6 +178,10 @@ pub struct Drive {
     last_cw: Mutex<Option<Controlword>>,
     /// Actual values from TPDOs, when followed.
     tpdo: Mutex<Option<Following>>,
+    /// The RPDO of a cyclic stream that carries the controlword too (a DCF's mapping), and
+    /// where: every controlword written goes into it as well, so its next frame does not undo
+    /// the write.
+    stream_controlword: Mutex<Option<(canola::RpdoSender, (u16, u8))>>,
 }
 
 /// The TPDO values a [`Drive`] follows (see [`Drive::follow_tpdos`]).
@@ -215,6 +223,7 @@ impl Drive {
             transition_16: true,
             last_cw: Mutex::new(None),
             tpdo: Mutex::new(None),
+            stream_controlword: Mutex::new(None),
         }
     }
 
@@ -396,8 +405,16 @@ impl Drive {
             .map(|e| e.emcy.to_string())
     }
 
-    /// Writes the controlword 0x6040.
+    /// Writes the controlword 0x6040 (by SDO; also into a cyclic stream's RPDO that maps it).
     pub fn write_controlword(&self, cw: Controlword) -> Result<(), DriveError> {
+        if let Some((sender, at)) = self
+            .stream_controlword
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .as_ref()
+        {
+            sender.set(*at, cw.raw())?;
+        }
         self.node
             .sdo()
             .write(self.at(obj::CONTROLWORD), cw.raw())
@@ -874,8 +891,25 @@ impl CyclicStream<'_> {
         self.drive
     }
 
+    /// The RPDO number the stream sends.
+    pub fn rpdo(&self) -> u16 {
+        self.sender.number()
+    }
+
     /// Stops sending the RPDO (the drive keeps its last target).
     pub fn stop(self) -> Result<(), DriveError> {
+        let mut slot = self
+            .drive
+            .stream_controlword
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if slot
+            .as_ref()
+            .is_some_and(|(s, _)| s.number() == self.sender.number())
+        {
+            *slot = None;
+        }
+        drop(slot);
         self.sender.stop()?;
         Ok(())
     }
@@ -907,16 +941,8 @@ impl Drive {
             ModeOfOperation::CyclicSyncTorque => (self.at(obj::TARGET_TORQUE), 16, 0),
             m => return Err(DriveError::NotCyclic(m)),
         };
-        let ip = obj::InterpolationPeriod::from_micros(period.as_micros()).ok_or_else(|| {
-            DriveError::Cyclic(format!("a period of {period} does not fit 0x60C2"))
-        })?;
+        self.write_interpolation_period(period)?;
         let sdo = || self.node.sdo();
-        sdo()
-            .write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)
-            .wait()?;
-        sdo()
-            .write(self.at(obj::INTERPOLATION_TIME_INDEX), ip.index)
-            .wait()?;
         let rpdos = self.node.rpdo();
         let mut set = rpdos.read().wait()?;
         let p = set
@@ -944,6 +970,127 @@ impl Drive {
             target,
         })
     }
+}
+
+impl Drive {
+    /// 0x60C2 (interpolation time period) set to `period`.
+    fn write_interpolation_period(&self, period: Duration) -> Result<(), DriveError> {
+        let ip = obj::InterpolationPeriod::from_micros(period.as_micros()).ok_or_else(|| {
+            DriveError::Cyclic(format!("a period of {period} does not fit 0x60C2"))
+        })?;
+        let sdo = || self.node.sdo();
+        sdo()
+            .write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)
+            .wait()?;
+        sdo()
+            .write(self.at(obj::INTERPOLATION_TIME_INDEX), ip.index)
+            .wait()?;
+        Ok(())
+    }
+
+    /// Starts a cyclic synchronous stream in `mode` (csp, csv or cst) on the PDOs a DCF
+    /// configures for it ([`DcfPdos::for_mode`]) instead of a mapping of its own: the valid
+    /// synchronous RPDO that carries the mode's target, as the DCF maps it (with whatever else
+    /// it maps, e.g. the controlword), and the valid TPDOs carrying the actual value. Both are
+    /// written to the device as the DCF has them (COB-ID, transmission type, timers, mapping;
+    /// what the device holds already is not written again), so the master decodes the TPDOs
+    /// with that mapping (see [`follow_tpdos`](Self::follow_tpdos)) and sends the RPDO on
+    /// every SYNC it produces.
+    ///
+    /// A DCF without such PDOs fails with [`DriveError::Dcf`] before anything is written. The
+    /// other objects the RPDO maps start at their present values (read by SDO): the
+    /// controlword at the last one written, which every later controlword write also updates
+    /// (so the RPDO never undoes a state change), the mode of operation (0x6060) at `mode`.
+    /// The first target is the actual position for csp and 0 for csv and cst, as in
+    /// [`start_cyclic`](Self::start_cyclic); 0x60C2 is set to `period`; the power state is not
+    /// changed.
+    pub fn start_cyclic_from_dcf(
+        &self,
+        mode: ModeOfOperation,
+        pdos: &DcfPdos,
+        period: Duration,
+    ) -> Result<CyclicStream<'_>, DriveError> {
+        let m = pdos.for_mode(mode, self.axis)?;
+        let first = match mode {
+            ModeOfOperation::CyclicSyncPosition => i64::from(self.position()?),
+            _ => 0,
+        };
+        self.write_interpolation_period(period)?;
+        let tpdos = self.node.tpdo();
+        let mut set = tpdos.read().wait()?;
+        for t in &m.tpdos {
+            apply_dcf_pdo(&mut set, t)?;
+        }
+        tpdos.save(&mut set).wait()?;
+        let rpdos = self.node.rpdo();
+        let mut set = rpdos.read().wait()?;
+        apply_dcf_pdo(&mut set, &m.rpdo)?;
+        rpdos.save(&mut set).wait()?;
+        let p = set
+            .get(m.rpdo.number)
+            .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{}", m.rpdo.number)))?;
+        let sender = rpdos.start(p, canola::Transmission::on_sync())?;
+        let cw_at = self.at(obj::CONTROLWORD);
+        let mode_at = self.at(obj::MODES_OF_OPERATION);
+        let mut cw_mapped = false;
+        for (index, sub, bits) in m.rpdo.objects() {
+            let at = (index, sub);
+            if at == m.target {
+                sender.set(at, first)?;
+            } else if at == cw_at {
+                let cw = match self.last_controlword() {
+                    Some(cw) => cw.raw(),
+                    None => u16::from_le_bytes(self.read_bytes(obj::CONTROLWORD)?),
+                };
+                sender.set(at, cw)?;
+                cw_mapped = true;
+            } else if at == mode_at {
+                sender.set(at, mode.code())?;
+            } else if index >= 0x1000 && bits % 8 == 0 {
+                // Anything else keeps the value the device has.
+                let mut data = self.node.sdo().read(at).wait()?;
+                data.resize(usize::from(bits / 8), 0);
+                sender.set(at, data)?;
+            }
+        }
+        if cw_mapped {
+            *self
+                .stream_controlword
+                .lock()
+                .unwrap_or_else(|p| p.into_inner()) = Some((sender.clone(), cw_at));
+        }
+        // Also by SDO, so the target is in place before the mode switch whatever the SYNC does.
+        match m.target_bits {
+            16 => self.node.sdo().write(m.target, first as i16).wait()?,
+            _ => self.node.sdo().write(m.target, first as i32).wait()?,
+        }
+        self.set_mode(mode)?;
+        Ok(CyclicStream {
+            drive: self,
+            sender,
+            target: m.target,
+        })
+    }
+}
+
+/// Sets PDO `d.number` of `set` to the DCF's parameters and mapping.
+fn apply_dcf_pdo(set: &mut canola::PdoSet, d: &DcfPdo) -> Result<(), DriveError> {
+    let kind = match set.direction() {
+        canola::pdo::Direction::Receive => "RPDO",
+        canola::pdo::Direction::Transmit => "TPDO",
+    };
+    let p = set.get_mut(d.number).ok_or_else(|| {
+        DriveError::Cyclic(format!(
+            "the DCF configures {kind}{}, which the node does not have",
+            d.number
+        ))
+    })?;
+    p.clear();
+    for (index, sub, bits) in d.objects() {
+        p.map_entry(canola::ObjectAddress::new(index, sub), bits);
+    }
+    p.comm = d.comm;
+    Ok(())
 }
 
 fn mode_name(m: ModeOfOperation) -> String {
