@@ -2,11 +2,11 @@
 
 use std::net::{Ipv4Addr, SocketAddrV4};
 
-use canola_frame::{CanFrame, CanId};
+use canola_frame::{CanFrame, CanId, FdFlags, FdFrame};
 
-use crate::transport::contract::{Received, Transport};
+use crate::transport::contract::{BusEvent, Received, Transport};
 
-use super::codec::{DecodeError, Message, decode, encode};
+use super::codec::{DecodeError, Message, decode, encode, encode_fd};
 use super::socket::{DEFAULT_GROUP, DEFAULT_PORT, UdpMulticast, parse_spec};
 
 use proptest::prelude::*;
@@ -42,7 +42,41 @@ fn reads_other_encodings_of_the_fields() {
         ))
     );
     let fd = b"\x82\xAEarbitration_id\x01\xA5is_fd\xC3";
-    assert_eq!(decode(fd), Ok(Message::Fd));
+    assert_eq!(
+        decode(fd),
+        Ok(Message::Fd(FdFrame::new(sid(0x001), &[]).unwrap()))
+    );
+    // python-can sends an FD message's data as given: 10 bytes are padded to 12 as the wire
+    // carries them; the flags come from bitrate_switch and error_state_indicator.
+    let mut d = vec![0x84];
+    d.extend_from_slice(b"\xAEarbitration_id\xCD\x06\x05\xA5is_fd\xC3");
+    d.extend_from_slice(b"\xAEbitrate_switch\xC3\xA4data\xC4\x0A");
+    d.extend_from_slice(&[7; 10]);
+    let want = FdFrame::new_padded(sid(0x605), &[7; 10])
+        .unwrap()
+        .with_flags(FdFlags::BRS);
+    assert_eq!(decode(&d), Ok(Message::Fd(want)));
+    assert_eq!(want.data().len(), 12);
+    // More than 64 bytes is no frame.
+    let mut d = vec![0x83];
+    d.extend_from_slice(b"\xAEarbitration_id\x01\xA5is_fd\xC3\xA4data\xC4\x41");
+    d.extend_from_slice(&[0; 65]);
+    assert_eq!(decode(&d), Err(DecodeError::BadFrame));
+}
+
+#[test]
+fn encodes_and_decodes_fd_frames() {
+    for frame in [
+        FdFrame::new(sid(0x605), &[0x11; 64]).unwrap(),
+        FdFrame::new(sid(0x7FF), &[1, 2, 3])
+            .unwrap()
+            .with_flags(FdFlags::BRS),
+        FdFrame::new(CanId::extended(0x1ABC_DEF0).unwrap(), &[0; 12])
+            .unwrap()
+            .with_flags(FdFlags::BRS | FdFlags::ESI),
+    ] {
+        assert_eq!(decode(&encode_fd(&frame, 2.5)), Ok(Message::Fd(frame)));
+    }
 }
 
 #[test]
@@ -110,6 +144,27 @@ fn two_transports_hear_each_other_not_themselves() {
         a.recv_timeout(canola_frame::Duration::from_millis(50))
             .unwrap(),
         None
+    );
+}
+
+#[test]
+fn fd_frames_cross_the_bus() {
+    let port = 40000 + ((std::process::id() + 7) % 20000) as u16;
+    let group = SocketAddrV4::new(Ipv4Addr::new(239, 74, 163, 4), port);
+    let (Ok(mut a), Ok(mut b)) = (UdpMulticast::open(group), UdpMulticast::open(group)) else {
+        panic!("cannot open UDP multicast sockets");
+    };
+    assert!(a.fd_support().is_ok());
+    let f = FdFrame::new(sid(0x123), &[9; 48])
+        .unwrap()
+        .with_flags(FdFlags::BRS);
+    a.send_fd(&f).unwrap();
+    let got = b
+        .recv_timeout(canola_frame::Duration::from_millis(2000))
+        .unwrap();
+    assert!(
+        matches!(&got, Some(Received::Event(BusEvent::FdFrame { frame, .. })) if **frame == f),
+        "{got:?}"
     );
 }
 
