@@ -6,17 +6,16 @@
 //! use canola::{BusConfig, MemoryBus, Network, NodeId, SimDevice};
 //!
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let eds = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds"));
+//! // A bus that carries CAN FD, and a simulated CANopen FD device on it.
 //! let bus = MemoryBus::with_config(BusConfig { fd: true, ..BusConfig::default() });
-//! let eds = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/test-device.eds"))?;
-//! let device = SimDevice::from_eds(NodeId::new(5)?, &eds)?.with_fd(true);
-//! bus.attach(device);
+//! bus.attach(SimDevice::from_eds(NodeId::new(5)?, &eds[..])?.with_fd(true));
 //! let net = Network::new(bus.endpoint());
-//! let node = net.add_node(NodeId::new(5)?);
-//! node.set_fd(true);
-//! let name = node.usdo().read((0x1008, 0))?;
-//! node.usdo().write((0x1017, 0), 500u16)?;
+//! let node = net.add_node_with_dictionary(NodeId::new(5)?, canola::od::parse(&eds[..])?.od);
+//! node.set_fd(true); // its EDS has no `CANopenFD=1`: the application says so
 //! assert_eq!(node.usdo().read_typed::<u16>((0x1017, 0))?, 500);
-//! # let _ = name;
+//! node.usdo().write((0x1017, 0), 750u16)?;
+//! assert_eq!(node.usdo().read_typed::<u16>((0x1017, 0))?, 750);
 //! # Ok(())
 //! # }
 //! ```

@@ -221,9 +221,14 @@ impl SimDevice {
     /// (`true`), or not (`false`). A device whose EDS has `CANopenFD=1` in `[DeviceInfo]`
     /// ([`crate::usdo::EDS_FD_KEY`]) is one from the start. Its classic SDO server stays.
     pub fn with_fd(mut self, fd: bool) -> Self {
+        self.set_fd(fd);
+        self
+    }
+
+    /// [`with_fd`](Self::with_fd) on a device already built (a transfer in progress ends).
+    pub fn set_fd(&mut self, fd: bool) {
         self.usdo = fd.then(|| Box::new(UsdoServer::new(self.node, UsdoServerConfig::default())));
         self.refresh_timers();
-        self
     }
 
     /// Whether the device serves USDO (CANopen FD).

@@ -581,7 +581,10 @@ mod tests {
         b[..4].copy_from_slice(&(0x1234_5678 | CAN_EFF_FLAG).to_ne_bytes());
         let ext = decode_raw_fd(&b).unwrap();
         assert!(ext.id().is_extended());
-        assert_eq!(decode_raw_fd(&encode_raw_fd(&ext)), Some(ext));
+        assert_eq!(
+            decode_raw_fd(&encode_raw_fd(&ext)),
+            Some(ext.with_flags(FdFlags::BRS))
+        );
         b[4] = 65;
         assert_eq!(decode_raw_fd(&b), None);
         b[4] = 8;

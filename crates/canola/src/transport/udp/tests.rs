@@ -64,6 +64,32 @@ fn reads_other_encodings_of_the_fields() {
     assert_eq!(decode(&d), Err(DecodeError::BadFrame));
 }
 
+/// The datagram python-can 4's `pack_message` makes of
+/// `Message(arbitration_id=0x5A5, is_fd=True, bitrate_switch=True, data=bytes(range(20)))`
+/// (timestamp 0): `dlc` 20 is the length in bytes.
+const PYTHON_CAN_FD: &str = "8ba974696d657374616d70cb0000000000000000ae6172626974726174696f6e5f6964cd05a5\
+ae69735f657874656e6465645f6964c2af69735f72656d6f74655f6672616d65c2ae69735f6572726f725f6672616d65c2\
+a76368616e6e656cc0a3646c6314a464617461c414000102030405060708090a0b0c0d0e0f10111213a569735f6664c3\
+ae626974726174655f737769746368c3b56572726f725f73746174655f696e64696361746f72c2";
+
+fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+        .collect()
+}
+
+#[test]
+fn reads_and_writes_python_cans_fd_datagram() {
+    let bytes = unhex(PYTHON_CAN_FD);
+    let want = FdFrame::new(sid(0x5A5), &(0..20).collect::<Vec<u8>>())
+        .unwrap()
+        .with_flags(FdFlags::BRS);
+    assert_eq!(decode(&bytes), Ok(Message::Fd(want)));
+    // What this transport writes for it is python-can's datagram, byte for byte.
+    assert_eq!(encode_fd(&want, 0.0), bytes);
+}
+
 #[test]
 fn encodes_and_decodes_fd_frames() {
     for frame in [
