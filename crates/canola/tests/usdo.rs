@@ -256,3 +256,39 @@ fn raw_fd_frames_go_both_ways_on_the_network() {
         |e| matches!(e, NetworkEvent::Bus(BusEvent::FdFrame { frame, .. }) if *frame == back)
     ));
 }
+
+#[test]
+fn a_dropped_request_is_aborted_on_the_bus_and_the_next_one_runs() {
+    // 1 Mbit/s arbitration, 5 Mbit/s data: a 4 KiB transfer takes milliseconds of bus time.
+    let bus = MemoryBus::with_config(BusConfig {
+        fd: true,
+        bitrate: Some(1_000_000),
+        data_bitrate: Some(5_000_000),
+        ..BusConfig::default()
+    });
+    let net = Network::new(bus.endpoint());
+    bus.attach(SimDevice::from_eds(id(5), FD_EDS.as_bytes()).unwrap());
+    let node =
+        net.add_node_with_dictionary(id(5), canola::od::parse(FD_EDS.as_bytes()).unwrap().od);
+    node.usdo().write((0x2100, 0), vec![3u8; 4096]).unwrap();
+    let mut tap = bus.endpoint();
+    let pending = node.usdo().submit_read((0x2100, 0));
+    net.run_for(std::time::Duration::from_millis(2)).unwrap();
+    assert!(!pending.is_done());
+    drop(pending);
+    net.run_for(std::time::Duration::from_millis(2)).unwrap();
+    use canola::Transport as _;
+    let mut aborts = Vec::new();
+    while let Ok(Some(r)) = tap.try_recv() {
+        if let canola::Received::Event(BusEvent::FdFrame { frame, .. }) = r
+            && frame.id() == CanId::standard(0x67F).unwrap()
+            && frame.data()[1] == 0x7F
+        {
+            aborts.push(*frame);
+        }
+    }
+    // One abort from the master (0x600 + 127) to node 5.
+    assert_eq!(aborts.len(), 1, "{aborts:?}");
+    assert_eq!(aborts[0].data()[0], 5);
+    assert_eq!(node.usdo().read((0x2100, 0)).unwrap(), vec![3u8; 4096]);
+}
