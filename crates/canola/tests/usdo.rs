@@ -292,3 +292,36 @@ fn a_dropped_request_is_aborted_on_the_bus_and_the_next_one_runs() {
     assert_eq!(aborts[0].data()[0], 5);
     assert_eq!(node.usdo().read((0x2100, 0)).unwrap(), vec![3u8; 4096]);
 }
+
+/// `Network::open_fd` on the UDP bus (which carries CAN FD): the network sends FD frames, and
+/// a USDO request reaches a simulated FD device on another attachment of the same bus.
+#[cfg(all(feature = "socketcan", target_os = "linux"))]
+#[test]
+fn a_network_opened_for_fd_on_the_udp_bus() {
+    let port = 20000 + (std::process::id() % 20000) as u16;
+    let spec = format!("udp:239.74.163.43:{port}");
+    let group = std::net::SocketAddrV4::new(std::net::Ipv4Addr::new(239, 74, 163, 43), port);
+    let mut device_side = canola::udp::UdpMulticast::open(group).unwrap();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stopped = stop.clone();
+    let device = std::thread::spawn(move || {
+        let mut dev = SimDevice::from_eds(id(5), FD_EDS.as_bytes()).unwrap();
+        canola::run_station(&mut device_side, &mut dev, || {
+            stopped.load(std::sync::atomic::Ordering::Relaxed)
+        })
+    });
+    let net = Network::open_fd(&spec).unwrap();
+    assert!(net.is_fd());
+    let od = canola::od::parse(FD_EDS.as_bytes()).unwrap().od;
+    let node = net.add_node_with_dictionary(id(5), od);
+    let mut name = None;
+    for _ in 0..20 {
+        if let Ok(v) = node.usdo().read_value((0x1008, 0)) {
+            name = Some(v);
+            break;
+        }
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    device.join().unwrap().unwrap();
+    assert_eq!(name, Some(Value::VisibleString("FD test device".into())));
+}
