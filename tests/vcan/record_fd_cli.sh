@@ -4,8 +4,9 @@
 # frames (11- and 29-bit identifiers, flags, 4 to 64 bytes) and a classic frame on the bus
 # while `canopen --iface vcan0 record` and `monitor --json` run. The log must hold every frame,
 # the FD ones in candump's FD syntax exactly as `candump -L` (the independent reference, on the
-# side) writes them; `monitor` shows them; `canopen replay` of the log sends the classic
-# frames and skips the FD ones with their count. Runs inside the rig (tests/vcan/run-all):
+# side) writes them; `monitor` shows them; `canopen replay` of the log sends them all again (the
+# FD ones as FD frames, seen by `candump -L`), and on the interface set to MTU 16 skips the FD
+# ones saying why. Runs inside the rig (tests/vcan/run-all):
 #   record_fd_cli.sh PATH/TO/canopen
 set -euo pipefail
 canopen=$1
@@ -15,7 +16,7 @@ mtu=$(cat "/sys/class/net/$iface/mtu")
 pids=()
 cleanup() {
     for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
-    if [ "$mtu" != 72 ]; then
+    if [ "$(cat "/sys/class/net/$iface/mtu")" != "$mtu" ]; then
         ip link set "$iface" down && ip link set "$iface" mtu "$mtu" && ip link set "$iface" up
         echo "MTU of $iface set back to $mtu"
     fi
@@ -88,7 +89,39 @@ PY
 grep -q '(3 of them CAN FD) recorded' /tmp/fd-record.err
 echo "ok: record counts them: $(cat /tmp/fd-record.err | tail -1)"
 
+# Replay on the FD interface: the FD frames go out again, as candump -L on the side sees them.
+candump -L "$iface" >/tmp/fd-replayed.log &
+cd_pid=$!
+pids+=($cd_pid)
+sleep 0.5
 r=$("$canopen" --iface "$iface" --json replay /tmp/fd-record.log 2>/tmp/fd-replay.err)
+sleep 0.5
+kill "$cd_pid"
+wait "$cd_pid" 2>/dev/null || true
 echo "replay: $r $(cat /tmp/fd-replay.err)"
-python3 -c 'import json,sys; j=json.loads(sys.argv[1]); assert j["skipped_fd"] == 3 and j["sent"] >= 2, j' "$r"
-echo "ok: replay skips the 3 FD frames and sends the rest"
+python3 - "$r" <<'PY'
+import json, sys
+j = json.loads(sys.argv[1])
+assert j["sent_fd"] == 3 and j["skipped_fd"] == 0 and j["sent"] >= 5, j
+replayed = [l.split()[2] for l in open("/tmp/fd-replayed.log") if "##" in l]
+recorded = [l.split()[2] for l in open("/tmp/fd-record.log") if "##" in l]
+# The kernel of the guest may set FDF (flags bit 2) on received frames: compare without it.
+def strip(f):
+    ident, rest = f.split("##")
+    return ident + "##" + format(int(rest[0], 16) & 3, "X") + rest[1:]
+assert [strip(f) for f in replayed] == [strip(f) for f in recorded], (replayed, recorded)
+print("ok: replay sends the 3 FD frames again, candump -L sees them:", replayed)
+PY
+
+# On a classic-only interface (MTU 16) the FD frames are skipped, saying why.
+ip link set "$iface" down
+ip link set "$iface" mtu 16
+ip link set "$iface" up
+r=$("$canopen" --iface "$iface" --json replay /tmp/fd-record.log 2>/tmp/fd-replay16.err)
+echo "replay on MTU 16: $r $(cat /tmp/fd-replay16.err)"
+python3 -c 'import json,sys; j=json.loads(sys.argv[1]); assert j["skipped_fd"] == 3 and j["sent_fd"] == 0 and j["sent"] >= 2, j' "$r"
+grep -q 'FD not supported on '"$iface"' (MTU 16' /tmp/fd-replay16.err
+echo "ok: on MTU 16 replay skips the 3 FD frames: FD not supported"
+ip link set "$iface" down
+ip link set "$iface" mtu 72
+ip link set "$iface" up

@@ -809,6 +809,15 @@ impl Station for BurkertDevice {
         self.out.pop_front().or_else(|| self.sim.poll_transmit())
     }
 
+    fn handle_fd_frame(&mut self, now: Instant, frame: &canola::frame::FdFrame) {
+        self.sim.handle_fd_frame(now, frame);
+        self.after_input(now);
+    }
+
+    fn poll_transmit_fd(&mut self) -> Option<canola::frame::FdFrame> {
+        self.sim.poll_transmit_fd()
+    }
+
     fn poll_timeout(&self) -> Option<Instant> {
         [self.sim.poll_timeout(), Some(self.next_sensor)]
             .into_iter()
@@ -860,6 +869,15 @@ impl SimulatedDevice {
             Self::Burkert(d) => d.as_mut(),
         }
     }
+
+    /// Makes the device serve USDO on CAN FD (CANopen FD, CiA 1301), or not (see
+    /// [`SimDevice::set_fd`]).
+    pub fn set_fd(&mut self, fd: bool) {
+        match self {
+            Self::Generic(d) => d.set_fd(fd),
+            Self::Burkert(d) => d.sim.set_fd(fd),
+        }
+    }
 }
 
 impl Station for SimulatedDevice {
@@ -880,5 +898,11 @@ impl Station for SimulatedDevice {
     }
     fn handle_bus_event(&mut self, now: Instant, event: &canola::BusEvent) {
         self.station().handle_bus_event(now, event);
+    }
+    fn handle_fd_frame(&mut self, now: Instant, frame: &canola::frame::FdFrame) {
+        self.station().handle_fd_frame(now, frame);
+    }
+    fn poll_transmit_fd(&mut self) -> Option<canola::frame::FdFrame> {
+        self.station().poll_transmit_fd()
     }
 }

@@ -28,6 +28,13 @@ pub enum SdoErrorKind {
     /// sent. Nothing of a download is known to be stored; the next request goes to the
     /// rebooted node.
     NodeRebooted,
+    /// The USDO client (CANopen FD) reported a failure: the server's 1-byte abort code, a
+    /// timeout, a protocol violation ([`SdoError::server_abort`] gives the CiA 301 code of a
+    /// server abort).
+    Usdo(canola_sdo::usdo::UsdoErrorKind),
+    /// A USDO request needs CAN FD that is not there: the bus carries classic frames only, or
+    /// the node is not marked CANopen FD. Nothing was sent.
+    FdNotSupported(String),
 }
 
 /// How the transport failed under an SDO request: a [`TransportError`] as a value that can be
@@ -48,6 +55,12 @@ pub enum TransportFailure {
     /// The transport is closed for good.
     #[error("the transport is closed")]
     Closed,
+    /// A CAN FD frame was to go on a bus that carries classic frames only.
+    #[error("FD not supported on {bus}")]
+    FdNotSupported {
+        /// The bus and why it is classic-only.
+        bus: String,
+    },
     /// An operating-system or other local error.
     #[error("CAN I/O error: {message}")]
     Io {
@@ -65,6 +78,7 @@ impl From<&TransportError> for TransportFailure {
             TransportError::BusOff => Self::BusOff,
             TransportError::TxQueueFull => Self::TxQueueFull,
             TransportError::Closed => Self::Closed,
+            TransportError::FdNotSupported { bus } => Self::FdNotSupported { bus: bus.clone() },
             TransportError::Io(io) => Self::Io {
                 kind: io.kind(),
                 message: io.to_string(),
@@ -104,17 +118,32 @@ pub struct SdoError {
 
 impl SdoError {
     /// The abort code the server sent, when the server refused.
+    /// A USDO server's 1-byte code comes as the CiA 301 code it stands for (0x33 as
+    /// 0x06020000); one without a CiA 301 meaning as 0x08000000 (general error).
     pub fn server_abort(&self) -> Option<AbortCode> {
         match self.kind {
             SdoErrorKind::Transfer(ErrorKind::ServerAbort(code)) => Some(code),
+            SdoErrorKind::Usdo(canola_sdo::usdo::UsdoErrorKind::ServerAbort(code)) => {
+                Some(usdo_to_cia301(code))
+            }
             _ => None,
         }
     }
 
-    /// The abort code that went over the bus in either direction, if any.
+    /// The abort code that went over the bus in either direction, if any (a USDO code as its
+    /// CiA 301 code, see [`server_abort`](Self::server_abort)).
     pub fn abort_code(&self) -> Option<AbortCode> {
         match self.kind {
             SdoErrorKind::Transfer(k) => Some(k.abort_code()),
+            SdoErrorKind::Usdo(k) => Some(usdo_to_cia301(k.abort_code())),
+            _ => None,
+        }
+    }
+
+    /// The 1-byte USDO abort code that went over the bus, for a USDO request.
+    pub fn usdo_abort_code(&self) -> Option<canola_sdo::usdo::UsdoAbortCode> {
+        match self.kind {
+            SdoErrorKind::Usdo(k) => Some(k.abort_code()),
             _ => None,
         }
     }
@@ -146,8 +175,18 @@ impl core::fmt::Display for SdoError {
                  transfer ended without an abort, the device has forgotten it",
                 self.node
             ),
+            SdoErrorKind::Usdo(canola_sdo::usdo::UsdoErrorKind::ServerAbort(code)) => {
+                write!(f, "USDO abort {code}")
+            }
+            SdoErrorKind::Usdo(k) => write!(f, "USDO: {k}"),
+            SdoErrorKind::FdNotSupported(why) => f.write_str(why),
         }
     }
+}
+
+/// The CiA 301 code a 1-byte USDO code stands for; general error (0x08000000) without one.
+fn usdo_to_cia301(code: canola_sdo::usdo::UsdoAbortCode) -> AbortCode {
+    code.to_cia301().unwrap_or(AbortCode(0x0800_0000))
 }
 
 impl core::fmt::Debug for SdoError {

@@ -53,6 +53,7 @@ pub mod scan;
 pub mod sim;
 pub mod transport;
 pub mod typed;
+pub mod usdo;
 
 // The public names, in one block: the protocol crates (for what the facade does not wrap:
 // applications and the CLI need no other dependency than this crate), then the names common
@@ -94,6 +95,7 @@ pub use transport::{candump, mem};
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub use transport::{socketcan, udp};
 pub use typed::{ObjectKey, WriteValue};
+pub use usdo::Usdo;
 
 /// Moves every element of `from` to the back of `to`, in order. Mostly `to` is empty (the
 /// queues between the core, the network and the in-memory bus are drained at every step):

@@ -52,6 +52,19 @@ impl Fake {
         self.thread.take().unwrap().join().unwrap();
     }
 
+    /// The next line the host sent that starts with one of `kinds`.
+    fn line_of(&self, kinds: &[char]) -> String {
+        loop {
+            let l = self
+                .lines
+                .recv_timeout(std::time::Duration::from_secs(5))
+                .expect("the host sent a line");
+            if l.starts_with(kinds) {
+                return l;
+            }
+        }
+    }
+
     /// The next line the host sent that is a frame.
     fn frame_line(&self) -> String {
         loop {
@@ -100,7 +113,11 @@ fn run(master: OwnedFd, _slave: OwnedFd, rx: mpsc::Receiver<ToFake>, tx: mpsc::S
             let line: Vec<u8> = pending.drain(..=cr).take(cr).collect();
             let line = String::from_utf8_lossy(&line).into_owned();
             // Lawicel: CR after every command, `z` after a frame.
-            let reply: &[u8] = if line.starts_with('t') { b"z\r" } else { b"\r" };
+            let reply: &[u8] = if line.starts_with(['t', 'b', 'd']) {
+                b"z\r"
+            } else {
+                b"\r"
+            };
             let _ = tx.send(line);
             nix::unistd::write(&master, reply).unwrap();
         }
@@ -186,4 +203,48 @@ fn frames_bad_bytes_refusals_and_a_vanished_adapter_that_comes_back() {
     fake.emit(b"t0000\r");
     assert!(matches!(next(&mut t), Received::Frame { .. }));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn can_fd_only_on_an_adapter_opened_with_a_data_bit_rate() {
+    use canola::frame::{FdFlags, FdFrame};
+    // Without a data bit rate: classic only, by name.
+    let fake = Fake::start();
+    let mut t =
+        Slcan::open(LinkConfig::from_spec(&format!("{}@500k", fake.slave.display())).unwrap())
+            .expect("opens");
+    let fd = FdFrame::new(CanId::standard(0x123).unwrap(), &[0xAB; 12])
+        .unwrap()
+        .with_flags(FdFlags::BRS);
+    let e = t.send_fd(&fd).unwrap_err();
+    assert!(matches!(e, TransportError::FdNotSupported { .. }), "{e}");
+    assert!(
+        e.to_string().starts_with("FD not supported on slcan:"),
+        "{e}"
+    );
+    assert!(t.fd_support().is_err());
+    drop(t);
+    drop(fake);
+
+    // With a data bit rate (the `Y` command accepted): FD frames both ways.
+    let fake = Fake::start();
+    let mut config = LinkConfig::from_spec(&format!("{}@500k", fake.slave.display())).unwrap();
+    config.data_bitrate = canola::slcan::DataBitrate::from_bps(2_000_000);
+    let mut t = Slcan::open(config).expect("opens");
+    assert!(t.fd_support().is_ok());
+    t.send_fd(&fd).unwrap();
+    // `b`: an FD frame with the bit-rate switch, DLC code 9 for 12 bytes.
+    assert_eq!(
+        fake.line_of(&['b', 'd']),
+        format!("b1239{}", "AB".repeat(12))
+    );
+    fake.emit(format!("d4569{}\r", "01".repeat(12)).as_bytes());
+    match next(&mut t) {
+        Received::Event(BusEvent::FdFrame { frame, .. }) => {
+            assert_eq!(frame.id(), CanId::standard(0x456).unwrap());
+            assert_eq!(frame.data(), &[1u8; 12]);
+            assert!(!frame.brs());
+        }
+        other => panic!("{other:?}"),
+    }
 }

@@ -31,6 +31,11 @@ pub(crate) struct BusOpts {
     /// also simulated from that file.
     #[arg(id = "node_eds", long = "eds", value_name = "NODE=FILE", global = true)]
     pub(crate) node_eds: Vec<String>,
+    /// Open the bus for CAN FD (CANopen FD: `usdo`, FD frames): a SocketCAN interface must
+    /// carry CAN FD (MTU 72), else the command fails with `FD not supported on IFACE`; the
+    /// in-memory bus then carries CAN FD and its `--eds` devices serve USDO.
+    #[arg(long, global = true)]
+    pub(crate) fd: bool,
 }
 
 /// An unsigned number in CANopen's notation: `0x` hex or decimal.
@@ -130,6 +135,14 @@ impl BusOpts {
         fd: bool,
     ) -> Result<Bus, String> {
         match &self.iface {
+            Some(iface) if self.fd => {
+                let t = open_transport_fd(iface)?;
+                Ok(Bus {
+                    transport: t,
+                    memory: None,
+                    dictionaries,
+                })
+            }
             Some(iface) => {
                 let t = open_transport_with(iface, fd)?;
                 Ok(Bus {
@@ -139,11 +152,18 @@ impl BusOpts {
                 })
             }
             None => {
-                let bus = MemoryBus::new();
+                let bus = MemoryBus::with_config(canola::BusConfig {
+                    fd: self.fd,
+                    ..canola::BusConfig::default()
+                });
                 // The master's endpoint first, so it sees the devices' boot-up messages.
                 let endpoint = bus.endpoint();
                 for (node, od) in &dictionaries {
-                    bus.attach(crate::sim_device::simulated_device(*node, od.clone()));
+                    let mut device = crate::sim_device::simulated_device(*node, od.clone());
+                    if self.fd {
+                        device.set_fd(true);
+                    }
+                    bus.attach(device);
                 }
                 Ok(Bus {
                     transport: Box::new(endpoint),
@@ -261,7 +281,7 @@ impl Traffic<'_> {
     pub(crate) fn id(self) -> canola::CanId {
         match self {
             Self::Can(f) => f.id(),
-            Self::Fd(f) => f.id,
+            Self::Fd(f) => f.id(),
         }
     }
 }
@@ -285,6 +305,16 @@ pub(crate) fn seconds(secs: f64) -> Duration {
 /// Opens `--iface IFACE` (every form [`canola::BusSpec`] parses: SocketCAN, UDP, slcan).
 pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> {
     open_transport_with(iface, false)
+}
+
+/// Opens `--iface IFACE` for CAN FD (`--fd`): a classic-only bus is the library's
+/// `FD not supported on ...` error.
+pub(crate) fn open_transport_fd(iface: &str) -> Result<Box<dyn Transport>, String> {
+    let spec = canola::BusSpec::parse(iface).map_err(|e| e.to_string())?;
+    if let Some(w) = spec.warning() {
+        eprintln!("warning: {w}");
+    }
+    spec.open_fd().map_err(|e| e.to_string())
 }
 
 /// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`. Errors are the

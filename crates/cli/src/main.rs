@@ -63,6 +63,9 @@ enum Command {
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
     Sdo(sdo_cmd::SdoCommand),
+    /// USDO transfers (CANopen FD): read|write, as `sdo`; needs a CAN FD bus (`--fd`).
+    #[command(subcommand)]
+    Usdo(sdo_cmd::UsdoCommand),
     /// NMT module control: start|stop|preop|reset|reset-comm NODE|all [--wait]; `state`
     /// lists every node's last state and heartbeat age.
     Nmt(nmt_cmd::NmtArgs),
@@ -191,6 +194,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
+        Command::Usdo(cmd) => sdo_cmd::run_usdo(cmd, &cli.bus, global),
         Command::Nmt(args) => nmt_cmd::run(args, &cli.bus, global),
         Command::Scan => nmt_cmd::run_scan(&cli.bus, global),
         Command::Store(args) => store_cmd::run(args, false, &cli.bus, global),

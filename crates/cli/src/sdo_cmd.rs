@@ -1,5 +1,7 @@
 //! `canopen sdo read|write|upload|download`: SDO transfers (CiA 301 §7.2.4) through the
-//! library's [`canola::Sdo`]; this module parses the arguments and the value text, and prints.
+//! library's [`canola::Sdo`], and `canopen usdo read|write`: USDO transfers (CANopen FD,
+//! CiA 1301) through [`canola::Usdo`]; this module parses the arguments and the value text,
+//! and prints.
 //!
 //! Values are typed by `--type`, else by the node's dictionary (`--eds NODE=FILE`), else, for
 //! the communication profile (0x1000..0x1FFF), by the types CiA 301 gives its objects; a read
@@ -138,6 +140,140 @@ pub(crate) enum SdoCommand {
         #[arg(long)]
         block: bool,
     },
+}
+
+/// USDO transfers (CANopen FD, CiA 1301) over CAN FD frames: the same objects and values as
+/// `sdo`. The bus must carry CAN FD: give `--fd` (on SocketCAN an interface with MTU 72; on
+/// the in-memory bus the `--eds` devices then serve USDO). The node is taken as a CANopen FD
+/// device.
+#[derive(Debug, Subcommand)]
+pub(crate) enum UsdoCommand {
+    /// Read an object; prints the value alone (as `sdo read`).
+    Read {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        #[arg(help = OBJECT_HELP)]
+        object: String,
+        /// Sub-index (default 0, or the sub-object a name selects).
+        #[arg(value_parser = parse_u8)]
+        sub: Option<u8>,
+        /// Value type (default: from --eds, else bytes).
+        #[arg(short = 't', long = "type", value_enum)]
+        ty: Option<Ty>,
+    },
+    /// Write an object: `write NODE OBJECT [SUB] VALUE` (values as `sdo write`).
+    #[command(override_usage = "canopen usdo write [OPTIONS] <NODE> <OBJECT> [SUB] <VALUE>")]
+    Write {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        #[arg(help = OBJECT_HELP)]
+        object: String,
+        /// `[SUB] VALUE`: the sub-index (default 0) and the value.
+        #[arg(num_args = 0..=2, value_names = ["SUB", "VALUE"],
+              allow_negative_numbers = true)]
+        args: Vec<String>,
+        /// Value type (default: from --eds).
+        #[arg(short = 't', long = "type", value_enum)]
+        ty: Option<Ty>,
+    },
+}
+
+/// `canopen usdo ...`
+pub(crate) fn run_usdo(cmd: UsdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
+    let (net, _mem) = match opts.open() {
+        Ok(b) => b.into_network(),
+        Err(e) => return fail(e),
+    };
+    let r = match cmd {
+        UsdoCommand::Read {
+            node,
+            object,
+            sub,
+            ty,
+        } => usdo_read(&net, node, &object, sub, ty, g),
+        UsdoCommand::Write {
+            node,
+            object,
+            args,
+            ty,
+        } => usdo_write(&net, node, &object, &args, ty, g),
+    };
+    match r {
+        Ok(code) => code,
+        Err(Failure::Op(e)) => fail_op(&e),
+        Err(Failure::Usage(e)) => crate::bus::fail_usage(e),
+        Err(Failure::Local(e)) => fail(e),
+    }
+}
+
+fn usdo_read(
+    net: &Network,
+    node: NodeId,
+    object: &str,
+    sub: Option<u8>,
+    ty: Option<Ty>,
+    g: Global,
+) -> Result<ExitCode, Failure> {
+    let entry = address(net, node, object, sub)?;
+    let n = net.node(node);
+    n.set_fd(true);
+    let bytes = n.usdo().read(entry).wait()?;
+    let Some(dt) = data_type_of(net, node, entry, ty) else {
+        if g.json {
+            outln(&with(addr_json(node, entry), "bytes", json!(hex(&bytes))));
+        } else {
+            outln(&hex(&bytes));
+        }
+        return Ok(ExitCode::SUCCESS);
+    };
+    let value = Value::from_le_bytes(dt, &bytes).map_err(|e| {
+        Failure::Op(canola::Error::Value {
+            node,
+            entry,
+            message: e.to_string(),
+        })
+    })?;
+    if g.json {
+        let mut v = addr_json(node, entry);
+        v["raw"] = json!(hex(&bytes));
+        outln(&with(v, "value", json_value(&value)));
+    } else {
+        outln(&format_value(&value, g.hex));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn usdo_write(
+    net: &Network,
+    node: NodeId,
+    object: &str,
+    args: &[String],
+    ty: Option<Ty>,
+    g: Global,
+) -> Result<ExitCode, Failure> {
+    let (sub, value) = match sub_and_last(args, "the value to write") {
+        Ok(v) => v,
+        Err(e) => {
+            let entry = address(net, node, object, None)?;
+            return Err(format!("node {node}, object {entry}: {e}").into());
+        }
+    };
+    let entry = address(net, node, object, sub)?;
+    let Some(dt) = data_type_of(net, node, entry, ty) else {
+        return Err(
+            format!("node {node}, object {entry}: give --type (or --eds {node}=FILE)").into(),
+        );
+    };
+    let bytes = parse_value(dt, value).map_err(|e| format!("node {node}, object {entry}: {e}"))?;
+    let n = net.node(node);
+    n.set_fd(true);
+    n.usdo().write(entry, bytes).wait()?;
+    if g.json {
+        outln(&with(addr_json(node, entry), "ok", json!(true)));
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// Splits `[SUB] LAST` positionals; `what` names LAST in the message when it is missing.

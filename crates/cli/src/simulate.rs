@@ -32,13 +32,12 @@ pub(crate) fn run(
     };
     eprintln!("simulating node {node} from {}", eds.display());
     let dictionary = BusDictionary::new().with_node(node, od.clone());
-    run_station(
-        bus,
-        crate::sim_device::simulated_device(node, od),
-        &dictionary,
-        duration,
-        g,
-    )
+    let mut device = crate::sim_device::simulated_device(node, od);
+    // `--fd`: a CANopen FD device, serving USDO on the CAN FD bus.
+    if opts.fd {
+        device.set_fd(true);
+    }
+    run_station(bus, device, &dictionary, duration, g)
 }
 
 /// Runs `station` on the bus: on SocketCAN until `duration` (or forever), on the in-memory bus

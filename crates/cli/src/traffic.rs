@@ -228,8 +228,9 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
 }
 
 /// `canopen replay FILE`: reads and checks the whole log first, so a bad line sends nothing.
-/// CAN FD frames are skipped (the transports carry classic frames), with a warning and their
-/// count.
+/// CAN FD frames are sent when the bus carries CAN FD (a SocketCAN interface with MTU 72, the
+/// UDP bus, the in-memory bus with `--fd`); on a classic-only bus they are skipped, with a
+/// warning that says why and their count.
 pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
     let f = match std::fs::File::open(file) {
         Ok(f) => f,
@@ -242,37 +243,41 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
         match entry {
             Ok(LogEntry {
                 timestamp_us,
-                frame: LogFrame::Can(frame),
+                frame: frame @ (LogFrame::Can(_) | LogFrame::Fd(_)),
                 ..
-            }) => frames.push((timestamp_us, frame)),
-            Ok(LogEntry {
-                frame: LogFrame::Fd(_),
-                ..
-            }) => fd += 1,
+            }) => {
+                fd += u64::from(matches!(frame, LogFrame::Fd(_)));
+                frames.push((timestamp_us, frame));
+            }
             Ok(_) => other += 1,
             Err(e) => return fail(format!("{}: {e} (nothing was sent)", file.display())),
         }
     }
-    if fd > 0 {
+    let mut bus = match opts.open_watching() {
+        Ok(b) => b,
+        Err(e) => return fail(e),
+    };
+    let classic = bus.transport.fd_support().err();
+    let skipped_fd = if classic.is_some() { fd } else { 0 };
+    if let Some(why) = &classic
+        && fd > 0
+    {
         let mut fields = serde_json::Map::new();
         fields.insert("skipped_fd".into(), fd.into());
         crate::bus::warn(
             "warning",
-            &format!(
-                "{}: skipping {fd} CAN FD frame(s): this bus carries classic CAN frames only",
-                file.display()
-            ),
+            &format!("{}: skipping {fd} CAN FD frame(s): {why}", file.display()),
             fields,
         );
     }
-    let mut bus = match opts.open() {
-        Ok(b) => b,
-        Err(e) => return fail(e),
-    };
     let mut first: Option<u64> = None;
     let start = bus.transport.now();
     let mut sent = 0u64;
+    let mut sent_fd = 0u64;
     for (timestamp_us, frame) in frames {
+        if classic.is_some() && matches!(frame, LogFrame::Fd(_)) {
+            continue;
+        }
         let t0 = *first.get_or_insert(timestamp_us);
         let due = start + Duration::from_micros(timestamp_us.saturating_sub(t0));
         // Keep the recorded spacing (receiving meanwhile, so simulated devices run).
@@ -281,13 +286,26 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
                 return fail(e);
             }
         }
-        if let Err(e) = bus.transport.send(&frame) {
+        let r = match &frame {
+            LogFrame::Fd(f) => {
+                sent_fd += 1;
+                bus.transport.send_fd(f)
+            }
+            LogFrame::Can(f) => bus.transport.send(f),
+            LogFrame::Error { .. } => Ok(()),
+        };
+        if let Err(e) = r {
             return fail(e);
         }
         sent += 1;
     }
     if g.json {
-        outln(&json!({"sent": sent, "skipped_fd": fd, "skipped_error_frames": other}).to_string());
+        outln(
+            &json!({"sent": sent, "sent_fd": sent_fd, "skipped_fd": skipped_fd, "skipped_error_frames": other})
+                .to_string(),
+        );
+    } else if sent_fd > 0 {
+        eprintln!("{sent} frames replayed ({sent_fd} of them CAN FD)");
     } else {
         eprintln!("{sent} frames replayed");
     }

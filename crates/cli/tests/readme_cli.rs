@@ -396,6 +396,28 @@ fn two_terminals_on_the_udp_bus() {
     assert_eq!(ok(&read.text, &dir, &bus), "Buerkert generic device\n");
 }
 
+const USDO: &[&str] = &[
+    "canopen --iface vcan0 --fd simulate eds/burkert-generic.eds --node-id 5",
+    "canopen --iface vcan0 --fd usdo read 5 0x1008",
+    "canopen --iface vcan0 --fd usdo write 5 0x1017 0 750",
+];
+
+/// "CANopen FD: USDO": the FD device in another process, USDO over the UDP bus's CAN FD frames.
+#[test]
+fn usdo_lines() {
+    // A group and port of its own (the eight of `udp_bus` are taken by the tests above).
+    let bus = format!("udp:239.74.163.30:{}", 20000 + std::process::id() % 9000);
+    let dir = workdir("usdo");
+    let l: Vec<String> = USDO.iter().map(|l| readme(l).text).collect();
+    let _sim = background(&l[0], &dir, &bus);
+    wait_for_node(&bus, "5");
+    assert_eq!(ok(&l[1], &dir, &bus), "Buerkert generic device\n");
+    ok(&l[2], &dir, &bus);
+    // What the write put there, read back by USDO.
+    let o = common::canopen(&["--iface", &bus, "--fd", "usdo", "read", "5", "0x1017"]);
+    assert_eq!(stdout(&o), "750\n", "{}", stderr(&o));
+}
+
 const LSS: &[&str] = &[
     "canopen --iface vcan0 lss --unconfigured 2 --real-slaves simulate",
     "canopen --iface can0 lss --step-timeout 60 discover-all",
@@ -776,6 +798,7 @@ fn every_readme_line_is_run() {
         .chain(CPOS)
         .chain(DRIVE)
         .chain(NMT)
+        .chain(USDO)
         .copied()
         .chain([
             "canopen --iface udp simulate eds/burkert-generic.eds --node-id 5",

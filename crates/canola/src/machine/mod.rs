@@ -30,6 +30,7 @@ mod pdo_routes;
 mod sdo;
 mod sdo_client;
 mod subscribers;
+pub(crate) mod usdo;
 
 pub(crate) use events::Completion;
 #[cfg(feature = "tokio")]
@@ -107,6 +108,8 @@ pub(crate) struct Core {
     /// The batch subscribers' ends (see [`crate::PdoSubscriber`]), handed over at each
     /// [`release_events`](Self::release_events).
     pdo_subs: Vec<PdoPublisher>,
+    /// The USDO client (CANopen FD) and its requests.
+    usdo: Box<usdo::UsdoState>,
 }
 
 impl Core {
@@ -142,6 +145,7 @@ impl Core {
             next_callback: 0,
             pdo_scratch: Vec::new(),
             pdo_subs: Vec::new(),
+            usdo: Box::new(usdo::UsdoState::new()),
         }
     }
 
@@ -290,7 +294,7 @@ impl Core {
 
     fn queue(&mut self, frame: CanFrame) {
         self.tx.push_back(Outgoing {
-            frame,
+            frame: frame.into(),
             transfer: None,
         });
     }
@@ -305,7 +309,7 @@ impl Core {
             return;
         }
         let o = Outgoing {
-            frame,
+            frame: frame.into(),
             transfer: None,
         };
         if urgent {
@@ -362,7 +366,7 @@ impl Core {
         if let Some(job) = &mut self.lss {
             while let Some(f) = job.poll_transmit() {
                 self.tx.push_back(Outgoing {
-                    frame: f,
+                    frame: f.into(),
                     transfer: None,
                 });
             }
@@ -466,7 +470,12 @@ impl Core {
         }
     }
 
+    /// Feeds a bus event; a CAN FD frame goes to the USDO client first (when it is a
+    /// response to it), and to the subscribers as every event does.
     pub(crate) fn handle_bus_event(&mut self, ev: BusEvent) {
+        if let BusEvent::FdFrame { frame, at } = &ev {
+            self.handle_fd_frame(*at, frame);
+        }
         self.publish(NetworkEvent::Bus(ev));
     }
 
@@ -487,6 +496,7 @@ impl Core {
             job.handle_timeout(now);
             self.pump_lss();
         }
+        self.usdo_timeout(now);
         if let Some(sync) = &mut self.sync
             && is_due(sync.poll_timeout(), now)
         {
@@ -580,6 +590,7 @@ impl Core {
         consider(self.guarding.poll_timeout());
         consider(self.lss.as_ref().and_then(|j| j.poll_timeout()));
         consider(self.pdo_next);
+        consider(self.usdo.poll_timeout());
         let busy = self
             .sdo_busy
             .iter()

@@ -19,6 +19,8 @@ pub(super) struct NodeSlot {
     pub(super) pdo: Option<crate::machine::pdo::NodePdos>,
     /// The node's SDO channels: the default one first, then those opened on other COB-IDs.
     pub(super) channels: Vec<SdoChannel>,
+    /// CANopen FD as the application set it (`None`: as the dictionary says).
+    pub(super) fd: Option<bool>,
 }
 
 impl NodeSlot {
@@ -29,6 +31,7 @@ impl NodeSlot {
                 .map(|od| crate::machine::pdo::mirror_engine(od, node)),
             od,
             channels: vec![SdoChannel::new(SdoCobIds::default_for(node))],
+            fd: None,
         }
     }
 }

@@ -184,7 +184,7 @@ impl Core {
     ) {
         while let Some(frame) = pdos.engine.poll_transmit() {
             tx.push_back(Outgoing {
-                frame,
+                frame: frame.into(),
                 transfer: None,
             });
         }

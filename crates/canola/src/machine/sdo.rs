@@ -6,7 +6,7 @@
 use std::collections::VecDeque;
 use std::io::Write;
 
-use canola_frame::{CanFrame, Duration, Instant, NodeId};
+use canola_frame::{CanFrame, Duration, FdFrame, Instant, NodeId};
 use canola_od::ObjectAddress;
 use canola_sdo::{Client, ClientConfig, Method, SdoCobIds};
 
@@ -66,6 +66,10 @@ pub(crate) enum Op {
     Upload(UpSink),
     /// Write the source's bytes to the entry.
     Download(DownSource),
+    /// Read the entry by USDO (CANopen FD) into the sink.
+    UsdoUpload(UpSink),
+    /// Write the source's bytes to the entry by USDO, announcing this data type code.
+    UsdoDownload(DownSource, u8),
 }
 
 /// One SDO request.
@@ -99,6 +103,15 @@ pub(super) enum ReqState {
         /// The index of its channel among the node's channels.
         channel: usize,
     },
+    /// A USDO transfer running on the master's USDO client under `session`.
+    UsdoActive {
+        /// The server.
+        node: NodeId,
+        /// The object, for the error should it fail.
+        entry: ObjectAddress,
+        /// Its session-ID.
+        session: u8,
+    },
     /// Finished: the result, until [`Core::take_result`](super::Core::take_result) hands it over.
     Done(Outcome),
 }
@@ -107,9 +120,52 @@ pub(super) enum ReqState {
 /// the result moves through the waiting loop as a few words (an error is the rare case).
 pub(crate) type Outcome = Result<Completion, Box<SdoError>>;
 
+/// A frame the core sends: classic, or CAN FD (USDO, raw FD frames; boxed, as it is rare and
+/// nine times the size).
+pub(crate) enum OutFrame {
+    Can(CanFrame),
+    Fd(Box<FdFrame>),
+}
+
+impl OutFrame {
+    /// The identifier.
+    pub(crate) fn id(&self) -> canola_frame::CanId {
+        match self {
+            Self::Can(f) => f.id(),
+            Self::Fd(f) => f.id(),
+        }
+    }
+
+    /// The data bytes.
+    pub(crate) fn data(&self) -> &[u8] {
+        match self {
+            Self::Can(f) => f.data(),
+            Self::Fd(f) => f.data(),
+        }
+    }
+
+    /// Hands the frame to `transport` (see [`Transport::send_at`](crate::Transport::send_at)).
+    pub(crate) fn send_at(
+        &self,
+        transport: &mut dyn crate::Transport,
+        now: Instant,
+    ) -> Result<(), crate::TransportError> {
+        match self {
+            Self::Can(f) => transport.send_at(f, now),
+            Self::Fd(f) => transport.send_fd(f),
+        }
+    }
+}
+
+impl From<CanFrame> for OutFrame {
+    fn from(f: CanFrame) -> Self {
+        Self::Can(f)
+    }
+}
+
 /// A frame waiting to be handed to the transport.
 pub(crate) struct Outgoing {
-    pub(crate) frame: CanFrame,
+    pub(crate) frame: OutFrame,
     /// The SDO transfer the frame belongs to: node, channel index and the channel's transfer
     /// number (see [`Core::withdraw`]).
     pub(super) transfer: Option<(NodeId, usize, u64)>,

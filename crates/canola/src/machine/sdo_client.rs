@@ -93,6 +93,10 @@ impl Core {
     pub(crate) fn submit(&mut self, req: SdoRequest) -> RequestId {
         let id = RequestId(self.next_request);
         self.next_request += 1;
+        if req.op.is_usdo() {
+            self.submit_usdo(id, req);
+            return id;
+        }
         let node = req.node;
         let ch = self.channel_index(node, req.channel);
         let now = self.now;
@@ -140,6 +144,7 @@ impl Core {
             return;
         };
         match state {
+            ReqState::Queued(req) if req.op.is_usdo() => self.unqueue_usdo(id),
             ReqState::Queued(req) => {
                 if let Some(slot) = self.nodes.get_mut(&req.node) {
                     for c in &mut slot.channels {
@@ -147,6 +152,7 @@ impl Core {
                     }
                 }
             }
+            ReqState::UsdoActive { node, session, .. } => self.cancel_usdo(node, session),
             ReqState::Active { node, channel, .. } => {
                 let now = self.now;
                 if let Some(c) = self
@@ -177,7 +183,7 @@ impl Core {
             while let Some(data) = c.client.poll_transmit() {
                 c.queued += 1;
                 self.tx.push_back(Outgoing {
-                    frame: c.ids.request_frame(data),
+                    frame: c.ids.request_frame(data).into(),
                     transfer: Some((node, ch, c.transfer)),
                 });
             }
@@ -312,6 +318,8 @@ impl Core {
         let started = match op {
             Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
             Op::Download(src) => c.client.start_download(now, mux, src, method).is_ok(),
+            // USDO requests go to the USDO client (`submit`), never to an SDO channel.
+            Op::UsdoUpload(_) | Op::UsdoDownload(..) => false,
         };
         if started {
             c.active = Some(id);

@@ -9,7 +9,7 @@ use canola_frame::{Duration, Instant, NodeId};
 
 use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
 use crate::machine::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequest, Taken};
-use crate::transport::{Received, Transport, TransportError};
+use crate::transport::{Received, TransportError};
 use canola_od::ObjectAddress;
 
 use super::handle::{DriverSlot, Inner, Io, Network, relock};
@@ -257,7 +257,7 @@ impl Network {
     ) -> Result<bool, Error> {
         let Io { transport, out, .. } = io;
         for i in 0..out.len() {
-            match transport.send_at(&out[i].frame, now) {
+            match out[i].frame.send_at(transport.as_mut(), now) {
                 Ok(()) => {}
                 Err(TransportError::TxQueueFull) => {
                     match core {

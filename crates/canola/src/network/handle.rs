@@ -109,6 +109,7 @@ impl Network {
     pub fn new(transport: impl Transport + 'static) -> Self {
         let mut core = Core::new();
         core.set_now(transport.now());
+        core.set_classic_bus(crate::machine::usdo::classic_bus(&transport));
         #[cfg(feature = "tokio")]
         let reactor = crate::reactor::Reactor::new(transport.is_virtual());
         Self {

@@ -4,11 +4,12 @@
 use std::collections::VecDeque;
 
 use canola_frame::cob::FunctionCode;
-use canola_frame::{CanFrame, Instant, NodeId, is_due};
+use canola_frame::{CanFrame, FdFrame, Instant, NodeId, is_due};
 use canola_lss::{LssAddress, LssSlave, SlaveConfig as LssConfig, SlaveEvent as LssEvent};
 use canola_nmt::{DeviceState, Emcy, EmcyProducer, NmtSlave, Service, SlaveConfig, SlaveEvent};
 use canola_od::ObjectDictionary;
 use canola_sdo::Server;
+use canola_sdo::usdo::{UsdoServer, UsdoServerConfig};
 
 use crate::transport::Station;
 
@@ -51,6 +52,10 @@ pub struct SimDevice {
     pub(super) stored: Option<Values>,
     /// The parser's warnings of the EDS the device was built from.
     pub(super) warnings: Vec<canola_od::Diagnostic>,
+    /// The USDO server of a device marked CANopen FD (CiA 1301), on 0x600 + any client.
+    pub(super) usdo: Option<Box<UsdoServer>>,
+    /// CAN FD frames waiting to be sent (USDO responses).
+    pub(super) out_fd: VecDeque<FdFrame>,
 }
 
 impl core::fmt::Debug for SimDevice {
@@ -82,6 +87,7 @@ impl SimDevice {
         let mut lss_config = LssConfig::unconfigured(LssAddress::new(id(1), id(2), id(3), id(4)));
         lss_config.node_id = node.get();
         let sdo = sdo_channels(&od, &values, node);
+        let fd = crate::usdo::eds_marks_fd(&od);
         Self {
             node,
             meta: sub_meta(&od),
@@ -103,6 +109,8 @@ impl SimDevice {
             sdo_requests: 0,
             stored: None,
             warnings: Vec::new(),
+            usdo: fd.then(|| Box::new(UsdoServer::new(node, UsdoServerConfig::default()))),
+            out_fd: VecDeque::new(),
         }
     }
 
@@ -116,6 +124,7 @@ impl SimDevice {
         ]
         .into_iter()
         .chain(self.sdo.iter().map(|c| c.server.poll_timeout()))
+        .chain(self.usdo.as_ref().map(|u| u.poll_timeout()))
         .flatten()
         .min()
     }
@@ -206,6 +215,25 @@ impl SimDevice {
         let mut device = Self::new(node, parsed.od);
         device.warnings = parsed.diagnostics.clone();
         Ok((device, parsed.diagnostics))
+    }
+
+    /// Makes the device a CANopen FD device serving USDO (CiA 1301) on CAN FD frames
+    /// (`true`), or not (`false`). A device whose EDS has `CANopenFD=1` in `[DeviceInfo]`
+    /// ([`crate::usdo::EDS_FD_KEY`]) is one from the start. Its classic SDO server stays.
+    pub fn with_fd(mut self, fd: bool) -> Self {
+        self.set_fd(fd);
+        self
+    }
+
+    /// [`with_fd`](Self::with_fd) on a device already built (a transfer in progress ends).
+    pub fn set_fd(&mut self, fd: bool) {
+        self.usdo = fd.then(|| Box::new(UsdoServer::new(self.node, UsdoServerConfig::default())));
+        self.refresh_timers();
+    }
+
+    /// Whether the device serves USDO (CANopen FD).
+    pub fn is_fd(&self) -> bool {
+        self.usdo.is_some()
     }
 
     /// Copies habits of real devices (see [`Quirks`](super::Quirks)).
@@ -339,6 +367,12 @@ impl SimDevice {
             },
         );
         self.sdo = sdo_channels(&self.od, &self.values, self.node);
+        if self.usdo.is_some() {
+            self.usdo = Some(Box::new(UsdoServer::new(
+                self.node,
+                UsdoServerConfig::default(),
+            )));
+        }
         self.nmt.boot(now);
         self.after_nmt(now);
     }
@@ -404,6 +438,37 @@ impl SimDevice {
             self.apply(now, actions, &written);
             self.refresh_timers();
         }
+    }
+
+    /// Runs one step of the USDO server over the device's objects (as
+    /// [`serve_sdo`](Self::serve_sdo) for an SDO channel), then queues its CAN FD frames.
+    pub(super) fn serve_usdo(
+        &mut self,
+        now: Instant,
+        step: impl FnOnce(&mut UsdoServer, Instant, &mut Objects<'_>),
+    ) {
+        let Some(server) = self.usdo.as_deref_mut() else {
+            return;
+        };
+        let mut actions = HookActions::default();
+        let mut written = Vec::new();
+        let mut objs = Objects {
+            od: &self.od,
+            meta: &self.meta,
+            values: &mut self.values,
+            staging: &mut self.staging,
+            hooks: &mut self.hooks,
+            actions: &mut actions,
+            written: &mut written,
+            now,
+        };
+        step(server, now, &mut objs);
+        while let Some(f) = server.poll_transmit_frame() {
+            self.out_fd.push_back(f);
+        }
+        while server.poll_event().is_some() {}
+        self.apply(now, actions, &written);
+        self.refresh_timers();
     }
 
     /// Takes new SDO server parameters (0x1200..=0x127F written): channels whose COB-IDs are
@@ -536,6 +601,9 @@ impl Station for SimDevice {
                 });
             }
         }
+        if is_due(self.usdo.as_ref().and_then(|u| u.poll_timeout()), now) {
+            self.serve_usdo(now, |server, now, objs| server.handle_timeout(now, objs));
+        }
         if is_due(self.emcy.poll_timeout(), now) {
             self.emcy.handle_timeout(now);
         }
@@ -562,6 +630,25 @@ impl Station for SimDevice {
 
     fn poll_transmit(&mut self) -> Option<CanFrame> {
         self.out.pop_front()
+    }
+
+    /// USDO requests (CAN FD on 0x600 + a client's node-ID) for a device marked CANopen FD,
+    /// served while NMT allows SDO (pre-operational and operational).
+    fn handle_fd_frame(&mut self, now: Instant, frame: &FdFrame) {
+        if !self.booted || !self.configured || self.usdo.is_none() {
+            return;
+        }
+        if !self.nmt.allows(Service::Sdo) {
+            return;
+        }
+        self.sdo_requests += 1;
+        self.serve_usdo(now, |server, now, objs| {
+            server.handle_frame(now, frame, objs);
+        });
+    }
+
+    fn poll_transmit_fd(&mut self) -> Option<FdFrame> {
+        self.out_fd.pop_front()
     }
 
     fn poll_timeout(&self) -> Option<Instant> {

@@ -6,9 +6,9 @@
 //! pairs), or `R` for a remote frame with an optional length digit (`123#R`, `123#R8`). An
 //! 8-digit identifier with the error flag `0x20000000` is a CAN error frame. A CAN FD frame is
 //! `ID##F` then its data: `F` is one hex digit of flags (bit 0 bit-rate switch, bit 1 error
-//! state indicator), the data 0 to 8, 12, 16, 20, 24, 32, 48 or 64 bytes. The stack carries
-//! classic frames only; FD lines are read as [`LogFrame::Fd`] so a tool can tell, count and
-//! skip them.
+//! state indicator), the data 0 to 8, 12, 16, 20, 24, 32, 48 or 64 bytes. FD lines are read
+//! as [`LogFrame::Fd`] (the stack's [`FdFrame`]); `canopen replay` sends them on a bus that
+//! carries CAN FD.
 //!
 //! The reader is a total decoder of file text: every line becomes an entry or a typed
 //! [`CandumpError`] with its line number; it never panics and reads at most
@@ -29,8 +29,8 @@ pub const ERROR_FLAG: u32 = 0x2000_0000;
 pub enum LogFrame {
     /// A data or remote frame.
     Can(CanFrame),
-    /// A CAN FD frame (read and written, not sent: the transports carry classic frames;
-    /// SocketCAN opened for FD reports received ones as `BusEvent::FdFrame`).
+    /// A CAN FD frame (replayed on a bus that carries CAN FD, see
+    /// [`Transport::fd_support`](crate::Transport::fd_support)).
     Fd(FdFrame),
     /// A CAN error frame: error class bits (identifier without the flag) and detail bytes.
     Error {
@@ -41,42 +41,14 @@ pub enum LogFrame {
     },
 }
 
-/// A CAN FD frame of a log line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct FdFrame {
-    /// Identifier.
-    pub id: CanId,
-    /// The flags digit: bit 0 bit-rate switch (BRS), bit 1 error state indicator (ESI), bit 2
-    /// the FD format flag (FDF) that Linux 6.2 and later set on received frames.
-    pub flags: u8,
-    len: u8,
-    data: [u8; 64],
-}
+/// A CAN FD frame of a log line: the stack's one FD frame type. The flags digit of a log line
+/// is its [`FdFlags`](canola_frame::FdFlags) bits: bit 0 bit-rate switch (BRS), bit 1 error
+/// state indicator (ESI), bit 2 the FD format flag (FDF) that Linux 6.2 and later set on
+/// received frames.
+pub use canola_frame::FdFrame;
 
 /// The data lengths a CAN FD frame can have.
-pub const FD_LENGTHS: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
-
-impl FdFrame {
-    /// An FD frame; `None` when `data` has no valid FD length or `flags` is above 0xF.
-    pub fn new(id: CanId, flags: u8, data: &[u8]) -> Option<Self> {
-        if flags > 0xF || !FD_LENGTHS.contains(&data.len()) {
-            return None;
-        }
-        let mut buf = [0u8; 64];
-        buf[..data.len()].copy_from_slice(data);
-        Some(Self {
-            id,
-            flags,
-            len: data.len() as u8,
-            data: buf,
-        })
-    }
-
-    /// The data bytes.
-    pub fn data(&self) -> &[u8] {
-        &self.data[..usize::from(self.len)]
-    }
-}
+pub use canola_frame::fd::FD_LENGTHS;
 
 /// One line of a candump log.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -220,9 +192,11 @@ pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
         let bad_data = || CandumpError::BadData(rest.into());
         let mut bytes = [0u8; 64];
         let len = hex_pairs(rest, &mut bytes).ok_or_else(bad_data)?;
-        return FdFrame::new(can_id, flags as u8, &bytes[..len])
-            .map(LogFrame::Fd)
-            .ok_or_else(bad_data);
+        return FdFrame::new(can_id, &bytes[..len])
+            .map(|f| {
+                LogFrame::Fd(f.with_flags(canola_frame::FdFlags::from_bits_truncate(flags as u8)))
+            })
+            .map_err(|_| bad_data());
     }
     let error_frame = id.len() == 8 && raw & ERROR_FLAG != 0;
     let can_id = match id.len() {
@@ -283,16 +257,7 @@ pub fn parse_line(line: &str) -> Result<LogEntry, CandumpError> {
 pub fn format_frame(frame: &LogFrame) -> String {
     match frame {
         LogFrame::Can(f) => f.to_string(),
-        LogFrame::Fd(f) => {
-            let mut s = match f.id {
-                CanId::Standard(_) => format!("{:03X}##{:X}", f.id.as_raw(), f.flags),
-                CanId::Extended(_) => format!("{:08X}##{:X}", f.id.as_raw(), f.flags),
-            };
-            for b in f.data() {
-                s.push_str(&format!("{b:02X}"));
-            }
-            s
-        }
+        LogFrame::Fd(f) => f.to_string(),
         LogFrame::Error { class, data } => {
             let mut s = format!("{:08X}#", class | ERROR_FLAG);
             for b in data {
@@ -513,8 +478,8 @@ mod tests {
         let LogFrame::Fd(fd) = e.frame else {
             panic!("{e:?}")
         };
-        assert_eq!(fd.id, sid(0x123));
-        assert_eq!(fd.flags, 1);
+        assert_eq!(fd.id(), sid(0x123));
+        assert_eq!(fd.flags().bits(), 1);
         assert_eq!(fd.data(), (0u8..12).collect::<Vec<_>>());
         assert_eq!(format_line(&e), line);
         let ext = parse_line("(1.000000) can0 1ABCDEF0##0").unwrap();

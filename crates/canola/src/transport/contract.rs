@@ -1,8 +1,14 @@
 //! The contract every transport fulfils: the [`Transport`] trait, what it receives
 //! ([`Received`], [`BusEvent`]), its errors, and the [`Station`] a bus steps with
 //! [`run_station`].
+//!
+//! CAN FD (ISO 11898-1:2015): a transport says whether it carries FD frames
+//! ([`Transport::fd_support`]); one that does sends them with [`Transport::send_fd`] and
+//! reports received ones as [`BusEvent::FdFrame`]. On a classic-only bus (a SocketCAN
+//! interface with MTU 16, an slcan adapter without a data bit rate, an in-memory bus
+//! configured classic) `send_fd` fails with [`TransportError::FdNotSupported`], naming the bus.
 
-use canola_frame::{CanFrame, Duration, Instant, is_due};
+use canola_frame::{CanFrame, Duration, FdFrame, Instant, is_due};
 
 /// Something that happened on the bus other than a received frame.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -44,11 +50,12 @@ pub enum BusEvent {
         /// Bad inputs since the transport was opened.
         total: u64,
     },
-    /// A CAN FD frame arrived. Only a transport opened for CAN FD reports them (SocketCAN's
-    /// `SocketCan::open_fd`); the master's protocols use classic frames and ignore it.
+    /// A CAN FD frame arrived. Only a transport that carries CAN FD reports them (see
+    /// [`Transport::fd_support`]); the master routes USDO responses from them and hands every
+    /// one to its subscribers.
     FdFrame {
         /// The frame.
-        frame: Box<crate::transport::candump::FdFrame>,
+        frame: Box<FdFrame>,
         /// When it was received, on the transport's clock.
         at: Instant,
     },
@@ -72,13 +79,7 @@ impl core::fmt::Display for BusEvent {
             Self::BadInput { detail, total } => {
                 write!(f, "bad input from the adapter ({total} so far): {detail}")
             }
-            Self::FdFrame { frame, .. } => write!(
-                f,
-                "CAN FD frame {}",
-                crate::transport::candump::format_frame(&crate::transport::candump::LogFrame::Fd(
-                    **frame
-                ))
-            ),
+            Self::FdFrame { frame, .. } => write!(f, "CAN FD frame {frame}"),
         }
     }
 }
@@ -116,6 +117,20 @@ pub enum TransportError {
     /// An operating-system error.
     #[error("CAN I/O error: {0}")]
     Io(#[from] std::io::Error),
+    /// A CAN FD frame was to be sent on a bus that carries classic frames only. `bus` names
+    /// it and says why (e.g. `vcan0 (MTU 16: classic CAN only)`).
+    #[error("FD not supported on {bus}")]
+    FdNotSupported {
+        /// The bus and why it is classic-only.
+        bus: String,
+    },
+}
+
+impl TransportError {
+    /// The error of a classic-only `bus` asked for CAN FD.
+    pub fn fd_not_supported(bus: impl Into<String>) -> Self {
+        Self::FdNotSupported { bus: bus.into() }
+    }
 }
 
 /// A CAN bus attachment: send frames, receive frames and events, tell the time.
@@ -138,6 +153,25 @@ pub trait Transport: Send {
     fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
         let _ = now;
         self.send(frame)
+    }
+
+    /// Whether this bus carries CAN FD frames: `Ok(())`, or the
+    /// [`TransportError::FdNotSupported`] that [`send_fd`](Self::send_fd) fails with, naming
+    /// the bus. Default: classic only.
+    fn fd_support(&self) -> Result<(), TransportError> {
+        Err(TransportError::fd_not_supported(
+            "this transport (classic CAN only)",
+        ))
+    }
+
+    /// Queues one CAN FD frame (as [`send`](Self::send)). Default (a classic-only
+    /// transport): the error of [`fd_support`](Self::fd_support).
+    fn send_fd(&mut self, frame: &FdFrame) -> Result<(), TransportError> {
+        let _ = frame;
+        match self.fd_support() {
+            Err(e) => Err(e),
+            Ok(()) => Err(TransportError::fd_not_supported("this transport")),
+        }
     }
 
     /// Waits until a frame or event arrives or the clock reaches `deadline`.
@@ -188,6 +222,12 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
         (**self).send_at(frame, now)
     }
+    fn fd_support(&self) -> Result<(), TransportError> {
+        (**self).fd_support()
+    }
+    fn send_fd(&mut self, frame: &FdFrame) -> Result<(), TransportError> {
+        (**self).send_fd(frame)
+    }
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
         (**self).recv_until(deadline)
     }
@@ -223,6 +263,13 @@ pub trait Station: Send {
     fn poll_timeout(&self) -> Option<Instant>;
     /// Feeds a bus event (default: ignored).
     fn handle_bus_event(&mut self, _now: Instant, _event: &BusEvent) {}
+    /// Feeds one received CAN FD frame (default: ignored, as a classic controller would).
+    fn handle_fd_frame(&mut self, _now: Instant, _frame: &FdFrame) {}
+    /// The next CAN FD frame to send, if any (drained after
+    /// [`poll_transmit`](Self::poll_transmit)). Default: none.
+    fn poll_transmit_fd(&mut self) -> Option<FdFrame> {
+        None
+    }
 }
 
 /// Runs a [`Station`] on a transport until `stop` returns true or the transport fails.
@@ -250,6 +297,9 @@ pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
         while let Some(frame) = station.poll_transmit() {
             transport.send(&frame)?;
         }
+        while let Some(frame) = station.poll_transmit_fd() {
+            transport.send_fd(&frame)?;
+        }
         if stop() {
             return Ok(());
         }
@@ -260,6 +310,10 @@ pub fn run_station<T: Transport + ?Sized, S: Station + ?Sized>(
         match transport.recv_until(deadline)? {
             Some(Received::Frame { frame, at }) => {
                 station.handle_frame(at, &frame);
+                now = at;
+            }
+            Some(Received::Event(BusEvent::FdFrame { frame, at })) => {
+                station.handle_fd_frame(at, &frame);
                 now = at;
             }
             Some(Received::Event(ev)) => {

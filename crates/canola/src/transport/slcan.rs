@@ -29,8 +29,8 @@ pub use canola_slcan::{
 };
 use canola_slcan::{BusErrors, ErrorState, Frame, Incoming};
 
-use crate::transport::candump::FdFrame;
 use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
+use canola_frame::{FdFlags, FdFrame};
 
 /// How often a receive call tries to open a vanished adapter again.
 pub const REOPEN_INTERVAL: std::time::Duration = std::time::Duration::from_millis(250);
@@ -109,6 +109,8 @@ pub struct Slcan {
     last_try: Option<std::time::Instant>,
     /// The controller state from the last bus state line.
     state: ErrorState,
+    /// The adapter sent a CAN FD frame (so it speaks CAN FD).
+    fd_seen: bool,
 }
 
 impl core::fmt::Debug for Slcan {
@@ -145,6 +147,7 @@ impl Slcan {
             down: None,
             last_try: None,
             state: ErrorState::Active,
+            fd_seen: false,
         }
     }
 
@@ -234,6 +237,7 @@ impl Slcan {
                         return;
                     }
                     Frame::Fd(fd) => {
+                        self.fd_seen = true;
                         let mut flags = FD_FLAG_FDF;
                         if fd.brs() {
                             flags |= FD_FLAG_BRS;
@@ -241,12 +245,14 @@ impl Slcan {
                         if rx.esi == Some(true) {
                             flags |= FD_FLAG_ESI;
                         }
-                        match FdFrame::new(fd.id(), flags, fd.data()) {
-                            Some(frame) => BusEvent::FdFrame {
-                                frame: Box::new(frame),
+                        match FdFrame::new(fd.id(), fd.data()) {
+                            Ok(frame) => BusEvent::FdFrame {
+                                frame: Box::new(
+                                    frame.with_flags(FdFlags::from_bits_truncate(flags)),
+                                ),
                                 at,
                             },
-                            None => return,
+                            Err(_) => return,
                         }
                     }
                 }
@@ -344,6 +350,42 @@ impl Transport for Slcan {
             return Err(TransportError::InterfaceDown);
         }
         match self.link.send(&Frame::Classic(*frame)) {
+            Ok(()) => {
+                self.stats.inner.frames_tx.fetch_add(1, Ordering::Relaxed);
+                Ok(())
+            }
+            Err(e @ LinkError::Vanished { .. }) => {
+                self.went_down(e.to_string());
+                Err(TransportError::InterfaceDown)
+            }
+            Err(LinkError::WriteTimeout) => Err(TransportError::TxQueueFull),
+            Err(LinkError::Closed) => Err(TransportError::InterfaceDown),
+            Err(e) => Err(TransportError::Io(std::io::Error::other(e.to_string()))),
+        }
+    }
+
+    /// An adapter speaks CAN FD when it was opened with a data bit rate (its `Y` command
+    /// accepted: slcan has no capability query) or has sent a CAN FD frame.
+    fn fd_support(&self) -> Result<(), TransportError> {
+        if self.link.config().data_bitrate.is_some() || self.fd_seen {
+            Ok(())
+        } else {
+            Err(TransportError::fd_not_supported(format!(
+                "slcan:{} (opened without a data bit rate: classic CAN only; an adapter with CAN FD \
+                 firmware needs one in its LinkConfig::data_bitrate)",
+                self.link.config().path
+            )))
+        }
+    }
+
+    fn send_fd(&mut self, frame: &FdFrame) -> Result<(), TransportError> {
+        self.fd_support()?;
+        if self.down.is_some() {
+            return Err(TransportError::InterfaceDown);
+        }
+        let line = canola_slcan::FdFrame::new(frame.id(), frame.brs(), frame.data())
+            .ok_or_else(|| TransportError::Io(std::io::Error::other("frame not representable")))?;
+        match self.link.send(&Frame::Fd(line)) {
             Ok(()) => {
                 self.stats.inner.frames_tx.fetch_add(1, Ordering::Relaxed);
                 Ok(())

@@ -31,9 +31,14 @@
 //! with tick-rounded waits its SYNC intervals are 4 to 8 ms (`vcan_drives` in
 //! `crates/bench` measures both).
 //!
-//! CAN FD: [`SocketCan::open_fd`] also asks for CAN FD frames (`CAN_RAW_FD_FRAMES`, what
-//! `socketcan::CanFdSocket` sets). The master's protocols run on classic frames, so an FD frame
-//! is reported as [`BusEvent::FdFrame`] (for `canopen record` and `monitor`), not as a frame.
+//! CAN FD: an interface carries CAN FD when its MTU is 72 (`CANFD_MTU`, the size of a
+//! `struct canfd_frame`; read from `/sys/class/net/IFACE/mtu` at open), classic frames only
+//! with MTU 16 (`CAN_MTU`). [`SocketCan::open_fd`] asks an FD interface for CAN FD frames
+//! (`CAN_RAW_FD_FRAMES`, what `socketcan::CanFdSocket` sets) and fails on a classic-only one
+//! with [`TransportError::FdNotSupported`]; [`SocketCan::open`] leaves them off. Received FD
+//! frames come as [`BusEvent::FdFrame`]; [`Transport::send_fd`] writes a 72-byte
+//! `canfd_frame` (BRS and ESI from the frame's flags), and fails with `FdNotSupported` unless
+//! the socket was opened for FD on an FD interface.
 
 use std::collections::VecDeque;
 use std::io::IoSliceMut;
@@ -46,8 +51,9 @@ use canola_frame::{CanFrame, CanId, Instant};
 use nix::sys::socket::{ControlMessageOwned, MsgFlags, getsockopt, recvmsg, setsockopt, sockopt};
 use socketcan::{EmbeddedFrame, Socket, SocketOptions};
 
-use crate::transport::candump::{FD_LENGTHS, FdFrame};
 use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
+use canola_frame::fd::FD_LENGTHS;
+use canola_frame::{FdFlags, FdFrame};
 
 const CAN_EFF_FLAG: u32 = 0x8000_0000;
 const CAN_RTR_FLAG: u32 = 0x4000_0000;
@@ -114,6 +120,10 @@ pub struct SocketCan {
     read_timeout: Option<std::time::Duration>,
     /// Wait with `ppoll` (high-resolution timer) instead of the receive timeout.
     precise: bool,
+    /// The interface's MTU at open (`None`: unknown).
+    mtu: Option<usize>,
+    /// CAN FD frames enabled on the socket (`CAN_RAW_FD_FRAMES`).
+    fd: bool,
 }
 
 impl core::fmt::Debug for SocketCan {
@@ -177,7 +187,34 @@ pub(crate) fn decode_raw_fd(buf: &[u8]) -> Option<FdFrame> {
     let padded = *FD_LENGTHS.iter().find(|&&l| l >= len)?;
     let mut data = [0u8; 64];
     data[..len].copy_from_slice(buf.get(8..8 + len)?);
-    FdFrame::new(id, flags, &data[..padded])
+    FdFrame::new(id, &data[..padded])
+        .ok()
+        .map(|f| f.with_flags(FdFlags::from_bits_truncate(flags)))
+}
+
+/// Encodes `frame` as the 72 bytes of a Linux `struct canfd_frame`: identifier with the EFF
+/// flag, length, flags (BRS and ESI; FDF is the kernel's to set), two reserved bytes, the data
+/// padded with zeros.
+pub(crate) fn encode_raw_fd(frame: &FdFrame) -> [u8; CANFD_MTU] {
+    let mut buf = [0u8; CANFD_MTU];
+    let id = match frame.id() {
+        CanId::Standard(_) => frame.id().as_raw(),
+        CanId::Extended(_) => frame.id().as_raw() | CAN_EFF_FLAG,
+    };
+    buf[0..4].copy_from_slice(&id.to_ne_bytes());
+    buf[4] = frame.dlc() as u8;
+    buf[5] = frame.flags().bits() & (FdFlags::BRS.bits() | FdFlags::ESI.bits());
+    buf[8..].copy_from_slice(frame.data_padded());
+    buf
+}
+
+/// The MTU of `iface` from `/sys/class/net/IFACE/mtu`; `None` when it cannot be read.
+pub fn interface_mtu(iface: &str) -> Option<usize> {
+    std::fs::read_to_string(format!("/sys/class/net/{iface}/mtu"))
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
 }
 
 /// The events an error frame stands for: the frame itself, then state changes it signals.
@@ -245,6 +282,8 @@ impl SocketCan {
             events: VecDeque::new(),
             read_timeout: None,
             precise: false,
+            mtu: interface_mtu(iface),
+            fd: false,
         })
     }
 
@@ -278,14 +317,36 @@ impl SocketCan {
         }
     }
 
-    /// Opens `iface` as [`open`](Self::open) does and also receives CAN FD frames, as
-    /// [`BusEvent::FdFrame`]s (when the interface carries them: an MTU of 72). Sending stays
-    /// classic.
+    /// Opens `iface` as [`open`](Self::open) does for CAN FD: FD frames are received (as
+    /// [`BusEvent::FdFrame`]s) and sent ([`Transport::send_fd`]). Fails with
+    /// [`TransportError::FdNotSupported`] when the interface is classic-only (MTU 16).
     pub fn open_fd(iface: &str) -> Result<Self, TransportError> {
-        let t = Self::open(iface)?;
+        let mut t = Self::open(iface)?;
+        t.fd_support_of_interface()?;
         t.socket
             .set_socket_option_int(nix::libc::SOL_CAN_RAW, nix::libc::CAN_RAW_FD_FRAMES, 1)?;
+        t.fd = true;
         Ok(t)
+    }
+
+    /// The interface's MTU as read at open: 72 for CAN FD, 16 for classic CAN.
+    pub fn mtu(&self) -> Option<usize> {
+        self.mtu
+    }
+
+    /// Whether the interface (not the socket) carries CAN FD: its MTU is 72.
+    fn fd_support_of_interface(&self) -> Result<(), TransportError> {
+        match self.mtu {
+            Some(CANFD_MTU) => Ok(()),
+            Some(mtu) => Err(TransportError::fd_not_supported(format!(
+                "{} (MTU {mtu}: classic CAN only; `ip link set {} mtu 72` while it is down makes it CAN FD)",
+                self.iface, self.iface
+            ))),
+            None => Err(TransportError::fd_not_supported(format!(
+                "{} (its MTU could not be read)",
+                self.iface
+            ))),
+        }
     }
 
     /// Asks for a receive buffer of `bytes` (the `SO_RCVBUF` value) and returns what the kernel
@@ -438,6 +499,37 @@ impl Transport for SocketCan {
         }
     }
 
+    fn fd_support(&self) -> Result<(), TransportError> {
+        self.fd_support_of_interface()?;
+        if self.fd {
+            Ok(())
+        } else {
+            Err(TransportError::fd_not_supported(format!(
+                "{} (opened for classic CAN; open it for CAN FD)",
+                self.iface
+            )))
+        }
+    }
+
+    fn send_fd(&mut self, frame: &FdFrame) -> Result<(), TransportError> {
+        self.fd_support()?;
+        let buf = encode_raw_fd(frame);
+        match nix::sys::socket::send(self.socket.as_raw_fd(), &buf, MsgFlags::empty()) {
+            Ok(_) => {
+                self.came_up();
+                Ok(())
+            }
+            Err(nix::errno::Errno::ENETDOWN) => {
+                self.went_down();
+                Err(TransportError::InterfaceDown)
+            }
+            Err(nix::errno::Errno::ENOBUFS | nix::errno::Errno::EAGAIN) => {
+                Err(TransportError::TxQueueFull)
+            }
+            Err(e) => Err(std::io::Error::from(e).into()),
+        }
+    }
+
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
         loop {
             if let Some(r) = self.events.pop_front() {
@@ -517,13 +609,26 @@ mod tests {
             *x = i as u8;
         }
         let f = decode_raw_fd(&b).unwrap();
-        assert_eq!(f.id, CanId::standard(0x123).unwrap());
-        assert_eq!((f.flags, f.data().len(), f.data()[11]), (5, 12, 11));
+        assert_eq!(f.id(), CanId::standard(0x123).unwrap());
+        assert_eq!(
+            (f.flags().bits(), f.data().len(), f.data()[11]),
+            (5, 12, 11)
+        );
+        // What is sent decodes to the same frame (FDF is the kernel's: not written).
+        let sent = encode_raw_fd(&f);
+        assert_eq!(sent[5], 0x01);
+        assert_eq!(&sent[..5], &b[..5]);
+        assert_eq!(decode_raw_fd(&sent), Some(f.with_flags(FdFlags::BRS)));
         // A length between the FD lengths is padded as the wire carries it.
         b[4] = 9;
         assert_eq!(decode_raw_fd(&b).unwrap().data().len(), 12);
         b[..4].copy_from_slice(&(0x1234_5678 | CAN_EFF_FLAG).to_ne_bytes());
-        assert!(decode_raw_fd(&b).unwrap().id.is_extended());
+        let ext = decode_raw_fd(&b).unwrap();
+        assert!(ext.id().is_extended());
+        assert_eq!(
+            decode_raw_fd(&encode_raw_fd(&ext)),
+            Some(ext.with_flags(FdFlags::BRS))
+        );
         b[4] = 65;
         assert_eq!(decode_raw_fd(&b), None);
         b[4] = 8;

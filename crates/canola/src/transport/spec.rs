@@ -92,6 +92,10 @@ pub enum OpenErrorKind {
     /// The adapter answered with an error (BEL) to a command of the open sequence.
     #[error("the adapter refused: {0}")]
     Refused(String),
+    /// CAN FD was asked for on a bus that carries classic frames only: the bus and why
+    /// (`vcan0 (MTU 16: classic CAN only; ...)`).
+    #[error("FD not supported on {0}")]
+    FdNotSupported(String),
     /// Anything else, in the operating system's or the transport's words.
     #[error("{0}")]
     Other(String),
@@ -239,9 +243,26 @@ impl BusSpec {
         self.open_with(false)
     }
 
-    /// Opens the bus; on SocketCAN with `fd` CAN FD frames are received too (as
-    /// [`BusEvent::FdFrame`](crate::BusEvent::FdFrame); an slcan adapter always reports them).
+    /// Opens the bus; with `fd` a SocketCAN interface that carries CAN FD (MTU 72) is opened
+    /// for it (FD frames received as [`BusEvent::FdFrame`](crate::BusEvent::FdFrame) and sent),
+    /// a classic-only one as classic (for watching traffic: use [`open_fd`](Self::open_fd) when
+    /// CAN FD is required). The UDP bus and an slcan adapter report FD frames either way.
     pub fn open_with(&self, fd: bool) -> Result<Box<dyn Transport>, OpenError> {
+        self.open_mode(if fd { Fd::IfCarried } else { Fd::Off })
+    }
+
+    /// Opens the bus for CAN FD: fails with [`OpenErrorKind::FdNotSupported`] when the bus
+    /// carries classic frames only (a SocketCAN interface with MTU 16, an slcan adapter opened
+    /// without a data bit rate).
+    pub fn open_fd(&self) -> Result<Box<dyn Transport>, OpenError> {
+        let t = self.open_mode(Fd::Required)?;
+        match t.fd_support() {
+            Ok(()) => Ok(t),
+            Err(e) => Err(transport_error(&self.name(), e)),
+        }
+    }
+
+    fn open_mode(&self, fd: Fd) -> Result<Box<dyn Transport>, OpenError> {
         match self {
             Self::SocketCan(iface) => open_socketcan(iface, fd),
             #[cfg(all(feature = "socketcan", target_os = "linux"))]
@@ -258,8 +279,20 @@ impl BusSpec {
     }
 }
 
+/// What an open asks of CAN FD.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(not(all(feature = "socketcan", target_os = "linux")), allow(dead_code))]
+enum Fd {
+    /// Classic frames only.
+    Off,
+    /// CAN FD when the interface carries it.
+    IfCarried,
+    /// CAN FD or an error.
+    Required,
+}
+
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
-fn open_socketcan(iface: &str, fd: bool) -> Result<Box<dyn Transport>, OpenError> {
+fn open_socketcan(iface: &str, fd: Fd) -> Result<Box<dyn Transport>, OpenError> {
     use crate::transport::socketcan::SocketCan;
     // A network interface that is not CAN fails in the kernel with a misleading error (no
     // such device, or no address family when CAN is not loaded): say what it is first.
@@ -270,10 +303,11 @@ fn open_socketcan(iface: &str, fd: bool) -> Result<Box<dyn Transport>, OpenError
         }
         _ => {}
     }
-    let socket = if fd {
-        SocketCan::open_fd(iface)
-    } else {
-        SocketCan::open(iface)
+    let carried = crate::transport::socketcan::interface_mtu(iface) == Some(72);
+    let socket = match fd {
+        Fd::Required => SocketCan::open_fd(iface),
+        Fd::IfCarried if carried => SocketCan::open_fd(iface),
+        _ => SocketCan::open(iface),
     };
     socket
         .map(|t| Box::new(t) as Box<dyn Transport>)
@@ -281,7 +315,7 @@ fn open_socketcan(iface: &str, fd: bool) -> Result<Box<dyn Transport>, OpenError
 }
 
 #[cfg(not(all(feature = "socketcan", target_os = "linux")))]
-fn open_socketcan(iface: &str, _fd: bool) -> Result<Box<dyn Transport>, OpenError> {
+fn open_socketcan(iface: &str, _fd: Fd) -> Result<Box<dyn Transport>, OpenError> {
     Err(OpenError::new(
         iface,
         OpenErrorKind::Unsupported {
@@ -398,6 +432,9 @@ fn transport_error(spec: &str, e: TransportError) -> OpenError {
         && io.kind() == std::io::ErrorKind::PermissionDenied
     {
         return OpenError::new(spec, OpenErrorKind::PermissionDenied, None);
+    }
+    if let TransportError::FdNotSupported { bus } = e {
+        return OpenError::new(spec, OpenErrorKind::FdNotSupported(bus), None);
     }
     OpenError::new(spec, OpenErrorKind::Other(e.to_string()), None)
 }

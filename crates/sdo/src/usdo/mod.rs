@@ -27,8 +27,8 @@
 //! Not implemented because not established: broadcast and multicast destinations, bulk
 //! transfer, remote (routed) services.
 //!
-//! Not here yet (later work of issue 32): USDO over the facade's transports, `node.usdo()`, the
-//! CLI's `usdo` commands and the simulator's USDO server.
+//! The master's `node.usdo()`, the device simulator's USDO server and the CLI's `canopen usdo`
+//! run these machines over CAN FD frames in the `canola` facade.
 
 mod abort;
 pub mod assumed;

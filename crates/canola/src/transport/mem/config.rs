@@ -1,8 +1,9 @@
 //! The in-memory bus's settings and timing model: how it tells time ([`ClockMode`]), the
 //! faults it injects ([`Faults`]), the bit rate and stuffing it models ([`BusConfig`]), what it
-//! counts ([`BusStats`]), and a classic frame's length on the wire (ISO 11898-1).
+//! counts ([`BusStats`]), and a frame's length on the wire (ISO 11898-1:2015, classic and
+//! CAN FD).
 
-use canola_frame::{CanFrame, CanId, Duration};
+use canola_frame::{CanFrame, CanId, Duration, FdFrame};
 
 /// How the bus tells time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -78,6 +79,14 @@ pub struct BusConfig {
     pub tx_queue_capacity: usize,
     /// Fault injection.
     pub faults: Faults,
+    /// Whether the bus carries CAN FD frames (every controller on it is FD-capable). A
+    /// classic bus (the default) refuses [`Transport::send_fd`](crate::Transport::send_fd)
+    /// with [`TransportError::FdNotSupported`](crate::TransportError::FdNotSupported).
+    pub fd: bool,
+    /// CAN FD data-phase bit rate in bit/s (e.g. 2_000_000 or 5_000_000) for the timing model:
+    /// an FD frame with the bit-rate switch set sends its data phase at this rate, the rest at
+    /// [`bitrate`](Self::bitrate). `None`: the data phase runs at `bitrate` too.
+    pub data_bitrate: Option<u32>,
 }
 
 impl Default for BusConfig {
@@ -89,6 +98,8 @@ impl Default for BusConfig {
             queue_capacity: 4096,
             tx_queue_capacity: 256,
             faults: Faults::none(),
+            fd: false,
+            data_bitrate: None,
         }
     }
 }
@@ -142,9 +153,65 @@ pub fn frame_time(frame: &CanFrame, bitrate: u32, worst_case_stuffing: bool) -> 
     Duration::from_micros((bits * 1_000_000).div_ceil(rate))
 }
 
-/// Arbitration value: lower wins (ISO 11898-1 identifier priority, data beats remote).
-pub(super) fn arbitration_key(frame: &CanFrame) -> u64 {
-    let (base, ide, ext) = match frame.id() {
+/// The bits of a CAN FD frame on the wire, by phase: `(nominal, data)`. The nominal phase
+/// (arbitration bit rate) runs from the start of frame to the bit-rate switch, and from the
+/// CRC delimiter to the end of the interframe space; the data phase from the error state
+/// indicator to the end of the CRC (ISO 11898-1:2015 FD frame formats):
+///
+/// * nominal, 11-bit identifier: SOF, 11 identifier bits, RRS, IDE, FDF, res, BRS = 17; a
+///   29-bit identifier adds SRR and 18 identifier bits = 36; then CRC delimiter, ACK slot,
+///   ACK delimiter, 7 EOF bits and 3 interframe bits = 13;
+/// * data: ESI, 4 DLC bits, the data, the 4-bit stuff count (3 bits and parity), the CRC (17
+///   bits up to 16 data bytes, 21 above) and its fixed stuff bits (one before the stuff count,
+///   then one after every 4 bits: 6 for CRC-17, 7 for CRC-21).
+///
+/// With `worst_case_stuffing`, adds the most dynamic stuff bits: one per four bits of the
+/// dynamically stuffed region (start of frame to the end of the data) after the first, counted
+/// in the phase they fall in.
+pub fn fd_frame_bits(frame: &FdFrame, worst_case_stuffing: bool) -> (u32, u32) {
+    let n = frame.data().len() as u32 * 8;
+    let head = if frame.id().is_extended() { 36 } else { 17 };
+    let crc = if frame.data().len() > 16 {
+        21 + 7
+    } else {
+        17 + 6
+    };
+    let mut nominal = head + 13;
+    let mut data = 1 + 4 + n + 4 + crc;
+    if worst_case_stuffing {
+        // The region SOF..data: `head` nominal bits, then ESI, DLC and the data.
+        nominal += (head - 1) / 4;
+        data += (5 + n) / 4;
+    }
+    (nominal, data)
+}
+
+/// On-wire time of a CAN FD frame: the nominal phase at `bitrate`, the data phase at
+/// `data_bitrate` when its bit-rate switch is set (else at `bitrate` too), rounded up to a whole
+/// microsecond.
+pub fn fd_frame_time(
+    frame: &FdFrame,
+    bitrate: u32,
+    data_bitrate: Option<u32>,
+    worst_case_stuffing: bool,
+) -> Duration {
+    let (nominal, data) = fd_frame_bits(frame, worst_case_stuffing);
+    let rate = u64::from(bitrate.max(1));
+    let data_rate = match data_bitrate {
+        Some(r) if frame.brs() => u64::from(r.max(1)),
+        _ => rate,
+    };
+    // Each phase in nanoseconds, summed, then rounded up to the microsecond.
+    let ns = (u64::from(nominal) * 1_000_000_000).div_ceil(rate)
+        + (u64::from(data) * 1_000_000_000).div_ceil(data_rate);
+    Duration::from_micros(ns.div_ceil(1000))
+}
+
+/// Arbitration value: lower wins (ISO 11898-1 identifier priority, data beats remote). A CAN FD
+/// frame arbitrates as a classic data frame with its identifier (its RRS bit is dominant where
+/// a classic frame has RTR).
+pub(super) fn arbitration_key(id: CanId, remote: bool) -> u64 {
+    let (base, ide, ext) = match id {
         CanId::Standard(s) => (u64::from(s.as_raw()), 0, 0),
         CanId::Extended(e) => {
             let raw = u64::from(e.as_raw());
@@ -153,7 +220,7 @@ pub(super) fn arbitration_key(frame: &CanFrame) -> u64 {
     };
     // base id, then (SRR/RTR, IDE) — an 11-bit frame's RTR bit sits where a 29-bit frame has a
     // recessive SRR — then the extension and the final RTR bit.
-    let rtr = u64::from(frame.is_remote());
+    let rtr = u64::from(remote);
     let std_rtr = if ide == 1 { 1 } else { rtr };
     (base << 22) | (std_rtr << 21) | (ide << 20) | (ext << 1) | if ide == 1 { rtr } else { 0 }
 }

@@ -4,12 +4,12 @@
 use std::collections::VecDeque;
 use std::sync::MutexGuard;
 
-use canola_frame::{CanFrame, Instant};
+use canola_frame::{CanFrame, FdFrame, Instant};
 
 use crate::transport::contract::{Received, Transport, TransportError};
 
 use super::bus::MemoryBus;
-use super::state::{Clock, Ep, Participant, Pending, State};
+use super::state::{Clock, Ep, Participant, Pending, State, WireFrame};
 
 /// One attachment to a [`MemoryBus`]; implements [`Transport`](crate::Transport).
 pub struct Endpoint {
@@ -84,12 +84,15 @@ impl Endpoint {
     /// there is one, never before what the bus has processed already.
     pub(super) fn send_stamped(
         &mut self,
-        frame: &CanFrame,
+        frame: WireFrame,
         given: Option<Instant>,
     ) -> Result<(), TransportError> {
         let mut st = Self::lock_bus(&self.bus, self.index, &mut self.taken);
         if st.down {
             return Err(TransportError::InterfaceDown);
+        }
+        if matches!(frame, WireFrame::Fd(_)) && !st.config.fd {
+            return Err(classic_only());
         }
         let now = match (&st.clock, given) {
             (Clock::Real(_), Some(t)) => t.max(st.floor),
@@ -102,7 +105,7 @@ impl Endpoint {
             return Err(TransportError::TxQueueFull);
         }
         if st.faulty || !st.wire_is_instant() || !st.pending.is_empty() {
-            st.submit(me, *frame, now);
+            st.submit(me, frame, now);
         } else {
             // Nothing else waits for the wire and nothing is due (advanced above): the frame
             // would go next and at once, so it goes now, past the queue.
@@ -110,7 +113,7 @@ impl Endpoint {
             let p = Pending {
                 seq: st.seq,
                 from: me,
-                frame: *frame,
+                frame,
                 ready: now,
             };
             st.deliver(p, now);
@@ -142,13 +145,32 @@ impl Drop for Endpoint {
     }
 }
 
+/// The error of an FD frame on a classic in-memory bus.
+fn classic_only() -> TransportError {
+    TransportError::fd_not_supported(
+        "the in-memory bus (configured for classic CAN: BusConfig::fd)",
+    )
+}
+
 impl Transport for Endpoint {
     fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
-        self.send_stamped(frame, None)
+        self.send_stamped(WireFrame::Can(*frame), None)
     }
 
     fn send_at(&mut self, frame: &CanFrame, now: Instant) -> Result<(), TransportError> {
-        self.send_stamped(frame, Some(now))
+        self.send_stamped(WireFrame::Can(*frame), Some(now))
+    }
+
+    fn fd_support(&self) -> Result<(), TransportError> {
+        if self.bus.lock().config.fd {
+            Ok(())
+        } else {
+            Err(classic_only())
+        }
+    }
+
+    fn send_fd(&mut self, frame: &FdFrame) -> Result<(), TransportError> {
+        self.send_stamped(WireFrame::Fd(Box::new(*frame)), None)
     }
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {

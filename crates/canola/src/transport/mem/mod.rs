@@ -19,6 +19,14 @@
 //!   number of stuff bits. When the wire goes idle, the pending frame with the lowest arbitration
 //!   value (lowest identifier; an 11-bit identifier beats a 29-bit one with the same base; a data
 //!   frame beats a remote frame) is sent next.
+//! * **CAN FD** ([`BusConfig::fd`]): a bus configured FD carries FD frames
+//!   ([`Transport::send_fd`](crate::Transport::send_fd), received as
+//!   [`BusEvent::FdFrame`](crate::BusEvent::FdFrame), and by attached stations through
+//!   [`Station::handle_fd_frame`](crate::Station::handle_fd_frame) /
+//!   [`Station::poll_transmit_fd`](crate::Station::poll_transmit_fd)); a classic bus (the
+//!   default) refuses them with [`TransportError::FdNotSupported`](crate::TransportError). In the
+//!   timing model an FD frame's arbitration phase runs at [`BusConfig::bitrate`] and its data
+//!   phase at [`BusConfig::data_bitrate`] when the bit-rate switch is set ([`fd_frame_bits`]).
 //! * **Fault injection** ([`Faults`]): drop, duplicate, delay or corrupt a chosen share of frames,
 //!   from a seeded generator so every run is reproducible.
 //! * **Bus state.** [`MemoryBus::inject_event`] delivers [`BusEvent`](crate::BusEvent)s (error frames, bus-off,
@@ -36,5 +44,7 @@ mod state;
 mod tests;
 
 pub use bus::{MemoryBus, StationId};
-pub use config::{BusConfig, BusStats, ClockMode, Faults, frame_bits, frame_time};
+pub use config::{
+    BusConfig, BusStats, ClockMode, Faults, fd_frame_bits, fd_frame_time, frame_bits, frame_time,
+};
 pub use endpoint::Endpoint;

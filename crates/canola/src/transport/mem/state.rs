@@ -8,11 +8,66 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Condvar, Mutex, MutexGuard};
 
 use canola_frame::time::MonotonicClock;
-use canola_frame::{CanFrame, Duration, Instant};
+use canola_frame::{CanFrame, Duration, FdFrame, Instant};
 
 use crate::transport::contract::{BusEvent, Received, Station};
 
-use super::config::{BusConfig, BusStats, Rng, arbitration_key, frame_time};
+use super::config::{BusConfig, BusStats, Rng, arbitration_key, fd_frame_time, frame_time};
+
+/// A frame on its way over the bus: classic, or CAN FD (boxed: most traffic is classic, and an
+/// FD frame is nine times a classic one's size).
+#[derive(Debug, Clone)]
+pub(super) enum WireFrame {
+    Can(CanFrame),
+    Fd(Box<FdFrame>),
+}
+
+impl WireFrame {
+    fn arbitration_key(&self) -> u64 {
+        match self {
+            Self::Can(f) => arbitration_key(f.id(), f.is_remote()),
+            Self::Fd(f) => arbitration_key(f.id(), false),
+        }
+    }
+
+    fn time(&self, config: &BusConfig, bitrate: u32) -> Duration {
+        match self {
+            Self::Can(f) => frame_time(f, bitrate, config.worst_case_stuffing),
+            Self::Fd(f) => {
+                fd_frame_time(f, bitrate, config.data_bitrate, config.worst_case_stuffing)
+            }
+        }
+    }
+
+    /// The frame with bit `bit` of its data flipped.
+    fn flipped(&self, bit: usize) -> Option<Self> {
+        match self {
+            Self::Can(f) => {
+                let mut data = [0u8; 8];
+                let len = f.data().len();
+                data[..len].copy_from_slice(f.data());
+                data[bit / 8] ^= 1 << (bit % 8);
+                CanFrame::new(f.id(), &data[..len]).ok().map(Self::Can)
+            }
+            Self::Fd(f) => {
+                let mut data = [0u8; 64];
+                let len = f.data().len();
+                data[..len].copy_from_slice(f.data());
+                data[bit / 8] ^= 1 << (bit % 8);
+                FdFrame::new(f.id(), &data[..len])
+                    .ok()
+                    .map(|c| Self::Fd(Box::new(c.with_flags(f.flags()))))
+            }
+        }
+    }
+
+    fn data_len(&self) -> usize {
+        match self {
+            Self::Can(f) => f.data().len(),
+            Self::Fd(f) => f.data().len(),
+        }
+    }
+}
 
 /// A frame sent and not yet on the wire: it competes in arbitration once `ready`.
 #[derive(Debug)]
@@ -21,7 +76,7 @@ pub(super) struct Pending {
     pub(super) seq: u64,
     /// Who sent it (it is not delivered back to its sender).
     pub(super) from: Participant,
-    pub(super) frame: CanFrame,
+    pub(super) frame: WireFrame,
     /// When it may start arbitrating (its send time, later when a fault delays it).
     pub(super) ready: Instant,
 }
@@ -171,7 +226,7 @@ impl State {
     }
 
     /// Puts a frame on the way to the wire, applying the fault injection.
-    pub(super) fn submit(&mut self, from: Participant, frame: CanFrame, now: Instant) {
+    pub(super) fn submit(&mut self, from: Participant, frame: WireFrame, now: Instant) {
         if !self.faulty {
             // Without faults the generator is not asked at all (`chance(0.0)` does not draw).
             self.push_pending(from, frame, now);
@@ -183,13 +238,10 @@ impl State {
             return;
         }
         let mut frame = frame;
-        if !frame.data().is_empty() && self.rng.chance(f.corrupt) {
-            let mut data = [0u8; 8];
-            let len = frame.data().len();
-            data[..len].copy_from_slice(frame.data());
+        let len = frame.data_len();
+        if len > 0 && self.rng.chance(f.corrupt) {
             let bit = (self.rng.next_u64() % (len as u64 * 8)) as usize;
-            data[bit / 8] ^= 1 << (bit % 8);
-            if let Ok(c) = CanFrame::new(frame.id(), &data[..len]) {
+            if let Some(c) = frame.flipped(bit) {
                 frame = c;
                 self.stats.corrupted += 1;
             }
@@ -206,12 +258,13 @@ impl State {
         } else {
             1
         };
-        for _ in 0..copies {
-            self.push_pending(from, frame, ready);
+        for _ in 1..copies {
+            self.push_pending(from, frame.clone(), ready);
         }
+        self.push_pending(from, frame, ready);
     }
 
-    pub(super) fn push_pending(&mut self, from: Participant, frame: CanFrame, ready: Instant) {
+    pub(super) fn push_pending(&mut self, from: Participant, frame: WireFrame, ready: Instant) {
         self.seq += 1;
         self.pending.push(Pending {
             seq: self.seq,
@@ -317,7 +370,7 @@ impl State {
             .iter()
             .enumerate()
             .filter(|(_, p)| p.ready <= t)
-            .min_by_key(|(_, p)| (arbitration_key(&p.frame), p.seq))
+            .min_by_key(|(_, p)| (p.frame.arbitration_key(), p.seq))
             .map(|(i, _)| i)
         else {
             return;
@@ -326,7 +379,7 @@ impl State {
         self.leaves_queue(&p);
         match self.config.bitrate {
             Some(rate) => {
-                let d = frame_time(&p.frame, rate, self.config.worst_case_stuffing);
+                let d = p.frame.time(&self.config, rate);
                 self.stats.busy = self.stats.busy + d;
                 self.wire = Some((p, t + d));
             }
@@ -362,7 +415,13 @@ impl State {
         let id = self.stations[i].id;
         while let Some(frame) = self.stations[i].station.poll_transmit() {
             if !self.down {
-                self.submit(Participant::Station(id), frame, t);
+                self.submit(Participant::Station(id), WireFrame::Can(frame), t);
+            }
+        }
+        while let Some(frame) = self.stations[i].station.poll_transmit_fd() {
+            // A classic bus carries no FD frame (a classic controller would flag an error).
+            if !self.down && self.config.fd {
+                self.submit(Participant::Station(id), WireFrame::Fd(Box::new(frame)), t);
             }
         }
         let next = self.stations[i].station.poll_timeout();
@@ -381,14 +440,23 @@ impl State {
                 ep.lost += 1;
                 self.stats.overflowed += 1;
             } else {
-                ep.queue.push_back(Received::Frame { frame: p.frame, at });
+                ep.queue.push_back(match &p.frame {
+                    WireFrame::Can(frame) => Received::Frame { frame: *frame, at },
+                    WireFrame::Fd(frame) => Received::Event(BusEvent::FdFrame {
+                        frame: frame.clone(),
+                        at,
+                    }),
+                });
             }
         }
         for i in 0..self.stations.len() {
             if p.from == Participant::Station(self.stations[i].id) {
                 continue;
             }
-            self.stations[i].station.handle_frame(at, &p.frame);
+            match &p.frame {
+                WireFrame::Can(frame) => self.stations[i].station.handle_frame(at, frame),
+                WireFrame::Fd(frame) => self.stations[i].station.handle_fd_frame(at, frame),
+            }
             self.drain_station(i, at);
         }
     }

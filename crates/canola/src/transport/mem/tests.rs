@@ -9,7 +9,7 @@ use canola_frame::{CanFrame, CanId, Duration, Instant};
 use crate::transport::contract::{BusEvent, Received, Station, Transport, TransportError};
 
 use super::bus::MemoryBus;
-use super::config::{BusConfig, ClockMode, Faults, frame_time};
+use super::config::{BusConfig, ClockMode, Faults, fd_frame_bits, fd_frame_time, frame_time};
 use super::endpoint::Endpoint;
 use super::*;
 use crate::transport::contract::run_station;
@@ -362,4 +362,150 @@ fn send_at_stamps_with_the_callers_reading_but_never_before_the_bus() {
     assert!(t2 > t1 + Duration::from_millis(1), "{t2:?} after {t1:?}");
     a.send_at(&frame(0x183, &[3]), t1).unwrap();
     assert_eq!(stamp(&mut c), t2);
+}
+
+fn fd(raw: u16, data: &[u8]) -> canola_frame::FdFrame {
+    canola_frame::FdFrame::new(sid(raw), data).unwrap()
+}
+
+#[test]
+fn fd_frame_lengths_follow_iso_11898_by_phase() {
+    // 11-bit identifier, 64 bytes: 17 + 13 nominal bits; ESI, DLC, 512 data bits, stuff count
+    // and CRC-21 with its 7 fixed stuff bits in the data phase.
+    assert_eq!(fd_frame_bits(&fd(0x123, &[0; 64]), false), (30, 549));
+    assert_eq!(fd_frame_bits(&fd(0x123, &[0; 64]), true), (34, 678));
+    // Up to 16 bytes: CRC-17 with 6 fixed stuff bits.
+    assert_eq!(fd_frame_bits(&fd(0x123, &[0; 8]), false), (30, 96));
+    assert_eq!(fd_frame_bits(&fd(0x123, &[0; 16]), false), (30, 160));
+    assert_eq!(fd_frame_bits(&fd(0x123, &[0; 20]), false), (30, 197));
+    let ext = canola_frame::FdFrame::new(CanId::extended(0x1234).unwrap(), &[]).unwrap();
+    assert_eq!(fd_frame_bits(&ext, false), (49, 32));
+    // 1 Mbit/s arbitration, 5 Mbit/s data with BRS: 30 µs + 109.8 µs.
+    let f = fd(0x123, &[0; 64]).with_brs(true);
+    assert_eq!(
+        fd_frame_time(&f, 1_000_000, Some(5_000_000), false),
+        Duration::from_micros(140)
+    );
+    assert_eq!(
+        fd_frame_time(&f, 1_000_000, Some(2_000_000), false),
+        Duration::from_micros(305)
+    );
+    // Without BRS the data phase runs at the arbitration rate.
+    assert_eq!(
+        fd_frame_time(&f.with_brs(false), 1_000_000, Some(5_000_000), false),
+        Duration::from_micros(579)
+    );
+    assert_eq!(
+        fd_frame_time(&f, 1_000_000, None, false),
+        Duration::from_micros(579)
+    );
+}
+
+/// A station that answers every FD frame with an FD frame on the next identifier.
+struct FdEcho(VecDeque<canola_frame::FdFrame>);
+
+impl Station for FdEcho {
+    fn handle_frame(&mut self, _now: Instant, _frame: &CanFrame) {}
+    fn handle_timeout(&mut self, _now: Instant) {}
+    fn poll_transmit(&mut self) -> Option<CanFrame> {
+        None
+    }
+    fn poll_timeout(&self) -> Option<Instant> {
+        None
+    }
+    fn handle_fd_frame(&mut self, _now: Instant, frame: &canola_frame::FdFrame) {
+        let id = frame.cob_id().unwrap() + 1;
+        self.0.push_back(fd(id, frame.data()).with_brs(true));
+    }
+    fn poll_transmit_fd(&mut self) -> Option<canola_frame::FdFrame> {
+        self.0.pop_front()
+    }
+}
+
+#[test]
+fn fd_frames_cross_the_bus_in_their_time_and_arbitrate() {
+    let bus = MemoryBus::with_config(BusConfig {
+        bitrate: Some(1_000_000),
+        data_bitrate: Some(5_000_000),
+        fd: true,
+        ..BusConfig::default()
+    });
+    let mut a = bus.endpoint();
+    let mut b = bus.endpoint();
+    assert!(a.fd_support().is_ok());
+    bus.attach(FdEcho(VecDeque::new()));
+    let f = fd(0x200, &[7; 64]).with_brs(true);
+    a.send_fd(&f).unwrap();
+    let until = Instant::from_millis(1);
+    // b hears it after its 140 µs on the wire, then the echo (another 140 µs).
+    match b.recv_until(until).unwrap() {
+        Some(Received::Event(BusEvent::FdFrame { frame, at })) => {
+            assert_eq!(*frame, f);
+            assert_eq!(at, Instant::from_micros(140));
+        }
+        other => panic!("{other:?}"),
+    }
+    match b.recv_until(until).unwrap() {
+        Some(Received::Event(BusEvent::FdFrame { frame, at })) => {
+            assert_eq!(frame.id(), sid(0x201));
+            assert_eq!(at, Instant::from_micros(280));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(
+        a.recv_until(until).unwrap(),
+        Some(Received::Event(BusEvent::FdFrame { .. }))
+    ));
+}
+
+#[test]
+fn fd_frames_arbitrate_as_data_frames_with_their_identifier() {
+    let bus = MemoryBus::with_config(BusConfig {
+        bitrate: Some(1_000_000),
+        data_bitrate: Some(2_000_000),
+        fd: true,
+        ..BusConfig::default()
+    });
+    let mut a = bus.endpoint();
+    let mut b = bus.endpoint();
+    // While a frame is on the wire, a classic frame on 0x300 and then an FD frame on 0x100
+    // wait: the FD frame (lower identifier) wins the next arbitration.
+    a.send(&frame(0x400, &[0; 8])).unwrap();
+    a.send(&frame(0x300, &[1])).unwrap();
+    a.send_fd(&fd(0x100, &[2; 8])).unwrap();
+    let until = Instant::from_millis(1);
+    let mut order = Vec::new();
+    while let Some(r) = b.recv_until(until).unwrap() {
+        order.push(match r {
+            Received::Frame { frame, at } => (frame.cob_id().unwrap(), at),
+            Received::Event(BusEvent::FdFrame { frame, at }) => (frame.cob_id().unwrap(), at),
+            Received::Event(e) => panic!("{e}"),
+        });
+    }
+    // 0x400: 111 µs; the FD frame without BRS, 30 + 96 bits at 1 Mbit/s: 126 µs; then 0x300.
+    assert_eq!(
+        order,
+        [
+            (0x400, Instant::from_micros(111)),
+            (0x100, Instant::from_micros(237)),
+            (0x300, Instant::from_micros(292)),
+        ]
+    );
+}
+
+#[test]
+fn a_classic_bus_refuses_fd_frames_by_name() {
+    let bus = MemoryBus::new();
+    let mut a = bus.endpoint();
+    let mut b = bus.endpoint();
+    bus.attach(FdEcho(VecDeque::new()));
+    let e = a.send_fd(&fd(0x200, &[1; 12])).unwrap_err();
+    assert!(matches!(e, TransportError::FdNotSupported { .. }));
+    assert_eq!(
+        e.to_string(),
+        "FD not supported on the in-memory bus (configured for classic CAN: BusConfig::fd)"
+    );
+    assert!(a.fd_support().is_err());
+    assert_eq!(b.recv_until(Instant::from_millis(1)).unwrap(), None);
+    assert_eq!(bus.stats().frames, 0);
 }

@@ -3,7 +3,7 @@
 //! not such a frame is a [`DecodeError`], never a panic); [`encode`] writes what python-can
 //! reads.
 
-use canola_frame::{CanFrame, CanId};
+use canola_frame::{CanFrame, CanId, FdFlags, FdFrame};
 
 /// Why a datagram is not a frame in python-can's format.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -41,8 +41,9 @@ pub enum Message {
         /// Detail bytes (missing ones zero).
         data: [u8; 8],
     },
-    /// A CAN FD frame, which this stack does not carry.
-    Fd,
+    /// A CAN FD frame (`is_fd` true): its data padded with zeros to the next CAN FD length,
+    /// `bitrate_switch` and `error_state_indicator` as its BRS and ESI flags.
+    Fd(FdFrame),
 }
 
 /// A decoded MessagePack value (only what the message format needs is kept).
@@ -181,6 +182,8 @@ pub fn decode(datagram: &[u8]) -> Result<Message, DecodeError> {
     let mut remote = false;
     let mut error = false;
     let mut fd = false;
+    let mut brs = false;
+    let mut esi = false;
     let mut dlc = None;
     let mut data: Vec<u8> = Vec::new();
     for _ in 0..n {
@@ -205,6 +208,8 @@ pub fn decode(datagram: &[u8]) -> Result<Message, DecodeError> {
             b"is_remote_frame" => remote = flag("is_remote_frame")?,
             b"is_error_frame" => error = flag("is_error_frame")?,
             b"is_fd" => fd = flag("is_fd")?,
+            b"bitrate_switch" => brs = flag("bitrate_switch")?,
+            b"error_state_indicator" => esi = flag("error_state_indicator")?,
             b"dlc" => match value {
                 Val::Int(i) => dlc = usize::try_from(i).ok(),
                 Val::Nil => {}
@@ -225,7 +230,7 @@ pub fn decode(datagram: &[u8]) -> Result<Message, DecodeError> {
                     _ => return Err(DecodeError::BadField("data")),
                 }
             }
-            // timestamp, channel, bitrate_switch, error_state_indicator, anything newer.
+            // timestamp, channel, anything newer.
             _ => {}
         }
     }
@@ -233,8 +238,18 @@ pub fn decode(datagram: &[u8]) -> Result<Message, DecodeError> {
         return Err(DecodeError::TrailingBytes);
     }
     let id = id.ok_or(DecodeError::BadField("arbitration_id"))?;
-    if fd {
-        return Ok(Message::Fd);
+    if fd && !error {
+        let can_id = can_id(id, extended)?;
+        let mut flags = FdFlags::EMPTY;
+        if brs {
+            flags = flags | FdFlags::BRS;
+        }
+        if esi {
+            flags = flags | FdFlags::ESI;
+        }
+        return FdFrame::new_padded(can_id, &data)
+            .map(|f| Message::Fd(f.with_flags(flags)))
+            .map_err(|_| DecodeError::BadFrame);
     }
     if error {
         let mut detail = [0u8; 8];
@@ -245,12 +260,7 @@ pub fn decode(datagram: &[u8]) -> Result<Message, DecodeError> {
             data: detail,
         });
     }
-    let can_id = if extended {
-        CanId::extended(id).ok()
-    } else {
-        u16::try_from(id).ok().and_then(|i| CanId::standard(i).ok())
-    }
-    .ok_or(DecodeError::BadFrame)?;
+    let can_id = can_id(id, extended)?;
     let frame = if remote {
         CanFrame::remote(can_id, dlc.unwrap_or(0))
     } else {
@@ -258,6 +268,16 @@ pub fn decode(datagram: &[u8]) -> Result<Message, DecodeError> {
     }
     .map_err(|_| DecodeError::BadFrame)?;
     Ok(Message::Frame(frame))
+}
+
+/// python-can's `arbitration_id` and `is_extended_id` as an identifier.
+fn can_id(id: u32, extended: bool) -> Result<CanId, DecodeError> {
+    if extended {
+        CanId::extended(id).ok()
+    } else {
+        u16::try_from(id).ok().and_then(|i| CanId::standard(i).ok())
+    }
+    .ok_or(DecodeError::BadFrame)
 }
 
 fn put_str(out: &mut Vec<u8>, s: &str) {
@@ -287,32 +307,77 @@ fn put_bool(out: &mut Vec<u8>, key: &str, v: bool) {
     out.push(if v { 0xC3 } else { 0xC2 });
 }
 
-/// Encodes `frame` as python-can's `udp_multicast` writes a message; `timestamp` in seconds.
-pub fn encode(frame: &CanFrame, timestamp: f64) -> Vec<u8> {
+/// The map python-can's `udp_multicast` writes for a message; `timestamp` in seconds.
+struct Fields<'a> {
+    id: CanId,
+    remote: bool,
+    /// python-can's `dlc`: the data length in bytes.
+    dlc: usize,
+    data: &'a [u8],
+    fd: bool,
+    brs: bool,
+    esi: bool,
+}
+
+fn put_message(m: &Fields<'_>, timestamp: f64) -> Vec<u8> {
     let mut out = Vec::with_capacity(200);
     out.push(0x80 | 11);
     put_str(&mut out, "timestamp");
     out.push(0xCB);
     out.extend_from_slice(&timestamp.to_bits().to_be_bytes());
     put_str(&mut out, "arbitration_id");
-    put_uint(&mut out, frame.id().as_raw());
+    put_uint(&mut out, m.id.as_raw());
     put_bool(
         &mut out,
         "is_extended_id",
-        matches!(frame.id(), CanId::Extended(_)),
+        matches!(m.id, CanId::Extended(_)),
     );
-    put_bool(&mut out, "is_remote_frame", frame.is_remote());
+    put_bool(&mut out, "is_remote_frame", m.remote);
     put_bool(&mut out, "is_error_frame", false);
     put_str(&mut out, "channel");
     out.push(0xC0);
     put_str(&mut out, "dlc");
-    put_uint(&mut out, frame.dlc() as u32);
+    put_uint(&mut out, m.dlc as u32);
     put_str(&mut out, "data");
-    let data: &[u8] = if frame.is_remote() { &[] } else { frame.data() };
-    out.extend_from_slice(&[0xC4, data.len() as u8]);
-    out.extend_from_slice(data);
-    put_bool(&mut out, "is_fd", false);
-    put_bool(&mut out, "bitrate_switch", false);
-    put_bool(&mut out, "error_state_indicator", false);
+    out.extend_from_slice(&[0xC4, m.data.len() as u8]);
+    out.extend_from_slice(m.data);
+    put_bool(&mut out, "is_fd", m.fd);
+    put_bool(&mut out, "bitrate_switch", m.brs);
+    put_bool(&mut out, "error_state_indicator", m.esi);
     out
+}
+
+/// Encodes `frame` as python-can's `udp_multicast` writes a message; `timestamp` in seconds.
+pub fn encode(frame: &CanFrame, timestamp: f64) -> Vec<u8> {
+    let data: &[u8] = if frame.is_remote() { &[] } else { frame.data() };
+    put_message(
+        &Fields {
+            id: frame.id(),
+            remote: frame.is_remote(),
+            dlc: frame.dlc(),
+            data,
+            fd: false,
+            brs: false,
+            esi: false,
+        },
+        timestamp,
+    )
+}
+
+/// Encodes a CAN FD frame as python-can writes one: `is_fd` true, `bitrate_switch` and
+/// `error_state_indicator` from its flags, `dlc` the data length in bytes (python-can's
+/// meaning of the field).
+pub fn encode_fd(frame: &FdFrame, timestamp: f64) -> Vec<u8> {
+    put_message(
+        &Fields {
+            id: frame.id(),
+            remote: false,
+            dlc: frame.dlc(),
+            data: frame.data(),
+            fd: true,
+            brs: frame.brs(),
+            esi: frame.esi(),
+        },
+        timestamp,
+    )
 }

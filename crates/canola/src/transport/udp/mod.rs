@@ -19,9 +19,15 @@
 //! either).
 //!
 //! Received datagrams are decoded by a total MessagePack reader ([`decode`]): a datagram that is
-//! not a frame in this format, and CAN FD frames (the stack carries classic frames), are skipped
-//! and counted ([`UdpMulticast::skipped`]), never fatal: on a LAN scope anyone on the segment
-//! can send to the group.
+//! not a frame in this format is skipped and counted ([`UdpMulticast::skipped`]), never fatal:
+//! on a LAN scope anyone on the segment can send to the group.
+//!
+//! CAN FD: python-can marks an FD message with `is_fd` (its `udp_multicast` bus is opened with
+//! `fd=True` by default) and carries the BRS and ESI flags as `bitrate_switch` and
+//! `error_state_indicator`; `dlc` is the data length in bytes. This bus carries FD frames both
+//! ways: received ones come as [`BusEvent::FdFrame`](crate::BusEvent::FdFrame) (data padded with
+//! zeros to the next CAN FD length), [`Transport::send_fd`](crate::Transport::send_fd) sends
+//! them ([`encode_fd`]).
 //!
 //! Files by job: `codec` (the MessagePack datagrams), `socket` (the multicast sockets), [`scope`]
 //! (where the bus reaches, and the `udp:GROUP:PORT@IFACE` spec).
@@ -32,6 +38,6 @@ mod socket;
 #[cfg(test)]
 mod tests;
 
-pub use codec::{DecodeError, Message, decode, encode};
+pub use codec::{DecodeError, Message, decode, encode, encode_fd};
 pub use scope::{UdpScope, parse_scoped_spec};
 pub use socket::{DEFAULT_GROUP, DEFAULT_PORT, MAX_DATAGRAM, UdpMulticast, parse_spec};

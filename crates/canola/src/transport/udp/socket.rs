@@ -5,14 +5,14 @@ use std::net::{Ipv4Addr, SocketAddrV4, UdpSocket};
 use std::os::fd::AsRawFd;
 
 use canola_frame::time::MonotonicClock;
-use canola_frame::{CanFrame, Instant};
+use canola_frame::{CanFrame, FdFrame, Instant};
 use nix::sys::socket::{
     AddressFamily, SockFlag, SockProtocol, SockType, SockaddrIn, bind, setsockopt, socket, sockopt,
 };
 
 use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
 
-use super::codec::{Message, decode, encode};
+use super::codec::{Message, decode, encode, encode_fd};
 use super::scope::{LocalSources, UdpScope};
 
 /// python-can's default IPv4 multicast group of `udp_multicast`.
@@ -117,8 +117,7 @@ impl UdpMulticast {
         self.group
     }
 
-    /// Datagrams received and skipped: not a classic frame in the format (CAN FD frames
-    /// included).
+    /// Datagrams received and skipped: not a frame in the format.
     pub fn skipped(&self) -> u64 {
         self.skipped
     }
@@ -138,6 +137,19 @@ impl Transport for UdpMulticast {
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64());
         self.tx.send_to(&encode(frame, stamp), self.group)?;
+        Ok(())
+    }
+
+    /// python-can's `udp_multicast` format carries CAN FD frames (`is_fd`).
+    fn fd_support(&self) -> Result<(), TransportError> {
+        Ok(())
+    }
+
+    fn send_fd(&mut self, frame: &FdFrame) -> Result<(), TransportError> {
+        let stamp = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64());
+        self.tx.send_to(&encode_fd(frame, stamp), self.group)?;
         Ok(())
     }
 
@@ -187,6 +199,12 @@ impl Transport for UdpMulticast {
                 Some(Ok(Message::Frame(frame))) => return Ok(Some(Received::Frame { frame, at })),
                 Some(Ok(Message::Error { class, data })) => {
                     return Ok(Some(Received::Event(BusEvent::ErrorFrame { class, data })));
+                }
+                Some(Ok(Message::Fd(frame))) => {
+                    return Ok(Some(Received::Event(BusEvent::FdFrame {
+                        frame: Box::new(frame),
+                        at,
+                    })));
                 }
                 _ => self.skipped += 1,
             }

@@ -2,11 +2,11 @@
 
 use std::net::{Ipv4Addr, SocketAddrV4};
 
-use canola_frame::{CanFrame, CanId};
+use canola_frame::{CanFrame, CanId, FdFlags, FdFrame};
 
-use crate::transport::contract::{Received, Transport};
+use crate::transport::contract::{BusEvent, Received, Transport};
 
-use super::codec::{DecodeError, Message, decode, encode};
+use super::codec::{DecodeError, Message, decode, encode, encode_fd};
 use super::socket::{DEFAULT_GROUP, DEFAULT_PORT, UdpMulticast, parse_spec};
 
 use proptest::prelude::*;
@@ -42,7 +42,67 @@ fn reads_other_encodings_of_the_fields() {
         ))
     );
     let fd = b"\x82\xAEarbitration_id\x01\xA5is_fd\xC3";
-    assert_eq!(decode(fd), Ok(Message::Fd));
+    assert_eq!(
+        decode(fd),
+        Ok(Message::Fd(FdFrame::new(sid(0x001), &[]).unwrap()))
+    );
+    // python-can sends an FD message's data as given: 10 bytes are padded to 12 as the wire
+    // carries them; the flags come from bitrate_switch and error_state_indicator.
+    let mut d = vec![0x84];
+    d.extend_from_slice(b"\xAEarbitration_id\xCD\x06\x05\xA5is_fd\xC3");
+    d.extend_from_slice(b"\xAEbitrate_switch\xC3\xA4data\xC4\x0A");
+    d.extend_from_slice(&[7; 10]);
+    let want = FdFrame::new_padded(sid(0x605), &[7; 10])
+        .unwrap()
+        .with_flags(FdFlags::BRS);
+    assert_eq!(decode(&d), Ok(Message::Fd(want)));
+    assert_eq!(want.data().len(), 12);
+    // More than 64 bytes is no frame.
+    let mut d = vec![0x83];
+    d.extend_from_slice(b"\xAEarbitration_id\x01\xA5is_fd\xC3\xA4data\xC4\x41");
+    d.extend_from_slice(&[0; 65]);
+    assert_eq!(decode(&d), Err(DecodeError::BadFrame));
+}
+
+/// The datagram python-can 4's `pack_message` makes of
+/// `Message(arbitration_id=0x5A5, is_fd=True, bitrate_switch=True, data=bytes(range(20)))`
+/// (timestamp 0): `dlc` 20 is the length in bytes.
+const PYTHON_CAN_FD: &str = "8ba974696d657374616d70cb0000000000000000ae6172626974726174696f6e5f6964cd05a5\
+ae69735f657874656e6465645f6964c2af69735f72656d6f74655f6672616d65c2ae69735f6572726f725f6672616d65c2\
+a76368616e6e656cc0a3646c6314a464617461c414000102030405060708090a0b0c0d0e0f10111213a569735f6664c3\
+ae626974726174655f737769746368c3b56572726f725f73746174655f696e64696361746f72c2";
+
+fn unhex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap())
+        .collect()
+}
+
+#[test]
+fn reads_and_writes_python_cans_fd_datagram() {
+    let bytes = unhex(PYTHON_CAN_FD);
+    let want = FdFrame::new(sid(0x5A5), &(0..20).collect::<Vec<u8>>())
+        .unwrap()
+        .with_flags(FdFlags::BRS);
+    assert_eq!(decode(&bytes), Ok(Message::Fd(want)));
+    // What this transport writes for it is python-can's datagram, byte for byte.
+    assert_eq!(encode_fd(&want, 0.0), bytes);
+}
+
+#[test]
+fn encodes_and_decodes_fd_frames() {
+    for frame in [
+        FdFrame::new(sid(0x605), &[0x11; 64]).unwrap(),
+        FdFrame::new(sid(0x7FF), &[1, 2, 3])
+            .unwrap()
+            .with_flags(FdFlags::BRS),
+        FdFrame::new(CanId::extended(0x1ABC_DEF0).unwrap(), &[0; 12])
+            .unwrap()
+            .with_flags(FdFlags::BRS | FdFlags::ESI),
+    ] {
+        assert_eq!(decode(&encode_fd(&frame, 2.5)), Ok(Message::Fd(frame)));
+    }
 }
 
 #[test]
@@ -110,6 +170,27 @@ fn two_transports_hear_each_other_not_themselves() {
         a.recv_timeout(canola_frame::Duration::from_millis(50))
             .unwrap(),
         None
+    );
+}
+
+#[test]
+fn fd_frames_cross_the_bus() {
+    let port = 40000 + ((std::process::id() + 7) % 20000) as u16;
+    let group = SocketAddrV4::new(Ipv4Addr::new(239, 74, 163, 4), port);
+    let (Ok(mut a), Ok(mut b)) = (UdpMulticast::open(group), UdpMulticast::open(group)) else {
+        panic!("cannot open UDP multicast sockets");
+    };
+    assert!(a.fd_support().is_ok());
+    let f = FdFrame::new(sid(0x123), &[9; 48])
+        .unwrap()
+        .with_flags(FdFlags::BRS);
+    a.send_fd(&f).unwrap();
+    let got = b
+        .recv_timeout(canola_frame::Duration::from_millis(2000))
+        .unwrap();
+    assert!(
+        matches!(&got, Some(Received::Event(BusEvent::FdFrame { frame, .. })) if **frame == f),
+        "{got:?}"
     );
 }
 

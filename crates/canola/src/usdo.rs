@@ -1,0 +1,271 @@
+//! CANopen FD in the master: [`Usdo`], a node's universal SDO (CiA 1301) as `node.usdo()`,
+//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`],
+//! [`Network::open_fd`]).
+//!
+//! ```
+//! use canola::{BusConfig, MemoryBus, Network, NodeId, SimDevice};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let eds = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds"));
+//! // A bus that carries CAN FD, and a simulated CANopen FD device on it.
+//! let bus = MemoryBus::with_config(BusConfig { fd: true, ..BusConfig::default() });
+//! bus.attach(SimDevice::from_eds(NodeId::new(5)?, &eds[..])?.with_fd(true));
+//! let net = Network::new(bus.endpoint());
+//! let node = net.add_node_with_dictionary(NodeId::new(5)?, canola::od::parse(&eds[..])?.od);
+//! node.set_fd(true); // its EDS has no `CANopenFD=1`: the application says so
+//! assert_eq!(node.usdo().read_typed::<u16>((0x1017, 0)).wait()?, 500);
+//! node.usdo().write((0x1017, 0), 750u16).wait()?;
+//! assert_eq!(node.usdo().read_typed::<u16>((0x1017, 0)).wait()?, 750);
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! Requests run as SDO requests do: each call is an [`Operation`] (`.wait()` drives the network
+//! until the transfer ends, `.await` waits on tokio); `submit_*` return a [`Pending`] that a
+//! drop cancels (with a USDO abort to the server).
+//! Errors are [`SdoError`](crate::SdoError)s: [`SdoErrorKind::Usdo`](crate::SdoErrorKind::Usdo)
+//! for the transfer's failure (a server's 1-byte abort code maps to its CiA 301 code in
+//! [`SdoError::server_abort`](crate::SdoError::server_abort)),
+//! [`SdoErrorKind::FdNotSupported`](crate::SdoErrorKind::FdNotSupported) when the bus or the
+//! node has no CAN FD (nothing is sent then).
+
+use canola_frame::{Duration, FdFrame, NodeId};
+use canola_od::{DataType, ObjectAddress, Value};
+
+use crate::error::Error;
+use crate::machine::usdo::data_type_of;
+use crate::machine::{Completion, DownSource, Op, SdoRequest, UpSink};
+use crate::network::operation;
+use crate::network::{Network, Node, Operation, Pending, SdoValue};
+
+pub use crate::machine::usdo::{DEFAULT_USDO_NODE_ID, EDS_FD_KEY, eds_marks_fd};
+
+/// A node's USDO client (CANopen FD) as a builder: one operation per value. Made with
+/// [`Node::usdo`].
+#[derive(Debug, Clone)]
+pub struct Usdo {
+    net: Network,
+    node: NodeId,
+}
+
+impl Node {
+    /// The node's universal SDO (CANopen FD, CiA 1301). The node must be marked CANopen FD
+    /// ([`set_fd`](Self::set_fd), or `CANopenFD=1` in the `[DeviceInfo]` of its dictionary)
+    /// and the bus must carry CAN FD.
+    pub fn usdo(&self) -> Usdo {
+        Usdo {
+            net: self.net.clone(),
+            node: self.id,
+        }
+    }
+
+    /// Marks the node as a CANopen FD device (`true`) or not (`false`), whatever its
+    /// dictionary says.
+    pub fn set_fd(&self, fd: bool) {
+        self.net.core().set_node_fd(self.id, fd);
+    }
+
+    /// Whether the node is marked CANopen FD: by [`set_fd`](Self::set_fd), else by its
+    /// dictionary ([`eds_marks_fd`]).
+    pub fn is_fd(&self) -> bool {
+        self.net.core().node_fd(self.id)
+    }
+}
+
+impl Network {
+    /// [`Network::open`] for CAN FD: the bus must carry FD frames (a SocketCAN interface with
+    /// MTU 72, the UDP bus, an slcan adapter with a data bit rate); a classic-only one is an
+    /// [`Error::Open`] saying `FD not supported on ...`.
+    pub fn open_fd(spec: &str) -> Result<Self, Error> {
+        let net = Self::new(crate::transport::BusSpec::parse(spec)?.open_fd()?);
+        net.start_driver()?;
+        Ok(net)
+    }
+
+    /// Sends a raw CAN FD frame. On a bus that carries classic frames only this is
+    /// [`TransportError::FdNotSupported`](crate::TransportError::FdNotSupported) and nothing
+    /// is queued.
+    pub fn send_fd(&self, frame: FdFrame) -> Result<(), Error> {
+        self.catch_up_on_runtime()?;
+        {
+            let mut c = self.core();
+            if let Some(bus) = c.classic_bus() {
+                return Err(crate::TransportError::fd_not_supported(bus).into());
+            }
+            c.send_raw_fd(frame);
+        }
+        self.send_queued_now()
+    }
+
+    /// Whether the bus carries CAN FD frames.
+    pub fn is_fd(&self) -> bool {
+        self.core().classic_bus().is_none()
+    }
+
+    /// Sets the master's own node-ID as a USDO client: its requests go out on 0x600 + it and
+    /// servers address their responses to it (default [`DEFAULT_USDO_NODE_ID`]). Only while
+    /// no USDO transfer runs or waits; returns whether it was set.
+    pub fn set_usdo_node_id(&self, node: NodeId) -> bool {
+        self.core().set_usdo_node_id(node)
+    }
+
+    /// The master's own node-ID as a USDO client.
+    pub fn usdo_node_id(&self) -> NodeId {
+        self.core().usdo_node_id()
+    }
+
+    /// Sets how long a USDO server may take for each response (default 1 s), for transfers
+    /// started once none runs.
+    pub fn set_usdo_timeout(&self, timeout: impl Into<Duration>) {
+        self.core().set_usdo_timeout(timeout.into());
+    }
+}
+
+impl Usdo {
+    /// The node this client talks to.
+    pub fn node_id(&self) -> NodeId {
+        self.node
+    }
+
+    fn request(&self, entry: ObjectAddress, op: Op) -> SdoRequest {
+        SdoRequest {
+            node: self.node,
+            channel: canola_sdo::SdoCobIds::default_for(self.node),
+            entry,
+            op,
+            method: canola_sdo::Method::Normal,
+            timeout: Duration::from_millis(canola_sdo::usdo::assumed::DEFAULT_TIMEOUT_MS),
+            progress: None,
+        }
+    }
+
+    fn download(&self, entry: ObjectAddress, value: impl SdoValue) -> Op {
+        let data_type = data_type_of(self.net.core().dictionary(self.node).as_deref(), entry);
+        Op::UsdoDownload(DownSource(value.to_sdo_bytes()), data_type)
+    }
+
+    fn submit<T>(self, entry: ObjectAddress, op: Op, output: fn(Completion) -> T) -> Pending<T> {
+        let req = self.request(entry, op);
+        let id = self.net.submit(req);
+        Pending {
+            net: self.net,
+            id: Some(id),
+            node: self.node,
+            entry,
+            output,
+        }
+    }
+
+    /// Starts a read (USDO upload) without waiting.
+    pub fn submit_read(self, entry: impl Into<ObjectAddress>) -> Pending<Vec<u8>> {
+        self.submit(entry.into(), Op::UsdoUpload(UpSink::Mem(Vec::new())), |c| {
+            c.data
+        })
+    }
+
+    /// Starts a write (USDO download) without waiting.
+    pub fn submit_write(
+        self,
+        entry: impl Into<ObjectAddress>,
+        value: impl SdoValue,
+    ) -> Pending<()> {
+        let entry = entry.into();
+        let op = self.download(entry, value);
+        self.submit(entry, op, |_| ())
+    }
+
+    /// The operation that runs `op` on `entry` to its end and takes `output` from its
+    /// completion.
+    fn transfer<T: Send + 'static>(
+        self,
+        entry: ObjectAddress,
+        op: Op,
+        output: fn(Completion) -> T,
+    ) -> Operation<'static, T> {
+        let req = self.request(entry, op);
+        let net = self.net;
+        Operation::new(async move { Ok(operation::run_request(&net, req).await.map(output)?) })
+    }
+
+    /// Reads an object's bytes (USDO upload): expedited up to 56 bytes, segmented beyond,
+    /// as the server answers.
+    pub fn read(self, entry: impl Into<ObjectAddress>) -> Operation<'static, Vec<u8>> {
+        let entry = entry.into();
+        self.transfer(entry, Op::UsdoUpload(UpSink::Mem(Vec::new())), |c| c.data)
+    }
+
+    /// Writes an object (USDO download), announcing the data type from the node's dictionary
+    /// (DOMAIN without one): expedited up to 56 bytes, segmented beyond.
+    pub fn write(
+        self,
+        entry: impl Into<ObjectAddress>,
+        value: impl SdoValue,
+    ) -> Operation<'static, ()> {
+        let entry = entry.into();
+        let op = self.download(entry, value);
+        self.transfer(entry, op, |_| ())
+    }
+
+    /// Reads an object and decodes it as `data_type`.
+    pub fn read_as(
+        self,
+        entry: impl Into<ObjectAddress>,
+        data_type: DataType,
+    ) -> Operation<'static, Value> {
+        let entry = entry.into();
+        let node = self.node;
+        let read = self.read(entry);
+        Operation::new(async move {
+            let data = read.await?;
+            Value::from_le_bytes(data_type, &data).map_err(|e| Error::Value {
+                node,
+                entry,
+                message: e.to_string(),
+            })
+        })
+    }
+
+    /// The type the node's dictionary gives `entry`, if it describes it.
+    fn dictionary_type(&self, entry: ObjectAddress) -> Option<DataType> {
+        self.net
+            .core()
+            .dictionary(self.node)
+            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
+    }
+
+    /// Reads an object and decodes it with the type from the node's dictionary.
+    pub fn read_value(self, entry: impl Into<ObjectAddress>) -> Operation<'static, Value> {
+        let entry = entry.into();
+        match self.dictionary_type(entry) {
+            Some(t) => self.read_as(entry, t),
+            None => Operation::ready(Err(Error::Value {
+                node: self.node,
+                entry,
+                message: "the node's dictionary does not describe this object".into(),
+            })),
+        }
+    }
+
+    /// Reads an object as a Rust value, typed as [`Sdo::read_typed`](crate::Sdo::read_typed)
+    /// types it: the dictionary's type, else CiA 301's for a communication object, else `T`'s.
+    pub fn read_typed<'t, T: canola_od::ValueType + 't>(
+        self,
+        entry: impl Into<ObjectAddress>,
+    ) -> Operation<'t, T> {
+        let entry = entry.into();
+        let node = self.node;
+        let data_type = self
+            .dictionary_type(entry)
+            .or_else(|| canola_od::profile::communication_type(entry.index, entry.sub_index))
+            .unwrap_or(T::DATA_TYPE);
+        let read = self.read_as(entry, data_type);
+        Operation::new(async move {
+            let value = read.await?;
+            T::try_from(value).map_err(|e| Error::Value {
+                node,
+                entry,
+                message: e.to_string(),
+            })
+        })
+    }
+}
