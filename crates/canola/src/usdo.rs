@@ -35,7 +35,6 @@ use canola_od::{DataType, ObjectAddress, Value};
 use crate::error::Error;
 use crate::machine::usdo::data_type_of;
 use crate::machine::{Completion, DownSource, Op, SdoRequest, UpSink};
-use crate::network::operation;
 use crate::network::{Network, Node, Operation, Pending, SdoValue};
 
 pub use crate::machine::usdo::{DEFAULT_USDO_NODE_ID, EDS_FD_KEY, eds_marks_fd};
@@ -184,7 +183,7 @@ impl Usdo {
     ) -> Operation<'static, T> {
         let req = self.request(entry, op);
         let net = self.net;
-        Operation::new(async move { Ok(operation::run_request(&net, req).await.map(output)?) })
+        Operation::request(net, req, output, Error::from)
     }
 
     /// Reads an object's bytes (USDO upload): expedited up to 56 bytes, segmented beyond,

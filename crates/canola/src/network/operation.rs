@@ -47,7 +47,35 @@ use crate::machine::{Completion, Core, RequestId, SdoRequest, Taken};
 /// [`PdoSet`]: crate::PdoSet
 #[must_use = "an operation does nothing until it is waited on or awaited"]
 pub struct Operation<'a, T, E = Error> {
-    body: Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>,
+    body: Body<'a, T, E>,
+}
+
+/// What an operation runs.
+enum Body<'a, T, E> {
+    /// Straight-line async code over the primitives.
+    Code(Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>),
+    /// One SDO (or USDO) request, the commonest operation, held as it is: a blocking wait runs
+    /// it with no future or waker made for it (`Network::run`, as the code form's blocking
+    /// path does). `tests/operation.rs` checks that both forms give the same results.
+    Request(OneRequest<T, E>),
+}
+
+/// One request, what its completion gives and how its error reads.
+pub(crate) struct OneRequest<T, E> {
+    net: Network,
+    req: SdoRequest,
+    output: fn(Completion) -> T,
+    error: fn(SdoError) -> E,
+}
+
+impl<T, E> OneRequest<T, E> {
+    /// The request as code (for `.await`).
+    async fn run(self) -> Result<T, E> {
+        run_request(&self.net, self.req)
+            .await
+            .map(self.output)
+            .map_err(self.error)
+    }
 }
 
 impl<T, E> core::fmt::Debug for Operation<'_, T, E> {
@@ -85,7 +113,24 @@ impl<'a, T, E> Operation<'a, T, E> {
     /// ```
     pub fn new(body: impl Future<Output = Result<T, E>> + Send + 'a) -> Self {
         Self {
-            body: Box::pin(body),
+            body: Body::Code(Box::pin(body)),
+        }
+    }
+
+    /// The operation that runs `req` to its end and takes `output` from its completion.
+    pub(crate) fn request(
+        net: Network,
+        req: SdoRequest,
+        output: fn(Completion) -> T,
+        error: fn(SdoError) -> E,
+    ) -> Self {
+        Self {
+            body: Body::Request(OneRequest {
+                net,
+                req,
+                output,
+                error,
+            }),
         }
     }
 
@@ -100,10 +145,21 @@ impl<'a, T, E> Operation<'a, T, E> {
 
     /// Finishes the operation on this thread, driving the network until it ends.
     pub fn wait(self) -> Result<T, E> {
+        let mut body = match self.body {
+            Body::Request(r) => {
+                let OneRequest {
+                    net,
+                    req,
+                    output,
+                    error,
+                } = r;
+                return net.run(req).map(output).map_err(error);
+            }
+            Body::Code(body) => body,
+        };
         let _mode = BlockingMode::enter();
-        let waker = Waker::from(Arc::new(ThreadWaker(std::thread::current())));
+        let waker = THREAD_WAKER.with(Waker::clone);
         let mut cx = Context::from_waker(&waker);
-        let mut body = self.body;
         loop {
             match body.as_mut().poll(&mut cx) {
                 Poll::Ready(r) => return r,
@@ -117,12 +173,15 @@ impl<'a, T, E> Operation<'a, T, E> {
 
 /// `.await` an operation: with the `tokio` feature it waits on tokio without blocking (see the
 /// `asynch` module); without it, it blocks as [`Operation::wait`] does.
-impl<'a, T, E> std::future::IntoFuture for Operation<'a, T, E> {
+impl<'a, T: 'a, E: 'a> std::future::IntoFuture for Operation<'a, T, E> {
     type Output = Result<T, E>;
     type IntoFuture = Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>;
 
     fn into_future(self) -> Self::IntoFuture {
-        self.body
+        match self.body {
+            Body::Code(body) => body,
+            Body::Request(r) => Box::pin(r.run()),
+        }
     }
 }
 
@@ -142,6 +201,8 @@ thread_local! {
     /// Whether the primitives polled on this thread wait by blocking (inside
     /// [`Operation::wait`]).
     static BLOCKING: Cell<bool> = const { Cell::new(false) };
+    /// This thread's waker, made once.
+    static THREAD_WAKER: Waker = Waker::from(Arc::new(ThreadWaker(std::thread::current())));
 }
 
 /// Blocking mode for this thread while it lives (restores the mode it found: a blocking wait

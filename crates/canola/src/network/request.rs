@@ -286,7 +286,7 @@ impl Sdo {
         output: fn(Completion) -> T,
     ) -> Operation<'static, T> {
         let (net, req) = self.into_request(entry, op);
-        Operation::new(async move { Ok(operation::run_request(&net, req).await.map(output)?) })
+        Operation::request(net, req, output, Error::from)
     }
 
     /// Starts an upload into memory without waiting.
