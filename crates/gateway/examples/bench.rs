@@ -11,8 +11,8 @@ use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
+use canola::frame::NodeId;
 use canola::{MemoryBus, Network, Pending, SimDevice};
-use canola_frame::NodeId;
 use canola_gateway::{Config, Gateway};
 
 const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");

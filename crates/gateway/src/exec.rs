@@ -5,12 +5,12 @@
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 
-use canola::{Error, Network, SdoErrorKind};
-use canola_frame::{Duration, NodeId};
-use canola_lss::{
+use canola::frame::{Duration, NodeId};
+use canola::lss::{
     AddressPart, AssignConfig, BitTiming, FastscanConfig, LssAddress, LssError, Mode, NodeIdPool,
     Procedure, ResponseError, Service, Step,
 };
+use canola::{Error, Network, SdoErrorKind};
 
 use crate::command::{AllNodes, Command, ErrorCode, NmtService, Reply, ScanType};
 use crate::value::{DataType, Value};
@@ -148,7 +148,7 @@ pub(crate) fn write(
 
 /// NMT module control; node 0 is every node.
 pub(crate) fn nmt(net: &Network, node: u8, service: NmtService) -> Reply {
-    use canola_nmt::CommandSpecifier as Cs;
+    use canola::nmt::CommandSpecifier as Cs;
     let cs = match service {
         NmtService::Start => Cs::Start,
         NmtService::Stop => Cs::Stop,
@@ -182,7 +182,7 @@ fn address_text(a: &LssAddress) -> String {
     )
 }
 
-fn step(net: &Network, step: Step) -> Result<canola_lss::ServiceReport, Reply> {
+fn step(net: &Network, step: Step) -> Result<canola::lss::ServiceReport, Reply> {
     net.lss()
         .procedure(Procedure::single(step))
         .wait()
@@ -191,7 +191,7 @@ fn step(net: &Network, step: Step) -> Result<canola_lss::ServiceReport, Reply> {
 
 /// The LSS services (CiA 305); one runs at a time on a network.
 pub(crate) fn lss(net: &Network, command: &Command) -> Reply {
-    let ok = |r: Result<canola_lss::ServiceReport, Reply>| r.map_or_else(|e| e, |_| Reply::Ok);
+    let ok = |r: Result<canola::lss::ServiceReport, Reply>| r.map_or_else(|e| e, |_| Reply::Ok);
     match *command {
         Command::LssSwitchGlobal(config) => ok(step(
             net,

@@ -144,8 +144,8 @@ impl DataType {
 
     /// The gateway type for a CiA 301 data type of a dictionary (`None`: no text form, use
     /// `hex`).
-    pub fn from_od(dt: canola_od::DataType) -> Option<Self> {
-        use canola_od::DataType as D;
+    pub fn from_od(dt: canola::od::DataType) -> Option<Self> {
+        use canola::od::DataType as D;
         Some(match dt {
             D::Boolean => Self::Bool,
             D::Integer8 => Self::I8,

@@ -228,7 +228,7 @@ struct ServedLog {
 impl canola::DeviceHook for ServedLog {
     fn on_read(
         &mut self,
-        _now: canola_frame::Instant,
+        _now: canola::frame::Instant,
         _values: &canola::Values,
         index: u16,
         _sub: u8,
@@ -256,9 +256,9 @@ fn a_flooding_connection_delays_another_by_a_bounded_number_of_requests() {
         bitrate: Some(125_000),
         ..canola::BusConfig::default()
     });
-    let od = canola_od::parse(common::EDS).unwrap().od;
+    let od = canola::od::parse(common::EDS).unwrap().od;
     for node in [5u8, 6] {
-        let dev = canola::SimDevice::new(canola_frame::NodeId::new(node).unwrap(), od.clone())
+        let dev = canola::SimDevice::new(canola::frame::NodeId::new(node).unwrap(), od.clone())
             .with_hook(ServedLog {
                 node,
                 log: log.clone(),

@@ -5,9 +5,9 @@
 
 mod common;
 
+use canola::lss::{LssAddress, SlaveConfig};
 use canola::{MemoryBus, Network, SimDevice};
 use canola_gateway::{Config, Gateway};
-use canola_lss::{LssAddress, SlaveConfig};
 use common::Client;
 
 fn address(serial: u32) -> LssAddress {
@@ -22,7 +22,7 @@ fn address(serial: u32) -> LssAddress {
 fn bus_with_unconfigured(serials: &[u32]) -> (Gateway, MemoryBus) {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
-    let od = canola_od::parse(common::EDS).unwrap().od;
+    let od = canola::od::parse(common::EDS).unwrap().od;
     for &s in serials {
         bus.attach(SimDevice::unconfigured(od.clone(), address(s)));
     }
@@ -98,7 +98,7 @@ fn all_nodes_gives_each_device_a_node_id() {
 fn bus_with_real(addresses: &[LssAddress]) -> (Gateway, MemoryBus) {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
-    let od = canola_od::parse(common::EDS).unwrap().od;
+    let od = canola::od::parse(common::EDS).unwrap().od;
     for a in addresses {
         bus.attach(SimDevice::unconfigured_with(
             od.clone(),

@@ -16,10 +16,10 @@
 
 mod common;
 
+use canola::frame::{Instant, NodeId};
+use canola::lss::LssAddress;
 use canola::{AbortCode, DeviceHook, HookActions, MemoryBus, Network, SimDevice, Values};
-use canola_frame::{Instant, NodeId};
 use canola_gateway::{Config, Gateway};
-use canola_lss::LssAddress;
 use common::Client;
 
 /// The demoDevice's objects that the tutorials touch, in an EDS of our own.
@@ -395,7 +395,7 @@ fn lely_forms() {
 /// search finished.\n`, then `[%d] OK\r\n`).
 #[test]
 fn canopend_lss_tutorial() {
-    let od = canola_od::parse(DEMO_EDS.as_bytes()).unwrap().od;
+    let od = canola::od::parse(DEMO_EDS.as_bytes()).unwrap().od;
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     // The demoDevice: identity 0x0 0x1 0x2 0x3, configured as node 4.

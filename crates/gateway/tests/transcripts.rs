@@ -146,8 +146,8 @@ fn boot_up_and_heartbeat_events_for_clients_that_ask() {
     assert_eq!(quiet.ask("[2] 4 r 0x1017 0 u16\n", 1), "[2] 500\r\n");
     // Heartbeat monitoring: stopping the producer loses the heartbeat.
     gw.network().monitor_heartbeat(
-        canola_frame::NodeId::new(4).unwrap(),
-        canola_frame::Duration::from_millis(800),
+        canola::frame::NodeId::new(4).unwrap(),
+        canola::frame::Duration::from_millis(800),
     );
     // The consumer arms at the first heartbeat it sees (every 500 ms of bus time; the
     // gateway's driver keeps bus time close to real time).
@@ -166,9 +166,9 @@ fn boot_up_and_heartbeat_events_for_clients_that_ask() {
 
 #[test]
 fn emcy_event_line() {
+    use canola::frame::NodeId;
+    use canola::nmt::{Emcy, EmcyCode, ErrorRegister};
     use canola::{MemoryBus, Network, SimDevice};
-    use canola_frame::NodeId;
-    use canola_nmt::{Emcy, EmcyCode, ErrorRegister};
 
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());

@@ -1,7 +1,7 @@
 //! The gateway's settings ([`Config`]: bounds per connection, timeouts) and the identity it
 //! reports for `info version` ([`Version`]).
 
-use canola_frame::Duration;
+use canola::frame::Duration;
 
 /// What `info version` reports: `<vendor-ID> <product code> <revision major>.<minor> <serial>
 /// <gateway class> <protocol major>.<minor> <implementation major>.<minor>` (the fields and

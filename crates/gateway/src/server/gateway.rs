@@ -9,7 +9,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 
 use canola::Network;
-use canola_frame::{Duration, NodeId};
+use canola::frame::{Duration, NodeId};
 
 use crate::command::{Command, ErrorCode, HelpTopic, Level, Reply, Request, Response};
 use crate::exec::{self, SdoSettings};
@@ -38,7 +38,7 @@ pub(super) struct Session {
 /// let bus = MemoryBus::new();
 /// let net = Network::new(bus.endpoint());
 /// let eds = include_bytes!("../../../../eds/burkert-generic.eds");
-/// bus.attach(SimDevice::from_eds(canola_frame::NodeId::new(5).unwrap(), eds).unwrap());
+/// bus.attach(SimDevice::from_eds(canola::frame::NodeId::new(5).unwrap(), eds).unwrap());
 /// let gateway = Gateway::new(net, Config::default());
 /// let mut out = Vec::new();
 /// gateway.serve_stream(&b"[1] 5 write 0x1017 0 u16 250\n[2] 5 read 0x1017 0 u16\n"[..], &mut out);

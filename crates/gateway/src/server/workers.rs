@@ -8,9 +8,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, mpsc};
 use std::thread::JoinHandle;
 
+use canola::frame::{Duration, NodeId};
+use canola::nmt::{GuardingEvent, HeartbeatEvent};
 use canola::{Network, NetworkEvent};
-use canola_frame::{Duration, NodeId};
-use canola_nmt::{GuardingEvent, HeartbeatEvent};
 
 use crate::command::{Command, ErrorCode, Event, EventKind, Response};
 use crate::exec::{self, SdoSettings};

@@ -7,8 +7,8 @@ use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::time::Duration;
 
+use canola::frame::NodeId;
 use canola::{MemoryBus, Network, SimDevice};
-use canola_frame::NodeId;
 use canola_gateway::{Config, Gateway};
 
 pub const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
@@ -17,7 +17,7 @@ pub const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 pub fn gateway(nodes: &[u8], config: Config) -> (Gateway, MemoryBus) {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
-    let od = canola_od::parse(EDS).unwrap().od;
+    let od = canola::od::parse(EDS).unwrap().od;
     for &n in nodes {
         let id = NodeId::new(n).unwrap();
         bus.attach(SimDevice::new(id, od.clone()));
