@@ -12,14 +12,17 @@
 //!   reports [`NetworkEvent`]s; it knows no thread, transport or clock.
 //! * [`network`]: [`Network`] owns one transport, its clock and one machine, and steps them
 //!   (whoever waits drives, or the background driver); [`Node`], [`Nmt`], [`Sdo`] and
-//!   [`Pending`] are the blocking API on it.
+//!   [`Pending`] are the API on it. Every call that waits on the bus returns an [`Operation`],
+//!   written once as async code over three waiting primitives and finished by
+//!   [`Operation::wait`] (blocking) or `.await`.
 //! * Services over the network: [`lss`] (CiA 305), [`scan`], [`typed`] values, PDOs
 //!   ([`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO parameters, [`Rpdos::start`]
 //!   transmits RPDOs through the `canola-pdo` engine; TPDOs arrive decoded as
 //!   [`NetworkEvent::PdoValues`], in batches from [`Network::subscribe_pdos`] or to an
 //!   [`Network::on_pdo`] callback), [`mod@describe`] (traffic in words).
-//! * `asynch` (`tokio` feature): the same operations awaited; a tie between the network's
-//!   clock and tokio's lets a virtual-clock bus follow tokio's time.
+//! * `asynch` (`tokio` feature): what awaiting an operation means on each clock (a tie between
+//!   the network's clock and tokio's lets a virtual-clock bus follow tokio's time), and the
+//!   event stream.
 //! * [`sim`]: the device simulator, a [`Station`] built from any object dictionary.
 //!
 //! ```
