@@ -184,7 +184,10 @@ pub(crate) const HELP: &[(&str, &str)] = &[
     ("c / C", "reset communication, the node / all"),
     ("g", "read an object of the node (index or name)"),
     ("w", "write an object of the node (asks to confirm)"),
-    ("/", "filter nodes, PDO values and the log (Enter on empty: none)"),
+    (
+        "/",
+        "filter nodes, PDO values and the log (Enter on empty: none)",
+    ),
     ("space", "pause the view (replay: pause the log)"),
     ("s", "save the traffic so far as a candump log"),
     ("n  ← →", "replay: one frame, 10 s back / forward"),

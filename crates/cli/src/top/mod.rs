@@ -321,8 +321,8 @@ impl App {
             Source::Live(live) => {
                 for seen in live.rx.try_iter() {
                     if let Seen::Frame { at, frame, .. } = seen {
-                        let ts = live.epoch_us
-                            + at.saturating_duration_since(live.start).as_micros();
+                        let ts =
+                            live.epoch_us + at.saturating_duration_since(live.start).as_micros();
                         self.recording.push(ts, frame);
                     }
                     self.model.ingest(&seen);
@@ -615,7 +615,10 @@ pub(crate) fn object(
             Some((i, s)) => (i, crate::bus::parse_u8(s.trim())?),
             None => (text, 0),
         };
-        return Ok(ObjectAddress::new(crate::bus::parse_u16(index.trim())?, sub));
+        return Ok(ObjectAddress::new(
+            crate::bus::parse_u16(index.trim())?,
+            sub,
+        ));
     }
     let r = crate::objaddr::resolve(text, od)?;
     Ok(ObjectAddress::new(r.index, r.sub.unwrap_or(0)))

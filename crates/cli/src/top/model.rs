@@ -12,8 +12,7 @@ use canola::frame::{CobId, FunctionCode, HexBytes};
 use canola::lss::{Mode, Request as LssRequest, Response as LssResponse};
 use canola::mem::frame_bits;
 use canola::nmt::{
-    CommandSpecifier, Emcy, ErrorControlFrame, ErrorControlMessage, NmtCommand, NmtState,
-    NmtTarget,
+    CommandSpecifier, Emcy, ErrorControlFrame, ErrorControlMessage, NmtCommand, NmtState, NmtTarget,
 };
 use canola::pdo::RawValue;
 use canola::sdo::{ClientRequest, Initiate, Multiplexer, ServerResponse};
@@ -437,7 +436,16 @@ impl Model {
                 }
                 Err(e) => {
                     let text = format!("{} (does not fit the mapping: {e})", HexBytes(f.data()));
-                    self.signal(at, raw, 0, node, &format!("0x{raw:03X}"), "data", text, None);
+                    self.signal(
+                        at,
+                        raw,
+                        0,
+                        node,
+                        &format!("0x{raw:03X}"),
+                        "data",
+                        text,
+                        None,
+                    );
                 }
             }
             return;
@@ -493,8 +501,7 @@ impl Model {
             s.text = text;
         }
         if let Some(x) = number
-            && s
-                .last_point
+            && s.last_point
                 .is_none_or(|t| at.saturating_duration_since(t) >= HISTORY_STEP)
         {
             if s.history.len() == HISTORY {
@@ -521,11 +528,7 @@ impl Model {
                 StateSource::Node => "",
                 StateSource::Command => " (commanded)",
             };
-            self.note(
-                at,
-                LogKind::Info,
-                format!("node {id}: {b} -> {state}{how}"),
-            );
+            self.note(at, LogKind::Info, format!("node {id}: {b} -> {state}{how}"));
         }
     }
 
@@ -751,7 +754,8 @@ impl Model {
                 self.sdo_abort(at, node, "server", code);
                 return;
             }
-            ServerResponse::BlockDownloadInitiate { .. } | ServerResponse::BlockDownloadAck { .. } => {
+            ServerResponse::BlockDownloadInitiate { .. }
+            | ServerResponse::BlockDownloadAck { .. } => {
                 if let Some(t) = self.sdo.get_mut(&node) {
                     t.streaming = !t.ending;
                 }

@@ -74,7 +74,9 @@ impl Replay {
 
     /// Length of the log, µs.
     fn length(&self) -> u64 {
-        self.frames.last().map_or(0, |f| f.0.saturating_sub(self.t0))
+        self.frames
+            .last()
+            .map_or(0, |f| f.0.saturating_sub(self.t0))
     }
 
     /// `12.3 s of 60.0 s, frame 120 of 4000, playing`.

@@ -90,6 +90,8 @@ fn secs(micros: u64) -> String {
 /// The heartbeat column: age of the last heartbeat, `!` when late, `-` when none was heard.
 fn heartbeat_text(row: &NodeRow, now: Instant) -> String {
     match row.age(now) {
+        // Only a boot-up was heard: the node sends no heartbeat.
+        _ if row.period().is_none() => "-".into(),
         None => "-".into(),
         Some(age) => {
             let late = if row.late { "!" } else { "" };
@@ -148,12 +150,14 @@ pub(crate) fn draw(f: &mut Frame<'_>, model: &Model, s: &Screen<'_>) {
         .filter(|(n, r)| s.matches(&format!("node {n} {}", r.name.as_deref().unwrap_or(""))))
         .count() as u16;
     if wide {
-        let [left, right] =
-            Layout::horizontal([Constraint::Percentage(58), Constraint::Percentage(42)])
+        // The nodes across the top; below, the PDO values beside the bus, the SDO transfers
+        // and the log.
+        let [node_area, lower] =
+            Layout::vertical([Constraint::Length(nodes.max(1) + 3), Constraint::Min(8)])
                 .areas(body);
-        let [node_area, pdo_area] =
-            Layout::vertical([Constraint::Length(nodes.max(1) + 3), Constraint::Min(4)])
-                .areas(left);
+        let [pdo_area, right] =
+            Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)])
+                .areas(lower);
         let sdo_rows = model.sdo.len().clamp(1, 6) as u16;
         let [bus_area, sdo_area, log_area] = Layout::vertical([
             Constraint::Length(8),
@@ -185,7 +189,13 @@ pub(crate) fn draw(f: &mut Frame<'_>, model: &Model, s: &Screen<'_>) {
     }
     match s.mode {
         Mode::Help => draw_help(f, area, s),
-        Mode::Confirm { question } => draw_popup(f, area, " confirm ", &[question, "y: yes, any other key: no"], s),
+        Mode::Confirm { question } => draw_popup(
+            f,
+            area,
+            " confirm ",
+            &[question, "y: yes, any other key: no"],
+            s,
+        ),
         _ => {}
     }
 }
@@ -232,7 +242,7 @@ fn draw_status(f: &mut Frame<'_>, area: Rect, s: &Screen<'_>) {
 fn draw_nodes(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>, wide: bool) {
     let inner = area.width.saturating_sub(2) as usize;
     // ID, state, heartbeat and EMCY count take 3+1+12+1+7+1+4+1 = 30 columns and the marker 2.
-    let name_w = if wide { 20 } else { 14 };
+    let name_w = if wide { 28 } else { 14 };
     let rest = inner.saturating_sub(32 + name_w + 1);
     let head = format!(
         "  {:>3} {:<name_w$} {:<12} {:>7} {:>4} {}",
@@ -355,8 +365,8 @@ fn draw_pdos(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>) {
     let inner = area.width.saturating_sub(2) as usize;
     let spark_w = (inner / 5).clamp(8, 30);
     let label_w = 16;
-    let name_w = (inner.saturating_sub(label_w + spark_w + 16)).clamp(10, 36);
-    let value_w = inner.saturating_sub(label_w + name_w + spark_w + 3);
+    let value_w = 14;
+    let name_w = inner.saturating_sub(label_w + value_w + spark_w + 3).max(8);
     let mut lines = Vec::new();
     for sig in model.signals.values() {
         if !s.matches(&format!("{} {}", sig.pdo, sig.name)) {
@@ -443,7 +453,10 @@ fn draw_log(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>, with_s
             LogKind::Warning => s.style(Color::Yellow),
             LogKind::Error => s.style(Color::Red),
         };
-        lines.push(Line::styled(format!("{:>8.3} {}", l.at.as_micros() as f64 / 1e6, l.text), style));
+        lines.push(Line::styled(
+            format!("{:>8.3} {}", l.at.as_micros() as f64 / 1e6, l.text),
+            style,
+        ));
     }
     f.render_widget(
         Paragraph::new(lines).block(Block::bordered().title(" events ")),
