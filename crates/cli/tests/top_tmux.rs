@@ -1,0 +1,223 @@
+//! `canopen top` in a real terminal: the binary runs in a detached tmux session against two
+//! simulated devices on the in-memory bus (`--eds 5=burkert-generic --eds 6=cia402-servo`), and
+//! the test reads the screen with `tmux capture-pane` as the keys go in: both nodes and their
+//! states, `o` starting them, a PDO value changing after a write with `w` (the servo's
+//! statusword), an EMCY after a fault is brought about through the keys (the servo runs into
+//! its limit switch: EMCY 0x8612), `x` stopping a node and `o` starting it again, the panes at
+//! 80x24, and `q` giving the shell back its terminal (primary screen, cooked mode).
+//!
+//! Without tmux the test says it skipped, unless `CANOPEN_REQUIRE_TMUX=1` (scripts/test-all
+//! sets it and installs tmux), where a missing tmux fails it.
+
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+const BURKERT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
+const SERVO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/cia402-servo.eds");
+
+/// A tmux server of this test's own (its own socket), killed on drop.
+struct Tmux {
+    socket: String,
+}
+
+impl Tmux {
+    fn cmd(&self, args: &[&str]) -> std::process::Output {
+        Command::new("tmux")
+            .arg("-L")
+            .arg(&self.socket)
+            .args(args)
+            .output()
+            .expect("tmux runs")
+    }
+
+    fn keys(&self, keys: &[&str]) {
+        let mut args = vec!["send-keys", "-t", "top"];
+        args.extend_from_slice(keys);
+        assert!(self.cmd(&args).status.success());
+    }
+
+    /// Types `text` as it is (tmux would read `0x6040` as a key code).
+    fn text(&self, text: &str) {
+        assert!(
+            self.cmd(&["send-keys", "-t", "top", "-l", text])
+                .status
+                .success()
+        );
+    }
+
+    fn screen(&self) -> String {
+        String::from_utf8_lossy(&self.cmd(&["capture-pane", "-p", "-t", "top"]).stdout).into_owned()
+    }
+
+    /// Waits (15 s at most) until `ok` holds for the screen; the last screen otherwise.
+    fn wait(&self, what: &str, ok: impl Fn(&str) -> bool) -> String {
+        let end = Instant::now() + Duration::from_secs(15);
+        loop {
+            let s = self.screen();
+            if ok(&s) {
+                return s;
+            }
+            assert!(Instant::now() < end, "waited for {what}; the screen:\n{s}");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    /// `w`, `OBJECT VALUE`, Enter, and `y` once the confirmation shows.
+    fn write(&self, object_value: &str) {
+        self.keys(&["w"]);
+        self.text(object_value);
+        self.keys(&["Enter"]);
+        self.wait("the write's confirmation", |s| s.contains("y: yes"));
+        self.keys(&["y"]);
+        let (object, _) = object_value.split_once(' ').unwrap();
+        let object = object.to_uppercase().replace("0X", "0x");
+        self.wait("the write's result", |s| {
+            s.lines()
+                .last()
+                .is_some_and(|l| l.starts_with(&format!("wrote node 6 {object}")))
+        });
+    }
+}
+
+impl Drop for Tmux {
+    fn drop(&mut self) {
+        let _ = self.cmd(&["kill-server"]);
+    }
+}
+
+/// The nodes pane's row of the node named `name`.
+fn row<'a>(screen: &'a str, name: &str) -> &'a str {
+    screen.lines().find(|l| l.contains(name)).unwrap_or("")
+}
+
+/// The value shown for the PDO value named `name`.
+fn pdo_value(screen: &str, name: &str) -> Option<String> {
+    let line = screen.lines().find(|l| l.contains(&format!(" {name} ")))?;
+    let after = line.split(name).nth(1)?;
+    after.split_whitespace().next().map(str::to_owned)
+}
+
+fn tmux_runs() -> bool {
+    Command::new("tmux")
+        .arg("-V")
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+#[test]
+fn top_in_tmux_shows_the_network_and_takes_the_keys() {
+    if !tmux_runs() {
+        assert!(
+            std::env::var("CANOPEN_REQUIRE_TMUX").as_deref() != Ok("1"),
+            "CANOPEN_REQUIRE_TMUX=1 but tmux does not run"
+        );
+        eprintln!("skipped: tmux is not installed");
+        return;
+    }
+    let t = Tmux {
+        socket: format!("canopen-top-test-{}", std::process::id()),
+    };
+    let out = t.cmd(&[
+        "new-session",
+        "-d",
+        "-s",
+        "top",
+        "-x",
+        "120",
+        "-y",
+        "40",
+        "sh",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = format!(
+        "printf 'BEFORE-%s\\n' TOP; '{}' --eds 5='{BURKERT}' --eds 6='{SERVO}' top; \
+         echo TOP-EXIT=$?",
+        env!("CARGO_BIN_EXE_canopen")
+    );
+    t.text(&line);
+    t.keys(&["Enter"]);
+
+    // Both nodes, booted (pre-operational).
+    let s = t.wait("both nodes in pre-operational", |s| {
+        row(s, "Generic CANopen").contains("PRE-OP") && row(s, "CiA 402 servo").contains("PRE-OP")
+    });
+    assert!(s.contains("canopen top"), "{s}");
+    assert!(
+        s.contains("node 5: boot-up") && s.contains("node 6: boot-up"),
+        "{s}"
+    );
+
+    // `o` on the first node (selected), then on the servo (`j`): operational.
+    t.keys(&["o"]);
+    t.wait("node 5 operational", |s| {
+        row(s, "Generic CANopen").contains("OPERATIONAL")
+    });
+    t.keys(&["j", "o"]);
+    let s = t.wait("node 6 operational and its statusword PDO", |s| {
+        row(s, "CiA 402 servo").contains("OPERATIONAL") && pdo_value(s, "Statusword").is_some()
+    });
+    let before = pdo_value(&s, "Statusword").unwrap();
+
+    // A PDO value change: controlword 6 (shutdown) moves the servo to ready to switch on.
+    t.write("0x6040 6");
+    let s = t.wait("the statusword to change", |s| {
+        pdo_value(s, "Statusword").is_some_and(|v| v != before)
+    });
+    assert!(
+        row(&s, "CiA 402 servo").contains("   0 "),
+        "no EMCY yet: {s}"
+    );
+
+    // An EMCY: profile velocity mode, enable, a velocity that runs into the limit switch.
+    t.write("0x6060 3");
+    t.write("0x6040 7");
+    t.write("0x6040 15");
+    t.write("0x60FF 200000");
+    let s = t.wait("the servo's EMCY", |s| {
+        row(s, "CiA 402 servo").contains("EMCY 0x8612")
+    });
+    assert!(row(&s, "CiA 402 servo").contains("   1 EMCY"), "{s}");
+    assert!(s.contains("node 6: EMCY 0x8612"), "the event log: {s}");
+
+    // `x` stops node 5 (back up with `k`), `o` starts it again: its heartbeat says so.
+    t.keys(&["k", "x"]);
+    t.wait("node 5 stopped", |s| {
+        row(s, "Generic CANopen").contains("STOPPED")
+    });
+    t.keys(&["o"]);
+    t.wait("node 5 operational again", |s| {
+        row(s, "Generic CANopen").contains("OPERATIONAL")
+    });
+
+    // 80x24: the panes fold, both nodes still there.
+    assert!(
+        t.cmd(&["resize-window", "-t", "top", "-x", "80", "-y", "24"])
+            .status
+            .success()
+    );
+    let s = t.wait("the one-column layout", |s| s.contains("bus: "));
+    assert!(
+        row(&s, "Generic CANop").contains("OPERATIONAL")
+            && row(&s, "CiA 402 servo").contains("EMCY"),
+        "{s}"
+    );
+    assert!(s.lines().all(|l| l.chars().count() <= 80), "{s}");
+
+    // `q`: the shell's screen and cooked mode are back.
+    t.keys(&["q"]);
+    let s = t.wait("top to end", |s| s.contains("TOP-EXIT="));
+    assert!(s.contains("TOP-EXIT=0"), "{s}");
+    assert!(s.contains("BEFORE-TOP"), "the primary screen is back: {s}");
+    assert!(!s.contains("canopen top"), "{s}");
+    t.text("echo STTY:$(stty -a | tr ' ;' '\\n\\n' | grep -x -e '-\\?icanon' -e '-\\?echo')");
+    t.keys(&["Enter"]);
+    let s = t.wait("stty's answer", |s| {
+        s.lines().any(|l| l.starts_with("STTY:"))
+    });
+    let stty = s.lines().find(|l| l.starts_with("STTY:")).unwrap();
+    assert_eq!(stty.trim(), "STTY:icanon echo", "{s}");
+}
