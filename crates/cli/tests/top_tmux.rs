@@ -62,6 +62,20 @@ impl Tmux {
         }
     }
 
+    /// The shell's terminal is in cooked mode again (canonical input, echo).
+    fn check_cooked(&self, tag: &str) {
+        self.text(&format!(
+            "echo {tag}:$(stty -a | tr ' ;' '\\n\\n' | grep -x -e '-\\?icanon' -e '-\\?echo')"
+        ));
+        self.keys(&["Enter"]);
+        let prefix = format!("{tag}:");
+        let s = self.wait("stty's answer", |s| {
+            s.lines().any(|l| l.starts_with(&prefix))
+        });
+        let stty = s.lines().find(|l| l.starts_with(&prefix)).unwrap();
+        assert_eq!(stty.trim(), format!("{tag}:icanon echo"), "{s}");
+    }
+
     /// `w`, `OBJECT VALUE`, Enter, and `y` once the confirmation shows.
     fn write(&self, object_value: &str) {
         self.keys(&["w"]);
@@ -207,17 +221,82 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     );
     assert!(s.lines().all(|l| l.chars().count() <= 80), "{s}");
 
+    // `/` filters the panes: only the servo's row and values are left.
+    t.keys(&["/"]);
+    t.text("servo");
+    t.keys(&["Enter"]);
+    let s = t.wait("the filter", |s| s.contains("[filter: servo]"));
+    assert!(row(&s, "Generic CANop").is_empty(), "{s}");
+    assert!(!row(&s, "CiA 402 servo").is_empty(), "{s}");
+    t.keys(&["/", "C-u", "Enter"]);
+    t.wait("no filter", |s| !row(s, "Generic CANop").is_empty());
+
+    // `s` saves the traffic so far as a candump log.
+    let dir = std::env::temp_dir().join(format!("canopen-top-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("top.log");
+    t.keys(&["s", "C-u"]);
+    t.text(log.to_str().unwrap());
+    t.keys(&["Enter"]);
+    t.wait("the log saved", |s| {
+        s.lines().last().is_some_and(|l| l.starts_with("saved "))
+    });
+    let text = std::fs::read_to_string(&log).unwrap();
+    let entries: Vec<_> = canola::candump::Reader::new(text.as_bytes())
+        .collect::<Result<_, _>>()
+        .expect("the saved log reads back");
+    assert!(entries.len() > 20, "{text}");
+    assert!(
+        text.contains("086#1286"),
+        "the servo's EMCY 0x8612 is in the log: {text}"
+    );
+
     // `q`: the shell's screen and cooked mode are back.
     t.keys(&["q"]);
-    let s = t.wait("top to end", |s| s.contains("TOP-EXIT="));
+    let s = t.wait("top to end", |s| {
+        s.lines().any(|l| l.starts_with("TOP-EXIT="))
+    });
     assert!(s.contains("TOP-EXIT=0"), "{s}");
     assert!(s.contains("BEFORE-TOP"), "the primary screen is back: {s}");
     assert!(!s.contains("canopen top"), "{s}");
-    t.text("echo STTY:$(stty -a | tr ' ;' '\\n\\n' | grep -x -e '-\\?icanon' -e '-\\?echo')");
+    t.check_cooked("STTY1");
+
+    // The saved log replayed: paused, stepped, then run to its end with →; the EMCY is there.
+    let line = format!(
+        "clear; '{}' --eds 5='{BURKERT}' --eds 6='{SERVO}' top --replay '{}'; echo TOP-EXIT2=$?",
+        env!("CARGO_BIN_EXE_canopen"),
+        log.display()
+    );
+    t.text(&line);
     t.keys(&["Enter"]);
-    let s = t.wait("stty's answer", |s| {
-        s.lines().any(|l| l.starts_with("STTY:"))
+    t.wait("the replay", |s| {
+        s.contains("replay ") && s.contains("node 5: boot-up")
     });
-    let stty = s.lines().find(|l| l.starts_with("STTY:")).unwrap();
-    assert_eq!(stty.trim(), "STTY:icanon echo", "{s}");
+    t.keys(&["Space"]);
+    let s = t.wait("the replay paused", |s| s.contains("paused"));
+    let frame = |s: &str| -> u64 {
+        let after = s.split("frame ").nth(1).unwrap_or("");
+        after
+            .split_whitespace()
+            .next()
+            .unwrap_or("0")
+            .parse()
+            .unwrap_or(0)
+    };
+    let at = frame(&s);
+    t.keys(&["n"]);
+    t.wait("one frame on", |s| frame(s) == at + 1);
+    for _ in 0..12 {
+        t.keys(&["Right"]);
+    }
+    let s = t.wait("the end of the log", |s| s.contains("end of log"));
+    assert!(row(&s, "CiA 402 servo").contains("EMCY 0x8612"), "{s}");
+    // Ctrl-C ends it as q does.
+    t.keys(&["C-c"]);
+    let s = t.wait("the replay to end", |s| {
+        s.lines().any(|l| l.starts_with("TOP-EXIT2="))
+    });
+    assert!(s.contains("TOP-EXIT2=0"), "{s}");
+    t.check_cooked("STTY2");
+    let _ = std::fs::remove_dir_all(&dir);
 }

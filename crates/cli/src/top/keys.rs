@@ -124,6 +124,10 @@ pub(crate) fn handle(mode: &mut Mode, key: KeyEvent, replay: bool) -> Action {
                 text.pop();
                 Action::None
             }
+            KeyCode::Char('u') if ctrl => {
+                text.clear();
+                Action::None
+            }
             KeyCode::Char(c) if !ctrl => {
                 text.push(c);
                 Action::None
@@ -191,6 +195,7 @@ pub(crate) const HELP: &[(&str, &str)] = &[
     ("space", "pause the view (replay: pause the log)"),
     ("s", "save the traffic so far as a candump log"),
     ("n  ← →", "replay: one frame, 10 s back / forward"),
+    ("Ctrl-U", "clear a prompt's text (Esc leaves it)"),
     ("?", "this help (any key closes it)"),
     ("q  Ctrl-C", "quit"),
 ];

@@ -201,10 +201,12 @@ pub(crate) fn draw(f: &mut Frame<'_>, model: &Model, s: &Screen<'_>) {
 }
 
 fn draw_title(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>) {
-    let mut spans = vec![
-        Span::styled("canopen top", Style::default().add_modifier(Modifier::BOLD)),
-        Span::raw(format!(" {}  {} kbit/s", s.title, model.bitrate() / 1000)),
-    ];
+    // What changes first (a replay's position, the pause), then the bus, which a narrow
+    // terminal may cut.
+    let mut spans = vec![Span::styled(
+        "canopen top",
+        Style::default().add_modifier(Modifier::BOLD),
+    )];
     if let Some(r) = s.replay {
         spans.push(Span::raw(format!("  {r}")));
     }
@@ -214,7 +216,11 @@ fn draw_title(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>) {
             s.style(Color::Yellow).add_modifier(Modifier::BOLD),
         ));
     }
-    spans.push(Span::raw("  ? help  q quit"));
+    spans.push(Span::raw(format!(
+        "  {}  {} kbit/s  ? help  q quit",
+        s.title,
+        model.bitrate() / 1000
+    )));
     f.render_widget(Paragraph::new(Line::from(spans)), area);
 }
 
