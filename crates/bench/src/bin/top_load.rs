@@ -88,7 +88,7 @@ fn parse_args() -> Result<Args, String> {
             other => return Err(format!("unknown argument {other}")),
         }
     }
-    if !(1..=127).contains(&a.nodes) || a.fps == 0 || !(a.seconds > 0.0) {
+    if !(1..=127).contains(&a.nodes) || a.fps == 0 || !(a.seconds.is_finite() && a.seconds > 0.0) {
         return Err("--nodes 1..=127, --fps and --seconds above 0".into());
     }
     Ok(a)

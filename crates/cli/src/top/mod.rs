@@ -126,6 +126,9 @@ enum Source {
     Replay(replay::Replay),
 }
 
+/// A line for the event log and the status line.
+type Note = (LogKind, String);
+
 /// A write that waits for `y`.
 struct PendingWrite {
     node: NodeId,
@@ -148,7 +151,8 @@ struct App {
     source: Source,
     recording: Recording,
     pending: Option<PendingWrite>,
-    results: (Sender<(LogKind, String)>, Receiver<(LogKind, String)>),
+    /// Results of the reads and writes running on threads of their own.
+    results: (Sender<Note>, Receiver<Note>),
 }
 
 /// `canopen top [--replay FILE]`
