@@ -12,8 +12,13 @@
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-const BURKERT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/burkert-generic.eds");
-const SERVO: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../eds/cia402-servo.eds");
+const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+
+/// The README's lines, typed as they are in a folder with the checkout's `eds`, `canopen` on
+/// the PATH.
+const DEMO: &str = "canopen --eds 5=eds/burkert-generic.eds --eds 6=eds/cia402-servo.eds top";
+const REPLAY: &str =
+    "canopen --eds 5=eds/burkert-generic.eds --eds 6=eds/cia402-servo.eds top --replay bus.log";
 
 /// A tmux server of this test's own (its own socket), killed on drop.
 struct Tmux {
@@ -128,6 +133,13 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
         eprintln!("skipped: tmux is not installed");
         return;
     }
+    let readme = std::fs::read_to_string(format!("{ROOT}/README.md")).unwrap();
+    assert!(readme.contains(DEMO) && readme.contains(REPLAY));
+    let dir = std::env::temp_dir().join(format!("canopen-top-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::os::unix::fs::symlink(format!("{ROOT}/eds"), dir.join("eds")).unwrap();
+    let bin = std::path::Path::new(env!("CARGO_BIN_EXE_canopen"));
     let t = Tmux {
         socket: format!("canopen-top-test-{}", std::process::id()),
     };
@@ -147,12 +159,15 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let line = format!(
-        "printf 'BEFORE-%s\\n' TOP; '{}' --eds 5='{BURKERT}' --eds 6='{SERVO}' top; \
-         echo TOP-EXIT=$?",
-        env!("CARGO_BIN_EXE_canopen")
-    );
-    t.text(&line);
+    t.text(&format!(
+        "cd '{}' && PATH='{}':$PATH",
+        dir.display(),
+        bin.parent().unwrap().display()
+    ));
+    t.keys(&["Enter"]);
+    t.text(&format!(
+        "printf 'BEFORE-%s\\n' TOP; {DEMO}; echo TOP-EXIT=$?"
+    ));
     t.keys(&["Enter"]);
 
     // Both nodes, booted (pre-operational).
@@ -232,11 +247,9 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     t.wait("no filter", |s| !row(s, "Generic CANop").is_empty());
 
     // `s` saves the traffic so far as a candump log.
-    let dir = std::env::temp_dir().join(format!("canopen-top-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let log = dir.join("top.log");
+    let log = dir.join("bus.log");
     t.keys(&["s", "C-u"]);
-    t.text(log.to_str().unwrap());
+    t.text("bus.log");
     t.keys(&["Enter"]);
     t.wait("the log saved", |s| {
         s.lines().last().is_some_and(|l| l.starts_with("saved "))
@@ -262,12 +275,7 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     t.check_cooked("STTY1");
 
     // The saved log replayed: paused, stepped, then run to its end with →; the EMCY is there.
-    let line = format!(
-        "clear; '{}' --eds 5='{BURKERT}' --eds 6='{SERVO}' top --replay '{}'; echo TOP-EXIT2=$?",
-        env!("CARGO_BIN_EXE_canopen"),
-        log.display()
-    );
-    t.text(&line);
+    t.text(&format!("clear; {REPLAY}; echo TOP-EXIT2=$?"));
     t.keys(&["Enter"]);
     t.wait("the replay", |s| {
         s.contains("replay ") && s.contains("node 5: boot-up")

@@ -30,6 +30,10 @@ const HISTORY_STEP: Duration = Duration::from_millis(100);
 /// master's default SDO timeout is 1 s; this leaves room for a slower client).
 pub(crate) const SDO_SILENCE: Duration = Duration::from_millis(2000);
 
+/// How far behind the clock the frames may be (a loaded host takes them late): a heartbeat is
+/// judged late by the newest frame's time, or by the clock less this when the bus is silent.
+pub(crate) const LAG: Duration = Duration::from_millis(1000);
+
 /// Where a node's NMT state comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum StateSource {
@@ -212,6 +216,8 @@ pub(crate) struct Model {
     lss_pending_id: Option<u8>,
     /// The time of the latest frame or tick.
     pub(crate) now: Instant,
+    /// The time of the newest frame.
+    newest: Instant,
     /// (time, bits) of the frames of the last second.
     window: VecDeque<(Instant, u32)>,
     window_bits: u64,
@@ -269,6 +275,7 @@ impl Model {
             lss_last: None,
             lss_pending_id: None,
             now: Instant::ZERO,
+            newest: Instant::ZERO,
             window: VecDeque::new(),
             window_bits: 0,
         }
@@ -345,6 +352,9 @@ impl Model {
         if at > self.now {
             self.now = at;
         }
+        if at > self.newest {
+            self.newest = at;
+        }
     }
 
     fn count_bits(&mut self, at: Instant, bits: u32) {
@@ -355,7 +365,9 @@ impl Model {
     /// Lets time pass to `now` (the view calls it before each draw): the rates over the last
     /// second, late heartbeats, SDO transfers that went silent.
     pub(crate) fn tick(&mut self, now: Instant) {
-        self.advance(now);
+        if now > self.now {
+            self.now = now;
+        }
         let now = self.now;
         let since = now - Duration::from_secs(1);
         while let Some(&(t, bits)) = self.window.front() {
@@ -371,8 +383,9 @@ impl Model {
             self.bus.peak_load = self.bus.load;
         }
         let mut late = Vec::new();
+        let reference = self.newest.max(now - LAG);
         for (id, n) in &mut self.nodes {
-            if let (Some(age), Some(p)) = (n.age(now), n.period())
+            if let (Some(age), Some(p)) = (n.age(reference), n.period())
                 && !n.late
                 && NodeRow::is_late(age, p)
             {
