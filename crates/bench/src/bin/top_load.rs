@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! cargo run --release -p canola-bench --bin top_load -- --nodes 64 --seconds 30 [--fps 10]
-//!     [--size 120x40] [--bitrate 1000000] [--no-view]
+//!     [--size 120x40] [--bitrate 1000000] [--no-view | --bare]
 //! ```
 //!
 //! Prints the frames on the wire, the frames the model counted, the copies the tap had no room
@@ -15,8 +15,11 @@
 //! CPU as a share of one core: the whole process (`getrusage`: bus service thread, 64
 //! simulators, master driver and the view) and the view's thread alone
 //! (`CLOCK_THREAD_CPUTIME_ID`: taking the queued frames into the model and drawing).
-//! `--no-view` drains the queue without model or drawing, for the process's cost without the
-//! view. Exits 1 when a frame was lost.
+//! The CPU of each thread by name splits that into the bus and simulators, the master's driver
+//! thread (with the tap) and the view. `--no-view` drains the queue without model or drawing;
+//! `--bare` replaces master, tap and view by a plain endpoint that sends the SYNCs and receives
+//! every frame on a thread of its own: the cost of receiving this bus in real time at all, the
+//! floor under the master's. Exits 1 when a frame was lost.
 
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
@@ -56,6 +59,7 @@ struct Args {
     size: (u16, u16),
     bitrate: u32,
     view: bool,
+    bare: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -66,6 +70,7 @@ fn parse_args() -> Result<Args, String> {
         size: (120, 40),
         bitrate: 1_000_000,
         view: true,
+        bare: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -85,6 +90,7 @@ fn parse_args() -> Result<Args, String> {
                 );
             }
             "--no-view" => a.view = false,
+            "--bare" => a.bare = true,
             other => return Err(format!("unknown argument {other}")),
         }
     }
@@ -92,6 +98,67 @@ fn parse_args() -> Result<Args, String> {
         return Err("--nodes 1..=127, --fps and --seconds above 0".into());
     }
     Ok(a)
+}
+
+/// `--bare`: the same bus and devices with a plain endpoint on a thread of its own in place of
+/// master, tap and view: it sends the SYNCs and receives every frame, as any program receiving
+/// this bus in real time must. Its CPU share is the floor under the master's.
+fn bare(a: &Args, period: Duration) -> ExitCode {
+    use canola::Transport as _;
+    let bus = MemoryBus::with_config(BusConfig {
+        clock: ClockMode::RealTime,
+        bitrate: Some(a.bitrate),
+        ..BusConfig::default()
+    });
+    let od = load::load_dictionary();
+    for n in 1..=a.nodes {
+        bus.attach(LoadNode::new(NodeId::new(n).expect("1..=127"), od.clone()));
+    }
+    let mut ep = bus.endpoint();
+    let seconds = a.seconds;
+    let receiver = std::thread::Builder::new()
+        .name("receiver".into())
+        .spawn(move || -> Result<(u64, f64), canola::TransportError> {
+            let id = |raw| canola::CanId::standard(raw).expect("valid identifier");
+            ep.send(&canola::CanFrame::new(id(0x000), &[0x01, 0x00]).expect("valid"))?;
+            let sync = canola::CanFrame::new(id(0x080), &[]).expect("valid");
+            let start = ep.now();
+            let end = start + Duration::from_micros((seconds * 1e6) as u64);
+            let cpu0 = thread_cpu_seconds();
+            let (mut next, mut frames) = (start, 0u64);
+            loop {
+                let now = ep.now();
+                if now >= end {
+                    break;
+                }
+                if now >= next {
+                    ep.send(&sync)?;
+                    frames += 1;
+                    next += period;
+                }
+                if ep.recv_until(next.min(end))?.is_some() {
+                    frames += 1;
+                }
+            }
+            Ok((frames, thread_cpu_seconds() - cpu0))
+        })
+        .expect("a thread");
+    match receiver.join() {
+        Ok(Ok((frames, cpu))) => {
+            println!(
+                "bare receiver: {frames} frames in {seconds} s, its thread {:.1} % of a core \
+                 ({:.1} us per frame)",
+                cpu * 100.0 / seconds,
+                cpu * 1e6 / frames.max(1) as f64
+            );
+            ExitCode::SUCCESS
+        }
+        Ok(Err(e)) => {
+            eprintln!("top_load: {e}");
+            ExitCode::FAILURE
+        }
+        Err(_) => ExitCode::FAILURE,
+    }
 }
 
 /// CPU seconds of the whole process, user and system.
@@ -103,6 +170,32 @@ fn process_cpu_seconds() -> f64 {
     })
 }
 
+/// CPU seconds of each thread of this process by name (`/proc/self/task/*/stat`, Linux; the
+/// kernel counts in USER_HZ, 100 a second): `memory-bus` steps the bus and the simulators,
+/// `canopen-driver` is the master, `top_load` the view.
+fn thread_cpu_by_name() -> std::collections::BTreeMap<String, f64> {
+    let mut out = std::collections::BTreeMap::new();
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return out;
+    };
+    for t in tasks.flatten() {
+        let Ok(stat) = std::fs::read_to_string(t.path().join("stat")) else {
+            continue;
+        };
+        let (Some(open), Some(close)) = (stat.find('('), stat.rfind(')')) else {
+            continue;
+        };
+        let name = stat[open + 1..close].to_owned();
+        // After the name: state is field 3; utime and stime are fields 14 and 15.
+        let fields: Vec<&str> = stat[close + 1..].split_whitespace().collect();
+        let ticks = |i: usize| fields.get(i - 3).and_then(|f| f.parse::<f64>().ok());
+        if let (Some(u), Some(s)) = (ticks(14), ticks(15)) {
+            *out.entry(name).or_insert(0.0) += (u + s) / 100.0;
+        }
+    }
+    out
+}
+
 fn main() -> ExitCode {
     let a = match parse_args() {
         Ok(a) => a,
@@ -112,6 +205,9 @@ fn main() -> ExitCode {
         }
     };
     let period = load::sync_period_for(a.nodes, a.bitrate, false, 0.95);
+    if a.bare {
+        return bare(&a, period);
+    }
     let bus = MemoryBus::with_config(BusConfig {
         clock: ClockMode::RealTime,
         bitrate: Some(a.bitrate),
@@ -161,6 +257,7 @@ fn main() -> ExitCode {
     let mut terminal = Terminal::new(TestBackend::new(a.size.0, a.size.1)).expect("test backend");
     let mode = top::keys::Mode::Normal;
     let cpu0 = process_cpu_seconds();
+    let threads0 = thread_cpu_by_name();
     let view0 = thread_cpu_seconds();
     let wall0 = StdInstant::now();
     net.start_sync(Duration::from_micros(period.as_micros()));
@@ -208,6 +305,7 @@ fn main() -> ExitCode {
     }
     let view_cpu = thread_cpu_seconds() - view0;
     let cpu = process_cpu_seconds() - cpu0;
+    let threads1 = thread_cpu_by_name();
     let wall = wall0.elapsed().as_secs_f64();
     net.stop_sync();
     std::thread::sleep(StdDuration::from_millis(300));
@@ -240,6 +338,19 @@ fn main() -> ExitCode {
         a.nodes,
         view_cpu * 100.0 / wall,
         wall
+    );
+    let share = |name: &str| {
+        let t =
+            threads1.get(name).copied().unwrap_or(0.0) - threads0.get(name).copied().unwrap_or(0.0);
+        t * 100.0 / wall
+    };
+    let (bus_share, master_share) = (share("memory-bus"), share("canopen-driver"));
+    println!(
+        "CPU by thread: bus and simulators {bus_share:.1} %, master (driver thread, tap) \
+         {master_share:.1} %, view {:.1} %; master and view, what `canopen top` costs on a real \
+         bus: {:.1} % of a core",
+        view_cpu * 100.0 / wall,
+        master_share + view_cpu * 100.0 / wall
     );
     let _ = net.stop_driver();
     if lost != 0 || lost_copies != 0 || overflowed != 0 {
