@@ -50,6 +50,12 @@ impl Tmux {
         );
     }
 
+    /// The screen with its colours (SGR escape sequences).
+    fn screen_escaped(&self) -> String {
+        String::from_utf8_lossy(&self.cmd(&["capture-pane", "-p", "-e", "-t", "top"]).stdout)
+            .into_owned()
+    }
+
     fn screen(&self) -> String {
         String::from_utf8_lossy(&self.cmd(&["capture-pane", "-p", "-t", "top"]).stdout).into_owned()
     }
@@ -114,6 +120,26 @@ fn pdo_value(screen: &str, name: &str) -> Option<String> {
     let line = screen.lines().find(|l| l.contains(&format!(" {name} ")))?;
     let after = line.split(name).nth(1)?;
     after.split_whitespace().next().map(str::to_owned)
+}
+
+/// Whether a screen captured with its escape sequences sets a colour: an SGR sequence
+/// (`ESC [ ... m`) with a foreground or background colour (30–38, 40–48, 90–97, 100–107; 39 and
+/// 49, back to the default, are no colour).
+fn coloured(escaped: &str) -> bool {
+    escaped.split("\x1b[").skip(1).any(|seq| {
+        let Some(params) = seq.split_once('m').map(|(p, _)| p) else {
+            return false;
+        };
+        if !params.bytes().all(|b| b.is_ascii_digit() || b == b';') {
+            return false;
+        }
+        params.split(';').any(|p| {
+            matches!(
+                p.parse::<u16>(),
+                Ok(30..=38 | 40..=48 | 90..=97 | 100..=107)
+            )
+        })
+    })
 }
 
 fn tmux_runs() -> bool {
@@ -190,6 +216,8 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
         row(s, "CiA 402 servo").contains("OPERATIONAL") && pdo_value(s, "Statusword").is_some()
     });
     let before = pdo_value(&s, "Statusword").unwrap();
+    // Colours: operational in green.
+    assert!(coloured(&t.screen_escaped()), "no colour");
 
     // A PDO value change: controlword 6 (shutdown) moves the servo to ready to switch on.
     t.write("0x6040 6");
@@ -275,7 +303,9 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     t.check_cooked("STTY1");
 
     // The saved log replayed: paused, stepped, then run to its end with →; the EMCY is there.
-    t.text(&format!("clear; {REPLAY}; echo TOP-EXIT2=$?"));
+    t.text(&format!(
+        "export NO_COLOR=1; clear; {REPLAY}; echo TOP-EXIT2=$?"
+    ));
     t.keys(&["Enter"]);
     t.wait("the replay", |s| {
         s.contains("replay ") && s.contains("node 5: boot-up")
@@ -299,6 +329,9 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     }
     let s = t.wait("the end of the log", |s| s.contains("end of log"));
     assert!(row(&s, "CiA 402 servo").contains("EMCY 0x8612"), "{s}");
+    // NO_COLOR: no colour anywhere (bold and reverse video stay).
+    let escaped = t.screen_escaped();
+    assert!(!coloured(&escaped), "a colour under NO_COLOR: {escaped:?}");
     // Ctrl-C ends it as q does.
     t.keys(&["C-c"]);
     let s = t.wait("the replay to end", |s| {

@@ -347,8 +347,7 @@ fn main() -> ExitCode {
     let (bus_share, master_share) = (share("memory-bus"), share("canopen-driver"));
     println!(
         "CPU by thread: bus and simulators {bus_share:.1} %, master (driver thread, tap) \
-         {master_share:.1} %, view {:.1} %; master and view, what `canopen top` costs on a real \
-         bus: {:.1} % of a core",
+         {master_share:.1} %, view {:.1} %; master and view together {:.1} % of a core",
         view_cpu * 100.0 / wall,
         master_share + view_cpu * 100.0 / wall
     );

@@ -347,3 +347,36 @@ fn bit_rates_parse() {
     assert!(super::parse_bitrate("2M").is_err());
     assert!(super::parse_bitrate("fast").is_err());
 }
+
+#[test]
+fn lss_shows_on_the_bus_and_on_the_node_it_configured() {
+    use canola::lss::{ConfigStatus, Mode as LssMode, Request, Response};
+    let mut m = Model::new(&[], 500_000);
+    let seen = |f: CanFrame| Seen::Frame {
+        at: Instant::ZERO,
+        frame: canola::candump::LogFrame::Can(f),
+        sent: false,
+    };
+    m.ingest(&seen(
+        Request::SwitchModeGlobal(LssMode::Configuration).to_frame(),
+    ));
+    m.ingest(&seen(Request::ConfigureNodeId(7).to_frame()));
+    m.ingest(&seen(
+        Response::ConfigureNodeId(ConfigStatus::OK).to_frame(),
+    ));
+    assert_eq!(m.lss_mode, Some(LssMode::Configuration));
+    assert_eq!(m.nodes[&n(7)].lss.as_deref(), Some("node-ID set by LSS"));
+    let screen = render(&m, 120, 32, &Mode::Normal, false);
+    assert!(screen.contains("node-ID set by LSS"), "{screen}");
+    assert!(screen.contains("LSS: "), "{screen}");
+    // A refused configuration sets nothing.
+    m.ingest(&seen(Request::ConfigureNodeId(9).to_frame()));
+    m.ingest(&seen(
+        Response::ConfigureNodeId(ConfigStatus {
+            code: 1,
+            extension: 0,
+        })
+        .to_frame(),
+    ));
+    assert!(!m.nodes.contains_key(&n(9)));
+}

@@ -340,7 +340,7 @@ fn draw_bus(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>) {
         (None, None) => "LSS: -".to_owned(),
         (mode, last) => format!(
             "LSS: {}{}",
-            mode.map(|m| format!("{m:?} mode; ")).unwrap_or_default(),
+            mode.map(|m| format!("{m}; ")).unwrap_or_default(),
             last.as_deref().unwrap_or("")
         ),
     };
