@@ -397,7 +397,7 @@ impl App {
             .iter()
             .filter(|(n, r)| {
                 f.is_empty()
-                    || format!("node {n} {}", r.name.as_deref().unwrap_or(""))
+                    || format!("node {n} {}", r.shown_name().unwrap_or_default())
                         .to_lowercase()
                         .contains(&f)
             })

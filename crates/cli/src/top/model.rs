@@ -66,6 +66,9 @@ pub(crate) struct NodeRow {
     pub(crate) last_emcy: Option<String>,
     /// What LSS did to this node (node-ID configured, inquired).
     pub(crate) lss: Option<String>,
+    /// Vendor-ID and product code (0x1018:01, :02) as read over SDO on the bus, for a node
+    /// without an EDS.
+    pub(crate) identity: (Option<u32>, Option<u32>),
     /// Frames this node sent.
     pub(crate) frames: u64,
 }
@@ -83,7 +86,23 @@ impl NodeRow {
             emcy_count: 0,
             last_emcy: None,
             lss: None,
+            identity: (None, None),
             frames: 0,
+        }
+    }
+
+    /// The name the nodes pane shows: the EDS's product name, else the identity read on the
+    /// bus (`vendor 0x00000039 product 0x00000001`).
+    pub(crate) fn shown_name(&self) -> Option<String> {
+        if let Some(n) = &self.name {
+            return Some(n.clone());
+        }
+        match self.identity {
+            (None, None) => None,
+            (v, p) => {
+                let hex = |x: Option<u32>| x.map_or("?".to_owned(), |x| format!("0x{x:08X}"));
+                Some(format!("vendor {} product {}", hex(v), hex(p)))
+            }
         }
     }
 
@@ -745,8 +764,19 @@ impl Model {
             return;
         };
         let done = match resp {
-            ServerResponse::InitiateUpload { data, .. } => match data {
-                Initiate::Expedited { .. } => true,
+            ServerResponse::InitiateUpload { data, mux } => match data {
+                Initiate::Expedited { data, .. } => {
+                    if mux.index == 0x1018 && matches!(mux.subindex, 1 | 2) {
+                        let v = u32::from_le_bytes(data);
+                        let row = self.node(node);
+                        if mux.subindex == 1 {
+                            row.identity.0 = Some(v);
+                        } else {
+                            row.identity.1 = Some(v);
+                        }
+                    }
+                    true
+                }
                 Initiate::Segmented { size } => {
                     if let Some(t) = self.sdo.get_mut(&node) {
                         t.size = size;

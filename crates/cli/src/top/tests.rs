@@ -380,3 +380,24 @@ fn lss_shows_on_the_bus_and_on_the_node_it_configured() {
     ));
     assert!(!m.nodes.contains_key(&n(9)));
 }
+
+#[test]
+fn a_node_without_eds_is_named_by_the_identity_read_on_the_bus() {
+    let mut m = Model::new(&[], 500_000);
+    m.ingest(&frame(0x707, &[0x7F]));
+    assert_eq!(m.nodes[&n(7)].shown_name(), None);
+    // Vendor-ID and product code read by someone's SDO client (a scan).
+    m.ingest(&frame(0x607, &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]));
+    m.ingest(&frame(0x587, &[0x43, 0x18, 0x10, 0x01, 0x39, 0, 0, 0]));
+    m.ingest(&frame(0x607, &[0x40, 0x18, 0x10, 0x02, 0, 0, 0, 0]));
+    m.ingest(&frame(0x587, &[0x43, 0x18, 0x10, 0x02, 0x01, 0x02, 0, 0]));
+    assert_eq!(
+        m.nodes[&n(7)].shown_name().as_deref(),
+        Some("vendor 0x00000039 product 0x00000201")
+    );
+    let screen = render(&m, 120, 32, &Mode::Normal, false);
+    assert!(
+        screen.contains("vendor 0x00000039 product 0x00000201"),
+        "{screen}"
+    );
+}

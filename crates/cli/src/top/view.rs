@@ -147,7 +147,7 @@ pub(crate) fn draw(f: &mut Frame<'_>, model: &Model, s: &Screen<'_>) {
     let nodes = model
         .nodes
         .iter()
-        .filter(|(n, r)| s.matches(&format!("node {n} {}", r.name.as_deref().unwrap_or(""))))
+        .filter(|(n, r)| s.matches(&format!("node {n} {}", r.shown_name().unwrap_or_default())))
         .count() as u16;
     if wide {
         // The nodes across the top; below, the PDO values beside the bus, the SDO transfers
@@ -248,7 +248,7 @@ fn draw_status(f: &mut Frame<'_>, area: Rect, s: &Screen<'_>) {
 fn draw_nodes(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>, wide: bool) {
     let inner = area.width.saturating_sub(2) as usize;
     // ID, state, heartbeat and EMCY count take 3+1+12+1+7+1+4+1 = 30 columns and the marker 2.
-    let name_w = if wide { 28 } else { 14 };
+    let name_w = if wide { 36 } else { 14 };
     let rest = inner.saturating_sub(32 + name_w + 1);
     let head = format!(
         "  {:>3} {:<name_w$} {:<12} {:>7} {:>4} {}",
@@ -260,7 +260,8 @@ fn draw_nodes(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>, wide
     )];
     let now = model.now;
     for (id, row) in &model.nodes {
-        let name = row.name.as_deref().unwrap_or("");
+        let shown = row.shown_name().unwrap_or_default();
+        let name = shown.as_str();
         if !s.matches(&format!("node {id} {name}")) {
             continue;
         }
