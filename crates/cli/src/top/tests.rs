@@ -395,6 +395,13 @@ fn a_node_without_eds_is_named_by_the_identity_read_on_the_bus() {
         m.nodes[&n(7)].shown_name().as_deref(),
         Some("vendor 0x00000039 product 0x00000201")
     );
+    // Its PDOs, without a mapping, as bytes.
+    m.ingest(&frame(0x187, &[1, 2, 3, 4, 5, 6, 7, 8]));
+    let screen = render(&m, 80, 24, &Mode::Normal, false);
+    assert!(
+        screen.contains("TPDO1 node 7     data") && screen.contains("01 02 03 04 05 06 07 08"),
+        "{screen}"
+    );
     let screen = render(&m, 120, 32, &Mode::Normal, false);
     assert!(
         screen.contains("vendor 0x00000039 product 0x00000201"),

@@ -385,15 +385,25 @@ fn draw_pdos(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>) {
         } else {
             Style::default()
         };
-        lines.push(Line::from(vec![
-            Span::styled(format!("{} ", cut(&sig.pdo, label_w)), label_style),
-            Span::raw(format!("{} ", cut(&sig.name, name_w))),
-            Span::styled(
-                format!("{} ", cut(&sig.text, value_w)),
-                Style::default().add_modifier(Modifier::BOLD),
-            ),
-            Span::styled(sparkline(&sig.history, spark_w), s.style(Color::Cyan)),
-        ]));
+        let bold = Style::default().add_modifier(Modifier::BOLD);
+        let mut spans = vec![Span::styled(
+            format!("{} ", cut(&sig.pdo, label_w)),
+            label_style,
+        )];
+        if sig.history.is_empty() {
+            // Bytes (an undecoded PDO): no sparkline, the name's and the line's room for them.
+            let w = name_w + value_w + spark_w + 1;
+            spans.push(Span::raw(format!("{} ", cut(&sig.name, name_w))));
+            spans.push(Span::styled(cut(&sig.text, w - name_w - 1), bold));
+        } else {
+            spans.push(Span::raw(format!("{} ", cut(&sig.name, name_w))));
+            spans.push(Span::styled(format!("{} ", cut(&sig.text, value_w)), bold));
+            spans.push(Span::styled(
+                sparkline(&sig.history, spark_w),
+                s.style(Color::Cyan),
+            ));
+        }
+        lines.push(Line::from(spans));
     }
     if lines.is_empty() {
         lines.push(Line::raw("no PDO yet (nodes send PDOs when operational)"));
