@@ -9,6 +9,8 @@
 //! Without tmux the test says it skipped, unless `CANOPEN_REQUIRE_TMUX=1` (scripts/test-all
 //! sets it and installs tmux), where a missing tmux fails it.
 
+#![cfg(unix)]
+
 use std::process::Command;
 use std::time::{Duration, Instant};
 
