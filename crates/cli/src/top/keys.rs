@@ -141,7 +141,7 @@ pub(crate) fn handle(mode: &mut Mode, key: KeyEvent, replay: bool) -> Action {
 fn normal(mode: &mut Mode, key: KeyEvent, replay: bool) -> Action {
     let nmt = |command, all| Action::Nmt { command, all };
     match key.code {
-        KeyCode::Char('q') | KeyCode::Esc => Action::Quit,
+        KeyCode::Char('q') => Action::Quit,
         KeyCode::Up | KeyCode::Char('k') => Action::Up,
         KeyCode::Down | KeyCode::Char('j') => Action::Down,
         KeyCode::Char('o') => nmt(CommandSpecifier::Start, false),

@@ -237,6 +237,8 @@ pub(crate) struct Model {
     pub(crate) now: Instant,
     /// The time of the newest frame.
     newest: Instant,
+    /// The first time the model saw (the event log counts from it).
+    origin: Option<Instant>,
     /// (time, bits) of the frames of the last second.
     window: VecDeque<(Instant, u32)>,
     window_bits: u64,
@@ -295,9 +297,18 @@ impl Model {
             lss_pending_id: None,
             now: Instant::ZERO,
             newest: Instant::ZERO,
+            origin: None,
             window: VecDeque::new(),
             window_bits: 0,
         }
+    }
+
+    /// Seconds from the first frame or tick to `at` (the transport's clock may count from the
+    /// host's boot).
+    pub(crate) fn seconds(&self, at: Instant) -> f64 {
+        at.saturating_duration_since(self.origin.unwrap_or(Instant::ZERO))
+            .as_micros() as f64
+            / 1e6
     }
 
     /// The bit rate the load is computed at.
@@ -368,6 +379,7 @@ impl Model {
     }
 
     fn advance(&mut self, at: Instant) {
+        self.origin.get_or_insert(at);
         if at > self.now {
             self.now = at;
         }
@@ -384,6 +396,7 @@ impl Model {
     /// Lets time pass to `now` (the view calls it before each draw): the rates over the last
     /// second, late heartbeats, SDO transfers that went silent.
     pub(crate) fn tick(&mut self, now: Instant) {
+        self.origin.get_or_insert(now);
         if now > self.now {
             self.now = now;
         }

@@ -471,7 +471,7 @@ fn draw_log(f: &mut Frame<'_>, area: Rect, model: &Model, s: &Screen<'_>, with_s
             LogKind::Error => s.style(Color::Red),
         };
         lines.push(Line::styled(
-            format!("{:>8.3} {}", l.at.as_micros() as f64 / 1e6, l.text),
+            format!("{:>8.3} {}", model.seconds(l.at), l.text),
             style,
         ));
     }
