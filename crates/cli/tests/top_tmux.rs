@@ -4,7 +4,8 @@
 //! states, `o` starting them, a PDO value changing after a write with `w` (the servo's
 //! statusword), an EMCY after a fault is brought about through the keys (the servo runs into
 //! its limit switch: EMCY 0x8612), `x` stopping a node and `o` starting it again, the panes at
-//! 80x24, and `q` giving the shell back its terminal (primary screen, cooked mode).
+//! 80x24, and `q` giving the shell back its terminal (primary screen, cooked mode); then `/`,
+//! `s`, the saved log replayed (pause, step, seek, `NO_COLOR`), Ctrl-C and SIGTERM.
 //!
 //! Without tmux the test says it skipped, unless `CANOPEN_REQUIRE_TMUX=1` (scripts/test-all
 //! sets it and installs tmux), where a missing tmux fails it.
@@ -341,5 +342,29 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     });
     assert!(s.contains("TOP-EXIT2=0"), "{s}");
     t.check_cooked("STTY2");
+
+    // SIGTERM ends it as q does: the terminal comes back.
+    t.text(&format!("clear; {DEMO}; echo TOP-EXIT3=$?"));
+    t.keys(&["Enter"]);
+    t.wait("top again", |s| row(s, "Generic CANop").contains("PRE-OP"));
+    let shell: i32 = String::from_utf8_lossy(
+        &t.cmd(&["display-message", "-p", "-t", "top", "#{pane_pid}"])
+            .stdout,
+    )
+    .trim()
+    .parse()
+    .unwrap();
+    let children = std::fs::read_to_string(format!("/proc/{shell}/task/{shell}/children")).unwrap();
+    let top: i32 = children.split_whitespace().next().unwrap().parse().unwrap();
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(top),
+        nix::sys::signal::Signal::SIGTERM,
+    )
+    .unwrap();
+    let s = t.wait("top to end on SIGTERM", |s| {
+        s.lines().any(|l| l.starts_with("TOP-EXIT3="))
+    });
+    assert!(s.contains("TOP-EXIT3=0"), "{s}");
+    t.check_cooked("STTY3");
     let _ = std::fs::remove_dir_all(&dir);
 }
