@@ -368,3 +368,21 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     t.check_cooked("STTY3");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn without_a_terminal_top_says_so_and_fails() {
+    let o = Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args(["top"])
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("the binary runs");
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("draws on a terminal"), "{err}");
+    // Options are checked first: a bad bit rate is a usage error.
+    let o = Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args(["top", "--bitrate", "fast"])
+        .output()
+        .expect("the binary runs");
+    assert_eq!(o.status.code(), Some(2));
+}
