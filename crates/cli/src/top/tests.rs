@@ -408,3 +408,29 @@ fn a_node_without_eds_is_named_by_the_identity_read_on_the_bus() {
         "{screen}"
     );
 }
+
+#[test]
+fn any_terminal_size_draws_without_panicking() {
+    let m = known_network();
+    let confirm = Mode::Confirm {
+        question: "write node 6 0x6040:00 (Controlword) = 6?".into(),
+    };
+    let prompt = Mode::Prompt {
+        ask: super::keys::Ask::Write,
+        text: "0x6040 6".into(),
+    };
+    for (w, h) in [
+        (1, 1),
+        (10, 3),
+        (40, 10),
+        (79, 23),
+        (109, 29),
+        (110, 30),
+        (250, 80),
+    ] {
+        for mode in [&Mode::Normal, &Mode::Help, &confirm, &prompt] {
+            let screen = render(&m, w, h, mode, true);
+            assert_eq!(screen.lines().count(), usize::from(h));
+        }
+    }
+}
