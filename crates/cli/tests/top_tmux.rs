@@ -145,6 +145,15 @@ fn coloured(escaped: &str) -> bool {
     })
 }
 
+/// Whether a line with `then` comes after the last line with `first`.
+fn after(screen: &str, first: &str, then: &str) -> bool {
+    let lines: Vec<&str> = screen.lines().collect();
+    lines
+        .iter()
+        .rposition(|l| l.contains(first))
+        .is_some_and(|i| lines[i..].iter().any(|l| l.contains(then)))
+}
+
 fn tmux_runs() -> bool {
     Command::new("tmux")
         .arg("-V")
@@ -251,6 +260,38 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     t.keys(&["o"]);
     t.wait("node 5 operational again", |s| {
         row(s, "Generic CANopen").contains("OPERATIONAL")
+    });
+
+    // `p`: pre-operational; `r` and `c`: the node resets and boots again.
+    t.keys(&["p"]);
+    t.wait("node 5 pre-operational", |s| {
+        row(s, "Generic CANopen").contains("PRE-OP")
+    });
+    for (key, command) in [
+        ("r", "NMT Reset node, node 5"),
+        ("c", "NMT Reset communication, node 5"),
+    ] {
+        t.keys(&[key]);
+        t.wait(command, |s| after(s, command, "node 5: boot-up"));
+    }
+    // The capital letters go to all nodes.
+    t.keys(&["O"]);
+    t.wait("all operational", |s| {
+        after(
+            s,
+            "NMT Start remote node, all nodes",
+            "node 5: Pre-operational -> Operational",
+        )
+    });
+    t.keys(&["X"]);
+    let s = t.wait("all stopped", |s| {
+        row(s, "Generic CANopen").contains("STOPPED") && row(s, "CiA 402 servo").contains("STOPPED")
+    });
+    assert!(s.contains("NMT Stop remote node, all nodes"), "{s}");
+    t.keys(&["O"]);
+    t.wait("all operational again", |s| {
+        row(s, "Generic CANopen").contains("OPERATIONAL")
+            && row(s, "CiA 402 servo").contains("OPERATIONAL")
     });
 
     // 80x24: the panes fold, both nodes still there.
