@@ -262,6 +262,19 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
         row(s, "Generic CANopen").contains("OPERATIONAL")
     });
 
+    // `g` reads an object of the selected node, by index or by its EDS name.
+    for (object, result) in [
+        ("0x1018:1", "node 5 0x1018:01 = 57"),
+        ("Producer heartbeat time", "node 5 0x1017:00 = 500"),
+    ] {
+        t.keys(&["g"]);
+        t.text(object);
+        t.keys(&["Enter"]);
+        t.wait(result, |s| {
+            s.lines().last().is_some_and(|l| l.starts_with(result))
+        });
+    }
+
     // `p`: pre-operational; `r` and `c`: the node resets and boots again.
     t.keys(&["p"]);
     t.wait("node 5 pre-operational", |s| {
