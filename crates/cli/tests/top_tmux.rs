@@ -1,11 +1,13 @@
 //! `canopen top` in a real terminal: the binary runs in a detached tmux session against two
-//! simulated devices on the in-memory bus (`--eds 5=burkert-generic --eds 6=cia402-servo`), and
-//! the test reads the screen with `tmux capture-pane` as the keys go in: both nodes and their
-//! states, `o` starting them, a PDO value changing after a write with `w` (the servo's
-//! statusword), an EMCY after a fault is brought about through the keys (the servo runs into
-//! its limit switch: EMCY 0x8612), `x` stopping a node and `o` starting it again, the panes at
-//! 80x24, and `q` giving the shell back its terminal (primary screen, cooked mode); then `/`,
-//! `s`, the saved log replayed (pause, step, seek, `NO_COLOR`), Ctrl-C and SIGTERM.
+//! simulated devices on the in-memory bus (the README's line, `--eds 5=eds/burkert-generic.eds
+//! --eds 6=eds/cia402-servo.eds top`), and the test reads the screen with `tmux capture-pane` as
+//! the keys go in: both nodes and their states, `o` starting them, a PDO value changing after a
+//! write with `w` (the servo's statusword), an EMCY after a fault is brought about through the
+//! keys (the servo runs into its limit switch: EMCY 0x8612), `x` stopping a node and `o`
+//! starting it again, `g` by index and by name, `p`, `r`, `c`, `O` and `X`, the panes at 80x24,
+//! `/`, `s`, and `q` giving the shell back its terminal (primary screen, cooked mode); then the
+//! saved log replayed (the README's `--replay` line: pause, step, seek, `NO_COLOR`), Ctrl-C and
+//! SIGTERM ending the view.
 //!
 //! Without tmux the test says it skipped, unless `CANOPEN_REQUIRE_TMUX=1` (scripts/test-all
 //! sets it and installs tmux), where a missing tmux fails it.
