@@ -14,6 +14,8 @@
 
 #![cfg(unix)]
 
+mod common;
+
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -156,21 +158,40 @@ fn after(screen: &str, first: &str, then: &str) -> bool {
         .is_some_and(|i| lines[i..].iter().any(|l| l.contains(then)))
 }
 
-fn tmux_runs() -> bool {
-    Command::new("tmux")
+/// Whether tmux runs; without it the test skips, unless `CANOPEN_REQUIRE_TMUX=1`.
+fn tmux_or_skip() -> bool {
+    let runs = Command::new("tmux")
         .arg("-V")
         .output()
-        .is_ok_and(|o| o.status.success())
-}
-
-#[test]
-fn top_in_tmux_shows_the_network_and_takes_the_keys() {
-    if !tmux_runs() {
+        .is_ok_and(|o| o.status.success());
+    if !runs {
         assert!(
             std::env::var("CANOPEN_REQUIRE_TMUX").as_deref() != Ok("1"),
             "CANOPEN_REQUIRE_TMUX=1 but tmux does not run"
         );
         eprintln!("skipped: tmux is not installed");
+    }
+    runs
+}
+
+/// A tmux server of its own with one session `top` of `w`x`h` running `sh`.
+fn session(name: &str, w: u16, h: u16) -> Tmux {
+    let t = Tmux {
+        socket: format!("canopen-top-{name}-{}", std::process::id()),
+    };
+    let (w, h) = (w.to_string(), h.to_string());
+    let out = t.cmd(&["new-session", "-d", "-s", "top", "-x", &w, "-y", &h, "sh"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    t
+}
+
+#[test]
+fn top_in_tmux_shows_the_network_and_takes_the_keys() {
+    if !tmux_or_skip() {
         return;
     }
     let readme = std::fs::read_to_string(format!("{ROOT}/README.md")).unwrap();
@@ -180,25 +201,7 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     std::fs::create_dir_all(&dir).unwrap();
     std::os::unix::fs::symlink(format!("{ROOT}/eds"), dir.join("eds")).unwrap();
     let bin = std::path::Path::new(env!("CARGO_BIN_EXE_canopen"));
-    let t = Tmux {
-        socket: format!("canopen-top-test-{}", std::process::id()),
-    };
-    let out = t.cmd(&[
-        "new-session",
-        "-d",
-        "-s",
-        "top",
-        "-x",
-        "120",
-        "-y",
-        "40",
-        "sh",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let t = session("demo", 120, 40);
     t.text(&format!(
         "cd '{}' && PATH='{}':$PATH",
         dir.display(),
@@ -441,4 +444,35 @@ fn without_a_terminal_top_says_so_and_fails() {
         .output()
         .expect("the binary runs");
     assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn top_over_the_udp_bus_against_canopen_simulate() {
+    if !tmux_or_skip() {
+        return;
+    }
+    let iface = common::udp_bus(3);
+    let eds = format!("{ROOT}/eds/burkert-generic.eds");
+    let mut sim = common::simulator(&iface, &eds, "5", "60");
+    let t = session("udp", 100, 30);
+    t.text(&format!(
+        "'{}' --iface {iface} top; echo TOP-EXIT=$?",
+        env!("CARGO_BIN_EXE_canopen")
+    ));
+    t.keys(&["Enter"]);
+    // No EDS here: the node is known by its frames, its PDOs shown as bytes.
+    let node = |s: &str| row(s, ">   5").to_owned();
+    t.wait("node 5 over UDP", |s| node(s).contains("PRE-OP"));
+    t.keys(&["o"]);
+    let s = t.wait("node 5 operational and its PDOs", |s| {
+        node(s).contains("OPERATIONAL") && s.contains("TPDO1 node 5     data")
+    });
+    assert!(s.contains(&iface), "{s}");
+    t.keys(&["q"]);
+    let s = t.wait("top to end", |s| {
+        s.lines().any(|l| l.starts_with("TOP-EXIT="))
+    });
+    assert!(s.contains("TOP-EXIT=0"), "{s}");
+    let _ = sim.kill();
+    let _ = sim.wait();
 }
