@@ -55,7 +55,15 @@ pub(crate) struct Tap<T> {
 
 /// A tap around `inner`, the queue the view reads, and the shared counters.
 pub(crate) fn tap<T: Transport>(inner: T) -> (Tap<T>, Receiver<Seen>, Arc<TapStats>) {
-    let (tx, rx) = sync_channel(QUEUE);
+    tap_with(inner, QUEUE)
+}
+
+/// [`tap`] with a queue of `capacity` copies.
+pub(crate) fn tap_with<T: Transport>(
+    inner: T,
+    capacity: usize,
+) -> (Tap<T>, Receiver<Seen>, Arc<TapStats>) {
+    let (tx, rx) = sync_channel(capacity);
     let stats = Arc::new(TapStats::default());
     (
         Tap {

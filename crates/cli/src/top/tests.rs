@@ -434,3 +434,33 @@ fn any_terminal_size_draws_without_panicking() {
         }
     }
 }
+
+#[test]
+fn a_full_view_queue_costs_the_view_copies_never_the_master_frames() {
+    use canola::Transport as _;
+    use canola::transport::Received;
+    let bus = MemoryBus::new();
+    let mut other = bus.endpoint();
+    let (mut master, rx, stats) = tap::tap_with(bus.endpoint(), 4);
+    for i in 0..10u8 {
+        other
+            .send(&CanFrame::new(CanId::standard(0x181).unwrap(), &[i]).unwrap())
+            .unwrap();
+    }
+    let mut got = Vec::new();
+    while let Some(r) = master.recv_until(Instant::from_millis(10)).unwrap() {
+        if let Received::Frame { frame, .. } = r {
+            got.push(frame.data()[0]);
+        }
+    }
+    // The master got every frame, in order; the view the first four and a count of the rest.
+    assert_eq!(got, (0..10).collect::<Vec<u8>>());
+    assert_eq!(rx.try_iter().count(), 4);
+    assert_eq!(stats.lost.load(std::sync::atomic::Ordering::Relaxed), 6);
+    assert_eq!(stats.queued.load(std::sync::atomic::Ordering::Relaxed), 4);
+    // What the master sends is copied too.
+    master
+        .send(&CanFrame::new(CanId::standard(0x000).unwrap(), &[1, 5]).unwrap())
+        .unwrap();
+    assert!(matches!(rx.try_recv(), Ok(Seen::Frame { sent: true, .. })));
+}
