@@ -215,7 +215,7 @@ fn main() -> ExitCode {
         Command::Record { output, duration } => traffic::run_record(&cli.bus, &output, duration),
         Command::Replay { file } => traffic::run_replay(&cli.bus, &file, global),
         Command::Demo => demo::run(),
-        Command::Top(args) => top::run(&args, &cli.bus),
+        Command::Top(args) => top::run(&args, &cli.bus, global),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
         Command::Cpos(args) => cpos::run(args, cli.bus.iface.as_deref(), global),
         Command::Burkert(args) => burkert::run(args, &cli.bus, global),

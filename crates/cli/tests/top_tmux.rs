@@ -456,7 +456,7 @@ fn top_over_the_udp_bus_against_canopen_simulate() {
     let mut sim = common::simulator(&iface, &eds, "5", "60");
     let t = session("udp", 100, 30);
     t.text(&format!(
-        "'{}' --iface {iface} top; echo TOP-EXIT=$?",
+        "'{}' --iface {iface} --hex top; echo TOP-EXIT=$?",
         env!("CARGO_BIN_EXE_canopen")
     ));
     t.keys(&["Enter"]);
@@ -468,6 +468,17 @@ fn top_over_the_udp_bus_against_canopen_simulate() {
         node(s).contains("OPERATIONAL") && s.contains("TPDO1 node 5     data")
     });
     assert!(s.contains(&iface), "{s}");
+    // `g` without an EDS: CiA 301 types 0x1018; `--hex` prints it in hex.
+    t.keys(&["g"]);
+    t.text("0x1018:1");
+    t.keys(&["Enter"]);
+    t.wait("the vendor-ID in hex", |s| {
+        s.lines()
+            .last()
+            .is_some_and(|l| l.starts_with("node 5 0x1018:01 = 0x00000039"))
+    });
+    // The read went by on the bus: the node is named by its identity now.
+    t.wait("the node named", |s| node(s).contains("vendor 0x0000"));
     t.keys(&["q"]);
     let s = t.wait("top to end", |s| {
         s.lines().any(|l| l.starts_with("TOP-EXIT="))

@@ -147,6 +147,8 @@ struct App {
     filter: String,
     status: String,
     color: bool,
+    /// Values read with `g` in hex (`--hex`).
+    hex: bool,
     title: String,
     source: Source,
     recording: Recording,
@@ -155,8 +157,8 @@ struct App {
     results: (Sender<Note>, Receiver<Note>),
 }
 
-/// `canopen top [--replay FILE]`
-pub(crate) fn run(args: &TopArgs, opts: &BusOpts) -> ExitCode {
+/// `canopen top [--replay FILE]` (`--hex`: values read with `g` in hex)
+pub(crate) fn run(args: &TopArgs, opts: &BusOpts, g: crate::Global) -> ExitCode {
     if !std::io::stdout().is_terminal() {
         return fail("canopen top draws on a terminal: stdout is not one (use `monitor` for text)");
     }
@@ -168,6 +170,7 @@ pub(crate) fn run(args: &TopArgs, opts: &BusOpts) -> ExitCode {
         Ok(a) => a,
         Err(e) => return fail(e),
     };
+    app.hex = g.hex;
     let terminal = match ratatui::try_init() {
         Ok(t) => t,
         Err(e) => return fail(format!("cannot set the terminal up: {e}")),
@@ -235,6 +238,7 @@ impl App {
             filter: String::new(),
             status: "? help, q quit".into(),
             color,
+            hex: false,
             title,
             source,
             recording: Recording {
@@ -501,14 +505,25 @@ impl App {
             "reading node {id} 0x{:04X}:{:02X} ...",
             entry.index, entry.sub_index
         );
+        // The type from the node's EDS, else CiA 301's for a communication object; without
+        // either the bytes are shown in hex.
+        let dt = data_type(self.model.dictionary(id), entry);
         let tx = self.results.0.clone();
+        let hex = self.hex;
         std::thread::spawn(move || {
             let what = format!("node {id} 0x{:04X}:{:02X}", entry.index, entry.sub_index);
-            let msg = match net.node(id).sdo().read_value(entry) {
-                Ok(v) => (
-                    LogKind::Info,
-                    format!("{what} = {}", crate::sdo_cmd::format_value(&v, false)),
-                ),
+            let sdo = net.node(id).sdo();
+            let r = match dt {
+                Some(dt) => sdo
+                    .read_as(entry, dt)
+                    .map(|v| crate::sdo_cmd::format_value(&v, hex)),
+                None => sdo.read(entry).map(|b| {
+                    let bytes: String = b.iter().map(|x| format!("{x:02x}")).collect();
+                    format!("{bytes} (bytes: no type known without an EDS)")
+                }),
+            };
+            let msg = match r {
+                Ok(text) => (LogKind::Info, format!("{what} = {text}")),
                 Err(e) => (LogKind::Warning, format!("{what}: {e}")),
             };
             let _ = tx.send(msg);
@@ -531,10 +546,7 @@ impl App {
                 return;
             }
         };
-        let dt: Option<DataType> = od
-            .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
-            .or_else(|| canola::od::profile::communication_type(entry.index, entry.sub_index));
-        let Some(dt) = dt else {
+        let Some(dt) = data_type(od, entry) else {
             self.status = format!(
                 "write: the type of 0x{:04X}:{:02X} is unknown (give the node's EDS with --eds)",
                 entry.index, entry.sub_index
@@ -582,6 +594,13 @@ impl App {
             let _ = tx.send(msg);
         });
     }
+}
+
+/// The type of `entry`: from the node's EDS, else the one CiA 301 gives a communication
+/// profile object (0x1017 UNSIGNED16 on every device).
+fn data_type(od: Option<&canola::ObjectDictionary>, entry: ObjectAddress) -> Option<DataType> {
+    od.and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
+        .or_else(|| canola::od::profile::communication_type(entry.index, entry.sub_index))
 }
 
 fn send_nmt(n: &canola::Nmt, command: CommandSpecifier) -> Result<(), canola::Error> {
