@@ -129,6 +129,30 @@ impl BusOpts {
         self.open_inner(dictionaries, false)
     }
 
+    /// Opens the bus to watch it live (`canopen top`): CAN FD frames received on SocketCAN; the
+    /// in-memory bus runs on the host's clock at `bitrate` bit/s (its timing model), with the
+    /// `--eds` nodes simulated on it.
+    pub(crate) fn open_live(&self, bitrate: u32) -> Result<Bus, String> {
+        let dictionaries = self.dictionaries()?;
+        if self.iface.is_some() {
+            return self.open_inner(dictionaries, true);
+        }
+        let bus = MemoryBus::with_config(canola::BusConfig {
+            clock: canola::ClockMode::RealTime,
+            bitrate: Some(bitrate),
+            ..canola::BusConfig::default()
+        });
+        let endpoint = bus.endpoint();
+        for (node, od) in &dictionaries {
+            bus.attach(crate::sim_device::simulated_device(*node, od.clone()));
+        }
+        Ok(Bus {
+            transport: Box::new(endpoint),
+            memory: Some(bus),
+            dictionaries,
+        })
+    }
+
     fn open_inner(
         &self,
         dictionaries: Vec<(NodeId, ObjectDictionary)>,
@@ -237,6 +261,11 @@ impl Bus {
 
 /// Set when SIGINT or SIGTERM arrived after [`stop_on_signals`].
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether SIGINT or SIGTERM arrived after [`stop_on_signals`].
+pub(crate) fn stop_requested() -> bool {
+    STOP.load(std::sync::atomic::Ordering::Relaxed)
+}
 
 /// Makes Ctrl-C (SIGINT) and SIGTERM end [`Bus::pump`] at its next turn (within 200 ms)
 /// instead of killing the process, so `record` can still put its file in place; a second

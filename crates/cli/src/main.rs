@@ -26,6 +26,7 @@ mod sdo_cmd;
 mod sim_device;
 mod simulate;
 mod store_cmd;
+mod top;
 mod traffic;
 
 /// CANopen master tools: EDS files, and (with the bus commands) devices on SocketCAN or a
@@ -121,6 +122,9 @@ enum Command {
         /// candump log file.
         file: std::path::PathBuf,
     },
+    /// A live view of the network in the terminal: nodes, bus load, PDO values, SDO transfers,
+    /// events; keys for NMT, SDO read and write (see `?` inside). With --replay, a candump log.
+    Top(top::TopArgs),
     /// LSS (CiA 305): switch mode, configure node-ID and bit rate, inquire, Fastscan,
     /// assign-all.
     Lss(lss_cmd::LssArgs),
@@ -215,6 +219,7 @@ fn main() -> ExitCode {
         Command::Record { output, duration } => traffic::run_record(&cli.bus, &output, duration),
         Command::Replay { file } => traffic::run_replay(&cli.bus, &file, global),
         Command::Demo => demo::run(),
+        Command::Top(args) => top::run(&args, &cli.bus, global),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),
         Command::Cpos(args) => cpos::run(args, cli.bus.iface.as_deref(), global),
         Command::Burkert(args) => burkert::run(args, &cli.bus, global),

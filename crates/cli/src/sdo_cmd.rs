@@ -370,7 +370,7 @@ fn out_of_range(text: &str, dt: DataType) -> String {
     }
 }
 
-fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
+pub(crate) fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
     match dt {
         DataType::VisibleString => Ok(text.as_bytes().to_vec()),
         DataType::Domain | DataType::OctetString => {

@@ -776,6 +776,18 @@ fn assign_all_leaves_running_nodes_alone() {
 
 const NOT_RUN: &[(&str, &str)] = &[
     (
+        "canopen --eds 5=eds/burkert-generic.eds --eds 6=eds/cia402-servo.eds top",
+        "draws on a terminal: top_tmux.rs types this line in tmux and reads the screen",
+    ),
+    (
+        "canopen --eds 5=eds/burkert-generic.eds --eds 6=eds/cia402-servo.eds top --replay bus.log",
+        "draws on a terminal: top_tmux.rs saves bus.log with `s` and types this line in tmux",
+    ),
+    (
+        "canopen --iface can0 --eds 5=dev.eds top --bitrate 250k",
+        "needs a CAN interface and a terminal; top_tmux.rs runs the view on the in-memory bus",
+    ),
+    (
         "./scripts/test-all",
         "the whole test run, of which this test is a part",
     ),
