@@ -4,10 +4,11 @@
 //! from `eds/cia402-servo.eds`) through the real SDO codec. Two drives moved at once with
 //! `tokio::join!`, and a move whose future is dropped half-way.
 
+use std::future::IntoFuture;
 use std::sync::{Arc, Mutex};
 
 use canola::{Duration, MemoryBus, Network, NodeId};
-use canola_cia402::master::{Drive, DriveError, Move, simulated_drive};
+use canola_cia402::master::{Drive, DriveError, Move, Timeouts, simulated_drive};
 use canola_cia402::sim::{SimDrive, SimFault};
 use canola_cia402::{ModeOfOperation, State};
 
@@ -198,4 +199,52 @@ async fn dropping_a_move_half_way_leaves_the_drive_usable() {
     .unwrap()
     .unwrap();
     assert!((pos - 2_000).abs() <= 10, "{pos}");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_spawned_move_times_out_on_the_bus_clock_naming_expected_reached_and_statusword() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let (drive, _model) = drive_at(&bus, &net, 5).await;
+    drive.enable().await.unwrap();
+    // A clone with a short motion timeout, its move spawned as a task of its own.
+    let short = drive.clone().with_timeouts(Timeouts {
+        motion: Duration::from_millis(50),
+        ..Timeouts::default()
+    });
+    let task = tokio::spawn(
+        short
+            .move_to(Move {
+                target: 100_000,
+                ..Move::default()
+            })
+            .into_future(),
+    );
+    match task.await.unwrap() {
+        Err(e @ DriveError::Timeout { .. }) => {
+            let text = e.to_string();
+            let DriveError::Timeout {
+                waiting_for,
+                expected,
+                reached,
+                statusword,
+                waited,
+            } = e
+            else {
+                unreachable!()
+            };
+            assert_eq!(waiting_for, "target reached (statusword bit 10)");
+            assert_eq!(expected, "target reached");
+            assert!(reached.contains("at position"), "{reached}");
+            assert!(!statusword.target_reached(), "{statusword}");
+            assert!(
+                waited >= Duration::from_millis(50) && waited < Duration::from_millis(100),
+                "{waited}"
+            );
+            assert!(text.contains("statusword"), "{text}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // The drive (and the first handle) is still enabled and answers.
+    assert_eq!(drive.state().await.unwrap(), State::OperationEnabled);
 }
