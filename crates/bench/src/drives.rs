@@ -217,12 +217,15 @@ pub fn run(cfg: &DrivesConfig) -> Result<Report, BenchError> {
             .write((0x1801u16, 2u8), cfg.tpdo_every)
             .wait()
             .map_err(|e| err("TPDO2 type", e))?;
-        d.enable().map_err(|e| err("enable", e))?;
+        d.enable().wait().map_err(|e| err("enable", e))?;
     }
     net.start_sync(cfg.period);
-    let streams: Vec<CyclicStream<'_>> = drives
+    let streams: Vec<CyclicStream> = drives
         .iter()
-        .map(|d| d.start_cyclic(ModeOfOperation::CyclicSyncPosition, TARGET_RPDO, cfg.period))
+        .map(|d| {
+            d.start_cyclic(ModeOfOperation::CyclicSyncPosition, TARGET_RPDO, cfg.period)
+                .wait()
+        })
         .collect::<Result<_, _>>()
         .map_err(|e| err("start_cyclic", e))?;
     stagger_tpdo2(&bus, &net, &drives, cfg)?;

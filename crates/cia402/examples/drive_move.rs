@@ -25,27 +25,33 @@ fn run() -> Result<i32, Box<dyn std::error::Error>> {
         .wait()?;
 
     let drive = Drive::new(net.node(id));
-    drive.set_mode(ModeOfOperation::ProfilePosition)?; // confirmed by 0x6061
-    assert_eq!(drive.enable()?, State::OperationEnabled);
-    let pos = drive.move_to(Move {
-        target: 4_000,
-        velocity: Some(20_000),
-        ..Move::default()
-    })?;
+    drive.set_mode(ModeOfOperation::ProfilePosition).wait()?; // confirmed by 0x6061
+    assert_eq!(drive.enable().wait()?, State::OperationEnabled);
+    let pos = drive
+        .move_to(Move {
+            target: 4_000,
+            velocity: Some(20_000),
+            ..Move::default()
+        })
+        .wait()?;
     println!("target reached at {pos}");
-    drive.start_move(Move {
-        target: -1_500,
-        relative: true,
-        ..Move::default()
-    })?;
+    drive
+        .start_move(Move {
+            target: -1_500,
+            relative: true,
+            ..Move::default()
+        })
+        .wait()?;
     let mut shown = i32::MAX;
-    let pos = drive.wait_target_reached(|p| {
-        if p.abs_diff(shown) >= 250 {
-            println!("position {p}");
-            shown = p;
-        }
-    })?;
-    println!("target reached at {pos}; {}", drive.state()?);
+    let pos = drive
+        .wait_target_reached(|p| {
+            if p.abs_diff(shown) >= 250 {
+                println!("position {p}");
+                shown = p;
+            }
+        })
+        .wait()?;
+    println!("target reached at {pos}; {}", drive.state().wait()?);
     Ok(pos)
 }
 

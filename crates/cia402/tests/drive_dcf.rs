@@ -139,7 +139,7 @@ fn a_csp_stream_runs_on_the_dcf_mapping() {
     let pdos = DcfPdos::parse(csp_dcf().as_bytes(), r.node.id()).unwrap();
     let drive = Drive::new(r.node.clone());
     drive.follow_tpdos(Duration::from_millis(20));
-    drive.enable().unwrap();
+    drive.enable().wait().unwrap();
     r.net.start_sync(Duration::from_millis(1));
     let stream = drive
         .start_cyclic_from_dcf(
@@ -147,9 +147,13 @@ fn a_csp_stream_runs_on_the_dcf_mapping() {
             &pdos,
             Duration::from_millis(1),
         )
+        .wait()
         .unwrap();
     assert_eq!(stream.rpdo(), 3);
-    assert_eq!(drive.mode().unwrap(), ModeOfOperation::CyclicSyncPosition);
+    assert_eq!(
+        drive.mode().wait().unwrap(),
+        ModeOfOperation::CyclicSyncPosition
+    );
     // The device holds the DCF's PDOs.
     assert_eq!(read_u32(&r.node, 0x1602, 0), 2);
     assert_eq!(read_u32(&r.node, 0x1602, 1), 0x607A_0020);
@@ -197,7 +201,7 @@ fn a_csp_stream_runs_on_the_dcf_mapping() {
     assert!((p - 3_000).abs() <= 20, "{p}");
     assert!((r.model.lock().unwrap().position() - 3_000.0).abs() <= 20.0);
     // The actual position comes from the DCF's TPDO3, not by SDO.
-    let pos = drive.position().unwrap();
+    let pos = drive.position().wait().unwrap();
     assert!((pos - 3_000).abs() <= 20, "{pos}");
     let uploads_of_6064 = frames(&mut tap)
         .iter()
@@ -206,9 +210,9 @@ fn a_csp_stream_runs_on_the_dcf_mapping() {
     assert_eq!(uploads_of_6064, 0);
 
     // A state change by SDO is not undone by the next RPDO3, which carries the controlword.
-    drive.disable().unwrap();
+    drive.disable().wait().unwrap();
     r.net.run_for(Duration::from_millis(50)).wait().unwrap();
-    assert_eq!(drive.state().unwrap(), State::SwitchOnDisabled);
+    assert_eq!(drive.state().wait().unwrap(), State::SwitchOnDisabled);
     let after: Vec<(u16, Vec<u8>)> = frames(&mut tap)
         .into_iter()
         .filter(|(id, _)| *id == 0x405)
@@ -218,9 +222,9 @@ fn a_csp_stream_runs_on_the_dcf_mapping() {
     let cw = u16::from_le_bytes(after.last().unwrap().1[4..6].try_into().unwrap());
     assert_eq!(cw, read_u32(&r.node, 0x6040, 0) as u16);
     assert_eq!(cw & 0x0002, 0, "{cw:#06x}");
-    drive.enable().unwrap();
+    drive.enable().wait().unwrap();
     r.net.run_for(Duration::from_millis(20)).wait().unwrap();
-    assert_eq!(drive.state().unwrap(), State::OperationEnabled);
+    assert_eq!(drive.state().wait().unwrap(), State::OperationEnabled);
     stream.stop().unwrap();
 
     // Started again (as after a CiA 302 boot that wrote this DCF): the device holds the DCF's
@@ -232,6 +236,7 @@ fn a_csp_stream_runs_on_the_dcf_mapping() {
             &pdos,
             Duration::from_millis(1),
         )
+        .wait()
         .unwrap();
     r.net.run_for(Duration::from_millis(10)).wait().unwrap();
     let pdo_writes = frames(&mut tap)
@@ -261,7 +266,7 @@ fn a_dcf_without_the_target_in_a_synchronous_rpdo_is_refused_before_anything_is_
     let r = rig();
     let pdos = DcfPdos::parse(text.as_bytes(), r.node.id()).unwrap();
     let drive = Drive::new(r.node.clone());
-    drive.enable().unwrap();
+    drive.enable().wait().unwrap();
     let mut tap = r.bus.endpoint();
     let e = drive
         .start_cyclic_from_dcf(
@@ -269,6 +274,7 @@ fn a_dcf_without_the_target_in_a_synchronous_rpdo_is_refused_before_anything_is_
             &pdos,
             Duration::from_millis(1),
         )
+        .wait()
         .unwrap_err();
     let msg = e.to_string();
     assert!(
@@ -299,7 +305,7 @@ fn a_dcf_without_the_target_in_a_synchronous_rpdo_is_refused_before_anything_is_
         .filter(|(id, d)| *id == 0x605 && d.first().is_some_and(|b| b & 0xE0 == 0x20))
         .count();
     assert_eq!(downloads, 0);
-    assert_eq!(drive.mode().unwrap(), ModeOfOperation::NoMode);
+    assert_eq!(drive.mode().wait().unwrap(), ModeOfOperation::NoMode);
 }
 
 #[test]
@@ -393,7 +399,7 @@ fn after_a_cia_302_boot_of_the_dcf_the_stream_writes_no_pdo_parameter() {
 
     let pdos = DcfPdos::parse(text.as_bytes(), id).unwrap();
     let drive = Drive::new(node);
-    drive.enable().unwrap();
+    drive.enable().wait().unwrap();
     net.start_sync(Duration::from_millis(1));
     let mut tap = bus.endpoint();
     let stream = drive
@@ -402,6 +408,7 @@ fn after_a_cia_302_boot_of_the_dcf_the_stream_writes_no_pdo_parameter() {
             &pdos,
             Duration::from_millis(1),
         )
+        .wait()
         .unwrap();
     for i in 1..=100 {
         stream.set_target(i * 10).unwrap();

@@ -51,17 +51,18 @@ fn enable_then_absolute_and_relative_moves_end_at_target_reached_bit_10() {
     let r = rig(SimConfig::default());
     // Straight after boot the drive may still be in not ready to switch on: the walk waits
     // for transition 1.
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
     let pos = r
         .drive
         .move_to(Move {
             target: 4_000,
             ..Move::default()
         })
+        .wait()
         .unwrap();
     // Bit 4 (voltage enabled) was set all along: returning on it would leave the drive near 0.
     assert!((pos - 4_000).abs() <= 10, "position {pos}");
-    let sw = r.drive.statusword().unwrap();
+    let sw = r.drive.statusword().wait().unwrap();
     assert!(sw.target_reached());
     let mut seen = Vec::new();
     r.drive
@@ -71,8 +72,13 @@ fn enable_then_absolute_and_relative_moves_end_at_target_reached_bit_10() {
             velocity: Some(20_000),
             immediate: false,
         })
+        .wait()
         .unwrap();
-    let pos = r.drive.wait_target_reached(|p| seen.push(p)).unwrap();
+    let pos = r
+        .drive
+        .wait_target_reached(|p| seen.push(p))
+        .wait()
+        .unwrap();
     assert!((pos - 5_000).abs() <= 10, "position {pos}");
     // The live positions rose through the move.
     assert!(seen.len() > 2 && seen.first() < seen.last(), "{seen:?}");
@@ -83,11 +89,14 @@ fn enable_then_absolute_and_relative_moves_end_at_target_reached_bit_10() {
 fn quick_stop_ends_in_switch_on_disabled_with_605a_2() {
     // python-canopen #167: QSA, then automatically SOD.
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
-    r.drive.set_velocity(20_000).unwrap();
+    r.drive.enable().wait().unwrap();
+    r.drive.set_velocity(20_000).wait().unwrap();
     r.net.run_for(Duration::from_millis(200)).wait().unwrap();
-    assert_eq!(r.drive.quick_stop().unwrap(), State::SwitchOnDisabled);
-    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
+    assert_eq!(
+        r.drive.quick_stop().wait().unwrap(),
+        State::SwitchOnDisabled
+    );
+    assert_eq!(r.drive.state().wait().unwrap(), State::SwitchOnDisabled);
     assert!(r.model.lock().unwrap().velocity().abs() < 1.0);
 }
 
@@ -100,12 +109,12 @@ fn quick_stop_stays_active_with_605a_6_and_transition_16_enables_again() {
         .write((0x605A, 0), 6i16)
         .wait()
         .unwrap();
-    r.drive.enable().unwrap();
-    assert_eq!(r.drive.quick_stop().unwrap(), State::QuickStopActive);
+    r.drive.enable().wait().unwrap();
+    assert_eq!(r.drive.quick_stop().wait().unwrap(), State::QuickStopActive);
     r.net.run_for(Duration::from_millis(300)).wait().unwrap();
-    assert_eq!(r.drive.state().unwrap(), State::QuickStopActive);
+    assert_eq!(r.drive.state().wait().unwrap(), State::QuickStopActive);
     // Transition 16: 0x000F in quick stop active.
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
 }
 
 #[test]
@@ -115,39 +124,55 @@ fn a_drive_without_transition_16_is_enabled_through_switch_on_disabled() {
     config.device.transition_16 = false;
     config.device.quick_stop_option = QuickStopOption(6);
     let r = rig(config);
-    r.drive.enable().unwrap();
-    assert_eq!(r.drive.quick_stop().unwrap(), State::QuickStopActive);
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    r.drive.enable().wait().unwrap();
+    assert_eq!(r.drive.quick_stop().wait().unwrap(), State::QuickStopActive);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
     // Told beforehand, the planner does not try transition 16 at all.
     let drive = Drive::new(r.drive.node().clone()).with_transition_16(false);
-    assert_eq!(drive.quick_stop().unwrap(), State::QuickStopActive);
-    assert_eq!(drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(drive.quick_stop().wait().unwrap(), State::QuickStopActive);
+    assert_eq!(drive.enable().wait().unwrap(), State::OperationEnabled);
 }
 
 #[test]
 fn mode_0_at_power_up_and_an_unknown_mode_are_values_not_failures() {
     // python-canopen #183.
     let r = rig(SimConfig::default());
-    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::NoMode);
+    assert_eq!(r.drive.mode().wait().unwrap(), ModeOfOperation::NoMode);
     // A reserved code the drive refuses: its SDO abort, no panic, mode unchanged.
-    let e = r.drive.set_mode(ModeOfOperation::Reserved(5)).unwrap_err();
+    let e = r
+        .drive
+        .set_mode(ModeOfOperation::Reserved(5))
+        .wait()
+        .unwrap_err();
     assert_eq!(abort_code(&e), Some(0x0609_0030), "{e}");
-    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::NoMode);
+    assert_eq!(r.drive.mode().wait().unwrap(), ModeOfOperation::NoMode);
     assert_eq!(
-        r.drive.set_mode(ModeOfOperation::ProfileVelocity).unwrap(),
+        r.drive
+            .set_mode(ModeOfOperation::ProfileVelocity)
+            .wait()
+            .unwrap(),
         ModeOfOperation::NoMode
     );
-    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::ProfileVelocity);
+    assert_eq!(
+        r.drive.mode().wait().unwrap(),
+        ModeOfOperation::ProfileVelocity
+    );
 }
 
 #[test]
 fn a_mode_already_set_succeeds_without_writing_0x6060() {
     // ros2_canopen #445.
     let r = rig(SimConfig::default());
-    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
+    r.drive
+        .set_mode(ModeOfOperation::ProfilePosition)
+        .wait()
+        .unwrap();
     let mut tap = r.bus.endpoint();
     assert_eq!(
-        r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap(),
+        r.drive
+            .set_mode(ModeOfOperation::ProfilePosition)
+            .wait()
+            .unwrap(),
         ModeOfOperation::ProfilePosition
     );
     let mut writes = 0;
@@ -170,14 +195,18 @@ fn modes_work_without_0x6502() {
     });
     let e = r.drive.node().sdo().read((0x6502, 0)).wait().unwrap_err();
     assert_eq!(abort_code(&DriveError::Sdo(e)), Some(0x0602_0000));
-    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
-    r.drive.enable().unwrap();
+    r.drive
+        .set_mode(ModeOfOperation::ProfilePosition)
+        .wait()
+        .unwrap();
+    r.drive.enable().wait().unwrap();
     let pos = r
         .drive
         .move_to(Move {
             target: -2_000,
             ..Move::default()
         })
+        .wait()
         .unwrap();
     assert!((pos + 2_000).abs() <= 10);
 }
@@ -188,16 +217,16 @@ fn homing_from_switch_on_disabled_selects_the_mode_and_asks_for_enable() {
     // not changed behind the caller's back, and homing itself needs operation enabled.
     let r = rig(SimConfig::default());
     r.net.run_for(Duration::from_millis(50)).wait().unwrap();
-    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
-    match r.drive.home(Some(19)) {
+    assert_eq!(r.drive.state().wait().unwrap(), State::SwitchOnDisabled);
+    match r.drive.home(Some(19)).wait() {
         Err(DriveError::NotEnabled { state, .. }) => assert_eq!(state, State::SwitchOnDisabled),
         other => panic!("{other:?}"),
     }
-    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::Homing);
-    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
-    r.drive.enable().unwrap();
+    assert_eq!(r.drive.mode().wait().unwrap(), ModeOfOperation::Homing);
+    assert_eq!(r.drive.state().wait().unwrap(), State::SwitchOnDisabled);
+    r.drive.enable().wait().unwrap();
     // Method 19: the home switch (active from 5000 counts) searched in the positive direction.
-    let pos = r.drive.home(Some(19)).unwrap();
+    let pos = r.drive.home(Some(19)).wait().unwrap();
     assert!(pos.abs() <= 10, "position after homing {pos}");
     let shaft = r.model.lock().unwrap().position();
     assert!(shaft.abs() <= 10.0, "{shaft}");
@@ -212,40 +241,44 @@ fn safe_torque_off_at_start_up_leaves_the_drive_usable_but_not_enabled() {
         ..SimConfig::default()
     });
     r.net.run_for(Duration::from_millis(50)).wait().unwrap();
-    assert_eq!(r.drive.state().unwrap(), State::SwitchOnDisabled);
-    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
-    match r.drive.enable() {
+    assert_eq!(r.drive.state().wait().unwrap(), State::SwitchOnDisabled);
+    r.drive
+        .set_mode(ModeOfOperation::ProfilePosition)
+        .wait()
+        .unwrap();
+    match r.drive.enable().wait() {
         Err(DriveError::Plan(PlanError::VoltageNotEnabled { state, .. })) => {
             assert_eq!(state, State::ReadyToSwitchOn)
         }
         other => panic!("{other:?}"),
     }
     r.model.lock().unwrap().set_safe_torque_off(false);
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
 }
 
 #[test]
 fn a_fault_names_0x603f_and_the_emcy_and_the_reset_clears_it() {
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
+    r.drive.enable().wait().unwrap();
     r.drive
         .start_move(Move {
             target: 50_000,
             ..Move::default()
         })
+        .wait()
         .unwrap();
     r.model
         .lock()
         .unwrap()
         .inject_fault(SimFault::FollowingError);
-    match r.drive.wait_target_reached(|_| {}) {
+    match r.drive.wait_target_reached(|_| {}).wait() {
         Err(DriveError::Fault { code, emcy, .. }) => {
             assert_eq!(code.0, 0x8611);
             assert!(emcy.unwrap().contains("0x8611"));
         }
         other => panic!("{other:?}"),
     }
-    let report = r.drive.fault_reset().unwrap();
+    let report = r.drive.fault_reset().wait().unwrap();
     assert_eq!(report.code.0, 0x8611);
     assert!(
         report.emcy.as_deref().unwrap_or("").contains("0x8611"),
@@ -253,14 +286,14 @@ fn a_fault_names_0x603f_and_the_emcy_and_the_reset_clears_it() {
     );
     assert_eq!(report.from, State::Fault);
     assert_eq!(report.state, State::SwitchOnDisabled);
-    assert_eq!(r.drive.error_code().unwrap().0, 0);
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.error_code().wait().unwrap().0, 0);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
 }
 
 #[test]
 fn a_wait_that_times_out_names_expected_reached_and_statusword() {
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
+    r.drive.enable().wait().unwrap();
     let drive = Drive::new(r.drive.node().clone()).with_timeouts(canola_cia402::master::Timeouts {
         motion: Duration::from_millis(50),
         ..Default::default()
@@ -270,6 +303,7 @@ fn a_wait_that_times_out_names_expected_reached_and_statusword() {
             target: 100_000,
             ..Move::default()
         })
+        .wait()
         .unwrap_err();
     match &e {
         DriveError::Timeout {
@@ -308,7 +342,7 @@ fn rpdo_controlwords_reach_the_drive_and_tpdos_carry_its_statusword() {
         r.net.run_for(Duration::from_millis(20)).wait().unwrap();
     }
     assert_eq!(r.model.lock().unwrap().state(), State::OperationEnabled);
-    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.state().wait().unwrap(), State::OperationEnabled);
     let mut last = None;
     while let Ok(ev) = events.try_recv() {
         if let canola::NetworkEvent::Pdo {
@@ -330,8 +364,11 @@ fn a_set_point_edge_sent_by_two_back_to_back_rpdos_is_not_lost() {
     // RPDO2 = controlword + target position, synchronous (type 1): 0x001F, SYNC, 0x000F, SYNC
     // within the same millisecond; the drive takes each RPDO when its SYNC applies it.
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
-    r.drive.set_mode(ModeOfOperation::ProfilePosition).unwrap();
+    r.drive.enable().wait().unwrap();
+    r.drive
+        .set_mode(ModeOfOperation::ProfilePosition)
+        .wait()
+        .unwrap();
     r.drive.node().nmt().start().unwrap();
     r.net.run_for(Duration::from_millis(10)).wait().unwrap();
     let rpdo2 = CanId::standard(0x305).unwrap();
@@ -343,24 +380,24 @@ fn a_set_point_edge_sent_by_two_back_to_back_rpdos_is_not_lost() {
             .send(CanFrame::new(CanId::standard(0x080).unwrap(), &[]).unwrap())
             .unwrap();
     }
-    let pos = r.drive.wait_target_reached(|_| {}).unwrap();
+    let pos = r.drive.wait_target_reached(|_| {}).wait().unwrap();
     assert!((pos - 3_000).abs() <= 10, "{pos}");
 }
 
 #[test]
 fn halt_stops_profile_velocity_in_operation_enabled_and_release_runs_again() {
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
-    r.drive.set_velocity(10_000).unwrap();
+    r.drive.enable().wait().unwrap();
+    r.drive.set_velocity(10_000).wait().unwrap();
     r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     let moving = r.model.lock().unwrap().velocity();
     assert!((moving - 10_000.0).abs() < 200.0, "{moving}");
-    r.drive.halt(true).unwrap();
+    r.drive.halt(true).wait().unwrap();
     r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     assert!(r.model.lock().unwrap().velocity().abs() < 1.0);
     // Halt keeps the drive enabled (0x605D = 1: slow down and stay).
-    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
-    r.drive.halt(false).unwrap();
+    assert_eq!(r.drive.state().wait().unwrap(), State::OperationEnabled);
+    r.drive.halt(false).wait().unwrap();
     r.net.run_for(Duration::from_millis(500)).wait().unwrap();
     assert!(r.model.lock().unwrap().velocity() > 5_000.0);
 }
@@ -368,52 +405,52 @@ fn halt_stops_profile_velocity_in_operation_enabled_and_release_runs_again() {
 #[test]
 fn profile_torque_accelerates_the_motor_and_shows_in_the_status() {
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
-    r.drive.set_torque(100).unwrap();
+    r.drive.enable().wait().unwrap();
+    r.drive.set_torque(100).wait().unwrap();
     r.net.run_for(Duration::from_millis(200)).wait().unwrap();
-    let s = r.drive.status().unwrap();
+    let s = r.drive.status().wait().unwrap();
     assert_eq!(s.mode, ModeOfOperation::ProfileTorque);
     assert_eq!(s.state, Some(State::OperationEnabled));
     assert!(s.torque > 0 && s.velocity > 0, "{s:?}");
-    r.drive.set_torque(0).unwrap();
-    assert_eq!(r.drive.disable().unwrap(), State::SwitchOnDisabled);
+    r.drive.set_torque(0).wait().unwrap();
+    assert_eq!(r.drive.disable().wait().unwrap(), State::SwitchOnDisabled);
 }
 
 #[test]
 fn enable_from_fault_resets_it_on_a_rising_edge_of_bit_7() {
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
+    r.drive.enable().wait().unwrap();
     r.model.lock().unwrap().inject_fault(SimFault::OverCurrent);
     r.net.run_for(Duration::from_millis(200)).wait().unwrap();
-    assert_eq!(r.drive.state().unwrap(), State::Fault);
-    assert_eq!(r.drive.error_code().unwrap().0, 0x2310);
+    assert_eq!(r.drive.state().wait().unwrap(), State::Fault);
+    assert_eq!(r.drive.error_code().wait().unwrap().0, 0x2310);
     // The last controlword had bit 7 clear (0x000F): the planner's reset sends 0x0080 at once.
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
-    assert_eq!(r.drive.error_code().unwrap().0, 0);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.error_code().wait().unwrap().0, 0);
 }
 
 #[test]
 fn a_homing_method_the_drive_cannot_run_ends_in_a_homing_error() {
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
+    r.drive.enable().wait().unwrap();
     // Method 7 (home switch with a limit switch reversal) is not among the simulated methods.
-    match r.drive.home(Some(7)) {
+    match r.drive.home(Some(7)).wait() {
         Err(DriveError::Homing { status, .. }) => assert!(status.is_error()),
         other => panic!("{other:?}"),
     }
-    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.state().wait().unwrap(), State::OperationEnabled);
 }
 
 #[test]
 fn halt_outside_operation_enabled_is_refused_without_a_controlword() {
     let r = rig(SimConfig::default());
-    r.drive.set_state(State::ReadyToSwitchOn).unwrap();
-    match r.drive.halt(true) {
+    r.drive.set_state(State::ReadyToSwitchOn).wait().unwrap();
+    match r.drive.halt(true).wait() {
         Err(DriveError::NotEnabled { state, .. }) => assert_eq!(state, State::ReadyToSwitchOn),
         other => panic!("{other:?}"),
     }
     r.net.run_for(Duration::from_millis(20)).wait().unwrap();
-    assert_eq!(r.drive.state().unwrap(), State::ReadyToSwitchOn);
+    assert_eq!(r.drive.state().wait().unwrap(), State::ReadyToSwitchOn);
 }
 
 #[test]
@@ -425,9 +462,9 @@ fn a_drive_handle_sends_nothing_at_set_up_and_forces_no_nmt_state() {
     let mut tap = r.bus.endpoint();
     let absent = Drive::new(r.net.node(NodeId::new(9).unwrap()));
     r.net.run_for(Duration::from_millis(10)).wait().unwrap();
-    let e = absent.state().unwrap_err();
+    let e = absent.state().wait().unwrap_err();
     assert!(matches!(e, DriveError::Sdo(_)), "{e}");
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
     let mut sent_nmt = false;
     while let Ok(Some(Received::Frame { frame, .. })) = tap.try_recv() {
         sent_nmt |= frame.cob_id() == Some(0x000);
@@ -451,8 +488,11 @@ fn the_statusword_is_read_fresh_without_any_tpdo() {
         .unwrap();
     r.drive.node().nmt().start().unwrap();
     let events = r.net.subscribe();
-    assert_eq!(r.drive.enable().unwrap(), State::OperationEnabled);
-    assert_eq!(r.drive.quick_stop().unwrap(), State::SwitchOnDisabled);
+    assert_eq!(r.drive.enable().wait().unwrap(), State::OperationEnabled);
+    assert_eq!(
+        r.drive.quick_stop().wait().unwrap(),
+        State::SwitchOnDisabled
+    );
     let tpdo1 = events.try_iter().any(|e| {
         matches!(
             e,
@@ -495,18 +535,19 @@ fn two_axes_of_one_device_are_commanded_apart() {
         .unwrap();
     let a0 = Drive::new(net.node(id));
     let a1 = Drive::on_axis(net.node(id), 1);
-    assert_eq!(a1.enable().unwrap(), State::OperationEnabled);
+    assert_eq!(a1.enable().wait().unwrap(), State::OperationEnabled);
     let pos = a1
         .move_to(Move {
             target: 1_234,
             ..Move::default()
         })
+        .wait()
         .unwrap();
     assert!((pos - 1_234).abs() <= 10);
     assert!((model1.lock().unwrap().position() - 1_234.0).abs() <= 10.0);
-    assert_eq!(a0.state().unwrap(), State::SwitchOnDisabled);
-    assert_eq!(a0.position().unwrap(), 0);
-    assert_eq!(a0.mode().unwrap(), ModeOfOperation::NoMode);
+    assert_eq!(a0.state().wait().unwrap(), State::SwitchOnDisabled);
+    assert_eq!(a0.position().wait().unwrap(), 0);
+    assert_eq!(a0.mode().wait().unwrap(), ModeOfOperation::NoMode);
 }
 
 #[test]
@@ -525,12 +566,13 @@ fn actual_values_come_from_sync_tpdos_when_followed_and_by_sdo_when_stale() {
     net.start_sync(Duration::from_millis(10)); // TPDO2 (statusword, 0x6064) on each SYNC
     let drive = Drive::new(node);
     drive.follow_tpdos(Duration::from_millis(50));
-    drive.enable().unwrap();
+    drive.enable().wait().unwrap();
     drive
         .move_to(Move {
             target: 2_000,
             ..Move::default()
         })
+        .wait()
         .unwrap();
     net.run_for(Duration::from_millis(30)).wait().unwrap();
     let uploads_of_6064 = |tap: &mut canola::Endpoint| {
@@ -543,23 +585,24 @@ fn actual_values_come_from_sync_tpdos_when_followed_and_by_sdo_when_stale() {
         n
     };
     let mut tap = bus.endpoint();
-    assert!((drive.position().unwrap() - 2_000).abs() <= 10);
+    assert!((drive.position().wait().unwrap() - 2_000).abs() <= 10);
     assert_eq!(uploads_of_6064(&mut tap), 0, "served from TPDO2");
     net.stop_sync();
     net.run_for(Duration::from_millis(100)).wait().unwrap();
-    assert!((drive.position().unwrap() - 2_000).abs() <= 10);
+    assert!((drive.position().wait().unwrap() - 2_000).abs() <= 10);
     assert_eq!(uploads_of_6064(&mut tap), 1, "stale: read by SDO");
 }
 
 #[test]
 fn a_csp_stream_on_sync_moves_the_drive_without_a_jump() {
     let r = rig(SimConfig::default());
-    r.drive.enable().unwrap();
+    r.drive.enable().wait().unwrap();
     r.drive
         .move_to(Move {
             target: 500,
             ..Move::default()
         })
+        .wait()
         .unwrap();
     r.drive.node().nmt().start().unwrap();
     r.net.start_sync(Duration::from_millis(1));
@@ -570,9 +613,13 @@ fn a_csp_stream_on_sync_moves_the_drive_without_a_jump() {
             4,
             Duration::from_millis(1),
         )
+        .wait()
         .unwrap();
-    assert_eq!(r.drive.mode().unwrap(), ModeOfOperation::CyclicSyncPosition);
-    assert_eq!(r.drive.state().unwrap(), State::OperationEnabled);
+    assert_eq!(
+        r.drive.mode().wait().unwrap(),
+        ModeOfOperation::CyclicSyncPosition
+    );
+    assert_eq!(r.drive.state().wait().unwrap(), State::OperationEnabled);
     // No jump to 0 when the mode switched: the first target was the actual position.
     r.net.run_for(Duration::from_millis(20)).wait().unwrap();
     assert!((r.model.lock().unwrap().position() - 500.0).abs() <= 10.0);
@@ -583,20 +630,22 @@ fn a_csp_stream_on_sync_moves_the_drive_without_a_jump() {
         farthest = farthest.max(r.model.lock().unwrap().position());
     }
     r.net.run_for(Duration::from_millis(500)).wait().unwrap();
-    let pos = r.drive.position().unwrap();
+    let pos = r.drive.position().wait().unwrap();
     assert!((pos - 3_500).abs() <= 20, "{pos} {farthest}");
     assert!(
-        r.drive.statusword().unwrap().bit(12),
+        r.drive.statusword().wait().unwrap().bit(12),
         "csp: following the command"
     );
     stream.stop().unwrap();
     // Not a cyclic mode: refused before anything is written.
     assert!(matches!(
-        r.drive.start_cyclic(
-            ModeOfOperation::ProfilePosition,
-            4,
-            Duration::from_millis(1)
-        ),
+        r.drive
+            .start_cyclic(
+                ModeOfOperation::ProfilePosition,
+                4,
+                Duration::from_millis(1)
+            )
+            .wait(),
         Err(DriveError::NotCyclic(_))
     ));
 }
@@ -619,7 +668,7 @@ fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
     }
     net.nmt_all(canola::CommandSpecifier::Start).unwrap();
     for d in &drives {
-        d.enable().unwrap();
+        d.enable().wait().unwrap();
     }
     net.start_sync(Duration::from_millis(1));
     let streams: Vec<_> = drives
@@ -630,6 +679,7 @@ fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
                 4,
                 Duration::from_millis(1),
             )
+            .wait()
             .unwrap()
         })
         .collect();
@@ -662,6 +712,6 @@ fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
         assert_eq!(ids, [0x505, 0x506], "{cycles:?}");
     }
     net.run_for(Duration::from_millis(500)).wait().unwrap();
-    assert!((drives[0].position().unwrap() - 1_000).abs() <= 20);
-    assert!((drives[1].position().unwrap() - 2_000).abs() <= 20);
+    assert!((drives[0].position().wait().unwrap() - 1_000).abs() <= 20);
+    assert!((drives[1].position().wait().unwrap() - 2_000).abs() <= 20);
 }

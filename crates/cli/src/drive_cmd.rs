@@ -139,8 +139,8 @@ fn print_state(g: Global, state: State) {
 }
 
 fn enable_first(drive: &Drive, enable: bool) -> Result<(), DriveError> {
-    if enable && drive.state()? != State::OperationEnabled {
-        drive.enable()?;
+    if enable && drive.state().wait()? != State::OperationEnabled {
+        drive.enable().wait()?;
     }
     Ok(())
 }
@@ -161,7 +161,7 @@ pub(crate) fn run(args: DriveArgs, opts: &BusOpts, g: Global) -> ExitCode {
 fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), DriveError> {
     match command {
         DriveCommand::Status => {
-            let s = drive.status()?;
+            let s = drive.status().wait()?;
             if g.json {
                 outln(&status_json(&s).to_string());
             } else {
@@ -177,11 +177,11 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
                 ));
             }
         }
-        DriveCommand::Enable => print_state(g, drive.enable()?),
-        DriveCommand::Disable => print_state(g, drive.disable()?),
-        DriveCommand::QuickStop => print_state(g, drive.quick_stop()?),
+        DriveCommand::Enable => print_state(g, drive.enable().wait()?),
+        DriveCommand::Disable => print_state(g, drive.disable().wait()?),
+        DriveCommand::QuickStop => print_state(g, drive.quick_stop().wait()?),
         DriveCommand::FaultReset => {
-            let r = drive.fault_reset()?;
+            let r = drive.fault_reset().wait()?;
             if g.json {
                 outln(
                     &json!({
@@ -202,7 +202,7 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
             }
         }
         DriveCommand::Mode { mode } => {
-            let before = drive.set_mode(mode)?;
+            let before = drive.set_mode(mode).wait()?;
             if g.json {
                 outln(&json!({"mode": mode.code(), "mode_name": mode.short_name(), "before": before.code()}).to_string());
             } else {
@@ -212,10 +212,10 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
         DriveCommand::Home { method, enable } => {
             if enable {
                 // The mode first (any state), then the power.
-                drive.set_mode(ModeOfOperation::Homing)?;
+                drive.set_mode(ModeOfOperation::Homing).wait()?;
                 enable_first(drive, true)?;
             }
-            let pos = drive.home(method)?;
+            let pos = drive.home(method).wait()?;
             if g.json {
                 outln(&json!({"homed": true, "position": pos}).to_string());
             } else {
@@ -229,23 +229,28 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
             enable,
         } => {
             enable_first(drive, enable)?;
-            drive.start_move(Move {
-                target: position,
-                relative,
-                velocity,
-                immediate: false,
-            })?;
+            drive
+                .start_move(Move {
+                    target: position,
+                    relative,
+                    velocity,
+                    immediate: false,
+                })
+                .wait()?;
             let net = drive.node().network().clone();
             let mut last_print = None;
-            let pos = drive.wait_target_reached(|p| {
-                let now = net.now();
-                let due = last_print.is_none_or(|t| now - t >= canola::Duration::from_millis(100));
-                if due && !g.json {
-                    outln(&format!("position {p}"));
-                    last_print = Some(now);
-                }
-            })?;
-            let sw = drive.statusword()?;
+            let pos = drive
+                .wait_target_reached(|p| {
+                    let now = net.now();
+                    let due =
+                        last_print.is_none_or(|t| now - t >= canola::Duration::from_millis(100));
+                    if due && !g.json {
+                        outln(&format!("position {p}"));
+                        last_print = Some(now);
+                    }
+                })
+                .wait()?;
+            let sw = drive.statusword().wait()?;
             if g.json {
                 outln(&json!({"target_reached": true, "position": pos, "statusword": format!("{:#06x}", sw.raw())}).to_string());
             } else {
@@ -253,9 +258,9 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
             }
         }
         DriveCommand::Velocity { velocity, enable } => {
-            drive.set_velocity(velocity)?;
+            drive.set_velocity(velocity).wait()?;
             enable_first(drive, enable)?;
-            let state = drive.state()?;
+            let state = drive.state().wait()?;
             if g.json {
                 outln(
                     &json!({"mode": "pv", "target_velocity": velocity, "state": state.name()})
@@ -266,9 +271,9 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
             }
         }
         DriveCommand::Torque { torque, enable } => {
-            drive.set_torque(torque)?;
+            drive.set_torque(torque).wait()?;
             enable_first(drive, enable)?;
-            let state = drive.state()?;
+            let state = drive.state().wait()?;
             if g.json {
                 outln(
                     &json!({"mode": "tq", "target_torque": torque, "state": state.name()})

@@ -483,18 +483,22 @@ fn run_canola(
         .map_err(|e| e.to_string())?;
     for d in &drives {
         d.enable()
+            .wait()
             .map_err(|e| format!("node {}: enable: {e}", d.node().id()))?;
     }
     // The streams are set up before the SYNC starts: under emulation the drives' process
     // answers SDO requests late while it takes 9 000 frames a second.
-    let streams: Vec<CyclicStream<'_>> = drives
+    let streams: Vec<CyclicStream> = drives
         .iter()
-        .map(|d| d.start_cyclic(ModeOfOperation::CyclicSyncPosition, TARGET_RPDO, period))
+        .map(|d| {
+            d.start_cyclic(ModeOfOperation::CyclicSyncPosition, TARGET_RPDO, period)
+                .wait()
+        })
         .collect::<Result<_, _>>()
         .map_err(|e| format!("start_cyclic: {e}"))?;
     let starts: Vec<i32> = drives
         .iter()
-        .map(|d| d.position())
+        .map(|d| d.position().wait())
         .collect::<Result<_, _>>()
         .map_err(|e| format!("position: {e}"))?;
     net.start_sync(period);

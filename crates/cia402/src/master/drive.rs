@@ -1,4 +1,10 @@
-//! [`Drive`]: one axis of a CiA 402 drive commanded over the master facade, blocking.
+//! [`Drive`]: one axis of a CiA 402 drive commanded over the master facade.
+//!
+//! Every command that talks to the bus or waits returns a [`canola::Operation`], finished by
+//! `.wait()` (blocking) or `.await` (canola's `tokio` feature), as the facade's own calls are;
+//! each is written once, as an async body awaiting the facade's operations. Dropping one
+//! unfinished cancels it (a running SDO transfer is aborted on the bus); the drive stays usable
+//! and the next command starts from the statusword it reads.
 //!
 //! Every value is read and written by SDO on the node's default channel; the statusword is read
 //! fresh each time it is needed, never from a cached TPDO (python-canopen #168, #554). Nothing
@@ -16,7 +22,7 @@ use std::format;
 use std::prelude::rust_2024::*;
 use std::sync::{Arc, Mutex};
 
-use canola::{Duration, Node};
+use canola::{Duration, Node, Operation};
 
 use super::dcf::{DcfPdo, DcfPdoError, DcfPdos};
 use crate::mode::{HomingStatus, ModeOfOperation};
@@ -168,13 +174,25 @@ pub struct DriveStatus {
 }
 
 /// One axis of a CiA 402 drive on a node. See the module documentation.
-#[derive(Debug)]
+///
+/// Cheap to clone: clones command the same axis and share what the master knows of it (the
+/// last controlword, the TPDO values followed, a cyclic stream's controlword), so a clone can
+/// move into a task or an operation's body.
+#[derive(Clone, Debug)]
 pub struct Drive {
     node: Node,
     axis: u8,
     timeouts: Timeouts,
     transition_16: bool,
-    /// The last controlword sent (bit 7 matters for the fault reset's rising edge).
+    shared: Arc<Shared>,
+}
+
+/// What the clones of a [`Drive`] share.
+#[derive(Debug)]
+struct Shared {
+    node: Node,
+    /// The last controlword sent (bit 7 matters for the fault reset's rising edge); `None`
+    /// while unknown (before the first, or while a write is on its way).
     last_cw: Mutex<Option<Controlword>>,
     /// Actual values from TPDOs, when followed.
     tpdo: Mutex<Option<Following>>,
@@ -195,7 +213,10 @@ struct Following {
 /// The latest value of each followed object, with its reception time.
 type ActualsCache = HashMap<(u16, u8), (i64, canola::Instant)>;
 
-impl Drop for Drive {
+/// What the drive's commands return: an operation finished by `.wait()` or `.await`.
+type DriveOp<T> = Operation<'static, T, DriveError>;
+
+impl Drop for Shared {
     fn drop(&mut self) {
         if let Some(f) = self
             .tpdo
@@ -208,6 +229,10 @@ impl Drop for Drive {
     }
 }
 
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 impl Drive {
     /// Axis 0 of `node`.
     pub fn new(node: Node) -> Self {
@@ -217,13 +242,16 @@ impl Drive {
     /// Axis `axis` of a multi-axis `node` (objects at index + axis × 0x800; axes 0..=7).
     pub fn on_axis(node: Node, axis: u8) -> Self {
         Self {
+            shared: Arc::new(Shared {
+                node: node.clone(),
+                last_cw: Mutex::new(None),
+                tpdo: Mutex::new(None),
+                stream_controlword: Mutex::new(None),
+            }),
             node,
             axis: axis.min(obj::MAX_AXIS),
             timeouts: Timeouts::default(),
             transition_16: true,
-            last_cw: Mutex::new(None),
-            tpdo: Mutex::new(None),
-            stream_controlword: Mutex::new(None),
         }
     }
 
@@ -263,12 +291,9 @@ impl Drive {
         )
     }
 
-    fn read_bytes<const N: usize, T>(
-        &self,
-        e: canola::od::Entry<T>,
-    ) -> Result<[u8; N], DriveError> {
-        let at = self.at(e);
-        let data = self.node.sdo().read(at).wait()?;
+    /// The first `N` bytes of the object at `at` (zero-padded), by SDO.
+    async fn read_at<const N: usize>(&self, at: (u16, u8)) -> Result<[u8; N], DriveError> {
+        let data = self.node.sdo().read(at).await?;
         let mut out = [0u8; N];
         let n = data.len().min(N);
         out[..n].copy_from_slice(&data[..n]);
@@ -276,28 +301,40 @@ impl Drive {
     }
 
     /// Reads the statusword 0x6041 (by SDO: always fresh).
-    pub fn statusword(&self) -> Result<Statusword, DriveError> {
-        Ok(Statusword::from_le_bytes(self.read_bytes(obj::STATUSWORD)?))
+    pub fn statusword(&self) -> DriveOp<Statusword> {
+        let d = self.clone();
+        Operation::new(async move {
+            let at = d.at(obj::STATUSWORD);
+            Ok(Statusword::from_le_bytes(d.read_at(at).await?))
+        })
     }
 
     /// The state the statusword shows; a pattern no state has is [`PlanError::UnknownState`].
-    pub fn state(&self) -> Result<State, DriveError> {
-        let sw = self.statusword()?;
-        State::decode(sw).ok_or(DriveError::Plan(PlanError::UnknownState(sw)))
+    pub fn state(&self) -> DriveOp<State> {
+        let d = self.clone();
+        Operation::new(async move {
+            let sw = d.statusword().await?;
+            State::decode(sw).ok_or(DriveError::Plan(PlanError::UnknownState(sw)))
+        })
     }
 
     /// The mode running, 0x6061. 0 (no mode), manufacturer-specific and reserved codes are
     /// values too (python-canopen #183).
-    pub fn mode(&self) -> Result<ModeOfOperation, DriveError> {
-        let [b] = self.read_bytes(obj::MODES_OF_OPERATION_DISPLAY)?;
-        Ok(ModeOfOperation::from_code(b as i8))
+    pub fn mode(&self) -> DriveOp<ModeOfOperation> {
+        let d = self.clone();
+        Operation::new(async move {
+            let [b] = d.read_at(d.at(obj::MODES_OF_OPERATION_DISPLAY)).await?;
+            Ok(ModeOfOperation::from_code(b as i8))
+        })
     }
 
     /// The error code 0x603F.
-    pub fn error_code(&self) -> Result<ErrorCode, DriveError> {
-        Ok(ErrorCode(u16::from_le_bytes(
-            self.read_bytes(obj::ERROR_CODE)?,
-        )))
+    pub fn error_code(&self) -> DriveOp<ErrorCode> {
+        let d = self.clone();
+        Operation::new(async move {
+            let b = d.read_at(d.at(obj::ERROR_CODE)).await?;
+            Ok(ErrorCode(u16::from_le_bytes(b)))
+        })
     }
 
     /// Takes the actual values (position 0x6064, velocity 0x606C, torque 0x6077) from the
@@ -319,7 +356,7 @@ impl Drive {
             if p.node != me {
                 return;
             }
-            let mut c = sink.lock().unwrap_or_else(|e| e.into_inner());
+            let mut c = lock(&sink);
             for (addr, value) in p.values {
                 let key = (addr.index, addr.sub_index);
                 if let (true, Some(v)) = (watched.contains(&key), value.as_i128()) {
@@ -327,15 +364,11 @@ impl Drive {
                 }
             }
         });
-        let old = self
-            .tpdo
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .replace(Following {
-                callback,
-                cache,
-                max_age,
-            });
+        let old = lock(&self.shared.tpdo).replace(Following {
+            callback,
+            cache,
+            max_age,
+        });
         if let Some(f) = old {
             self.node.network().remove_pdo_callback(f.callback);
         }
@@ -343,57 +376,59 @@ impl Drive {
 
     /// A followed TPDO value of `e`, if fresh enough.
     fn tpdo_value<T>(&self, e: canola::od::Entry<T>) -> Option<i64> {
-        let guard = self.tpdo.lock().unwrap_or_else(|p| p.into_inner());
+        let guard = lock(&self.shared.tpdo);
         let f = guard.as_ref()?;
-        let (v, at) = *f
-            .cache
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .get(&self.at(e))?;
+        let (v, at) = *lock(&f.cache).get(&self.at(e))?;
         (self.node.network().now() - at <= f.max_age).then_some(v)
     }
 
+    /// An actual value: the followed TPDO's while fresh, else `N` bytes by SDO.
+    fn actual<const N: usize, E, T: Send + 'static>(
+        &self,
+        e: canola::od::Entry<E>,
+        from_tpdo: fn(i64) -> T,
+        from_bytes: fn([u8; N]) -> T,
+    ) -> DriveOp<T> {
+        let cached = self.tpdo_value(e).map(from_tpdo);
+        let d = self.clone();
+        let at = self.at(e);
+        Operation::new(async move {
+            match cached {
+                Some(v) => Ok(v),
+                None => Ok(from_bytes(d.read_at(at).await?)),
+            }
+        })
+    }
+
     /// The actual position 0x6064, counts (from a TPDO when followed and fresh).
-    pub fn position(&self) -> Result<i32, DriveError> {
-        match self.tpdo_value(obj::POSITION_ACTUAL_VALUE) {
-            Some(v) => Ok(v as i32),
-            None => Ok(i32::from_le_bytes(
-                self.read_bytes(obj::POSITION_ACTUAL_VALUE)?,
-            )),
-        }
+    pub fn position(&self) -> DriveOp<i32> {
+        self.actual(obj::POSITION_ACTUAL_VALUE, |v| v as i32, i32::from_le_bytes)
     }
 
     /// The actual velocity 0x606C, counts/s (from a TPDO when followed and fresh).
-    pub fn velocity(&self) -> Result<i32, DriveError> {
-        match self.tpdo_value(obj::VELOCITY_ACTUAL_VALUE) {
-            Some(v) => Ok(v as i32),
-            None => Ok(i32::from_le_bytes(
-                self.read_bytes(obj::VELOCITY_ACTUAL_VALUE)?,
-            )),
-        }
+    pub fn velocity(&self) -> DriveOp<i32> {
+        self.actual(obj::VELOCITY_ACTUAL_VALUE, |v| v as i32, i32::from_le_bytes)
     }
 
     /// The actual torque 0x6077, ‰ of rated torque (from a TPDO when followed and fresh).
-    pub fn torque(&self) -> Result<i16, DriveError> {
-        match self.tpdo_value(obj::TORQUE_ACTUAL_VALUE) {
-            Some(v) => Ok(v as i16),
-            None => Ok(i16::from_le_bytes(
-                self.read_bytes(obj::TORQUE_ACTUAL_VALUE)?,
-            )),
-        }
+    pub fn torque(&self) -> DriveOp<i16> {
+        self.actual(obj::TORQUE_ACTUAL_VALUE, |v| v as i16, i16::from_le_bytes)
     }
 
     /// Statusword, state, mode, actual values and error code.
-    pub fn status(&self) -> Result<DriveStatus, DriveError> {
-        let statusword = self.statusword()?;
-        Ok(DriveStatus {
-            statusword,
-            state: State::decode(statusword),
-            mode: self.mode()?,
-            position: self.position()?,
-            velocity: self.velocity()?,
-            torque: self.torque()?,
-            error_code: self.error_code()?,
+    pub fn status(&self) -> DriveOp<DriveStatus> {
+        let d = self.clone();
+        Operation::new(async move {
+            let statusword = d.statusword().await?;
+            Ok(DriveStatus {
+                statusword,
+                state: State::decode(statusword),
+                mode: d.mode().await?,
+                position: d.position().await?,
+                velocity: d.velocity().await?,
+                torque: d.torque().await?,
+                error_code: d.error_code().await?,
+            })
         })
     }
 
@@ -406,51 +441,56 @@ impl Drive {
     }
 
     /// Writes the controlword 0x6040 (by SDO; also into a cyclic stream's RPDO that maps it).
-    pub fn write_controlword(&self, cw: Controlword) -> Result<(), DriveError> {
-        if let Some((sender, at)) = self
-            .stream_controlword
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .as_ref()
-        {
+    pub fn write_controlword(&self, cw: Controlword) -> DriveOp<()> {
+        let d = self.clone();
+        Operation::new(async move { d.put_controlword(cw).await })
+    }
+
+    async fn put_controlword(&self, cw: Controlword) -> Result<(), DriveError> {
+        if let Some((sender, at)) = lock(&self.shared.stream_controlword).as_ref() {
             sender.set(*at, cw.raw())?;
         }
+        // Unknown until the drive has it: a write cancelled half-way (its operation dropped)
+        // leaves the master not knowing which controlword the drive took.
+        *lock(&self.shared.last_cw) = None;
         self.node
             .sdo()
             .write(self.at(obj::CONTROLWORD), cw.raw())
-            .wait()?;
-        *self.last_cw.lock().unwrap_or_else(|p| p.into_inner()) = Some(cw);
+            .await?;
+        *lock(&self.shared.last_cw) = Some(cw);
         Ok(())
     }
 
     fn last_controlword(&self) -> Option<Controlword> {
-        *self.last_cw.lock().unwrap_or_else(|p| p.into_inner())
+        *lock(&self.shared.last_cw)
     }
 
-    fn quick_stop_option(&self) -> QuickStopOption {
+    async fn quick_stop_option(&self) -> QuickStopOption {
         // 0x605A is optional: without it, the common default 2 (the drive ends in switch on
         // disabled); the waits accept either end of a quick stop anyway.
-        self.read_bytes::<2, _>(obj::QUICK_STOP_OPTION_CODE)
+        self.read_at::<2>(self.at(obj::QUICK_STOP_OPTION_CODE))
+            .await
             .map(|b| QuickStopOption(i16::from_le_bytes(b)))
             .unwrap_or(QuickStopOption::DEFAULT)
     }
 
-    fn planner(&self) -> Planner {
+    async fn planner(&self) -> Planner {
         Planner {
-            quick_stop_option: self.quick_stop_option(),
+            quick_stop_option: self.quick_stop_option().await,
             transition_16: self.transition_16,
             ..Planner::default()
         }
     }
 
-    fn sleep(&self) -> Result<(), DriveError> {
-        self.node.network().run_for(self.timeouts.poll).wait()?;
+    /// One poll interval of the network's clock.
+    async fn sleep(&self) -> Result<(), DriveError> {
+        self.node.network().run_for(self.timeouts.poll).await?;
         Ok(())
     }
 
-    fn fault_error(&self, sw: Statusword) -> DriveError {
+    async fn fault_error(&self, sw: Statusword) -> DriveError {
         DriveError::Fault {
-            code: self.error_code().unwrap_or_default(),
+            code: self.error_code().await.unwrap_or_default(),
             emcy: self.last_emcy(),
             statusword: sw,
         }
@@ -459,12 +499,29 @@ impl Drive {
     /// Takes the drive to `target` with the planner's controlwords, waiting for each step's
     /// state. Returns the state reached (the target, or switch on disabled after a quick stop
     /// with 0x605A 0..4).
-    pub fn set_state(&self, target: State) -> Result<State, DriveError> {
-        self.walk(target, self.planner())
+    pub fn set_state(&self, target: State) -> DriveOp<State> {
+        let d = self.clone();
+        Operation::new(async move {
+            let planner = d.planner().await;
+            d.walk(target, planner).await
+        })
     }
 
-    fn walk(&self, target: State, planner: Planner) -> Result<State, DriveError> {
-        let sw = self.statusword()?;
+    /// Walks the plan to `target`; once more through switch on disabled when the drive ignores
+    /// transition 16.
+    async fn walk(&self, target: State, mut planner: Planner) -> Result<State, DriveError> {
+        loop {
+            match self.walk_once(target, planner).await? {
+                Walked::Reached(s) => return Ok(s),
+                // The drive ignores transition 16 (python-canopen #169): through switch on
+                // disabled instead (a walk without transition 16 does not end here).
+                Walked::NoTransition16 => planner.transition_16 = false,
+            }
+        }
+    }
+
+    async fn walk_once(&self, target: State, planner: Planner) -> Result<Walked, DriveError> {
+        let sw = self.statusword().await?;
         let from = State::decode(sw).ok_or(PlanError::UnknownState(sw))?;
         let plan = planner.plan_after(sw, self.last_controlword(), target)?;
         let steps = plan.steps();
@@ -481,10 +538,10 @@ impl Drive {
                 .into());
             }
             if let Some(cw) = step.controlword {
-                self.write_controlword(cw)?;
+                self.put_controlword(cw).await?;
             }
             let accept: Vec<State> = steps[i..].iter().map(|s| s.expect).collect();
-            match self.wait_state(&accept, self.timeouts.transition) {
+            match self.wait_state(&accept, self.timeouts.transition).await {
                 Ok((state, sw)) => {
                     last = sw;
                     // Skip ahead when the drive went on by itself (quick stop → switch on
@@ -500,31 +557,23 @@ impl Drive {
                         && reached == State::QuickStopActive.name()
                         && planner.transition_16 =>
                 {
-                    // The drive ignores transition 16 (python-canopen #169): through switch on
-                    // disabled instead.
-                    return self.walk(
-                        target,
-                        Planner {
-                            transition_16: false,
-                            ..planner
-                        },
-                    );
+                    return Ok(Walked::NoTransition16);
                 }
                 Err(e) => return Err(e),
             }
         }
-        Ok(plan.end_state(from))
+        Ok(Walked::Reached(plan.end_state(from)))
     }
 
     /// Polls until the drive shows one of `states`; a fault (not expected) ends the wait.
-    fn wait_state(
+    async fn wait_state(
         &self,
         states: &[State],
         timeout: Duration,
     ) -> Result<(State, Statusword), DriveError> {
         let start = self.node.network().now();
         loop {
-            let sw = self.statusword()?;
+            let sw = self.statusword().await?;
             let state = State::decode(sw);
             if let Some(s) = state
                 && states.contains(&s)
@@ -533,7 +582,7 @@ impl Drive {
             }
             let faulted = matches!(state, Some(State::Fault | State::FaultReactionActive));
             if faulted && !states.contains(&State::Fault) {
-                return Err(self.fault_error(sw));
+                return Err(self.fault_error(sw).await);
             }
             let waited = self.node.network().now() - start;
             if waited >= timeout {
@@ -549,75 +598,91 @@ impl Drive {
                     waited,
                 });
             }
-            self.sleep()?;
+            self.sleep().await?;
         }
     }
 
     /// Operation enabled, from any state (a fault is reset on the way, quick stop active is
     /// left by transition 16 when 0x605A allows it). With safe torque off the drive cannot
     /// switch on: [`PlanError::VoltageNotEnabled`].
-    pub fn enable(&self) -> Result<State, DriveError> {
+    pub fn enable(&self) -> DriveOp<State> {
         self.set_state(State::OperationEnabled)
     }
 
     /// Switch on disabled (power stage off), from any state but fault.
-    pub fn disable(&self) -> Result<State, DriveError> {
-        let planner = Planner {
-            fault_reset: false,
-            ..self.planner()
-        };
-        self.walk(State::SwitchOnDisabled, planner)
+    pub fn disable(&self) -> DriveOp<State> {
+        let d = self.clone();
+        Operation::new(async move {
+            let planner = Planner {
+                fault_reset: false,
+                ..d.planner().await
+            };
+            d.walk(State::SwitchOnDisabled, planner).await
+        })
     }
 
     /// Quick stop. From operation enabled the drive stops and, by 0x605A, stays in quick stop
     /// active (5..8) or goes on to switch on disabled (0..4, python-canopen #167); from ready to
     /// switch on or switched on it goes to switch on disabled (transitions 7, 10). Returns the
     /// state reached.
-    pub fn quick_stop(&self) -> Result<State, DriveError> {
-        let sw = self.statusword()?;
-        match State::decode(sw) {
-            Some(State::OperationEnabled) => self.set_state(State::QuickStopActive),
-            Some(State::ReadyToSwitchOn | State::SwitchedOn) => {
-                self.write_controlword(crate::state::Command::QuickStop.controlword())?;
-                Ok(self
-                    .wait_state(&[State::SwitchOnDisabled], self.timeouts.transition)?
-                    .0)
+    pub fn quick_stop(&self) -> DriveOp<State> {
+        let d = self.clone();
+        Operation::new(async move {
+            let sw = d.statusword().await?;
+            match State::decode(sw) {
+                Some(State::OperationEnabled) => {
+                    let planner = d.planner().await;
+                    d.walk(State::QuickStopActive, planner).await
+                }
+                Some(State::ReadyToSwitchOn | State::SwitchedOn) => {
+                    d.put_controlword(crate::state::Command::QuickStop.controlword())
+                        .await?;
+                    let timeout = d.timeouts.transition;
+                    Ok(d.wait_state(&[State::SwitchOnDisabled], timeout).await?.0)
+                }
+                Some(s) => Ok(s),
+                None => Err(PlanError::UnknownState(sw).into()),
             }
-            Some(s) => Ok(s),
-            None => Err(PlanError::UnknownState(sw).into()),
-        }
+        })
     }
 
     /// Sets or clears halt (controlword bit 8) in operation enabled, keeping the mode bits of
     /// the last controlword. In any other state: [`DriveError::NotEnabled`] (a controlword
     /// written there could switch the drive on).
-    pub fn halt(&self, on: bool) -> Result<(), DriveError> {
-        self.require_enabled()?;
-        let cw = self
-            .last_controlword()
-            .filter(|c| c.raw() & 0x008F == 0x000F)
-            .unwrap_or(Controlword::from_raw(0x000F));
-        self.write_controlword(cw.with(0x0100, on))
+    pub fn halt(&self, on: bool) -> DriveOp<()> {
+        let d = self.clone();
+        Operation::new(async move {
+            d.require_enabled().await?;
+            let cw = d
+                .last_controlword()
+                .filter(|c| c.raw() & 0x008F == 0x000F)
+                .unwrap_or(Controlword::from_raw(0x000F));
+            d.put_controlword(cw.with(0x0100, on)).await
+        })
     }
 
     /// Fault reset (transition 15, on a rising edge of bit 7): reads 0x603F and the last EMCY
     /// first, then waits for switch on disabled. A drive not in fault is left as it is.
-    pub fn fault_reset(&self) -> Result<FaultReport, DriveError> {
-        let sw = self.statusword()?;
-        let from = State::decode(sw).ok_or(PlanError::UnknownState(sw))?;
-        let code = self.error_code()?;
-        let emcy = self.last_emcy();
-        let state = match from {
-            State::Fault | State::FaultReactionActive => {
-                self.walk(State::SwitchOnDisabled, self.planner())?
-            }
-            s => s,
-        };
-        Ok(FaultReport {
-            code,
-            emcy,
-            from,
-            state,
+    pub fn fault_reset(&self) -> DriveOp<FaultReport> {
+        let d = self.clone();
+        Operation::new(async move {
+            let sw = d.statusword().await?;
+            let from = State::decode(sw).ok_or(PlanError::UnknownState(sw))?;
+            let code = d.error_code().await?;
+            let emcy = d.last_emcy();
+            let state = match from {
+                State::Fault | State::FaultReactionActive => {
+                    let planner = d.planner().await;
+                    d.walk(State::SwitchOnDisabled, planner).await?
+                }
+                s => s,
+            };
+            Ok(FaultReport {
+                code,
+                emcy,
+                from,
+                state,
+            })
         })
     }
 
@@ -625,18 +690,23 @@ impl Drive {
     /// 0x6061 already shows it (ros2_canopen #445); does not read 0x6502 (ros2_canopen #299: a
     /// mode the drive refuses is its SDO abort); does not change the power state (python-canopen
     /// #244). Returns the mode before.
-    pub fn set_mode(&self, mode: ModeOfOperation) -> Result<ModeOfOperation, DriveError> {
-        let before = self.mode()?;
+    pub fn set_mode(&self, mode: ModeOfOperation) -> DriveOp<ModeOfOperation> {
+        let d = self.clone();
+        Operation::new(async move { d.select_mode(mode).await })
+    }
+
+    async fn select_mode(&self, mode: ModeOfOperation) -> Result<ModeOfOperation, DriveError> {
+        let before = self.mode().await?;
         if before == mode {
             return Ok(before);
         }
         self.node
             .sdo()
             .write(self.at(obj::MODES_OF_OPERATION), mode.code())
-            .wait()?;
+            .await?;
         let start = self.node.network().now();
         loop {
-            let now_mode = self.mode()?;
+            let now_mode = self.mode().await?;
             if now_mode == mode {
                 return Ok(before);
             }
@@ -646,16 +716,16 @@ impl Drive {
                     waiting_for: "mode (0x6061)",
                     expected: mode_name(mode),
                     reached: mode_name(now_mode),
-                    statusword: self.statusword()?,
+                    statusword: self.statusword().await?,
                     waited,
                 });
             }
-            self.sleep()?;
+            self.sleep().await?;
         }
     }
 
-    fn require_enabled(&self) -> Result<Statusword, DriveError> {
-        let sw = self.statusword()?;
+    async fn require_enabled(&self) -> Result<Statusword, DriveError> {
+        let sw = self.statusword().await?;
         match State::decode(sw) {
             Some(State::OperationEnabled) => Ok(sw),
             Some(state) => Err(DriveError::NotEnabled {
@@ -669,54 +739,70 @@ impl Drive {
     /// Starts a profile-position move: mode pp, profile velocity, target 0x607A, then the new
     /// set-point handshake (bit 4 rising, wait for the acknowledge bit 12, bit 4 cleared).
     /// Needs operation enabled.
-    pub fn start_move(&self, m: Move) -> Result<(), DriveError> {
-        self.require_enabled()?;
-        self.set_mode(ModeOfOperation::ProfilePosition)?;
+    pub fn start_move(&self, m: Move) -> DriveOp<()> {
+        let d = self.clone();
+        Operation::new(async move { d.begin_move(m).await })
+    }
+
+    async fn begin_move(&self, m: Move) -> Result<(), DriveError> {
+        self.require_enabled().await?;
+        self.select_mode(ModeOfOperation::ProfilePosition).await?;
         if let Some(v) = m.velocity {
             self.node
                 .sdo()
                 .write(self.at(obj::PROFILE_VELOCITY), v)
-                .wait()?;
+                .await?;
         }
         self.node
             .sdo()
             .write(self.at(obj::TARGET_POSITION), m.target)
-            .wait()?;
+            .await?;
         let base = Controlword::from_raw(0x000F)
             .with(0x0040, m.relative)
             .with(0x0020, m.immediate);
         // Bit 4 clear first, so that the set-point is a rising edge.
         if self.last_controlword() != Some(base) {
-            self.write_controlword(base)?;
+            self.put_controlword(base).await?;
         }
-        self.write_controlword(base.with(0x0010, true))?;
+        self.put_controlword(base.with(0x0010, true)).await?;
         self.wait_bit(
             12,
             true,
             "set-point acknowledge (statusword bit 12)",
             self.timeouts.set_point,
-        )?;
-        self.write_controlword(base)?;
-        Ok(())
+        )
+        .await?;
+        self.put_controlword(base).await
     }
 
     /// Waits for target reached, statusword bit 10 (not bit 4: OpenCAN #51), calling `each`
     /// with the actual position at every poll. Returns the final position.
-    pub fn wait_target_reached(&self, mut each: impl FnMut(i32)) -> Result<i32, DriveError> {
+    pub fn wait_target_reached<'a>(
+        &self,
+        mut each: impl FnMut(i32) + Send + 'a,
+    ) -> Operation<'a, i32, DriveError> {
+        let d = self.clone();
+        Operation::new(async move { d.until_target_reached(&mut each).await })
+    }
+
+    async fn until_target_reached(
+        &self,
+        each: &mut (dyn FnMut(i32) + Send + '_),
+    ) -> Result<i32, DriveError> {
         let start = self.node.network().now();
         loop {
-            let sw = self.statusword()?;
+            let sw = self.statusword().await?;
             let state = State::decode(sw);
             if state != Some(State::OperationEnabled) {
                 if matches!(state, Some(State::Fault | State::FaultReactionActive)) {
-                    return Err(self.fault_error(sw));
+                    return Err(self.fault_error(sw).await);
                 }
                 return Err(DriveError::NotEnabled {
                     state: state.ok_or(PlanError::UnknownState(sw))?,
                     statusword: sw,
                 });
             }
-            let position = self.position()?;
+            let position = self.position().await?;
             each(position);
             if sw.target_reached() && !sw.bit(12) {
                 return Ok(position);
@@ -731,18 +817,21 @@ impl Drive {
                     waited,
                 });
             }
-            self.sleep()?;
+            self.sleep().await?;
         }
     }
 
     /// A profile-position move to the end: [`start_move`](Self::start_move), then
     /// [`wait_target_reached`](Self::wait_target_reached). Returns the final position.
-    pub fn move_to(&self, m: Move) -> Result<i32, DriveError> {
-        self.start_move(m)?;
-        self.wait_target_reached(|_| {})
+    pub fn move_to(&self, m: Move) -> DriveOp<i32> {
+        let d = self.clone();
+        Operation::new(async move {
+            d.begin_move(m).await?;
+            d.until_target_reached(&mut |_| {}).await
+        })
     }
 
-    fn wait_bit(
+    async fn wait_bit(
         &self,
         bit: u32,
         on: bool,
@@ -751,13 +840,13 @@ impl Drive {
     ) -> Result<Statusword, DriveError> {
         let start = self.node.network().now();
         loop {
-            let sw = self.statusword()?;
+            let sw = self.statusword().await?;
             if sw.bit(bit) == on {
                 return Ok(sw);
             }
             let state = State::decode(sw);
             if matches!(state, Some(State::Fault | State::FaultReactionActive)) {
-                return Err(self.fault_error(sw));
+                return Err(self.fault_error(sw).await);
             }
             let waited = self.node.network().now() - start;
             if waited >= timeout {
@@ -769,38 +858,41 @@ impl Drive {
                     waited,
                 });
             }
-            self.sleep()?;
+            self.sleep().await?;
         }
     }
 
     /// Profile velocity: mode pv, target velocity 0x60FF (counts/s), halt cleared when the
     /// drive is enabled. Does not enable the drive (a target set before enabling is taken when
     /// it is enabled).
-    pub fn set_velocity(&self, velocity: i32) -> Result<(), DriveError> {
-        self.set_mode(ModeOfOperation::ProfileVelocity)?;
-        self.node
-            .sdo()
-            .write(self.at(obj::TARGET_VELOCITY), velocity)
-            .wait()?;
-        self.release_halt()
+    pub fn set_velocity(&self, velocity: i32) -> DriveOp<()> {
+        let d = self.clone();
+        Operation::new(async move {
+            d.select_mode(ModeOfOperation::ProfileVelocity).await?;
+            d.node
+                .sdo()
+                .write(d.at(obj::TARGET_VELOCITY), velocity)
+                .await?;
+            d.release_halt().await
+        })
     }
 
     /// Profile torque: mode tq, target torque 0x6071 (‰ of rated torque), halt cleared when the
     /// drive is enabled. Does not enable the drive.
-    pub fn set_torque(&self, torque: i16) -> Result<(), DriveError> {
-        self.set_mode(ModeOfOperation::ProfileTorque)?;
-        self.node
-            .sdo()
-            .write(self.at(obj::TARGET_TORQUE), torque)
-            .wait()?;
-        self.release_halt()
+    pub fn set_torque(&self, torque: i16) -> DriveOp<()> {
+        let d = self.clone();
+        Operation::new(async move {
+            d.select_mode(ModeOfOperation::ProfileTorque).await?;
+            d.node.sdo().write(d.at(obj::TARGET_TORQUE), torque).await?;
+            d.release_halt().await
+        })
     }
 
-    fn release_halt(&self) -> Result<(), DriveError> {
-        if State::decode(self.statusword()?) == Some(State::OperationEnabled)
+    async fn release_halt(&self) -> Result<(), DriveError> {
+        if State::decode(self.statusword().await?) == Some(State::OperationEnabled)
             && self.last_controlword() != Some(Controlword::from_raw(0x000F))
         {
-            self.write_controlword(Controlword::from_raw(0x000F))?;
+            self.put_controlword(Controlword::from_raw(0x000F)).await?;
         }
         Ok(())
     }
@@ -808,46 +900,61 @@ impl Drive {
     /// Homing: selects mode hm (in any state) and the method 0x6098 if given, then, in operation
     /// enabled only, starts it (bit 4 rising) and waits until it is attained (bits 12 and 10)
     /// or fails (bit 13). From any other state: [`DriveError::NotEnabled`] after the mode
-    /// selection, the power state untouched (python-canopen #244, ros2_canopen #421).
-    pub fn home(&self, method: Option<i8>) -> Result<i32, DriveError> {
-        self.set_mode(ModeOfOperation::Homing)?;
-        if let Some(m) = method {
-            self.node
-                .sdo()
-                .write(self.at(obj::HOMING_METHOD), m)
-                .wait()?;
-        }
-        self.require_enabled()?;
-        let base = Controlword::from_raw(0x000F);
-        self.write_controlword(base)?;
-        self.write_controlword(base.with(0x0010, true))?;
+    /// selection, the power state untouched (python-canopen #244, ros2_canopen #421). Returns
+    /// the position where homing ended.
+    pub fn home(&self, method: Option<i8>) -> DriveOp<i32> {
+        let d = self.clone();
+        Operation::new(async move {
+            d.select_mode(ModeOfOperation::Homing).await?;
+            if let Some(m) = method {
+                d.node.sdo().write(d.at(obj::HOMING_METHOD), m).await?;
+            }
+            d.require_enabled().await?;
+            let base = Controlword::from_raw(0x000F);
+            d.put_controlword(base).await?;
+            d.put_controlword(base.with(0x0010, true)).await?;
+            let result = d.until_homed().await;
+            // Bit 4 back to 0 (the homing start is an edge), whatever the result.
+            if matches!(
+                d.statusword().await.map(State::decode),
+                Ok(Some(State::OperationEnabled))
+            ) {
+                let _ = d.put_controlword(base).await;
+            }
+            result
+        })
+    }
+
+    async fn until_homed(&self) -> Result<i32, DriveError> {
         let start = self.node.network().now();
-        let result = loop {
-            let sw = self.statusword()?;
+        loop {
+            let sw = self.statusword().await?;
             let status = HomingStatus::decode(sw);
             match State::decode(sw) {
                 Some(State::OperationEnabled) => {}
-                Some(State::Fault | State::FaultReactionActive) => break Err(self.fault_error(sw)),
+                Some(State::Fault | State::FaultReactionActive) => {
+                    return Err(self.fault_error(sw).await);
+                }
                 Some(state) => {
-                    break Err(DriveError::NotEnabled {
+                    return Err(DriveError::NotEnabled {
                         state,
                         statusword: sw,
                     });
                 }
-                None => break Err(PlanError::UnknownState(sw).into()),
+                None => return Err(PlanError::UnknownState(sw).into()),
             }
             if status == HomingStatus::Completed {
-                break self.position();
+                return self.position().await;
             }
             if status.is_error() {
-                break Err(DriveError::Homing {
+                return Err(DriveError::Homing {
                     status,
                     statusword: sw,
                 });
             }
             let waited = self.node.network().now() - start;
             if waited >= self.timeouts.homing {
-                break Err(DriveError::Timeout {
+                return Err(DriveError::Timeout {
                     waiting_for: "homing attained (statusword bits 10, 12)",
                     expected: "homing completed".into(),
                     reached: format!("{status:?}"),
@@ -855,30 +962,30 @@ impl Drive {
                     waited,
                 });
             }
-            self.sleep()?;
-        };
-        // Bit 4 back to 0 (the homing start is an edge), whatever the result.
-        if matches!(
-            self.statusword().map(State::decode),
-            Ok(Some(State::OperationEnabled))
-        ) {
-            let _ = self.write_controlword(base);
+            self.sleep().await?;
         }
-        result
     }
+}
+
+/// How one walk of a plan ended.
+enum Walked {
+    /// The state reached.
+    Reached(State),
+    /// The drive stayed in quick stop active after transition 16.
+    NoTransition16,
 }
 
 /// A cyclic synchronous stream (csp, csv, cst) of one drive: its target goes in an RPDO the
 /// master's PDO engine sends after every SYNC the master produces (see
-/// [`Drive::start_cyclic`]). Set the next target once per cycle.
+/// [`Drive::start_cyclic`]). Set the next target once per cycle; nothing here waits.
 #[derive(Debug)]
-pub struct CyclicStream<'d> {
-    drive: &'d Drive,
+pub struct CyclicStream {
+    drive: Drive,
     sender: canola::RpdoSender,
     target: (u16, u8),
 }
 
-impl CyclicStream<'_> {
+impl CyclicStream {
     /// The target the next SYNC's RPDO carries (position in counts for csp, velocity in
     /// counts/s for csv, torque in ‰ for cst; range-checked against the object's type).
     pub fn set_target(&self, value: i32) -> Result<(), DriveError> {
@@ -888,7 +995,7 @@ impl CyclicStream<'_> {
 
     /// The drive.
     pub fn drive(&self) -> &Drive {
-        self.drive
+        &self.drive
     }
 
     /// The RPDO number the stream sends.
@@ -896,13 +1003,9 @@ impl CyclicStream<'_> {
         self.sender.number()
     }
 
-    /// Stops sending the RPDO (the drive keeps its last target).
+    /// Stops sending the RPDO (the drive keeps its last target). Does not wait.
     pub fn stop(self) -> Result<(), DriveError> {
-        let mut slot = self
-            .drive
-            .stream_controlword
-            .lock()
-            .unwrap_or_else(|p| p.into_inner());
+        let mut slot = lock(&self.drive.shared.stream_controlword);
         if slot
             .as_ref()
             .is_some_and(|(s, _)| s.number() == self.sender.number())
@@ -930,61 +1033,62 @@ impl Drive {
         mode: ModeOfOperation,
         rpdo: u16,
         period: Duration,
-    ) -> Result<CyclicStream<'_>, DriveError> {
-        let (target, bits, first) = match mode {
-            ModeOfOperation::CyclicSyncPosition => (
-                self.at(obj::TARGET_POSITION),
-                32,
-                i64::from(self.position()?),
-            ),
-            ModeOfOperation::CyclicSyncVelocity => (self.at(obj::TARGET_VELOCITY), 32, 0),
-            ModeOfOperation::CyclicSyncTorque => (self.at(obj::TARGET_TORQUE), 16, 0),
-            m => return Err(DriveError::NotCyclic(m)),
-        };
-        self.write_interpolation_period(period)?;
-        let sdo = || self.node.sdo();
-        let rpdos = self.node.rpdo();
-        let mut set = rpdos.read().wait()?;
-        let p = set
-            .get_mut(rpdo)
-            .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
-        p.clear();
-        p.map_entry(canola::ObjectAddress::new(target.0, target.1), bits);
-        p.set_transmission_type(canola::pdo::TransmissionType::SyncCyclic(1));
-        p.set_enabled(true);
-        rpdos.save(&mut set).wait()?;
-        let p = set
-            .get(rpdo)
-            .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
-        let sender = rpdos.start(p, canola::Transmission::on_sync())?;
-        sender.set(target, first)?;
-        // Also by SDO, so the target is in place before the mode switch whatever the SYNC does.
-        match bits {
-            16 => sdo().write(target, first as i16).wait()?,
-            _ => sdo().write(target, first as i32).wait()?,
-        }
-        self.set_mode(mode)?;
-        Ok(CyclicStream {
-            drive: self,
-            sender,
-            target,
+    ) -> DriveOp<CyclicStream> {
+        let d = self.clone();
+        Operation::new(async move {
+            let (target, bits, first) = match mode {
+                ModeOfOperation::CyclicSyncPosition => (
+                    d.at(obj::TARGET_POSITION),
+                    32,
+                    i64::from(d.position().await?),
+                ),
+                ModeOfOperation::CyclicSyncVelocity => (d.at(obj::TARGET_VELOCITY), 32, 0),
+                ModeOfOperation::CyclicSyncTorque => (d.at(obj::TARGET_TORQUE), 16, 0),
+                m => return Err(DriveError::NotCyclic(m)),
+            };
+            d.write_interpolation_period(period).await?;
+            let rpdos = d.node.rpdo();
+            let mut set = rpdos.read().await?;
+            let p = set
+                .get_mut(rpdo)
+                .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
+            p.clear();
+            p.map_entry(canola::ObjectAddress::new(target.0, target.1), bits);
+            p.set_transmission_type(canola::pdo::TransmissionType::SyncCyclic(1));
+            p.set_enabled(true);
+            rpdos.save(&mut set).await?;
+            let p = set
+                .get(rpdo)
+                .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
+            let sender = rpdos.start(p, canola::Transmission::on_sync())?;
+            sender.set(target, first)?;
+            // Also by SDO, so the target is in place before the mode switch whatever the SYNC
+            // does.
+            match bits {
+                16 => d.node.sdo().write(target, first as i16).await?,
+                _ => d.node.sdo().write(target, first as i32).await?,
+            }
+            d.select_mode(mode).await?;
+            Ok(CyclicStream {
+                drive: d,
+                sender,
+                target,
+            })
         })
     }
-}
 
-impl Drive {
     /// 0x60C2 (interpolation time period) set to `period`.
-    fn write_interpolation_period(&self, period: Duration) -> Result<(), DriveError> {
+    async fn write_interpolation_period(&self, period: Duration) -> Result<(), DriveError> {
         let ip = obj::InterpolationPeriod::from_micros(period.as_micros()).ok_or_else(|| {
             DriveError::Cyclic(format!("a period of {period} does not fit 0x60C2"))
         })?;
         let sdo = || self.node.sdo();
         sdo()
             .write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)
-            .wait()?;
+            .await?;
         sdo()
             .write(self.at(obj::INTERPOLATION_TIME_INDEX), ip.index)
-            .wait()?;
+            .await?;
         Ok(())
     }
 
@@ -1009,66 +1113,68 @@ impl Drive {
         mode: ModeOfOperation,
         pdos: &DcfPdos,
         period: Duration,
-    ) -> Result<CyclicStream<'_>, DriveError> {
-        let m = pdos.for_mode(mode, self.axis)?;
-        let first = match mode {
-            ModeOfOperation::CyclicSyncPosition => i64::from(self.position()?),
-            _ => 0,
-        };
-        self.write_interpolation_period(period)?;
-        let tpdos = self.node.tpdo();
-        let mut set = tpdos.read().wait()?;
-        for t in &m.tpdos {
-            apply_dcf_pdo(&mut set, t)?;
-        }
-        tpdos.save(&mut set).wait()?;
-        let rpdos = self.node.rpdo();
-        let mut set = rpdos.read().wait()?;
-        apply_dcf_pdo(&mut set, &m.rpdo)?;
-        rpdos.save(&mut set).wait()?;
-        let p = set
-            .get(m.rpdo.number)
-            .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{}", m.rpdo.number)))?;
-        let sender = rpdos.start(p, canola::Transmission::on_sync())?;
-        let cw_at = self.at(obj::CONTROLWORD);
-        let mode_at = self.at(obj::MODES_OF_OPERATION);
-        let mut cw_mapped = false;
-        for (index, sub, bits) in m.rpdo.objects() {
-            let at = (index, sub);
-            if at == m.target {
-                sender.set(at, first)?;
-            } else if at == cw_at {
-                let cw = match self.last_controlword() {
-                    Some(cw) => cw.raw(),
-                    None => u16::from_le_bytes(self.read_bytes(obj::CONTROLWORD)?),
-                };
-                sender.set(at, cw)?;
-                cw_mapped = true;
-            } else if at == mode_at {
-                sender.set(at, mode.code())?;
-            } else if index >= 0x1000 && bits % 8 == 0 {
-                // Anything else keeps the value the device has.
-                let mut data = self.node.sdo().read(at).wait()?;
-                data.resize(usize::from(bits / 8), 0);
-                sender.set(at, data)?;
+    ) -> DriveOp<CyclicStream> {
+        let m = pdos.for_mode(mode, self.axis);
+        let d = self.clone();
+        Operation::new(async move {
+            let m = m?;
+            let first = match mode {
+                ModeOfOperation::CyclicSyncPosition => i64::from(d.position().await?),
+                _ => 0,
+            };
+            d.write_interpolation_period(period).await?;
+            let tpdos = d.node.tpdo();
+            let mut set = tpdos.read().await?;
+            for t in &m.tpdos {
+                apply_dcf_pdo(&mut set, t)?;
             }
-        }
-        if cw_mapped {
-            *self
-                .stream_controlword
-                .lock()
-                .unwrap_or_else(|p| p.into_inner()) = Some((sender.clone(), cw_at));
-        }
-        // Also by SDO, so the target is in place before the mode switch whatever the SYNC does.
-        match m.target_bits {
-            16 => self.node.sdo().write(m.target, first as i16).wait()?,
-            _ => self.node.sdo().write(m.target, first as i32).wait()?,
-        }
-        self.set_mode(mode)?;
-        Ok(CyclicStream {
-            drive: self,
-            sender,
-            target: m.target,
+            tpdos.save(&mut set).await?;
+            let rpdos = d.node.rpdo();
+            let mut set = rpdos.read().await?;
+            apply_dcf_pdo(&mut set, &m.rpdo)?;
+            rpdos.save(&mut set).await?;
+            let p = set.get(m.rpdo.number).ok_or_else(|| {
+                DriveError::Cyclic(format!("the node has no RPDO{}", m.rpdo.number))
+            })?;
+            let sender = rpdos.start(p, canola::Transmission::on_sync())?;
+            let cw_at = d.at(obj::CONTROLWORD);
+            let mode_at = d.at(obj::MODES_OF_OPERATION);
+            let mut cw_mapped = false;
+            for (index, sub, bits) in m.rpdo.objects() {
+                let at = (index, sub);
+                if at == m.target {
+                    sender.set(at, first)?;
+                } else if at == cw_at {
+                    let cw = match d.last_controlword() {
+                        Some(cw) => cw.raw(),
+                        None => u16::from_le_bytes(d.read_at(cw_at).await?),
+                    };
+                    sender.set(at, cw)?;
+                    cw_mapped = true;
+                } else if at == mode_at {
+                    sender.set(at, mode.code())?;
+                } else if index >= 0x1000 && bits % 8 == 0 {
+                    // Anything else keeps the value the device has.
+                    let mut data = d.node.sdo().read(at).await?;
+                    data.resize(usize::from(bits / 8), 0);
+                    sender.set(at, data)?;
+                }
+            }
+            if cw_mapped {
+                *lock(&d.shared.stream_controlword) = Some((sender.clone(), cw_at));
+            }
+            // Also by SDO, so the target is in place before the mode switch whatever the SYNC
+            // does.
+            match m.target_bits {
+                16 => d.node.sdo().write(m.target, first as i16).await?,
+                _ => d.node.sdo().write(m.target, first as i32).await?,
+            }
+            d.select_mode(mode).await?;
+            Ok(CyclicStream {
+                drive: d,
+                sender,
+                target: m.target,
+            })
         })
     }
 }

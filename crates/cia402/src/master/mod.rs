@@ -1,5 +1,5 @@
 //! The master side of CiA 402 over the `canola` facade (feature `master`): [`Drive`], one axis of
-//! a drive commanded by SDO with blocking waits ([`DcfPdos`]: the PDOs of the cyclic modes taken
+//! a drive commanded by SDO, each command an operation (`.wait()` or `.await`) ([`DcfPdos`]: the PDOs of the cyclic modes taken
 //! from a DCF), and [`DriveHook`], the simulated drive
 //! ([`SimDrive`](crate::sim::SimDrive)) behind a device on the simulated bus.
 
