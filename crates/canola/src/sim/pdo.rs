@@ -1,11 +1,20 @@
 //! A simulated device's own PDOs (CiA 301 §7.2.2): the `canola-pdo` engine configured from the
 //! device's current values of its PDO parameter objects, over those values as its process image.
+//!
+//! A device marked CANopen FD also runs its PDOs of more than 8 bytes ([`FdPdos`]), as CAN FD
+//! frames mapped through `canola-pdo`'s [`FdMapping`]: TPDOs of types 254/255 go out when
+//! their data changes, synchronous ones (1..=240 every n-th SYNC, 0 on the SYNC after a change)
+//! on SYNC; received RPDOs are written at once. Inhibit time, event timer and remote requests
+//! apply to the classic PDOs only.
 
-use canola_frame::{CanId, Instant};
-use canola_pdo::{Direction, ObjectAddress, ObjectStore, OdView, StoreError};
+use canola_frame::{CanId, FdFrame, Instant};
+use canola_pdo::{
+    CommParams, Direction, FdMapping, ObjectAddress, ObjectStore, OdView, RawValue, StoreError,
+    TransmissionType,
+};
 
 use super::values::Values;
-use crate::machine::pdo::{PdoEngine, read_pdo};
+use crate::machine::pdo::{PdoEngine, read_fd_pdo, read_pdo};
 
 /// A device's values as the PDO engine's process image.
 pub(crate) struct Store<'a>(pub(crate) &'a mut Values);
@@ -51,4 +60,153 @@ pub(crate) fn device_engine(view: &OdView<'_>, now: Instant) -> Box<PdoEngine> {
         }
     }
     e
+}
+
+/// One CAN FD TPDO of a device.
+struct FdTpdo {
+    comm: CommParams,
+    can_id: CanId,
+    mapping: FdMapping,
+    /// The data last sent.
+    last: Option<Vec<u8>>,
+    /// SYNCs counted towards the next frame of a cyclic synchronous TPDO.
+    syncs: u8,
+}
+
+/// A device's PDOs of more than 8 bytes (see the module docs).
+#[derive(Default)]
+pub(crate) struct FdPdos {
+    rx: Vec<(CanId, FdMapping)>,
+    tx: Vec<FdTpdo>,
+}
+
+impl FdPdos {
+    /// The PDOs of more than 8 bytes among the device's RPDO1..4 and TPDO1..4.
+    pub(crate) fn from_view(view: &OdView<'_>) -> Self {
+        let mut out = Self::default();
+        for n in 0..4 {
+            if let Some((_, can_id, mapping)) = read_fd_pdo(view, Direction::Receive, n) {
+                out.rx.push((can_id, mapping));
+            }
+            if let Some((comm, can_id, mapping)) = read_fd_pdo(view, Direction::Transmit, n) {
+                out.tx.push(FdTpdo {
+                    comm,
+                    can_id,
+                    mapping,
+                    last: None,
+                    syncs: 0,
+                });
+            }
+        }
+        out
+    }
+
+    /// Whether the device has none.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.rx.is_empty() && self.tx.is_empty()
+    }
+
+    /// The frames of event-driven TPDOs whose data changed since they were last sent.
+    pub(crate) fn changed(&mut self, values: &Values, out: &mut impl Extend<FdFrame>) {
+        for t in &mut self.tx {
+            let tt = t.comm.transmission_type;
+            if !tt.is_event_driven() && tt != TransmissionType::SyncAcyclic {
+                continue;
+            }
+            let Some(data) = pack(&t.mapping, values) else {
+                continue;
+            };
+            if t.last.as_deref() == Some(&data[..]) || tt == TransmissionType::SyncAcyclic {
+                continue;
+            }
+            if let Ok(f) = FdFrame::new_padded(t.can_id, &data) {
+                out.extend([f]);
+            }
+            t.last = Some(data);
+        }
+    }
+
+    /// The frames of synchronous TPDOs due at a SYNC.
+    pub(crate) fn sync(&mut self, values: &Values, out: &mut impl Extend<FdFrame>) {
+        for t in &mut self.tx {
+            let due = match t.comm.transmission_type {
+                TransmissionType::SyncAcyclic => true,
+                TransmissionType::SyncCyclic(n) => {
+                    t.syncs = t.syncs.saturating_add(1);
+                    if t.syncs >= n {
+                        t.syncs = 0;
+                        true
+                    } else {
+                        false
+                    }
+                }
+                _ => false,
+            };
+            if !due {
+                continue;
+            }
+            let Some(data) = pack(&t.mapping, values) else {
+                continue;
+            };
+            let acyclic = t.comm.transmission_type == TransmissionType::SyncAcyclic;
+            if acyclic && t.last.as_deref() == Some(&data[..]) {
+                continue;
+            }
+            if let Ok(f) = FdFrame::new_padded(t.can_id, &data) {
+                out.extend([f]);
+            }
+            t.last = Some(data);
+        }
+    }
+
+    /// Writes a received CAN FD RPDO into `values`; `false` when it is none of the device's
+    /// (or shorter than its mapping).
+    pub(crate) fn receive(&self, frame: &FdFrame, values: &mut Values) -> bool {
+        let Some((_, mapping)) = self.rx.iter().find(|(id, _)| *id == frame.id()) else {
+            return false;
+        };
+        let Ok(raw) = canola_pdo::unpack_fd(mapping, frame.data()) else {
+            return false;
+        };
+        for (o, v) in mapping.objects().iter().zip(raw.iter()) {
+            if o.entry.is_dummy() {
+                continue;
+            }
+            let bits = o.bits();
+            let word = v.to_raw(o.kind, bits).unwrap_or(0);
+            let len = usize::from(bits).div_ceil(8);
+            let addr = o.entry.addr();
+            values.set(
+                addr.index,
+                addr.sub_index,
+                word.to_le_bytes()[..len].to_vec(),
+            );
+        }
+        true
+    }
+}
+
+/// The TPDO data of `mapping` from `values` (objects without a value are zero).
+fn pack(mapping: &FdMapping, values: &Values) -> Option<Vec<u8>> {
+    let raw: Vec<RawValue> = mapping
+        .objects()
+        .iter()
+        .map(|o| {
+            let mut word = [0u8; 8];
+            if let Some(b) = values.get(o.entry.index(), o.entry.subindex()) {
+                let n = b.len().min(8);
+                word[..n].copy_from_slice(&b[..n]);
+            }
+            let bits = o.bits();
+            let mask = if bits >= 64 {
+                u64::MAX
+            } else {
+                (1u64 << bits) - 1
+            };
+            RawValue::from_raw(o.kind, u64::from_le_bytes(word) & mask, bits)
+        })
+        .collect();
+    let mut buf = [0u8; canola_pdo::MAX_FD_BYTES];
+    let len = canola_pdo::pack_fd(mapping, &raw, &mut buf).ok()?;
+    Some(buf[..len].to_vec())
 }
