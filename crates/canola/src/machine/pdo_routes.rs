@@ -384,7 +384,7 @@ impl Core {
 /// Hands decoded PDO values (in `scratch`) to the callbacks, the batch subscribers and the
 /// event subscribers, in that order. The last taker gets the values without a copy of each
 /// (the scratch starts again with room for as many).
-fn deliver_values(
+pub(super) fn deliver_values(
     callbacks: &mut [(PdoCallbackId, PdoCallback)],
     pdo_subs: &mut [PdoPublisher],
     subs: &mut Subscribers,

@@ -15,7 +15,7 @@ use crate::transport::Station;
 
 use super::hook::{DeviceHook, HookActions};
 use super::objects::{Objects, SdoChannel, SubMeta, sdo_channels, sub_meta};
-use super::pdo::{FdPdos, Store, device_engine};
+use super::pdo::{DeviceMpdos, FdPdos, Store, device_engine};
 use super::values::{KeyMap, Values};
 use crate::machine::pdo::PdoEngine;
 
@@ -39,6 +39,8 @@ pub struct SimDevice {
     pub(super) pdo: Box<PdoEngine>,
     /// PDOs of more than 8 bytes, as CAN FD frames (a device marked CANopen FD only).
     pub(super) fd_pdo: FdPdos,
+    /// SAM-MPDO producers and DAM-MPDO consumers.
+    pub(super) mpdo: DeviceMpdos,
     pub(super) last_state: DeviceState,
     /// The earliest deadline of the protocol machines (hooks are asked each time), kept
     /// current by every input: the bus asks for it after every frame, and a scan over all
@@ -106,6 +108,7 @@ impl SimDevice {
             lss: LssSlave::new(lss_config),
             pdo: Box::new(PdoEngine::new()),
             fd_pdo: FdPdos::default(),
+            mpdo: DeviceMpdos::none(node),
             last_state: DeviceState::Initialising,
             timers: None,
             quirks: super::Quirks::default(),
@@ -296,6 +299,7 @@ impl SimDevice {
         } else {
             FdPdos::default()
         };
+        self.mpdo = DeviceMpdos::from_view(&view, self.node);
         let operational = self.nmt.state() == DeviceState::Operational;
         self.pdo.set_enabled(now, operational);
         if operational {
@@ -335,6 +339,9 @@ impl SimDevice {
         while self.pdo.poll_event().is_some() {}
         if !self.fd_pdo.is_empty() && self.nmt.state() == DeviceState::Operational {
             self.fd_pdo.changed(&self.values, &mut self.out_fd);
+        }
+        if !self.mpdo.is_empty() && self.nmt.state() == DeviceState::Operational {
+            self.mpdo.changed(&mut self.values, &mut self.out);
         }
     }
 
@@ -574,6 +581,20 @@ impl Station for SimDevice {
             && cob == canola_frame::cob::SYNC
         {
             self.fd_pdo.sync(&self.values, &mut self.out_fd);
+        }
+        if !self.mpdo.is_empty()
+            && self.nmt.state() == DeviceState::Operational
+            && self.mpdo.receive(frame, &mut self.values)
+        {
+            let mut actions = HookActions::default();
+            for h in self.hooks.iter_mut() {
+                h.on_pdo_input(now, &mut self.values, &mut actions);
+            }
+            self.pdo.update(now, &mut Store(&mut self.values));
+            self.collect();
+            self.apply(now, actions, &[]);
+            self.refresh_timers();
+            return;
         }
         if self.nmt.handle_frame(now, frame).unwrap_or(false) {
             self.after_nmt(now);

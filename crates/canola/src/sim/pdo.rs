@@ -6,11 +6,16 @@
 //! their data changes, synchronous ones (1..=240 every n-th SYNC, 0 on the SYNC after a change)
 //! on SYNC; received RPDOs are written at once. Inhibit time, event timer and remote requests
 //! apply to the classic PDOs only.
+//!
+//! MPDOs (CiA 301 §7.2.3, [`DeviceMpdos`]): a TPDO whose mapping count is 0xFE produces
+//! SAM-MPDOs, one per object of the object scanner list 0x1FA0 each time its value changes
+//! (every object once on entering Operational); an RPDO whose mapping count is 0xFF consumes
+//! DAM-MPDOs addressed to the device or to all nodes, writing the addressed object.
 
-use canola_frame::{CanId, FdFrame, Instant};
+use canola_frame::{CanFrame, CanId, FdFrame, Instant, NodeId};
 use canola_pdo::{
-    CommParams, Direction, FdMapping, ObjectAddress, ObjectStore, OdView, RawValue, StoreError,
-    TransmissionType,
+    CommParams, Dictionary, Direction, FdMapping, MpdoConsumer, ObjectAddress, ObjectStore, OdView,
+    RawValue, SamProducer, StoreError, TransmissionType,
 };
 
 use super::values::Values;
@@ -209,4 +214,136 @@ fn pack(mapping: &FdMapping, values: &Values) -> Option<Vec<u8>> {
     let mut buf = [0u8; canola_pdo::MAX_FD_BYTES];
     let len = canola_pdo::pack_fd(mapping, &raw, &mut buf).ok()?;
     Some(buf[..len].to_vec())
+}
+
+/// Most object scanner list entries a simulated SAM producer takes.
+const SCANNER_ENTRIES: usize = 254;
+
+/// A SAM-MPDO producing TPDO: its COB-ID, scanner list, and the data last sent per object.
+type SamTpdo = (
+    CanId,
+    Box<SamProducer<SCANNER_ENTRIES>>,
+    Vec<(ObjectAddress, [u8; 4])>,
+);
+
+/// A device's MPDOs (see the module docs).
+pub(crate) struct DeviceMpdos {
+    /// SAM-MPDO producers.
+    sam: Vec<SamTpdo>,
+    /// COB-IDs of the RPDOs that consume DAM-MPDOs.
+    dam: Vec<CanId>,
+    consumer: MpdoConsumer<1>,
+}
+
+impl DeviceMpdos {
+    /// No MPDOs (until the PDOs are built from the device's values).
+    pub(crate) fn none(node: NodeId) -> Self {
+        Self {
+            sam: Vec::new(),
+            dam: Vec::new(),
+            consumer: MpdoConsumer::new(node),
+        }
+    }
+
+    /// The MPDOs among the device's RPDO1..4 and TPDO1..4.
+    pub(crate) fn from_view(view: &OdView<'_>, node: NodeId) -> Self {
+        let mut out = Self::none(node);
+        for n in 0..4 {
+            let is = |direction: Direction, count: u32| {
+                view.read_u32(direction.mapping_index(n), 0) == Ok(count)
+            };
+            let cob = |direction: Direction| {
+                CommParams::read_from(view, direction.comm_index(n))
+                    .ok()
+                    .filter(|c| c.cob_id.is_valid())
+                    .and_then(|c| c.cob_id.can_id().ok())
+            };
+            if is(
+                Direction::Transmit,
+                u32::from(canola_pdo::mpdo::MAPPING_SAM),
+            ) && let Some(id) = cob(Direction::Transmit)
+            {
+                let mut p = Box::new(SamProducer::new(node));
+                if p.read_from(view, canola_pdo::mpdo::SCANNER_LIST_FIRST)
+                    .is_ok()
+                {
+                    out.sam.push((id, p, Vec::new()));
+                }
+            }
+            if is(Direction::Receive, u32::from(canola_pdo::mpdo::MAPPING_DAM))
+                && let Some(id) = cob(Direction::Receive)
+            {
+                out.dam.push(id);
+            }
+        }
+        out
+    }
+
+    /// Whether the device has none.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.sam.is_empty() && self.dam.is_empty()
+    }
+
+    /// SAM-MPDOs for the scanned objects whose value changed since they were last sent.
+    pub(crate) fn changed(&mut self, values: &mut Values, out: &mut impl Extend<CanFrame>) {
+        for (id, producer, last) in &mut self.sam {
+            let objects: Vec<ObjectAddress> = producer
+                .entries()
+                .iter()
+                .flat_map(|e| {
+                    (0..e.block_size()).filter_map(move |off| {
+                        Some(ObjectAddress::new(
+                            e.index(),
+                            e.subindex().checked_add(off)?,
+                        ))
+                    })
+                })
+                .collect();
+            for addr in objects {
+                let Ok(mpdo) = producer.produce(addr, &mut Store(values)) else {
+                    continue;
+                };
+                match last.iter_mut().find(|(a, _)| *a == addr) {
+                    Some((_, d)) if *d == mpdo.data => continue,
+                    Some((_, d)) => *d = mpdo.data,
+                    None => last.push((addr, mpdo.data)),
+                }
+                out.extend([mpdo.to_frame(*id)]);
+            }
+        }
+    }
+
+    /// Writes a DAM-MPDO for the device into `values`; `false` when `frame` is not on a DAM
+    /// RPDO's COB-ID (or not for this device).
+    pub(crate) fn receive(&self, frame: &CanFrame, values: &mut Values) -> bool {
+        self.dam.contains(&frame.id())
+            && matches!(
+                self.consumer
+                    .handle_data(frame.data(), &mut Existing(values)),
+                Ok(canola_pdo::mpdo::Delivery::Written(_))
+            )
+    }
+}
+
+/// The device's values for an MPDO's four data bytes: an object that exists keeps as many
+/// bytes as it holds; one that does not is refused (an MPDO creates no object).
+struct Existing<'a>(&'a mut Values);
+
+impl ObjectStore for Existing<'_> {
+    fn read(&mut self, addr: ObjectAddress, out: &mut [u8]) -> Result<(), StoreError> {
+        Store(self.0).read(addr, out)
+    }
+    fn write(&mut self, addr: ObjectAddress, data: &[u8]) -> Result<(), StoreError> {
+        let len = self
+            .0
+            .get(addr.index, addr.sub_index)
+            .ok_or(StoreError::NoSuchObject)?
+            .len();
+        self.0.set(
+            addr.index,
+            addr.sub_index,
+            data[..len.min(data.len())].to_vec(),
+        );
+        Ok(())
+    }
 }
