@@ -258,7 +258,9 @@ fn a_40_byte_rpdo_set_by_name_reaches_the_device() {
     let sent = fd_frames(&mut tap, 0x205);
     assert_eq!(sent.len(), 2, "one frame per change");
     let data = sent[1].data();
-    // 40 bytes travel in a 48-byte CAN FD frame, padded with zeros.
+    // 40 bytes travel in a 48-byte CAN FD frame, padded with zeros, its data phase switched
+    // to the data bit rate.
+    assert!(sent.iter().all(FdFrame::brs));
     assert_eq!(data.len(), 48);
     assert_eq!(&data[..4], &0xDEAD_BEEFu32.to_le_bytes());
     assert_eq!(&data[12..16], &0x0102_0304u32.to_le_bytes());

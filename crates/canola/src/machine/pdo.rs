@@ -220,7 +220,7 @@ impl NodePdos {
             if force.is_none() && r.last.as_deref() == Some(data) {
                 continue;
             }
-            if let Ok(frame) = FdFrame::new_padded(r.can_id, data) {
+            if let Ok(frame) = FdFrame::new_padded(r.can_id, data).map(|f| f.with_brs(true)) {
                 r.last = Some(data.to_vec());
                 out.push(frame);
             }

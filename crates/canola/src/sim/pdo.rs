@@ -124,7 +124,7 @@ impl FdPdos {
             if t.last.as_deref() == Some(&data[..]) || tt == TransmissionType::SyncAcyclic {
                 continue;
             }
-            if let Ok(f) = FdFrame::new_padded(t.can_id, &data) {
+            if let Ok(f) = FdFrame::new_padded(t.can_id, &data).map(|f| f.with_brs(true)) {
                 out.extend([f]);
             }
             t.last = Some(data);
@@ -157,7 +157,7 @@ impl FdPdos {
             if acyclic && t.last.as_deref() == Some(&data[..]) {
                 continue;
             }
-            if let Ok(f) = FdFrame::new_padded(t.can_id, &data) {
+            if let Ok(f) = FdFrame::new_padded(t.can_id, &data).map(|f| f.with_brs(true)) {
                 out.extend([f]);
             }
             t.last = Some(data);
