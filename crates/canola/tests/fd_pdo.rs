@@ -329,3 +329,39 @@ fn a_classic_bus_refuses_an_rpdo_of_more_than_8_bytes() {
     );
     assert!(node.rpdo().start(pdo, Transmission::on_change()).is_ok());
 }
+
+#[test]
+fn a_64_byte_tpdo_read_by_sdo_is_decoded_without_a_dictionary() {
+    let bus = fd_bus();
+    let net = Network::new(bus.endpoint());
+    let text = eds(true);
+    let device = bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+    let node = net.add_node(id(5));
+    let tpdos = node.tpdo().read().wait().unwrap();
+    assert_eq!(tpdos.get(1).unwrap().mapped.len(), 16);
+    node.nmt().start().unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let events = net.subscribe();
+    bus.with_station(device, |d: &mut SimDevice| {
+        d.set_value(
+            canola::Instant::ZERO,
+            0x2000,
+            16,
+            77u32.to_le_bytes().to_vec(),
+        );
+    });
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let values: Vec<_> = events
+        .try_iter()
+        .filter_map(|e| match e {
+            NetworkEvent::PdoValues {
+                number: 1, values, ..
+            } => Some(values),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(values.len(), 1);
+    assert_eq!(values[0].len(), 16);
+    assert_eq!(values[0][15].1, Value::Unsigned32(77));
+    assert_eq!(values[0][0].1, Value::Unsigned32(0));
+}

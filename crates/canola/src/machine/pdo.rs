@@ -257,6 +257,7 @@ impl NodePdos {
             })
             .collect();
         let config = mirrored(config);
+        self.fd_tpdos.retain(|m| m.number != number);
         let id = if let Some((_, id)) = self.tpdos.iter().find(|(n, _)| *n == number) {
             let _ = self.engine.set_rpdo(*id, config);
             Some(*id)

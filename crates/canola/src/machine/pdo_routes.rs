@@ -50,6 +50,25 @@ impl Core {
         self.route_pdos();
     }
 
+    /// The master's view of a node's TPDO `number` of more than 8 bytes after a read of its
+    /// parameters: decoded from CAN FD frames on `can_id` from now on.
+    pub(crate) fn mirror_fd_tpdo(
+        &mut self,
+        node: NodeId,
+        number: u8,
+        can_id: CanId,
+        mapping: canola_pdo::FdMapping,
+    ) {
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return;
+        };
+        let pdos = slot
+            .pdo
+            .get_or_insert_with(crate::machine::pdo::NodePdos::new);
+        pdos.mirror_fd_tpdo(number, can_id, mapping, slot.od.as_deref());
+        self.route_pdos();
+    }
+
     /// Rebuilds the COB-ID routes of TPDOs outside the predefined connection set.
     pub(super) fn route_pdos(&mut self) {
         self.pdo_routes.clear();
