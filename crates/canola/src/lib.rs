@@ -82,7 +82,7 @@ pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue};
 pub use pdo_access::{
-    MappedVariable, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
+    DamSender, MappedVariable, Mpdos, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
 };
 pub use pdo_subscriber::{PdoBatch, PdoBatchIter, PdoSubscriber, Recv};
 pub use restricted::restricted_cob_id;

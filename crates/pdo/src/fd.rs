@@ -16,9 +16,11 @@
 
 use heapless::Vec;
 
+use crate::comm::Direction;
+use crate::dictionary::{Catalog, Dictionary};
 use crate::mapping::{
-    MAX_ENTRIES, Mapping, MappingEntry, MappingError, ValueKind, check_entry_shape, field_mask,
-    raw_entry_kind,
+    MAX_ENTRIES, Mapping, MappingEntry, MappingError, ValueKind, check_entry, check_entry_shape,
+    field_mask, raw_entry_kind,
 };
 use crate::pack::{PackError, RawValue};
 
@@ -104,6 +106,54 @@ impl FdMapping {
             m.push(e, raw_entry_kind(e))?;
         }
         Ok(m)
+    }
+
+    /// A mapping from raw entries checked against `catalog` as [`Mapping::from_raw_checked`]
+    /// does (mappable, access for `direction`, lengths), under the CAN FD limits.
+    pub fn from_raw_checked<C: Catalog + ?Sized>(
+        direction: Direction,
+        entries: &[u32],
+        catalog: &C,
+    ) -> Result<Self, MappingError> {
+        if entries.len() > MAX_ENTRIES {
+            return Err(MappingError::TooManyEntries(entries.len()));
+        }
+        let mut m = Self::new();
+        for &raw in entries {
+            let e = MappingEntry(raw);
+            let kind = check_entry(direction, e, catalog)?;
+            m.push(e, kind)?;
+        }
+        Ok(m)
+    }
+
+    /// Reads mapping parameter object `index` from `dict` (sub 0 = count, subs 1.. = entries)
+    /// as [`Mapping::read_from`] does, under the CAN FD limits. An MPDO (sub 0 = 0xFE/0xFF)
+    /// is [`MappingError::Mpdo`].
+    pub fn read_from<D: Dictionary + ?Sized>(
+        dict: &D,
+        direction: Direction,
+        index: u16,
+    ) -> Result<Self, MappingError> {
+        let count = dict.read_u32(index, 0)?;
+        match count {
+            0xFE | 0xFF => return Err(MappingError::Mpdo(count as u8)),
+            n if n as usize > MAX_ENTRIES => {
+                return Err(MappingError::TooManyEntries(n as usize));
+            }
+            _ => {}
+        }
+        let mut raw: Vec<u32, MAX_ENTRIES> = Vec::new();
+        for sub in 1..=count as u8 {
+            // `count` is at most 64, so the push cannot fail.
+            let _ = raw.push(dict.read_u32(index, sub)?);
+        }
+        Self::from_raw_checked(direction, &raw, dict)
+    }
+
+    /// The raw entries in PDO order (the values of sub 1..=n).
+    pub fn raw_entries(&self) -> impl Iterator<Item = u32> + '_ {
+        self.objects.iter().map(|o| o.entry.0)
     }
 
     /// The mapped objects in PDO order.

@@ -401,7 +401,7 @@ const fn boolean_as_byte(kind: ValueKind, bits: u8) -> bool {
     matches!(kind, ValueKind::Boolean) && bits == 8
 }
 
-fn check_entry<C: Catalog + ?Sized>(
+pub(crate) fn check_entry<C: Catalog + ?Sized>(
     direction: Direction,
     e: MappingEntry,
     catalog: &C,

@@ -86,48 +86,68 @@ impl MappedObject {
     /// mapped length (BOOLEAN; the UNSIGNEDn or INTEGERn as wide as its bytes; REAL32, REAL64;
     /// OCTET_STRING for byte-typed fields).
     pub fn data_type(&self) -> DataType {
-        let bytes = self.bits().div_ceil(8);
-        match self.kind {
-            ValueKind::Boolean => DataType::Boolean,
-            ValueKind::Real32 => DataType::Real32,
-            ValueKind::Real64 => DataType::Real64,
-            ValueKind::Bytes => DataType::OctetString,
-            ValueKind::Unsigned => match bytes {
-                0 | 1 => DataType::Unsigned8,
-                2 => DataType::Unsigned16,
-                3 => DataType::Unsigned24,
-                4 => DataType::Unsigned32,
-                5 => DataType::Unsigned40,
-                6 => DataType::Unsigned48,
-                7 => DataType::Unsigned56,
-                _ => DataType::Unsigned64,
-            },
-            ValueKind::Signed => match bytes {
-                0 | 1 => DataType::Integer8,
-                2 => DataType::Integer16,
-                3 => DataType::Integer24,
-                4 => DataType::Integer32,
-                5 => DataType::Integer40,
-                6 => DataType::Integer48,
-                7 => DataType::Integer56,
-                _ => DataType::Integer64,
-            },
-        }
+        kind_data_type(self.kind, self.bits())
     }
 
     /// The data type to type this object's values with: `declared` (its type in a dictionary)
     /// when that agrees with how the mapping decodes it, else [`data_type`](Self::data_type).
     pub fn value_type(&self, declared: Option<DataType>) -> DataType {
-        match declared {
-            Some(t)
-                if ValueKind::from_data_type(t.code()) == self.kind
-                    && (self.kind != ValueKind::Bytes
-                        || t.size().is_none_or(|n| n * 8 == usize::from(self.bits()))) =>
-            {
-                t
-            }
-            _ => self.data_type(),
+        kind_value_type(self.kind, self.bits(), declared)
+    }
+}
+
+impl crate::fd::FdMappedObject {
+    /// As [`MappedObject::data_type`].
+    pub fn data_type(&self) -> DataType {
+        kind_data_type(self.kind, self.bits())
+    }
+
+    /// As [`MappedObject::value_type`].
+    pub fn value_type(&self, declared: Option<DataType>) -> DataType {
+        kind_value_type(self.kind, self.bits(), declared)
+    }
+}
+
+fn kind_data_type(kind: ValueKind, bits: u8) -> DataType {
+    let bytes = bits.div_ceil(8);
+    match kind {
+        ValueKind::Boolean => DataType::Boolean,
+        ValueKind::Real32 => DataType::Real32,
+        ValueKind::Real64 => DataType::Real64,
+        ValueKind::Bytes => DataType::OctetString,
+        ValueKind::Unsigned => match bytes {
+            0 | 1 => DataType::Unsigned8,
+            2 => DataType::Unsigned16,
+            3 => DataType::Unsigned24,
+            4 => DataType::Unsigned32,
+            5 => DataType::Unsigned40,
+            6 => DataType::Unsigned48,
+            7 => DataType::Unsigned56,
+            _ => DataType::Unsigned64,
+        },
+        ValueKind::Signed => match bytes {
+            0 | 1 => DataType::Integer8,
+            2 => DataType::Integer16,
+            3 => DataType::Integer24,
+            4 => DataType::Integer32,
+            5 => DataType::Integer40,
+            6 => DataType::Integer48,
+            7 => DataType::Integer56,
+            _ => DataType::Integer64,
+        },
+    }
+}
+
+fn kind_value_type(kind: ValueKind, bits: u8, declared: Option<DataType>) -> DataType {
+    match declared {
+        Some(t)
+            if ValueKind::from_data_type(t.code()) == kind
+                && (kind != ValueKind::Bytes
+                    || t.size().is_none_or(|n| n * 8 == usize::from(bits))) =>
+        {
+            t
         }
+        _ => kind_data_type(kind, bits),
     }
 }
 

@@ -159,22 +159,23 @@ pub struct PdoCallbackId(pub(super) u64);
 
 pub(super) type PdoCallback = Box<dyn FnMut(&PdoReceived<'_>) + Send>;
 
-/// The data bytes of a received PDO: up to eight, kept in place (no allocation per frame).
-/// Reads as a byte slice.
+/// The data bytes of a received PDO: up to 64 (a CAN FD PDO; eight on a classic bus), kept
+/// in place (no allocation per frame). Reads as a byte slice.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct PdoData {
-    pub(super) buf: [u8; 8],
+    pub(super) buf: [u8; 64],
     pub(super) len: u8,
 }
 
 impl PdoData {
-    /// The data of a classic CAN frame (at most eight bytes; more are cut off).
+    /// The data of a classic or CAN FD frame (at most 64 bytes; more are cut off).
     pub fn new(data: &[u8]) -> Self {
-        let len = data.len().min(8);
-        let mut buf = [0; 8];
-        // Full frames (the usual PDO) as one 8-byte copy, not a copy of a run-time length.
+        let len = data.len().min(64);
+        let mut buf = [0; 64];
+        // Full classic frames (the usual PDO) as one 8-byte copy, not a copy of a run-time
+        // length.
         match <[u8; 8]>::try_from(data) {
-            Ok(full) => buf = full,
+            Ok(full) => buf[..8].copy_from_slice(&full),
             Err(_) => buf[..len].copy_from_slice(&data[..len]),
         }
         Self {

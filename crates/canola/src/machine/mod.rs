@@ -24,6 +24,7 @@
 
 pub(crate) mod events;
 pub(crate) mod lss;
+mod mpdo;
 mod nodes;
 pub(crate) mod pdo;
 mod pdo_routes;
@@ -93,6 +94,8 @@ pub(crate) struct Core {
     sdo_routes: HashMap<CanId, (NodeId, usize)>,
     /// Nodes' TPDOs configured on COB-IDs other than their predefined ones, by COB-ID.
     pdo_routes: HashMap<CanId, NodeId>,
+    /// COB-IDs the master takes MPDOs on (see `machine::mpdo`).
+    mpdo_routes: HashMap<CanId, mpdo::MpdoRoute>,
     /// No node's PDO engine has a deadline before this (a lower bound: a deadline that moved
     /// later is found out when this one passes, so a received PDO costs no scan of all nodes).
     pdo_next: Option<Instant>,
@@ -139,6 +142,7 @@ impl Core {
             lss_result: None,
             sdo_routes: HashMap::new(),
             pdo_routes: HashMap::new(),
+            mpdo_routes: HashMap::new(),
             pdo_next: None,
             sdo_busy: Vec::new(),
             pdo_callbacks: Vec::new(),
@@ -450,6 +454,9 @@ impl Core {
                 }
             }
             _ if frame.is_remote() => {}
+            _ if !self.mpdo_routes.is_empty() && self.mpdo_routes.contains_key(&frame.id()) => {
+                self.handle_mpdo(now, frame);
+            }
             // A TPDO configured on another COB-ID than its predefined one.
             _ if !self.pdo_routes.is_empty() && self.pdo_routes.contains_key(&frame.id()) => {
                 if let Some(&node) = self.pdo_routes.get(&frame.id()) {

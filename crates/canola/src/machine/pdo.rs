@@ -3,11 +3,18 @@
 //! transmit side produces the node's RPDOs from the master's process image ([`NodePdos`]),
 //! configured from the PDO parameter objects (0x1400.., 0x1600.., 0x1800.., 0x1A00..) of the
 //! node's dictionary or of what was read from it.
+//!
+//! On a CAN FD bus a PDO may carry up to 64 bytes (CANopen FD): a node's TPDO whose mapping
+//! does not fit 8 bytes is decoded from CAN FD frames through `canola-pdo`'s [`FdMapping`]
+//! beside the engine ([`FdMirror`]), and an RPDO of more than 8 bytes is transmitted as a CAN FD
+//! frame ([`FdRpdo`]), event-driven: when a mapped value changes or on a trigger. The engine
+//! keeps running the classic PDOs (its timers and SYNC handling are for 8-byte PDOs).
 
+use canola_frame::{CanId, FdFrame};
 use canola_od::{DataType, ObjectDictionary, Value};
 use canola_pdo::{
-    CommParams, Dictionary, Direction, Engine, MapStore, Mapping, ObjectAddress, OdView, PdoConfig,
-    RpdoId, TpdoId,
+    CommParams, Dictionary, Direction, Engine, FdMapping, MapStore, Mapping, ObjectAddress, OdView,
+    PdoConfig, RawValue, RpdoId, TpdoId,
 };
 
 /// Four PDOs each way, as the predefined connection set has.
@@ -32,6 +39,30 @@ pub(crate) struct NodePdos {
     /// The engine's `poll_timeout` as of its last input (kept so the core need not ask every
     /// node's engine at every step).
     pub(crate) next: Option<canola_frame::Instant>,
+    /// The node's TPDOs of more than 8 bytes, decoded from CAN FD frames.
+    pub(crate) fd_tpdos: Vec<FdMirror>,
+    /// The node's RPDOs of more than 8 bytes the master transmits as CAN FD frames.
+    pub(crate) fd_rpdos: Vec<FdRpdo>,
+}
+
+/// A node's TPDO of more than 8 bytes as the master decodes it.
+pub(crate) struct FdMirror {
+    /// The node's TPDO number (1-based).
+    pub(crate) number: u8,
+    pub(crate) can_id: CanId,
+    pub(crate) mapping: FdMapping,
+    /// The data type of each mapped object, as for classic mirrors.
+    pub(crate) types: Vec<DataType>,
+}
+
+/// A node's RPDO of more than 8 bytes the master transmits (event-driven).
+pub(crate) struct FdRpdo {
+    /// The node's RPDO number (1-based).
+    pub(crate) number: u16,
+    pub(crate) can_id: CanId,
+    pub(crate) mapping: FdMapping,
+    /// The data last sent, to send again only on a change.
+    pub(crate) last: Option<Vec<u8>>,
 }
 
 impl NodePdos {
@@ -48,7 +79,160 @@ impl NodePdos {
             idle: Vec::new(),
             image: MapStore::new(),
             next: None,
+            fd_tpdos: Vec::new(),
+            fd_rpdos: Vec::new(),
         }
+    }
+
+    /// Decodes the node's TPDO `number` of more than 8 bytes from CAN FD frames on `can_id`
+    /// from now on (replacing a classic mirror of the same number).
+    pub(crate) fn mirror_fd_tpdo(
+        &mut self,
+        number: u8,
+        can_id: CanId,
+        mapping: FdMapping,
+        od: Option<&ObjectDictionary>,
+    ) {
+        let types = mapping
+            .objects()
+            .iter()
+            .map(|o| {
+                let declared = od
+                    .filter(|_| !o.entry.is_dummy())
+                    .and_then(|od| od.sub(o.entry.index(), o.entry.subindex()))
+                    .map(|s| s.data_type);
+                o.value_type(declared)
+            })
+            .collect();
+        if let Some((_, id)) = self.tpdos.iter().find(|(n, _)| *n == number)
+            && let Some(mut config) = self.engine.rpdo(*id).cloned()
+        {
+            config.comm.cob_id = config.comm.cob_id.with_valid(false);
+            let _ = self.engine.set_rpdo(*id, config);
+        }
+        self.fd_tpdos.retain(|m| m.number != number);
+        self.fd_tpdos.push(FdMirror {
+            number,
+            can_id,
+            mapping,
+            types,
+        });
+    }
+
+    /// The TPDO number of the CAN FD mirror on `can_id`.
+    pub(crate) fn fd_tpdo_on(&self, can_id: CanId) -> Option<u8> {
+        self.fd_tpdos
+            .iter()
+            .find(|m| m.can_id == can_id)
+            .map(|m| m.number)
+    }
+
+    /// The values of `data` received on the CAN FD mirror of TPDO `number`, typed as for
+    /// classic mirrors, into `out` (cleared first); `false` when the data is shorter than the
+    /// mapping.
+    pub(crate) fn decode_fd(
+        &self,
+        number: u8,
+        data: &[u8],
+        out: &mut Vec<(ObjectAddress, Value)>,
+    ) -> bool {
+        out.clear();
+        let Some(m) = self.fd_tpdos.iter().find(|m| m.number == number) else {
+            return false;
+        };
+        let Ok(raw) = canola_pdo::unpack_fd(&m.mapping, data) else {
+            return false;
+        };
+        out.extend(
+            m.mapping
+                .objects()
+                .iter()
+                .zip(raw.iter())
+                .enumerate()
+                .map(|(i, (o, v))| {
+                    let ty = m.types.get(i).copied().unwrap_or_else(|| o.data_type());
+                    let value = v
+                        .to_value(ty)
+                        .or_else(|_| v.to_value(o.data_type()))
+                        .unwrap_or(Value::Unsigned64(0));
+                    (o.entry.addr(), value)
+                }),
+        );
+        true
+    }
+
+    /// Starts (or reconfigures) transmitting the node's RPDO `number` of more than 8 bytes as
+    /// CAN FD frames on `can_id`. Mapped objects the application has not set yet are zero.
+    pub(crate) fn start_fd_rpdo(&mut self, number: u16, can_id: CanId, mapping: FdMapping) {
+        for o in mapping.objects() {
+            let addr = o.entry.addr();
+            if !o.entry.is_dummy() && self.image.get(addr).is_none() {
+                self.image
+                    .set(addr, &vec![0; usize::from(o.bits()).div_ceil(8)]);
+            }
+        }
+        // A classic transmission of the same RPDO stops.
+        let _ = self.stop_rpdo(canola_frame::Instant::ZERO, number);
+        self.fd_rpdos.retain(|r| r.number != number);
+        self.fd_rpdos.push(FdRpdo {
+            number,
+            can_id,
+            mapping,
+            last: None,
+        });
+    }
+
+    /// The CAN FD frames of the transmitted FD RPDOs whose data changed (all of them when
+    /// `force` names none; only RPDO `force` otherwise, changed or not).
+    pub(crate) fn fd_frames(&mut self, force: Option<u16>) -> Vec<FdFrame> {
+        let mut out = Vec::new();
+        for r in &mut self.fd_rpdos {
+            if force.is_some_and(|n| n != r.number) {
+                continue;
+            }
+            let values: Vec<RawValue> = r
+                .mapping
+                .objects()
+                .iter()
+                .map(|o| {
+                    let mut word = [0u8; 8];
+                    if !o.entry.is_dummy()
+                        && let Some(b) = self.image.get(o.entry.addr())
+                    {
+                        let n = b.len().min(8);
+                        word[..n].copy_from_slice(&b[..n]);
+                    }
+                    let bits = o.bits();
+                    let raw = u64::from_le_bytes(word)
+                        & if bits >= 64 {
+                            u64::MAX
+                        } else {
+                            (1u64 << bits) - 1
+                        };
+                    RawValue::from_raw(o.kind, raw, bits)
+                })
+                .collect();
+            let mut buf = [0u8; canola_pdo::MAX_FD_BYTES];
+            let Ok(len) = canola_pdo::pack_fd(&r.mapping, &values, &mut buf) else {
+                continue;
+            };
+            let data = &buf[..len];
+            if force.is_none() && r.last.as_deref() == Some(data) {
+                continue;
+            }
+            if let Ok(frame) = FdFrame::new_padded(r.can_id, data).map(|f| f.with_brs(true)) {
+                r.last = Some(data.to_vec());
+                out.push(frame);
+            }
+        }
+        out
+    }
+
+    /// Stops transmitting the FD RPDO `number`; `false` when it was not transmitted.
+    pub(crate) fn stop_fd_rpdo(&mut self, number: u16) -> bool {
+        let before = self.fd_rpdos.len();
+        self.fd_rpdos.retain(|r| r.number != number);
+        self.fd_rpdos.len() != before
     }
 
     /// Decodes the node's TPDO `number` with `config` from now on (mirrored event-driven),
@@ -73,6 +257,7 @@ impl NodePdos {
             })
             .collect();
         let config = mirrored(config);
+        self.fd_tpdos.retain(|m| m.number != number);
         let id = if let Some((_, id)) = self.tpdos.iter().find(|(n, _)| *n == number) {
             let _ = self.engine.set_rpdo(*id, config);
             Some(*id)
@@ -202,6 +387,22 @@ pub(crate) fn read_pdo(view: &impl Dictionary, direction: Direction, n: u16) -> 
     Some(PdoConfig::new(comm, mapping))
 }
 
+/// Reads PDO `n` (0-based) of `direction` as a CAN FD PDO of more than 8 bytes: its
+/// communication parameters, CAN identifier and mapping; `None` when absent, not valid, or
+/// fitting a classic PDO.
+pub(crate) fn read_fd_pdo(
+    view: &impl Dictionary,
+    direction: Direction,
+    n: u16,
+) -> Option<(CommParams, CanId, FdMapping)> {
+    let comm = CommParams::read_from(view, direction.comm_index(n)).ok()?;
+    if !comm.cob_id.is_valid() {
+        return None;
+    }
+    let mapping = FdMapping::read_from(view, direction, direction.mapping_index(n)).ok()?;
+    (mapping.byte_len() > 8).then_some((comm, comm.cob_id.can_id().ok()?, mapping))
+}
+
 /// The master's PDOs for one node with a dictionary: the node's TPDOs (from its dictionary,
 /// `$NODEID` resolved) mirrored as receive PDOs.
 pub(crate) fn mirror_engine(od: &ObjectDictionary, node: canola_frame::NodeId) -> NodePdos {
@@ -217,7 +418,10 @@ impl NodePdos {
         let view = OdView::new(od, node.get());
         for n in 0..4u16 {
             if let Some(c) = read_pdo(&view, Direction::Transmit, n) {
+                self.fd_tpdos.retain(|m| m.number != n as u8 + 1);
                 self.mirror_tpdo(n as u8 + 1, c, Some(od));
+            } else if let Some((_, can_id, mapping)) = read_fd_pdo(&view, Direction::Transmit, n) {
+                self.mirror_fd_tpdo(n as u8 + 1, can_id, mapping, Some(od));
             }
         }
     }
@@ -225,6 +429,16 @@ impl NodePdos {
     /// The length in bits of `addr` in the node's transmitted RPDO `number`; `None` when the
     /// RPDO is not transmitted or does not map it.
     pub(crate) fn rpdo_bits(&self, number: u16, addr: ObjectAddress) -> Option<Result<u8, ()>> {
+        if let Some(r) = self.fd_rpdos.iter().find(|r| r.number == number) {
+            return Some(
+                r.mapping
+                    .objects()
+                    .iter()
+                    .find(|o| !o.entry.is_dummy() && o.entry.addr() == addr)
+                    .map(|o| o.bits())
+                    .ok_or(()),
+            );
+        }
         let config = self.engine.tpdo(self.rpdo_id(number)?)?;
         Some(
             config

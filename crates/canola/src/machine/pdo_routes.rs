@@ -5,13 +5,16 @@
 use std::collections::VecDeque;
 
 use canola_frame::cob::FunctionCode;
-use canola_frame::{CanFrame, CobId, Instant, NodeId};
-use canola_od::ObjectAddress;
+use std::sync::Arc;
+
+use canola_frame::{CanFrame, CanId, CobId, FdFrame, Instant, NodeId};
+use canola_od::{ObjectAddress, ObjectDictionary, Value};
 
 use super::Core;
 use super::events::{NetworkEvent, PdoCallback, PdoCallbackId, PdoData, PdoReceived};
-use super::sdo::Outgoing;
-use crate::pdo_subscriber::{PdoSubscriber, pdo_subscription};
+use super::sdo::{OutFrame, Outgoing};
+use super::subscribers::Subscribers;
+use crate::pdo_subscriber::{PdoPublisher, PdoSubscriber, pdo_subscription};
 
 impl Core {
     pub(crate) fn subscribe_pdos(&mut self) -> PdoSubscriber {
@@ -44,6 +47,25 @@ impl Core {
             .get_or_insert_with(crate::machine::pdo::NodePdos::new);
         pdos.mirror_tpdo(number, config, slot.od.as_deref());
         Self::pdo_touched(pdos, &mut self.pdo_next);
+        self.route_pdos();
+    }
+
+    /// The master's view of a node's TPDO `number` of more than 8 bytes after a read of its
+    /// parameters: decoded from CAN FD frames on `can_id` from now on.
+    pub(crate) fn mirror_fd_tpdo(
+        &mut self,
+        node: NodeId,
+        number: u8,
+        can_id: CanId,
+        mapping: canola_pdo::FdMapping,
+    ) {
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return;
+        };
+        let pdos = slot
+            .pdo
+            .get_or_insert_with(crate::machine::pdo::NodePdos::new);
+        pdos.mirror_fd_tpdo(number, can_id, mapping, slot.od.as_deref());
         self.route_pdos();
     }
 
@@ -130,7 +152,7 @@ impl Core {
         let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
             return false;
         };
-        let stopped = pdos.stop_rpdo(now, number);
+        let stopped = pdos.stop_rpdo(now, number) | pdos.stop_fd_rpdo(number);
         Self::pdo_touched(pdos, &mut self.pdo_next);
         stopped
     }
@@ -147,7 +169,114 @@ impl Core {
             pdos.image.set(*addr, bytes);
         }
         pdos.engine.update(now, &mut pdos.image);
+        for frame in pdos.fd_frames(None) {
+            self.tx.push_back(Outgoing {
+                frame: OutFrame::Fd(Box::new(frame)),
+                transfer: None,
+            });
+        }
         Self::drain_pdos(pdos, &mut self.tx, &mut self.pdo_next);
+    }
+
+    /// Starts transmitting `node`'s RPDO `number` of more than 8 bytes as CAN FD frames on
+    /// `can_id` (see [`NodePdos::start_fd_rpdo`](crate::machine::pdo::NodePdos::start_fd_rpdo));
+    /// the first frame is queued.
+    pub(crate) fn start_fd_rpdo(
+        &mut self,
+        node: NodeId,
+        number: u16,
+        can_id: CanId,
+        mapping: canola_pdo::FdMapping,
+    ) {
+        self.add_node(node, None);
+        let Some(slot) = self.nodes.get_mut(&node) else {
+            return;
+        };
+        let pdos = slot
+            .pdo
+            .get_or_insert_with(crate::machine::pdo::NodePdos::new);
+        pdos.start_fd_rpdo(number, can_id, mapping);
+        for frame in pdos.fd_frames(Some(number)) {
+            self.tx.push_back(Outgoing {
+                frame: OutFrame::Fd(Box::new(frame)),
+                transfer: None,
+            });
+        }
+        Self::pdo_touched(pdos, &mut self.pdo_next);
+    }
+
+    /// A CAN FD frame no USDO transfer took: a node's TPDO of more than 8 bytes decoded
+    /// through its CAN FD mirror, or a TPDO of at most 8 bytes sent as a CAN FD frame, taken as
+    /// the classic frame it would be.
+    pub(super) fn handle_fd_pdo(&mut self, now: Instant, frame: &FdFrame) {
+        let id = frame.id();
+        let hit = self.nodes.iter().find_map(|(node, slot)| {
+            slot.pdo
+                .as_ref()
+                .and_then(|p| p.fd_tpdo_on(id))
+                .map(|n| (node, n))
+        });
+        if let Some((node, number)) = hit {
+            let Some(slot) = self.nodes.get(&node) else {
+                return;
+            };
+            let Some(pdos) = &slot.pdo else { return };
+            let decoded = pdos.decode_fd(number, frame.data(), &mut self.pdo_scratch);
+            let od = slot.od.clone();
+            let data = PdoData::new(frame.data());
+            if decoded {
+                deliver_values(
+                    &mut self.pdo_callbacks,
+                    &mut self.pdo_subs,
+                    &mut self.subs,
+                    &mut self.pdo_scratch,
+                    (node, number, data, now),
+                    od.as_ref(),
+                );
+            } else {
+                self.deliver_raw(node, number, data, now);
+            }
+            return;
+        }
+        if frame.data().len() > 8 {
+            return;
+        }
+        let Ok(classic) = CanFrame::new(id, frame.data()) else {
+            return;
+        };
+        if let Some(&node) = self.pdo_routes.get(&id) {
+            self.handle_tpdo(now, node, None, &classic);
+        } else if let Some(CobId {
+            function: FunctionCode::Tpdo(n),
+            node: Some(node),
+        }) = id.as_standard().and_then(CobId::classify)
+        {
+            self.handle_tpdo(now, node, Some(n.get()), &classic);
+        }
+    }
+
+    /// A PDO whose data was not decoded: the raw data to callbacks, subscribers and events.
+    fn deliver_raw(&mut self, node: NodeId, number: u8, data: PdoData, now: Instant) {
+        let seen = PdoReceived {
+            node,
+            number,
+            data: &data,
+            values: &[],
+            at: now,
+            dictionary: None,
+        };
+        for (_, f) in &mut self.pdo_callbacks {
+            f(&seen);
+        }
+        for s in &mut self.pdo_subs {
+            s.push(node, number, data, now, None, &[]);
+        }
+        self.publish(NetworkEvent::Pdo {
+            node,
+            number,
+            data,
+            at: now,
+        });
     }
 
     /// The length in bits of `addr` in `node`'s transmitted RPDO `number`: `None` when that
@@ -167,6 +296,15 @@ impl Core {
         let Some(pdos) = self.nodes.get_mut(&node).and_then(|s| s.pdo.as_mut()) else {
             return false;
         };
+        if pdos.fd_rpdos.iter().any(|r| r.number == number) {
+            for frame in pdos.fd_frames(Some(number)) {
+                self.tx.push_back(Outgoing {
+                    frame: OutFrame::Fd(Box::new(frame)),
+                    transfer: None,
+                });
+            }
+            return true;
+        }
         let Some(id) = pdos.rpdo_id(number) else {
             return false;
         };
@@ -234,53 +372,14 @@ impl Core {
                         number = Some(n);
                         if pdos.received_values(pdo, &mut self.pdo_scratch) {
                             decoded = true;
-                            let seen = PdoReceived {
-                                node,
-                                number: n,
-                                data: &data,
-                                values: &self.pdo_scratch,
-                                at: now,
-                                dictionary: slot.od.as_deref(),
-                            };
-                            for (_, f) in &mut self.pdo_callbacks {
-                                f(&seen);
-                            }
-                            if let Some((last, others)) = self.pdo_subs.split_last_mut() {
-                                for s in others {
-                                    s.push(node, n, data, now, slot.od.as_ref(), &self.pdo_scratch);
-                                }
-                                if self.subs.is_empty() {
-                                    // No event takes the values: the last subscriber does,
-                                    // without a copy of each (the scratch keeps its room).
-                                    last.push_moving(
-                                        node,
-                                        n,
-                                        data,
-                                        now,
-                                        slot.od.as_ref(),
-                                        &mut self.pdo_scratch,
-                                    );
-                                    continue;
-                                }
-                                last.push(node, n, data, now, slot.od.as_ref(), &self.pdo_scratch);
-                            }
-                            if !self.subs.is_empty() {
-                                // The event takes the values as they are (no copy of each
-                                // value); the scratch starts again with room for as many.
-                                let room = self.pdo_scratch.len();
-                                let values = core::mem::replace(
-                                    &mut self.pdo_scratch,
-                                    Vec::with_capacity(room),
-                                );
-                                let ev = NetworkEvent::PdoValues {
-                                    node,
-                                    number: n,
-                                    data,
-                                    values,
-                                    at: now,
-                                };
-                                self.subs.deliver(ev);
-                            }
+                            deliver_values(
+                                &mut self.pdo_callbacks,
+                                &mut self.pdo_subs,
+                                &mut self.subs,
+                                &mut self.pdo_scratch,
+                                (node, n, data, now),
+                                slot.od.as_ref(),
+                            );
                         }
                     }
                     canola_pdo::Event::LengthError { pdo, .. }
@@ -297,24 +396,50 @@ impl Core {
         let Some(number) = number.or(predefined) else {
             return;
         };
-        let seen = PdoReceived {
-            node,
-            number,
-            data: &data,
-            values: &[],
-            at: now,
-            dictionary: None,
-        };
-        for (_, f) in &mut self.pdo_callbacks {
-            f(&seen);
+        self.deliver_raw(node, number, data, now);
+    }
+}
+
+/// Hands decoded PDO values (in `scratch`) to the callbacks, the batch subscribers and the
+/// event subscribers, in that order. The last taker gets the values without a copy of each
+/// (the scratch starts again with room for as many).
+pub(super) fn deliver_values(
+    callbacks: &mut [(PdoCallbackId, PdoCallback)],
+    pdo_subs: &mut [PdoPublisher],
+    subs: &mut Subscribers,
+    scratch: &mut Vec<(ObjectAddress, Value)>,
+    (node, number, data, now): (NodeId, u8, PdoData, Instant),
+    od: Option<&Arc<ObjectDictionary>>,
+) {
+    let seen = PdoReceived {
+        node,
+        number,
+        data: &data,
+        values: scratch,
+        at: now,
+        dictionary: od.map(|d| &**d),
+    };
+    for (_, f) in callbacks.iter_mut() {
+        f(&seen);
+    }
+    if let Some((last, others)) = pdo_subs.split_last_mut() {
+        for s in others {
+            s.push(node, number, data, now, od, scratch);
         }
-        for s in &mut self.pdo_subs {
-            s.push(node, number, data, now, None, &[]);
+        if subs.is_empty() {
+            last.push_moving(node, number, data, now, od, scratch);
+            return;
         }
-        self.publish(NetworkEvent::Pdo {
+        last.push(node, number, data, now, od, scratch);
+    }
+    if !subs.is_empty() {
+        let room = scratch.len();
+        let values = core::mem::replace(scratch, Vec::with_capacity(room));
+        subs.deliver(NetworkEvent::PdoValues {
             node,
             number,
             data,
+            values,
             at: now,
         });
     }

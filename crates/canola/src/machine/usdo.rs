@@ -342,15 +342,17 @@ impl Core {
         self.usdo.queue.retain(|q| *q != id);
     }
 
-    /// A CAN FD frame from the bus: a USDO response for the master's client, if it is one.
+    /// A CAN FD frame from the bus: a USDO response for the master's client, if it is one,
+    /// else a PDO.
     pub(super) fn handle_fd_frame(&mut self, now: Instant, frame: &FdFrame) {
         self.set_now(now);
-        let Some(client) = self.usdo.client.as_mut() else {
-            return;
-        };
-        if client.handle_frame(now, frame) {
+        if let Some(client) = self.usdo.client.as_mut()
+            && client.handle_frame(now, frame)
+        {
             self.pump_usdo();
+            return;
         }
+        self.handle_fd_pdo(now, frame);
     }
 
     /// Fires the USDO client's response timeout.

@@ -103,6 +103,11 @@ impl Rpdos {
                 can_id,
             });
         }
+        if pdo.mapping_lenient().is_none()
+            && let Some(fd) = pdo.fd_mapping_lenient()
+        {
+            return self.engage_fd(pdo, how, fd);
+        }
         let mapping = pdo
             .mapping_lenient()
             .ok_or_else(|| pdo.error("the mapping does not fit a PDO".into()))?;
@@ -121,6 +126,53 @@ impl Rpdos {
         core.set_now(now);
         core.start_rpdo(self.node.id, pdo.number, PdoConfig::new(comm, mapping))
             .map_err(|e| pdo.error(e.to_string()))?;
+        Ok(RpdoSender {
+            node: self.node.clone(),
+            number: pdo.number,
+        })
+    }
+
+    /// [`engage`](Self::engage) for an RPDO of more than 8 bytes (CANopen FD): sent as CAN FD
+    /// frames, which needs a CAN FD bus and a node marked CANopen FD, and event-driven (on a
+    /// changed value or a trigger).
+    fn engage_fd(
+        &self,
+        pdo: &PdoParameters,
+        how: Transmission,
+        mapping: canola_pdo::FdMapping,
+    ) -> Result<RpdoSender, Error> {
+        let bytes = mapping.byte_len();
+        if let Some(bus) = self.node.net.core().classic_bus() {
+            return Err(pdo.error(format!(
+                "maps {bytes} bytes, more than the 8 of a classic CAN frame, and {bus} carries \
+                 no CAN FD"
+            )));
+        }
+        if !self.node.is_fd() {
+            return Err(pdo.error(format!(
+                "maps {bytes} bytes, more than the 8 of a classic CAN frame, and the node is not \
+                 marked CANopen FD"
+            )));
+        }
+        if !how.transmission_type.is_event_driven()
+            || !how.inhibit_time.is_zero()
+            || !how.event_timer.is_zero()
+        {
+            return Err(pdo.error(
+                "an RPDO of more than 8 bytes is sent on a change or a trigger only (no SYNC, \
+                 inhibit time or event timer)"
+                    .into(),
+            ));
+        }
+        let can_id = pdo
+            .comm
+            .cob_id
+            .can_id()
+            .map_err(|e| pdo.error(e.to_string()))?;
+        let now = self.node.net.now();
+        let mut core = self.node.net.core();
+        core.set_now(now);
+        core.start_fd_rpdo(self.node.id, pdo.number, can_id, mapping);
         Ok(RpdoSender {
             node: self.node.clone(),
             number: pdo.number,

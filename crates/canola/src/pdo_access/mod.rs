@@ -15,14 +15,19 @@
 //!   master's SYNC). The application sets mapped values through the [`RpdoSender`]; the
 //!   network's own driving (background driver, waiting calls, `run_for`) sends the frames.
 //!
+//! * [`Node::mpdo`] → [`Mpdos`]: the node's multiplexed PDOs (CiA 301 §7.2.3) received through
+//!   the master's scanner list and delivered as PDOs, and DAM-MPDOs written with a [`DamSender`].
+//!
 //! Files by job: `params` (the parameters and their set), `handles` ([`Tpdos`], [`Rpdos`]),
-//! `transmit` ([`Transmission`], [`RpdoSender`]), `sequence` (the SDO sequences behind them).
+//! `transmit` ([`Transmission`], [`RpdoSender`]), `mpdo` ([`Mpdos`], [`DamSender`]), `sequence` (the SDO sequences behind them).
 
 mod handles;
+mod mpdo;
 mod params;
 mod sequence;
 mod transmit;
 
 pub use handles::{Rpdos, Tpdos};
+pub use mpdo::{DamSender, Mpdos};
 pub use params::{MappedVariable, PdoParameters, PdoSet};
 pub use transmit::{RpdoSender, Transmission};

@@ -253,6 +253,23 @@ impl PdoParameters {
         })
     }
 
+    /// The mapping under the CAN FD limits (up to 64 bytes), checked as
+    /// [`mapping`](Self::mapping) when possible, else with every object read as unsigned.
+    pub(super) fn fd_mapping_lenient(&self) -> Option<canola_pdo::FdMapping> {
+        let raw: Vec<u32> = self.raw_entries().collect();
+        self.od
+            .as_deref()
+            .and_then(|od| {
+                canola_pdo::FdMapping::from_raw_checked(
+                    self.direction,
+                    &raw,
+                    &OdView::new(od, self.node.get()),
+                )
+                .ok()
+            })
+            .or_else(|| canola_pdo::FdMapping::from_raw(&raw).ok())
+    }
+
     pub(super) fn comm_index(&self) -> u16 {
         self.direction.comm_index(self.number - 1)
     }

@@ -20,6 +20,15 @@ use super::params::{MappedVariable, PdoParameters, PdoSet, Present, kind_name, n
 /// RPDO uses its COB-ID and mapping.
 pub(super) fn follow(node: &Node, p: &PdoParameters) {
     let Some(mapping) = p.mapping_lenient() else {
+        // A TPDO of more than 8 bytes (CANopen FD) is decoded from its CAN FD frames.
+        if p.direction == Direction::Transmit
+            && p.comm.cob_id.is_valid()
+            && let Ok(number) = u8::try_from(p.number)
+            && let Some(fd) = p.fd_mapping_lenient()
+            && let Ok(can_id) = p.comm.cob_id.can_id()
+        {
+            node.net.core().mirror_fd_tpdo(node.id, number, can_id, fd);
+        }
         return;
     };
     let mut core = node.net.core();

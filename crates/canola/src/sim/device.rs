@@ -15,7 +15,7 @@ use crate::transport::Station;
 
 use super::hook::{DeviceHook, HookActions};
 use super::objects::{Objects, SdoChannel, SubMeta, sdo_channels, sub_meta};
-use super::pdo::{Store, device_engine};
+use super::pdo::{DeviceMpdos, FdPdos, Store, device_engine};
 use super::values::{KeyMap, Values};
 use crate::machine::pdo::PdoEngine;
 
@@ -37,6 +37,10 @@ pub struct SimDevice {
     pub(super) configured: bool,
     pub(super) lss: LssSlave,
     pub(super) pdo: Box<PdoEngine>,
+    /// PDOs of more than 8 bytes, as CAN FD frames (a device marked CANopen FD only).
+    pub(super) fd_pdo: FdPdos,
+    /// SAM-MPDO producers and DAM-MPDO consumers.
+    pub(super) mpdo: DeviceMpdos,
     pub(super) last_state: DeviceState,
     /// The earliest deadline of the protocol machines (hooks are asked each time), kept
     /// current by every input: the bus asks for it after every frame, and a scan over all
@@ -103,6 +107,8 @@ impl SimDevice {
             configured: true,
             lss: LssSlave::new(lss_config),
             pdo: Box::new(PdoEngine::new()),
+            fd_pdo: FdPdos::default(),
+            mpdo: DeviceMpdos::none(node),
             last_state: DeviceState::Initialising,
             timers: None,
             quirks: super::Quirks::default(),
@@ -288,6 +294,12 @@ impl SimDevice {
     pub(super) fn rebuild_pdos(&mut self, now: Instant) {
         let view = canola_pdo::OdView::with_values(&self.od, &self.values);
         self.pdo = device_engine(&view, now);
+        self.fd_pdo = if self.usdo.is_some() {
+            FdPdos::from_view(&view)
+        } else {
+            FdPdos::default()
+        };
+        self.mpdo = DeviceMpdos::from_view(&view, self.node);
         let operational = self.nmt.state() == DeviceState::Operational;
         self.pdo.set_enabled(now, operational);
         if operational {
@@ -325,6 +337,12 @@ impl SimDevice {
             self.out.push_back(f);
         }
         while self.pdo.poll_event().is_some() {}
+        if !self.fd_pdo.is_empty() && self.nmt.state() == DeviceState::Operational {
+            self.fd_pdo.changed(&self.values, &mut self.out_fd);
+        }
+        if !self.mpdo.is_empty() && self.nmt.state() == DeviceState::Operational {
+            self.mpdo.changed(&mut self.values, &mut self.out);
+        }
     }
 
     pub(super) fn after_lss(&mut self, now: Instant) {
@@ -558,6 +576,26 @@ impl Station for SimDevice {
             });
             return;
         }
+        if !self.fd_pdo.is_empty()
+            && self.nmt.state() == DeviceState::Operational
+            && cob == canola_frame::cob::SYNC
+        {
+            self.fd_pdo.sync(&self.values, &mut self.out_fd);
+        }
+        if !self.mpdo.is_empty()
+            && self.nmt.state() == DeviceState::Operational
+            && self.mpdo.receive(frame, &mut self.values)
+        {
+            let mut actions = HookActions::default();
+            for h in self.hooks.iter_mut() {
+                h.on_pdo_input(now, &mut self.values, &mut actions);
+            }
+            self.pdo.update(now, &mut Store(&mut self.values));
+            self.collect();
+            self.apply(now, actions, &[]);
+            self.refresh_timers();
+            return;
+        }
         if self.nmt.handle_frame(now, frame).unwrap_or(false) {
             self.after_nmt(now);
         } else if self
@@ -636,6 +674,19 @@ impl Station for SimDevice {
     /// served while NMT allows SDO (pre-operational and operational).
     fn handle_fd_frame(&mut self, now: Instant, frame: &FdFrame) {
         if !self.booted || !self.configured || self.usdo.is_none() {
+            return;
+        }
+        if self.nmt.state() == DeviceState::Operational
+            && self.fd_pdo.receive(frame, &mut self.values)
+        {
+            let mut actions = HookActions::default();
+            for h in self.hooks.iter_mut() {
+                h.on_pdo_input(now, &mut self.values, &mut actions);
+            }
+            self.pdo.update(now, &mut Store(&mut self.values));
+            self.collect();
+            self.apply(now, actions, &[]);
+            self.refresh_timers();
             return;
         }
         if !self.nmt.allows(Service::Sdo) {

@@ -390,12 +390,13 @@ impl<S: Sink, D: Source> UsdoClient<S, D> {
         true
     }
 
-    /// [`poll_transmit`](Self::poll_transmit) as a CAN FD frame on 0x600 + this node.
+    /// [`poll_transmit`](Self::poll_transmit) as a CAN FD frame on 0x600 + this node, with the
+    /// bit-rate switch set (its data phase runs at the bus's data bit rate).
     #[must_use]
     pub fn poll_transmit_frame(&mut self) -> Option<FdFrame> {
         let data = self.poll_transmit()?;
         let id = CanId::standard(REQUEST_BASE + u16::from(self.node.get())).ok()?;
-        FdFrame::new(id, &data).ok()
+        FdFrame::new(id, &data).ok().map(|f| f.with_brs(true))
     }
 
     /// The next frame's data bytes, padded to a CAN FD length.

@@ -229,12 +229,13 @@ impl UsdoServer {
         true
     }
 
-    /// [`poll_transmit`](Self::poll_transmit) as a CAN FD frame on 0x580 + this node.
+    /// [`poll_transmit`](Self::poll_transmit) as a CAN FD frame on 0x580 + this node, with the
+    /// bit-rate switch set (its data phase runs at the bus's data bit rate).
     #[must_use]
     pub fn poll_transmit_frame(&mut self) -> Option<FdFrame> {
         let data = self.poll_transmit()?;
         let id = CanId::standard(RESPONSE_BASE + u16::from(self.node.get())).ok()?;
-        FdFrame::new(id, &data).ok()
+        FdFrame::new(id, &data).ok().map(|f| f.with_brs(true))
     }
 
     /// The next frame's data bytes for a client, padded to a CAN FD length.

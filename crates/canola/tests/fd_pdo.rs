@@ -1,0 +1,367 @@
+//! PDOs of up to 64 bytes (CANopen FD) between the master and a simulated device marked
+//! CANopen FD on the in-memory bus configured for CAN FD: a 64-byte TPDO of sixteen UNSIGNED32
+//! decoded by name (events, callback, batch subscriber), a 40-byte RPDO set by name and seen in
+//! the device's values, both checked on the wire as CAN FD frames; on a classic bus a
+//! 40-byte RPDO is refused with a clear error.
+
+use std::sync::{Arc, Mutex};
+
+use canola::frame::{CanId, FdFrame};
+use canola::{
+    BusConfig, BusEvent, Duration, MemoryBus, Network, NetworkEvent, NodeId, SimDevice,
+    Transmission, Value,
+};
+
+fn id(n: u8) -> NodeId {
+    NodeId::new(n).unwrap()
+}
+
+/// An EDS marked CANopen FD: "Inputs" (0x2000, sixteen UNSIGNED32, read-only) mapped into
+/// TPDO1 (64 bytes, event-driven), "Outputs" (0x2100, ten UNSIGNED32, read-write) mapped into
+/// RPDO1 (40 bytes).
+fn eds(fd: bool) -> String {
+    let mut s = String::from(
+        "[FileInfo]\nFileName=fdpdo.eds\nFileVersion=1\nEDSVersion=4.0\n\
+[DeviceInfo]\nVendorName=test\nProductName=fd pdo device\nVendorNumber=0x39\nProductNumber=4\n",
+    );
+    if fd {
+        s.push_str("CANopenFD=1\n");
+    }
+    s.push_str(
+        "[MandatoryObjects]\nSupportedObjects=2\n1=0x1000\n2=0x1001\n\
+[1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\nPDOMapping=0\n\
+[1001]\nParameterName=Error register\nObjectType=0x7\nDataType=0x0005\nAccessType=ro\nDefaultValue=0\nPDOMapping=0\n\
+[OptionalObjects]\nSupportedObjects=5\n1=0x1017\n2=0x1400\n3=0x1600\n4=0x1800\n5=0x1A00\n\
+[1017]\nParameterName=Producer heartbeat time\nObjectType=0x7\nDataType=0x0006\nAccessType=rw\nDefaultValue=0\nPDOMapping=0\n",
+    );
+    let sub = |s: &mut String, idx: u16, sub: u8, name: &str, ty: u16, acc: &str, def: &str| {
+        s.push_str(&format!(
+            "[{idx:04X}sub{sub:X}]\nParameterName={name}\nObjectType=0x7\nDataType=0x{ty:04X}\n\
+AccessType={acc}\nDefaultValue={def}\nPDOMapping={}\n",
+            u8::from(idx >= 0x2000 && sub > 0)
+        ));
+    };
+    for (idx, name, cob, tt) in [
+        (
+            0x1400u16,
+            "RPDO1 communication parameter",
+            "$NODEID+0x200",
+            254,
+        ),
+        (
+            0x1800,
+            "TPDO1 communication parameter",
+            "$NODEID+0x180",
+            254,
+        ),
+    ] {
+        s.push_str(&format!(
+            "[{idx:04X}]\nParameterName={name}\nObjectType=0x9\nSubNumber=3\n"
+        ));
+        sub(&mut s, idx, 0, "Highest sub-index", 5, "ro", "2");
+        sub(&mut s, idx, 1, "COB-ID", 7, "rw", cob);
+        sub(
+            &mut s,
+            idx,
+            2,
+            "Transmission type",
+            5,
+            "rw",
+            &tt.to_string(),
+        );
+    }
+    for (idx, name, target, count) in [
+        (0x1600u16, "RPDO1 mapping parameter", 0x2100u16, 10u8),
+        (0x1A00, "TPDO1 mapping parameter", 0x2000, 16),
+    ] {
+        s.push_str(&format!(
+            "[{idx:04X}]\nParameterName={name}\nObjectType=0x9\nSubNumber={}\n",
+            count + 1
+        ));
+        sub(
+            &mut s,
+            idx,
+            0,
+            "Number of entries",
+            5,
+            "rw",
+            &count.to_string(),
+        );
+        for i in 1..=count {
+            let entry = format!("0x{target:04X}{i:02X}20");
+            sub(&mut s, idx, i, &format!("Entry {i}"), 7, "rw", &entry);
+        }
+    }
+    s.push_str("[ManufacturerObjects]\nSupportedObjects=2\n1=0x2000\n2=0x2100\n");
+    for (idx, name, item, count, acc) in [
+        (0x2000u16, "Inputs", "Input", 16u8, "ro"),
+        (0x2100, "Outputs", "Output", 10, "rw"),
+    ] {
+        s.push_str(&format!(
+            "[{idx:04X}]\nParameterName={name}\nObjectType=0x8\nSubNumber={}\n",
+            count + 1
+        ));
+        sub(
+            &mut s,
+            idx,
+            0,
+            "Number of entries",
+            5,
+            "ro",
+            &count.to_string(),
+        );
+        for i in 1..=count {
+            sub(&mut s, idx, i, &format!("{item} {i}"), 7, acc, "0");
+        }
+    }
+    s
+}
+
+/// What the callback kept of a PDO: its number, "Inputs.Input 16" by name, the value count.
+type Seen = (u8, Option<Value>, usize);
+
+fn fd_bus() -> MemoryBus {
+    MemoryBus::with_config(BusConfig {
+        fd: true,
+        ..BusConfig::default()
+    })
+}
+
+/// The CAN FD frames the tap saw on `can_id` since the last call.
+fn fd_frames(tap: &mut canola::Endpoint, can_id: u16) -> Vec<FdFrame> {
+    use canola::Transport as _;
+    let want = CanId::standard(can_id).unwrap();
+    let mut out = Vec::new();
+    while let Ok(Some(r)) = tap.try_recv() {
+        if let canola::Received::Event(BusEvent::FdFrame { frame, .. }) = r
+            && frame.id() == want
+        {
+            out.push(*frame);
+        }
+    }
+    out
+}
+
+#[test]
+fn a_64_byte_tpdo_of_sixteen_unsigned32_is_decoded_by_name() {
+    let bus = fd_bus();
+    let net = Network::new(bus.endpoint());
+    let text = eds(true);
+    let device = bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+    let od = canola::od::parse(text.as_bytes()).unwrap().od;
+    let node = net.add_node_with_dictionary(id(5), od);
+
+    let seen: Arc<Mutex<Vec<Seen>>> = Arc::default();
+    let sink = seen.clone();
+    net.on_pdo(move |p| {
+        sink.lock()
+            .unwrap()
+            .push((p.number, p.get("Inputs.Input 16").cloned(), p.values.len()))
+    });
+    let mut batches = net.subscribe_pdos();
+    let events = net.subscribe();
+    node.nmt().start().unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    // Entering Operational sends the first (all-zero) TPDO1.
+    seen.lock().unwrap().clear();
+    let _ = batches.try_recv();
+    let _ = events.try_iter().count();
+
+    bus.with_station(device, |d: &mut SimDevice| {
+        for i in 1..=16u8 {
+            let v = 0x0101_0101u32 * u32::from(i);
+            d.set_value(canola::Instant::ZERO, 0x2000, i, v.to_le_bytes().to_vec());
+        }
+    });
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+
+    let all: Vec<NetworkEvent> = events.try_iter().collect();
+    let wire: Vec<&FdFrame> = all
+        .iter()
+        .filter_map(|e| match e {
+            NetworkEvent::Bus(BusEvent::FdFrame { frame, .. })
+                if frame.id() == CanId::standard(0x185).unwrap() =>
+            {
+                Some(&**frame)
+            }
+            _ => None,
+        })
+        .collect();
+    let last = wire.last().expect("TPDO1 as a CAN FD frame");
+    assert_eq!(last.data().len(), 64);
+    assert_eq!(&last.data()[60..64], &0x1010_1010u32.to_le_bytes());
+
+    let values: Vec<_> = all
+        .iter()
+        .filter_map(|e| match e {
+            NetworkEvent::PdoValues {
+                node: n,
+                number: 1,
+                values,
+                data,
+                ..
+            } if *n == id(5) => Some((values.clone(), data.len())),
+            _ => None,
+        })
+        .collect();
+    let (last_values, len) = values.last().expect("decoded TPDO1 values").clone();
+    assert_eq!(len, 64);
+    assert_eq!(last_values.len(), 16);
+    for (i, (addr, v)) in last_values.iter().enumerate() {
+        let sub = i as u8 + 1;
+        assert_eq!((addr.index, addr.sub_index), (0x2000, sub));
+        assert_eq!(*v, Value::Unsigned32(0x0101_0101 * u32::from(sub)));
+    }
+
+    let seen = seen.lock().unwrap().clone();
+    let (number, by_name, count) = seen.last().expect("the callback saw TPDO1").clone();
+    assert_eq!((number, count), (1, 16));
+    assert_eq!(by_name, Some(Value::Unsigned32(0x1010_1010)));
+
+    let batch = batches.try_recv().expect("a batch");
+    let last = batch.iter().last().expect("TPDO1 in the batch");
+    assert_eq!(last.number, 1);
+    assert_eq!(last.data.len(), 64);
+    assert_eq!(
+        last.value((0x2000, 7)),
+        Some(&Value::Unsigned32(0x0707_0707))
+    );
+}
+
+#[test]
+fn a_40_byte_rpdo_set_by_name_reaches_the_device() {
+    let bus = fd_bus();
+    let net = Network::new(bus.endpoint());
+    let text = eds(true);
+    let device = bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+    let od = canola::od::parse(text.as_bytes()).unwrap().od;
+    let node = net.add_node_with_dictionary(id(5), od);
+    node.nmt().start().unwrap();
+    let rpdos = node.rpdo().read().wait().unwrap();
+    let tx = node
+        .rpdo()
+        .start(rpdos.get(1).unwrap(), Transmission::on_change())
+        .unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let mut tap = bus.endpoint();
+    tx.set("Outputs.Output 1", 0xDEAD_BEEFu32).unwrap();
+    tx.set_many([
+        ("Outputs.Output 10", 7u32),
+        ("Outputs.Output 4", 0x0102_0304u32),
+    ])
+    .unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    // Unchanged: no frame.
+    tx.set("Outputs.Output 10", 7u32).unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+
+    let sent = fd_frames(&mut tap, 0x205);
+    assert_eq!(sent.len(), 2, "one frame per change");
+    let data = sent[1].data();
+    // 40 bytes travel in a 48-byte CAN FD frame, padded with zeros, its data phase switched
+    // to the data bit rate.
+    assert!(sent.iter().all(FdFrame::brs));
+    assert_eq!(data.len(), 48);
+    assert_eq!(&data[..4], &0xDEAD_BEEFu32.to_le_bytes());
+    assert_eq!(&data[12..16], &0x0102_0304u32.to_le_bytes());
+    assert_eq!(&data[36..40], &7u32.to_le_bytes());
+    assert!(data[40..].iter().all(|&b| b == 0));
+
+    let value = |sub: u8| {
+        bus.with_station(device, |d: &mut SimDevice| {
+            d.values().get(0x2100, sub).map(<[u8]>::to_vec)
+        })
+        .flatten()
+    };
+    assert_eq!(value(1), Some(0xDEAD_BEEFu32.to_le_bytes().to_vec()));
+    assert_eq!(value(4), Some(0x0102_0304u32.to_le_bytes().to_vec()));
+    assert_eq!(value(10), Some(7u32.to_le_bytes().to_vec()));
+    assert_eq!(value(2), Some(0u32.to_le_bytes().to_vec()));
+
+    // A trigger sends it again unchanged; after stop nothing goes out.
+    tx.trigger().unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    assert_eq!(fd_frames(&mut tap, 0x205).len(), 1);
+    tx.stop().unwrap();
+    assert!(tx.set("Outputs.Output 1", 1u32).is_err());
+    assert!(tx.set("Inputs.Input 1", 1u32).is_err());
+}
+
+#[test]
+fn a_classic_bus_refuses_an_rpdo_of_more_than_8_bytes() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let text = eds(true);
+    bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+    let od = canola::od::parse(text.as_bytes()).unwrap().od;
+    let node = net.add_node_with_dictionary(id(5), od);
+    let rpdos = node.rpdo().read().wait().unwrap();
+    let err = node
+        .rpdo()
+        .start(rpdos.get(1).unwrap(), Transmission::on_change())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("RPDO1") && err.contains("40 bytes") && err.contains("no CAN FD"),
+        "{err}"
+    );
+
+    // On an FD bus, a node not marked CANopen FD is refused too, and so is SYNC timing.
+    let bus = fd_bus();
+    let net = Network::new(bus.endpoint());
+    let classic_text = eds(false);
+    bus.attach(SimDevice::from_eds(id(5), classic_text.as_bytes()).unwrap());
+    let od = canola::od::parse(classic_text.as_bytes()).unwrap().od;
+    let node = net.add_node_with_dictionary(id(5), od);
+    let rpdos = node.rpdo().read().wait().unwrap();
+    let pdo = rpdos.get(1).unwrap();
+    let err = node
+        .rpdo()
+        .start(pdo, Transmission::on_change())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("not marked CANopen FD"), "{err}");
+    node.set_fd(true);
+    assert!(
+        node.rpdo()
+            .start(pdo, Transmission::on_sync_after_change())
+            .is_err()
+    );
+    assert!(node.rpdo().start(pdo, Transmission::on_change()).is_ok());
+}
+
+#[test]
+fn a_64_byte_tpdo_read_by_sdo_is_decoded_without_a_dictionary() {
+    let bus = fd_bus();
+    let net = Network::new(bus.endpoint());
+    let text = eds(true);
+    let device = bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+    let node = net.add_node(id(5));
+    let tpdos = node.tpdo().read().wait().unwrap();
+    assert_eq!(tpdos.get(1).unwrap().mapped.len(), 16);
+    node.nmt().start().unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let events = net.subscribe();
+    bus.with_station(device, |d: &mut SimDevice| {
+        d.set_value(
+            canola::Instant::ZERO,
+            0x2000,
+            16,
+            77u32.to_le_bytes().to_vec(),
+        );
+    });
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let values: Vec<_> = events
+        .try_iter()
+        .filter_map(|e| match e {
+            NetworkEvent::PdoValues {
+                number: 1, values, ..
+            } => Some(values),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(values.len(), 1);
+    assert_eq!(values[0].len(), 16);
+    assert_eq!(values[0][15].1, Value::Unsigned32(77));
+    assert_eq!(values[0][0].1, Value::Unsigned32(0));
+}
