@@ -252,7 +252,9 @@ fuzz_target!(|ops: Vec<Op>| {
     let allowance =
         net.now() + (TIMEOUT + LONGEST_TRANSFER).saturating_mul(MAX_IN_FLIGHT as u64 + 2);
     loop {
-        let _ = net.run_until((net.now() + SETTLE_SLICE).min(allowance)).wait();
+        let _ = net
+            .run_until((net.now() + SETTLE_SLICE).min(allowance))
+            .wait();
         let o = net.occupancy();
         let settled = in_flight.iter().all(InFlight::is_done)
             && o.requests <= in_flight.len()
@@ -275,7 +277,12 @@ fuzz_target!(|ops: Vec<Op>| {
     let _ = bus.detach(dev);
     bus.attach(device());
     let _ = net.run_for(Duration::from_millis(5)).wait();
-    let r = net.node(node()).sdo().timeout(TIMEOUT).read((0x1000, 0)).wait();
+    let r = net
+        .node(node())
+        .sdo()
+        .timeout(TIMEOUT)
+        .read((0x1000, 0))
+        .wait();
     assert!(
         r.is_ok(),
         "the master is unusable after the sequence: {r:?}"
