@@ -309,7 +309,7 @@ impl Network {
     }
 
     /// On a tokio runtime (`tokio` feature), brings a virtual-clock bus up to tokio's time (see
-    /// [`crate::asynch`]), so what is queued next is stamped with the time the application
+    /// the `asynch` module), so what is queued next is stamped with the time the application
     /// sees. Nothing to do otherwise.
     pub(crate) fn catch_up_on_runtime(&self) -> Result<(), Error> {
         #[cfg(feature = "tokio")]
@@ -343,8 +343,8 @@ impl Network {
     }
 
     /// Drives the network for `d` (receives, dispatches events, runs timers). On a
-    /// virtual-clock bus this advances simulated time (awaited: on tokio's clock, see
-    /// [`crate::asynch`]).
+    /// virtual-clock bus this advances simulated time (awaited: on tokio's clock, see the
+    /// `asynch` module).
     pub fn run_for(&self, d: impl Into<Duration>) -> Operation<'static, ()> {
         let d: Duration = d.into();
         let net = self.clone();

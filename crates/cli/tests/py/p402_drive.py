@@ -5,7 +5,8 @@ bus. BaseNode402 walks the state machine, switches modes, makes a profile-positi
 quick-stops and resets a fault, with its own code (controlword and mode by RPDO1, statusword and
 mode display from TPDO1, as it finds them in the drive's PDO configuration).
 
-Arguments: GROUP PORT EDS. Prints one line per check: `NAME value`; python-canopen's exceptions
+Arguments: GROUP PORT EDS (the UDP bus), or `socketcan IFACE EDS` (the rig on vcan0,
+tests/vcan/p402_python.sh). Prints one line per check: `NAME value`; python-canopen's exceptions
 are printed as `NAME raised: text`.
 """
 
@@ -15,9 +16,13 @@ import time
 import canopen
 from canopen.profiles.p402 import BaseNode402
 
-group, port, eds = sys.argv[1], int(sys.argv[2]), sys.argv[3]
 net = canopen.Network()
-net.connect(interface="udp_multicast", channel=group, port=port)
+if sys.argv[1] == "socketcan":
+    eds = sys.argv[3]
+    net.connect(interface="socketcan", channel=sys.argv[2])
+else:
+    group, port, eds = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+    net.connect(interface="udp_multicast", channel=group, port=port)
 node = BaseNode402(5, eds)
 net.add_node(node)
 
