@@ -2,7 +2,7 @@
 //! sub-index (CiA 301 §7.4.1; the SDO protocol calls the pair its multiplexer, and a PDO mapping
 //! entry carries it in its upper 24 bits). A VAR object is sub-index 0 of its index.
 //!
-//! [`ObjectAddress`] is untyped: the typed [`Entry<T>`](crate::Entry) adds the data type and
+//! [`ObjectAddress`] is untyped: the typed `Entry<T>` of the `entry` module adds the data type and
 //! the Rust type of the value on top of it. No allocator needed.
 
 use core::fmt;
