@@ -34,17 +34,15 @@
 //!   [`BusEvent::RxOverflow`](crate::BusEvent::RxOverflow) before the next frame.
 //!
 //! Files by job: `config` (settings and timing model), `state` (the shared state every
-//! participant steps), `bus` ([`MemoryBus`]), `endpoint` ([`Endpoint`]).
+//! participant steps), `bus` ([`MemoryBus`] and its [`Endpoint`]s).
 
 mod bus;
 mod config;
-mod endpoint;
 mod state;
 #[cfg(test)]
 mod tests;
 
-pub use bus::{MemoryBus, StationId};
+pub use bus::{Endpoint, MemoryBus, StationId};
 pub use config::{
     BusConfig, BusStats, ClockMode, Faults, fd_frame_bits, fd_frame_time, frame_bits, frame_time,
 };
-pub use endpoint::Endpoint;

@@ -8,9 +8,9 @@ use canola_frame::{CanFrame, CanId, Duration, Instant};
 
 use crate::transport::contract::{BusEvent, Received, Station, Transport, TransportError};
 
+use super::bus::Endpoint;
 use super::bus::MemoryBus;
 use super::config::{BusConfig, ClockMode, Faults, fd_frame_bits, fd_frame_time, frame_time};
-use super::endpoint::Endpoint;
 use super::*;
 use crate::transport::contract::run_station;
 
