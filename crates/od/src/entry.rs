@@ -100,11 +100,6 @@ impl<T> fmt::Display for Entry<T> {
         self.address.fmt(f)
     }
 }
-impl<T> From<Entry<T>> for ObjectAddress {
-    fn from(e: Entry<T>) -> Self {
-        e.address
-    }
-}
 
 /// Why bytes do not fit an entry's type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
