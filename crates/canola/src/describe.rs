@@ -8,16 +8,22 @@
 //! mapped values of PDOs, read from each node's dictionary (its mapping parameters 0x1600..,
 //! 0x1A00.. and COB-IDs 0x1400.., 0x1800..).
 //!
+//! PDOs decode the same way in classic frames and in CAN FD frames (CANopen FD, up to 64 data
+//! bytes): one mapping under the CAN FD limits ([`FdMapping`], a classic mapping is one) read
+//! from the data bytes, the padding of an FD frame after the mapped bytes ignored
+//! ([`BusDictionary::decode_pdo`], [`BusDictionary::decode_fd_pdo`], [`describe_fd`]). Other
+//! CAN FD frames are shown as not decoded.
+//!
 //! A frame that does not decode still gets a line: the decoder's error beside its bytes.
 
 use core::fmt;
 use std::collections::HashMap;
 
 use canola_frame::cob::{FunctionCode, LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
-use canola_frame::{CanFrame, CanId, CobId, HexBytes, NodeId};
+use canola_frame::{CanFrame, CanId, CobId, FdFrame, HexBytes, NodeId};
 use canola_nmt::{Emcy, ErrorControlMessage, NmtCommand, SyncMessage, TimeOfDay};
 use canola_od::{ObjectAddress, ObjectDictionary};
-use canola_pdo::{CommParams, Direction, Mapping, OdView, PackError};
+use canola_pdo::{CommParams, Direction, FdMapping, OdView, PackError};
 use canola_sdo::{ClientRequest, Multiplexer, ServerResponse};
 
 /// What [`describe`] knows about the nodes on a bus: their dictionaries (for object names) and
@@ -50,12 +56,50 @@ pub struct PdoValue {
     pub value: canola_pdo::RawValue,
 }
 
-/// One configured PDO: its label (`TPDO1 node 5`), mapping and the mapped objects' names.
+/// One configured PDO: its label (`TPDO1 node 5`), mapping (under the CAN FD limits, which
+/// hold every classic mapping too) and the mapped objects' names.
 #[derive(Debug, Clone)]
 struct PdoLayout {
     label: String,
-    mapping: Mapping,
+    mapping: FdMapping,
     names: Vec<String>,
+}
+
+impl PdoLayout {
+    /// The PDO's values in `data`, classic or CAN FD alike: bytes after the mapping (an FD
+    /// frame's padding) are ignored; data shorter than the mapping is an error.
+    fn decode(&self, data: &[u8]) -> Result<DecodedPdo, PackError> {
+        let values = canola_pdo::unpack_fd(&self.mapping, data)?;
+        Ok(DecodedPdo {
+            label: self.label.clone(),
+            values: self
+                .mapping
+                .objects()
+                .iter()
+                .zip(values)
+                .zip(&self.names)
+                .map(|((object, value), name)| PdoValue {
+                    address: ObjectAddress::new(object.entry.index(), object.entry.subindex()),
+                    name: name.clone(),
+                    value,
+                })
+                .collect(),
+        })
+    }
+}
+
+impl fmt::Display for DecodedPdo {
+    /// `TPDO1 node 5: Name = value, Other name = value`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: ", self.label)?;
+        for (i, v) in self.values.iter().enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            write!(f, "{} = {}", v.name, v.value)?;
+        }
+        Ok(())
+    }
 }
 
 /// The name of `index:sub` in `od`: `Object / Sub-object` for records and arrays.
@@ -74,7 +118,8 @@ impl BusDictionary {
     }
 
     /// Adds (or replaces) `node`'s dictionary, with the PDOs it configures: every TPDO and RPDO
-    /// whose COB-ID is valid and 11-bit and whose mapping is not empty.
+    /// whose COB-ID is valid and 11-bit and whose mapping is not empty and fits a CAN FD PDO
+    /// (at most 64 bytes; a mapping of more than 8 bytes decodes only from CAN FD frames).
     pub fn with_node(mut self, node: NodeId, od: ObjectDictionary) -> Self {
         self.add_node(node, od);
         self
@@ -87,7 +132,7 @@ impl BusDictionary {
             for n in 0..512u16 {
                 let (Ok(comm), Ok(mapping)) = (
                     CommParams::read_from(&view, direction.comm_index(n)),
-                    Mapping::read_from(&view, direction, direction.mapping_index(n)),
+                    FdMapping::read_from(&view, direction, direction.mapping_index(n)),
                 ) else {
                     continue;
                 };
@@ -120,27 +165,24 @@ impl BusDictionary {
 
     /// The values of a PDO that one of the dictionaries configures: its label (`TPDO1 node
     /// 5`) and each mapped object (dummy entries included) with its address, name and value,
-    /// in PDO order. `None` for any other frame; `Some(Err(_))` when the data is shorter
-    /// than the mapping.
+    /// in PDO order. `None` for any other frame (and remote frames); `Some(Err(_))` when the
+    /// data is shorter than the mapping.
     pub fn decode_pdo(&self, frame: &CanFrame) -> Option<Result<DecodedPdo, PackError>> {
         if frame.is_remote() {
             return None;
         }
-        let pdo = self.pdos.get(&frame.cob_id()?)?;
-        Some(
-            canola_pdo::unpack(&pdo.mapping, frame.data()).map(|values| DecodedPdo {
-                label: pdo.label.clone(),
-                values: values
-                    .iter()
-                    .zip(&pdo.names)
-                    .map(|((object, value), name)| PdoValue {
-                        address: ObjectAddress::new(object.entry.index(), object.entry.subindex()),
-                        name: name.clone(),
-                        value,
-                    })
-                    .collect(),
-            }),
-        )
+        Some(self.pdo(frame.cob_id()?)?.decode(frame.data()))
+    }
+
+    /// [`decode_pdo`](Self::decode_pdo) for a CAN FD frame (a CANopen FD PDO of up to 64
+    /// bytes): the same decoding, the padding after the mapped bytes ignored.
+    pub fn decode_fd_pdo(&self, frame: &FdFrame) -> Option<Result<DecodedPdo, PackError>> {
+        Some(self.pdo(frame.cob_id()?)?.decode(frame.data()))
+    }
+
+    /// The PDO configured on 11-bit identifier `cob_id`.
+    fn pdo(&self, cob_id: u16) -> Option<&PdoLayout> {
+        self.pdos.get(&cob_id)
     }
 
     /// The dictionary of `node`, if known.
@@ -220,6 +262,12 @@ impl Monitor {
         }
         self.follow(frame);
         describe(frame, &self.dictionary).what().to_string()
+    }
+
+    /// What a CAN FD frame is: a PDO the dictionary maps, decoded as [`what`](Self::what)
+    /// decodes a classic one ([`describe_fd`]).
+    pub fn what_fd(&mut self, frame: &FdFrame) -> String {
+        describe_fd(frame, &self.dictionary).to_string()
     }
 
     /// The text of `frame` when it is a segment of a block transfer in progress.
@@ -305,7 +353,7 @@ impl fmt::Display for What<'_> {
             return write!(f, "extended identifier {}", HexBytes(data));
         };
         if !frame.is_remote()
-            && let Some(pdo) = dictionary.pdos.get(&raw)
+            && let Some(pdo) = dictionary.pdo(raw)
         {
             return describe_pdo(f, pdo, data);
         }
@@ -407,26 +455,41 @@ fn response_mux(r: &ServerResponse) -> Option<Multiplexer> {
     }
 }
 
+/// A configured PDO's line, classic or CAN FD: its decoded values, or its bytes and why they
+/// do not decode.
 fn describe_pdo(f: &mut fmt::Formatter<'_>, pdo: &PdoLayout, data: &[u8]) -> fmt::Result {
-    let values = match canola_pdo::unpack(&pdo.mapping, data) {
-        Ok(v) => v,
-        Err(e) => {
-            return write!(
-                f,
-                "{}: {} (does not fit its mapping: {e})",
-                pdo.label,
-                HexBytes(data)
-            );
-        }
-    };
-    write!(f, "{}: ", pdo.label)?;
-    for (i, ((_, value), name)) in values.iter().zip(&pdo.names).enumerate() {
-        if i > 0 {
-            f.write_str(", ")?;
-        }
-        write!(f, "{name} = {value}")?;
+    match pdo.decode(data) {
+        Ok(decoded) => write!(f, "{decoded}"),
+        Err(e) => write!(
+            f,
+            "{}: {} (does not fit its mapping: {e})",
+            pdo.label,
+            HexBytes(data)
+        ),
     }
-    Ok(())
+}
+
+/// What a CAN FD frame is, with what `dictionary` knows: a PDO it maps, decoded as in a classic
+/// frame (`TPDO1 node 5: Inputs / Input 1 = 7, ...`); any other FD frame is `CAN FD frame (not
+/// decoded)`. `Display` gives that text (without the frame itself).
+#[derive(Debug, Clone, Copy)]
+pub struct FdDescription<'a> {
+    frame: &'a FdFrame,
+    dictionary: &'a BusDictionary,
+}
+
+/// Describes a CAN FD frame with what `dictionary` knows (see [`FdDescription`]).
+pub fn describe_fd<'a>(frame: &'a FdFrame, dictionary: &'a BusDictionary) -> FdDescription<'a> {
+    FdDescription { frame, dictionary }
+}
+
+impl fmt::Display for FdDescription<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.frame.cob_id().and_then(|id| self.dictionary.pdo(id)) {
+            Some(pdo) => describe_pdo(f, pdo, self.frame.data()),
+            None => f.write_str("CAN FD frame (not decoded)"),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -498,6 +561,119 @@ mod tests {
         assert!(what(&d, 0x185, &[1, 2]).contains("does not fit its mapping"));
         // A node without a dictionary: the PDO's bytes.
         assert_eq!(what(&d, 0x186, &[1]), "TPDO1 node 6: 01");
+    }
+
+    /// The CANopen FD test device of tests/vcan as node 7: TPDO1 (0x187) maps 64 bytes,
+    /// fourteen UNSIGNED32 of 0x2100, a REAL32, an UNSIGNED16 and an INTEGER16.
+    fn fd_device() -> BusDictionary {
+        let eds = include_bytes!("../../../tests/vcan/fd-device.eds");
+        BusDictionary::new().with_node(NodeId::new(7).unwrap(), canola_od::parse(eds).unwrap().od)
+    }
+
+    fn fd_frame(id: u16, data: &[u8]) -> FdFrame {
+        FdFrame::new_padded(CanId::standard(id).unwrap(), data).unwrap()
+    }
+
+    /// TPDO1 data of the FD test device: Value n = n except Value 5, 21.5 °C, status 1,
+    /// offset -5.
+    fn sixty_four_bytes(value5: u32) -> Vec<u8> {
+        let mut data: Vec<u8> = (1..=14u32)
+            .flat_map(|n| if n == 5 { value5 } else { n }.to_le_bytes())
+            .collect();
+        data.extend(21.5f32.to_le_bytes());
+        data.extend(1u16.to_le_bytes());
+        data.extend((-5i16).to_le_bytes());
+        data
+    }
+
+    #[test]
+    fn a_64_byte_fd_pdo_decodes_by_name() {
+        let d = fd_device();
+        let data = sixty_four_bytes(0xDEAD_BEEF);
+        assert_eq!(data.len(), 64);
+        let frame = fd_frame(0x187, &data);
+        let pdo = d.decode_fd_pdo(&frame).expect("a PDO").expect("fits");
+        assert_eq!(pdo.label, "TPDO1 node 7");
+        assert_eq!(pdo.values.len(), 17);
+        let v5 = &pdo.values[4];
+        assert_eq!(v5.address, ObjectAddress::new(0x2100, 5));
+        assert_eq!(v5.name, "Measured values / Value 5");
+        assert_eq!(v5.value, canola_pdo::RawValue::Unsigned(0xDEAD_BEEF));
+        let last: Vec<_> = pdo.values[14..]
+            .iter()
+            .map(|v| (v.name.as_str(), v.value))
+            .collect();
+        assert_eq!(
+            last,
+            [
+                ("Temperature", canola_pdo::RawValue::Real32(21.5)),
+                ("Status word", canola_pdo::RawValue::Unsigned(1)),
+                ("Offset", canola_pdo::RawValue::Signed(-5)),
+            ]
+        );
+        // The text is the decoded PDO's, as for classic PDOs.
+        let text = describe_fd(&frame, &d).to_string();
+        assert_eq!(text, pdo.to_string());
+        assert!(
+            text.starts_with("TPDO1 node 7: Measured values / Value 1 = 1, ")
+                && text.contains("Value 5 = 3735928559, ")
+                && text.ends_with("Temperature = 21.5, Status word = 1, Offset = -5"),
+            "{text}"
+        );
+        assert_eq!(Monitor::new(d.clone()).what_fd(&frame), text);
+    }
+
+    #[test]
+    fn fd_and_classic_frames_decode_through_one_path() {
+        // Burkert TPDO1 (8 bytes) in a classic frame and in an FD frame padded to 12 bytes:
+        // the same values, the padding ignored.
+        let d = burkert(5);
+        let mut data = [0u8; 10];
+        data[..4].copy_from_slice(&1.5f32.to_le_bytes());
+        data[4..8].copy_from_slice(&(-2.25f32).to_le_bytes());
+        let fd = fd_frame(0x185, &data);
+        assert_eq!(fd.data().len(), 12);
+        let classic = d.decode_pdo(&frame(0x185, &data[..8]));
+        assert_eq!(d.decode_fd_pdo(&fd), classic);
+        assert!(classic.is_some_and(|r| r.is_ok()));
+        assert_eq!(
+            describe_fd(&fd, &d).to_string(),
+            what(&d, 0x185, &data[..8])
+        );
+        // The 64-byte mapping does not fit a classic frame, nor an FD frame of 32 bytes.
+        let fdd = fd_device();
+        let data = sixty_four_bytes(9);
+        assert!(matches!(
+            fdd.decode_pdo(&frame(0x187, &data[..8])),
+            Some(Err(PackError::TooShort {
+                needed: 64,
+                actual: 8
+            }))
+        ));
+        assert!(what(&fdd, 0x187, &data[..8]).contains("does not fit its mapping"));
+        let short = fd_frame(0x187, &data[..32]);
+        assert!(matches!(
+            fdd.decode_fd_pdo(&short),
+            Some(Err(PackError::TooShort { .. }))
+        ));
+        assert!(
+            describe_fd(&short, &fdd)
+                .to_string()
+                .starts_with("TPDO1 node 7: 01 00 00 00")
+        );
+        // An FD frame that is no mapped PDO (a USDO request, another node's TPDO1, a 29-bit
+        // identifier) is shown as not decoded.
+        for f in [
+            fd_frame(0x607, &[1, 2, 3]),
+            fd_frame(0x188, &data),
+            FdFrame::new(CanId::extended(0x187).unwrap(), &data).unwrap(),
+        ] {
+            assert_eq!(fdd.decode_fd_pdo(&f), None);
+            assert_eq!(
+                describe_fd(&f, &fdd).to_string(),
+                "CAN FD frame (not decoded)"
+            );
+        }
     }
 
     #[test]

@@ -76,7 +76,9 @@ pub use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 pub use canola_pdo as pdo;
 pub use canola_sdo as sdo;
 pub use canola_sdo::{AbortCode, Method, SdoCobIds};
-pub use describe::{BusDictionary, DecodedPdo, Description, Monitor, PdoValue, describe};
+pub use describe::{
+    BusDictionary, DecodedPdo, Description, FdDescription, Monitor, PdoValue, describe, describe_fd,
+};
 pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};

@@ -77,8 +77,8 @@ enum Command {
     /// Restore a node's default parameters (0x1011, signature `load`); they take effect at
     /// its next reset.
     Restore(store_cmd::StoreArgs),
-    /// Decoded live traffic, optionally filtered as candump filters (CAN FD frames shown, not
-    /// decoded).
+    /// Decoded live traffic, optionally filtered as candump filters (CAN FD frames shown in
+    /// candump's syntax; those that are PDOs an `--eds` maps, up to 64 bytes, decoded).
     Monitor {
         /// Stop after this many seconds (required on the in-memory bus).
         #[arg(long, value_parser = bus::parse_seconds)]

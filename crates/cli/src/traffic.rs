@@ -72,9 +72,6 @@ fn passes(filters: &[Filter], id: CanId) -> bool {
     filters.is_empty() || filters.iter().any(|f| f.matches(id))
 }
 
-/// `canopen monitor [FILTER...]` (`--devicenet`: the frames read as DeviceNet, CAN's other
-/// application layer on the same wire, e.g. for the GEMÜ cPos). CAN FD frames are shown in
-/// candump's syntax, not decoded.
 /// A PDO value as a JSON value: numbers as numbers, bytes as hex text.
 fn raw_json(v: &canola::pdo::RawValue) -> serde_json::Value {
     use canola::pdo::RawValue as R;
@@ -93,6 +90,10 @@ fn raw_json(v: &canola::pdo::RawValue) -> serde_json::Value {
     }
 }
 
+/// `canopen monitor [FILTER...]` (`--devicenet`: the frames read as DeviceNet, CAN's other
+/// application layer on the same wire, e.g. for the GEMÜ cPos). CAN FD frames are shown in
+/// candump's syntax; those that are PDOs an EDS maps (CANopen FD, up to 64 bytes) decoded as
+/// classic ones are, the others not decoded.
 pub(crate) fn run_monitor(
     opts: &BusOpts,
     duration: Option<f64>,
@@ -123,17 +124,19 @@ pub(crate) fn run_monitor(
             Traffic::Can(frame) => (frame.to_string(), monitor.what(frame)),
             Traffic::Fd(frame) => (
                 candump::format_frame(&LogFrame::Fd(*frame)),
-                "CAN FD frame (not decoded)".to_owned(),
+                monitor.what_fd(frame),
             ),
         };
         if g.json {
             let mut line =
                 json!({"time": at.as_micros() as f64 / 1e6, "frame": shown, "decoded": what});
             // A PDO an EDS maps: its values as JSON values too.
-            if let Traffic::Can(frame) = traffic
-                && !devicenet
-                && let Some(Ok(pdo)) = dictionary.decode_pdo(frame)
-            {
+            let pdo = match traffic {
+                Traffic::Can(_) if devicenet => None,
+                Traffic::Can(frame) => dictionary.decode_pdo(frame),
+                Traffic::Fd(frame) => dictionary.decode_fd_pdo(frame),
+            };
+            if let Some(Ok(pdo)) = pdo {
                 line["pdo"] = json!(pdo.label);
                 line["values"] = pdo
                     .values
