@@ -1,8 +1,9 @@
 //! PDOs of up to 64 bytes (CANopen FD) between the master and a simulated device marked
 //! CANopen FD on the in-memory bus configured for CAN FD: a 64-byte TPDO of sixteen UNSIGNED32
 //! decoded by name (events, callback, batch subscriber), a 40-byte RPDO set by name and seen in
-//! the device's values, both checked on the wire as CAN FD frames; on a classic bus a
-//! 40-byte RPDO is refused with a clear error.
+//! the device's values, both checked on the wire as CAN FD frames; the device's event timer
+//! sending the 64-byte TPDO again while its data stays the same; on a classic bus a 40-byte
+//! RPDO is refused with a clear error.
 
 use std::sync::{Arc, Mutex};
 
@@ -55,10 +56,17 @@ AccessType={acc}\nDefaultValue={def}\nPDOMapping={}\n",
             254,
         ),
     ] {
+        // TPDO1 has an event timer (sub-index 5, ms, 0 = off).
+        let timer = idx == 0x1800;
         s.push_str(&format!(
-            "[{idx:04X}]\nParameterName={name}\nObjectType=0x9\nSubNumber=3\n"
+            "[{idx:04X}]\nParameterName={name}\nObjectType=0x9\nSubNumber={}\n",
+            if timer { 4 } else { 3 }
         ));
-        sub(&mut s, idx, 0, "Highest sub-index", 5, "ro", "2");
+        let highest = if timer { "5" } else { "2" };
+        sub(&mut s, idx, 0, "Highest sub-index", 5, "ro", highest);
+        if timer {
+            sub(&mut s, idx, 5, "Event timer", 6, "rw", "0");
+        }
         sub(&mut s, idx, 1, "COB-ID", 7, "rw", cob);
         sub(
             &mut s,
@@ -364,4 +372,53 @@ fn a_64_byte_tpdo_read_by_sdo_is_decoded_without_a_dictionary() {
     assert_eq!(values[0].len(), 16);
     assert_eq!(values[0][15].1, Value::Unsigned32(77));
     assert_eq!(values[0][0].1, Value::Unsigned32(0));
+}
+
+#[test]
+fn the_event_timer_sends_an_unchanged_64_byte_tpdo_again() {
+    // CiA 301 §7.5.2.35: an event-driven TPDO with an event timer is sent when the timer
+    // elapses, and the timer restarts at every transmission (a change of data included).
+    let bus = fd_bus();
+    let mut tap = bus.endpoint();
+    let net = Network::new(bus.endpoint());
+    let device = bus.attach(SimDevice::from_eds(id(5), eds(true).as_bytes()).unwrap());
+    let node = net.add_node(id(5));
+    node.sdo().write((0x1800, 5), 50u16).wait().unwrap();
+    node.nmt().start().unwrap();
+    net.run_for(Duration::from_millis(2)).wait().unwrap();
+    let first = fd_frames(&mut tap, 0x185);
+    assert_eq!(first.len(), 1, "the TPDO on entering Operational");
+    assert_eq!(first[0].data().len(), 64);
+
+    // Nothing changes for 1 s: the timer sends it every 50 ms, the same data each time.
+    net.run_for(Duration::from_millis(1000)).wait().unwrap();
+    let timed = fd_frames(&mut tap, 0x185);
+    assert!((19..=20).contains(&timed.len()), "{} frames", timed.len());
+    assert!(timed.iter().all(|f| f.data() == first[0].data()));
+
+    // A change 20 ms after a timed transmission goes out at once and restarts the timer:
+    // nothing more until 50 ms after the change.
+    net.run_for(Duration::from_millis(20)).wait().unwrap();
+    let _ = fd_frames(&mut tap, 0x185);
+    let now = net.now();
+    bus.with_station(device, |d: &mut SimDevice| {
+        d.set_value(now, 0x2000, 1, 9u32.to_le_bytes().to_vec());
+    });
+    net.run_for(Duration::from_millis(45)).wait().unwrap();
+    let after = fd_frames(&mut tap, 0x185);
+    assert_eq!(after.len(), 1, "only the change within 45 ms of it");
+    assert_eq!(after[0].data()[..4], 9u32.to_le_bytes());
+    net.run_for(Duration::from_millis(10)).wait().unwrap();
+    assert_eq!(
+        fd_frames(&mut tap, 0x185).len(),
+        1,
+        "the timer 50 ms after the change"
+    );
+
+    // Stopped: no more TPDOs.
+    node.nmt().stop().unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let _ = fd_frames(&mut tap, 0x185);
+    net.run_for(Duration::from_millis(200)).wait().unwrap();
+    assert!(fd_frames(&mut tap, 0x185).is_empty());
 }

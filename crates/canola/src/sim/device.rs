@@ -131,6 +131,7 @@ impl SimDevice {
         .into_iter()
         .chain(self.sdo.iter().map(|c| c.server.poll_timeout()))
         .chain(self.usdo.as_ref().map(|u| u.poll_timeout()))
+        .chain([self.fd_pdo.poll_timeout()])
         .flatten()
         .min()
     }
@@ -283,6 +284,7 @@ impl SimDevice {
     /// TPDOs that map it go out when it changed (change-of-state, within their inhibit time).
     pub fn set_value(&mut self, now: Instant, index: u16, sub: u8, value: impl Into<Vec<u8>>) {
         self.values.set(index, sub, value);
+        self.fd_pdo.set_now(now);
         if self.nmt.state() == DeviceState::Operational {
             self.pdo.update(now, &mut Store(&mut self.values));
             self.collect();
@@ -299,6 +301,7 @@ impl SimDevice {
         } else {
             FdPdos::default()
         };
+        self.fd_pdo.set_now(now);
         self.mpdo = DeviceMpdos::from_view(&view, self.node);
         let operational = self.nmt.state() == DeviceState::Operational;
         self.pdo.set_enabled(now, operational);
@@ -553,6 +556,7 @@ impl SimDevice {
 
 impl Station for SimDevice {
     fn handle_frame(&mut self, now: Instant, frame: &CanFrame) {
+        self.fd_pdo.set_now(now);
         if !self.booted {
             return;
         }
@@ -617,6 +621,7 @@ impl Station for SimDevice {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
+        self.fd_pdo.set_now(now);
         if !self.booted {
             self.booted = true;
             if self.configured {
@@ -644,6 +649,11 @@ impl Station for SimDevice {
         }
         if is_due(self.emcy.poll_timeout(), now) {
             self.emcy.handle_timeout(now);
+        }
+        if is_due(self.fd_pdo.poll_timeout(), now) {
+            // Event timers of CAN FD TPDOs (set only while Operational).
+            self.fd_pdo
+                .handle_timeout(now, &self.values, &mut self.out_fd);
         }
         if is_due(self.pdo.poll_timeout(), now) {
             self.pdo.handle_timeout(now, &mut Store(&mut self.values));
@@ -673,6 +683,7 @@ impl Station for SimDevice {
     /// USDO requests (CAN FD on 0x600 + a client's node-ID) for a device marked CANopen FD,
     /// served while NMT allows SDO (pre-operational and operational).
     fn handle_fd_frame(&mut self, now: Instant, frame: &FdFrame) {
+        self.fd_pdo.set_now(now);
         if !self.booted || !self.configured || self.usdo.is_none() {
             return;
         }

@@ -3,16 +3,17 @@
 //!
 //! A device marked CANopen FD also runs its PDOs of more than 8 bytes ([`FdPdos`]), as CAN FD
 //! frames mapped through `canola-pdo`'s [`FdMapping`]: TPDOs of types 254/255 go out when
-//! their data changes, synchronous ones (1..=240 every n-th SYNC, 0 on the SYNC after a change)
-//! on SYNC; received RPDOs are written at once. Inhibit time, event timer and remote requests
-//! apply to the classic PDOs only.
+//! their data changes and, with an event timer (sub-index 5, ms), when it elapses without a
+//! transmission (CiA 301 §7.5.2.35: the timer restarts at every transmission); synchronous
+//! ones (1..=240 every n-th SYNC, 0 on the SYNC after a change) go out on SYNC; received RPDOs
+//! are written at once. Inhibit time and remote requests apply to the classic PDOs only.
 //!
 //! MPDOs (CiA 301 §7.2.3, [`DeviceMpdos`]): a TPDO whose mapping count is 0xFE produces
 //! SAM-MPDOs, one per object of the object scanner list 0x1FA0 each time its value changes
 //! (every object once on entering Operational); an RPDO whose mapping count is 0xFF consumes
 //! DAM-MPDOs addressed to the device or to all nodes, writing the addressed object.
 
-use canola_frame::{CanFrame, CanId, FdFrame, Instant, NodeId};
+use canola_frame::{CanFrame, CanId, Duration, FdFrame, Instant, NodeId};
 use canola_pdo::{
     CommParams, Dictionary, Direction, FdMapping, MpdoConsumer, ObjectAddress, ObjectStore, OdView,
     RawValue, SamProducer, StoreError, TransmissionType,
@@ -76,6 +77,22 @@ struct FdTpdo {
     last: Option<Vec<u8>>,
     /// SYNCs counted towards the next frame of a cyclic synchronous TPDO.
     syncs: u8,
+    /// When the event timer elapses (an event-driven TPDO with a non-zero event timer that
+    /// has been sent at least once).
+    due: Option<Instant>,
+}
+
+impl FdTpdo {
+    /// Sends `data` and restarts the event timer.
+    fn send(&mut self, now: Instant, data: Vec<u8>, out: &mut impl Extend<FdFrame>) {
+        if let Ok(f) = FdFrame::new_padded(self.can_id, &data).map(|f| f.with_brs(true)) {
+            out.extend([f]);
+        }
+        self.last = Some(data);
+        let timer = self.comm.event_timer;
+        self.due = (self.comm.transmission_type.is_event_driven() && timer > 0)
+            .then(|| now + Duration::from_millis(u64::from(timer)));
+    }
 }
 
 /// A device's PDOs of more than 8 bytes (see the module docs).
@@ -83,6 +100,9 @@ struct FdTpdo {
 pub(crate) struct FdPdos {
     rx: Vec<(CanId, FdMapping)>,
     tx: Vec<FdTpdo>,
+    /// The device's time, as of its last call from the bus (a value set by the application
+    /// between two calls is sent with this time, which only starts the event timer).
+    now: Instant,
 }
 
 impl FdPdos {
@@ -100,6 +120,7 @@ impl FdPdos {
                     mapping,
                     last: None,
                     syncs: 0,
+                    due: None,
                 });
             }
         }
@@ -111,8 +132,39 @@ impl FdPdos {
         self.rx.is_empty() && self.tx.is_empty()
     }
 
+    /// Tells the time of the call being handled.
+    pub(crate) fn set_now(&mut self, now: Instant) {
+        self.now = self.now.max(now);
+    }
+
+    /// When the next event timer elapses.
+    pub(crate) fn poll_timeout(&self) -> Option<Instant> {
+        self.tx.iter().filter_map(|t| t.due).min()
+    }
+
+    /// The frames of event-driven TPDOs whose event timer elapsed at `now`: sent with the
+    /// current data, changed or not.
+    pub(crate) fn handle_timeout(
+        &mut self,
+        now: Instant,
+        values: &Values,
+        out: &mut impl Extend<FdFrame>,
+    ) {
+        self.now = now;
+        for t in &mut self.tx {
+            if t.due.is_none_or(|d| d > now) {
+                continue;
+            }
+            match pack(&t.mapping, values) {
+                Some(data) => t.send(now, data, out),
+                None => t.due = None,
+            }
+        }
+    }
+
     /// The frames of event-driven TPDOs whose data changed since they were last sent.
     pub(crate) fn changed(&mut self, values: &Values, out: &mut impl Extend<FdFrame>) {
+        let now = self.now;
         for t in &mut self.tx {
             let tt = t.comm.transmission_type;
             if !tt.is_event_driven() && tt != TransmissionType::SyncAcyclic {
@@ -124,15 +176,13 @@ impl FdPdos {
             if t.last.as_deref() == Some(&data[..]) || tt == TransmissionType::SyncAcyclic {
                 continue;
             }
-            if let Ok(f) = FdFrame::new_padded(t.can_id, &data).map(|f| f.with_brs(true)) {
-                out.extend([f]);
-            }
-            t.last = Some(data);
+            t.send(now, data, out);
         }
     }
 
     /// The frames of synchronous TPDOs due at a SYNC.
     pub(crate) fn sync(&mut self, values: &Values, out: &mut impl Extend<FdFrame>) {
+        let now = self.now;
         for t in &mut self.tx {
             let due = match t.comm.transmission_type {
                 TransmissionType::SyncAcyclic => true,
@@ -157,10 +207,7 @@ impl FdPdos {
             if acyclic && t.last.as_deref() == Some(&data[..]) {
                 continue;
             }
-            if let Ok(f) = FdFrame::new_padded(t.can_id, &data).map(|f| f.with_brs(true)) {
-                out.extend([f]);
-            }
-            t.last = Some(data);
+            t.send(now, data, out);
         }
     }
 
