@@ -138,9 +138,12 @@ fn idle(shared: &Shared, pace: &mut Option<Pace>) {
                 Some(ahead) if ahead >= BUSY_STEP.into() => Some(ahead),
                 _ => {
                     if net.run_step(Duration::from(period)).is_err() {
-                        std::thread::sleep(AFTER_FAILURE);
+                        // A failed transport: try again a period later (or at a new job).
+                        *pace = None;
+                        Some(period)
+                    } else {
+                        return;
                     }
-                    return;
                 }
             }
         }
