@@ -1,6 +1,7 @@
-//! Carrying out one request on a [`Network`]: SDO upload and download, NMT, the LSS services,
-//! and the mapping of the master's errors to the replies of CiA 309-3 (an SDO abort code as
-//! `ERROR:0x........`, a local failure as a gateway error code).
+//! Carrying out one request on a [`Network`]: SDO upload and download (started as [`Pending`]
+//! requests, answered when they end), NMT, the LSS services (blocking), and the mapping of the
+//! master's errors to the replies of CiA 309-3 (an SDO abort code as `ERROR:0x........`, a
+//! local failure as a gateway error code).
 
 use std::io::Write;
 use std::sync::{Arc, Mutex};
@@ -10,7 +11,7 @@ use canola::lss::{
     AddressPart, AssignConfig, BitTiming, FastscanConfig, LssAddress, LssError, Mode, NodeIdPool,
     Procedure, ResponseError, Service, Step,
 };
-use canola::{Error, Network, SdoErrorKind};
+use canola::{Error, Network, Pending, SdoErrorKind};
 
 use crate::command::{AllNodes, Command, ErrorCode, NmtService, Reply, ScanType};
 use crate::value::{DataType, Value};
@@ -83,17 +84,67 @@ pub(crate) struct SdoSettings {
     pub(crate) max_upload: usize,
 }
 
-/// SDO upload, shown as `data_type` (else the dictionary's type, else `hex`).
-pub(crate) fn read(
+/// An SDO request in flight ([`Pending`]), and what its reply is made from when it ends.
+pub(crate) enum Transfer {
+    /// An upload into a bounded buffer, shown as `data_type` when it ends.
+    Read {
+        pending: Pending<u64>,
+        buf: Arc<Mutex<Vec<u8>>>,
+        data_type: DataType,
+    },
+    Write(Pending<()>),
+}
+
+impl Transfer {
+    /// Whether the request has ended (its reply is ready).
+    pub(crate) fn is_done(&self) -> bool {
+        match self {
+            Self::Read { pending, .. } => pending.is_done(),
+            Self::Write(pending) => pending.is_done(),
+        }
+    }
+
+    /// The reply, once the request has ended ([`is_done`](Self::is_done); before that this
+    /// blocks, driving the network, until it ends).
+    pub(crate) fn reply(self) -> Reply {
+        match self {
+            Self::Read {
+                pending,
+                buf,
+                data_type,
+            } => {
+                if let Err(e) = pending.wait() {
+                    return error_reply(&e.into());
+                }
+                let bytes = std::mem::take(
+                    &mut *buf
+                        .lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner),
+                );
+                match Value::from_le_bytes(data_type, &bytes) {
+                    Ok(v) => Reply::Text(v.to_string()),
+                    Err(_) => Reply::Abort(ABORT_TYPE_LENGTH),
+                }
+            }
+            Self::Write(pending) => match pending.wait() {
+                Ok(()) => Reply::Ok,
+                Err(e) => error_reply(&e.into()),
+            },
+        }
+    }
+}
+
+/// Starts an SDO upload, to be shown as `data_type` (else the dictionary's type, else `hex`).
+pub(crate) fn submit_read(
     net: &Network,
     node: NodeId,
     index: u16,
     sub: u8,
     data_type: Option<DataType>,
     s: SdoSettings,
-) -> Reply {
+) -> Transfer {
     let n = net.node(node);
-    let dt = data_type
+    let data_type = data_type
         .or_else(|| {
             n.dictionary()
                 .and_then(|od| od.sub(index, sub).map(|e| e.data_type))
@@ -105,45 +156,34 @@ pub(crate) fn read(
         buf: buf.clone(),
         limit: s.max_upload,
     };
-    let r = n
+    let pending = n
         .sdo()
         .timeout(s.timeout)
         .block(s.block)
-        .upload_to((index, sub), sink);
-    if let Err(e) = r.wait() {
-        return error_reply(&e);
-    }
-    let bytes = std::mem::take(
-        &mut *buf
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner),
-    );
-    match Value::from_le_bytes(dt, &bytes) {
-        Ok(v) => Reply::Text(v.to_string()),
-        Err(_) => Reply::Abort(ABORT_TYPE_LENGTH),
+        .submit_upload_to((index, sub), sink);
+    Transfer::Read {
+        pending,
+        buf,
+        data_type,
     }
 }
 
-/// SDO download.
-pub(crate) fn write(
+/// Starts an SDO download.
+pub(crate) fn submit_write(
     net: &Network,
     node: NodeId,
     index: u16,
     sub: u8,
     value: &Value,
     s: SdoSettings,
-) -> Reply {
-    match net
-        .node(node)
-        .sdo()
-        .timeout(s.timeout)
-        .block(s.block)
-        .write((index, sub), value.to_le_bytes())
-        .wait()
-    {
-        Ok(()) => Reply::Ok,
-        Err(e) => error_reply(&e),
-    }
+) -> Transfer {
+    Transfer::Write(
+        net.node(node)
+            .sdo()
+            .timeout(s.timeout)
+            .block(s.block)
+            .submit_write((index, sub), value.to_le_bytes()),
+    )
 }
 
 /// NMT module control; node 0 is every node.

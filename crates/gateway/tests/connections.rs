@@ -1,7 +1,8 @@
 //! Many connections at once: every request answered with its own sequence number, a connection
 //! that stops reading or vanishes costs the others nothing, over-long lines are refused, and
 //! SDO requests to different nodes run in parallel, and a connection flooding a node delays
-//! another connection's request to it by a bounded number of requests.
+//! another connection's request to it by a bounded number of requests; a transport that fails
+//! fails the running requests, and the gateway serves again once it works.
 
 mod common;
 
@@ -339,5 +340,65 @@ fn a_flooding_connection_delays_another_by_a_bounded_number_of_requests() {
     assert!(
         between_6 <= 8 && after_6 > 100,
         "{between_6} flood reads in between, {after_6} after"
+    );
+}
+
+/// An in-memory bus endpoint whose reception fails while `down` is set.
+struct Failing {
+    ep: canola::mem::Endpoint,
+    down: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl canola::transport::Transport for Failing {
+    fn send(&mut self, frame: &canola::frame::CanFrame) -> Result<(), canola::TransportError> {
+        self.ep.send(frame)
+    }
+    fn recv_until(
+        &mut self,
+        deadline: canola::frame::Instant,
+    ) -> Result<Option<canola::transport::Received>, canola::TransportError> {
+        if self.down.load(std::sync::atomic::Ordering::SeqCst) {
+            return Err(canola::TransportError::InterfaceDown);
+        }
+        self.ep.recv_until(deadline)
+    }
+    fn now(&self) -> canola::frame::Instant {
+        self.ep.now()
+    }
+}
+
+#[test]
+fn a_failing_transport_fails_the_running_requests_and_serving_resumes() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    let bus = canola::MemoryBus::new();
+    let device =
+        |n| canola::SimDevice::from_eds(canola::frame::NodeId::new(n).unwrap(), common::EDS);
+    let stations = [
+        bus.attach(device(5).unwrap()),
+        bus.attach(device(6).unwrap()),
+    ];
+    let down = std::sync::Arc::new(AtomicBool::new(false));
+    let transport = Failing {
+        ep: bus.endpoint(),
+        down: down.clone(),
+    };
+    let gw = canola_gateway::Gateway::new(canola::Network::new(transport), Config::default());
+    let mut c = Client::connect(&gw);
+    assert_eq!(c.ask("[1] 5 r 0x1017 0 u16\n", 1), "[1] 500\r\n");
+    // The devices leave too, so that no answer to a failed request is left for later ones.
+    let devices = stations.map(|s| bus.detach(s).unwrap());
+    down.store(true, Ordering::SeqCst);
+    // Both fail (102: not processed due to internal state), neither hangs.
+    let mut failed = c.ask("[2] 5 r 0x1017 0 u16\n[3] 6 r 0x1017 0 u16\n", 2);
+    failed = failed.replace("[3]", "[2]");
+    assert_eq!(failed, "[2] ERROR:102\r\n[2] ERROR:102\r\n");
+    down.store(false, Ordering::SeqCst);
+    for d in devices {
+        bus.attach(d);
+    }
+    assert_eq!(
+        c.ask("[4] 6 w 0x1017 0 u16 300\n[5] 6 r 0x1017 0 u16\n", 2),
+        "[4] OK\r\n[5] 300\r\n"
     );
 }

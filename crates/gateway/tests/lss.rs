@@ -216,3 +216,29 @@ fn all_nodes_forms_without_a_fastscan_are_refused() {
         "[3] 0x00000039 0x00001234 0x00010002 0x00000010\r\n"
     );
 }
+
+#[test]
+fn sdo_requests_go_on_while_an_lss_service_runs() {
+    use canola::{BusConfig, ClockMode};
+
+    // A real-time bus: a Fastscan that nobody answers lasts its response timeout (1 s), in which
+    // reads from three nodes are answered. Were the LSS service run where the node queues are
+    // served, the reads would wait for it.
+    let bus = MemoryBus::with_config(BusConfig {
+        clock: ClockMode::RealTime,
+        ..BusConfig::default()
+    });
+    let net = Network::new(bus.endpoint());
+    for n in [5, 6, 7] {
+        bus.attach(
+            SimDevice::from_eds(canola::frame::NodeId::new(n).unwrap(), common::EDS).unwrap(),
+        );
+    }
+    let gw = Gateway::new(net, Config::default());
+    let mut c = Client::connect(&gw);
+    c.send("[1] _lss_fastscan 1000\n[5] 5 r 0x1017 0 u16\n[6] 6 r 0x1017 0 u16\n[7] 7 r 0x1017 0 u16\n");
+    let mut reads: Vec<String> = (0..3).map(|_| c.line()).collect();
+    reads.sort();
+    assert_eq!(reads, ["[5] 500\r\n", "[6] 500\r\n", "[7] 500\r\n"]);
+    assert_eq!(c.line(), "[1] ERROR:103\r\n");
+}

@@ -117,6 +117,43 @@ impl Network {
         Ok(received)
     }
 
+    /// One driving step, for a thread that drives the network itself between looks at its own
+    /// work (several [`Pending`](crate::Pending) requests at once, new work handed over by other
+    /// threads): sends what the core has queued, receives until a frame arrives, the core's next
+    /// deadline passes, `limit` passes or a short slice (2 ms) does, handles what arrived and
+    /// fires the timers that are due. Returns whether a frame or bus event was received.
+    ///
+    /// Unlike [`run_for`](Self::run_for), which always runs for the whole time asked, it returns
+    /// as soon as something arrived, so a loop around it sees a finished request at once on a
+    /// real clock (on a virtual clock, time advances by at most `limit`). When another thread is
+    /// driving, it waits for that thread's next step instead (at most `limit`) and returns
+    /// `false`. Blocking: async code awaits the requests instead.
+    pub fn run_step(&self, limit: impl Into<Duration>) -> Result<bool, Error> {
+        let limit: Duration = limit.into();
+        match self.inner.io.try_lock() {
+            Ok(mut io) => {
+                self.count_waiter_step();
+                // The step's own reading, when it may reuse one: no extra clock read for the bound.
+                let now = match io.reading {
+                    Some(t) => t,
+                    None => io.now(),
+                };
+                self.step(&mut io, Some(now + limit))
+            }
+            Err(_) => {
+                let c = self.core();
+                // Counted while the core is locked, as in `wait_for_by`: the driving thread
+                // notifies at the end of its step.
+                self.inner.waiting.fetch_add(1, Ordering::SeqCst);
+                let wait =
+                    std::time::Duration::from(limit).min(std::time::Duration::from_millis(5));
+                let _ = relock(self.inner.cond.wait_timeout(c, wait));
+                self.inner.waiting.fetch_sub(1, Ordering::SeqCst);
+                Ok(false)
+            }
+        }
+    }
+
     /// [`step`](Self::step) for a waiter: `check` looks at the core under the step's own locks
     /// (before anything is done, and after the frames are handled), so waiting costs no lock
     /// of its own. A value from the first look ends the step at once. With `held` (the core,

@@ -303,6 +303,23 @@ impl Sdo {
         self.request(entry.into(), download(value), |_| ())
     }
 
+    /// Starts an upload into `writer` without waiting: [`upload_to`](Self::upload_to) as a
+    /// [`Pending`] request, whose result is the byte count. The writer is called from whatever
+    /// drives the network; a write or the final flush failing ends the request with
+    /// [`SdoErrorKind::Io`](crate::SdoErrorKind::Io) (the transfer is aborted on the bus).
+    pub fn submit_upload_to(
+        self,
+        entry: impl Into<ObjectAddress>,
+        writer: impl Write + Send + 'static,
+    ) -> Pending<u64> {
+        let sink = UpSink::Stream {
+            w: Box::new(writer),
+            written: 0,
+            error: None,
+        };
+        self.request(entry.into(), Op::Upload(sink), |c| c.transferred)
+    }
+
     /// Reads an object's bytes (SDO upload).
     pub fn read(self, entry: impl Into<ObjectAddress>) -> Operation<'static, Vec<u8>> {
         self.transfer(entry.into(), upload_to_memory(), |c| c.data)

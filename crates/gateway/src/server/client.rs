@@ -35,7 +35,7 @@ pub(super) struct OutboxState {
     pub(super) gone: bool,
 }
 
-/// A connection as the workers see it.
+/// A connection as the dispatcher sees it.
 pub(super) struct Client {
     pub(super) id: u64,
     pub(super) out: Mutex<OutboxState>,

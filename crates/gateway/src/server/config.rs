@@ -61,8 +61,9 @@ pub struct Config {
     pub max_connections: usize,
     /// Longest upload in bytes (a longer one is aborted: `ERROR:0x05040005`).
     pub max_upload: usize,
-    /// Period of the background driver; `None` leaves driving to the requests (and to the
-    /// application).
+    /// Whether the dispatcher drives the network while no request runs, and in steps of at
+    /// most how long (a virtual clock is then kept near real time); `None` drives it only while
+    /// requests run, leaving the rest to the application (`Network::start_driver`).
     pub drive_period: Option<std::time::Duration>,
     /// What `info version` reports.
     pub version: Version,

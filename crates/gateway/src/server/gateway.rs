@@ -2,7 +2,6 @@
 //! each connection's lines, answering what needs no bus at once and dispatching the rest to
 //! the queues; `help` and `info version` texts.
 
-use std::collections::HashMap;
 use std::io::{BufReader, Read, Write};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
@@ -17,7 +16,7 @@ use crate::parse::{ParseError, parse_line};
 
 use super::client::{Client, OutboxState, error_text, leading_seq, lock, read_line, write_outbox};
 use super::config::{Config, Version};
-use super::workers::{Job, Shared, Work, drive, forward_events};
+use super::queues::{Job, NodeQueues, Shared, Work, Worker, forward_events};
 
 /// Per-connection settings.
 pub(super) struct Session {
@@ -58,19 +57,21 @@ impl core::fmt::Debug for Gateway {
 }
 
 impl Gateway {
-    /// A gateway for `net`. Starts the event thread (and the background driver, see
-    /// [`Config::drive_period`]).
+    /// A gateway for `net`. Starts the dispatcher (which serves the node queues and drives the
+    /// network, see [`Config::drive_period`]) and the event thread.
     pub fn new(net: Network, config: Config) -> Self {
         let events = net.subscribe();
         let shared = Arc::new(Shared {
             net,
             config,
-            workers: Mutex::new(HashMap::new()),
+            nodes: Mutex::new(NodeQueues::default()),
+            nodes_cond: Condvar::new(),
+            lss: Worker::default(),
+            lss_started: AtomicBool::new(false),
             clients: Mutex::new(Vec::new()),
             next_client: AtomicU64::new(1),
             stop: AtomicBool::new(false),
             threads: Mutex::new(Vec::new()),
-            active: std::sync::atomic::AtomicUsize::new(0),
             access_counters: crate::access::Counters::default(),
             conns: Arc::default(),
         });
@@ -81,14 +82,12 @@ impl Gateway {
         {
             lock(&shared.threads).push(h);
         }
-        if let Some(period) = shared.config.drive_period {
-            let s = shared.clone();
-            if let Ok(h) = std::thread::Builder::new()
-                .name("gateway-driver".into())
-                .spawn(move || drive(&s, period))
-            {
-                lock(&shared.threads).push(h);
-            }
+        let s = shared.clone();
+        if let Ok(h) = std::thread::Builder::new()
+            .name("gateway-dispatch".into())
+            .spawn(move || super::dispatch::serve_nodes(&s))
+        {
+            lock(&shared.threads).push(h);
         }
         Self { shared }
     }
@@ -289,16 +288,17 @@ impl Gateway {
             None => Err(ErrorCode::NO_DEFAULT_NODE),
             Some(n) => NodeId::new(n).map_err(|_| ErrorCode::UNSUPPORTED_NODE),
         };
-        let mut queue = |key: u8, work: Work| {
-            let w = shared.worker(key);
+        let mut job = |work: Work| {
             lock(&client.out).pending += 1;
-            lock(&w.queue).push(Job {
+            Job {
                 client: client.clone(),
                 seq: req.seq,
                 work,
                 audit: audit.take(),
-            });
-            w.cond.notify_one();
+            }
+        };
+        let mut queue = |node: u8, work: Work| {
+            shared.queue_node(node, job(work));
             None
         };
         match &req.command {
@@ -374,7 +374,10 @@ impl Gateway {
                 client.events.store(*on, Ordering::Relaxed);
                 Some(Reply::Ok)
             }
-            lss => queue(0, Work::Lss(lss.clone())),
+            lss => {
+                shared.queue_lss(job(Work::Lss(lss.clone())));
+                None
+            }
         }
     }
 
@@ -449,14 +452,15 @@ impl Gateway {
             .spawn(move || gw.serve_peer(reader, writer, peer));
     }
 
-    /// Stops the background threads (event forwarding, driver, queue workers) once their
-    /// current request is done. Connections still being served end with their streams.
+    /// Stops the background threads (event forwarding, the dispatcher, the LSS thread) once
+    /// their running requests are done; queued requests are not started. Connections still
+    /// being served end with their streams.
     pub fn shutdown(&self) {
         self.shared.stop.store(true, Ordering::SeqCst);
-        for w in lock(&self.shared.workers).values() {
-            lock(&w.queue).stop = true;
-            w.cond.notify_all();
-        }
+        lock(&self.shared.nodes).stop = true;
+        self.shared.nodes_cond.notify_all();
+        lock(&self.shared.lss.queue).stop = true;
+        self.shared.lss.cond.notify_all();
         let threads: Vec<_> = lock(&self.shared.threads).drain(..).collect();
         for t in threads {
             let _ = t.join();

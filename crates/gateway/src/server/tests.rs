@@ -7,7 +7,7 @@ use std::sync::{Arc, Condvar, Mutex};
 use crate::command::Command;
 
 use super::client::{Client, OutboxState, leading_seq, read_line};
-use super::workers::{FairQueue, Job, Work};
+use super::queues::{FairQueue, Job, Work};
 
 fn client(id: u64) -> Arc<Client> {
     Arc::new(Client {

@@ -1,19 +1,19 @@
-//! The gateway's queues and the threads that serve them: one queue per node and one for LSS,
-//! each served round-robin over the connections by its worker; the shared state they hang off;
-//! the thread that drives the network while no request runs and the one that turns network
-//! events into event lines.
+//! The gateway's queues and the state the threads share: one fair queue per node (SDO and
+//! NMT) and one for LSS, each served round-robin over the connections; the [`Shared`] state
+//! they hang off; and the thread that turns network events into event lines. The threads that
+//! serve the queues are in `dispatch`.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, mpsc};
 use std::thread::JoinHandle;
 
-use canola::frame::{Duration, NodeId};
+use canola::frame::NodeId;
 use canola::nmt::{GuardingEvent, HeartbeatEvent};
 use canola::{Network, NetworkEvent};
 
-use crate::command::{Command, ErrorCode, Event, EventKind, Response};
-use crate::exec::{self, SdoSettings};
+use crate::command::{Command, ErrorCode, Event, EventKind};
+use crate::exec::SdoSettings;
 use crate::value::DataType;
 
 use super::client::{Client, lock};
@@ -77,22 +77,45 @@ impl FairQueue {
     }
 }
 
+/// The LSS queue and the signal of a job queued to it (or of the stop).
+#[derive(Default)]
 pub(super) struct Worker {
     pub(super) queue: Mutex<FairQueue>,
     pub(super) cond: Condvar,
 }
 
+/// The node queues (SDO and NMT jobs), served by the dispatcher.
+#[derive(Default)]
+pub(super) struct NodeQueues {
+    pub(super) queues: BTreeMap<u8, FairQueue>,
+    /// Jobs in `queues`.
+    pub(super) queued: usize,
+    /// Set by shutdown: no job is started any more.
+    pub(super) stop: bool,
+}
+
+impl NodeQueues {
+    /// The next job of `node`, if one waits.
+    pub(super) fn pop(&mut self, node: u8) -> Option<Job> {
+        let job = self.queues.get_mut(&node)?.pop()?;
+        self.queued -= 1;
+        Some(job)
+    }
+}
+
 pub(super) struct Shared {
     pub(super) net: Network,
     pub(super) config: Config,
-    /// One worker per node (SDO), created on first use, and one for LSS (key 0).
-    pub(super) workers: Mutex<HashMap<u8, Arc<Worker>>>,
+    /// The node queues and the dispatcher's signal: a job queued, or the stop.
+    pub(super) nodes: Mutex<NodeQueues>,
+    pub(super) nodes_cond: Condvar,
+    /// The LSS queue; its thread starts with the first LSS request.
+    pub(super) lss: Worker,
+    pub(super) lss_started: AtomicBool,
     pub(super) clients: Mutex<Vec<std::sync::Weak<Client>>>,
     pub(super) next_client: AtomicU64,
     pub(super) stop: AtomicBool,
     pub(super) threads: Mutex<Vec<JoinHandle<()>>>,
-    /// Requests being carried out: while there are any, their threads drive the network.
-    pub(super) active: std::sync::atomic::AtomicUsize,
     /// What access control refused.
     pub(super) access_counters: crate::access::Counters,
     /// The socket connections, for the connection limits.
@@ -100,77 +123,28 @@ pub(super) struct Shared {
 }
 
 impl Shared {
-    pub(super) fn worker(self: &Arc<Self>, key: u8) -> Arc<Worker> {
-        let mut w = lock(&self.workers);
-        if let Some(w) = w.get(&key) {
-            return w.clone();
-        }
-        let worker = Arc::new(Worker {
-            queue: Mutex::new(FairQueue::default()),
-            cond: Condvar::new(),
-        });
-        w.insert(key, worker.clone());
-        let (shared, me) = (self.clone(), worker.clone());
-        let h = std::thread::Builder::new()
-            .name(format!("gateway-queue-{key}"))
-            .spawn(move || shared.serve_queue(&me));
-        if let Ok(h) = h {
-            lock(&self.threads).push(h);
-        }
-        worker
+    /// Queues `job` behind the earlier jobs to `node` and wakes the dispatcher.
+    pub(super) fn queue_node(&self, node: u8, job: Job) {
+        let mut q = lock(&self.nodes);
+        q.queues.entry(node).or_default().push(job);
+        q.queued += 1;
+        drop(q);
+        self.nodes_cond.notify_one();
     }
 
-    pub(super) fn serve_queue(&self, w: &Worker) {
-        loop {
-            let job = {
-                let mut q = lock(&w.queue);
-                loop {
-                    if q.stop {
-                        return;
-                    }
-                    if let Some(j) = q.pop() {
-                        break j;
-                    }
-                    q = w
-                        .cond
-                        .wait(q)
-                        .unwrap_or_else(std::sync::PoisonError::into_inner);
-                }
-            };
-            if job.client.gone() {
-                job.client.complete(String::new());
-                continue;
+    /// Queues an LSS job, starting the LSS thread with the first one.
+    pub(super) fn queue_lss(self: &Arc<Self>, job: Job) {
+        if !self.lss_started.swap(true, Ordering::SeqCst) {
+            let shared = self.clone();
+            let h = std::thread::Builder::new()
+                .name("gateway-lss".into())
+                .spawn(move || super::dispatch::serve_lss(&shared));
+            if let Ok(h) = h {
+                lock(&self.threads).push(h);
             }
-            self.active.fetch_add(1, Ordering::SeqCst);
-            let reply = match &job.work {
-                Work::Read {
-                    node,
-                    index,
-                    sub,
-                    data_type,
-                    sdo,
-                } => exec::read(&self.net, *node, *index, *sub, *data_type, *sdo),
-                Work::Write {
-                    node,
-                    index,
-                    sub,
-                    value,
-                    sdo,
-                } => exec::write(&self.net, *node, *index, *sub, value, *sdo),
-                Work::Nmt { node, service } => exec::nmt(&self.net, *node, *service),
-                Work::Lss(c) => exec::lss(&self.net, c),
-            };
-            self.active.fetch_sub(1, Ordering::SeqCst);
-            let text = Response {
-                seq: job.seq,
-                reply,
-            }
-            .to_text();
-            if let Some(a) = &job.audit {
-                a.record(&text);
-            }
-            job.client.complete(text);
         }
+        lock(&self.lss.queue).push(job);
+        self.lss.cond.notify_one();
     }
 
     pub(super) fn broadcast(&self, line: &str) {
@@ -223,22 +197,5 @@ pub(super) fn forward_events(shared: &Shared, events: &mpsc::Receiver<NetworkEve
             _ => continue,
         };
         shared.broadcast(&format!("{event}\r\n"));
-    }
-}
-
-/// Drives the network for `period` at a time while no request runs (a running request's
-/// thread drives it then, without waiting for this one's receive slices), so events arrive
-/// when the gateway is idle. On a virtual-clock bus this also keeps simulated time close to
-/// real time.
-pub(super) fn drive(shared: &Shared, period: std::time::Duration) {
-    let step = Duration::from_micros(period.as_micros().try_into().unwrap_or(u64::MAX));
-    while !shared.stop.load(Ordering::SeqCst) {
-        let start = std::time::Instant::now();
-        if shared.active.load(Ordering::SeqCst) == 0 {
-            let _ = shared.net.run_for(step).wait();
-        }
-        if let Some(rest) = period.checked_sub(start.elapsed()) {
-            std::thread::sleep(rest);
-        }
     }
 }
