@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::Subcommand;
 
 use crate::bus::{BusOpts, fail};
+use crate::error::CliError;
 use crate::{Global, outln};
 
 /// `canopen adapter ...`.
@@ -45,7 +46,9 @@ const FLAGS: [(u8, &str); 7] = [
 
 fn info(opts: &BusOpts, global: Global) -> ExitCode {
     let Some(iface) = opts.iface.as_deref() else {
-        return fail("adapter info needs --iface slcan:PATH[@BITRATE]");
+        return fail(CliError::Argument(
+            "adapter info needs --iface slcan:PATH[@BITRATE]".into(),
+        ));
     };
     let spec = match canola::BusSpec::parse(iface) {
         Ok(s) => s,
@@ -57,7 +60,12 @@ fn info(opts: &BusOpts, global: Global) -> ExitCode {
     };
     let info = match adapter.info() {
         Ok(i) => i,
-        Err(e) => return fail(format!("{iface}: {e}")),
+        Err(source) => {
+            return fail(CliError::Adapter {
+                iface: iface.to_owned(),
+                source,
+            });
+        }
     };
     let config = adapter.link().config().clone();
     let _ = adapter.close();

@@ -14,6 +14,7 @@ use canola_manager::{
 use clap::Args;
 
 use crate::bus::{self, BusOpts};
+use crate::error::CliError;
 use crate::{Global, outln};
 
 /// `canopen boot`.
@@ -59,8 +60,8 @@ fn open(
     opts: &BusOpts,
     file: &PathBuf,
     absent: &[NodeId],
-) -> Result<(NetworkConfig, canola::Network, Option<canola::MemoryBus>), String> {
-    let config = NetworkConfig::load(file).map_err(|e| e.to_string())?;
+) -> Result<(NetworkConfig, canola::Network, Option<canola::MemoryBus>), CliError> {
+    let config = NetworkConfig::load(file)?;
     let devices = if opts.iface.is_some() {
         Vec::new()
     } else {

@@ -19,6 +19,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
 use crate::bus::{BusOpts, fail, parse_node};
+use crate::error::CliError;
 use crate::{Global, outln};
 
 /// `canopen burkert NODE ...` arguments.
@@ -136,7 +137,7 @@ impl BurkertCommand {
 }
 
 /// The `--eds` dictionaries, with the generic Bürkert EDS for `node` when none is given for it.
-fn dictionaries(opts: &BusOpts, node: NodeId) -> Result<Vec<(NodeId, ObjectDictionary)>, String> {
+fn dictionaries(opts: &BusOpts, node: NodeId) -> Result<Vec<(NodeId, ObjectDictionary)>, CliError> {
     let mut dictionaries = opts.dictionaries()?;
     if !dictionaries.iter().any(|(n, _)| *n == node) {
         dictionaries.push((node, (**generic_od()).clone()));

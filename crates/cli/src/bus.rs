@@ -5,7 +5,7 @@
 //! simulator otherwise), so every command has a
 //! device to talk to without hardware.
 //!
-//! Also the argument parsers the bus commands share and their one error printer.
+//! Also the argument parsers the bus commands share, and the warning printer.
 
 use std::process::ExitCode;
 
@@ -14,6 +14,8 @@ use canola::mem::MemoryBus;
 use canola::transport::{BusEvent, Received, Transport};
 use canola::{BusDictionary, CanFrame, Duration, Instant, Network, NodeId, ObjectDictionary};
 use clap::Args;
+
+use crate::error::CliError;
 
 /// Options of the bus commands (global: they may stand before or after the subcommand).
 #[derive(Debug, Clone, Args)]
@@ -42,48 +44,54 @@ pub(crate) struct BusOpts {
 fn parse_number<T>(
     s: &str,
     radix16: fn(&str) -> Result<T, std::num::ParseIntError>,
-) -> Result<T, String>
+) -> Result<T, std::num::ParseIntError>
 where
     T: std::str::FromStr<Err = std::num::ParseIntError>,
 {
-    let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+    match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
         Some(h) => radix16(h),
         None => s.parse(),
-    };
-    r.map_err(|e| format!("`{s}`: {e}"))
+    }
 }
 
 /// An object index: `0x` hex or decimal, at most 0xFFFF.
-pub(crate) fn parse_u16(s: &str) -> Result<u16, String> {
-    parse_number(s, |h| u16::from_str_radix(h, 16))
-        .map_err(|e| format!("`{s}` is not an object index (0x0000..0xFFFF): {e}"))
+pub(crate) fn parse_u16(s: &str) -> Result<u16, CliError> {
+    parse_number(s, |h| u16::from_str_radix(h, 16)).map_err(|e| {
+        CliError::Argument(format!(
+            "`{s}` is not an object index (0x0000..0xFFFF): `{s}`: {e}"
+        ))
+    })
 }
 
 /// A sub-index: `0x` hex or decimal.
-pub(crate) fn parse_u8(s: &str) -> Result<u8, String> {
+pub(crate) fn parse_u8(s: &str) -> Result<u8, CliError> {
     parse_number(s, |h| u8::from_str_radix(h, 16))
+        .map_err(|e| CliError::Argument(format!("`{s}`: {e}")))
 }
 
 /// A node-ID 1..=127: `0x` hex or decimal.
-pub(crate) fn parse_node(s: &str) -> Result<NodeId, String> {
-    NodeId::new(parse_u8(s)?).map_err(|e| e.to_string())
+pub(crate) fn parse_node(s: &str) -> Result<NodeId, CliError> {
+    Ok(NodeId::new(parse_u8(s)?)?)
 }
 
 /// `NODE=FILE`: the node and its parsed dictionary.
-pub(crate) fn load_eds(spec: &str) -> Result<(NodeId, ObjectDictionary), String> {
+pub(crate) fn load_eds(spec: &str) -> Result<(NodeId, ObjectDictionary), CliError> {
     let (node, file) = spec
         .split_once('=')
-        .ok_or_else(|| format!("--eds {spec}: expected NODE=FILE"))?;
+        .ok_or_else(|| CliError::Argument(format!("--eds {spec}: expected NODE=FILE")))?;
     let node = parse_node(node)?;
     Ok((node, read_dictionary(std::path::Path::new(file))?))
 }
 
 /// Parses an EDS/DCF file; errors name the file (and the line, from the parser).
-pub(crate) fn read_dictionary(path: &std::path::Path) -> Result<ObjectDictionary, String> {
-    let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+pub(crate) fn read_dictionary(path: &std::path::Path) -> Result<ObjectDictionary, CliError> {
+    let text = std::fs::read(path).map_err(CliError::file(path))?;
     canola::od::parse(&text)
         .map(|p| p.od)
-        .map_err(|e| format!("{}: {e}", path.display()))
+        .map_err(|source| CliError::Dictionary {
+            path: path.to_owned(),
+            source,
+        })
 }
 
 /// The bus as a transport, the in-memory bus behind it (if that is the bus), and the
@@ -96,14 +104,14 @@ pub(crate) struct Bus {
 
 impl BusOpts {
     /// The `--eds` dictionaries.
-    pub(crate) fn dictionaries(&self) -> Result<Vec<(NodeId, ObjectDictionary)>, String> {
+    pub(crate) fn dictionaries(&self) -> Result<Vec<(NodeId, ObjectDictionary)>, CliError> {
         let mut out: Vec<(NodeId, ObjectDictionary)> = Vec::new();
         for spec in &self.node_eds {
             let (node, od) = load_eds(spec)?;
             if out.iter().any(|(n, _)| *n == node) {
-                return Err(format!(
+                return Err(CliError::Argument(format!(
                     "--eds {spec}: node {node} already has a dictionary (one --eds per node)"
-                ));
+                )));
             }
             out.push((node, od));
         }
@@ -111,13 +119,13 @@ impl BusOpts {
     }
 
     /// Opens the bus with the `--eds` dictionaries.
-    pub(crate) fn open(&self) -> Result<Bus, String> {
+    pub(crate) fn open(&self) -> Result<Bus, CliError> {
         self.open_with(self.dictionaries()?)
     }
 
     /// Opens the bus with the `--eds` dictionaries to watch its traffic: on SocketCAN CAN FD
     /// frames are received too (see [`Bus::pump`]).
-    pub(crate) fn open_watching(&self) -> Result<Bus, String> {
+    pub(crate) fn open_watching(&self) -> Result<Bus, CliError> {
         self.open_inner(self.dictionaries()?, true)
     }
 
@@ -125,14 +133,14 @@ impl BusOpts {
     pub(crate) fn open_with(
         &self,
         dictionaries: Vec<(NodeId, ObjectDictionary)>,
-    ) -> Result<Bus, String> {
+    ) -> Result<Bus, CliError> {
         self.open_inner(dictionaries, false)
     }
 
     /// Opens the bus to watch it live (`canopen top`): CAN FD frames received on SocketCAN; the
     /// in-memory bus runs on the host's clock at `bitrate` bit/s (its timing model), with the
     /// `--eds` nodes simulated on it.
-    pub(crate) fn open_live(&self, bitrate: u32) -> Result<Bus, String> {
+    pub(crate) fn open_live(&self, bitrate: u32) -> Result<Bus, CliError> {
         let dictionaries = self.dictionaries()?;
         if self.iface.is_some() {
             return self.open_inner(dictionaries, true);
@@ -157,7 +165,7 @@ impl BusOpts {
         &self,
         dictionaries: Vec<(NodeId, ObjectDictionary)>,
         fd: bool,
-    ) -> Result<Bus, String> {
+    ) -> Result<Bus, CliError> {
         match &self.iface {
             Some(iface) if self.fd => {
                 let t = open_transport_fd(iface)?;
@@ -200,7 +208,7 @@ impl BusOpts {
 }
 
 /// Opens the bus (see [`BusOpts`]) and a network on it.
-pub(crate) fn open_network(opts: &BusOpts) -> Result<(Network, Option<MemoryBus>), String> {
+pub(crate) fn open_network(opts: &BusOpts) -> Result<(Network, Option<MemoryBus>), CliError> {
     opts.open().map(Bus::into_network)
 }
 
@@ -232,11 +240,13 @@ impl Bus {
         &mut self,
         secs: Option<f64>,
         mut f: impl FnMut(Traffic<'_>, Instant),
-    ) -> Result<(), String> {
+    ) -> Result<(), CliError> {
         let start = self.transport.now();
         let end = secs.map(|s| start + seconds(s));
         if end.is_none() && self.memory.is_some() {
-            return Err("on the in-memory bus give --duration SECONDS".into());
+            return Err(CliError::Argument(
+                "on the in-memory bus give --duration SECONDS".into(),
+            ));
         }
         loop {
             let now = self.transport.now();
@@ -253,7 +263,7 @@ impl Bus {
                 }
                 Ok(Some(Received::Event(e))) => eprintln!("bus: {e}"),
                 Ok(None) => {}
-                Err(e) => return Err(e.to_string()),
+                Err(e) => return Err(e.into()),
             }
         }
     }
@@ -273,13 +283,15 @@ pub(crate) fn stop_requested() -> bool {
 /// signals are blocked in this thread (and so in every thread started later) and taken by a
 /// thread of their own with `sigwait`.
 #[cfg(unix)]
-pub(crate) fn stop_on_signals() -> Result<(), String> {
+pub(crate) fn stop_on_signals() -> Result<(), CliError> {
     use nix::sys::signal::{SigSet, Signal};
     let mut set = SigSet::empty();
     set.add(Signal::SIGINT);
     set.add(Signal::SIGTERM);
-    set.thread_block()
-        .map_err(|e| format!("cannot block SIGINT: {e}"))?;
+    set.thread_block().map_err(|e| CliError::System {
+        what: "cannot block SIGINT".into(),
+        source: e.into(),
+    })?;
     std::thread::spawn(move || {
         while set.wait().is_ok() {
             if STOP.swap(true, std::sync::atomic::Ordering::Relaxed) {
@@ -292,7 +304,7 @@ pub(crate) fn stop_on_signals() -> Result<(), String> {
 
 /// Elsewhere Ctrl-C ends the process as usual (`record` may then leave its file unwritten).
 #[cfg(not(unix))]
-pub(crate) fn stop_on_signals() -> Result<(), String> {
+pub(crate) fn stop_on_signals() -> Result<(), CliError> {
     Ok(())
 }
 
@@ -316,13 +328,13 @@ impl Traffic<'_> {
 }
 
 /// `--duration SECONDS`: a finite number of seconds, not negative.
-pub(crate) fn parse_seconds(s: &str) -> Result<f64, String> {
+pub(crate) fn parse_seconds(s: &str) -> Result<f64, CliError> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        Ok(_) => Err(format!(
+        Ok(_) => Err(CliError::Argument(format!(
             "`{s}`: give a finite number of seconds, 0 or more (leave the flag out to run until stopped)"
-        )),
-        Err(e) => Err(format!("`{s}`: {e}")),
+        ))),
+        Err(e) => Err(CliError::Argument(format!("`{s}`: {e}"))),
     }
 }
 
@@ -332,63 +344,33 @@ pub(crate) fn seconds(secs: f64) -> Duration {
 }
 
 /// Opens `--iface IFACE` (every form [`canola::BusSpec`] parses: SocketCAN, UDP, slcan).
-pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, String> {
+pub(crate) fn open_transport(iface: &str) -> Result<Box<dyn Transport>, CliError> {
     open_transport_with(iface, false)
 }
 
 /// Opens `--iface IFACE` for CAN FD (`--fd`): a classic-only bus is the library's
 /// `FD not supported on ...` error.
-pub(crate) fn open_transport_fd(iface: &str) -> Result<Box<dyn Transport>, String> {
-    let spec = canola::BusSpec::parse(iface).map_err(|e| e.to_string())?;
+pub(crate) fn open_transport_fd(iface: &str) -> Result<Box<dyn Transport>, CliError> {
+    let spec = canola::BusSpec::parse(iface)?;
     if let Some(w) = spec.warning() {
         eprintln!("warning: {w}");
     }
-    spec.open_fd().map_err(|e| e.to_string())
+    Ok(spec.open_fd()?)
 }
 
 /// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`. Errors are the
 /// library's: they name the bus and carry its hints.
-fn open_transport_with(iface: &str, fd: bool) -> Result<Box<dyn Transport>, String> {
-    let spec = canola::BusSpec::parse(iface).map_err(|e| e.to_string())?;
+fn open_transport_with(iface: &str, fd: bool) -> Result<Box<dyn Transport>, CliError> {
+    let spec = canola::BusSpec::parse(iface)?;
     if let Some(w) = spec.warning() {
         eprintln!("warning: {w}");
     }
-    spec.open_with(fd).map_err(|e| e.to_string())
+    Ok(spec.open_with(fd)?)
 }
 
-/// Whether errors print as JSON (`--json`); set once by `main`.
-static JSON_ERRORS: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// Makes [`fail`] print JSON.
-pub(crate) fn json_errors(on: bool) {
-    JSON_ERRORS.store(on, std::sync::atomic::Ordering::Relaxed);
-}
-
-/// Prints `error: ...` (under `--json` one JSON object `{"error": ...}` on stderr) and gives
-/// the failure exit code.
-pub(crate) fn fail(e: impl std::fmt::Display) -> ExitCode {
-    fail_fields(&e.to_string(), serde_json::Map::new())
-}
-
-/// [`fail`] with extra JSON fields.
-///
-/// A text with a hint (`...\nhint: ...`) gives under `--json` the error and the hint as two
-/// fields, each once.
-fn fail_fields(text: &str, mut fields: serde_json::Map<String, serde_json::Value>) -> ExitCode {
-    if JSON_ERRORS.load(std::sync::atomic::Ordering::Relaxed) {
-        let (error, hint) = match text.split_once("\nhint: ") {
-            Some((e, h)) => (e, Some(h)),
-            None => (text, None),
-        };
-        fields.insert("error".into(), error.into());
-        if let Some(h) = hint {
-            fields.insert("hint".into(), h.into());
-        }
-        eprintln!("{}", serde_json::Value::Object(fields));
-    } else {
-        eprintln!("error: {text}");
-    }
-    ExitCode::FAILURE
+/// Reports `e` (see [`CliError::report`]) and gives the exit code.
+pub(crate) fn fail(e: impl Into<CliError>) -> ExitCode {
+    e.into().report()
 }
 
 /// Prints a warning on stderr: `PREFIX: TEXT` (`warning`, `note`), under `--json` one JSON
@@ -399,54 +381,11 @@ pub(crate) fn warn(
     text: &str,
     mut fields: serde_json::Map<String, serde_json::Value>,
 ) {
-    if JSON_ERRORS.load(std::sync::atomic::Ordering::Relaxed) {
+    if crate::error::json() {
         fields.insert("warning".into(), text.into());
         fields.insert("level".into(), prefix.into());
         eprintln!("{}", serde_json::Value::Object(fields));
     } else {
         eprintln!("{prefix}: {text}");
     }
-}
-
-/// A usage error found after parsing (exit code 2, as clap's), printed as [`fail`] does.
-pub(crate) fn fail_usage(e: impl std::fmt::Display) -> ExitCode {
-    let _ = fail(e);
-    ExitCode::from(2)
-}
-
-/// Reports a failed master operation: SDO failures carry node, object, abort code and its
-/// meaning as JSON fields, and a timeout a hint.
-pub(crate) fn fail_op(e: &canola::Error) -> ExitCode {
-    use canola::{Error, SdoErrorKind};
-    use serde_json::json;
-    let mut fields = serde_json::Map::new();
-    let mut text = e.to_string();
-    if let Error::Sdo(s) = e {
-        fields.insert("node".into(), json!(s.node.get()));
-        fields.insert("index".into(), json!(s.entry.index));
-        fields.insert("sub".into(), json!(s.entry.sub_index));
-        if let Some(name) = &s.name {
-            fields.insert("name".into(), json!(name));
-        }
-        if let Some(code) = s.abort_code() {
-            fields.insert("abort_code".into(), json!(format!("{:#010x}", code.get())));
-            fields.insert(
-                "meaning".into(),
-                json!(code.description().unwrap_or("unknown abort code")),
-            );
-        }
-        if matches!(
-            s.kind,
-            SdoErrorKind::Transfer(canola::sdo::ErrorKind::Timeout)
-        ) {
-            let hint = format!(
-                "hint: nothing answered. Is node {} on this bus (`canopen scan` lists the nodes \
-                 that answer), powered, at the same bit rate? On the in-memory bus only \
-                 `--eds NODE=FILE` nodes exist.",
-                s.node
-            );
-            text = format!("{text}\n{hint}");
-        }
-    }
-    fail_fields(&text, fields)
 }

@@ -24,6 +24,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use serde_json::{Value as Json, json};
 
 use crate::Global;
+use crate::error::CliError;
 
 mod over_devicenet;
 
@@ -175,14 +176,14 @@ impl Bench {
         sim: &SimArgs,
         dn: &over_devicenet::DnOpts,
         iface: Option<&str>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, CliError> {
         if let Some(iface) = iface {
             if sim.initialised || !sim.raise_error.is_empty() || sim.no_air {
-                return Err(
+                return Err(CliError::Argument(
                     "--initialised, --raise-error and --no-air set up the in-process simulator; \
                      with --iface give them to `canopen cpos simulate`"
                         .into(),
-                );
+                ));
             }
             let link = over_devicenet::Link::connect(dn, iface)?;
             let now = link.now();
@@ -297,9 +298,9 @@ fn find_param(name: &str) -> Option<&'static ParamDef> {
     as_id.or_else(|| params::by_name(t))
 }
 
-fn fail(global: Global, msg: &str) -> ExitCode {
+fn fail(global: Global, msg: impl std::fmt::Display) -> ExitCode {
     if global.json {
-        crate::outln(&json!({ "ok": false, "error": msg }).to_string());
+        crate::outln(&json!({ "ok": false, "error": msg.to_string() }).to_string());
     } else {
         eprintln!("error: {msg}");
     }
@@ -352,34 +353,34 @@ pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCo
         }
         CposCommand::Get { name } => {
             let Some(p) = find_param(&name) else {
-                return fail(global, &format!("no parameter {name:?}"));
+                return fail(global, format!("no parameter {name:?}"));
             };
             let mut b = match bench() {
                 Ok(b) => b,
-                Err(e) => return fail(global, &e),
+                Err(e) => return fail(global, e),
             };
             let now = b.now;
             let id = match b.client().get(now, p.id) {
                 Ok(id) => id,
-                Err(e) => return fail(global, &e.to_string()),
+                Err(e) => return fail(global, e.to_string()),
             };
             report_value(global, p, b.wait(id))
         }
         CposCommand::Set { name, value } => {
             let Some(p) = find_param(&name) else {
-                return fail(global, &format!("no parameter {name:?}"));
+                return fail(global, format!("no parameter {name:?}"));
             };
             let Some(v) = p.parse_value(&value) else {
-                return fail(global, &format!("{value:?} is not a value of {}", p.name));
+                return fail(global, format!("{value:?} is not a value of {}", p.name));
             };
             let mut b = match bench() {
                 Ok(b) => b,
-                Err(e) => return fail(global, &e),
+                Err(e) => return fail(global, e),
             };
             let now = b.now;
             let id = match b.client().set(now, p.id, v) {
                 Ok(id) => id,
-                Err(e) => return fail(global, &format!("{}: {e}", p.name)),
+                Err(e) => return fail(global, format!("{}: {e}", p.name)),
             };
             report_value(global, p, b.wait(id))
         }
@@ -392,7 +393,7 @@ pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCo
         } => {
             let request = match build_action(action, function, pwm) {
                 Ok(r) => r,
-                Err(e) => return fail(global, &e),
+                Err(e) => return fail(global, e),
             };
             if fault.is_some() && (iface.is_some() || dn.over_devicenet) {
                 return fail(
@@ -402,7 +403,7 @@ pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCo
             }
             let mut b = match bench() {
                 Ok(b) => b,
-                Err(e) => return fail(global, &e),
+                Err(e) => return fail(global, e),
             };
             if let (Some(code), Some(sim)) = (fault, b.sim()) {
                 sim.inject_fault(request.action(), fault_step, ErrorCode(code));
@@ -411,11 +412,11 @@ pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCo
         }
         CposCommand::Errors => match bench() {
             Ok(mut b) => errors(&mut b, global),
-            Err(e) => fail(global, &e),
+            Err(e) => fail(global, e),
         },
         CposCommand::Demo => match bench() {
             Ok(b) => demo(b, global),
-            Err(e) => fail(global, &e),
+            Err(e) => fail(global, e),
         },
         CposCommand::Simulate { duration } => {
             over_devicenet::simulate(&sim, &dn, iface, duration, global)
@@ -439,32 +440,35 @@ fn report_value(global: Global, p: &ParamDef, r: Result<Reply, Failure>) -> Exit
             }
             ExitCode::SUCCESS
         }
-        Ok(other) => fail(global, &format!("unexpected reply {other:?}")),
-        Err(e) => fail(global, &format!("{}: {e}", p.name)),
+        Ok(other) => fail(global, format!("unexpected reply {other:?}")),
+        Err(e) => fail(global, format!("{}: {e}", p.name)),
     }
 }
 
-fn build_action(a: ActionArg, f: Option<FunctionArg>, pwm: u16) -> Result<ActionRequest, String> {
+fn build_action(a: ActionArg, f: Option<FunctionArg>, pwm: u16) -> Result<ActionRequest, CliError> {
     use FunctionArg as F;
     let run = |f: Option<F>| match f {
         None | Some(F::Start) => Ok(RunFunction::Start),
         Some(F::Cancel) => Ok(RunFunction::Cancel),
         Some(F::Acknowledge) => Ok(RunFunction::AcknowledgeError),
-        Some(other) => Err(format!(
+        Some(other) => Err(CliError::Argument(format!(
             "{other:?} is not a function of this action (start, cancel, acknowledge)"
-        )),
+        ))),
     };
     let go = |f: Option<F>| match f {
         None | Some(F::Approach) | Some(F::Start) => Ok(GoFunction::Approach),
         Some(F::Adopt) => Ok(GoFunction::Adopt),
         Some(F::Cancel) => Ok(GoFunction::Cancel),
-        Some(other) => Err(format!(
+        Some(other) => Err(CliError::Argument(format!(
             "{other:?} is not a function of GoClose/GoOpen (approach, adopt, cancel)"
-        )),
+        ))),
     };
     Ok(match a {
         ActionArg::NoInit => {
-            let p = Pwm::new(pwm).map_err(|e| format!("--pwm: {e}"))?;
+            let p = Pwm::new(pwm).map_err(|e| CliError::Rejected {
+                what: "--pwm".into(),
+                source: Box::new(e),
+            })?;
             ActionRequest::NoInit(match f {
                 None | Some(F::OpenSlow) => NoInitFunction::OpenSlow,
                 Some(F::Stop) => NoInitFunction::Stop,
@@ -474,7 +478,11 @@ fn build_action(a: ActionArg, f: Option<FunctionArg>, pwm: u16) -> Result<Action
                 Some(F::OpenPwm) => NoInitFunction::OpenPwm(p),
                 Some(F::ClosePwm) => NoInitFunction::ClosePwm(p),
                 Some(F::End) => NoInitFunction::EndEvent,
-                Some(other) => return Err(format!("{other:?} is not a NoInit function")),
+                Some(other) => {
+                    return Err(CliError::Argument(format!(
+                        "{other:?} is not a NoInit function"
+                    )));
+                }
             })
         }
         ActionArg::ClearErrorList => ActionRequest::ClearErrorList,
@@ -486,9 +494,9 @@ fn build_action(a: ActionArg, f: Option<FunctionArg>, pwm: u16) -> Result<Action
             None | Some(F::Start) => FindFunctionFunction::Activate,
             Some(F::Cancel) => FindFunctionFunction::Cancel,
             Some(other) => {
-                return Err(format!(
+                return Err(CliError::Argument(format!(
                     "{other:?} is not a function of find function (start, cancel)"
-                ));
+                )));
             }
         }),
         ActionArg::AdjustTime => ActionRequest::AdjustTime(run(f)?),
@@ -509,7 +517,7 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
     let now = b.now;
     let id = match b.client().action(now, request) {
         Ok(id) => id,
-        Err(e) => return fail(global, &e.to_string()),
+        Err(e) => return fail(global, e.to_string()),
     };
     let first = b.wait(id);
     if let Err(e) = first {
@@ -517,7 +525,7 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
             Failure::Refused(Refusal::Diagnostic(d)) => format!("{action}: refused, {d}"),
             other => format!("{action}: {other}"),
         };
-        return fail(global, &msg);
+        return fail(global, msg);
     }
     let mut acknowledged = false;
     let mut followups = 0;

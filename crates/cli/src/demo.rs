@@ -41,11 +41,11 @@ fn show_traffic(tap: &mut canola::Endpoint, monitor: &mut Monitor, max: usize) {
 pub(crate) fn run() -> ExitCode {
     match walk() {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => crate::bus::fail(format!("demo failed: {e}")),
+        Err(e) => crate::bus::fail(crate::error::CliError::Demo(e)),
     }
 }
 
-fn walk() -> Result<(), Box<dyn std::error::Error>> {
+fn walk() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let n5 = NodeId::new(5)?;
     let n6 = NodeId::new(6)?;
     let od = canola::od::parse(BURKERT_EDS)?.od;

@@ -11,7 +11,8 @@ use canola_cia402::{ModeOfOperation, State};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail, fail_op, open_network, parse_node};
+use crate::bus::{BusOpts, fail, open_network, parse_node};
+use crate::error::CliError;
 use crate::{Global, outln};
 
 /// `canopen drive NODE COMMAND`
@@ -98,22 +99,17 @@ fn mode_text(m: ModeOfOperation) -> String {
     }
 }
 
-fn parse_mode(s: &str) -> Result<ModeOfOperation, String> {
+fn parse_mode(s: &str) -> Result<ModeOfOperation, CliError> {
     if let Some(m) = ModeOfOperation::from_short_name(&s.to_ascii_lowercase()) {
         return Ok(m);
     }
     s.parse::<i8>()
         .map(ModeOfOperation::from_code)
         .map_err(|_| {
-            format!("`{s}`: not a mode (pp, vl, pv, tq, hm, ip, csp, csv, cst or -128..127)")
+            CliError::Argument(format!(
+                "`{s}`: not a mode (pp, vl, pv, tq, hm, ip, csp, csv, cst or -128..127)"
+            ))
         })
-}
-
-fn drive_fail(e: DriveError) -> ExitCode {
-    match e {
-        DriveError::Sdo(e) => fail_op(&e),
-        e => fail(e),
-    }
 }
 
 fn status_json(s: &DriveStatus) -> serde_json::Value {
@@ -154,7 +150,7 @@ pub(crate) fn run(args: DriveArgs, opts: &BusOpts, g: Global) -> ExitCode {
     let drive = Drive::on_axis(net.node(args.node), args.axis);
     match run_command(&drive, args.command, g) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => drive_fail(e),
+        Err(e) => fail(e),
     }
 }
 

@@ -8,6 +8,7 @@ use canola_gateway::{Config, Gateway};
 use clap::Args;
 
 use crate::bus::{BusOpts, open_network};
+use crate::error::CliError;
 
 /// Arguments of `canopen gateway`.
 #[derive(Debug, Args)]
@@ -35,28 +36,35 @@ enum Listener {
     Unix(std::os::unix::net::UnixListener),
 }
 
-fn bind(spec: &str, socket_mode: u32) -> Result<(Listener, String), String> {
+fn bind(spec: &str, socket_mode: u32) -> Result<(Listener, String), CliError> {
     if let Some(rest) = spec.strip_prefix("tcp:") {
         let addr = if rest.contains(':') {
             rest.to_owned()
         } else {
             format!("127.0.0.1:{rest}")
         };
-        let l = std::net::TcpListener::bind(&addr).map_err(|e| format!("{spec}: {e}"))?;
-        let local = l.local_addr().map_err(|e| format!("{spec}: {e}"))?;
+        let l = std::net::TcpListener::bind(&addr).map_err(system(spec))?;
+        let local = l.local_addr().map_err(system(spec))?;
         return Ok((Listener::Tcp(l), format!("tcp:{local}")));
     }
     #[cfg(not(unix))]
     let _ = socket_mode; // Unix sockets only
     #[cfg(unix)]
     if let Some(path) = spec.strip_prefix("unix:") {
-        let l = crate::gateway_access::bind_unix(path, socket_mode)
-            .map_err(|e| format!("{spec}: {e}"))?;
+        let l = crate::gateway_access::bind_unix(path, socket_mode).map_err(system(spec))?;
         return Ok((Listener::Unix(l), spec.to_owned()));
     }
-    Err(format!(
+    Err(CliError::Argument(format!(
         "--listen {spec}: expected tcp:HOST:PORT, tcp:PORT or unix:PATH"
-    ))
+    )))
+}
+
+/// A listening socket `spec` that failed.
+fn system(spec: &str) -> impl Fn(std::io::Error) -> CliError {
+    move |source| CliError::System {
+        what: spec.to_owned(),
+        source,
+    }
 }
 
 /// `canopen gateway ...`

@@ -9,6 +9,8 @@ use std::sync::Arc;
 use canola_gateway::{Access, AllowNet, AuditLog, Token};
 use clap::Args;
 
+use crate::error::CliError;
+
 /// The environment variable holding the write token.
 pub(crate) const TOKEN_ENV: &str = "CANOPEN_GATEWAY_TOKEN";
 /// The environment variable holding the read token.
@@ -54,10 +56,10 @@ pub(crate) struct Settings {
     pub(crate) socket_mode: u32,
 }
 
-fn token(file: Option<&Path>, env: &str, what: &str) -> Result<Option<Token>, String> {
+fn token(file: Option<&Path>, env: &str, what: &str) -> Result<Option<Token>, CliError> {
     let (text, from) = match file {
         Some(p) => (
-            std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?,
+            std::fs::read_to_string(p).map_err(CliError::file(p))?,
             p.display().to_string(),
         ),
         None => match std::env::var(env) {
@@ -66,25 +68,33 @@ fn token(file: Option<&Path>, env: &str, what: &str) -> Result<Option<Token>, St
         },
     };
     let first = text.lines().next().unwrap_or("");
-    Token::new(first)
-        .map(Some)
-        .map_err(|e| format!("the {what} token from {from}: {e}"))
+    Token::new(first).map(Some).map_err(|e| CliError::Rejected {
+        what: format!("the {what} token from {from}"),
+        source: Box::new(e),
+    })
 }
 
 /// Reads the options; refuses listen addresses beyond the loopback without `--allow-remote`
 /// and a token or allow-list.
-pub(crate) fn settings(args: &AccessArgs, listen: &[String]) -> Result<Settings, String> {
+pub(crate) fn settings(args: &AccessArgs, listen: &[String]) -> Result<Settings, CliError> {
     let write_token = token(args.token_file.as_deref(), TOKEN_ENV, "write")?;
     let read_token = token(args.read_token_file.as_deref(), READ_TOKEN_ENV, "read")?;
     if let (Some(w), Some(r)) = (&write_token, &read_token)
         && w == r
     {
-        return Err("the read and the write token are the same".into());
+        return Err(CliError::Argument(
+            "the read and the write token are the same".into(),
+        ));
     }
     let allow = args
         .allow
         .iter()
-        .map(|a| a.parse::<AllowNet>().map_err(|e| format!("--allow: {e}")))
+        .map(|a| {
+            a.parse::<AllowNet>().map_err(|e| CliError::Rejected {
+                what: "--allow".into(),
+                source: Box::new(e),
+            })
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let access = Access {
         write_token,
@@ -96,19 +106,20 @@ pub(crate) fn settings(args: &AccessArgs, listen: &[String]) -> Result<Settings,
         check_listen(spec, args.allow_remote, &access)?;
     }
     let audit = match &args.audit_log {
-        Some(p) => {
-            AuditLog::append_to(p).map_err(|e| format!("--audit-log {}: {e}", p.display()))?
-        }
+        Some(p) => AuditLog::append_to(p).map_err(|source| CliError::System {
+            what: format!("--audit-log {}", p.display()),
+            source,
+        })?,
         None => AuditLog::to_writer(std::io::stderr()),
     };
     let socket_mode = u32::from_str_radix(&args.socket_mode, 8)
         .ok()
         .filter(|m| *m <= 0o777)
         .ok_or_else(|| {
-            format!(
+            CliError::Argument(format!(
                 "--socket-mode {}: expected octal, e.g. 600",
                 args.socket_mode
-            )
+            ))
         })?;
     Ok(Settings {
         access,
@@ -119,7 +130,7 @@ pub(crate) fn settings(args: &AccessArgs, listen: &[String]) -> Result<Settings,
 
 /// Refuses a TCP listen address that is not loopback unless remote access is allowed and
 /// guarded.
-fn check_listen(spec: &str, allow_remote: bool, access: &Access) -> Result<(), String> {
+fn check_listen(spec: &str, allow_remote: bool, access: &Access) -> Result<(), CliError> {
     let Some(rest) = spec.strip_prefix("tcp:") else {
         return Ok(());
     };
@@ -129,25 +140,28 @@ fn check_listen(spec: &str, allow_remote: bool, access: &Access) -> Result<(), S
     }
     let addrs: Vec<_> = rest
         .to_socket_addrs()
-        .map_err(|e| format!("--listen {spec}: {e}"))?
+        .map_err(|source| CliError::System {
+            what: format!("--listen {spec}"),
+            source,
+        })?
         .collect();
     if addrs.iter().all(|a| a.ip().is_loopback()) {
         return Ok(());
     }
     if !allow_remote {
-        return Err(format!(
+        return Err(CliError::Argument(format!(
             "refusing to listen on {spec}: not a loopback address, so every host that reaches it \
              could write, stop and reset nodes and reassign node-IDs. Give --allow-remote with a \
              token (--token-file FILE or {TOKEN_ENV}) or --allow ADDR[/PREFIX], or listen on \
              tcp:127.0.0.1:PORT or unix:PATH"
-        ));
+        )));
     }
     if !access.needs_token() && access.allow.is_empty() {
-        return Err(format!(
+        return Err(CliError::Argument(format!(
             "refusing to listen on {spec} with --allow-remote but no token and no --allow: give \
              a token (--token-file FILE, --read-token-file FILE, {TOKEN_ENV}, {READ_TOKEN_ENV}) \
              or --allow ADDR[/PREFIX]"
-        ));
+        )));
     }
     Ok(())
 }

@@ -26,6 +26,7 @@ use clap::{Args, Subcommand};
 use serde_json::json;
 
 use crate::bus::{BusOpts, fail, open_network};
+use crate::error::CliError;
 use crate::{Global, outln};
 
 const BURKERT_EDS: &[u8] = canola_burkert::GENERIC_EDS.as_bytes();
@@ -86,15 +87,15 @@ fn write_record(
     mem: &MemoryBus,
     log: &Mutex<Vec<LogEntry>>,
     path: &std::path::Path,
-) -> Result<(), String> {
+) -> Result<(), CliError> {
     mem.run_for(Duration::from_millis(1));
     let entries = std::mem::take(&mut *log.lock().unwrap_or_else(|p| p.into_inner()));
     let out = crate::outfile::OutFile::create(path)?;
     let mut w = Writer::new(std::io::BufWriter::new(out.writer()?));
     for e in &entries {
-        w.write(e).map_err(|e| format!("{}: {e}", path.display()))?;
+        w.write(e).map_err(CliError::file(path))?;
     }
-    w.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+    w.flush().map_err(CliError::file(path))?;
     out.commit()
 }
 
@@ -179,12 +180,11 @@ pub(crate) enum MasterCommand {
     },
 }
 
-fn num(s: &str) -> Result<u32, String> {
+fn num(s: &str) -> Result<u32, std::num::ParseIntError> {
     match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
         Some(h) => u32::from_str_radix(h, 16),
         None => s.parse(),
     }
-    .map_err(|e| format!("`{s}`: {e}"))
 }
 
 /// An LSS address in text, in the number style of every command (`--hex`).
@@ -217,20 +217,19 @@ const IN_USE_TIMEOUT_MS: u64 = 100;
 
 /// Refuses `id` when a node on the bus uses it (heard, or answering an SDO read), unless
 /// `force`.
-fn in_use_check(lss: &canola::Lss, id: NodeId, force: bool) -> Result<(), String> {
+fn in_use_check(lss: &canola::Lss, id: NodeId, force: bool) -> Result<(), CliError> {
     if force {
         return Ok(());
     }
     let one: NodeIdPool = std::iter::once(id).collect();
     let in_use = lss
         .nodes_in_use(one, Duration::from_millis(IN_USE_TIMEOUT_MS))
-        .wait()
-        .map_err(|e| e.to_string())?;
+        .wait()?;
     if in_use.contains(id) {
-        return Err(format!(
+        return Err(CliError::Argument(format!(
             "node-ID {id} is in use on the bus (a node answers or was heard with it): \
              not configured; give --force to configure it anyway"
-        ));
+        )));
     }
     Ok(())
 }
@@ -251,9 +250,10 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
     if let MasterCommand::AssignAll { first, last } = master
         && first > last
     {
-        return crate::bus::fail_usage(format!(
+        return CliError::usage(format!(
             "empty node-ID pool: --first {first} is above --last {last}"
-        ));
+        ))
+        .report();
     }
     let (net, mem) = match open_network(opts) {
         Ok(x) => x,
@@ -264,9 +264,9 @@ pub(crate) fn run(args: LssArgs, opts: &BusOpts, g: Global) -> ExitCode {
         || args.store_unsupported
         || !args.running.is_empty();
     if mem.is_none() && (simulated || args.record_bus.is_some()) {
-        return fail(
-            "--unconfigured, --real-slaves, --store-unsupported, --running and --record-bus only work on the in-memory bus",
-        );
+        return fail(CliError::Argument(
+            "--unconfigured, --real-slaves, --store-unsupported, --running and --record-bus only work on the in-memory bus".into(),
+        ));
     }
     let log = Arc::new(Mutex::new(Vec::new()));
     if let (Some(mem), Some(_)) = (mem.as_ref(), args.record_bus.as_ref()) {
@@ -300,12 +300,12 @@ fn devices(
     count: u32,
     real_slaves: bool,
     store_unsupported: bool,
-) -> Result<Vec<SimDevice>, String> {
+) -> Result<Vec<SimDevice>, CliError> {
     if count == 0 {
         return Ok(Vec::new());
     }
     let od = canola::od::parse(BURKERT_EDS)
-        .map_err(|e| e.to_string())?
+        .map_err(CliError::BuiltinDictionary)?
         .od;
     Ok((0..count)
         .map(|i| {
@@ -322,26 +322,22 @@ fn devices(
 
 /// Attaches configured devices (the Bürkert generic EDS) with node-IDs `ids` and starts them
 /// (NMT start), so that they run and send heartbeats as the nodes of a live network do.
-fn running(mem: &MemoryBus, net: &canola::Network, ids: &[u8]) -> Result<(), String> {
+fn running(mem: &MemoryBus, net: &canola::Network, ids: &[u8]) -> Result<(), CliError> {
     if ids.is_empty() {
         return Ok(());
     }
     for &id in ids {
-        let node = NodeId::new(id).map_err(|e| e.to_string())?;
-        let dev = SimDevice::from_eds(node, BURKERT_EDS).map_err(|e| e.to_string())?;
+        let node = NodeId::new(id)?;
+        let dev = SimDevice::from_eds(node, BURKERT_EDS).map_err(CliError::BuiltinDictionary)?;
         mem.attach(dev);
     }
     // Boot-ups, then NMT start of each, then their first heartbeats.
-    net.run_for(Duration::from_millis(10))
-        .wait()
-        .map_err(|e| e.to_string())?;
+    net.run_for(Duration::from_millis(10)).wait()?;
     for &id in ids {
-        let node = NodeId::new(id).map_err(|e| e.to_string())?;
-        net.node(node).nmt().start().map_err(|e| e.to_string())?;
+        let node = NodeId::new(id)?;
+        net.node(node).nmt().start()?;
     }
-    net.run_for(Duration::from_millis(10))
-        .wait()
-        .map_err(|e| e.to_string())
+    Ok(net.run_for(Duration::from_millis(10)).wait()?)
 }
 
 /// Several simulated devices as one station on one socket.
@@ -371,11 +367,17 @@ impl Station for Devices {
 /// `canopen --iface IF lss --unconfigured N simulate`
 fn simulate(opts: &BusOpts, args: &LssArgs, duration: Option<f64>) -> ExitCode {
     let Some(iface) = opts.iface.as_deref() else {
-        return fail("lss simulate runs the devices on an interface: give --iface");
+        return fail(CliError::Argument(
+            "lss simulate runs the devices on an interface: give --iface".into(),
+        ));
     };
     let limit = match duration {
         Some(d) if d.is_finite() && d >= 0.0 => Some(std::time::Duration::from_secs_f64(d)),
-        Some(d) => return fail(format!("--duration {d}: give a number of seconds")),
+        Some(d) => {
+            return fail(CliError::Argument(format!(
+                "--duration {d}: give a number of seconds"
+            )));
+        }
         None => None,
     };
     let mut devices = match devices(
@@ -420,17 +422,21 @@ fn command(
         ..FastscanConfig::default()
     };
     let proc1 = |step| Procedure::single(step);
-    let result: Result<serde_json::Value, String> = match command {
+    let result: Result<serde_json::Value, CliError> = match command {
         MasterCommand::SwitchGlobal { mode } => {
             let m = match mode.as_str() {
                 "config" | "configuration" => Mode::Configuration,
                 "waiting" | "operation" => Mode::Waiting,
-                other => return fail(format!("mode `{other}`: use config or waiting")),
+                other => {
+                    return fail(CliError::Argument(format!(
+                        "mode `{other}`: use config or waiting"
+                    )));
+                }
             };
             lss.procedure(proc1(Step::SwitchModeGlobal(m)))
                 .wait()
                 .map(|_| json!({"ok": true}))
-                .map_err(|e| e.to_string())
+                .map_err(CliError::from)
         }
         MasterCommand::SwitchSelective {
             vendor,
@@ -446,8 +452,10 @@ fn command(
                     ))))
                     .wait()
                     .map(|_| json!({"ok": true}))
-                    .map_err(|e| e.to_string()),
-                _ => Err("address parts must be numbers (0x hex or decimal)".into()),
+                    .map_err(CliError::from),
+                _ => Err(CliError::Argument(
+                    "address parts must be numbers (0x hex or decimal)".into(),
+                )),
             }
         }
         MasterCommand::ConfigureNodeId {
@@ -477,9 +485,9 @@ fn command(
                         }
                         json!({"node_id": node_id, "stored": stored})
                     })
-                    .map_err(|e| e.to_string()),
+                    .map_err(CliError::from),
             },
-            Err(e) => Err(e.to_string()),
+            Err(e) => Err(e.into()),
         },
         MasterCommand::SetBitRate { kbit, delay } => {
             match BitRate::ALL
@@ -495,15 +503,17 @@ fn command(
                         }
                         json!({"kbit": kbit})
                     })
-                    .map_err(|e| e.to_string()),
-                None => Err(format!("{kbit} kbit/s is not in the CiA bit timing table")),
+                    .map_err(CliError::from),
+                None => Err(CliError::Argument(format!(
+                    "{kbit} kbit/s is not in the CiA bit timing table"
+                ))),
             }
         }
         MasterCommand::Store => lss
             .procedure(proc1(Step::StoreConfiguration))
             .wait()
             .map(|_| json!({"ok": true}))
-            .map_err(|e| e.to_string()),
+            .map_err(CliError::from),
         MasterCommand::Inquire => lss
             .procedure(Procedure::inquire_all())
             .wait()
@@ -517,7 +527,7 @@ fn command(
                 }
                 json!({"identity": r.address().map(|a| addr_json(&a)), "node_id": r.node_id})
             })
-            .map_err(|e| e.to_string()),
+            .map_err(CliError::from),
         MasterCommand::IdentifyNonConfigured => lss
             .procedure(proc1(Step::IdentifyNonConfigured))
             .wait()
@@ -531,7 +541,7 @@ fn command(
                 }
                 json!({"present": r.present})
             })
-            .map_err(|e| e.to_string()),
+            .map_err(CliError::from),
         MasterCommand::Fastscan => lss
             .fastscan(fastscan)
             .wait()
@@ -543,7 +553,7 @@ fn command(
                 }
                 json!({"found": a.as_ref().map(addr_json)})
             })
-            .map_err(|e| e.to_string()),
+            .map_err(CliError::from),
         MasterCommand::DiscoverAll => lss
             .discover_all(fastscan)
             .wait()
@@ -558,7 +568,7 @@ fn command(
                 }
                 json!({"found": l.iter().map(addr_json).collect::<Vec<_>>()})
             })
-            .map_err(|e| e.to_string()),
+            .map_err(CliError::from),
         MasterCommand::AssignAll { first, last } => match (NodeId::new(first), NodeId::new(last)) {
             (Ok(f), Ok(l)) => {
                 let mut config = AssignConfig::with_pool(NodeIdPool::range(f, l));
@@ -603,9 +613,9 @@ fn command(
                             "in_use": rep.skipped.iter().map(|n| n.get()).collect::<Vec<_>>(),
                         })
                     })
-                    .map_err(|e| e.to_string())
+                    .map_err(CliError::from)
             }
-            _ => Err("node-IDs are 1..=127".into()),
+            _ => Err(CliError::Argument("node-IDs are 1..=127".into())),
         },
     };
     match result {

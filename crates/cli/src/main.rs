@@ -16,6 +16,7 @@ mod cpos;
 mod demo;
 mod drive_cmd;
 mod eds;
+mod error;
 mod gateway;
 mod gateway_access;
 mod lss_cmd;
@@ -194,7 +195,7 @@ fn main() -> ExitCode {
         json: cli.json,
         hex: cli.hex,
     };
-    bus::json_errors(cli.json);
+    error::set_json(cli.json);
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),

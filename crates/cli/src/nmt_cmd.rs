@@ -14,7 +14,8 @@ use canola::{CommandSpecifier, Duration, Network, NmtState, NodeId};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail, fail_usage, open_network, parse_node, seconds};
+use crate::bus::{BusOpts, fail, open_network, parse_node, seconds};
+use crate::error::CliError;
 use crate::{Global, outln};
 
 /// NMT commands.
@@ -63,7 +64,10 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
     let cs = match args.command {
         NmtCmd::State => {
             if args.target.is_some() || args.wait {
-                return fail_usage("nmt state takes no node and no --wait: it lists every node");
+                return CliError::usage(
+                    "nmt state takes no node and no --wait: it lists every node",
+                )
+                .report();
             }
             return run_state(args.listen, opts, g);
         }
@@ -74,14 +78,15 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
         NmtCmd::ResetComm => C::ResetCommunication,
     };
     let Some(target) = args.target.as_deref() else {
-        return fail_usage("give the node-ID or `all`: e.g. `nmt start 5`");
+        return CliError::usage("give the node-ID or `all`: e.g. `nmt start 5`").report();
     };
     let all = target.eq_ignore_ascii_case("all");
     if all && args.wait {
-        return fail_usage(
+        return CliError::usage(
             "--wait needs node-IDs (`nmt start 5 --wait`, `nmt reset 5,6 --wait`): with `all` \
              the master does not know which nodes to wait for",
-        );
+        )
+        .report();
     }
     let mut nodes = Vec::new();
     if !all {
@@ -89,7 +94,7 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
             match parse_node(part.trim()) {
                 Ok(n) if !nodes.contains(&n) => nodes.push(n),
                 Ok(_) => {}
-                Err(e) => return fail_usage(e),
+                Err(e) => return e.into_usage().report(),
             }
         }
     }
@@ -173,7 +178,7 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
     if missing.is_empty() {
         ExitCode::SUCCESS
     } else {
-        fail(missing.join("; "))
+        fail(CliError::Unconfirmed(missing))
     }
 }
 
@@ -197,7 +202,7 @@ fn unconfirmed(net: &Network, node: NodeId, want: &str, ms: u64) -> String {
 /// `canopen nmt state`: listens for `listen` seconds, then lists every node heard.
 fn run_state(listen: f64, opts: &BusOpts, g: Global) -> ExitCode {
     if !listen.is_finite() || !(0.0..=3600.0).contains(&listen) {
-        return fail_usage(format!("--listen {listen}: give a number of seconds"));
+        return CliError::usage(format!("--listen {listen}: give a number of seconds")).report();
     }
     let (net, _mem) = match open_network(opts) {
         Ok(b) => b,
@@ -238,7 +243,7 @@ pub(crate) fn run_scan(opts: &BusOpts, g: Global) -> ExitCode {
     };
     let found = match net.scan(Duration::from_millis(200)).wait() {
         Ok(found) => found,
-        Err(e) => return fail(e.to_string()),
+        Err(e) => return fail(e),
     };
     // Decimal like every command's values; `--hex` zero-padded hex.
     let fmt = |v: Option<u32>| v.map_or("-".to_string(), |v| g.u32(v));

@@ -9,6 +9,8 @@
 
 use canola::ObjectDictionary;
 
+use crate::error::CliError;
+
 /// What an object argument resolved to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) struct Resolved {
@@ -33,7 +35,7 @@ fn same(a: &str, b: &str) -> bool {
 }
 
 /// Resolves `text` (number or name) with the node's dictionary `od`, if there is one.
-pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resolved, String> {
+pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resolved, CliError> {
     let starts_numeric = text.bytes().next().is_some_and(|b| b.is_ascii_digit());
     if starts_numeric {
         let index = crate::bus::parse_u16(text)?;
@@ -46,10 +48,10 @@ pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resol
         return Ok(Resolved { index, sub: None });
     }
     let Some(od) = od else {
-        return Err(format!(
+        return Err(CliError::Argument(format!(
             "`{text}` is not an index (0x hex or decimal); to name objects give the node's \
              dictionary with --eds NODE=FILE"
-        ));
+        )));
     };
     let (object, sub) = match text.split_once('/') {
         Some((o, s)) => (o, Some(s)),
@@ -74,10 +76,10 @@ pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resol
                 sub: Some(x.sub_index),
             })
             .ok_or_else(|| {
-                format!(
+                CliError::Argument(format!(
                     "object 0x{:04X} ({}) has no sub-object named `{s}`",
                     o.index, o.name
-                )
+                ))
             }),
         ([], _) => {
             // A sub-object's name alone, if exactly one sub-object carries it.
@@ -92,20 +94,22 @@ pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resol
                     index: *index,
                     sub: Some(s.sub_index),
                 }),
-                [] => Err(format!("the dictionary has no object named `{text}`")),
-                many => Err(format!(
+                [] => Err(CliError::Argument(format!(
+                    "the dictionary has no object named `{text}`"
+                ))),
+                many => Err(CliError::Argument(format!(
                     "`{text}` names several sub-objects ({}): give the index",
                     list(
                         many.iter()
                             .map(|(i, s)| format!("0x{i:04X}sub{}", s.sub_index))
                     )
-                )),
+                ))),
             }
         }
-        (many, _) => Err(format!(
+        (many, _) => Err(CliError::Argument(format!(
             "`{text}` names several objects ({}): give the index",
             list(many.iter().map(|o| format!("0x{:04X}", o.index)))
-        )),
+        ))),
     }
 }
 

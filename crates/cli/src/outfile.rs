@@ -10,6 +10,8 @@
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
+use crate::error::CliError;
+
 /// An output file being written (see the module docs). Dropped without
 /// [`commit`](Self::commit), it removes its temporary file.
 #[derive(Debug)]
@@ -22,8 +24,8 @@ pub(crate) struct OutFile {
 
 impl OutFile {
     /// Opens the temporary file beside `path` (or `path` itself, when it is not a regular file).
-    pub(crate) fn create(path: &Path) -> Result<Self, String> {
-        let name = |e: std::io::Error| format!("{}: {e}", path.display());
+    pub(crate) fn create(path: &Path) -> Result<Self, CliError> {
+        let name = CliError::file(path);
         let direct = std::fs::metadata(path).is_ok_and(|m| !m.is_file());
         if direct {
             let file = std::fs::OpenOptions::new()
@@ -42,7 +44,7 @@ impl OutFile {
             .create(true)
             .truncate(true)
             .open(&temp)
-            .map_err(name)?;
+            .map_err(CliError::file(path))?;
         Ok(Self {
             path: path.to_owned(),
             temp: Some(temp),
@@ -51,18 +53,16 @@ impl OutFile {
     }
 
     /// A handle to write through (the same open file).
-    pub(crate) fn writer(&self) -> Result<File, String> {
-        self.file
-            .try_clone()
-            .map_err(|e| format!("{}: {e}", self.path.display()))
+    pub(crate) fn writer(&self) -> Result<File, CliError> {
+        self.file.try_clone().map_err(CliError::file(&self.path))
     }
 
     /// Puts the written file in place of `FILE`. Everything must have been flushed.
-    pub(crate) fn commit(mut self) -> Result<(), String> {
+    pub(crate) fn commit(mut self) -> Result<(), CliError> {
         match self.temp.take() {
             Some(temp) => std::fs::rename(&temp, &self.path).map_err(|e| {
                 let _ = std::fs::remove_file(&temp);
-                format!("{}: {e}", self.path.display())
+                CliError::file(&self.path)(e)
             }),
             None => Ok(()),
         }
@@ -87,13 +87,13 @@ fn temp_beside(output: &Path) -> PathBuf {
 }
 
 /// Writes `bytes` to `path` whole or not at all.
-pub(crate) fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), String> {
+pub(crate) fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
     use std::io::Write as _;
     let out = OutFile::create(path)?;
     let mut w = out.writer()?;
     w.write_all(bytes)
         .and_then(|()| w.flush())
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .map_err(CliError::file(path))?;
     out.commit()
 }
 

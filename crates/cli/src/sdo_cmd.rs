@@ -16,7 +16,8 @@ use canola::{DataType, Network, NodeId, ObjectAddress, Value};
 use clap::{Subcommand, ValueEnum};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail, fail_op, parse_node, parse_u8};
+use crate::bus::{BusOpts, fail, parse_node, parse_u8};
+use crate::error::CliError;
 use crate::outfile::OutFile;
 use crate::{Global, outln};
 
@@ -200,12 +201,7 @@ pub(crate) fn run_usdo(cmd: UsdoCommand, opts: &BusOpts, g: Global) -> ExitCode 
             ty,
         } => usdo_write(&net, node, &object, &args, ty, g),
     };
-    match r {
-        Ok(code) => code,
-        Err(Failure::Op(e)) => fail_op(&e),
-        Err(Failure::Usage(e)) => crate::bus::fail_usage(e),
-        Err(Failure::Local(e)) => fail(e),
-    }
+    r.unwrap_or_else(CliError::report)
 }
 
 fn usdo_read(
@@ -215,7 +211,7 @@ fn usdo_read(
     sub: Option<u8>,
     ty: Option<Ty>,
     g: Global,
-) -> Result<ExitCode, Failure> {
+) -> Result<ExitCode, CliError> {
     let entry = address(net, node, object, sub)?;
     let n = net.node(node);
     n.set_fd(true);
@@ -229,7 +225,7 @@ fn usdo_read(
         return Ok(ExitCode::SUCCESS);
     };
     let value = Value::from_le_bytes(dt, &bytes).map_err(|e| {
-        Failure::Op(canola::Error::Value {
+        CliError::Op(canola::Error::Value {
             node,
             entry,
             message: e.to_string(),
@@ -252,21 +248,19 @@ fn usdo_write(
     args: &[String],
     ty: Option<Ty>,
     g: Global,
-) -> Result<ExitCode, Failure> {
+) -> Result<ExitCode, CliError> {
     let (sub, value) = match sub_and_last(args, "the value to write") {
         Ok(v) => v,
         Err(e) => {
             let entry = address(net, node, object, None)?;
-            return Err(format!("node {node}, object {entry}: {e}").into());
+            return Err(e.at(node, entry));
         }
     };
     let entry = address(net, node, object, sub)?;
     let Some(dt) = data_type_of(net, node, entry, ty) else {
-        return Err(
-            format!("node {node}, object {entry}: give --type (or --eds {node}=FILE)").into(),
-        );
+        return Err(no_type(node, entry));
     };
-    let bytes = parse_value(dt, value).map_err(|e| format!("node {node}, object {entry}: {e}"))?;
+    let bytes = parse_value(dt, value).map_err(|e| e.into_usage().at(node, entry))?;
     let n = net.node(node);
     n.set_fd(true);
     n.usdo().write(entry, bytes).wait()?;
@@ -277,13 +271,18 @@ fn usdo_write(
 }
 
 /// Splits `[SUB] LAST` positionals; `what` names LAST in the message when it is missing.
-fn sub_and_last<'a>(args: &'a [String], what: &str) -> Result<(Option<u8>, &'a str), String> {
+fn sub_and_last<'a>(args: &'a [String], what: &str) -> Result<(Option<u8>, &'a str), CliError> {
     match args {
         [last] => Ok((None, last)),
-        [sub, last] => Ok((Some(parse_u8(sub)?), last)),
-        [] => Err(format!("{what} is missing")),
-        _ => Err(format!("expected [SUB] and {what}")),
+        [sub, last] => Ok((Some(parse_u8(sub).map_err(CliError::into_usage)?), last)),
+        [] => Err(CliError::usage(format!("{what} is missing"))),
+        _ => Err(CliError::usage(format!("expected [SUB] and {what}"))),
     }
+}
+
+/// A write to an object of no known type (a usage error).
+fn no_type(node: NodeId, entry: ObjectAddress) -> CliError {
+    CliError::usage(format!("give --type (or --eds {node}=FILE)")).at(node, entry)
 }
 
 /// "a" or "an" before a data type's name, as it is read aloud (`an UNSIGNED16`, `a REAL32`).
@@ -310,20 +309,20 @@ fn integer_range(dt: DataType) -> Option<String> {
     })
 }
 
-/// The object address of `object` and `sub` on `node`.
+/// The object address of `object` and `sub` on `node` (a usage error when it names none).
 fn address(
     net: &Network,
     node: NodeId,
     object: &str,
     sub: Option<u8>,
-) -> Result<ObjectAddress, String> {
+) -> Result<ObjectAddress, CliError> {
     let od = net.node(node).dictionary();
-    let r = crate::objaddr::resolve(object, od.as_deref())?;
+    let r = crate::objaddr::resolve(object, od.as_deref()).map_err(CliError::into_usage)?;
     let sub = match (r.sub, sub) {
         (Some(named), Some(given)) if named != given => {
-            return Err(format!(
+            return Err(CliError::usage(format!(
                 "`{object}` is sub-index {named}, but sub-index {given} was given"
-            ));
+            )));
         }
         (named, given) => named.or(given).unwrap_or(0),
     };
@@ -363,38 +362,40 @@ fn json_value(v: &Value) -> serde_json::Value {
     }
 }
 
-fn out_of_range(text: &str, dt: DataType) -> String {
-    match integer_range(dt) {
+fn out_of_range(text: &str, dt: DataType) -> CliError {
+    CliError::Argument(match integer_range(dt) {
         Some(r) => format!("`{text}` is out of range for {dt} ({r})"),
         None => format!("`{text}` is out of range for {dt}"),
-    }
+    })
 }
 
-pub(crate) fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
+pub(crate) fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, CliError> {
     match dt {
         DataType::VisibleString => Ok(text.as_bytes().to_vec()),
         DataType::Domain | DataType::OctetString => {
             let t = text.trim_start_matches("0x");
             if !t.len().is_multiple_of(2) {
-                return Err(format!("`{text}`: hex bytes need an even number of digits"));
+                return Err(CliError::Argument(format!(
+                    "`{text}`: hex bytes need an even number of digits"
+                )));
             }
             (0..t.len())
                 .step_by(2)
                 .map(|i| {
                     t.get(i..i + 2)
                         .and_then(|p| u8::from_str_radix(p, 16).ok())
-                        .ok_or_else(|| format!("`{text}` is not hex"))
+                        .ok_or_else(|| CliError::Argument(format!("`{text}` is not hex")))
                 })
                 .collect()
         }
         DataType::Real32 => text
             .parse::<f32>()
             .map(|f| f.to_le_bytes().to_vec())
-            .map_err(|_| format!("`{text}` is not a REAL32 value")),
+            .map_err(|_| CliError::Argument(format!("`{text}` is not a REAL32 value"))),
         DataType::Real64 => text
             .parse::<f64>()
             .map(|f| f.to_le_bytes().to_vec())
-            .map_err(|_| format!("`{text}` is not a REAL64 value")),
+            .map_err(|_| CliError::Argument(format!("`{text}` is not a REAL64 value"))),
         dt => {
             let (neg, body) = match text.strip_prefix('-') {
                 Some(b) => (true, b),
@@ -410,11 +411,11 @@ pub(crate) fn parse_value(dt: DataType, text: &str) -> Result<Vec<u8>, String> {
                 {
                     out_of_range(text, dt)
                 }
-                _ => format!("`{text}` is not {} {dt} value", article(dt)),
+                _ => CliError::Argument(format!("`{text}` is not {} {dt} value", article(dt))),
             })?;
             let v = if neg { -mag } else { mag };
             let value = Value::from_i128_wrapping(dt, v)
-                .ok_or_else(|| format!("cannot write `{text}` as {dt}"))?;
+                .ok_or_else(|| CliError::Argument(format!("cannot write `{text}` as {dt}")))?;
             if value.as_i128() != Some(v) {
                 return Err(out_of_range(text, dt));
             }
@@ -492,34 +493,11 @@ pub(crate) fn run(cmd: SdoCommand, opts: &BusOpts, g: Global) -> ExitCode {
         Ok(b) => b.into_network(),
         Err(e) => return fail(e),
     };
-    match run_on(&net, cmd, g) {
-        Ok(code) => code,
-        Err(Failure::Op(e)) => fail_op(&e),
-        Err(Failure::Usage(e)) => crate::bus::fail_usage(e),
-        Err(Failure::Local(e)) => fail(e),
-    }
+    run_on(&net, cmd, g).unwrap_or_else(CliError::report)
 }
 
 /// Why a command failed: the master's error (with its fields), bad input (a usage error,
 /// exit 2), or a local failure such as a file that cannot be opened (exit 1).
-enum Failure {
-    Op(canola::Error),
-    Usage(String),
-    Local(String),
-}
-
-impl From<String> for Failure {
-    fn from(e: String) -> Self {
-        Self::Usage(e)
-    }
-}
-
-impl From<canola::Error> for Failure {
-    fn from(e: canola::Error) -> Self {
-        Self::Op(e)
-    }
-}
-
 fn addr_json(node: NodeId, entry: ObjectAddress) -> serde_json::Value {
     json!({"node": node.get(), "index": entry.index, "sub": entry.sub_index})
 }
@@ -529,7 +507,7 @@ fn with(mut base: serde_json::Value, key: &str, v: serde_json::Value) -> String 
     base.to_string()
 }
 
-fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure> {
+fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, CliError> {
     match cmd {
         SdoCommand::Read {
             node,
@@ -582,18 +560,14 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
                 Ok(v) => v,
                 Err(e) => {
                     let entry = address(net, node, &object, None)?;
-                    return Err(format!("node {node}, object {entry}: {e}").into());
+                    return Err(e.at(node, entry));
                 }
             };
             let entry = address(net, node, &object, sub)?;
             let Some(dt) = data_type_of(net, node, entry, ty) else {
-                return Err(format!(
-                    "node {node}, object {entry}: give --type (or --eds {node}=FILE)"
-                )
-                .into());
+                return Err(no_type(node, entry));
             };
-            let bytes =
-                parse_value(dt, value).map_err(|e| format!("node {node}, object {entry}: {e}"))?;
+            let bytes = parse_value(dt, value).map_err(|e| e.into_usage().at(node, entry))?;
             net.node(node)
                 .sdo()
                 .block(block)
@@ -611,21 +585,18 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
             block,
         } => {
             let entry = address(net, node, &object, sub)?;
-            let file = OutFile::create(&output).map_err(Failure::Local)?;
+            let file = OutFile::create(&output)?;
             let bar = Bar::new();
             let r = net
                 .node(node)
                 .sdo()
                 .block(block)
                 .on_progress(bar.callback())
-                .upload_to(
-                    entry,
-                    std::io::BufWriter::new(file.writer().map_err(Failure::Local)?),
-                )
+                .upload_to(entry, std::io::BufWriter::new(file.writer()?))
                 .wait();
             bar.finish(r.as_ref().ok().copied());
             let n = r?;
-            file.commit().map_err(Failure::Local)?;
+            file.commit()?;
             if g.json {
                 outln(&with(addr_json(node, entry), "bytes", json!(n)));
             } else {
@@ -640,8 +611,7 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, Failure
         } => {
             let (sub, file) = sub_and_last(&args, "the input file")?;
             let entry = address(net, node, &object, sub)?;
-            let f =
-                std::fs::File::open(file).map_err(|e| Failure::Local(format!("{file}: {e}")))?;
+            let f = std::fs::File::open(file).map_err(CliError::file(file))?;
             let bar = Bar::new();
             let r = net
                 .node(node)

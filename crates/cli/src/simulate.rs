@@ -12,6 +12,7 @@ use canola::{BusDictionary, Monitor, NodeId, Station};
 use serde_json::json;
 
 use crate::bus::{Bus, BusOpts, fail, read_dictionary, seconds};
+use crate::error::CliError;
 use crate::{Global, outln};
 
 /// `canopen simulate EDS --node-id N`
@@ -51,7 +52,9 @@ pub(crate) fn run_station(
 ) -> ExitCode {
     if let Some(mem) = bus.memory.as_ref() {
         let Some(secs) = duration else {
-            return fail("on the in-memory bus give --duration SECONDS");
+            return fail(CliError::Argument(
+                "on the in-memory bus give --duration SECONDS".into(),
+            ));
         };
         let mut tap = mem.endpoint();
         let mut monitor = Monitor::new(dictionary.clone());

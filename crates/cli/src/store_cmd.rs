@@ -8,7 +8,7 @@ use canola::{NodeId, ParameterGroup};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail, fail_op, open_network, parse_node};
+use crate::bus::{BusOpts, fail, open_network, parse_node};
 use crate::{Global, outln};
 
 /// Which parameters: the sub-index of 0x1010/0x1011.
@@ -60,7 +60,7 @@ pub(crate) fn run(args: StoreArgs, restore: bool, opts: &BusOpts, g: Global) -> 
         node.store_parameters_of(group)
     };
     if let Err(e) = r.wait() {
-        return fail_op(&e);
+        return fail(e);
     }
     let name = args
         .group

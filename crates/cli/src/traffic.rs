@@ -9,6 +9,7 @@ use canola::{CanId, Duration, Monitor};
 use serde_json::json;
 
 use crate::bus::{BusOpts, Traffic, fail};
+use crate::error::CliError;
 use crate::outfile::OutFile;
 use crate::{Global, outln};
 
@@ -187,7 +188,9 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
     let mut err = None;
     let (mut frames, mut fd) = (0u64, 0u64);
     if duration.is_none() && bus.memory.is_some() {
-        return fail("on the in-memory bus give --duration SECONDS");
+        return fail(CliError::Argument(
+            "on the in-memory bus give --duration SECONDS".into(),
+        ));
     }
     eprintln!("recording {iface} to {}", output.display());
     let r = bus.pump(duration, |traffic, at| {
@@ -213,7 +216,7 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
     let flushed = w.flush();
     let result = match (r, err, flushed) {
         (Err(e), _, _) => Err(e),
-        (_, Some(e), _) | (_, _, Err(e)) => Err(format!("{}: {e}", output.display())),
+        (_, Some(e), _) | (_, _, Err(e)) => Err(CliError::file(output)(e)),
         (Ok(()), None, Ok(())) => out.commit(),
     };
     match result {
@@ -237,7 +240,7 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
 pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
     let f = match std::fs::File::open(file) {
         Ok(f) => f,
-        Err(e) => return fail(format!("{}: {e}", file.display())),
+        Err(e) => return fail(CliError::file(file)(e)),
     };
     let mut frames = Vec::new();
     let mut fd = 0u64;
@@ -253,7 +256,13 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
                 frames.push((timestamp_us, frame));
             }
             Ok(_) => other += 1,
-            Err(e) => return fail(format!("{}: {e} (nothing was sent)", file.display())),
+            Err(source) => {
+                return fail(CliError::Log {
+                    path: file.to_owned(),
+                    source,
+                    nothing_sent: true,
+                });
+            }
         }
     }
     let mut bus = match opts.open_watching() {

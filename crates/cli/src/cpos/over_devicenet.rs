@@ -19,26 +19,31 @@ use serde_json::json;
 
 use super::SimArgs;
 use crate::Global;
+use crate::error::CliError;
 
-fn parse_mac(s: &str) -> Result<u8, String> {
-    let v: u8 = s.parse().map_err(|e| format!("`{s}`: {e}"))?;
-    MacId::new(v).map(MacId::get).map_err(|e| e.to_string())
+fn parse_mac(s: &str) -> Result<u8, CliError> {
+    let v: u8 = s
+        .parse()
+        .map_err(|e| CliError::Argument(format!("`{s}`: {e}")))?;
+    MacId::new(v)
+        .map(MacId::get)
+        .map_err(|e| CliError::Argument(e.to_string()))
 }
 
-fn parse_num(s: &str) -> Result<u8, String> {
+fn parse_num(s: &str) -> Result<u8, CliError> {
     let r = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
         Some(h) => u8::from_str_radix(h, 16),
         None => s.parse(),
     };
-    r.map_err(|e| format!("`{s}`: {e}"))
+    r.map_err(|e| CliError::Argument(format!("`{s}`: {e}")))
 }
 
-fn parse_path(s: &str) -> Result<Path, String> {
+fn parse_path(s: &str) -> Result<Path, CliError> {
     let parts: Vec<&str> = s.split('/').collect();
     let [c, i, a] = parts[..] else {
-        return Err(format!(
+        return Err(CliError::Argument(format!(
             "`{s}`: expected CLASS/INSTANCE/ATTRIBUTE, e.g. 0x64/1/1"
-        ));
+        )));
     };
     Ok(Path::new(parse_num(c)?, parse_num(i)?, parse_num(a)?))
 }
@@ -79,13 +84,13 @@ pub(crate) struct DnOpts {
 }
 
 impl DnOpts {
-    fn sizes(&self) -> Result<ImageSizes, String> {
+    fn sizes(&self) -> Result<ImageSizes, CliError> {
         ImageSizes {
             send: self.send,
             receive: self.receive,
         }
         .check()
-        .map_err(|e| e.to_string())
+        .map_err(|e| CliError::Argument(e.to_string()))
     }
     fn mac(&self) -> MacId {
         MacId::from_bits(self.mac)
@@ -102,19 +107,19 @@ pub(crate) struct Link {
 
 /// Opens `iface` as every bus command does (SocketCAN or `udp`, with the hint for an interface
 /// that does not exist).
-fn open(iface: &str) -> Result<Box<dyn Transport>, String> {
+fn open(iface: &str) -> Result<Box<dyn Transport>, CliError> {
     crate::bus::open_transport(iface)
 }
 
 impl Link {
     /// Opens `iface`, goes on line and connects to the cPos; fails if that does not happen
     /// within the connect timeout or the cPos's sizes do not fit.
-    pub(crate) fn connect(opts: &DnOpts, iface: &str) -> Result<Self, String> {
+    pub(crate) fn connect(opts: &DnOpts, iface: &str) -> Result<Self, CliError> {
         Self::connect_on(opts, open(iface)?, None, opts.diagnostic_attribute)
     }
 
     /// A simulated cPos at --mac on a fresh in-memory bus, and the master connected to it.
-    pub(crate) fn connect_simulated(opts: &DnOpts, sim: &SimArgs) -> Result<Self, String> {
+    pub(crate) fn connect_simulated(opts: &DnOpts, sim: &SimArgs) -> Result<Self, CliError> {
         let bus = MemoryBus::new();
         let endpoint = bus.endpoint();
         let config = cpos_slave_config(opts.mac(), opts.sizes()?, 0x1436_0000 | opts.mac as u32);
@@ -136,7 +141,7 @@ impl Link {
         transport: Box<dyn Transport>,
         memory: Option<MemoryBus>,
         diagnostics: Option<Path>,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, CliError> {
         let mut config = CposMasterConfig::new(opts.mac());
         config.master.mac = MacId::from_bits(opts.master_mac);
         config.master.poll_cycle = Duration::from_millis(opts.cycle_ms);
@@ -153,20 +158,22 @@ impl Link {
         let mut last_failure = None;
         while !link.master.is_connected() {
             if link.now() >= limit {
-                return Err(match last_failure {
+                return Err(CliError::Device(match last_failure {
                     Some(e) => format!("no DeviceNet connection to MAC {}: {e}", opts.mac),
                     None => format!("no DeviceNet connection to MAC {} (no answer)", opts.mac),
-                });
+                }));
             }
             let until = link.now() + Duration::from_millis(50);
             for e in link.step(until) {
                 match e {
-                    CposEvent::SizeMismatch(e) => return Err(format!("MAC {}: {e}", opts.mac)),
+                    CposEvent::SizeMismatch(e) => {
+                        return Err(CliError::Device(format!("MAC {}: {e}", opts.mac)));
+                    }
                     CposEvent::DuplicateMac(c) => {
-                        return Err(format!(
+                        return Err(CliError::Device(format!(
                             "another station uses the master's MAC ID {} ({c})",
                             opts.master_mac
-                        ));
+                        )));
                     }
                     CposEvent::ConnectFailed(e) => last_failure = Some(e.to_string()),
                     _ => {}
@@ -175,10 +182,10 @@ impl Link {
         }
         if !link.master.has_channel() {
             let sizes = link.master.sizes().map_or(String::new(), |s| s.to_string());
-            return Err(format!(
+            return Err(CliError::Device(format!(
                 "the cPos at MAC {} is set to {sizes}: no parameter channel (it needs send 13 / receive 11)",
                 opts.mac
-            ));
+            )));
         }
         Ok(link)
     }
@@ -314,13 +321,13 @@ pub(crate) fn simulate(
     duration: Option<f64>,
     global: Global,
 ) -> ExitCode {
-    let fail = |m: String| {
+    let fail = |m: &dyn std::fmt::Display| {
         eprintln!("canopen cpos simulate: {m}");
         ExitCode::FAILURE
     };
     let sizes = match opts.sizes() {
         Ok(s) => s,
-        Err(e) => return fail(e),
+        Err(e) => return fail(&e),
     };
     let config = cpos_slave_config(opts.mac(), sizes, 0x1436_0000 | opts.mac as u32);
     let mut station = SimStation {
@@ -332,7 +339,7 @@ pub(crate) fn simulate(
         Some(iface) => {
             let mut transport = match open(iface) {
                 Ok(t) => t,
-                Err(e) => return fail(e),
+                Err(e) => return fail(&e),
             };
             station.slave.start(transport.now());
             if !global.json {
@@ -349,12 +356,12 @@ pub(crate) fn simulate(
             });
             match r {
                 Ok(()) => ExitCode::SUCCESS,
-                Err(e) => fail(format!("{iface}: {e}")),
+                Err(e) => fail(&format!("{iface}: {e}")),
             }
         }
         None => {
             let Some(d) = duration else {
-                return fail("--duration is required on the in-memory bus".into());
+                return fail(&"--duration is required on the in-memory bus");
             };
             let bus = MemoryBus::new();
             station.slave.start(bus.now());

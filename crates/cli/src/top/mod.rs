@@ -26,6 +26,7 @@ use canola::{CommandSpecifier, DataType, Instant, MemoryBus, Network, NodeId, Ob
 use ratatui::crossterm::event::{self, Event};
 
 use crate::bus::{BusOpts, fail};
+use crate::error::CliError;
 use keys::{Action, Ask, Mode};
 use model::{LogKind, Model};
 use tap::{Seen, TapStats};
@@ -47,7 +48,7 @@ pub(crate) struct TopArgs {
 }
 
 /// `500k`, `1M`, `250000`.
-fn parse_bitrate(s: &str) -> Result<u32, String> {
+fn parse_bitrate(s: &str) -> Result<u32, CliError> {
     let (num, mul) = match s.to_ascii_lowercase() {
         t if t.ends_with('k') => (t.trim_end_matches('k').to_owned(), 1_000),
         t if t.ends_with('m') => (t.trim_end_matches('m').to_owned(), 1_000_000),
@@ -55,10 +56,10 @@ fn parse_bitrate(s: &str) -> Result<u32, String> {
     };
     let v: u32 = num
         .parse()
-        .map_err(|_| format!("`{s}` is not a bit rate (500k, 1M, 250000)"))?;
+        .map_err(|_| CliError::Argument(format!("`{s}` is not a bit rate (500k, 1M, 250000)")))?;
     match v.checked_mul(mul) {
         Some(b) if (10_000..=1_000_000).contains(&b) => Ok(b),
-        _ => Err(format!("`{s}`: give 10k..1M")),
+        _ => Err(CliError::Argument(format!("`{s}`: give 10k..1M"))),
     }
 }
 
@@ -82,7 +83,7 @@ impl Recording {
         self.frames.push_back((ts, frame));
     }
 
-    fn save(&self, path: &std::path::Path) -> Result<String, String> {
+    fn save(&self, path: &std::path::Path) -> Result<String, CliError> {
         let out = crate::outfile::OutFile::create(path)?;
         let mut w = candump::Writer::new(std::io::BufWriter::new(out.writer()?));
         for (ts, frame) in &self.frames {
@@ -91,9 +92,9 @@ impl Recording {
                 interface: self.interface.clone(),
                 frame: *frame,
             })
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+            .map_err(CliError::file(path))?;
         }
-        w.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+        w.flush().map_err(CliError::file(path))?;
         drop(w);
         out.commit()?;
         let older = if self.dropped > 0 {
@@ -160,7 +161,9 @@ struct App {
 /// `canopen top [--replay FILE]` (`--hex`: values read with `g` in hex)
 pub(crate) fn run(args: &TopArgs, opts: &BusOpts, g: crate::Global) -> ExitCode {
     if !std::io::stdout().is_terminal() {
-        return fail("canopen top draws on a terminal: stdout is not one (use `monitor` for text)");
+        return fail(CliError::Argument(
+            "canopen top draws on a terminal: stdout is not one (use `monitor` for text)".into(),
+        ));
     }
     // Before the bus opens (its transport may start threads): SIGTERM ends the view cleanly.
     if let Err(e) = crate::bus::stop_on_signals() {
@@ -173,7 +176,12 @@ pub(crate) fn run(args: &TopArgs, opts: &BusOpts, g: crate::Global) -> ExitCode 
     app.hex = g.hex;
     let terminal = match ratatui::try_init() {
         Ok(t) => t,
-        Err(e) => return fail(format!("cannot set the terminal up: {e}")),
+        Err(source) => {
+            return fail(CliError::System {
+                what: "cannot set the terminal up".into(),
+                source,
+            });
+        }
     };
     let r = app.run(terminal, args.fps);
     ratatui::restore();
@@ -187,7 +195,7 @@ pub(crate) fn run(args: &TopArgs, opts: &BusOpts, g: crate::Global) -> ExitCode 
 }
 
 impl App {
-    fn open(args: &TopArgs, opts: &BusOpts) -> Result<Self, String> {
+    fn open(args: &TopArgs, opts: &BusOpts) -> Result<Self, CliError> {
         let color = std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty());
         let (source, dictionaries, title, interface) = match &args.replay {
             Some(file) => {
@@ -204,7 +212,7 @@ impl App {
                 for (node, od) in &dictionaries {
                     net.add_node_with_dictionary(*node, od.clone());
                 }
-                net.start_driver().map_err(|e| e.to_string())?;
+                net.start_driver()?;
                 let (title, interface) = match &opts.iface {
                     Some(i) => (i.clone(), i.clone()),
                     None => (
@@ -251,7 +259,7 @@ impl App {
         })
     }
 
-    fn run(&mut self, mut terminal: ratatui::DefaultTerminal, fps: u32) -> Result<(), String> {
+    fn run(&mut self, mut terminal: ratatui::DefaultTerminal, fps: u32) -> Result<(), CliError> {
         let period = std::time::Duration::from_secs(1) / fps;
         let mut next = std::time::Instant::now();
         loop {
@@ -286,7 +294,10 @@ impl App {
             };
             terminal
                 .draw(|f| view::draw(f, shown, &screen))
-                .map_err(|e| format!("cannot draw: {e}"))?;
+                .map_err(|source| CliError::System {
+                    what: "cannot draw".into(),
+                    source,
+                })?;
             // The next draw at a fixed rate; a late one is dropped, not caught up.
             next += period;
             let now = std::time::Instant::now();
@@ -295,10 +306,10 @@ impl App {
             }
             loop {
                 let wait = next.saturating_duration_since(std::time::Instant::now());
-                if wait.is_zero() || !event::poll(wait).map_err(|e| e.to_string())? {
+                if wait.is_zero() || !event::poll(wait).map_err(CliError::Terminal)? {
                     break;
                 }
-                if let Event::Key(key) = event::read().map_err(|e| e.to_string())? {
+                if let Event::Key(key) = event::read().map_err(CliError::Terminal)? {
                     let replay = matches!(self.source, Source::Replay(_));
                     let action = keys::handle(&mut self.mode, key, replay);
                     if action == Action::Quit {
@@ -497,7 +508,7 @@ impl App {
         let entry = match object(text, self.model.dictionary(id)) {
             Ok(e) => e,
             Err(e) => {
-                self.status = e;
+                self.status = e.to_string();
                 return;
             }
         };
@@ -543,7 +554,7 @@ impl App {
         let entry = match object(obj.trim(), od) {
             Ok(e) => e,
             Err(e) => {
-                self.status = e;
+                self.status = e.to_string();
                 return;
             }
         };
@@ -629,10 +640,10 @@ fn command_name(c: CommandSpecifier) -> &'static str {
 pub(crate) fn object(
     text: &str,
     od: Option<&canola::ObjectDictionary>,
-) -> Result<ObjectAddress, String> {
+) -> Result<ObjectAddress, CliError> {
     let text = text.trim();
     if text.is_empty() {
-        return Err("no object given".into());
+        return Err(CliError::Argument("no object given".into()));
     }
     if text.bytes().next().is_some_and(|b| b.is_ascii_digit()) {
         let (index, sub) = match text.split_once(':') {

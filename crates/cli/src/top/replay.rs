@@ -10,6 +10,7 @@ use canola::{Instant, NodeId, ObjectDictionary};
 use super::Recording;
 use super::model::Model;
 use super::tap::Seen;
+use crate::error::CliError;
 
 /// A log being replayed. See the module docs.
 pub(crate) struct Replay {
@@ -34,11 +35,15 @@ impl Replay {
         file: &Path,
         dictionaries: Vec<(NodeId, ObjectDictionary)>,
         bitrate: u32,
-    ) -> Result<Self, String> {
-        let f = std::fs::File::open(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    ) -> Result<Self, CliError> {
+        let f = std::fs::File::open(file).map_err(CliError::file(file))?;
         let mut frames = Vec::new();
         for entry in candump::Reader::new(std::io::BufReader::new(f)) {
-            let e = entry.map_err(|e| format!("{}: {e}", file.display()))?;
+            let e = entry.map_err(|source| CliError::Log {
+                path: file.to_owned(),
+                source,
+                nothing_sent: false,
+            })?;
             frames.push((e.timestamp_us, e.frame));
         }
         Ok(Self::new(frames, dictionaries, bitrate))

@@ -344,9 +344,9 @@ fn prompt_objects_by_number_or_name() {
 
 #[test]
 fn bit_rates_parse() {
-    assert_eq!(super::parse_bitrate("500k"), Ok(500_000));
-    assert_eq!(super::parse_bitrate("1M"), Ok(1_000_000));
-    assert_eq!(super::parse_bitrate("250000"), Ok(250_000));
+    assert_eq!(super::parse_bitrate("500k").ok(), Some(500_000));
+    assert_eq!(super::parse_bitrate("1M").ok(), Some(1_000_000));
+    assert_eq!(super::parse_bitrate("250000").ok(), Some(250_000));
     assert!(super::parse_bitrate("2M").is_err());
     assert!(super::parse_bitrate("fast").is_err());
 }
