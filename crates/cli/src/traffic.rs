@@ -35,16 +35,38 @@ impl Filter {
     }
 }
 
+/// Why a candump-style filter does not parse (the filter as given, and what is wrong with it).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(crate) enum FilterError {
+    /// Neither `ID:MASK` nor `ID~MASK`.
+    Syntax(String),
+    /// ID or MASK is not a hex number of at most 8 digits.
+    NotHex(String),
+    /// The identifier does not fit 29 bits.
+    IdentifierTooLarge(String),
+}
+
+impl std::fmt::Display for FilterError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Syntax(s) => write!(
+                f,
+                "filter `{s}`: expected ID:MASK or ID~MASK in hex (candump's syntax)"
+            ),
+            Self::NotHex(s) => write!(f, "filter `{s}`: ID and MASK are hex numbers"),
+            Self::IdentifierTooLarge(s) => write!(f, "filter `{s}`: identifier above 0x1FFFFFFF"),
+        }
+    }
+}
+
+impl std::error::Error for FilterError {}
+
 /// Parses `ID:MASK` or `ID~MASK` (hex, as candump writes them).
-pub(crate) fn parse_filter(s: &str) -> Result<Filter, String> {
+pub(crate) fn parse_filter(s: &str) -> Result<Filter, FilterError> {
     let (id, mask, inverse) = match (s.split_once(':'), s.split_once('~')) {
         (Some((i, m)), None) => (i, m, false),
         (None, Some((i, m))) => (i, m, true),
-        _ => {
-            return Err(format!(
-                "filter `{s}`: expected ID:MASK or ID~MASK in hex (candump's syntax)"
-            ));
-        }
+        _ => return Err(FilterError::Syntax(s.to_owned())),
     };
     let hex = |t: &str| {
         let t = t.strip_prefix("0x").unwrap_or(t);
@@ -54,11 +76,11 @@ pub(crate) fn parse_filter(s: &str) -> Result<Filter, String> {
         u32::from_str_radix(t, 16).ok()
     };
     let (Some(idv), Some(maskv)) = (hex(id), hex(mask)) else {
-        return Err(format!("filter `{s}`: ID and MASK are hex numbers"));
+        return Err(FilterError::NotHex(s.to_owned()));
     };
     let extended = id.trim_start_matches("0x").len() == 8 || idv > 0x7FF;
     if idv > 0x1FFF_FFFF {
-        return Err(format!("filter `{s}`: identifier above 0x1FFFFFFF"));
+        return Err(FilterError::IdentifierTooLarge(s.to_owned()));
     }
     Ok(Filter {
         id: idv,
