@@ -9,39 +9,35 @@
 //! 0x1020 written last), error control start (heartbeat consumer from 0x1017, or node guarding)
 //! — then NMT start, per slave or all together once every mandatory slave has booted.
 
+use std::sync::mpsc;
 use std::time::Instant as WallInstant;
 
-use canola::nmt::GuardingEvent;
-use canola::{CommandSpecifier, Duration, HeartbeatEvent, Network, NetworkEvent};
+use canola::{CommandSpecifier, Network, Operation};
 
 pub use crate::config::configured_values;
-use crate::config::{NetworkConfig, StartPolicy};
+use crate::config::{NetworkConfig, SlaveConfig, StartPolicy};
 
 mod failure;
+mod life;
 mod report;
 mod slave;
 mod steps;
 
-use failure::Seen;
 pub use report::{
     BootEvent, BootReport, BootStep, ConfigOutcome, SlaveReport, SlaveStatus, SoftwareOutcome,
 };
-use slave::SlaveBoot;
 
 /// Boots the network `net` as `config` describes; blocks until done.
 pub fn boot(net: &Network, config: &NetworkConfig) -> BootReport {
     boot_with(net, config, |_| {})
 }
 
-/// How finely the boot loop drives the network between looking at its slaves' requests: a
-/// finished SDO is followed up at most this late.
-const TICK: Duration = Duration::from_micros(20);
-
 /// [`boot`], calling `on_event` for every step of every slave.
 ///
-/// One thread drives every slave's boot: each slave is a small machine with at most one SDO
-/// request in flight, and the facade runs requests to different nodes together on the bus. (One
-/// thread rather than one per slave keeps a virtual-clock bus deterministic.)
+/// Each slave's boot is one straight-line body of awaited operations, finished on a thread of
+/// its own: the threads drive the network together (whoever waits drives), so the slaves'
+/// SDOs run in parallel on the bus. `on_event` is called on the calling thread, in order for
+/// each slave (the events of different slaves interleave as they happen).
 pub fn boot_with(
     net: &Network,
     config: &NetworkConfig,
@@ -56,47 +52,52 @@ pub fn boot_with(
     if individually && let Some(p) = config.master.sync_period {
         net.start_sync(p);
     }
-    let events = net.subscribe();
-    let mut seen = Seen::default();
-    let mut slaves: Vec<SlaveBoot<'_>> = config
-        .slaves
-        .iter()
-        .map(|s| SlaveBoot::new(net, config, s, individually))
-        .collect();
-    loop {
-        for ev in events.try_iter() {
-            match ev {
-                NetworkEvent::Heartbeat(
-                    HeartbeatEvent::StateChanged { node, .. }
-                    | HeartbeatEvent::Recovered { node, .. },
-                )
-                | NetworkEvent::Guarding(
-                    GuardingEvent::StateChanged { node, .. }
-                    | GuardingEvent::Recovered { node, .. },
-                ) => seen.life.push(node),
-                NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node })
-                | NetworkEvent::Guarding(GuardingEvent::BootUp { node }) => {
-                    seen.boot_ups.push(node)
-                }
-                _ => {}
+    let (tx, events) = mpsc::channel();
+    let run = |slave: &SlaveConfig, tx: mpsc::Sender<BootEvent>| {
+        let emit = move |e| {
+            // The receiving end lives until every slave is done.
+            let _ = tx.send(e);
+        };
+        let body = slave::boot_slave(net, config, slave, individually, t0, &emit);
+        match Operation::new(async { Ok::<_, std::convert::Infallible>(body.await) }).wait() {
+            Ok(r) => r,
+            Err(never) => match never {},
+        }
+    };
+    let mut reports: Vec<SlaveReport> = std::thread::scope(|s| {
+        let mut threads = Vec::with_capacity(config.slaves.len());
+        let mut inline = Vec::new();
+        for (i, slave) in config.slaves.iter().enumerate() {
+            let tx = tx.clone();
+            let spawned = std::thread::Builder::new()
+                .name(format!("boot-{}", slave.node_id))
+                .spawn_scoped(s, move || run(slave, tx));
+            match spawned {
+                Ok(t) => threads.push((i, t)),
+                // No thread to be had: that slave boots on this thread, after the others
+                // started (its events come once it is done).
+                Err(_) => inline.push(i),
             }
         }
-        let mut running = false;
-        for s in &mut slaves {
-            s.poll(&mut seen, &mut on_event);
-            running |= !s.finished;
+        drop(tx);
+        let mut reports: Vec<Option<SlaveReport>> = vec![None; config.slaves.len()];
+        for i in inline {
+            let (tx, rx) = mpsc::channel();
+            reports[i] = Some(run(&config.slaves[i], tx));
+            rx.try_iter().for_each(|e| on_event(&e));
         }
-        seen.life.clear();
-        seen.boot_ups.clear();
-        if !running {
-            break;
+        // Until every slave's thread let go of its sender.
+        for e in &events {
+            on_event(&e);
         }
-        if net.run_for(TICK).wait().is_err() {
-            // A failed transport fails every request, which the next poll reports.
-            std::thread::sleep(std::time::Duration::from_millis(1));
+        for (i, t) in threads {
+            match t.join() {
+                Ok(r) => reports[i] = Some(r),
+                Err(p) => std::panic::resume_unwind(p),
+            }
         }
-    }
-    let mut reports: Vec<SlaveReport> = slaves.into_iter().map(|s| s.report).collect();
+        reports.into_iter().flatten().collect()
+    });
 
     let mandatory_ok = reports.iter().all(|r| !r.mandatory || r.booted());
     if config.master.start == StartPolicy::All && mandatory_ok {
