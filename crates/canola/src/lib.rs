@@ -84,7 +84,7 @@ pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{
-    Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue, join_all,
+    Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue, join_all, wait_all_with,
 };
 pub use pdo_access::{
     DamSender, MappedVariable, Mpdos, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,

@@ -320,3 +320,43 @@ fn a_sign_of_life_ends_its_wait_and_an_absent_node_times_out_meanwhile() {
     assert!(at - since <= Duration::from_millis(501), "{}", at - since);
     assert_eq!(*r[1].as_ref().unwrap(), (false, deadline));
 }
+
+#[test]
+fn wait_all_with_hands_out_progress_between_steps_in_order() {
+    use std::sync::mpsc;
+    let (_bus, net) = rig();
+    let (tx, rx) = mpsc::channel();
+    let ops = [5u8, 6].map(|id| {
+        let tx = tx.clone();
+        let node = net.node(n(id));
+        Operation::new(async move {
+            let _ = tx.send((id, "start"));
+            let v: u32 = node.read_typed((0x1018, 1)).await?;
+            let _ = tx.send((id, "read"));
+            node.sdo().write((0x1017, 0), 250u16).await?;
+            let _ = tx.send((id, "written"));
+            Ok::<_, Error>(v)
+        })
+    });
+    // Not Send: the callback side of the channel stays on this thread.
+    let seen = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    let mut calls = 0;
+    let r = canola::wait_all_with(ops, || {
+        calls += 1;
+        seen.borrow_mut().extend(rx.try_iter());
+    });
+    seen.borrow_mut().extend(rx.try_iter());
+    assert!(r.iter().all(Result::is_ok), "{r:?}");
+    assert!(calls > 0);
+    let seen = seen.borrow();
+    for id in [5, 6] {
+        let mine: Vec<_> = seen
+            .iter()
+            .filter(|(i, _)| *i == id)
+            .map(|(_, s)| *s)
+            .collect();
+        assert_eq!(mine, ["start", "read", "written"]);
+    }
+    // The two bodies ran together: both started before either finished its read.
+    assert_eq!(seen[..2], [(5, "start"), (6, "start")]);
+}

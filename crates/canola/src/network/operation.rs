@@ -437,16 +437,29 @@ impl<T, E> Future for Join<'_, T, E> {
                 false => Poll::Pending,
             };
         }
+        this.drive(cx, &mut || {}).map(Ok)
+    }
+}
+
+impl<T, E> Join<'_, T, E> {
+    /// The blocking loop of a waited join: polls the operations, drives the networks they wait
+    /// on one step each, calls `between`, and again, until all are finished (or those left
+    /// wait on something else than the bus: `Pending`, with `cx` woken for it).
+    fn drive(
+        &mut self,
+        cx: &mut Context<'_>,
+        between: &mut dyn FnMut(),
+    ) -> Poll<Vec<Result<T, E>>> {
         let _joined = ModeGuard::enter(Mode::Joined);
         // What an enclosing join's round gathered so far (a body of it that waits on this
         // join by blocking), given back when this loop ends.
         let _outer = OuterWaits(JOINED.with(|w| w.replace(Waits::new())));
         loop {
-            let all = this.poll_all(cx);
+            let all = self.poll_all(cx);
             // A failure nobody took (its waits ended meanwhile) is dropped with the round.
             let waits = JOINED.with(|w| w.replace(Waits::new()));
             if all {
-                return Poll::Ready(Ok(this.results()));
+                return Poll::Ready(self.results());
             }
             if waits.nets.is_empty() {
                 // The pending operations wait on something else than the bus, which wakes
@@ -458,6 +471,33 @@ impl<T, E> Future for Join<'_, T, E> {
                     JOINED.with(|w| w.borrow_mut().failed.push((net, e)));
                 }
             }
+            between();
+        }
+    }
+}
+
+/// [`join_all`] waited on, calling `between` on this thread after every driving step: where
+/// the operations hand out what they produce as they go to something that cannot go into an
+/// operation (an operation is `Send`; a caller's event callback need not be). The operations
+/// can, say, send events into a channel that `between` empties into the callback: they then
+/// reach it in order, at most one step late. Gives the results in the operations' order.
+pub fn wait_all_with<'a, T: Send + 'a, E: Send + 'a>(
+    ops: impl IntoIterator<Item = Operation<'a, T, E>>,
+    mut between: impl FnMut(),
+) -> Vec<Result<T, E>> {
+    let bodies: Vec<_> = ops
+        .into_iter()
+        .map(|op| Some(std::future::IntoFuture::into_future(op)))
+        .collect();
+    let results = bodies.iter().map(|_| None).collect();
+    let mut join = Join { bodies, results };
+    let _mode = ModeGuard::enter(Mode::Blocking);
+    let waker = THREAD_WAKER.with(Waker::clone);
+    let mut cx = Context::from_waker(&waker);
+    loop {
+        match join.drive(&mut cx, &mut between) {
+            Poll::Ready(r) => return r,
+            Poll::Pending => std::thread::park_timeout(std::time::Duration::from_millis(1)),
         }
     }
 }
