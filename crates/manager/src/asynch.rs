@@ -2,8 +2,8 @@
 //! it happens.
 //!
 //! The blocking [`boot_with`] and [`audit_with`] themselves run on tokio's blocking pool (they
-//! drive the network, which blocks: the boot finishes each slave's straight-line body with
-//! `Operation::wait` on a thread of its own); their events come through a channel the caller
+//! drive the network, which blocks: the boot runs every slave's straight-line body on that one
+//! thread with `canola::wait_all_with`); their events come through a channel the caller
 //! awaits. There is no second implementation of either. (Awaiting the slaves' bodies on tokio
 //! instead would put a virtual-clock bus on tokio's clock, so a simulated boot would take its
 //! heartbeat windows in real time.)

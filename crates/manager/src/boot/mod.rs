@@ -15,10 +15,9 @@ use std::time::Instant as WallInstant;
 use canola::{CommandSpecifier, Network, Operation};
 
 pub use crate::config::configured_values;
-use crate::config::{NetworkConfig, SlaveConfig, StartPolicy};
+use crate::config::{NetworkConfig, StartPolicy};
 
 mod failure;
-mod life;
 mod report;
 mod slave;
 mod steps;
@@ -34,10 +33,12 @@ pub fn boot(net: &Network, config: &NetworkConfig) -> BootReport {
 
 /// [`boot`], calling `on_event` for every step of every slave.
 ///
-/// Each slave's boot is one straight-line body of awaited operations, finished on a thread of
-/// its own: the threads drive the network together (whoever waits drives), so the slaves'
-/// SDOs run in parallel on the bus. `on_event` is called on the calling thread, in order for
-/// each slave (the events of different slaves interleave as they happen).
+/// Each slave's boot is one straight-line body of awaited operations; all of them run together
+/// on the calling thread ([`canola::wait_all_with`]: the bodies are polled in turn and the
+/// network is driven one step between rounds), so the slaves' SDOs run in parallel on the bus
+/// and a virtual-clock bus stays deterministic. `on_event` is called on the calling thread
+/// after each driving step, in order for each slave (the events of different slaves
+/// interleave as they happen).
 pub fn boot_with(
     net: &Network,
     config: &NetworkConfig,
@@ -53,51 +54,23 @@ pub fn boot_with(
         net.start_sync(p);
     }
     let (tx, events) = mpsc::channel();
-    let run = |slave: &SlaveConfig, tx: mpsc::Sender<BootEvent>| {
-        let emit = move |e| {
-            // The receiving end lives until every slave is done.
-            let _ = tx.send(e);
-        };
+    let emit = move |e| {
+        // The receiving end lives until every slave is done.
+        let _ = tx.send(e);
+    };
+    let bodies = config.slaves.iter().map(|slave| {
         let body = slave::boot_slave(net, config, slave, individually, t0, &emit);
-        match Operation::new(async { Ok::<_, std::convert::Infallible>(body.await) }).wait() {
+        Operation::new(async { Ok::<_, std::convert::Infallible>(body.await) })
+    });
+    let results = canola::wait_all_with(bodies, || events.try_iter().for_each(|e| on_event(&e)));
+    events.try_iter().for_each(|e| on_event(&e));
+    let mut reports: Vec<SlaveReport> = results
+        .into_iter()
+        .map(|r| match r {
             Ok(r) => r,
             Err(never) => match never {},
-        }
-    };
-    let mut reports: Vec<SlaveReport> = std::thread::scope(|s| {
-        let mut threads = Vec::with_capacity(config.slaves.len());
-        let mut inline = Vec::new();
-        for (i, slave) in config.slaves.iter().enumerate() {
-            let tx = tx.clone();
-            let spawned = std::thread::Builder::new()
-                .name(format!("boot-{}", slave.node_id))
-                .spawn_scoped(s, move || run(slave, tx));
-            match spawned {
-                Ok(t) => threads.push((i, t)),
-                // No thread to be had: that slave boots on this thread, after the others
-                // started (its events come once it is done).
-                Err(_) => inline.push(i),
-            }
-        }
-        drop(tx);
-        let mut reports: Vec<Option<SlaveReport>> = vec![None; config.slaves.len()];
-        for i in inline {
-            let (tx, rx) = mpsc::channel();
-            reports[i] = Some(run(&config.slaves[i], tx));
-            rx.try_iter().for_each(|e| on_event(&e));
-        }
-        // Until every slave's thread let go of its sender.
-        for e in &events {
-            on_event(&e);
-        }
-        for (i, t) in threads {
-            match t.join() {
-                Ok(r) => reports[i] = Some(r),
-                Err(p) => std::panic::resume_unwind(p),
-            }
-        }
-        reports.into_iter().flatten().collect()
-    });
+        })
+        .collect();
 
     let mandatory_ok = reports.iter().all(|r| !r.mandatory || r.booted());
     if config.master.start == StartPolicy::All && mandatory_ok {

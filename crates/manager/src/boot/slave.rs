@@ -6,14 +6,13 @@
 use canola::{Duration, Instant, Network, ObjectAddress};
 
 use super::failure::{Failure, is_timeout, mismatch, to_u32};
-use super::life::sign_of_life;
 use super::report::{
     BootEvent, BootStep, ConfigOutcome, SlaveReport, SlaveStatus, SoftwareOutcome,
 };
 use crate::codes::BootErrorCode;
 use crate::config::{NetworkConfig, SlaveConfig};
 
-/// Where the events of a slave's boot go (a channel to the thread that calls the caller's
+/// Where the events of a slave's boot go (a channel the boot empties into the caller's
 /// callback).
 pub(super) type Emit<'a> = &'a (dyn Fn(BootEvent) + Sync);
 
@@ -176,7 +175,6 @@ impl SlaveBoot<'_> {
         let hb = self.dcf_u32(0x1017) & 0xFFFF;
         let (gt, lf) = (self.dcf_u32(0x100C) & 0xFFFF, self.dcf_u32(0x100D) & 0xFF);
         let guarding = hb == 0 && gt > 0 && lf > 0;
-        let events = self.net.subscribe();
         let since = self.net.now();
         let window = if guarding {
             self.net
@@ -189,7 +187,11 @@ impl SlaveBoot<'_> {
         } else {
             self.config.master.boot_timeout
         };
-        let alive = sign_of_life(self.net, node, events, since, since + window, !guarding)
+        let alive = self
+            .net
+            .node(node)
+            .nmt()
+            .wait_for_life((!guarding).then_some(since), since + window)
             .await
             .map_err(|e| self.no_state(guarding, &format!("no answer with the node state: {e}")))?;
         if !alive {

@@ -5,7 +5,6 @@
 use canola::{Duration, ObjectAddress, Value};
 
 use super::failure::{Failure, is_timeout, verify_stamp};
-use super::life::sign_of_life;
 use super::report::{BootEvent, BootStep, ConfigOutcome, SlaveStatus, SoftwareOutcome};
 use super::slave::SlaveBoot;
 use crate::codes::BootErrorCode;
@@ -221,7 +220,6 @@ impl SlaveBoot<'_> {
         if want == ErrorControl::None {
             return Ok(());
         }
-        let events = self.net.subscribe();
         let since = self.net.now();
         let (window, what, guarding) = if hb_ms > 0 {
             let consumer_ms =
@@ -270,7 +268,11 @@ impl SlaveBoot<'_> {
             detail: format!("{what}: {why}"),
             absent: false,
         };
-        let alive = sign_of_life(self.net, node, events, since, since + window, !guarding)
+        let alive = self
+            .net
+            .node(node)
+            .nmt()
+            .wait_for_life((!guarding).then_some(since), since + window)
             .await
             .map_err(|e| no_life(format!("no sign of life: {e}")))?;
         if !alive {
