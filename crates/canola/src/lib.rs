@@ -13,8 +13,9 @@
 //! * [`network`]: [`Network`] owns one transport, its clock and one machine, and steps them
 //!   (whoever waits drives, or the background driver); [`Node`], [`Nmt`], [`Sdo`] and
 //!   [`Pending`] are the API on it. Every call that waits on the bus returns an [`Operation`],
-//!   written once as async code over three waiting primitives and finished by
-//!   [`Operation::wait`] (blocking) or `.await`.
+//!   written once as async code over a few waiting primitives and finished by
+//!   [`Operation::wait`] (blocking) or `.await`; [`join_all`] runs several together on one
+//!   thread.
 //! * Services over the network: [`lss`] (CiA 305), [`scan`], [`typed`] values, PDOs
 //!   ([`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO parameters, [`Rpdos::start`]
 //!   transmits RPDOs through the `canola-pdo` engine; TPDOs arrive decoded as
@@ -82,7 +83,9 @@ pub use describe::{
 pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
-pub use network::{Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue};
+pub use network::{
+    Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue, join_all, wait_all_with,
+};
 pub use pdo_access::{
     DamSender, MappedVariable, Mpdos, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,
 };

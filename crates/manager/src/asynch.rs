@@ -1,9 +1,12 @@
 //! The async API (`tokio` feature): the boot and the audit from a tokio runtime, each event as
 //! it happens.
 //!
-//! The same boot and audit loops as the blocking [`boot_with`] and [`audit_with`] run on tokio's
-//! blocking pool (they drive the network, which blocks); their events come through a channel the
-//! caller awaits. There is no second implementation of either.
+//! The blocking [`boot_with`] and [`audit_with`] themselves run on tokio's blocking pool (they
+//! drive the network, which blocks: the boot runs every slave's straight-line body on that one
+//! thread with `canola::wait_all_with`); their events come through a channel the caller
+//! awaits. There is no second implementation of either. (Awaiting the slaves' bodies on tokio
+//! instead would put a virtual-clock bus on tokio's clock, so a simulated boot would take its
+//! heartbeat windows in real time.)
 
 use canola::Network;
 use tokio::sync::mpsc;

@@ -16,10 +16,14 @@ fn data(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// valve.dcf with a SYNC COB-ID (0x1005) whose configured value is `value`.
+/// valve.dcf with a SYNC COB-ID (0x1005) whose configured value is `value`, in a directory of
+/// its own per call (tests running at once with the same value must not share the file: one
+/// rewriting it while another reads it gives the reader an empty file).
 fn config(value: &str) -> NetworkConfig {
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let dir = std::env::temp_dir().join(format!(
-        "canola-manager-restricted-{}-{value}",
+        "canola-manager-restricted-{}-{call}-{value}",
         std::process::id()
     ));
     std::fs::create_dir_all(&dir).unwrap();

@@ -82,6 +82,9 @@ pub(crate) struct Core {
     boots_taken: BTreeMap<NodeId, u64>,
     /// Each node's latest EMCY (one per node: bounded by the node-IDs).
     emcys: BTreeMap<NodeId, canola_nmt::EmcyEvent>,
+    /// Per node, how many state changes and recoveries its heartbeat or node guarding
+    /// reported: a wait for a sign of life compares counts.
+    life_reports: BTreeMap<NodeId, u64>,
     subs: Subscribers,
     /// Quiet time between two transfers to the same node, so that a late or duplicated
     /// response to the finished transfer reaches an idle client (which ignores it) rather
@@ -136,6 +139,7 @@ impl Core {
             boots: BTreeMap::new(),
             boots_taken: BTreeMap::new(),
             emcys: BTreeMap::new(),
+            life_reports: BTreeMap::new(),
             subs: Subscribers::default(),
             settle: Duration::from_millis(1),
             lss: None,
@@ -206,7 +210,23 @@ impl Core {
     }
 
     pub(crate) fn publish(&mut self, ev: NetworkEvent) {
+        use canola_nmt::{GuardingEvent, HeartbeatEvent};
+        if let NetworkEvent::Heartbeat(
+            HeartbeatEvent::StateChanged { node, .. } | HeartbeatEvent::Recovered { node, .. },
+        )
+        | NetworkEvent::Guarding(
+            GuardingEvent::StateChanged { node, .. } | GuardingEvent::Recovered { node, .. },
+        ) = &ev
+        {
+            *self.life_reports.entry(*node).or_insert(0) += 1;
+        }
         self.subs.deliver(ev);
+    }
+
+    /// How many state changes and recoveries the heartbeat or node guarding of `node` reported
+    /// since the network started.
+    pub(crate) fn life_reports(&self, node: NodeId) -> u64 {
+        self.life_reports.get(&node).copied().unwrap_or(0)
     }
 
     /// Holds the channel subscribers' events back until [`release_events`](Self::release_events):

@@ -472,6 +472,36 @@ impl Network {
     }
 }
 
+impl Network {
+    /// One driving step for a waiter that checks its condition itself, between steps (the
+    /// loop of a blocking [`join_all`](crate::join_all)): no step waits past `deadline`. When
+    /// another thread drives, waits for it to make progress instead (a short while at most).
+    pub(crate) fn step_once(&self, deadline: Option<Instant>) -> Result<(), Error> {
+        match self.inner.io.try_lock() {
+            Ok(mut io) => {
+                self.count_waiter_step();
+                self.step(&mut io, deadline).map(|_| ())
+            }
+            Err(_) => {
+                let c = self.core();
+                self.inner.waiting.fetch_add(1, Ordering::SeqCst);
+                let _ = relock(
+                    self.inner
+                        .cond
+                        .wait_timeout(c, std::time::Duration::from_millis(5)),
+                );
+                self.inner.waiting.fetch_sub(1, Ordering::SeqCst);
+                Ok(())
+            }
+        }
+    }
+
+    /// Whether `other` is a handle to this same network.
+    pub(crate) fn same(&self, other: &Network) -> bool {
+        Arc::ptr_eq(&self.inner, &other.inner)
+    }
+}
+
 /// The background driver's loop: one step whenever no waiting thread drives, until `stop` is
 /// set, the network is gone or the transport fails.
 pub(crate) fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) {

@@ -50,5 +50,5 @@ pub(crate) mod tokio_driving;
 
 pub use handle::{DEFAULT_SDO_TIMEOUT, Network};
 pub use node::{Nmt, Node, ParameterGroup};
-pub use operation::Operation;
+pub use operation::{Operation, join_all, wait_all_with};
 pub use request::{Pending, Sdo, SdoValue};

@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use canola_frame::{Duration, NodeId};
+use canola_frame::{Duration, Instant, NodeId};
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::ObjectDictionary;
 use canola_sdo::{Method, SdoCobIds};
@@ -250,6 +250,39 @@ impl Nmt {
                 }
             })
             .await?
+        })
+    }
+
+    /// Waits (driving the network) for a sign of life of the node, as a master checks one after
+    /// starting its error control (CiA 302-2): a state change or a recovery that its heartbeat
+    /// or node guarding reports after this call, or, with `heartbeat_after`, any heartbeat
+    /// (or boot-up) received after that instant. `Ok(false)` when the network's clock reaches
+    /// `deadline` first.
+    pub fn wait_for_life(
+        &self,
+        heartbeat_after: Option<Instant>,
+        deadline: Instant,
+    ) -> Operation<'static, bool> {
+        let net = self.net.clone();
+        let node = match self.node() {
+            Ok(node) => node,
+            Err(e) => return Operation::ready(Err(e)),
+        };
+        // Counted now: what was reported before the call is no sign of life.
+        let reported = net.core().life_reports(node);
+        Operation::new(async move {
+            operation::until(&net, Some(deadline), move |c| {
+                let heard = heartbeat_after
+                    .is_some_and(|since| c.last_heartbeat(node).is_some_and(|t| t > since));
+                if heard || c.life_reports(node) > reported {
+                    Some(true)
+                } else if c.now() >= deadline {
+                    Some(false)
+                } else {
+                    None
+                }
+            })
+            .await
         })
     }
 

@@ -1,22 +1,33 @@
 //! [`Operation`]: what every facade call that waits on the bus returns, finished either by
-//! [`wait`](Operation::wait) (blocking) or by `.await` (`tokio` feature).
+//! [`wait`](Operation::wait) (blocking) or by `.await` (`tokio` feature); and [`join_all`],
+//! which runs several operations together.
 //!
-//! Each operation is written once, as straight-line async code over three primitives of this
+//! Each operation is written once, as straight-line async code over a few primitives of this
 //! module: [`until`] (drive the network until a condition on the core holds), [`run_request`]
-//! (one SDO request to its end) and [`wait_requests`] (several at once). How a primitive
-//! waits depends on who finishes the operation:
+//! (one SDO request to its end), [`wait_requests`] (several at once), [`run_until`] (let bus
+//! time pass) and [`flush`]. How a primitive waits depends on who finishes the operation, a
+//! thread-local mode:
 //!
 //! * [`Operation::wait`] polls the body on the calling thread with the primitives in blocking
 //!   mode: each one drives the network itself until it is done (whoever waits drives, see
-//!   [`crate::network`]), so every await is ready at once and the thread never parks.
+//!   [`crate::network`]), so every await is ready at once and the thread never parks. Several
+//!   operations awaited in one body therefore run one after another.
+//! * A waited [`join_all`] polls its operations in joined mode: a primitive that is not done
+//!   checks its condition once, leaves its network and deadline in a thread-local and returns
+//!   `Pending` (a request is submitted first, then waited for the same way). When every
+//!   operation has been polled, the join drives each network waited on one step, no further
+//!   than the earliest deadline left (and the network's own next timer, as any step), and
+//!   polls them again. One thread, no timer tick: on a virtual-clock bus the run is
+//!   deterministic, and the operations overlap on the bus as they would from several threads.
+//!   A step that fails gives its error to the next wait on that network.
 //! * `.await` runs the same body on a tokio task: the primitives wait as `crate::asynch`
 //!   describes (a virtual-clock bus follows tokio's clock; a real clock waits on tokio's
-//!   blocking pool).
+//!   blocking pool), and a join is a future that polls its operations.
 //!
-//! Dropping an operation (or its future) before it ends cancels its SDO requests: a queued one
-//! is removed, a running transfer is aborted on the bus (0x08000000).
+//! Dropping an operation (or its future, or a join holding it) before it ends cancels its SDO
+//! requests: a queued one is removed, a running transfer is aborted on the bus (0x08000000).
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::Arc;
@@ -50,10 +61,13 @@ pub struct Operation<'a, T, E = Error> {
     body: Body<'a, T, E>,
 }
 
+/// An operation as a future: its code, or its one request made code.
+type BoxedBody<'a, T, E> = Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>;
+
 /// What an operation runs.
 enum Body<'a, T, E> {
     /// Straight-line async code over the primitives.
-    Code(Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>),
+    Code(BoxedBody<'a, T, E>),
     /// One SDO (or USDO) request, the commonest operation, held as it is: a blocking wait runs
     /// it with no future or waker made for it (`Network::run`, as the code form's blocking
     /// path does). `tests/operation.rs` checks that both forms give the same results.
@@ -157,7 +171,7 @@ impl<'a, T, E> Operation<'a, T, E> {
             }
             Body::Code(body) => body,
         };
-        let _mode = BlockingMode::enter();
+        let _mode = ModeGuard::enter(Mode::Blocking);
         let waker = THREAD_WAKER.with(Waker::clone);
         let mut cx = Context::from_waker(&waker);
         loop {
@@ -175,7 +189,7 @@ impl<'a, T, E> Operation<'a, T, E> {
 /// `asynch` module); without it, it blocks as [`Operation::wait`] does.
 impl<'a, T: 'a, E: 'a> std::future::IntoFuture for Operation<'a, T, E> {
     type Output = Result<T, E>;
-    type IntoFuture = Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>;
+    type IntoFuture = BoxedBody<'a, T, E>;
 
     fn into_future(self) -> Self::IntoFuture {
         match self.body {
@@ -197,34 +211,88 @@ impl Wake for ThreadWaker {
     }
 }
 
+/// How the primitives polled on this thread wait.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// On tokio (`.await` with the `tokio` feature): see the `asynch` module.
+    Async,
+    /// Inside [`Operation::wait`]: each primitive drives the network itself until it is done.
+    Blocking,
+    /// Inside the blocking loop of a [`join_all`]: a primitive that is not done says what it
+    /// waits for (its network, its deadline) in [`JOINED`] and returns `Pending`; the loop
+    /// drives the network one step and polls again.
+    Joined,
+}
+
 thread_local! {
-    /// Whether the primitives polled on this thread wait by blocking (inside
-    /// [`Operation::wait`]).
-    static BLOCKING: Cell<bool> = const { Cell::new(false) };
+    /// How the primitives polled on this thread wait (outside any wait: `Async`).
+    static MODE: Cell<Mode> = const { Cell::new(Mode::Async) };
     /// This thread's waker, made once.
     static THREAD_WAKER: Waker = Waker::from(Arc::new(ThreadWaker(std::thread::current())));
+    /// What the bodies of a blocking join wait for (see [`Mode::Joined`]).
+    static JOINED: RefCell<Waits> = const { RefCell::new(Waits::new()) };
 }
 
-/// Blocking mode for this thread while it lives (restores the mode it found: a blocking wait
-/// inside an async task ends in async mode again).
-struct BlockingMode(bool);
+/// What the pending primitives of a blocking join wait for.
+struct Waits {
+    /// Each network waited on (once), with the earliest deadline a wait on it gave.
+    nets: Vec<(Network, Option<Instant>)>,
+    /// The driving steps of the join that failed, by network: each error goes to the next
+    /// wait on its network (whoever drives gets the error, as in a blocking wait).
+    failed: Vec<(Network, Error)>,
+}
 
-impl BlockingMode {
-    fn enter() -> Self {
-        Self(BLOCKING.with(|b| b.replace(true)))
+impl Waits {
+    const fn new() -> Self {
+        Self {
+            nets: Vec::new(),
+            failed: Vec::new(),
+        }
+    }
+
+    /// A wait on `net` that may end by time alone at `deadline`.
+    fn wait_on(&mut self, net: &Network, deadline: Option<Instant>) {
+        match self.nets.iter_mut().find(|(n, _)| n.same(net)) {
+            Some((_, d)) => {
+                *d = match (*d, deadline) {
+                    (Some(a), Some(b)) => Some(a.min(b)),
+                    (a, b) => a.or(b),
+                }
+            }
+            None => self.nets.push((net.clone(), deadline)),
+        }
+    }
+
+    /// The error of a failed step on `net`, for one wait.
+    fn take_failure(&mut self, net: &Network) -> Option<Error> {
+        let i = self.failed.iter().position(|(n, _)| n.same(net))?;
+        Some(self.failed.swap_remove(i).1)
     }
 }
 
-impl Drop for BlockingMode {
+/// A mode for this thread while it lives (restores the mode it found: a blocking wait inside
+/// an async task ends in async mode again, one inside a join's body in joined mode).
+struct ModeGuard(Mode);
+
+impl ModeGuard {
+    fn enter(mode: Mode) -> Self {
+        Self(MODE.with(|m| m.replace(mode)))
+    }
+}
+
+impl Drop for ModeGuard {
     fn drop(&mut self) {
-        BLOCKING.with(|b| b.set(self.0));
+        MODE.with(|m| m.set(self.0));
     }
 }
 
-/// Whether a primitive polled now waits by blocking. Without the `tokio` feature there is no
-/// other way.
-fn blocking() -> bool {
-    !cfg!(feature = "tokio") || BLOCKING.with(Cell::get)
+/// How a primitive polled now waits. Without the `tokio` feature there is no async mode: an
+/// operation awaited outside a wait blocks.
+fn mode() -> Mode {
+    match MODE.with(Cell::get) {
+        Mode::Async if !cfg!(feature = "tokio") => Mode::Blocking,
+        m => m,
+    }
 }
 
 /// Brings a virtual clock up to tokio's time before an operation stamps "now" (a request's
@@ -232,7 +300,7 @@ fn blocking() -> bool {
 /// real clock.
 pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
     #[cfg(feature = "tokio")]
-    if !blocking() {
+    if mode() == Mode::Async {
         return super::tokio_driving::catch_up(net);
     }
     let _ = net;
@@ -247,18 +315,208 @@ pub(crate) async fn until<T: Send + 'static>(
     deadline: Option<Instant>,
     done: impl FnMut(&mut Core) -> Option<T> + Send + 'static,
 ) -> Result<T, Error> {
-    #[cfg(feature = "tokio")]
-    if !blocking() {
-        return super::tokio_driving::wait_until(net, deadline, done).await;
+    match mode() {
+        #[cfg(feature = "tokio")]
+        Mode::Async => super::tokio_driving::wait_until(net, deadline, done).await,
+        Mode::Joined => joined_until(net, deadline, done).await,
+        _ => net.wait_for_by(deadline, done),
     }
-    net.wait_for_by(deadline, done)
+}
+
+/// [`until`] in a join's blocking loop: checks `done` once per poll; if it is not done, says
+/// what it waits for (see [`Mode::Joined`]) and returns `Pending`.
+async fn joined_until<T>(
+    net: &Network,
+    deadline: Option<Instant>,
+    mut done: impl FnMut(&mut Core) -> Option<T>,
+) -> Result<T, Error> {
+    std::future::poll_fn(|_| {
+        if let Some(e) = JOINED.with(|w| w.borrow_mut().take_failure(net)) {
+            return Poll::Ready(Err(e));
+        }
+        if let Some(v) = done(&mut net.core()) {
+            return Poll::Ready(Ok(v));
+        }
+        JOINED.with(|w| w.borrow_mut().wait_on(net, deadline));
+        Poll::Pending
+    })
+    .await
+}
+
+/// Runs several operations together and gives their results in their order, each as it ended
+/// (one failing does not end the others). The join itself does not fail: its error type is the
+/// operations' own so that it reads like them (`join_all(ops).wait()?`).
+///
+/// * [`wait`](Operation::wait)ed (or awaited without the `tokio` feature), it runs them all on
+///   the calling thread: it polls every unfinished operation; each one that waits on the bus
+///   says for which network and until when, and the join drives each such network one step
+///   (up to the earliest of those deadlines and the network's own next timer), then polls
+///   again. No thread is started and nothing polls on a timer, so on a virtual-clock bus the
+///   run is deterministic, and operations on different nodes overlap on the bus as they would
+///   from several threads: two nodes' reads take about the bus time of one.
+/// * Awaited on tokio, it is a future that polls every operation (each waits as async
+///   operations do).
+///
+/// Dropping the join unfinished drops the operations (their SDO transfers are cancelled).
+/// Operations may nest: one of them can await several operations, or a join of its own.
+///
+/// ```
+/// use canola::{MemoryBus, Network, NodeId, SimDevice, join_all};
+///
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let bus = MemoryBus::new();
+/// let net = Network::new(bus.endpoint());
+/// let eds = &include_bytes!("../../../../eds/burkert-generic.eds")[..];
+/// for id in [5, 6] {
+///     bus.attach(SimDevice::from_eds(NodeId::new(id)?, eds)?);
+/// }
+/// let reads = [5, 6].map(|id| net.node(NodeId::new(id).unwrap()).sdo().read((0x1018, 1)));
+/// let vendors = join_all(reads).wait()?;
+/// assert_eq!(vendors.len(), 2);
+/// assert!(vendors.iter().all(Result::is_ok));
+/// # Ok(())
+/// # }
+/// ```
+pub fn join_all<'a, T: Send + 'a, E: Send + 'a>(
+    ops: impl IntoIterator<Item = Operation<'a, T, E>>,
+) -> Operation<'a, Vec<Result<T, E>>, E> {
+    let bodies: Vec<_> = ops
+        .into_iter()
+        .map(|op| Some(std::future::IntoFuture::into_future(op)))
+        .collect();
+    let results = bodies.iter().map(|_| None).collect();
+    Operation::new(Join { bodies, results })
+}
+
+/// The body of [`join_all`]'s operation.
+struct Join<'a, T, E> {
+    /// The operations not finished yet (`None` once finished).
+    bodies: Vec<Option<BoxedBody<'a, T, E>>>,
+    /// Their results, as they come.
+    results: Vec<Option<Result<T, E>>>,
+}
+
+impl<T, E> Join<'_, T, E> {
+    /// Polls every unfinished operation once; whether all are finished.
+    fn poll_all(&mut self, cx: &mut Context<'_>) -> bool {
+        let mut all = true;
+        for (body, result) in self.bodies.iter_mut().zip(&mut self.results) {
+            if let Some(f) = body {
+                match f.as_mut().poll(cx) {
+                    Poll::Ready(r) => {
+                        *result = Some(r);
+                        *body = None;
+                    }
+                    Poll::Pending => all = false,
+                }
+            }
+        }
+        all
+    }
+
+    fn results(&mut self) -> Vec<Result<T, E>> {
+        std::mem::take(&mut self.results)
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+}
+
+// Nothing in a join is pinned in place: the operations are boxed, the results only moved.
+impl<T, E> Unpin for Join<'_, T, E> {}
+
+impl<T, E> Future for Join<'_, T, E> {
+    type Output = Result<Vec<Result<T, E>>, E>;
+
+    fn poll(self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
+        let this = self.get_mut();
+        if mode() != Mode::Blocking {
+            // Awaited on tokio, or inside another join (whose loop drives).
+            return match this.poll_all(cx) {
+                true => Poll::Ready(Ok(this.results())),
+                false => Poll::Pending,
+            };
+        }
+        this.drive(cx, &mut || {}).map(Ok)
+    }
+}
+
+impl<T, E> Join<'_, T, E> {
+    /// The blocking loop of a waited join: polls the operations, drives the networks they wait
+    /// on one step each, calls `between`, and again, until all are finished (or those left
+    /// wait on something else than the bus: `Pending`, with `cx` woken for it).
+    fn drive(
+        &mut self,
+        cx: &mut Context<'_>,
+        between: &mut dyn FnMut(),
+    ) -> Poll<Vec<Result<T, E>>> {
+        let _joined = ModeGuard::enter(Mode::Joined);
+        // What an enclosing join's round gathered so far (a body of it that waits on this
+        // join by blocking), given back when this loop ends.
+        let _outer = OuterWaits(JOINED.with(|w| w.replace(Waits::new())));
+        loop {
+            let all = self.poll_all(cx);
+            // A failure nobody took (its waits ended meanwhile) is dropped with the round.
+            let waits = JOINED.with(|w| w.replace(Waits::new()));
+            if all {
+                return Poll::Ready(self.results());
+            }
+            if waits.nets.is_empty() {
+                // The pending operations wait on something else than the bus, which wakes
+                // this thread (see `Operation::wait`).
+                return Poll::Pending;
+            }
+            for (net, deadline) in waits.nets {
+                if let Err(e) = net.step_once(deadline) {
+                    JOINED.with(|w| w.borrow_mut().failed.push((net, e)));
+                }
+            }
+            between();
+        }
+    }
+}
+
+/// [`join_all`] waited on, calling `between` on this thread after every driving step: where
+/// the operations hand out what they produce as they go to something that cannot go into an
+/// operation (an operation is `Send`; a caller's event callback need not be). The operations
+/// can, say, send events into a channel that `between` empties into the callback: they then
+/// reach it in order, at most one step late. Gives the results in the operations' order.
+pub fn wait_all_with<'a, T: Send + 'a, E: Send + 'a>(
+    ops: impl IntoIterator<Item = Operation<'a, T, E>>,
+    mut between: impl FnMut(),
+) -> Vec<Result<T, E>> {
+    let bodies: Vec<_> = ops
+        .into_iter()
+        .map(|op| Some(std::future::IntoFuture::into_future(op)))
+        .collect();
+    let results = bodies.iter().map(|_| None).collect();
+    let mut join = Join { bodies, results };
+    let _mode = ModeGuard::enter(Mode::Blocking);
+    let waker = THREAD_WAKER.with(Waker::clone);
+    let mut cx = Context::from_waker(&waker);
+    loop {
+        match join.drive(&mut cx, &mut between) {
+            Poll::Ready(r) => return r,
+            Poll::Pending => std::thread::park_timeout(std::time::Duration::from_millis(1)),
+        }
+    }
+}
+
+/// Gives an enclosing join's waits back when dropped.
+struct OuterWaits(Waits);
+
+impl Drop for OuterWaits {
+    fn drop(&mut self) {
+        let outer = std::mem::replace(&mut self.0, Waits::new());
+        JOINED.with(|w| *w.borrow_mut() = outer);
+    }
 }
 
 /// Sends what the core has queued, waiting for the transport if another thread holds it (a
 /// service that ends on a frame without an answer returns once the frame is on the bus).
 pub(crate) async fn flush(net: &Network) -> Result<(), Error> {
     #[cfg(feature = "tokio")]
-    if !blocking() {
+    if mode() == Mode::Async {
         return super::tokio_driving::flush(net).await;
     }
     net.flush()
@@ -266,7 +524,7 @@ pub(crate) async fn flush(net: &Network) -> Result<(), Error> {
 
 /// Drives the network until `until` on its clock.
 pub(crate) async fn run_until(net: &Network, until: Instant) -> Result<(), Error> {
-    if blocking() {
+    if mode() == Mode::Blocking {
         return net.step_until(until);
     }
     self::until(net, Some(until), move |c| (c.now() >= until).then_some(())).await
@@ -275,7 +533,7 @@ pub(crate) async fn run_until(net: &Network, until: Instant) -> Result<(), Error
 /// Runs one SDO request to its end. Blocking, the first driving step starts under the lock the
 /// submission took (see `Network::run`).
 pub(crate) async fn run_request(net: &Network, req: SdoRequest) -> Result<Completion, SdoError> {
-    if blocking() {
+    if mode() == Mode::Blocking {
         return net.run(req);
     }
     let (node, entry) = (req.node, req.entry);

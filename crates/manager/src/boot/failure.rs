@@ -1,13 +1,13 @@
-//! The pieces the per-slave boot shares: a failed step as it ends a slave's boot, what the
-//! network reported since the last look, and the checks of values read against the DCF.
+//! The pieces the per-slave boot shares: a failed step as it ends a slave's boot, and the
+//! checks of values read against the DCF.
 
-use canola::{NodeId, ObjectAddress, SdoError, SdoErrorKind};
+use canola::{Error, ObjectAddress, SdoErrorKind};
 
 use super::report::BootStep;
 use crate::codes::BootErrorCode;
 use crate::config::SlaveConfig;
 
-/// A failed step, as the slave's boot thread ends with it.
+/// A failed step, as a slave's boot ends with it.
 pub(super) struct Failure {
     pub(super) step: BootStep,
     pub(super) code: BootErrorCode,
@@ -18,25 +18,22 @@ pub(super) struct Failure {
 }
 
 impl Failure {
-    pub(super) fn sdo(step: BootStep, code: BootErrorCode, e: &SdoError) -> Self {
+    /// The failure of an SDO transfer at `at` (the object the SDO error names, when it is
+    /// one).
+    pub(super) fn sdo(step: BootStep, code: BootErrorCode, at: ObjectAddress, e: &Error) -> Self {
+        let (object, abort) = match e {
+            Error::Sdo(e) => (e.entry, e.abort_code().map(|c| c.get())),
+            _ => (at, None),
+        };
         Self {
             step,
             code,
-            object: Some(e.entry),
-            abort: e.abort_code().map(|c| c.get()),
+            object: Some(object),
+            abort,
             detail: e.to_string(),
             absent: false,
         }
     }
-}
-
-/// What the network reported since the last poll, by node.
-#[derive(Default)]
-pub(super) struct Seen {
-    /// A state change or recovery by heartbeat or guarding: the node is alive.
-    pub(super) life: Vec<NodeId>,
-    /// A boot-up message.
-    pub(super) boot_ups: Vec<NodeId>,
 }
 
 pub(super) fn to_u32(bytes: &[u8]) -> u32 {
@@ -47,10 +44,10 @@ pub(super) fn to_u32(bytes: &[u8]) -> u32 {
 }
 
 /// Whether the SDO failed by the response timeout.
-pub(super) fn is_timeout(e: &SdoError) -> bool {
+pub(super) fn is_timeout(e: &Error) -> bool {
     matches!(
-        e.kind,
-        SdoErrorKind::Transfer(canola::sdo::ErrorKind::Timeout)
+        e,
+        Error::Sdo(e) if matches!(e.kind, SdoErrorKind::Transfer(canola::sdo::ErrorKind::Timeout))
     )
 }
 

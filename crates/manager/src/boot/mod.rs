@@ -9,10 +9,10 @@
 //! 0x1020 written last), error control start (heartbeat consumer from 0x1017, or node guarding)
 //! — then NMT start, per slave or all together once every mandatory slave has booted.
 
+use std::sync::mpsc;
 use std::time::Instant as WallInstant;
 
-use canola::nmt::GuardingEvent;
-use canola::{CommandSpecifier, Duration, HeartbeatEvent, Network, NetworkEvent};
+use canola::{CommandSpecifier, Network, Operation};
 
 pub use crate::config::configured_values;
 use crate::config::{NetworkConfig, StartPolicy};
@@ -22,26 +22,23 @@ mod report;
 mod slave;
 mod steps;
 
-use failure::Seen;
 pub use report::{
     BootEvent, BootReport, BootStep, ConfigOutcome, SlaveReport, SlaveStatus, SoftwareOutcome,
 };
-use slave::SlaveBoot;
 
 /// Boots the network `net` as `config` describes; blocks until done.
 pub fn boot(net: &Network, config: &NetworkConfig) -> BootReport {
     boot_with(net, config, |_| {})
 }
 
-/// How finely the boot loop drives the network between looking at its slaves' requests: a
-/// finished SDO is followed up at most this late.
-const TICK: Duration = Duration::from_micros(20);
-
 /// [`boot`], calling `on_event` for every step of every slave.
 ///
-/// One thread drives every slave's boot: each slave is a small machine with at most one SDO
-/// request in flight, and the facade runs requests to different nodes together on the bus. (One
-/// thread rather than one per slave keeps a virtual-clock bus deterministic.)
+/// Each slave's boot is one straight-line body of awaited operations; all of them run together
+/// on the calling thread ([`canola::wait_all_with`]: the bodies are polled in turn and the
+/// network is driven one step between rounds), so the slaves' SDOs run in parallel on the bus
+/// and a virtual-clock bus stays deterministic. `on_event` is called on the calling thread
+/// after each driving step, in order for each slave (the events of different slaves
+/// interleave as they happen).
 pub fn boot_with(
     net: &Network,
     config: &NetworkConfig,
@@ -56,47 +53,24 @@ pub fn boot_with(
     if individually && let Some(p) = config.master.sync_period {
         net.start_sync(p);
     }
-    let events = net.subscribe();
-    let mut seen = Seen::default();
-    let mut slaves: Vec<SlaveBoot<'_>> = config
-        .slaves
-        .iter()
-        .map(|s| SlaveBoot::new(net, config, s, individually))
+    let (tx, events) = mpsc::channel();
+    let emit = move |e| {
+        // The receiving end lives until every slave is done.
+        let _ = tx.send(e);
+    };
+    let bodies = config.slaves.iter().map(|slave| {
+        let body = slave::boot_slave(net, config, slave, individually, t0, &emit);
+        Operation::new(async { Ok::<_, std::convert::Infallible>(body.await) })
+    });
+    let results = canola::wait_all_with(bodies, || events.try_iter().for_each(|e| on_event(&e)));
+    events.try_iter().for_each(|e| on_event(&e));
+    let mut reports: Vec<SlaveReport> = results
+        .into_iter()
+        .map(|r| match r {
+            Ok(r) => r,
+            Err(never) => match never {},
+        })
         .collect();
-    loop {
-        for ev in events.try_iter() {
-            match ev {
-                NetworkEvent::Heartbeat(
-                    HeartbeatEvent::StateChanged { node, .. }
-                    | HeartbeatEvent::Recovered { node, .. },
-                )
-                | NetworkEvent::Guarding(
-                    GuardingEvent::StateChanged { node, .. }
-                    | GuardingEvent::Recovered { node, .. },
-                ) => seen.life.push(node),
-                NetworkEvent::Heartbeat(HeartbeatEvent::BootUp { node })
-                | NetworkEvent::Guarding(GuardingEvent::BootUp { node }) => {
-                    seen.boot_ups.push(node)
-                }
-                _ => {}
-            }
-        }
-        let mut running = false;
-        for s in &mut slaves {
-            s.poll(&mut seen, &mut on_event);
-            running |= !s.finished;
-        }
-        seen.life.clear();
-        seen.boot_ups.clear();
-        if !running {
-            break;
-        }
-        if net.run_for(TICK).wait().is_err() {
-            // A failed transport fails every request, which the next poll reports.
-            std::thread::sleep(std::time::Duration::from_millis(1));
-        }
-    }
-    let mut reports: Vec<SlaveReport> = slaves.into_iter().map(|s| s.report).collect();
 
     let mandatory_ok = reports.iter().all(|r| !r.mandatory || r.booted());
     if config.master.start == StartPolicy::All && mandatory_ok {
