@@ -7,7 +7,8 @@
 //! starting it again, `g` by index and by name, `p`, `r`, `c`, `O` and `X`, the panes at 80x24,
 //! `/`, `s`, and `q` giving the shell back its terminal (primary screen, cooked mode); then the
 //! saved log replayed (the README's `--replay` line: pause, step, seek, `NO_COLOR`), Ctrl-C and
-//! SIGTERM ending the view.
+//! SIGTERM ending the view; a panic in the running view (a debug build's test key) giving the
+//! shell its terminal back too.
 //!
 //! Without tmux the test says it skipped, unless `CANOPEN_REQUIRE_TMUX=1` (scripts/test-all
 //! sets it and installs tmux), where a missing tmux fails it.
@@ -426,6 +427,31 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     assert!(s.contains("TOP-EXIT3=0"), "{s}");
     t.check_cooked("STTY3");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_panic_in_the_running_view_restores_the_terminal() {
+    if !tmux_or_skip() {
+        return;
+    }
+    let t = session("panic", 100, 30);
+    t.text(&format!(
+        "cd {ROOT} && RUST_BACKTRACE=0 CANOPEN_TOP_TEST_PANIC=1 '{}' --eds 5=eds/burkert-generic.eds top; echo TOP-EXIT=$?",
+        env!("CARGO_BIN_EXE_canopen")
+    ));
+    t.keys(&["Enter"]);
+    t.wait("the view with node 5", |s| {
+        row(s, ">   5").contains("PRE-OP")
+    });
+    t.keys(&["!"]);
+    let s = t.wait("the shell after the panic", |s| {
+        s.lines().any(|l| l.starts_with("TOP-EXIT="))
+    });
+    assert!(s.lines().any(|l| l.trim() == "TOP-EXIT=101"), "{s}");
+    assert!(s.contains("test panic requested"), "{s}");
+    // The primary screen: the command line typed before the view is visible again.
+    assert!(s.contains("CANOPEN_TOP_TEST_PANIC=1"), "{s}");
+    t.check_cooked("STTYP");
 }
 
 #[test]

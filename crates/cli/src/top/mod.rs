@@ -310,6 +310,7 @@ impl App {
                     break;
                 }
                 if let Event::Key(key) = event::read().map_err(CliError::Terminal)? {
+                    test_panic(&key);
                     let replay = matches!(self.source, Source::Replay(_));
                     let action = keys::handle(&mut self.mode, key, replay);
                     if action == Action::Quit {
@@ -661,3 +662,14 @@ pub(crate) fn object(
 
 #[cfg(test)]
 mod tests;
+
+/// Debug builds only: with `CANOPEN_TOP_TEST_PANIC` set, the key `!` panics, so the tmux test
+/// can see the panic hook that `ratatui::try_init` installs give the shell its terminal back.
+fn test_panic(key: &event::KeyEvent) {
+    if cfg!(debug_assertions)
+        && key.code == event::KeyCode::Char('!')
+        && std::env::var_os("CANOPEN_TOP_TEST_PANIC").is_some()
+    {
+        panic!("test panic requested with `!` (CANOPEN_TOP_TEST_PANIC)");
+    }
+}
