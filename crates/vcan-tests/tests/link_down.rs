@@ -193,14 +193,13 @@ fn link_down_during_a_block_upload_ends_it_clearly_and_the_network_recovers() {
                 set_link(false);
             }
         })
-        .read((0x2001, 0));
+        .read((0x2001, 0))
+        .wait();
     assert!(
         pulled.load(Ordering::SeqCst),
         "the transfer ended before 8 KiB: {result:?}"
     );
-    let err = result
-        .wait()
-        .expect_err("a block upload interrupted by a downed link must fail");
+    let err = result.expect_err("a block upload interrupted by a downed link must fail");
     let text = err.to_string();
     eprintln!("the interrupted transfer ended with: {text}");
     // Whether the master was sending (a block acknowledgement) or waiting when the link went,
