@@ -1,4 +1,4 @@
-//! LSS master services on the [`Network`] (CiA 305): the `canola-lss` machines driven by the
+//! LSS master services on the [`Network`](crate::Network) (CiA 305): the `canola-lss` machines driven by the
 //! network's loop. One LSS job runs at a time (LSS has one channel per bus, COB-IDs 0x7E5/0x7E4).
 //!
 //! Every service goes through one driver, `Lss::run`: it starts the machine, hands it to the
@@ -10,7 +10,7 @@ use canola_frame::{Instant, NodeId};
 
 use crate::error::Error;
 use crate::network::operation;
-use crate::network::{Network, Operation};
+use crate::network::{Driver, Operation, Sdo};
 
 // The CiA 305 vocabulary (addresses, bit timings, node-ID pools, the wire messages and the slave
 // machine), so `canola::lss` is the one LSS import of an application.
@@ -22,14 +22,7 @@ use crate::machine::lss::LssOutput;
 /// LSS master services of a network.
 #[derive(Debug, Clone)]
 pub struct Lss {
-    pub(crate) net: Network,
-}
-
-impl Network {
-    /// The LSS master (CiA 305).
-    pub fn lss(&self) -> Lss {
-        Lss { net: self.clone() }
-    }
+    pub(crate) net: Driver,
 }
 
 impl Lss {
@@ -47,14 +40,14 @@ impl Lss {
     {
         let net = self.net.clone();
         Operation::new(async move {
-            operation::catch_up(&net)?;
+            operation::catch_up(net.shared())?;
             let now = net.now();
             start(&mut machine, now).map_err(Error::Lss)?;
             net.core().start_lss(Box::new(machine));
-            let result = operation::until(&net, None, |c| c.take_lss_result()).await?;
+            let result = operation::until(net.shared(), None, |c| c.take_lss_result()).await?;
             // A machine that ends on a request without an answer (switch mode global) finishes
             // when it queues it: put it on the bus before returning.
-            operation::flush(&net).await?;
+            operation::flush(net.shared()).await?;
             let outcome = result.map_err(Error::Lss)?;
             // Another thread's LSS job started meanwhile replaces this one, and its result of
             // another kind is what arrived.
@@ -127,10 +120,10 @@ impl Lss {
         let lss = self.clone();
         let timeout = timeout.into();
         Operation::new(async move {
-            operation::catch_up(&lss.net)?;
+            operation::catch_up(lss.net.shared())?;
             let (mut in_use, pending) = lss.probe(candidates, timeout);
             let (ids, reqs): (Vec<NodeId>, Vec<operation::Req>) = pending.into_iter().unzip();
-            let results = operation::wait_requests(&lss.net, reqs).await;
+            let results = operation::wait_requests(lss.net.shared(), reqs).await;
             for (id, r) in ids.into_iter().zip(results) {
                 if answered(r.map(|c| c.data))? || lss.heard(id) {
                     in_use.insert(id);
@@ -157,7 +150,7 @@ impl Lss {
             .iter()
             .filter(|id| !in_use.contains(*id))
             .filter_map(|id| {
-                let read = self.net.node(id).sdo().timeout(timeout);
+                let read = Sdo::new(self.net.clone(), id).timeout(timeout);
                 Some((id, read.submit_read((0x1000, 0)).into_req()?))
             })
             .collect();
@@ -205,7 +198,7 @@ pub(crate) fn list_conflicts(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{MemoryBus, Nmt, SimDevice};
+    use crate::{MemoryBus, Network, Nmt, SimDevice};
     use canola_frame::{Duration, NodeId};
     use canola_lss::{Mode, NodeIdPool, SlaveConfig, Step, StoreSupport};
 

@@ -7,7 +7,7 @@
 use canola_frame::{Duration, NodeId};
 
 use crate::network::operation::{self, Req};
-use crate::network::{Network, Operation};
+use crate::network::{Driver, Operation, Sdo};
 
 /// The identity object (0x1018) of a node: sub-index 1 (vendor-ID) is mandatory, the others
 /// are `None` when the node does not implement them.
@@ -57,50 +57,44 @@ fn u32_of(bytes: &[u8]) -> Option<u32> {
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
 }
 
-impl Network {
-    /// The nodes that answer an SDO read of 0x1018:01 within `timeout`, in node-ID order, with
-    /// their identity (sub-indices 2..=4 read from each node found, all at once). Dropping the
-    /// operation cancels the reads.
-    pub fn scan(&self, timeout: impl Into<Duration>) -> Operation<'static, Vec<ScannedNode>> {
-        let timeout: Duration = timeout.into();
-        let net = self.clone();
-        Operation::new(async move {
-            operation::catch_up(&net)?;
-            let read = |node: NodeId, sub: u8| {
-                net.node(node)
-                    .sdo()
-                    .timeout(timeout)
-                    .submit_read((0x1018, sub))
-                    .into_req()
-            };
-            let first: Vec<Req> = NodeId::all().filter_map(|n| read(n, 1)).collect();
-            let found: Vec<(NodeId, u32)> = operation::wait_requests(&net, first.clone())
-                .await
-                .into_iter()
-                .zip(&first)
-                .filter_map(|(r, req)| Some((req.node, u32_of(&r.ok()?.data)?)))
-                .collect();
-            let rest: Vec<Req> = found
-                .iter()
-                .flat_map(|&(node, _)| (2..=4u8).filter_map(move |s| read(node, s)))
-                .collect();
-            let mut values = operation::wait_requests(&net, rest)
-                .await
-                .into_iter()
-                .map(|r| r.ok().as_ref().and_then(|c| u32_of(&c.data)));
-            let mut next = || values.next().flatten();
-            Ok(found
-                .into_iter()
-                .map(|(node, vendor_id)| ScannedNode {
-                    node,
-                    identity: Identity {
-                        vendor_id,
-                        product_code: next(),
-                        revision: next(),
-                        serial: next(),
-                    },
-                })
-                .collect())
-        })
-    }
+/// The scan of [`Network::scan`](crate::Network::scan) on `net`.
+pub(crate) fn scan(net: &Driver, timeout: Duration) -> Operation<'static, Vec<ScannedNode>> {
+    let net = net.clone();
+    Operation::new(async move {
+        operation::catch_up(net.shared())?;
+        let read = |node: NodeId, sub: u8| {
+            Sdo::new(net.clone(), node)
+                .timeout(timeout)
+                .submit_read((0x1018, sub))
+                .into_req()
+        };
+        let first: Vec<Req> = NodeId::all().filter_map(|n| read(n, 1)).collect();
+        let found: Vec<(NodeId, u32)> = operation::wait_requests(net.shared(), first.clone())
+            .await
+            .into_iter()
+            .zip(&first)
+            .filter_map(|(r, req)| Some((req.node, u32_of(&r.ok()?.data)?)))
+            .collect();
+        let rest: Vec<Req> = found
+            .iter()
+            .flat_map(|&(node, _)| (2..=4u8).filter_map(move |s| read(node, s)))
+            .collect();
+        let mut values = operation::wait_requests(net.shared(), rest)
+            .await
+            .into_iter()
+            .map(|r| r.ok().as_ref().and_then(|c| u32_of(&c.data)));
+        let mut next = || values.next().flatten();
+        Ok(found
+            .into_iter()
+            .map(|(node, vendor_id)| ScannedNode {
+                node,
+                identity: Identity {
+                    vendor_id,
+                    product_code: next(),
+                    revision: next(),
+                    serial: next(),
+                },
+            })
+            .collect())
+    })
 }

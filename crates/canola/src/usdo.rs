@@ -1,6 +1,6 @@
 //! CANopen FD in the master: [`Usdo`], a node's universal SDO (CiA 1301) as `node.usdo()`,
-//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`],
-//! [`Network::open_fd`]).
+//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`](crate::Driver::send_fd),
+//! [`Network::open_fd`](crate::Network::open_fd)).
 //!
 //! ```
 //! use canola::{BusConfig, MemoryBus, Network, NodeId, SimDevice};
@@ -29,95 +29,22 @@
 //! [`SdoErrorKind::FdNotSupported`](crate::SdoErrorKind::FdNotSupported) when the bus or the
 //! node has no CAN FD (nothing is sent then).
 
-use canola_frame::{Duration, FdFrame, NodeId};
+use canola_frame::{Duration, NodeId};
 use canola_od::{DataType, ObjectAddress, Value};
 
 use crate::error::Error;
 use crate::machine::usdo::data_type_of;
 use crate::machine::{Completion, DownSource, Op, SdoRequest, UpSink};
-use crate::network::{Network, Node, Operation, Pending, SdoValue};
+use crate::network::{Driver, Operation, Pending, SdoValue};
 
 pub use crate::machine::usdo::{DEFAULT_USDO_NODE_ID, EDS_FD_KEY, eds_marks_fd};
 
 /// A node's USDO client (CANopen FD) as a builder: one operation per value. Made with
-/// [`Node::usdo`].
+/// [`Node::usdo`](crate::Node::usdo).
 #[derive(Debug, Clone)]
 pub struct Usdo {
-    net: Network,
-    node: NodeId,
-}
-
-impl Node {
-    /// The node's universal SDO (CANopen FD, CiA 1301). The node must be marked CANopen FD
-    /// ([`set_fd`](Self::set_fd), or `CANopenFD=1` in the `[DeviceInfo]` of its dictionary)
-    /// and the bus must carry CAN FD.
-    pub fn usdo(&self) -> Usdo {
-        Usdo {
-            net: self.net.clone(),
-            node: self.id,
-        }
-    }
-
-    /// Marks the node as a CANopen FD device (`true`) or not (`false`), whatever its
-    /// dictionary says.
-    pub fn set_fd(&self, fd: bool) {
-        self.net.core().set_node_fd(self.id, fd);
-    }
-
-    /// Whether the node is marked CANopen FD: by [`set_fd`](Self::set_fd), else by its
-    /// dictionary ([`eds_marks_fd`]).
-    pub fn is_fd(&self) -> bool {
-        self.net.core().node_fd(self.id)
-    }
-}
-
-impl Network {
-    /// [`Network::open`] for CAN FD: the bus must carry FD frames (a SocketCAN interface with
-    /// MTU 72, the UDP bus, an slcan adapter with a data bit rate); a classic-only one is an
-    /// [`Error::Open`] saying `FD not supported on ...`.
-    pub fn open_fd(spec: &str) -> Result<Self, Error> {
-        let net = Self::new(crate::transport::BusSpec::parse(spec)?.open_fd()?);
-        net.start_driver()?;
-        Ok(net)
-    }
-
-    /// Sends a raw CAN FD frame. On a bus that carries classic frames only this is
-    /// [`TransportError::FdNotSupported`](crate::TransportError::FdNotSupported) and nothing
-    /// is queued.
-    pub fn send_fd(&self, frame: FdFrame) -> Result<(), Error> {
-        self.catch_up_on_runtime()?;
-        {
-            let mut c = self.core();
-            if let Some(bus) = c.classic_bus() {
-                return Err(crate::TransportError::fd_not_supported(bus).into());
-            }
-            c.send_raw_fd(frame);
-        }
-        self.send_queued_now()
-    }
-
-    /// Whether the bus carries CAN FD frames.
-    pub fn is_fd(&self) -> bool {
-        self.core().classic_bus().is_none()
-    }
-
-    /// Sets the master's own node-ID as a USDO client: its requests go out on 0x600 + it and
-    /// servers address their responses to it (default [`DEFAULT_USDO_NODE_ID`]). Only while
-    /// no USDO transfer runs or waits; returns whether it was set.
-    pub fn set_usdo_node_id(&self, node: NodeId) -> bool {
-        self.core().set_usdo_node_id(node)
-    }
-
-    /// The master's own node-ID as a USDO client.
-    pub fn usdo_node_id(&self) -> NodeId {
-        self.core().usdo_node_id()
-    }
-
-    /// Sets how long a USDO server may take for each response (default 1 s), for transfers
-    /// started once none runs.
-    pub fn set_usdo_timeout(&self, timeout: impl Into<Duration>) {
-        self.core().set_usdo_timeout(timeout.into());
-    }
+    pub(crate) net: Driver,
+    pub(crate) node: NodeId,
 }
 
 impl Usdo {
@@ -145,7 +72,7 @@ impl Usdo {
 
     fn submit<T>(self, entry: ObjectAddress, op: Op, output: fn(Completion) -> T) -> Pending<T> {
         let req = self.request(entry, op);
-        let id = self.net.submit(req);
+        let id = self.net.shared().submit(req);
         Pending {
             net: self.net,
             id: Some(id),
@@ -183,7 +110,7 @@ impl Usdo {
     ) -> Operation<'static, T> {
         let req = self.request(entry, op);
         let net = self.net;
-        Operation::request(net, req, output, Error::from)
+        Operation::request(net.shared, req, output, Error::from)
     }
 
     /// Reads an object's bytes (USDO upload): expedited up to 56 bytes, segmented beyond,

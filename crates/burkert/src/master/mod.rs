@@ -451,12 +451,7 @@ impl BurkertNode {
     pub fn change_node_id(&self, id: NodeId) -> Result<BurkertNode, Error> {
         self.set_node_id(id)?;
         self.reset(ResetCommand::Communication)?;
-        let net = self.node.network();
-        let node = match self.node.dictionary() {
-            Some(od) => net.add_node_with_dictionary(id, (*od).clone()),
-            None => net.add_node(id),
-        };
-        Ok(BurkertNode::new(node))
+        Ok(BurkertNode::new(self.node.with_node_id(id)))
     }
 
     /// The node's dictionary, or the generic Bürkert EDS when the node was added without one.

@@ -1,4 +1,4 @@
-//! How a [`Network`] runs: the driving step (send what the core produced, receive until its
+//! How a network runs: the driving step (send what the core produced, receive until its
 //! next deadline, feed it, fire its timers), the wait loop of every blocking call ("whoever
 //! waits drives"), and the background driver that steps when nobody waits.
 
@@ -12,7 +12,7 @@ use crate::machine::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequ
 use crate::transport::{Received, TransportError};
 use canola_od::ObjectAddress;
 
-use super::handle::{DriverSlot, Inner, Io, Network, relock};
+use super::shared::{DriverSlot, Inner, Io, Shared, relock};
 
 /// Longest a driving step waits on the transport when the core has no earlier deadline, so
 /// requests submitted by other threads start promptly on a real clock.
@@ -40,10 +40,9 @@ const MAX_REUSED_READINGS: u8 = 7;
 /// driving, so that a caller issuing requests back to back keeps the transport.
 const STEP_ASIDE: std::time::Duration = std::time::Duration::from_millis(2);
 
-impl Network {
-    /// Starts the background driver on a thread of its own (see the module docs). Does nothing
-    /// when one runs already. Use it with a real clock (SocketCAN, a real-time memory bus).
-    pub fn start_driver(&self) -> Result<(), Error> {
+impl Shared {
+    /// The body of [`Driver::start_driver`](crate::Driver::start_driver).
+    pub(crate) fn start_driver(&self) -> Result<(), Error> {
         self.install_driver(|weak, stop, error| {
             std::thread::Builder::new()
                 .name("canopen-driver".into())
@@ -83,18 +82,16 @@ impl Network {
         Ok(())
     }
 
-    /// Whether a background driver runs (started and not ended by a transport failure).
-    pub fn is_driven(&self) -> bool {
+    /// The body of [`Driver::is_driven`](crate::Driver::is_driven).
+    pub(crate) fn is_driven(&self) -> bool {
         let slot = relock(self.inner.driver.lock());
         slot.stop
             .as_ref()
             .is_some_and(|s| !s.load(Ordering::SeqCst))
     }
 
-    /// Stops the background driver and waits for its thread to end. Returns the transport
-    /// error that ended it, if one did. Stepping by [`run_for`](Self::run_for) and by waiting
-    /// calls goes on as before.
-    pub fn stop_driver(&self) -> Result<(), Error> {
+    /// The body of [`Driver::stop_driver`](crate::Driver::stop_driver).
+    pub(crate) fn stop_driver(&self) -> Result<(), Error> {
         let slot = std::mem::take(&mut *relock(self.inner.driver.lock()));
         self.inner.driven.store(false, Ordering::SeqCst);
         if let Some(stop) = &slot.stop {
@@ -117,18 +114,8 @@ impl Network {
         Ok(received)
     }
 
-    /// One driving step, for a thread that drives the network itself between looks at its own
-    /// work (several [`Pending`](crate::Pending) requests at once, new work handed over by other
-    /// threads): sends what the core has queued, receives until a frame arrives, the core's next
-    /// deadline passes, `limit` passes or a short slice (2 ms) does, handles what arrived and
-    /// fires the timers that are due. Returns whether a frame or bus event was received.
-    ///
-    /// Unlike [`run_for`](Self::run_for), which always runs for the whole time asked, it returns
-    /// as soon as something arrived, so a loop around it sees a finished request at once on a
-    /// real clock (on a virtual clock, time advances by at most `limit`). When another thread is
-    /// driving, it waits for that thread's next step instead (at most `limit`) and returns
-    /// `false`. Blocking: async code awaits the requests instead.
-    pub fn run_step(&self, limit: impl Into<Duration>) -> Result<bool, Error> {
+    /// The body of [`Driver::run_step`](crate::Driver::run_step).
+    pub(crate) fn run_step(&self, limit: impl Into<Duration>) -> Result<bool, Error> {
         let limit: Duration = limit.into();
         match self.inner.io.try_lock() {
             Ok(mut io) => {
@@ -472,7 +459,7 @@ impl Network {
     }
 }
 
-impl Network {
+impl Shared {
     /// One driving step for a waiter that checks its condition itself, between steps (the
     /// loop of a blocking [`join_all`](crate::join_all)): no step waits past `deadline`. When
     /// another thread drives, waits for it to make progress instead (a short while at most).
@@ -497,7 +484,7 @@ impl Network {
     }
 
     /// Whether `other` is a handle to this same network.
-    pub(crate) fn same(&self, other: &Network) -> bool {
+    pub(crate) fn same(&self, other: &Shared) -> bool {
         Arc::ptr_eq(&self.inner, &other.inner)
     }
 }
@@ -507,7 +494,7 @@ impl Network {
 pub(crate) fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) {
     let mut steps_seen = 0;
     while !stop.load(Ordering::SeqCst) {
-        let Some(net) = Network::upgrade(inner) else {
+        let Some(net) = Shared::upgrade(inner) else {
             return;
         };
         if net.waiter_drives(&mut steps_seen) {
@@ -540,12 +527,12 @@ pub(crate) fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option
             return;
         }
     }
-    if let Some(net) = Network::upgrade(inner) {
+    if let Some(net) = Shared::upgrade(inner) {
         net.core().wake_pdo_subscribers();
     }
 }
 
-impl Network {
+impl Shared {
     /// A background driver's end on a transport failure: the error kept for `stop_driver`, the
     /// driver told to stop, and [`NetworkEvent::TransportFailed`] published (thread and task
     /// drivers alike).

@@ -1,17 +1,18 @@
-//! [`Node`]: one node of a [`Network`]: its SDO client, its NMT control and state, PDO
-//! remapping; and [`Nmt`], NMT module control (CiA 301 §7.2.8.3.1) and a node's NMT state.
+//! [`Node`]: one node of a network: its SDO client, its NMT control and state, its USDO client
+//! and PDO handles (every handle a node makes is made here); and [`Nmt`], NMT module control (CiA 301 §7.2.8.3.1) and a node's NMT state.
 
 use std::sync::Arc;
 
 use canola_frame::{Duration, Instant, NodeId};
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::ObjectDictionary;
-use canola_sdo::{Method, SdoCobIds};
 
-use super::handle::{DEFAULT_SDO_TIMEOUT, Network};
+use super::driver::Driver;
 use super::operation::{self, Operation};
-use super::request::Sdo;
+use super::request::{NodeRef, Sdo};
 use crate::error::Error;
+use crate::pdo_access::{Mpdos, Rpdos, Tpdos};
+use crate::usdo::Usdo;
 
 /// Which parameters [`Node::store_parameters_of`] and [`Node::restore_defaults_of`] store or
 /// restore: the sub-index of 0x1010 and 0x1011 (CiA 301 §7.5.2.13).
@@ -67,7 +68,7 @@ impl ParameterGroup {
 /// A node on the network.
 #[derive(Clone, Debug)]
 pub struct Node {
-    pub(crate) net: Network,
+    pub(crate) net: Driver,
     pub(crate) id: NodeId,
 }
 
@@ -77,21 +78,37 @@ impl Node {
         self.id
     }
 
-    /// The network.
-    pub fn network(&self) -> &Network {
+    /// A handle to node `id` on `net`.
+    pub(crate) fn new(net: Driver, id: NodeId) -> Self {
+        Node { net, id }
+    }
+
+    /// The network this node is on: its [`Driver`], where the clock, subscriptions, SYNC and
+    /// the driving calls are (what a [`Network`](crate::Network) derefs to).
+    pub fn network(&self) -> &Driver {
         &self.net
+    }
+
+    /// The same device under another node-ID, after a node-ID change (by LSS, or a
+    /// manufacturer object and a reset): node `id` on the same network, added with this
+    /// node's dictionary.
+    pub fn with_node_id(&self, id: NodeId) -> Node {
+        let od = self.dictionary();
+        self.net.core().add_node(id, od);
+        Node::new(self.net.clone(), id)
+    }
+
+    /// What the PDO handles hold of this node.
+    fn node_ref(&self) -> NodeRef {
+        NodeRef {
+            net: self.net.clone(),
+            id: self.id,
+        }
     }
 
     /// The node's SDO client with default settings (normal transfer, 1 s response timeout).
     pub fn sdo(&self) -> Sdo {
-        Sdo {
-            net: self.net.clone(),
-            node: self.id,
-            channel: SdoCobIds::default_for(self.id),
-            method: Method::Normal,
-            timeout: DEFAULT_SDO_TIMEOUT,
-            progress: None,
-        }
+        Sdo::new(self.net.clone(), self.id)
     }
 
     /// NMT commands to this node, and its state (see [`Nmt::state`]).
@@ -146,7 +163,7 @@ impl Node {
 /// heartbeats, boot-up and guarding answers report it.
 ///
 /// Boot-ups are counted per node, not sampled: [`wait_for_bootup`](Self::wait_for_bootup)
-/// returns for a boot-up received since the node was added ([`Network::add_node`]; for a node
+/// returns for a boot-up received since the node was added ([`Network::add_node`](crate::Network::add_node); for a node
 /// never added, since the network started), since the last NMT command to it (or to all), or
 /// since the last wait that returned, whichever came last. It does not matter when the handle
 /// was made, nor whether a heartbeat with the next state followed at once (or the background
@@ -155,12 +172,12 @@ impl Node {
 /// boot-up of a node whose handle is made after waiting for another one is not lost.
 #[derive(Debug, Clone)]
 pub struct Nmt {
-    pub(crate) net: Network,
+    pub(crate) net: Driver,
     pub(crate) target: NmtTarget,
 }
 
 impl Nmt {
-    fn new(net: &Network, target: NmtTarget) -> Self {
+    fn new(net: &Driver, target: NmtTarget) -> Self {
         Self {
             net: net.clone(),
             target,
@@ -168,15 +185,15 @@ impl Nmt {
     }
 
     /// NMT commands to all nodes (node-ID 0).
-    pub fn all(net: &Network) -> Self {
+    pub fn all(net: &Driver) -> Self {
         Self::new(net, NmtTarget::All)
     }
 
-    /// Queues `cmd` and puts it on the bus (see [`Network::send`]).
+    /// Queues `cmd` and puts it on the bus (see [`Driver::send`]).
     fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
-        self.net.catch_up_on_runtime()?;
+        self.net.shared().catch_up_on_runtime()?;
         self.net.core().nmt(cmd, self.target);
-        self.net.send_queued_now()
+        self.net.shared().send_queued_now()
     }
 
     fn node(&self) -> Result<NodeId, Error> {
@@ -205,9 +222,9 @@ impl Nmt {
         let node = self.node();
         Operation::new(async move {
             let node = node?;
-            operation::catch_up(&net)?;
+            operation::catch_up(net.shared())?;
             let deadline = net.now() + timeout;
-            operation::until(&net, Some(deadline), move |c| {
+            operation::until(net.shared(), Some(deadline), move |c| {
                 let boots = c.boot_count(node);
                 if boots > c.boots_taken(node) {
                     c.take_boots(node, boots);
@@ -236,9 +253,9 @@ impl Nmt {
         let node = self.node();
         Operation::new(async move {
             let node = node?;
-            operation::catch_up(&net)?;
+            operation::catch_up(net.shared())?;
             let deadline = net.now() + timeout;
-            operation::until(&net, Some(deadline), move |c| {
+            operation::until(net.shared(), Some(deadline), move |c| {
                 if c.last_state(node) == Some(state) {
                     Some(Ok(()))
                 } else if c.now() >= deadline {
@@ -271,7 +288,7 @@ impl Nmt {
         // Counted now: what was reported before the call is no sign of life.
         let reported = net.core().life_reports(node);
         Operation::new(async move {
-            operation::until(&net, Some(deadline), move |c| {
+            operation::until(net.shared(), Some(deadline), move |c| {
                 let heard = heartbeat_after
                     .is_some_and(|since| c.last_heartbeat(node).is_some_and(|t| t > since));
                 if heard || c.life_reports(node) > reported {
@@ -311,25 +328,69 @@ impl Nmt {
     }
 }
 
-impl Network {
-    /// Adds a node without a dictionary (values are raw bytes).
-    pub fn add_node(&self, id: NodeId) -> Node {
-        self.core().add_node(id, None);
-        self.node(id)
-    }
-
-    /// Adds a node with its object dictionary (from an EDS/DCF or generated code): errors then
-    /// name objects, and typed reads decode values.
-    pub fn add_node_with_dictionary(&self, id: NodeId, od: ObjectDictionary) -> Node {
-        self.core().add_node(id, Some(Arc::new(od)));
-        self.node(id)
-    }
-
-    /// A handle to a node (added on first use if needed).
-    pub fn node(&self, id: NodeId) -> Node {
-        Node {
-            net: self.clone(),
-            id,
+/// CANopen FD: the node's USDO client (see the `usdo` module).
+impl Node {
+    /// The node's universal SDO (CANopen FD, CiA 1301). The node must be marked CANopen FD
+    /// ([`set_fd`](Self::set_fd), or `CANopenFD=1` in the `[DeviceInfo]` of its dictionary)
+    /// and the bus must carry CAN FD.
+    pub fn usdo(&self) -> Usdo {
+        Usdo {
+            net: self.net.clone(),
+            node: self.id,
         }
+    }
+
+    /// Marks the node as a CANopen FD device (`true`) or not (`false`), whatever its
+    /// dictionary says.
+    pub fn set_fd(&self, fd: bool) {
+        self.net.core().set_node_fd(self.id, fd);
+    }
+
+    /// Whether the node is marked CANopen FD: by [`set_fd`](Self::set_fd), else by its
+    /// dictionary ([`eds_marks_fd`](crate::usdo::eds_marks_fd)).
+    pub fn is_fd(&self) -> bool {
+        self.net.core().node_fd(self.id)
+    }
+}
+
+/// PDOs: the node's PDO handles and remapping (see the `pdo_access` module).
+impl Node {
+    /// The node's transmit PDOs: read and save their parameters (python-canopen's
+    /// `node.tpdo.read()` / `save()`); after either, the master decodes them as the node sends
+    /// them.
+    pub fn tpdo(&self) -> Tpdos {
+        Tpdos {
+            node: self.node_ref(),
+        }
+    }
+
+    /// The node's receive PDOs: read and save their parameters, and transmit them from the
+    /// master ([`Rpdos::start`]).
+    pub fn rpdo(&self) -> Rpdos {
+        Rpdos {
+            node: self.node_ref(),
+        }
+    }
+
+    /// The node's multiplexed PDOs (MPDOs).
+    pub fn mpdo(&self) -> Mpdos {
+        Mpdos {
+            node: self.node_ref(),
+        }
+    }
+
+    /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
+    /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
+    /// from `canola_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
+    /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
+    /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
+    pub fn remap_pdo(
+        &self,
+        direction: canola_pdo::Direction,
+        number: u16,
+        comm: canola_pdo::CommParams,
+        mapping: canola_pdo::Mapping,
+    ) -> Operation<'static, ()> {
+        crate::pdo_access::remap(self.node_ref(), direction, number, comm, mapping)
     }
 }

@@ -36,7 +36,7 @@ use std::task::{Context, Poll, Wake, Waker};
 use canola_frame::{Instant, NodeId};
 use canola_od::ObjectAddress;
 
-use super::handle::Network;
+use super::shared::Shared;
 use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
 use crate::machine::{Completion, Core, RequestId, SdoRequest, Taken};
 
@@ -69,14 +69,14 @@ enum Body<'a, T, E> {
     /// Straight-line async code over the primitives.
     Code(BoxedBody<'a, T, E>),
     /// One SDO (or USDO) request, the commonest operation, held as it is: a blocking wait runs
-    /// it with no future or waker made for it (`Network::run`, as the code form's blocking
+    /// it with no future or waker made for it (`Shared::run`, as the code form's blocking
     /// path does). `tests/operation.rs` checks that both forms give the same results.
     Request(OneRequest<T, E>),
 }
 
 /// One request, what its completion gives and how its error reads.
 pub(crate) struct OneRequest<T, E> {
-    net: Network,
+    net: Shared,
     req: SdoRequest,
     output: fn(Completion) -> T,
     error: fn(SdoError) -> E,
@@ -102,7 +102,7 @@ impl<'a, T, E> Operation<'a, T, E> {
     /// The operation whose body is `body`: an async block that awaits operations of this
     /// crate (and [`Pending`](crate::Pending) requests), in order, as straight-line code. It
     /// must await nothing tied to one runtime (a tokio timer): [`wait`](Self::wait) runs it
-    /// on the calling thread. Wait on the bus with [`Network::run_for`](crate::Network::run_for).
+    /// on the calling thread. Wait on the bus with [`Driver::run_for`](crate::Driver::run_for).
     ///
     /// ```
     /// use canola::{Error, MemoryBus, Network, NodeId, Operation, SimDevice};
@@ -133,7 +133,7 @@ impl<'a, T, E> Operation<'a, T, E> {
 
     /// The operation that runs `req` to its end and takes `output` from its completion.
     pub(crate) fn request(
-        net: Network,
+        net: Shared,
         req: SdoRequest,
         output: fn(Completion) -> T,
         error: fn(SdoError) -> E,
@@ -236,10 +236,10 @@ thread_local! {
 /// What the pending primitives of a blocking join wait for.
 struct Waits {
     /// Each network waited on (once), with the earliest deadline a wait on it gave.
-    nets: Vec<(Network, Option<Instant>)>,
+    nets: Vec<(Shared, Option<Instant>)>,
     /// The driving steps of the join that failed, by network: each error goes to the next
     /// wait on its network (whoever drives gets the error, as in a blocking wait).
-    failed: Vec<(Network, Error)>,
+    failed: Vec<(Shared, Error)>,
 }
 
 impl Waits {
@@ -251,7 +251,7 @@ impl Waits {
     }
 
     /// A wait on `net` that may end by time alone at `deadline`.
-    fn wait_on(&mut self, net: &Network, deadline: Option<Instant>) {
+    fn wait_on(&mut self, net: &Shared, deadline: Option<Instant>) {
         match self.nets.iter_mut().find(|(n, _)| n.same(net)) {
             Some((_, d)) => {
                 *d = match (*d, deadline) {
@@ -264,7 +264,7 @@ impl Waits {
     }
 
     /// The error of a failed step on `net`, for one wait.
-    fn take_failure(&mut self, net: &Network) -> Option<Error> {
+    fn take_failure(&mut self, net: &Shared) -> Option<Error> {
         let i = self.failed.iter().position(|(n, _)| n.same(net))?;
         Some(self.failed.swap_remove(i).1)
     }
@@ -298,7 +298,7 @@ fn mode() -> Mode {
 /// Brings a virtual clock up to tokio's time before an operation stamps "now" (a request's
 /// timeout, an LSS machine's timers, a wait's deadline). Nothing to do when blocking or on a
 /// real clock.
-pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
+pub(crate) fn catch_up(net: &Shared) -> Result<(), Error> {
     #[cfg(feature = "tokio")]
     if mode() == Mode::Async {
         return super::tokio_driving::catch_up(net);
@@ -311,7 +311,7 @@ pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
 /// clock at which `done` may change by time alone (a wait's timeout), so an async wait on a
 /// virtual clock wakes for it.
 pub(crate) async fn until<T: Send + 'static>(
-    net: &Network,
+    net: &Shared,
     deadline: Option<Instant>,
     done: impl FnMut(&mut Core) -> Option<T> + Send + 'static,
 ) -> Result<T, Error> {
@@ -326,7 +326,7 @@ pub(crate) async fn until<T: Send + 'static>(
 /// [`until`] in a join's blocking loop: checks `done` once per poll; if it is not done, says
 /// what it waits for (see [`Mode::Joined`]) and returns `Pending`.
 async fn joined_until<T>(
-    net: &Network,
+    net: &Shared,
     deadline: Option<Instant>,
     mut done: impl FnMut(&mut Core) -> Option<T>,
 ) -> Result<T, Error> {
@@ -514,7 +514,7 @@ impl Drop for OuterWaits {
 
 /// Sends what the core has queued, waiting for the transport if another thread holds it (a
 /// service that ends on a frame without an answer returns once the frame is on the bus).
-pub(crate) async fn flush(net: &Network) -> Result<(), Error> {
+pub(crate) async fn flush(net: &Shared) -> Result<(), Error> {
     #[cfg(feature = "tokio")]
     if mode() == Mode::Async {
         return super::tokio_driving::flush(net).await;
@@ -523,7 +523,7 @@ pub(crate) async fn flush(net: &Network) -> Result<(), Error> {
 }
 
 /// Drives the network until `until` on its clock.
-pub(crate) async fn run_until(net: &Network, until: Instant) -> Result<(), Error> {
+pub(crate) async fn run_until(net: &Shared, until: Instant) -> Result<(), Error> {
     if mode() == Mode::Blocking {
         return net.step_until(until);
     }
@@ -531,8 +531,8 @@ pub(crate) async fn run_until(net: &Network, until: Instant) -> Result<(), Error
 }
 
 /// Runs one SDO request to its end. Blocking, the first driving step starts under the lock the
-/// submission took (see `Network::run`).
-pub(crate) async fn run_request(net: &Network, req: SdoRequest) -> Result<Completion, SdoError> {
+/// submission took (see `Shared::run`).
+pub(crate) async fn run_request(net: &Shared, req: SdoRequest) -> Result<Completion, SdoError> {
     if mode() == Mode::Blocking {
         return net.run(req);
     }
@@ -555,7 +555,7 @@ pub(crate) struct Req {
 
 /// Cancels requests when dropped unless disarmed (an operation dropped while it waits).
 struct CancelGuard<'n> {
-    net: &'n Network,
+    net: &'n Shared,
     ids: Vec<RequestId>,
 }
 
@@ -570,7 +570,7 @@ impl Drop for CancelGuard<'_> {
 /// Waits for every request in `reqs`, in order; dropping the future cancels those still
 /// running.
 pub(crate) async fn wait_requests(
-    net: &Network,
+    net: &Shared,
     reqs: Vec<Req>,
 ) -> Vec<Result<Completion, SdoError>> {
     let mut guard = CancelGuard {
@@ -622,7 +622,7 @@ pub(crate) fn cancelled(node: NodeId, entry: ObjectAddress) -> SdoError {
 
 /// A transport failure that ended a request, as the request's error (which node and object it
 /// was for).
-fn transport_error(net: &Network, node: NodeId, entry: ObjectAddress, e: &Error) -> SdoError {
+fn transport_error(net: &Shared, node: NodeId, entry: ObjectAddress, e: &Error) -> SdoError {
     net.core().name_error(SdoError {
         node,
         entry,

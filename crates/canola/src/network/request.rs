@@ -7,7 +7,7 @@ use canola_frame::{Duration, NodeId};
 use canola_od::{DataType, Value};
 use canola_sdo::{Method, SdoCobIds};
 
-use super::handle::Network;
+use super::driver::Driver;
 use super::operation::{self, Operation};
 use crate::error::{Error, SdoError};
 use crate::machine::{
@@ -23,7 +23,7 @@ use canola_od::ObjectAddress;
 /// bus with 0x08000000).
 #[must_use = "dropping a pending request cancels it"]
 pub struct Pending<T = Vec<u8>> {
-    pub(crate) net: Network,
+    pub(crate) net: Driver,
     pub(crate) id: Option<RequestId>,
     pub(crate) node: NodeId,
     pub(crate) entry: ObjectAddress,
@@ -46,7 +46,11 @@ impl<T> Pending<T> {
     pub fn wait(mut self) -> Result<T, SdoError> {
         let output = self.output;
         match self.id.take() {
-            Some(id) => self.net.wait(id, self.node, self.entry).map(output),
+            Some(id) => self
+                .net
+                .shared()
+                .wait(id, self.node, self.entry)
+                .map(output),
             None => Err(self.cancelled()),
         }
     }
@@ -80,7 +84,7 @@ impl<T> Pending<T> {
     /// Cancels the request (same as dropping it).
     pub fn cancel(mut self) {
         if let Some(id) = self.id.take() {
-            self.net.cancel(id);
+            self.net.shared().cancel(id);
         }
     }
 
@@ -106,7 +110,7 @@ impl<T: Send + 'static> std::future::IntoFuture for Pending<T> {
                 return Err(operation::cancelled(node, entry));
             };
             let req = operation::Req { id, node, entry };
-            let mut r = operation::wait_requests(&net, vec![req]).await;
+            let mut r = operation::wait_requests(net.shared(), vec![req]).await;
             r.pop()
                 .unwrap_or_else(|| Err(operation::cancelled(node, entry)))
                 .map(output)
@@ -117,7 +121,7 @@ impl<T: Send + 'static> std::future::IntoFuture for Pending<T> {
 impl<T> Drop for Pending<T> {
     fn drop(&mut self) {
         if let Some(id) = self.id.take() {
-            self.net.cancel(id);
+            self.net.shared().cancel(id);
         }
     }
 }
@@ -170,9 +174,37 @@ impl<T: SdoValue + ?Sized> SdoValue for &T {
     }
 }
 
+/// Default SDO response timeout.
+pub const DEFAULT_SDO_TIMEOUT: Duration = Duration::from_millis(1000);
+
+/// A node of one network as the handles below [`Node`](crate::Node) hold it (the PDO
+/// handles): its driver and node-ID, and the calls they need of it.
+#[derive(Clone, Debug)]
+pub(crate) struct NodeRef {
+    pub(crate) net: Driver,
+    pub(crate) id: NodeId,
+}
+
+impl NodeRef {
+    /// The node's SDO client with default settings.
+    pub(crate) fn sdo(&self) -> Sdo {
+        Sdo::new(self.net.clone(), self.id)
+    }
+
+    /// The node's dictionary, if it was added with one.
+    pub(crate) fn dictionary(&self) -> Option<std::sync::Arc<canola_od::ObjectDictionary>> {
+        self.net.core().dictionary(self.id)
+    }
+
+    /// Whether the node is marked CANopen FD.
+    pub(crate) fn is_fd(&self) -> bool {
+        self.net.core().node_fd(self.id)
+    }
+}
+
 /// A node's SDO client (CiA 301 §7.2.4) as a builder: settings, then one operation.
 pub struct Sdo {
-    pub(crate) net: Network,
+    pub(crate) net: Driver,
     pub(crate) node: NodeId,
     pub(crate) channel: SdoCobIds,
     pub(crate) method: Method,
@@ -202,13 +234,26 @@ fn download(value: impl SdoValue) -> Op {
 }
 
 impl Sdo {
+    /// The client of `node` on `net` with default settings (normal transfer, the node's
+    /// default channel, [`DEFAULT_SDO_TIMEOUT`]).
+    pub(crate) fn new(net: Driver, node: NodeId) -> Self {
+        Sdo {
+            net,
+            node,
+            channel: SdoCobIds::default_for(node),
+            method: Method::Normal,
+            timeout: DEFAULT_SDO_TIMEOUT,
+            progress: None,
+        }
+    }
+
     /// The node this client talks to.
     pub fn node_id(&self) -> NodeId {
         self.node
     }
 
     /// The network.
-    pub fn network(&self) -> &Network {
+    pub fn network(&self) -> &Driver {
         &self.net
     }
 
@@ -253,7 +298,7 @@ impl Sdo {
     ) -> Pending<T> {
         let node = self.node;
         let (net, req) = self.into_request(entry, op);
-        let id = net.submit(req);
+        let id = net.shared().submit(req);
         Pending {
             net,
             id: Some(id),
@@ -264,7 +309,7 @@ impl Sdo {
     }
 
     /// The request for `op` on `entry` with this builder's settings, and the network.
-    fn into_request(self, entry: ObjectAddress, op: Op) -> (Network, SdoRequest) {
+    fn into_request(self, entry: ObjectAddress, op: Op) -> (Driver, SdoRequest) {
         let req = SdoRequest {
             node: self.node,
             channel: self.channel,
@@ -286,7 +331,7 @@ impl Sdo {
         output: fn(Completion) -> T,
     ) -> Operation<'static, T> {
         let (net, req) = self.into_request(entry, op);
-        Operation::request(net, req, output, Error::from)
+        Operation::request(net.shared, req, output, Error::from)
     }
 
     /// Starts an upload into memory without waiting.

@@ -1,7 +1,7 @@
 //! How an async operation waits: the one wait primitive every future of the async API uses.
 //!
 //! * **Real clock** (SocketCAN, UDP, a [`ClockMode::RealTime`](crate::transport::mem::ClockMode) memory
-//!   bus): the blocking wait loop of [`Network`] runs on tokio's blocking pool (whoever waits
+//!   bus): the blocking wait loop of the driver runs on tokio's blocking pool (whoever waits
 //!   drives, or the background driver does). A dropped future sets a flag the loop checks at
 //!   every step, so the blocking task ends within one step.
 //! * **Virtual clock** (the default memory bus): the future drives the network itself, on the
@@ -14,7 +14,7 @@
 //!   clock and fire in their order.
 //!
 //! The tie between the two clocks is one anchor per network, a pair (tokio instant, network
-//! instant) that correspond. Blocking calls on the same virtual bus ([`Network::run_for`], a
+//! instant) that correspond. Blocking calls on the same virtual bus ([`Driver::run_for`](crate::Driver::run_for), a
 //! blocking SDO) still jump virtual time ahead; the anchor then moves so that time never runs
 //! backwards, and the async side follows tokio from there.
 
@@ -24,7 +24,7 @@ use std::sync::{Arc, Mutex, Weak};
 use canola_frame::Instant;
 
 use super::driving::drive;
-use super::handle::{Inner, Network};
+use super::shared::{Inner, Shared};
 use crate::error::Error;
 use crate::machine::Core;
 use crate::transport::TransportError;
@@ -35,7 +35,7 @@ const STEPS_PER_TURN: usize = 1024;
 /// On a virtual clock: steps the network up to the instant tokio's clock is at, and returns
 /// when something is due next. `None` when another task is stepping right now. Wakes the
 /// other futures if anything happened.
-fn catch_up_once(net: &Network, deadline: Option<Instant>) -> Result<Option<Next>, Error> {
+fn catch_up_once(net: &Shared, deadline: Option<Instant>) -> Result<Option<Next>, Error> {
     let Some(mut io) = net.try_io() else {
         return Ok(None);
     };
@@ -92,7 +92,7 @@ enum Next {
 
 /// Brings a virtual clock up to tokio's time before an operation stamps "now" (a request's
 /// timeout, an LSS machine's timers). Nothing to do on a real clock.
-pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
+pub(crate) fn catch_up(net: &Shared) -> Result<(), Error> {
     if net.reactor().virtual_clock {
         // Another task stepping holds the transport: it is catching up the same clock.
         catch_up_once(net, None)?;
@@ -104,7 +104,7 @@ pub(crate) fn catch_up(net: &Network) -> Result<(), Error> {
 /// `deadline`: an instant on the network's clock at which `done` may change by time alone (a
 /// wait's timeout), so a virtual-clock future wakes for it.
 pub(crate) async fn wait_until<T: Send + 'static>(
-    net: &Network,
+    net: &Shared,
     deadline: Option<Instant>,
     done: impl FnMut(&mut Core) -> Option<T> + Send + 'static,
 ) -> Result<T, Error> {
@@ -116,7 +116,7 @@ pub(crate) async fn wait_until<T: Send + 'static>(
 }
 
 async fn drive_virtual<T>(
-    net: &Network,
+    net: &Shared,
     deadline: Option<Instant>,
     mut done: impl FnMut(&mut Core) -> Option<T>,
 ) -> Result<T, Error> {
@@ -158,7 +158,7 @@ async fn drive_virtual<T>(
 /// Ends the blocking wait when the future is dropped.
 struct StopOnDrop {
     flag: Arc<AtomicBool>,
-    net: Network,
+    net: Shared,
 }
 
 impl Drop for StopOnDrop {
@@ -169,7 +169,7 @@ impl Drop for StopOnDrop {
 }
 
 async fn wait_blocking<T: Send + 'static>(
-    net: &Network,
+    net: &Shared,
     mut done: impl FnMut(&mut Core) -> Option<T> + Send + 'static,
 ) -> Result<T, Error> {
     let flag = Arc::new(AtomicBool::new(false));
@@ -199,7 +199,7 @@ async fn wait_blocking<T: Send + 'static>(
 
 /// Sends what the core has queued. On a real clock the transport may be held by a thread in a
 /// receive (up to one driving step), so the flush runs on the blocking pool.
-pub(crate) async fn flush(net: &Network) -> Result<(), Error> {
+pub(crate) async fn flush(net: &Shared) -> Result<(), Error> {
     if net.reactor().virtual_clock {
         return net.flush();
     }
@@ -223,7 +223,7 @@ fn spawn_virtual_driver(
 ) {
     drop(tokio::spawn(async move {
         while !stop.load(Ordering::SeqCst) {
-            let Some(net) = Network::upgrade(&inner) else {
+            let Some(net) = Shared::upgrade(&inner) else {
                 return;
             };
             let progress = net.reactor().progress.notified();
@@ -258,18 +258,15 @@ fn spawn_virtual_driver(
                 return;
             }
         }
-        if let Some(net) = Network::upgrade(&inner) {
+        if let Some(net) = Shared::upgrade(&inner) {
             net.core().wake_pdo_subscribers();
         }
     }));
 }
 
-impl Network {
-    /// Starts the background driver on the current tokio runtime (its blocking pool: the
-    /// transport's receive blocks; on a virtual-clock bus, a task that keeps the bus at
-    /// tokio's time instead, see [`crate::asynch`]). Does nothing when one runs already.
-    /// Panics outside a tokio runtime, as `tokio::task::spawn_blocking` does.
-    pub fn start_driver_on_runtime(&self) {
+impl Shared {
+    /// The body of [`Driver::start_driver_on_runtime`](crate::Driver::start_driver_on_runtime).
+    pub(crate) fn start_driver_on_runtime(&self) {
         let virtual_clock = self.reactor().virtual_clock;
         let started = self.install_driver(|weak, stop, error| {
             // The task ends by itself once `stop` is set or the network is gone.

@@ -1,34 +1,20 @@
-//! The per-node PDO handles: [`Tpdos`] and [`Rpdos`] ([`Node::tpdo`], [`Node::rpdo`]) read
+//! The per-node PDO handles: [`Tpdos`] and [`Rpdos`] ([`Node::tpdo`](crate::Node::tpdo), [`Node::rpdo`](crate::Node::rpdo)) read
 //! and save a direction's PDOs; [`Rpdos::start`] transmits an RPDO from the master.
 
 use canola_pdo::{CommParams, Direction, PdoConfig};
 
 use crate::error::Error;
-use crate::network::{Node, Operation};
+use crate::network::Operation;
+use crate::network::request::NodeRef;
 
 use super::params::{PdoParameters, PdoSet, event_millis, inhibit_units};
 use super::sequence::{read_set, save_set};
 use super::transmit::{RpdoSender, Transmission};
 
-impl Node {
-    /// The node's transmit PDOs: read and save their parameters (python-canopen's
-    /// `node.tpdo.read()` / `save()`); after either, the master decodes them as the node sends
-    /// them.
-    pub fn tpdo(&self) -> Tpdos {
-        Tpdos { node: self.clone() }
-    }
-
-    /// The node's receive PDOs: read and save their parameters, and transmit them from the
-    /// master ([`Rpdos::start`]).
-    pub fn rpdo(&self) -> Rpdos {
-        Rpdos { node: self.clone() }
-    }
-}
-
-/// A node's transmit PDOs ([`Node::tpdo`]).
+/// A node's transmit PDOs ([`Node::tpdo`](crate::Node::tpdo)).
 #[derive(Debug, Clone)]
 pub struct Tpdos {
-    pub(super) node: Node,
+    pub(crate) node: NodeRef,
 }
 
 impl Tpdos {
@@ -49,10 +35,10 @@ impl Tpdos {
     }
 }
 
-/// A node's receive PDOs ([`Node::rpdo`]).
+/// A node's receive PDOs ([`Node::rpdo`](crate::Node::rpdo)).
 #[derive(Debug, Clone)]
 pub struct Rpdos {
-    pub(super) node: Node,
+    pub(crate) node: NodeRef,
 }
 
 impl Rpdos {
@@ -75,13 +61,13 @@ impl Rpdos {
     /// from the master as `how` says, until [`RpdoSender::stop`]. Mapped values start at zero;
     /// set them through the returned sender. Starting an RPDO that is being transmitted
     /// replaces its transmission parameters. The master's engine holds four transmitted RPDOs
-    /// per node. Nothing waits: the first frame is sent as [`Network::send`] says.
+    /// per node. Nothing waits: the first frame is sent as [`Network::send`](crate::Driver::send) says.
     ///
-    /// [`Network::send`]: crate::Network::send
+    /// [`Network::send`](crate::Driver::send): crate::Network::send
     pub fn start(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
-        self.node.net.catch_up_on_runtime()?;
+        self.node.net.shared().catch_up_on_runtime()?;
         let sender = self.engage(pdo, how)?;
-        self.node.net.send_queued_now()?;
+        self.node.net.shared().send_queued_now()?;
         Ok(sender)
     }
 

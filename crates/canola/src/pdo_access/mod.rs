@@ -2,7 +2,7 @@
 //! parameters read by SDO into a typed [`PdoSet`], changed and saved back the CiA 301 way; and
 //! the node's RPDOs transmitted by the master through the `canola-pdo` engine.
 //!
-//! * [`Node::tpdo`] / [`Node::rpdo`] → [`Tpdos`] / [`Rpdos`]. `read()` reads every PDO the node
+//! * [`Node::tpdo`](crate::Node::tpdo) / [`Node::rpdo`](crate::Node::rpdo) → [`Tpdos`] / [`Rpdos`]. `read()` reads every PDO the node
 //!   has (communication object 0x1800.. / 0x1400..: COB-ID, transmission type, inhibit time,
 //!   event timer, SYNC start value; mapping object 0x1A00.. / 0x1600..) into one
 //!   [`PdoParameters`] per PDO. `save()` writes the PDOs changed since they were read, each with
@@ -15,7 +15,7 @@
 //!   master's SYNC). The application sets mapped values through the [`RpdoSender`]; the
 //!   network's own driving (background driver, waiting calls, `run_for`) sends the frames.
 //!
-//! * [`Node::mpdo`] → [`Mpdos`]: the node's multiplexed PDOs (CiA 301 §7.2.3) received through
+//! * [`Node::mpdo`](crate::Node::mpdo) → [`Mpdos`]: the node's multiplexed PDOs (CiA 301 §7.2.3) received through
 //!   the master's scanner list and delivered as PDOs, and DAM-MPDOs written with a [`DamSender`].
 //!
 //! Files by job: `params` (the parameters and their set), `handles` ([`Tpdos`], [`Rpdos`]),
@@ -30,4 +30,5 @@ mod transmit;
 pub use handles::{Rpdos, Tpdos};
 pub use mpdo::{DamSender, Mpdos};
 pub use params::{MappedVariable, PdoParameters, PdoSet};
+pub(crate) use sequence::remap;
 pub use transmit::{RpdoSender, Transmission};

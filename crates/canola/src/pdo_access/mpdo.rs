@@ -1,4 +1,4 @@
-//! A node's multiplexed PDOs from the master (CiA 301 §7.2.3): [`Node::mpdo`] →
+//! A node's multiplexed PDOs from the master (CiA 301 §7.2.3): [`Node::mpdo`](crate::Node::mpdo) →
 //! [`Mpdos`]. [`Mpdos::receive`] takes the MPDOs the node sends on a COB-ID (SAM-MPDOs
 //! through the master's scanner list, DAM-MPDOs addressed to the master or to all nodes) and
 //! delivers each value like a PDO's; [`Mpdos::dam`] gives a [`DamSender`] that writes the
@@ -8,22 +8,15 @@ use canola_frame::CanId;
 use canola_pdo::{PdoCobId, ScannerEntry};
 
 use crate::error::Error;
-use crate::network::Node;
+use crate::network::request::NodeRef;
 use crate::typed::{ObjectKey, WriteValue};
 
 use super::transmit::encode;
 
-impl Node {
-    /// The node's multiplexed PDOs (MPDOs).
-    pub fn mpdo(&self) -> Mpdos {
-        Mpdos { node: self.clone() }
-    }
-}
-
-/// A node's MPDOs ([`Node::mpdo`]).
+/// A node's MPDOs ([`Node::mpdo`](crate::Node::mpdo)).
 #[derive(Debug, Clone)]
 pub struct Mpdos {
-    node: Node,
+    pub(crate) node: NodeRef,
 }
 
 impl Mpdos {
@@ -31,9 +24,9 @@ impl Mpdos {
     /// or 29-bit with bit 29 set) as its TPDO `number` from now on: a SAM-MPDO of this node
     /// when an entry of `scanner` covers its object (entries as in the object scanner list
     /// 0x1FA0..: block size, index, sub-index), a DAM-MPDO when addressed to all nodes or to
-    /// the master's own node-ID ([`Network::set_usdo_node_id`](crate::Network::set_usdo_node_id)).
+    /// the master's own node-ID ([`Network::set_usdo_node_id`](crate::Driver::set_usdo_node_id)).
     /// Each arrives as a PDO with one value: [`NetworkEvent::PdoValues`](crate::NetworkEvent::PdoValues),
-    /// the [`on_pdo`](crate::Network::on_pdo) callbacks, the [`PdoSubscriber`](crate::PdoSubscriber)s.
+    /// the [`on_pdo`](crate::Driver::on_pdo) callbacks, the [`PdoSubscriber`](crate::PdoSubscriber)s.
     pub fn receive(&self, number: u8, cob_id: u32, scanner: &[ScannerEntry]) -> Result<(), Error> {
         let can_id = self.can_id(0x1800 + u16::from(number.saturating_sub(1)), cob_id)?;
         let scanner = scanner.iter().copied().filter(|e| !e.is_unused()).collect();
@@ -78,10 +71,10 @@ impl Mpdos {
 }
 
 /// Writes a node's objects with DAM-MPDOs ([`Mpdos::dam`]). Never waits: each write is one
-/// frame, sent as [`Network::send`](crate::Network::send) sends.
+/// frame, sent as [`Network::send`](crate::Driver::send) sends.
 #[derive(Debug, Clone)]
 pub struct DamSender {
-    node: Node,
+    pub(crate) node: NodeRef,
     can_id: CanId,
 }
 
@@ -99,7 +92,7 @@ impl DamSender {
         key: impl Into<ObjectKey<'k>>,
         value: impl Into<WriteValue>,
     ) -> Result<(), Error> {
-        self.node.net.catch_up_on_runtime()?;
+        self.node.net.shared().catch_up_on_runtime()?;
         let addr = self.node.sdo().resolve(key)?;
         let od = self.node.dictionary();
         let bits = match od
@@ -134,6 +127,6 @@ impl DamSender {
                     message: e.to_string(),
                 })?;
         }
-        self.node.net.send_queued_now()
+        self.node.net.shared().send_queued_now()
     }
 }

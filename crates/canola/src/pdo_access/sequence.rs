@@ -12,13 +12,14 @@ use canola_pdo::{
 use canola_sdo::AbortCode;
 
 use crate::error::Error;
-use crate::network::{Node, Operation};
+use crate::network::Operation;
+use crate::network::request::NodeRef;
 
 use super::params::{MappedVariable, PdoParameters, PdoSet, Present, kind_name, name_of};
 
 /// The master follows what the node holds for `p`: a TPDO is decoded with it, a transmitted
 /// RPDO uses its COB-ID and mapping.
-pub(super) fn follow(node: &Node, p: &PdoParameters) {
+pub(super) fn follow(node: &NodeRef, p: &PdoParameters) {
     let Some(mapping) = p.mapping_lenient() else {
         // A TPDO of more than 8 bytes (CANopen FD) is decoded from its CAN FD frames.
         if p.direction == Direction::Transmit
@@ -45,7 +46,7 @@ pub(super) fn follow(node: &Node, p: &PdoParameters) {
 }
 
 /// Reads a 32-bit value (or fewer bits, zero-extended) of the node.
-async fn read_u32(node: &Node, index: u16, sub: u8) -> Result<u32, Error> {
+async fn read_u32(node: &NodeRef, index: u16, sub: u8) -> Result<u32, Error> {
     node.sdo()
         .read(ObjectAddress::new(index, sub))
         .await
@@ -54,7 +55,7 @@ async fn read_u32(node: &Node, index: u16, sub: u8) -> Result<u32, Error> {
 
 /// An optional sub-index: per the dictionary when there is one, else as the node answers.
 async fn read_optional(
-    node: &Node,
+    node: &NodeRef,
     od: Option<&ObjectDictionary>,
     index: u16,
     sub: u8,
@@ -68,38 +69,6 @@ async fn read_optional(
         Ok(v) => Ok(Some(v)),
         Err(e) if absent(&e) => Ok(None),
         Err(e) => Err(e),
-    }
-}
-
-impl Node {
-    /// Remaps PDO `number` (1-based) of `direction` on the node by SDO, the CiA 301 way
-    /// (disable, clear mapping, write entries, set count, set parameters, enable; the plan comes
-    /// from `canola_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
-    /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
-    /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
-    pub fn remap_pdo(
-        &self,
-        direction: canola_pdo::Direction,
-        number: u16,
-        comm: canola_pdo::CommParams,
-        mapping: canola_pdo::Mapping,
-    ) -> Operation<'static, ()> {
-        let n = number.saturating_sub(1);
-        let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
-        // With a dictionary, write only the sub-indices the node has.
-        if let Some(od) = self.dictionary() {
-            let ci = direction.comm_index(n);
-            let has = |sub| od.sub(ci, sub).is_some();
-            remote.has_inhibit_time = has(3);
-            remote.has_event_timer = has(5);
-            remote.has_sync_start = has(6);
-            // Dynamic mapping (CiA 301 §7.4.8.3): sub 0 of the mapping object is writable.
-            remote.mapping_writable = od
-                .sub(direction.mapping_index(n), 0)
-                .is_none_or(|s| s.access.is_writable());
-        }
-        let node = self.clone();
-        Operation::new(async move { configure(&node, direction, n, &comm, mapping, &remote).await })
     }
 }
 
@@ -118,7 +87,7 @@ pub(super) fn le_u32(bytes: &[u8]) -> u32 {
     u32::from_le_bytes(b)
 }
 
-pub(super) async fn read_set(node: &Node, direction: Direction) -> Result<PdoSet, Error> {
+pub(super) async fn read_set(node: &NodeRef, direction: Direction) -> Result<PdoSet, Error> {
     let od = node.dictionary();
     let numbers: Vec<u16> = match od.as_deref() {
         Some(od) => (0..canola_pdo::comm::MAX_PDOS_PER_DIRECTION)
@@ -143,7 +112,7 @@ pub(super) async fn read_set(node: &Node, direction: Direction) -> Result<PdoSet
 
 /// Reads PDO `n` (0-based); `None` when the node does not have it.
 async fn read_pdo(
-    node: &Node,
+    node: &NodeRef,
     od: Option<Arc<ObjectDictionary>>,
     direction: Direction,
     n: u16,
@@ -209,7 +178,7 @@ async fn read_pdo(
 }
 
 pub(super) async fn save_set(
-    node: &Node,
+    node: &NodeRef,
     direction: Direction,
     set: &mut PdoSet,
 ) -> Result<(), Error> {
@@ -255,7 +224,7 @@ pub(super) async fn save_set(
 /// mapping, a transmitted RPDO uses the new COB-ID and mapping. [`Node::remap_pdo`] and
 /// `save()` both come here.
 async fn configure(
-    node: &Node,
+    node: &NodeRef,
     direction: Direction,
     n: u16,
     comm: &CommParams,
@@ -300,4 +269,30 @@ async fn configure(
         }
     }
     Ok(())
+}
+
+/// The remap of [`Node::remap_pdo`](crate::Node::remap_pdo): PDO `number` (1-based) of
+/// `direction` on `node`.
+pub(crate) fn remap(
+    node: NodeRef,
+    direction: canola_pdo::Direction,
+    number: u16,
+    comm: canola_pdo::CommParams,
+    mapping: canola_pdo::Mapping,
+) -> Operation<'static, ()> {
+    let n = number.saturating_sub(1);
+    let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
+    // With a dictionary, write only the sub-indices the node has.
+    if let Some(od) = node.dictionary() {
+        let ci = direction.comm_index(n);
+        let has = |sub| od.sub(ci, sub).is_some();
+        remote.has_inhibit_time = has(3);
+        remote.has_event_timer = has(5);
+        remote.has_sync_start = has(6);
+        // Dynamic mapping (CiA 301 §7.4.8.3): sub 0 of the mapping object is writable.
+        remote.mapping_writable = od
+            .sub(direction.mapping_index(n), 0)
+            .is_none_or(|s| s.access.is_writable());
+    }
+    Operation::new(async move { configure(&node, direction, n, &comm, mapping, &remote).await })
 }

@@ -7,7 +7,7 @@ use canola_od::{ObjectAddress, ObjectDictionary};
 use canola_pdo::TransmissionType;
 
 use crate::error::Error;
-use crate::network::Node;
+use crate::network::request::NodeRef;
 use crate::typed::{ObjectKey, WriteValue};
 
 /// How the master transmits a node's RPDO: the transmission type, inhibit time and event timer
@@ -85,7 +85,7 @@ impl Transmission {
 /// values, trigger, stop. Dropping it does not stop the transmission.
 #[derive(Debug, Clone)]
 pub struct RpdoSender {
-    pub(super) node: Node,
+    pub(super) node: NodeRef,
     pub(super) number: u16,
 }
 
@@ -118,9 +118,9 @@ impl RpdoSender {
         K: Into<ObjectKey<'k>>,
         V: Into<WriteValue>,
     {
-        self.node.net.catch_up_on_runtime()?;
+        self.node.net.shared().catch_up_on_runtime()?;
         self.stage(values)?;
-        self.node.net.send_queued_now()
+        self.node.net.shared().send_queued_now()
     }
 
     /// Gives the engine the new values of [`set_many`](Self::set_many); the frames they cause
@@ -170,9 +170,9 @@ impl RpdoSender {
     /// Sends the RPDO now (event-driven: after its inhibit time; type 0: at the next SYNC),
     /// changed or not.
     pub fn trigger(&self) -> Result<(), Error> {
-        self.node.net.catch_up_on_runtime()?;
+        self.node.net.shared().catch_up_on_runtime()?;
         self.queue_trigger()?;
-        self.node.net.send_queued_now()
+        self.node.net.shared().send_queued_now()
     }
 
     fn queue_trigger(&self) -> Result<(), Error> {
