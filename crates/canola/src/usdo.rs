@@ -72,14 +72,7 @@ impl Usdo {
 
     fn submit<T>(self, entry: ObjectAddress, op: Op, output: fn(Completion) -> T) -> Pending<T> {
         let req = self.request(entry, op);
-        let id = self.net.shared().submit(req);
-        Pending {
-            net: self.net,
-            id: Some(id),
-            node: self.node,
-            entry,
-            output,
-        }
+        Pending::submit(self.net, req, output)
     }
 
     /// Starts a read (USDO upload) without waiting.

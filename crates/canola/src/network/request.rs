@@ -42,6 +42,20 @@ impl<T> core::fmt::Debug for Pending<T> {
 }
 
 impl<T> Pending<T> {
+    /// Submits `req` (an SDO or USDO request) to `net`'s core: the request runs from now on,
+    /// and this value waits for it and takes `output` from its completion.
+    pub(crate) fn submit(net: Driver, req: SdoRequest, output: fn(Completion) -> T) -> Self {
+        let (node, entry) = (req.node, req.entry);
+        let id = net.shared().submit(req);
+        Pending {
+            net,
+            id: Some(id),
+            node,
+            entry,
+            output,
+        }
+    }
+
     /// Blocks until the request finishes.
     pub fn wait(mut self) -> Result<T, SdoError> {
         let output = self.output;
@@ -296,16 +310,8 @@ impl Sdo {
         op: Op,
         output: fn(Completion) -> T,
     ) -> Pending<T> {
-        let node = self.node;
         let (net, req) = self.into_request(entry, op);
-        let id = net.shared().submit(req);
-        Pending {
-            net,
-            id: Some(id),
-            node,
-            entry,
-            output,
-        }
+        Pending::submit(net, req, output)
     }
 
     /// The request for `op` on `entry` with this builder's settings, and the network.
