@@ -2,7 +2,7 @@
 //! it happens.
 //!
 //! The blocking [`boot_with`] and [`audit_with`] themselves run on tokio's blocking pool (they
-//! drive the network, which blocks: the boot runs every slave's straight-line body on that one
+//! drive the network, which blocks: each runs every slave's straight-line body on that one
 //! thread with `canola::wait_all_with`); their events come through a channel the caller
 //! awaits. There is no second implementation of either. (Awaiting the slaves' bodies on tokio
 //! instead would put a virtual-clock bus on tokio's clock, so a simulated boot would take its

@@ -1,11 +1,15 @@
 //! The configuration audit: read every object each slave's DCF configures from the live
 //! network and list where the device differs from its DCF, and what could not be read.
 //! Read-only objects are left out unless asked for (a DCF records them, the master cannot set
-//! them); write-only ones cannot be read. Every slave is audited at once, one request in flight
-//! per slave, all driven from the caller's thread.
+//! them); write-only ones cannot be read. Each slave's audit is one straight-line body of
+//! awaited SDO transfers, one request in flight per slave; every slave's body runs together on
+//! the caller's thread (`canola::wait_all_with`), as the boot's do.
 
-use canola::od::AccessType;
-use canola::{DataType, Duration, Network, NodeId, ObjectAddress, Pending, Value};
+use std::convert::Infallible;
+use std::sync::mpsc;
+
+use canola::od::{AccessType, SubObject};
+use canola::{DataType, Duration, Network, NodeId, ObjectAddress, Operation, Value};
 
 use crate::config::{NetworkConfig, SlaveConfig};
 
@@ -97,13 +101,14 @@ pub fn audit(net: &Network, config: &NetworkConfig, options: AuditOptions) -> Au
     audit_with(net, config, options, |_| {})
 }
 
-/// How finely the audit loop drives the network between looking at its slaves' requests.
-const TICK: Duration = Duration::from_micros(20);
-
 /// [`audit`], calling `on_event` as each slave's audit goes.
 ///
-/// One thread audits every slave: each is a small machine with one SDO request in flight, and
-/// the facade runs requests to different nodes together on the bus (no thread per slave).
+/// Each slave's audit is one straight-line body of awaited SDO transfers; all of them run
+/// together on the calling thread ([`canola::wait_all_with`]: the bodies are polled in turn and
+/// the network is driven one step between rounds), so requests to different nodes run
+/// together on the bus with no thread per slave. `on_event` is called on the calling thread:
+/// every [`AuditEvent::SlaveStarted`] first, then the events of each slave in order as they
+/// happen (those of different slaves interleave).
 pub fn audit_with(
     net: &Network,
     config: &NetworkConfig,
@@ -113,176 +118,116 @@ pub fn audit_with(
     for s in &config.slaves {
         net.add_node_with_dictionary(s.node_id, s.dictionary.clone());
     }
+    for s in &config.slaves {
+        on_event(&AuditEvent::SlaveStarted(s.node_id));
+    }
     let timeout = config.master.sdo_timeout;
-    let mut slaves: Vec<SlaveRun<'_>> = config
-        .slaves
-        .iter()
-        .map(|s| SlaveRun::new(net, s, options, timeout))
-        .collect();
-    for s in &slaves {
-        on_event(&AuditEvent::SlaveStarted(s.out.node_id));
-    }
-    loop {
-        let mut running = false;
-        for s in &mut slaves {
-            s.poll(&mut on_event);
-            running |= !s.done;
-        }
-        if !running {
-            break;
-        }
-        if net.run_for(TICK).wait().is_err() {
-            // A failed transport fails every request, which the next poll reports.
-            std::thread::sleep(std::time::Duration::from_millis(1));
-        }
-    }
+    let (tx, events) = mpsc::channel();
+    let emit = move |e| {
+        // The receiving end lives until every slave is done.
+        let _ = tx.send(e);
+    };
+    let bodies = config.slaves.iter().map(|slave| {
+        let body = audit_slave(net, slave, options, timeout, &emit);
+        Operation::new(async { Ok::<_, Infallible>(body.await) })
+    });
+    let results = canola::wait_all_with(bodies, || events.try_iter().for_each(|e| on_event(&e)));
+    events.try_iter().for_each(|e| on_event(&e));
     AuditReport {
-        slaves: slaves.into_iter().map(|s| s.out).collect(),
+        slaves: results
+            .into_iter()
+            .map(|r| match r {
+                Ok(s) => s,
+                Err(never) => match never {},
+            })
+            .collect(),
     }
 }
+
+/// Where the events of a slave's audit go (a channel the audit empties into the caller's
+/// callback).
+type Emit<'a> = &'a (dyn Fn(AuditEvent) + Sync);
 
 /// One object the audit compares.
 struct Check<'a> {
     object: ObjectAddress,
-    sub: &'a canola::od::SubObject,
+    sub: &'a SubObject,
     expected: Value,
     read_only: bool,
 }
 
-enum Step {
-    /// Start the next object's read.
-    Next,
-    /// Reading object `checks[i]`.
-    Read(usize, Pending<Vec<u8>>),
-    /// Writing the DCF's value of the difference just found back.
-    Fix(usize, Vec<u8>, Pending<()>),
-}
-
-struct SlaveRun<'a> {
-    net: &'a Network,
-    timeout: Duration,
-    fix: bool,
-    checks: Vec<Check<'a>>,
-    next: usize,
-    step: Step,
-    out: SlaveAudit,
-    done: bool,
-}
-
-impl<'a> SlaveRun<'a> {
-    fn new(
-        net: &'a Network,
-        slave: &'a SlaveConfig,
-        options: AuditOptions,
-        timeout: Duration,
-    ) -> Self {
-        let node = slave.node_id;
-        let checks: Vec<Check<'a>> = slave
-            .dictionary
-            .entries()
-            .filter_map(|(index, sub)| {
-                let read_only = matches!(sub.access, AccessType::Ro | AccessType::Const);
-                if sub.access == AccessType::Wo || (read_only && !options.read_only) {
-                    return None;
-                }
-                let expected = sub.parameter_value()?.resolve(node.get())?;
-                Some(Check {
-                    object: ObjectAddress::new(index, sub.sub_index),
-                    sub,
-                    expected,
-                    read_only,
-                })
-            })
-            .collect();
-        Self {
-            net,
-            timeout,
-            fix: options.fix,
-            out: SlaveAudit {
-                node_id: node,
-                checked: checks.len(),
-                differences: Vec::new(),
-                unreadable: Vec::new(),
-            },
-            checks,
-            next: 0,
-            step: Step::Next,
-            done: false,
-        }
-    }
-
-    fn sdo(&self) -> canola::Sdo {
-        self.net.node(self.out.node_id).sdo().timeout(self.timeout)
-    }
-
-    fn poll(&mut self, on_event: &mut impl FnMut(&AuditEvent)) {
-        let node = self.out.node_id;
-        while !self.done {
-            match std::mem::replace(&mut self.step, Step::Next) {
-                Step::Next => match self.checks.get(self.next) {
-                    Some(c) => {
-                        let read = self.sdo().submit_read(c.object);
-                        self.step = Step::Read(self.next, read);
-                        self.next += 1;
-                    }
-                    None => {
-                        self.done = true;
-                        on_event(&AuditEvent::SlaveDone(self.out.clone()));
-                    }
-                },
-                Step::Read(i, p) if !p.is_done() => {
-                    self.step = Step::Read(i, p);
-                    return;
-                }
-                Step::Read(i, p) => {
-                    let c = &self.checks[i];
-                    match p.wait() {
-                        Ok(bytes) if bytes == c.expected.to_le_bytes() => {}
-                        Ok(bytes) if self.fix && !c.read_only => {
-                            // A restricted COB-ID is not written back.
-                            match crate::config::restricted_value(node, c.object, &c.expected) {
-                                Some(e) => {
-                                    self.differ(i, bytes, Some(Err(e.to_string())), on_event)
-                                }
-                                None => {
-                                    let write = self.sdo().submit_write(c.object, &c.expected);
-                                    self.step = Step::Fix(i, bytes, write);
-                                }
-                            }
-                        }
-                        Ok(bytes) => self.differ(i, bytes, None, on_event),
-                        Err(e) => {
-                            let u = Unreadable {
-                                object: c.object,
-                                name: c.sub.name.to_string(),
-                                abort_code: e.abort_code().map(|c| c.get()),
-                                error: e.to_string(),
-                            };
-                            on_event(&AuditEvent::Unreadable(node, u.clone()));
-                            self.out.unreadable.push(u);
-                        }
-                    }
-                }
-                Step::Fix(i, bytes, p) if !p.is_done() => {
-                    self.step = Step::Fix(i, bytes, p);
-                    return;
-                }
-                Step::Fix(i, bytes, p) => {
-                    let fixed = p.wait().map_err(|e| e.to_string());
-                    self.differ(i, bytes, Some(fixed), on_event);
-                }
+/// The objects of `slave` the audit compares, in dictionary order: those with a DCF value
+/// that can be read (read-only ones only when asked for).
+fn checks(slave: &SlaveConfig, options: AuditOptions) -> Vec<Check<'_>> {
+    let node = slave.node_id;
+    slave
+        .dictionary
+        .entries()
+        .filter_map(|(index, sub)| {
+            let read_only = matches!(sub.access, AccessType::Ro | AccessType::Const);
+            if sub.access == AccessType::Wo || (read_only && !options.read_only) {
+                return None;
             }
-        }
-    }
+            let expected = sub.parameter_value()?.resolve(node.get())?;
+            Some(Check {
+                object: ObjectAddress::new(index, sub.sub_index),
+                sub,
+                expected,
+                read_only,
+            })
+        })
+        .collect()
+}
 
-    fn differ(
-        &mut self,
-        i: usize,
-        bytes: Vec<u8>,
-        fixed: Option<Result<(), String>>,
-        on_event: &mut impl FnMut(&AuditEvent),
-    ) {
-        let c = &self.checks[i];
+/// One slave's audit: each object read in turn and compared with the DCF's value; with `fix`,
+/// a difference is written back before the next read (a restricted COB-ID is not). The events
+/// go to `emit` as they happen, [`AuditEvent::SlaveDone`] last.
+async fn audit_slave(
+    net: &Network,
+    slave: &SlaveConfig,
+    options: AuditOptions,
+    timeout: Duration,
+    emit: Emit<'_>,
+) -> SlaveAudit {
+    let node = slave.node_id;
+    let checks = checks(slave, options);
+    let mut out = SlaveAudit {
+        node_id: node,
+        checked: checks.len(),
+        differences: Vec::new(),
+        unreadable: Vec::new(),
+    };
+    let sdo = || net.node(node).sdo().timeout(timeout);
+    for c in &checks {
+        let bytes = match sdo().read(c.object).await {
+            Ok(bytes) if bytes == c.expected.to_le_bytes() => continue,
+            Ok(bytes) => bytes,
+            Err(e) => {
+                let u = Unreadable {
+                    object: c.object,
+                    name: c.sub.name.to_string(),
+                    abort_code: abort_code(&e),
+                    error: e.to_string(),
+                };
+                emit(AuditEvent::Unreadable(node, u.clone()));
+                out.unreadable.push(u);
+                continue;
+            }
+        };
+        let fixed = if options.fix && !c.read_only {
+            // A restricted COB-ID is not written back.
+            Some(
+                match crate::config::restricted_value(node, c.object, &c.expected) {
+                    Some(e) => Err(e.to_string()),
+                    None => sdo()
+                        .write(c.object, &c.expected)
+                        .await
+                        .map_err(|e| e.to_string()),
+                },
+            )
+        } else {
+            None
+        };
         let d = Difference {
             object: c.object,
             name: c.sub.name.to_string(),
@@ -292,7 +237,17 @@ impl<'a> SlaveRun<'a> {
             expected: c.expected.clone(),
             fixed,
         };
-        on_event(&AuditEvent::Difference(self.out.node_id, d.clone()));
-        self.out.differences.push(d);
+        emit(AuditEvent::Difference(node, d.clone()));
+        out.differences.push(d);
+    }
+    emit(AuditEvent::SlaveDone(out.clone()));
+    out
+}
+
+/// The SDO abort code that went over the bus in either direction, if any.
+fn abort_code(e: &canola::Error) -> Option<u32> {
+    match e {
+        canola::Error::Sdo(e) => e.abort_code().map(|c| c.get()),
+        _ => None,
     }
 }

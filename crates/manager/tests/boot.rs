@@ -1,10 +1,12 @@
 //! Boot and audit against simulated devices on the in-memory bus, with the failures real
 //! devices produce: an absent mandatory slave, a wrong identity, a configuration write the
-//! device refuses, an absent optional slave.
+//! device refuses, an absent optional slave; and an audit over a transport that fails.
 
 use std::path::Path;
+use std::sync::atomic::Ordering;
 
 use canola::od::AccessType;
+use canola::transport::{Received, Transport, TransportError};
 use canola::{MemoryBus, Network, NmtState, NodeId, SimDevice};
 use canola_manager::boot::ConfigOutcome;
 use canola_manager::simulate::{attach_slaves, factory_dictionary};
@@ -247,6 +249,66 @@ fn audit_finds_a_changed_value_and_fix_repairs_it() {
     );
     assert_eq!(fixed.slaves[1].differences[0].fixed, Some(Ok(())));
     assert!(audit(&net, &config, AuditOptions::default()).is_clean());
+}
+
+/// The in-memory bus behind a switch: once `failing` is set, every send fails (bus-off) or
+/// every receive does (the transport closed).
+struct Failing {
+    bus: canola::Endpoint,
+    failing: std::sync::Arc<std::sync::atomic::AtomicU8>,
+}
+
+const SENDS_FAIL: u8 = 1;
+const RECEIVES_FAIL: u8 = 2;
+
+impl Transport for Failing {
+    fn send(&mut self, frame: &canola::CanFrame) -> Result<(), TransportError> {
+        match self.failing.load(Ordering::SeqCst) {
+            SENDS_FAIL => Err(TransportError::BusOff),
+            _ => self.bus.send(frame),
+        }
+    }
+
+    fn recv_until(
+        &mut self,
+        deadline: canola::Instant,
+    ) -> Result<Option<Received>, TransportError> {
+        match self.failing.load(Ordering::SeqCst) {
+            RECEIVES_FAIL => Err(TransportError::Closed),
+            _ => self.bus.recv_until(deadline),
+        }
+    }
+
+    fn now(&self) -> canola::Instant {
+        self.bus.now()
+    }
+}
+
+#[test]
+fn audit_over_a_failed_transport_ends_with_every_object_unreadable() {
+    let config = load("three.toml");
+    for mode in [SENDS_FAIL, RECEIVES_FAIL] {
+        let bus = MemoryBus::new();
+        let failing = std::sync::Arc::new(std::sync::atomic::AtomicU8::new(0));
+        let net = Network::new(Failing {
+            bus: bus.endpoint(),
+            failing: failing.clone(),
+        });
+        attach_slaves(&bus, &config, &[]);
+        assert!(boot(&net, &config).mandatory_ok);
+        failing.store(mode, Ordering::SeqCst);
+        let report = audit(&net, &config, AuditOptions::default());
+        for s in &report.slaves {
+            assert!(s.differences.is_empty(), "{s:?}");
+            assert_eq!(s.unreadable.len(), s.checked, "{s:?}");
+            for u in &s.unreadable {
+                // Nothing arrives once receiving fails: the transport's failure, not a timeout.
+                if mode == RECEIVES_FAIL {
+                    assert!(u.error.contains("transport is closed"), "{u:?}");
+                }
+            }
+        }
+    }
 }
 
 #[test]

@@ -19,8 +19,8 @@ use heapless::Vec;
 use crate::comm::Direction;
 use crate::dictionary::{Catalog, Dictionary};
 use crate::mapping::{
-    MAX_ENTRIES, Mapping, MappingEntry, MappingError, ValueKind, check_entry, check_entry_shape,
-    field_mask, raw_entry_kind,
+    MAX_ENTRIES, Mapping, MappingEntry, MappingError, PdoMapping, ValueKind, field_mask,
+    mapping_from_raw, mapping_from_raw_checked, push_checked, read_mapping,
 };
 use crate::pack::{PackError, RawValue};
 
@@ -66,26 +66,7 @@ impl FdMapping {
 
     /// Appends an object of `kind`.
     pub fn push(&mut self, entry: MappingEntry, kind: ValueKind) -> Result<(), MappingError> {
-        check_entry_shape(entry, kind)?;
-        if entry.bits() > 64 {
-            return Err(MappingError::EntryTooLong {
-                addr: entry.addr(),
-                mapped_bits: entry.bits(),
-            });
-        }
-        let total = u32::from(self.bits) + u32::from(entry.bits());
-        if total > MAX_FD_BITS {
-            return Err(MappingError::FdTooLong(total));
-        }
-        self.objects
-            .push(FdMappedObject {
-                entry,
-                offset: self.bits,
-                kind,
-            })
-            .map_err(|_| MappingError::TooManyEntries(MAX_ENTRIES + 1))?;
-        self.bits = total as u16;
-        Ok(())
+        push_checked(self, entry, kind)
     }
 
     /// Builder form of [`push`](Self::push).
@@ -97,15 +78,7 @@ impl FdMapping {
     /// A mapping from raw entries without a dictionary, as [`Mapping::from_raw`]: dummies get
     /// their data type's kind, everything else [`ValueKind::Unsigned`].
     pub fn from_raw(entries: &[u32]) -> Result<Self, MappingError> {
-        if entries.len() > MAX_ENTRIES {
-            return Err(MappingError::TooManyEntries(entries.len()));
-        }
-        let mut m = Self::new();
-        for &raw in entries {
-            let e = MappingEntry(raw);
-            m.push(e, raw_entry_kind(e))?;
-        }
-        Ok(m)
+        mapping_from_raw(entries)
     }
 
     /// A mapping from raw entries checked against `catalog` as [`Mapping::from_raw_checked`]
@@ -115,16 +88,7 @@ impl FdMapping {
         entries: &[u32],
         catalog: &C,
     ) -> Result<Self, MappingError> {
-        if entries.len() > MAX_ENTRIES {
-            return Err(MappingError::TooManyEntries(entries.len()));
-        }
-        let mut m = Self::new();
-        for &raw in entries {
-            let e = MappingEntry(raw);
-            let kind = check_entry(direction, e, catalog)?;
-            m.push(e, kind)?;
-        }
-        Ok(m)
+        mapping_from_raw_checked(direction, entries, catalog)
     }
 
     /// Reads mapping parameter object `index` from `dict` (sub 0 = count, subs 1.. = entries)
@@ -135,20 +99,7 @@ impl FdMapping {
         direction: Direction,
         index: u16,
     ) -> Result<Self, MappingError> {
-        let count = dict.read_u32(index, 0)?;
-        match count {
-            0xFE | 0xFF => return Err(MappingError::Mpdo(count as u8)),
-            n if n as usize > MAX_ENTRIES => {
-                return Err(MappingError::TooManyEntries(n as usize));
-            }
-            _ => {}
-        }
-        let mut raw: Vec<u32, MAX_ENTRIES> = Vec::new();
-        for sub in 1..=count as u8 {
-            // `count` is at most 64, so the push cannot fail.
-            let _ = raw.push(dict.read_u32(index, sub)?);
-        }
-        Self::from_raw_checked(direction, &raw, dict)
+        read_mapping(dict, direction, index)
     }
 
     /// The raw entries in PDO order (the values of sub 1..=n).
@@ -185,6 +136,34 @@ impl FdMapping {
     /// the next CAN FD length.
     pub fn frame_len(&self) -> usize {
         canola_frame::fd::padded_len(self.byte_len()).unwrap_or(MAX_FD_BYTES)
+    }
+}
+
+impl PdoMapping for FdMapping {
+    const MAX_BITS: u32 = MAX_FD_BITS;
+
+    fn too_long(bits: u32) -> MappingError {
+        MappingError::FdTooLong(bits)
+    }
+
+    fn empty() -> Self {
+        Self::new()
+    }
+
+    fn used(&self) -> (u32, usize) {
+        (self.bit_len(), self.len())
+    }
+
+    fn append(&mut self, entry: MappingEntry, kind: ValueKind) {
+        let obj = FdMappedObject {
+            entry,
+            offset: self.bits,
+            kind,
+        };
+        // Cannot fail: `push_checked` found room for one more entry.
+        let _ = self.objects.push(obj);
+        // At most 512: `push_checked` checked the total.
+        self.bits += u16::from(entry.bits());
     }
 }
 
@@ -358,6 +337,20 @@ mod tests {
                 mapped_bits: 72
             })
         );
+    }
+
+    #[test]
+    fn sixty_four_entries_at_most() {
+        let mut m = FdMapping::new();
+        for sub in 1..=64u8 {
+            m.push(MappingEntry::new(0x2000, sub, 1), ValueKind::Unsigned)
+                .unwrap();
+        }
+        assert_eq!(
+            m.push(MappingEntry::new(0x2001, 1, 1), ValueKind::Unsigned),
+            Err(MappingError::TooManyEntries(65))
+        );
+        assert_eq!((m.len(), m.bit_len()), (64, 64));
     }
 
     fn entries() -> impl Strategy<Value = std::vec::Vec<(u8, u64)>> {

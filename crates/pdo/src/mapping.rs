@@ -9,6 +9,9 @@
 //! INTEGER8/16/32, UNSIGNED8/16/32) reserves room without an object behind it; on reception its
 //! bits are skipped, on transmission they are zero. Which dummy types a device accepts is its EDS
 //! `[DummyUsage]` section ([`Catalog::dummy_supported`]).
+//!
+//! A CAN FD mapping ([`crate::fd`]) passes the same checks under its own length limit: they
+//! are written once here, generic over the mapping type.
 
 use heapless::Vec;
 
@@ -105,7 +108,7 @@ pub(crate) const fn dummy_bits(data_type: u16) -> Option<u8> {
 
 /// The checks of one entry on its own: not empty, fixed-width kinds with their width (BOOLEAN 1
 /// or 8, REAL32 32, REAL64 64 bits), bytes in whole bytes.
-pub(crate) fn check_entry_shape(entry: MappingEntry, kind: ValueKind) -> Result<(), MappingError> {
+fn check_entry_shape(entry: MappingEntry, kind: ValueKind) -> Result<(), MappingError> {
     if entry.bits() == 0 {
         return Err(MappingError::ZeroLength(entry.addr()));
     }
@@ -282,22 +285,7 @@ impl Mapping {
     /// that fixed-width kinds have their width (BOOLEAN 1, REAL32 32, REAL64 64 bits; bytes whole
     /// bytes) — not the dictionary; see [`Mapping::from_raw_checked`].
     pub fn push(&mut self, entry: MappingEntry, kind: ValueKind) -> Result<(), MappingError> {
-        check_entry_shape(entry, kind)?;
-        let total = self.bits as u32 + entry.bits() as u32;
-        if total > MAX_BITS {
-            return Err(MappingError::TooLong(total));
-        }
-        let obj = MappedObject {
-            entry,
-            offset: self.bits,
-            kind,
-            mask: field_mask(entry.bits()) << self.bits,
-        };
-        self.objects
-            .push(obj)
-            .map_err(|_| MappingError::TooManyEntries(MAX_ENTRIES + 1))?;
-        self.bits = total as u8;
-        Ok(())
+        push_checked(self, entry, kind)
     }
 
     /// Builder form of [`Mapping::push`].
@@ -309,15 +297,7 @@ impl Mapping {
     /// A mapping from raw entries without a dictionary: dummy entries of their type's size get
     /// their data type's kind, every other entry is read as [`ValueKind::Unsigned`].
     pub fn from_raw(entries: &[u32]) -> Result<Self, MappingError> {
-        if entries.len() > MAX_ENTRIES {
-            return Err(MappingError::TooManyEntries(entries.len()));
-        }
-        let mut m = Self::new();
-        for &raw in entries {
-            let e = MappingEntry(raw);
-            m.push(e, raw_entry_kind(e))?;
-        }
-        Ok(m)
+        mapping_from_raw(entries)
     }
 
     /// A mapping from raw entries checked against a dictionary for a PDO of `direction`: every
@@ -330,16 +310,7 @@ impl Mapping {
         entries: &[u32],
         catalog: &C,
     ) -> Result<Self, MappingError> {
-        if entries.len() > MAX_ENTRIES {
-            return Err(MappingError::TooManyEntries(entries.len()));
-        }
-        let mut m = Self::new();
-        for &raw in entries {
-            let e = MappingEntry(raw);
-            let kind = check_entry(direction, e, catalog)?;
-            m.push(e, kind)?;
-        }
-        Ok(m)
+        mapping_from_raw_checked(direction, entries, catalog)
     }
 
     /// Reads mapping object `index` (sub 0, then sub 1..=n) from a dictionary and checks it as
@@ -349,20 +320,7 @@ impl Mapping {
         direction: Direction,
         index: u16,
     ) -> Result<Self, MappingError> {
-        let count = dict.read_u32(index, 0)?;
-        match count {
-            0xFE | 0xFF => return Err(MappingError::Mpdo(count as u8)),
-            n if n as usize > MAX_ENTRIES => {
-                return Err(MappingError::TooManyEntries(n as usize));
-            }
-            _ => {}
-        }
-        let mut raw: Vec<u32, MAX_ENTRIES> = Vec::new();
-        for sub in 1..=count as u8 {
-            // `count` is at most 64, so the push cannot fail.
-            let _ = raw.push(dict.read_u32(index, sub)?);
-        }
-        Self::from_raw_checked(direction, &raw, dict)
+        read_mapping(dict, direction, index)
     }
 
     /// The mapped objects in PDO order.
@@ -401,7 +359,7 @@ const fn boolean_as_byte(kind: ValueKind, bits: u8) -> bool {
     matches!(kind, ValueKind::Boolean) && bits == 8
 }
 
-pub(crate) fn check_entry<C: Catalog + ?Sized>(
+fn check_entry<C: Catalog + ?Sized>(
     direction: Direction,
     e: MappingEntry,
     catalog: &C,
@@ -464,11 +422,147 @@ pub(crate) fn check_entry<C: Catalog + ?Sized>(
 
 /// How an entry is read when no dictionary says: a dummy entry of its type's size as that type,
 /// every other entry as [`ValueKind::Unsigned`] (the `from_raw` constructors).
-pub(crate) fn raw_entry_kind(e: MappingEntry) -> ValueKind {
+fn raw_entry_kind(e: MappingEntry) -> ValueKind {
     if dummy_bits(e.index()) == Some(e.bits()) {
         ValueKind::from_data_type(e.index())
     } else {
         ValueKind::Unsigned
+    }
+}
+
+/// Most bits one mapped object holds (the packer keeps each value in 64 bits).
+const MAX_OBJECT_BITS: u32 = 64;
+
+/// A PDO mapping under its length limit: [`Mapping`] (classic CAN, 64 bits) or
+/// [`FdMapping`](crate::FdMapping) (CAN FD, 512 bits). The entries of both are validated by
+/// the functions below ([`push_checked`] and the readers built on it); each type only says its
+/// limit and stores what passed.
+pub(crate) trait PdoMapping: Sized {
+    /// Most bits the PDO carries.
+    const MAX_BITS: u32;
+
+    /// The error of entries that add up to `bits`, more than [`MAX_BITS`](Self::MAX_BITS).
+    fn too_long(bits: u32) -> MappingError;
+
+    /// A mapping without entries.
+    fn empty() -> Self;
+
+    /// The bits mapped so far, and the number of entries.
+    fn used(&self) -> (u32, usize);
+
+    /// Appends `entry` after the objects mapped so far. [`push_checked`] calls it once the
+    /// entry passed every check, so it fits: there is room for one more entry and its bits.
+    fn append(&mut self, entry: MappingEntry, kind: ValueKind);
+}
+
+/// Appends an object of `kind` to `m` after the checks of [`Mapping::push`] under `M`'s
+/// length limit, in this order: the entry's shape; an object longer than 64 bits (the packer
+/// holds each value in 64 bits; in a classic PDO the total below says it); the total length;
+/// the entry count.
+pub(crate) fn push_checked<M: PdoMapping>(
+    m: &mut M,
+    entry: MappingEntry,
+    kind: ValueKind,
+) -> Result<(), MappingError> {
+    check_entry_shape(entry, kind)?;
+    if M::MAX_BITS > MAX_OBJECT_BITS && u32::from(entry.bits()) > MAX_OBJECT_BITS {
+        return Err(MappingError::EntryTooLong {
+            addr: entry.addr(),
+            mapped_bits: entry.bits(),
+        });
+    }
+    let (bits, count) = m.used();
+    let total = bits + u32::from(entry.bits());
+    if total > M::MAX_BITS {
+        return Err(M::too_long(total));
+    }
+    if count >= MAX_ENTRIES {
+        return Err(MappingError::TooManyEntries(MAX_ENTRIES + 1));
+    }
+    m.append(entry, kind);
+    Ok(())
+}
+
+/// A mapping from raw entries without a dictionary (see [`Mapping::from_raw`]).
+pub(crate) fn mapping_from_raw<M: PdoMapping>(entries: &[u32]) -> Result<M, MappingError> {
+    if entries.len() > MAX_ENTRIES {
+        return Err(MappingError::TooManyEntries(entries.len()));
+    }
+    let mut m = M::empty();
+    for &raw in entries {
+        let e = MappingEntry(raw);
+        push_checked(&mut m, e, raw_entry_kind(e))?;
+    }
+    Ok(m)
+}
+
+/// A mapping from raw entries checked against `catalog` (see [`Mapping::from_raw_checked`]).
+pub(crate) fn mapping_from_raw_checked<M: PdoMapping, C: Catalog + ?Sized>(
+    direction: Direction,
+    entries: &[u32],
+    catalog: &C,
+) -> Result<M, MappingError> {
+    if entries.len() > MAX_ENTRIES {
+        return Err(MappingError::TooManyEntries(entries.len()));
+    }
+    let mut m = M::empty();
+    for &raw in entries {
+        let e = MappingEntry(raw);
+        let kind = check_entry(direction, e, catalog)?;
+        push_checked(&mut m, e, kind)?;
+    }
+    Ok(m)
+}
+
+/// Mapping parameter object `index` read from `dict` and checked (see [`Mapping::read_from`]);
+/// sub 0 = 0xFE or 0xFF (an MPDO) is [`MappingError::Mpdo`].
+pub(crate) fn read_mapping<M: PdoMapping, D: Dictionary + ?Sized>(
+    dict: &D,
+    direction: Direction,
+    index: u16,
+) -> Result<M, MappingError> {
+    let count = dict.read_u32(index, 0)?;
+    match count {
+        0xFE | 0xFF => return Err(MappingError::Mpdo(count as u8)),
+        n if n as usize > MAX_ENTRIES => {
+            return Err(MappingError::TooManyEntries(n as usize));
+        }
+        _ => {}
+    }
+    let mut raw: Vec<u32, MAX_ENTRIES> = Vec::new();
+    for sub in 1..=count as u8 {
+        // `count` is at most 64, so the push cannot fail.
+        let _ = raw.push(dict.read_u32(index, sub)?);
+    }
+    mapping_from_raw_checked(direction, &raw, dict)
+}
+
+impl PdoMapping for Mapping {
+    const MAX_BITS: u32 = MAX_BITS;
+
+    fn too_long(bits: u32) -> MappingError {
+        MappingError::TooLong(bits)
+    }
+
+    fn empty() -> Self {
+        Self::new()
+    }
+
+    fn used(&self) -> (u32, usize) {
+        (self.bit_len(), self.len())
+    }
+
+    fn append(&mut self, entry: MappingEntry, kind: ValueKind) {
+        let obj = MappedObject {
+            entry,
+            offset: self.bits,
+            kind,
+            mask: field_mask(entry.bits()) << self.bits,
+        };
+        // Cannot fail: `push_checked` found room for one more entry.
+        let _ = self.objects.push(obj);
+        // At most 64: `push_checked` checked the total.
+        self.bits += entry.bits();
     }
 }
 
@@ -558,6 +652,11 @@ mod tests {
         assert_eq!(
             Mapping::from_raw(&[0x6000_0120, 0x6000_0220, 0x6000_0301]),
             Err(MappingError::TooLong(65))
+        );
+        // One object longer than 64 bits: in a classic PDO it is the total that is too long.
+        assert_eq!(
+            Mapping::from_raw(&[0x6000_0148]),
+            Err(MappingError::TooLong(72))
         );
         assert_eq!(
             Mapping::from_raw(&[0x6000_0100]),

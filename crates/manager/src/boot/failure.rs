@@ -34,6 +34,24 @@ impl Failure {
             absent: false,
         }
     }
+
+    /// The keep-alive check at `step` failed: by node guarding (0x100C, code F) or by the
+    /// heartbeat (0x1017): code K while error control starts, else code E (CiA 302-2).
+    pub(super) fn keep_alive(step: BootStep, guarding: bool, detail: String) -> Self {
+        let (code, index) = match (guarding, step) {
+            (true, _) => (BootErrorCode::F, 0x100C),
+            (false, BootStep::ErrorControl) => (BootErrorCode::K, 0x1017),
+            (false, _) => (BootErrorCode::E, 0x1017),
+        };
+        Self {
+            step,
+            code,
+            object: Some(ObjectAddress::new(index, 0)),
+            abort: None,
+            detail,
+            absent: false,
+        }
+    }
 }
 
 pub(super) fn to_u32(bytes: &[u8]) -> u32 {
@@ -79,4 +97,25 @@ pub(super) fn verify_stamp(slave: &SlaveConfig) -> Option<(u32, u32)> {
     };
     let stamp = (get(1)?, get(2)?);
     (stamp != (0, 0)).then_some(stamp)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_keep_alive_failure_names_its_code_and_object() {
+        let cases = [
+            (BootStep::NodeState, true, BootErrorCode::F, 0x100C),
+            (BootStep::ErrorControl, true, BootErrorCode::F, 0x100C),
+            (BootStep::NodeState, false, BootErrorCode::E, 0x1017),
+            (BootStep::ErrorControl, false, BootErrorCode::K, 0x1017),
+        ];
+        for (step, guarding, code, index) in cases {
+            let f = Failure::keep_alive(step, guarding, "why".into());
+            assert_eq!((f.step, f.code), (step, code));
+            assert_eq!(f.object, Some(ObjectAddress::new(index, 0)));
+            assert_eq!((f.abort, f.detail.as_str(), f.absent), (None, "why", false));
+        }
+    }
 }

@@ -187,66 +187,50 @@ impl SlaveBoot<'_> {
         } else {
             self.config.master.boot_timeout
         };
+        let by = if guarding {
+            "node guarding"
+        } else {
+            "heartbeat"
+        };
+        let no_state = |what: &str| {
+            Failure::keep_alive(
+                BootStep::NodeState,
+                guarding,
+                format!("keep-alive check by {by}: {what}"),
+            )
+        };
         let alive = self
             .net
             .node(node)
             .nmt()
             .wait_for_life((!guarding).then_some(since), since + window)
             .await
-            .map_err(|e| self.no_state(guarding, &format!("no answer with the node state: {e}")))?;
+            .map_err(|e| no_state(&format!("no answer with the node state: {e}")))?;
         if !alive {
-            return Err(self.no_state(guarding, "no answer with the node state in time"));
+            return Err(no_state("no answer with the node state in time"));
         }
         if self.net.last_state(node) == Some(canola::NmtState::Operational) {
             self.step_done(BootStep::NodeState, Some(BootStep::ErrorControl));
             return Ok(true);
         }
         let nmt = self.net.node(node).nmt();
+        // Not sent: no object to blame, the keep-alive check's code.
         nmt.reset_communication().map_err(|e| Failure {
-            step: BootStep::NodeState,
-            code: if guarding {
-                BootErrorCode::F
-            } else {
-                BootErrorCode::E
-            },
             object: None,
-            abort: None,
-            detail: format!("NMT reset communication could not be sent: {e}"),
-            absent: false,
+            ..Failure::keep_alive(
+                BootStep::NodeState,
+                guarding,
+                format!("NMT reset communication could not be sent: {e}"),
+            )
         })?;
         let no_boot_up = "no boot-up after NMT reset communication";
         match nmt.wait_for_bootup(self.config.master.boot_timeout).await {
             Ok(()) => {}
-            Err(canola::Error::Timeout(_)) => return Err(self.no_state(guarding, no_boot_up)),
-            Err(e) => return Err(self.no_state(guarding, &format!("{no_boot_up}: {e}"))),
+            Err(canola::Error::Timeout(_)) => return Err(no_state(no_boot_up)),
+            Err(e) => return Err(no_state(&format!("{no_boot_up}: {e}"))),
         }
         self.step_done(BootStep::NodeState, None);
         Ok(false)
-    }
-
-    fn no_state(&self, guarding: bool, what: &str) -> Failure {
-        Failure {
-            step: BootStep::NodeState,
-            code: if guarding {
-                BootErrorCode::F
-            } else {
-                BootErrorCode::E
-            },
-            object: Some(ObjectAddress::new(
-                if guarding { 0x100C } else { 0x1017 },
-                0,
-            )),
-            abort: None,
-            detail: format!(
-                "keep-alive check by {}: {what}",
-                if guarding {
-                    "node guarding"
-                } else {
-                    "heartbeat"
-                }
-            ),
-            absent: false,
-        }
     }
 
     /// The DCF's value of a parameter (0 when it has none).

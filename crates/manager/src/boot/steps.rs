@@ -236,37 +236,14 @@ impl SlaveBoot<'_> {
             return Ok(());
         } else {
             // Asked for, but the slave's parameters leave it off.
-            let guarding = want == ErrorControl::Guarding;
-            return Err(Failure {
-                step: BootStep::ErrorControl,
-                code: if guarding {
-                    BootErrorCode::F
-                } else {
-                    BootErrorCode::K
-                },
-                object: Some(ObjectAddress::new(
-                    if guarding { 0x100C } else { 0x1017 },
-                    0,
-                )),
-                abort: None,
-                detail: "the slave's error control parameter is 0".into(),
-                absent: false,
-            });
+            return Err(Failure::keep_alive(
+                BootStep::ErrorControl,
+                want == ErrorControl::Guarding,
+                "the slave's error control parameter is 0".into(),
+            ));
         };
-        let no_life = |why: String| Failure {
-            step: BootStep::ErrorControl,
-            code: if guarding {
-                BootErrorCode::F
-            } else {
-                BootErrorCode::K
-            },
-            object: Some(ObjectAddress::new(
-                if guarding { 0x100C } else { 0x1017 },
-                0,
-            )),
-            abort: None,
-            detail: format!("{what}: {why}"),
-            absent: false,
+        let no_life = |why: String| {
+            Failure::keep_alive(BootStep::ErrorControl, guarding, format!("{what}: {why}"))
         };
         let alive = self
             .net
