@@ -22,8 +22,9 @@
 //!
 //! # Behaviour on unexpected input
 //!
-//! - An initiate response for another index/sub-index is ignored (it is a late answer to an
-//!   earlier request); it never completes the running transfer.
+//! - An initiate response for another index/sub-index is ignored, whether it is an upload's or
+//!   a download's (it is a late answer to an earlier request); it never completes or fails the
+//!   running transfer.
 //! - A server abort ends the transfer when its multiplexer is the transfer's (or 0000:00, as
 //!   some servers send for unknown commands) and is reported as [`ErrorKind::ServerAbort`],
 //!   apart from local failures.
@@ -721,6 +722,18 @@ impl<S: Sink, D: Source> Client<S, D> {
                 self.after_abort = true;
                 return Step::Finish(active, Err(ErrorKind::ServerAbort(code)));
             }
+            return Step::Continue(active);
+        }
+        // An initiate response naming another object answers an earlier request, whatever
+        // its kind: e.g. a read that timed out while its request still waited in a full
+        // transmit queue, answered once the next transfer (a write) had started. It is not
+        // this transfer's, so it neither completes nor fails it.
+        if let ServerResponse::InitiateUpload { mux, .. }
+        | ServerResponse::InitiateDownload { mux }
+        | ServerResponse::BlockDownloadInitiate { mux, .. }
+        | ServerResponse::BlockUploadInitiate { mux, .. } = &msg
+            && *mux != active.mux
+        {
             return Step::Continue(active);
         }
         let result = if matches!(active.kind, Kind::Up { .. }) {

@@ -1963,3 +1963,60 @@ fn a_block_download_aborted_mid_sub_block_leaves_leftovers() {
     c.handle_response(T0, &ServerResponse::InitiateDownload { mux: U16_RW }.emit());
     downloaded(c.poll_event().expect("the download completes"));
 }
+
+/// What a master saw on a saturated bus (64 slaves booting at 1 Mbit/s): a read whose request
+/// waited in the transmit queue longer than the SDO timeout timed out and was repeated; the
+/// first request's answer completed the repeat, and the repeat's answer (an upload response
+/// for 0x1000) came while the next transfer, a write of 0x1017, waited for its confirmation.
+/// That late answer must not fail the write.
+#[test]
+fn a_late_answer_of_another_kind_and_object_does_not_fail_the_next_transfer() {
+    let device_type = Multiplexer::new(0x1000, 0);
+    let heartbeat = Multiplexer::new(0x1017, 0);
+    let answer = ServerResponse::InitiateUpload {
+        mux: device_type,
+        data: Initiate::expedited(&[0x91, 0x01, 0, 0]).unwrap(),
+    }
+    .emit();
+    let mut c: TestClient = Client::new(ClientConfig::default());
+    c.start_upload(T0, device_type, Vec::new(), Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    let late = T0 + Duration::from_secs(1);
+    c.handle_timeout(late);
+    assert_eq!(
+        drain(&mut c),
+        [abort_bytes(device_type, AbortCode::TIMEOUT)]
+    );
+    assert!(matches!(c.poll_event(), Some(Event::Failed { .. })));
+    // The repeat, completed by the first request's answer.
+    c.start_upload(late, device_type, Vec::new(), Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    c.handle_response(late, &answer);
+    assert!(matches!(c.poll_event(), Some(Event::Uploaded { .. })));
+    // The write; the repeat's own answer arrives first.
+    c.start_download(late, heartbeat, vec![0, 0], Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    c.handle_response(late, &answer);
+    assert!(drain(&mut c).is_empty(), "no abort for a late answer");
+    assert!(c.poll_event().is_none());
+    c.handle_response(
+        late,
+        &ServerResponse::InitiateDownload { mux: heartbeat }.emit(),
+    );
+    assert!(matches!(c.poll_event(), Some(Event::Downloaded { .. })));
+    // The other way round: a download's confirmation for another object during a read.
+    c.start_upload(late, device_type, Vec::new(), Method::Normal)
+        .unwrap();
+    drain(&mut c);
+    c.handle_response(
+        late,
+        &ServerResponse::InitiateDownload { mux: heartbeat }.emit(),
+    );
+    assert!(drain(&mut c).is_empty());
+    assert!(c.poll_event().is_none());
+    c.handle_response(late, &answer);
+    assert!(matches!(c.poll_event(), Some(Event::Uploaded { .. })));
+}
