@@ -97,8 +97,8 @@ pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 #[cfg(feature = "slcan")]
 pub use transport::slcan;
 pub use transport::{
-    BusEvent, BusSpec, OpenError, OpenErrorKind, Received, Station, Transport, TransportError,
-    run_station,
+    BusEvent, BusSpec, OpenError, OpenErrorKind, Received, RxCoalescing, Station, Transport,
+    TransportError, run_station,
 };
 pub use transport::{candump, mem};
 #[cfg(all(feature = "socketcan", target_os = "linux"))]

@@ -1,6 +1,7 @@
 //! The master's SocketCAN transport (`canola::socketcan::SocketCan`) on the real kernel CAN
 //! stack: frames both ways between it and an independent `socketcan` socket, with ids, data and
-//! RTR intact, and receive timestamps from the transport's clock.
+//! RTR intact, and receive timestamps from the transport's clock; receive coalescing (bursts
+//! held to the window or the deadline, frames stamped with the kernel's reception time).
 //!
 //! Ignored on the host; `tests/vcan/run-all` runs them in the QEMU guest with `--ignored`. Each
 //! test uses ids of its own node-ID, so they may run in parallel on the shared bus.
@@ -8,7 +9,7 @@
 use std::time::Duration as StdDuration;
 
 use canola::socketcan::SocketCan;
-use canola::{Received, Transport};
+use canola::{Received, RxCoalescing, Transport};
 use canola_frame::{CanFrame, CanId, Duration};
 use socketcan::{CanFilter, EmbeddedFrame, Id, Socket, StandardId};
 use vcan_tests::{interface, open, open_filtered};
@@ -129,4 +130,82 @@ fn precise_waits_receive_in_order_and_end_at_the_deadline() {
             "recv_until returned None before its deadline ({wait_us} µs)"
         );
     }
+}
+
+/// Frames with id `id` and their stamps, received until `deadline`; with when the first
+/// receive of the call returned.
+fn frames_until(
+    t: &mut SocketCan,
+    id: u16,
+    deadline: canola_frame::Instant,
+) -> (
+    Vec<(u8, canola_frame::Instant)>,
+    Option<canola_frame::Instant>,
+) {
+    let (mut got, mut first_return) = (Vec::new(), None);
+    while let Some(r) = t.recv_until(deadline).expect("recv") {
+        first_return.get_or_insert_with(|| t.now());
+        if let Received::Frame { frame, at } = r
+            && frame.id().as_standard() == Some(id)
+        {
+            got.push((frame.data()[0], at));
+        }
+    }
+    (got, first_return)
+}
+
+#[test]
+#[ignore = "needs vcan0: run by tests/vcan/run-all"]
+fn coalescing_stamps_frames_with_their_arrival() {
+    // With receive coalescing on, frames are stamped with the kernel's reception time: five
+    // frames sent 5 ms apart while nobody reads are read together, yet stamped 20 ms apart
+    // (stamped when read, they would be within a fraction of a millisecond).
+    let mut t = SocketCan::open(&interface()).expect("open the transport");
+    assert!(t.set_rx_coalescing(RxCoalescing::new(Duration::from_millis(5))));
+    let peer = open().expect("open the peer socket");
+    for n in 0u8..5 {
+        let f = socketcan::CanFrame::new(StandardId::new(0x5A8).expect("id"), &[n]).expect("frame");
+        peer.write_frame(&f).expect("peer sends");
+        std::thread::sleep(StdDuration::from_millis(5));
+    }
+    let deadline = t.now() + Duration::from_millis(100);
+    let (got, _) = frames_until(&mut t, 0x5A8, deadline);
+    let data: Vec<u8> = got.iter().map(|(d, _)| *d).collect();
+    assert_eq!(data, [0, 1, 2, 3, 4]);
+    for w in got.windows(2) {
+        assert!(w[1].1 >= w[0].1, "stamps go backwards: {got:?}");
+    }
+    let span = got[4].1.saturating_duration_since(got[0].1);
+    assert!(
+        span >= Duration::from_millis(15),
+        "stamps {span:?} apart: {got:?}"
+    );
+}
+
+#[test]
+#[ignore = "needs vcan0: run by tests/vcan/run-all"]
+fn coalescing_holds_a_burst_until_the_deadline_at_most() {
+    // An endless window: a receive that saw a frame arrive while it waited hands it over at
+    // its deadline, not before and (the test ends) not later; the frames come in order.
+    let mut t = SocketCan::open(&interface()).expect("open the transport");
+    assert!(t.set_rx_coalescing(RxCoalescing::new(Duration::MAX)));
+    let peer = open().expect("open the peer socket");
+    let deadline = t.now() + Duration::from_millis(300);
+    let sender = std::thread::spawn(move || {
+        std::thread::sleep(StdDuration::from_millis(50));
+        for n in 0u8..3 {
+            let f =
+                socketcan::CanFrame::new(StandardId::new(0x5A9).expect("id"), &[n]).expect("frame");
+            peer.write_frame(&f).expect("peer sends");
+        }
+    });
+    let (got, first_return) = frames_until(&mut t, 0x5A9, deadline);
+    sender.join().expect("sender");
+    let data: Vec<u8> = got.iter().map(|(d, _)| *d).collect();
+    assert_eq!(data, [0, 1, 2]);
+    assert!(got.iter().all(|(_, at)| *at < deadline));
+    assert!(
+        first_return.is_some_and(|t| t >= deadline),
+        "a burst was handed over before the deadline"
+    );
 }

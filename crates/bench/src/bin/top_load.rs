@@ -7,7 +7,7 @@
 //!
 //! ```text
 //! cargo run --release -p canola-bench --bin top_load -- --nodes 64 --seconds 30 [--fps 10]
-//!     [--size 120x40] [--bitrate 1000000] [--no-view | --bare]
+//!     [--size 120x40] [--bitrate 1000000] [--no-view | --bare] [--no-coalescing]
 //! ```
 //!
 //! Prints the frames on the wire, the frames the model counted, the copies the tap had no room
@@ -19,13 +19,15 @@
 //! thread (with the tap) and the view. `--no-view` drains the queue without model or drawing;
 //! `--bare` replaces master, tap and view by a plain endpoint that sends the SYNCs and receives
 //! every frame on a thread of its own: the cost of receiving this bus in real time at all, the
-//! floor under the master's. Exits 1 when a frame was lost.
+//! floor under the master's. Both receive with the wake-up coalescing the view's tap sets
+//! (`tap::RX_COALESCING`); `--no-coalescing` turns it off (one wake-up per frame, as before
+//! it). Exits 1 when a frame was lost.
 
 use std::process::ExitCode;
 use std::sync::atomic::Ordering;
 use std::time::{Duration as StdDuration, Instant as StdInstant};
 
-use canola::{BusConfig, ClockMode, MemoryBus, Network, NodeId};
+use canola::{BusConfig, ClockMode, MemoryBus, Network, NodeId, RxCoalescing, Transport as _};
 use canola_bench::load::{self, LoadNode};
 use canola_bench::thread_cpu_seconds;
 use canola_frame::Duration;
@@ -60,6 +62,7 @@ struct Args {
     bitrate: u32,
     view: bool,
     bare: bool,
+    coalescing: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -71,6 +74,7 @@ fn parse_args() -> Result<Args, String> {
         bitrate: 1_000_000,
         view: true,
         bare: false,
+        coalescing: true,
     };
     let mut it = std::env::args().skip(1);
     while let Some(arg) = it.next() {
@@ -91,6 +95,7 @@ fn parse_args() -> Result<Args, String> {
             }
             "--no-view" => a.view = false,
             "--bare" => a.bare = true,
+            "--no-coalescing" => a.coalescing = false,
             other => return Err(format!("unknown argument {other}")),
         }
     }
@@ -104,7 +109,6 @@ fn parse_args() -> Result<Args, String> {
 /// master, tap and view: it sends the SYNCs and receives every frame, as any program receiving
 /// this bus in real time must. Its CPU share is the floor under the master's.
 fn bare(a: &Args, period: Duration) -> ExitCode {
-    use canola::Transport as _;
     let bus = MemoryBus::with_config(BusConfig {
         clock: ClockMode::RealTime,
         bitrate: Some(a.bitrate),
@@ -115,7 +119,10 @@ fn bare(a: &Args, period: Duration) -> ExitCode {
         bus.attach(LoadNode::new(NodeId::new(n).expect("1..=127"), od.clone()));
     }
     let mut ep = bus.endpoint();
-    let seconds = a.seconds;
+    if a.coalescing {
+        ep.set_rx_coalescing(coalescing());
+    }
+    let (seconds, coalesce) = (a.seconds, a.coalescing);
     let receiver = std::thread::Builder::new()
         .name("receiver".into())
         .spawn(move || -> Result<(u64, f64), canola::TransportError> {
@@ -146,8 +153,9 @@ fn bare(a: &Args, period: Duration) -> ExitCode {
     match receiver.join() {
         Ok(Ok((frames, cpu))) => {
             println!(
-                "bare receiver: {frames} frames in {seconds} s, its thread {:.1} % of a core \
-                 ({:.1} us per frame)",
+                "bare receiver (receive coalescing {}): {frames} frames in {seconds} s, its \
+                 thread {:.1} % of a core ({:.1} us per frame)",
+                if coalesce { "on" } else { "off" },
                 cpu * 100.0 / seconds,
                 cpu * 1e6 / frames.max(1) as f64
             );
@@ -159,6 +167,11 @@ fn bare(a: &Args, period: Duration) -> ExitCode {
         }
         Err(_) => ExitCode::FAILURE,
     }
+}
+
+/// The receive coalescing the view's tap sets.
+fn coalescing() -> RxCoalescing {
+    RxCoalescing::new(top::tap::RX_COALESCING)
 }
 
 /// CPU seconds of the whole process, user and system.
@@ -221,7 +234,10 @@ fn main() -> ExitCode {
     for n in &nodes {
         bus.attach(LoadNode::new(*n, od.clone()));
     }
-    let (endpoint, rx, stats) = top::tap::tap(bus.endpoint());
+    let (mut endpoint, rx, stats) = top::tap::tap(bus.endpoint());
+    if !a.coalescing {
+        endpoint.set_rx_coalescing(RxCoalescing::OFF);
+    }
     let net = Network::new(endpoint);
     let dictionaries: Vec<_> = nodes.iter().map(|n| (*n, master_od.clone())).collect();
     for (n, od) in &dictionaries {
@@ -244,7 +260,7 @@ fn main() -> ExitCode {
     let wire0 = bus.stats().frames;
     println!(
         "top_load: {} nodes, 2 x 8-byte TPDOs each per SYNC, SYNC period {} us ({} bit/s, 95 % \
-         load), {} s real time, view {} at {} draws/s, {}x{}",
+         load), {} s real time, view {} at {} draws/s, {}x{}, receive coalescing {}",
         a.nodes,
         period.as_micros(),
         a.bitrate,
@@ -252,7 +268,12 @@ fn main() -> ExitCode {
         if a.view { "on" } else { "off" },
         a.fps,
         a.size.0,
-        a.size.1
+        a.size.1,
+        if a.coalescing {
+            format!("{} ms", top::tap::RX_COALESCING.as_millis())
+        } else {
+            "off".into()
+        }
     );
     let mut terminal = Terminal::new(TestBackend::new(a.size.0, a.size.1)).expect("test backend");
     let mode = top::keys::Mode::Normal;
@@ -276,7 +297,7 @@ fn main() -> ExitCode {
     while StdInstant::now() < end {
         take(&mut model, a.view);
         if a.view {
-            model.tick(net.now());
+            model.tick(stats.now().unwrap_or_else(|| net.now()));
             peak_fps = peak_fps.max(model.bus.fps);
             peak_load = peak_load.max(model.bus.load);
             let screen = top::view::Screen {

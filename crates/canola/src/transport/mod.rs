@@ -31,5 +31,7 @@ mod tests;
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
 pub mod udp;
 
-pub use contract::{BusEvent, Received, Station, Transport, TransportError, run_station};
+pub use contract::{
+    BusEvent, Received, RxCoalescing, Station, Transport, TransportError, run_station,
+};
 pub use spec::{BusSpec, OpenError, OpenErrorKind};

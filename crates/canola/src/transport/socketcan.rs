@@ -31,6 +31,19 @@
 //! with tick-rounded waits its SYNC intervals are 4 to 8 ms (`vcan_drives` in
 //! `crates/bench` measures both).
 //!
+//! Receive coalescing ([`Transport::set_rx_coalescing`], off by default): a receive that finds
+//! the socket empty waits for the first frame as above, then sleeps until the window has passed
+//! since that frame arrived (or the deadline comes first) and reads what queued meanwhile
+//! without blocking, up to the batch's `max_frames` (the rest is read at once by the next
+//! receive; a sleep is not cut short by a count, so the receive buffer must hold a window's
+//! traffic: the default one holds over 100 ms of a full 1 Mbit/s bus). Frames already queued
+//! are read at once. With coalescing on, frames are stamped with the kernel's reception time
+//! (`SO_TIMESTAMPNS`, the host's real-time clock, moved onto the transport's monotonic clock by
+//! the two clocks' difference when the frame is read; never later than that read nor earlier
+//! than the frame read before it), not with the time they were read, so a burst keeps its
+//! arrival times. A kernel that refuses the option leaves them stamped when read (up to a
+//! window late).
+//!
 //! CAN FD: an interface carries CAN FD when its MTU is 72 (`CANFD_MTU`, the size of a
 //! `struct canfd_frame`; read from `/sys/class/net/IFACE/mtu` at open), classic frames only
 //! with MTU 16 (`CAN_MTU`). [`SocketCan::open_fd`] asks an FD interface for CAN FD frames
@@ -51,7 +64,7 @@ use canola_frame::{CanFrame, CanId, Instant};
 use nix::sys::socket::{ControlMessageOwned, MsgFlags, getsockopt, recvmsg, setsockopt, sockopt};
 use socketcan::{EmbeddedFrame, Socket, SocketOptions};
 
-use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
+use crate::transport::contract::{BusEvent, Received, RxCoalescing, Transport, TransportError};
 use canola_frame::fd::FD_LENGTHS;
 use canola_frame::{FdFlags, FdFrame};
 
@@ -124,6 +137,12 @@ pub struct SocketCan {
     mtu: Option<usize>,
     /// CAN FD frames enabled on the socket (`CAN_RAW_FD_FRAMES`).
     fd: bool,
+    /// Receive coalescing (see the module docs).
+    coalescing: RxCoalescing,
+    /// The kernel stamps received frames (`SO_TIMESTAMPNS`, set with coalescing).
+    kernel_stamps: bool,
+    /// The stamp of the frame read last (a kernel stamp is never put before it).
+    last_stamp: Instant,
 }
 
 impl core::fmt::Debug for SocketCan {
@@ -241,6 +260,24 @@ pub(crate) fn reuse_timeout(set: std::time::Duration, wanted: std::time::Duratio
     set <= wanted + wanted / 16 && set >= wanted / 2
 }
 
+/// A frame's reception time on the transport's clock, from the kernel's stamp `received` (the
+/// real-time clock, since the Unix epoch): as long before `now` (the transport's clock, read
+/// with `real_now` of the real-time clock) as the stamp is before `real_now`. Kept between the
+/// previous frame's stamp `floor` and `now`, so a step of the real-time clock (or a stamp from
+/// the future) cannot reorder frames or date them after their reading.
+pub(crate) fn kernel_stamp(
+    received: std::time::Duration,
+    real_now: std::time::Duration,
+    now: Instant,
+    floor: Instant,
+) -> Instant {
+    let age = real_now.saturating_sub(received);
+    let age =
+        canola_frame::Duration::from_micros(u64::try_from(age.as_micros()).unwrap_or(u64::MAX));
+    let at = Instant::from_micros(now.as_micros().saturating_sub(age.as_micros()));
+    at.max(floor).min(now)
+}
+
 /// Whether `iface` is up (`IFF_UP` in `/sys/class/net/IFACE/flags`); true when that file
 /// cannot be read.
 fn link_is_up(iface: &str) -> bool {
@@ -284,6 +321,9 @@ impl SocketCan {
             precise: false,
             mtu: interface_mtu(iface),
             fd: false,
+            coalescing: RxCoalescing::OFF,
+            kernel_stamps: false,
+            last_stamp: Instant::ZERO,
         })
     }
 
@@ -315,6 +355,37 @@ impl SocketCan {
             Ok(_) => self.read_one(MsgFlags::MSG_DONTWAIT).map(|_| ()),
             Err(e) => Err(std::io::Error::from(e).into()),
         }
+    }
+
+    /// Reads what the socket holds without blocking, `reads` reads at most (a frame, an error
+    /// frame, or a report of the interface going down each).
+    fn read_queued(&mut self, reads: usize) -> Result<(), TransportError> {
+        for _ in 0..reads {
+            if !self.read_one(MsgFlags::MSG_DONTWAIT)? {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    /// The coalescing wait after the first frame of a burst arrived (see the module docs):
+    /// sleeps until the window has passed since it arrived or `deadline` comes, then reads
+    /// what queued meanwhile, up to the batch's size.
+    fn coalesce(&mut self, deadline: Instant) -> Result<(), TransportError> {
+        let now = self.clock.now();
+        let first = match self.events.front() {
+            Some(Received::Frame { at, .. } | Received::Event(BusEvent::FdFrame { at, .. })) => *at,
+            _ => now,
+        };
+        let until = (first + self.coalescing.window()).min(deadline);
+        if until > now {
+            std::thread::sleep((until - now).into());
+        }
+        let room = self
+            .coalescing
+            .max_frames()
+            .saturating_sub(self.events.len());
+        self.read_queued(room)
     }
 
     /// Opens `iface` as [`open`](Self::open) does for CAN FD: FD frames are received (as
@@ -407,8 +478,8 @@ impl SocketCan {
     /// `MSG_DONTWAIT`. `Ok(false)`: nothing arrived.
     fn read_one(&mut self, flags: MsgFlags) -> Result<bool, TransportError> {
         let mut buf = [0u8; CANFD_MTU];
-        let mut cmsg = nix::cmsg_space!(u32);
-        let (n, drops) = {
+        let mut cmsg = nix::cmsg_space!(u32, nix::sys::time::TimeSpec);
+        let (n, drops, kernel_at) = {
             let mut iov = [IoSliceMut::new(&mut buf)];
             let msg = match recvmsg::<()>(self.socket.as_raw_fd(), &mut iov, Some(&mut cmsg), flags)
             {
@@ -420,15 +491,17 @@ impl SocketCan {
                 }
                 Err(e) => return Err(std::io::Error::from(e).into()),
             };
-            let mut drops = None;
+            let (mut drops, mut kernel_at) = (None, None);
             if let Ok(cmsgs) = msg.cmsgs() {
                 for c in cmsgs {
-                    if let ControlMessageOwned::RxqOvfl(d) = c {
-                        drops = Some(d);
+                    match c {
+                        ControlMessageOwned::RxqOvfl(d) => drops = Some(d),
+                        ControlMessageOwned::ScmTimestampns(t) => kernel_at = Some(t),
+                        _ => {}
                     }
                 }
             }
-            (msg.bytes, drops)
+            (msg.bytes, drops, kernel_at)
         };
         if self.down && link_is_up(&self.iface) {
             self.came_up();
@@ -445,7 +518,21 @@ impl SocketCan {
             self.events
                 .push_back(Received::Event(BusEvent::RxOverflow { dropped }));
         }
-        let at = self.clock.now();
+        let now = self.clock.now();
+        let at = match kernel_at {
+            Some(t) if self.kernel_stamps => {
+                let received = std::time::Duration::new(
+                    u64::try_from(t.tv_sec()).unwrap_or(0),
+                    u32::try_from(t.tv_nsec()).unwrap_or(0),
+                );
+                let real_now = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .unwrap_or_default();
+                kernel_stamp(received, real_now, now, self.last_stamp)
+            }
+            _ => now,
+        };
+        self.last_stamp = at;
         if n == CANFD_MTU {
             if let Some(frame) = decode_raw_fd(&buf) {
                 let frame = Box::new(frame);
@@ -531,9 +618,14 @@ impl Transport for SocketCan {
     }
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
+        // Whether this call waited on the socket (what it holds now arrived meanwhile).
+        let mut waited = false;
         loop {
-            if let Some(r) = self.events.pop_front() {
-                return Ok(Some(r));
+            if !self.events.is_empty() {
+                if waited && self.coalescing.is_on() {
+                    self.coalesce(deadline)?;
+                }
+                return Ok(self.events.pop_front());
             }
             let now = self.clock.now();
             if now >= deadline {
@@ -541,6 +633,15 @@ impl Transport for SocketCan {
                 self.read_one(MsgFlags::MSG_DONTWAIT)?;
                 return Ok(self.events.pop_front());
             }
+            if self.coalescing.is_on() && !waited {
+                // What the socket holds already comes at once: coalescing is for a burst that
+                // starts while the receive waits.
+                self.read_queued(self.coalescing.max_frames())?;
+                if let Some(r) = self.events.pop_front() {
+                    return Ok(Some(r));
+                }
+            }
+            waited = true;
             if self.precise {
                 self.poll_wait((deadline - now).into())?;
                 continue;
@@ -556,6 +657,17 @@ impl Transport for SocketCan {
 
     fn has_pending(&self) -> bool {
         !self.events.is_empty()
+    }
+
+    fn set_rx_coalescing(&mut self, coalescing: RxCoalescing) -> bool {
+        self.coalescing = coalescing;
+        let on = coalescing.is_on();
+        // Kernel stamps only with coalescing: without it a frame is read as it arrives.
+        if on != self.kernel_stamps {
+            let fd = self.socket.as_raw_socket();
+            self.kernel_stamps = setsockopt(fd, sockopt::ReceiveTimestampns, &on).is_ok() && on;
+        }
+        on
     }
 }
 
@@ -652,6 +764,29 @@ mod tests {
         assert!(reuse_timeout(ms(1), ms(2)));
         assert!(!reuse_timeout(ms(1), ms(2) + us(1)));
         assert!(!reuse_timeout(us(100), ms(50)));
+    }
+
+    #[test]
+    fn kernel_stamps_move_onto_the_monotonic_clock_in_order() {
+        let s = std::time::Duration::from_micros;
+        let at = Instant::from_micros;
+        // Received 3 ms before the read: stamped 3 ms before the transport's reading.
+        assert_eq!(
+            kernel_stamp(s(10_000), s(13_000), at(50_000), at(0)),
+            at(47_000)
+        );
+        // Never before the frame read before it (the real-time clock stepped back meanwhile).
+        assert_eq!(
+            kernel_stamp(s(10_000), s(13_000), at(50_000), at(48_000)),
+            at(48_000)
+        );
+        // Never after the reading (a stamp from the future: the clock stepped forward).
+        assert_eq!(
+            kernel_stamp(s(20_000), s(13_000), at(50_000), at(0)),
+            at(50_000)
+        );
+        // An age beyond the clock's epoch saturates.
+        assert_eq!(kernel_stamp(s(0), s(90_000), at(50_000), at(0)), at(0));
     }
 
     #[test]

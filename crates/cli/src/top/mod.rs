@@ -347,7 +347,9 @@ impl App {
                     }
                     self.model.ingest(&seen);
                 }
-                self.model.tick(live.net.now());
+                // The tap's clock: the network's would wait for its driver's step.
+                let now = live.stats.now().unwrap_or_else(|| live.net.now());
+                self.model.tick(now);
             }
             Source::Replay(r) => {
                 r.advance(&mut self.model, &mut self.recording);

@@ -3,6 +3,12 @@
 //! for the view. Putting a copy in costs one queue push; the view takes them at its own pace
 //! (10 times a second), so drawing never holds up the bus. A full queue drops the copy (never
 //! the frame the network gets) and counts it in [`TapStats::lost`].
+//!
+//! Since the view looks at the bus ten times a second, [`tap`] asks the transport to coalesce
+//! receive wake-ups ([`RX_COALESCING`], see [`canola::RxCoalescing`]): the master's driver is
+//! woken once per burst of frames instead of once per frame, which on a busy bus is most of
+//! what receiving it costs. Frames keep their reception times, and the network's timers are
+//! not delayed, so heartbeat ages and rates come out as before.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -10,7 +16,7 @@ use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
 
 use canola::candump::LogFrame;
 use canola::transport::{BusEvent, Received, Transport, TransportError};
-use canola::{CanFrame, Instant};
+use canola::{CanFrame, Duration, Instant, RxCoalescing};
 
 /// What the bus side saw, for the view's model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,18 +39,41 @@ pub(crate) enum Seen {
     },
 }
 
-/// Counters the bus side keeps for the view.
+/// Counters the bus side keeps for the view, and the transport's clock as the view reads it.
 #[derive(Debug, Default)]
 pub(crate) struct TapStats {
     /// Copies the view's queue had no room for.
     pub(crate) lost: AtomicU64,
     /// Copies put into the queue.
     pub(crate) queued: AtomicU64,
+    /// A reading of a real transport clock and the host's monotonic clock taken together
+    /// (`None` for a virtual clock), see [`now`](Self::now).
+    clock: Option<(Instant, std::time::Instant)>,
+}
+
+impl TapStats {
+    /// The transport's clock now, read without the transport: its reading when the tap was
+    /// made plus the host's monotonic time since. A real transport clock counts the host's
+    /// monotonic time from an epoch of its own, so this is its time (to a microsecond or so).
+    /// The network's own `now` waits for the transport, which its driver holds while it waits
+    /// for frames; a view that draws at a fixed rate must not wait for that. `None` on a
+    /// virtual clock (it follows no host time): ask the network then.
+    pub(crate) fn now(&self) -> Option<Instant> {
+        let (at, host) = self.clock?;
+        let d = host.elapsed();
+        Some(at + Duration::from_micros(d.as_micros().try_into().unwrap_or(u64::MAX)))
+    }
 }
 
 /// Room in the view's queue: at 1 Mbit/s a bus carries at most about 22 000 frames a second,
 /// so the queue holds several seconds of a full bus between two draws.
 pub(crate) const QUEUE: usize = 1 << 17;
+
+/// The receive coalescing [`tap`] sets on its transport: a frame reaches the network (and the
+/// view's queue) at most this long after it arrived, well inside one draw (100 ms at 10 draws a
+/// second). The network's driving step bounds each wait too (a few ms), so a longer window
+/// would gain little.
+pub(crate) const RX_COALESCING: Duration = Duration::from_millis(5);
 
 /// The transport wrapper (see the module docs).
 pub(crate) struct Tap<T> {
@@ -53,8 +82,11 @@ pub(crate) struct Tap<T> {
     stats: Arc<TapStats>,
 }
 
-/// A tap around `inner`, the queue the view reads, and the shared counters.
-pub(crate) fn tap<T: Transport>(inner: T) -> (Tap<T>, Receiver<Seen>, Arc<TapStats>) {
+/// A tap around `inner`, the queue the view reads, and the shared counters. Sets receive
+/// coalescing of [`RX_COALESCING`] on `inner` (a transport that cannot coalesce works as
+/// before).
+pub(crate) fn tap<T: Transport>(mut inner: T) -> (Tap<T>, Receiver<Seen>, Arc<TapStats>) {
+    inner.set_rx_coalescing(RxCoalescing::new(RX_COALESCING));
     tap_with(inner, QUEUE)
 }
 
@@ -64,7 +96,11 @@ pub(crate) fn tap_with<T: Transport>(
     capacity: usize,
 ) -> (Tap<T>, Receiver<Seen>, Arc<TapStats>) {
     let (tx, rx) = sync_channel(capacity);
-    let stats = Arc::new(TapStats::default());
+    let clock = (!inner.is_virtual()).then(|| (inner.now(), std::time::Instant::now()));
+    let stats = Arc::new(TapStats {
+        clock,
+        ..TapStats::default()
+    });
     (
         Tap {
             inner,
@@ -167,6 +203,10 @@ impl<T: Transport> Transport for Tap<T> {
 
     fn is_virtual(&self) -> bool {
         self.inner.is_virtual()
+    }
+
+    fn set_rx_coalescing(&mut self, coalescing: RxCoalescing) -> bool {
+        self.inner.set_rx_coalescing(coalescing)
     }
 
     fn next_event(&self) -> Option<Instant> {

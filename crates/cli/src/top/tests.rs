@@ -467,3 +467,54 @@ fn a_full_view_queue_costs_the_view_copies_never_the_master_frames() {
         .unwrap();
     assert!(matches!(rx.try_recv(), Ok(Seen::Frame { sent: true, .. })));
 }
+
+/// A transport that only records the receive coalescing asked of it.
+struct Recorder(std::sync::Arc<std::sync::Mutex<Option<canola::RxCoalescing>>>);
+
+impl canola::Transport for Recorder {
+    fn send(&mut self, _: &CanFrame) -> Result<(), canola::TransportError> {
+        Ok(())
+    }
+    fn recv_until(
+        &mut self,
+        _: Instant,
+    ) -> Result<Option<canola::transport::Received>, canola::TransportError> {
+        Ok(None)
+    }
+    fn now(&self) -> Instant {
+        Instant::ZERO
+    }
+    fn set_rx_coalescing(&mut self, coalescing: canola::RxCoalescing) -> bool {
+        *self.0.lock().unwrap() = Some(coalescing);
+        true
+    }
+}
+
+#[test]
+fn the_tap_coalesces_receive_wake_ups_and_tells_the_time_without_the_network() {
+    use canola::Transport as _;
+    let asked = std::sync::Arc::new(std::sync::Mutex::new(None));
+    let (mut t, _rx, _stats) = tap::tap(Recorder(asked.clone()));
+    assert_eq!(
+        *asked.lock().unwrap(),
+        Some(canola::RxCoalescing::new(tap::RX_COALESCING))
+    );
+    // Passed through to the transport.
+    assert!(t.set_rx_coalescing(canola::RxCoalescing::OFF));
+    assert_eq!(*asked.lock().unwrap(), Some(canola::RxCoalescing::OFF));
+    // A virtual clock follows no host time: the view asks the network.
+    let (_t, _rx, stats) = tap::tap(MemoryBus::new().endpoint());
+    assert_eq!(stats.now(), None);
+    // A real one is read without the transport: it runs on (by the 2 ms slept at least) and
+    // never ahead of the transport's own clock.
+    let bus = MemoryBus::with_config(BusConfig {
+        clock: canola::ClockMode::RealTime,
+        ..BusConfig::default()
+    });
+    let before = bus.now();
+    let (_t, _rx, stats) = tap::tap(bus.endpoint());
+    std::thread::sleep(std::time::Duration::from_millis(2));
+    let now = stats.now().unwrap();
+    assert!(now >= before + Duration::from_millis(2), "{now:?}");
+    assert!(now <= bus.now(), "{now:?}");
+}

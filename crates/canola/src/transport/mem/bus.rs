@@ -11,7 +11,9 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
 use canola_frame::time::MonotonicClock;
 use canola_frame::{CanFrame, Duration, FdFrame, Instant};
 
-use crate::transport::contract::{BusEvent, Received, Station, Transport, TransportError};
+use crate::transport::contract::{
+    BusEvent, Received, RxCoalescing, Station, Transport, TransportError,
+};
 
 use super::config::{BusConfig, BusStats, ClockMode, Faults, Rng};
 use super::state::{Attached, Clock, Ep, Participant, Pending, Shared, State, WireFrame};
@@ -81,6 +83,7 @@ impl MemoryBus {
             stats: BusStats::default(),
             service_thread: false,
             sleepers: 0,
+            batch_full: false,
             service_until: None,
         };
         Self {
@@ -264,8 +267,9 @@ impl MemoryBus {
                         Some(_) => Duration::ZERO,
                         None => Duration::from_millis(100),
                     };
-                    // What it advanced may be frames for a blocked endpoint.
-                    if st.sleepers > 0 {
+                    // What it advanced may be frames for a blocked endpoint, or fill a
+                    // coalescing one's batch.
+                    if st.sleepers > 0 || core::mem::take(&mut st.batch_full) {
                         shared.cond.notify_all();
                     }
                     st.service_until = Some(now + wait);
@@ -296,6 +300,8 @@ pub struct Endpoint {
     pub(super) inbox: VecDeque<Received>,
     /// Frames received from `inbox` since the bus last learnt of it.
     pub(super) taken: usize,
+    /// Receive wake-up coalescing (real clock only; see [`Transport::set_rx_coalescing`]).
+    pub(super) coalescing: RxCoalescing,
 }
 
 impl core::fmt::Debug for Endpoint {
@@ -316,6 +322,7 @@ impl MemoryBus {
             lost: 0,
             sending: 0,
             held: 0,
+            wake_at: None,
         });
         Endpoint {
             bus: self.clone(),
@@ -323,6 +330,7 @@ impl MemoryBus {
             more: false,
             inbox: VecDeque::new(),
             taken: 0,
+            coalescing: RxCoalescing::OFF,
         }
     }
 }
@@ -405,6 +413,90 @@ impl Endpoint {
     }
 }
 
+impl Endpoint {
+    /// When the first thing queued for endpoint `index` arrived: a frame's reception time; for
+    /// a bus event (which carries none) the clock now.
+    fn first_arrival(st: &State, index: usize) -> Instant {
+        let first = st
+            .endpoints
+            .get(index)
+            .and_then(|e| e.queue.front())
+            .and_then(|r| match r {
+                Received::Frame { at, .. } => Some(*at),
+                Received::Event(BusEvent::FdFrame { at, .. }) => Some(*at),
+                Received::Event(_) => None,
+            });
+        first.unwrap_or_else(|| st.now())
+    }
+
+    /// The coalescing wait of a real-clock receive (see [`RxCoalescing`]): waits until
+    /// `until`, or until the queue of endpoint `index` holds `max_frames` (or lost one). The
+    /// endpoint is not counted among the sleepers meanwhile, so frames arriving do not wake
+    /// it; a delivery that fills the batch does (`Ep::wake_at`). Without a service thread (no
+    /// station attached) it is woken as a plain receive is, and at the bus's own events, to
+    /// step the wire (frames are then delivered by this thread, or at once by their senders
+    /// on a bus without a timing model).
+    fn coalesce<'a>(
+        bus: &'a MemoryBus,
+        index: usize,
+        coalescing: RxCoalescing,
+        mut st: MutexGuard<'a, State>,
+        until: Instant,
+    ) -> MutexGuard<'a, State> {
+        let limit = coalescing.max_frames().min(st.config.queue_capacity).max(1);
+        loop {
+            let now = st.now();
+            st.advance(now);
+            let Some(ep) = st.endpoints.get_mut(index) else {
+                return st;
+            };
+            if now >= until || ep.queue.len() >= limit || ep.lost > 0 {
+                ep.wake_at = None;
+                return st;
+            }
+            ep.wake_at = Some(limit);
+            // Without a service thread this endpoint steps the wire: woken as a plain receive
+            // is (a frame sent, and so a new wire event), and at the wire's next event.
+            let stepping = !st.service_thread;
+            let end = match st.next_event() {
+                Some(t) if stepping => t.min(until),
+                _ => until,
+            };
+            let wait = end.saturating_duration_since(now);
+            st.sleepers += usize::from(stepping);
+            let (mut g, _) = bus
+                .shared
+                .cond
+                .wait_timeout(st, wait.into())
+                .unwrap_or_else(|p| p.into_inner());
+            g.sleepers -= usize::from(stepping);
+            st = g;
+        }
+    }
+
+    /// Hands over a coalesced burst: the first frame or event, with the rest of the queue
+    /// moved to the endpoint's inbox (received from there without the bus's lock). A loss to
+    /// report stays on the bus: it comes before the frames behind it.
+    /// (Takes the endpoint's fields apart: the lock borrows its bus.)
+    fn take_burst(
+        mut st: MutexGuard<'_, State>,
+        index: usize,
+        inbox: &mut VecDeque<Received>,
+        more: &mut bool,
+    ) -> Option<Received> {
+        let first = st.pop(index);
+        if let Some(ep) = st.endpoints.get_mut(index)
+            && ep.lost == 0
+            && !ep.queue.is_empty()
+        {
+            ep.held += ep.queue.len();
+            crate::move_all(&mut ep.queue, inbox);
+        }
+        *more = !inbox.is_empty() || st.has_queued(index);
+        first
+    }
+}
+
 impl Drop for Endpoint {
     fn drop(&mut self) {
         let mut st = Self::lock_bus(&self.bus, self.index, &mut self.taken);
@@ -455,6 +547,9 @@ impl Transport for Endpoint {
         // delivered after it), so it is handed over without reading the clock: on a real-time
         // bus a clock reading costs a good part of an SDO round trip through the network.
         let mut queued = true;
+        // Whether this call waited for the clock (a frame found after that arrived during the
+        // call, and may start a coalesced burst).
+        let mut waited = false;
         loop {
             let now = if queued {
                 queued = false;
@@ -464,6 +559,18 @@ impl Transport for Endpoint {
                 st.advance(now);
                 Some(now)
             };
+            if waited && self.coalescing.is_on() && st.has_queued(self.index) {
+                // The first of a burst arrived while this call waited: wait on for the rest.
+                let until =
+                    (Self::first_arrival(&st, self.index) + self.coalescing.window()).min(deadline);
+                st = Self::coalesce(&self.bus, self.index, self.coalescing, st, until);
+                return Ok(Self::take_burst(
+                    st,
+                    self.index,
+                    &mut self.inbox,
+                    &mut self.more,
+                ));
+            }
             if let Some(r) = st.pop(self.index) {
                 self.more = st.has_queued(self.index);
                 return Ok(Some(r));
@@ -485,6 +592,21 @@ impl Transport for Endpoint {
                     st.clock = Clock::Virtual(next.max(now));
                     self.bus.shared.set_virtual_now(next.max(now));
                 }
+                Clock::Real(_)
+                    if self.coalescing.is_on() && now + self.coalescing.window() >= deadline =>
+                {
+                    // Whatever arrives from now on would be coalesced up to the deadline (or
+                    // a full batch): wait for that alone, without a wake-up at the first frame.
+                    st = Self::coalesce(&self.bus, self.index, self.coalescing, st, deadline);
+                    if st.has_queued(self.index) {
+                        return Ok(Self::take_burst(
+                            st,
+                            self.index,
+                            &mut self.inbox,
+                            &mut self.more,
+                        ));
+                    }
+                }
                 Clock::Real(_) => {
                     let wait = next.saturating_duration_since(now);
                     st.sleepers += 1;
@@ -496,9 +618,16 @@ impl Transport for Endpoint {
                         .unwrap_or_else(|p| p.into_inner());
                     g.sleepers -= 1;
                     st = g;
+                    waited = true;
                 }
             }
         }
+    }
+
+    fn set_rx_coalescing(&mut self, coalescing: RxCoalescing) -> bool {
+        self.coalescing = coalescing;
+        // A virtual clock never blocks: nothing to coalesce, and determinism stays as it is.
+        self.bus.shared.real_time && coalescing.is_on()
     }
 
     fn now(&self) -> Instant {

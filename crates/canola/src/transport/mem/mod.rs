@@ -33,10 +33,17 @@
 //!   interface down/up); a full endpoint receive queue drops frames, counts them and reports a
 //!   [`BusEvent::RxOverflow`](crate::BusEvent::RxOverflow) before the next frame.
 //!
+//! * **Receive coalescing** ([`Transport::set_rx_coalescing`](crate::Transport::set_rx_coalescing),
+//!   real clock only): an endpoint's blocking receive hands over a burst of frames with one
+//!   wake-up; a virtual clock ignores it.
+//!
 //! Files by job: `config` (settings and timing model), `state` (the shared state every
-//! participant steps), `bus` ([`MemoryBus`] and its [`Endpoint`]s).
+//! participant steps), `bus` ([`MemoryBus`] and its [`Endpoint`]s), `coalescing_tests` (the
+//! receive coalescing against its contract).
 
 mod bus;
+#[cfg(test)]
+mod coalescing_tests;
 mod config;
 mod state;
 #[cfg(test)]

@@ -104,6 +104,10 @@ pub(super) struct Ep {
     /// Frames moved to the endpoint's own inbox and not yet known to be taken from it: they
     /// count against the receive queue's capacity (see `Endpoint::inbox`).
     pub(super) held: usize,
+    /// While the endpoint waits to coalesce a burst (real clock, see
+    /// [`RxCoalescing`](crate::RxCoalescing)): the queue length at which it wants to be woken
+    /// before its window ends. Cleared when a delivery reaches it (one wake-up).
+    pub(super) wake_at: Option<usize>,
 }
 
 /// A station with its concrete type erased but recoverable.
@@ -172,8 +176,12 @@ pub(super) struct State {
     pub(super) floor: Instant,
     pub(super) stats: BusStats,
     pub(super) service_thread: bool,
-    /// Endpoint threads blocked on the condition variable (real clock only).
+    /// Endpoint threads blocked on the condition variable (real clock only) that a frame for
+    /// them ends (an endpoint coalescing a burst is not counted: see `Ep::wake_at`).
     pub(super) sleepers: usize,
+    /// A delivery filled a coalescing endpoint's queue to its `Ep::wake_at`: the next release
+    /// of the lock wakes the waiting threads.
+    pub(super) batch_full: bool,
     /// When the service thread's current wait ends; `None` while it is not waiting (it then
     /// looks at the bus again before it waits).
     pub(super) service_until: Option<Instant>,
@@ -205,7 +213,8 @@ impl Shared {
     /// notification costs a system call, and a needless wake-up of the service thread a
     /// context switch and a fight for the lock, on every frame sent.)
     pub(super) fn release(&self, mut st: MutexGuard<'_, State>) {
-        let wake = self.real_time && (st.sleepers > 0 || st.service_wakes_early());
+        let wake = self.real_time
+            && (st.sleepers > 0 || core::mem::take(&mut st.batch_full) || st.service_wakes_early());
         drop(st);
         if wake {
             self.cond.notify_all();
@@ -432,6 +441,7 @@ impl State {
     pub(super) fn deliver(&mut self, p: Pending, at: Instant) {
         self.stats.frames += 1;
         let cap = self.config.queue_capacity;
+        let mut batch_full = false;
         for (i, ep) in self.endpoints.iter_mut().enumerate() {
             if !ep.open || p.from == Participant::Endpoint(i) {
                 continue;
@@ -448,7 +458,15 @@ impl State {
                     }),
                 });
             }
+            if ep
+                .wake_at
+                .is_some_and(|n| ep.queue.len() >= n || ep.lost > 0)
+            {
+                ep.wake_at = None;
+                batch_full = true;
+            }
         }
+        self.batch_full |= batch_full;
         for i in 0..self.stations.len() {
             if p.from == Participant::Station(self.stations[i].id) {
                 continue;
