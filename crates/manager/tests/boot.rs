@@ -558,3 +558,52 @@ fn late_optional_slave_is_booted_and_a_lost_one_restarted() {
     );
     assert_eq!(u32_at(&net, 6, 0x2001, 0), 0x1006);
 }
+
+/// A saturated bus: the slaves' configuration writes keep the 1 Mbit/s wire busy, so a
+/// request waits in the transmit queue longer than the SDO timeout, times out before it is on
+/// the wire, and its answer comes late, during the next transfer to that slave. A late answer
+/// must not fail that transfer: every slave boots (before the SDO client dropped late answers
+/// of another kind, slaves failed with J and abort 0x05040001 at 0x1017).
+#[test]
+fn a_saturated_bus_does_not_fail_slaves_with_late_answers() {
+    let slaves = 64u8;
+    let mut text = String::from("[master]\nsdo_timeout_ms = 100\n");
+    for n in 2..2 + slaves {
+        text.push_str(&format!(
+            "[[slave]]\nnode_id = {n}\neds = \"valve-nostamp.dcf\"\nmandatory = true\n\
+             error_control = \"none\"\n[slave.values]\n\"0x1017\" = 0\n"
+        ));
+    }
+    let mut config = parse(&text);
+    for s in &mut config.slaves {
+        for index in 0x2100u16..0x2100 + 37 {
+            let mut sub = canola::od::SubObject::new(
+                0,
+                format!("Parameter {index:#06x}"),
+                canola::DataType::Unsigned32,
+                AccessType::Rw,
+            );
+            sub.default_value =
+                Some(canola::od::FieldValue::from_text(canola::DataType::Unsigned32, "0").0);
+            sub.extras_mut().parameter_value = Some(
+                canola::od::FieldValue::from_text(
+                    canola::DataType::Unsigned32,
+                    &(u32::from(index) * 3).to_string(),
+                )
+                .0,
+            );
+            s.dictionary.insert(canola::od::Object::var(index, sub));
+        }
+    }
+    let bus = MemoryBus::with_config(canola::BusConfig {
+        bitrate: Some(1_000_000),
+        ..canola::BusConfig::default()
+    });
+    let net = Network::new(bus.endpoint());
+    for s in &config.slaves {
+        bus.attach(SimDevice::new(s.node_id, factory_dictionary(&s.dictionary)));
+    }
+    let report = boot(&net, &config);
+    let failed: Vec<_> = report.slaves.iter().filter(|s| !s.booted()).collect();
+    assert!(failed.is_empty(), "{} failed: {failed:?}", failed.len());
+}
