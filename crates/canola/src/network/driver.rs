@@ -284,7 +284,10 @@ impl Driver {
     /// work (several [`Pending`](crate::Pending) requests at once, new work handed over by other
     /// threads): sends what the core has queued, receives until a frame arrives, the core's next
     /// deadline passes, `limit` passes or a short slice (2 ms) does, handles what arrived and
-    /// fires the timers that are due. Returns whether a frame or bus event was received.
+    /// fires the timers that are due. Returns whether a frame or bus event was received. (On a
+    /// transport that coalesces receive wake-ups, see
+    /// [`RxCoalescing`](crate::transport::RxCoalescing), "a frame arrives" means its burst's
+    /// window ended.)
     ///
     /// Unlike [`run_for`](Self::run_for), which always runs for the whole time asked, it returns
     /// as soon as something arrived, so a loop around it sees a finished request at once on a

@@ -243,7 +243,9 @@ impl Shared {
             }
         };
         c.take_transmit(&mut io.out);
-        if frames <= 1 && !io.virtual_clock && io.reused < MAX_REUSED_READINGS {
+        // A frame stamped before the step began (queued earlier, or a burst a coalescing
+        // transport held back) is no reading of the clock now: the next step reads it afresh.
+        if frames <= 1 && latest >= start && !io.virtual_clock && io.reused < MAX_REUSED_READINGS {
             io.reading = Some(latest);
         }
         let done = check(&mut c);

@@ -13,7 +13,7 @@
 //! reading ([`Transport::send_at`](crate::Transport::send_at)); on a real clock a short step (one frame handled) passes
 //! its last reading on to the next few (see `MAX_REUSED_READINGS`: a reading costs a good
 //! part of an SDO round trip on the in-memory bus). A blocking request is submitted under the
-//! core lock its first step takes (`Network::run`).
+//! core lock its first step takes (`Shared::run` in `driving`).
 //!
 //! The async API (`tokio` feature, `crate::asynch`) runs the same wait loop on tokio's
 //! blocking pool on a real clock, steps it from the task on a virtual clock (whose time then
@@ -36,7 +36,8 @@
 //! bus. (Under the `tokio` feature, `start_driver_on_runtime` on a virtual-clock bus is a task
 //! that keeps the bus at tokio's time instead.)
 //!
-//! Files by job, from the bottom up (each uses only the ones before it):
+//! Files by job, from the bottom up (no file imports one after it; `shared` and the two
+//! driving files are one floor, whose `impl Shared` blocks call each other):
 //! `shared` (what every handle of one network shares: the core, the transport and its clock,
 //! the background driver's slot), `driving` and `tokio_driving` (the step, the wait loop, the
 //! background driver: the one loop, run by a waiting caller, a thread or a tokio task),

@@ -22,7 +22,7 @@ pub(crate) struct Inner {
     /// The async API's wake-ups and its tie between a virtual clock and tokio's.
     #[cfg(feature = "tokio")]
     pub(crate) reactor: crate::reactor::Reactor,
-    /// Driving steps taken by threads inside [`Network::wait_for`] while a background driver
+    /// Driving steps taken by threads inside `Shared::wait_for` (in `driving`) while a background driver
     /// runs: the driver steps aside while the count moves (a waiter drives) or a waiter is
     /// blocked (`waiting`). Written only by the holder of `io`, so a plain store counts: the
     /// fast path of a request pays no atomic read-modify-write and no clock reading for it.

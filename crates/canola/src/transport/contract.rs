@@ -136,8 +136,9 @@ impl TransportError {
 /// Receive wake-up coalescing, an opt-in setting of a transport
 /// ([`Transport::set_rx_coalescing`]): a blocking [`recv_until`](Transport::recv_until) that
 /// finds nothing queued waits for the first frame or event, then goes on waiting until
-/// `window` has passed since it arrived, until `max_frames` are queued, or until its own
-/// deadline, whichever comes first, and so hands a burst over with one wake-up instead of one
+/// `window` has passed since it arrived, until `max_frames` are queued (where the transport
+/// can count them without reading them: the in-memory bus; SocketCAN sleeps out the window and
+/// then reads at most `max_frames`), or until its own deadline, whichever comes first, and so hands a burst over with one wake-up instead of one
 /// per frame. What is queued already is returned at once as without it; received frames keep
 /// their reception times; the deadline is never passed (the network's timers are not delayed).
 /// The cost is latency: a frame may reach the caller up to `window` after it arrived.
@@ -172,7 +173,7 @@ impl RxCoalescing {
     }
 
     /// The same window, ended early once `max_frames` (at least 1) frames and events are
-    /// queued.
+    /// queued (see the type's docs for SocketCAN), and at most that many handed over per wait.
     pub const fn with_max_frames(self, max_frames: usize) -> Self {
         Self {
             window: self.window,

@@ -7,8 +7,9 @@
 //! Since the view looks at the bus ten times a second, [`tap`] asks the transport to coalesce
 //! receive wake-ups ([`RX_COALESCING`], see [`canola::RxCoalescing`]): the master's driver is
 //! woken once per burst of frames instead of once per frame, which on a busy bus is most of
-//! what receiving it costs. Frames keep their reception times, and the network's timers are
-//! not delayed, so heartbeat ages and rates come out as before.
+//! what receiving it costs. Frames keep their reception times (on SocketCAN the kernel's, unless
+//! it refuses `SO_TIMESTAMPNS`: then the time they were read, up to a window late), and the
+//! network's timers are not delayed, so heartbeat ages and rates come out as before.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
