@@ -727,7 +727,8 @@ impl<S: Sink, D: Source> Client<S, D> {
         // An initiate response naming another object answers an earlier request, whatever
         // its kind: e.g. a read that timed out while its request still waited in a full
         // transmit queue, answered once the next transfer (a write) had started. It is not
-        // this transfer's, so it neither completes nor fails it.
+        // this transfer's, so it neither completes nor fails it. (The one check of the
+        // multiplexer: the upload and download steps see only this transfer's.)
         if let ServerResponse::InitiateUpload { mux, .. }
         | ServerResponse::InitiateDownload { mux }
         | ServerResponse::BlockDownloadInitiate { mux, .. }
@@ -747,7 +748,6 @@ impl<S: Sink, D: Source> Client<S, D> {
                 active.rearm(now, self.config.timeout);
                 Step::Continue(active)
             }
-            Ok(Flow::Ignore) => Step::Continue(active),
             Ok(Flow::Done) => {
                 self.after_abort = false;
                 Step::Finish(active, Ok(()))
@@ -763,8 +763,6 @@ impl<S: Sink, D: Source> Client<S, D> {
 enum Flow {
     /// Progress: restart the response timer.
     Continue,
-    /// Not for this transfer; nothing changed.
-    Ignore,
     /// The transfer completed.
     Done,
 }

@@ -15,7 +15,6 @@ impl<S: Sink, D: Source> Client<S, D> {
         active: &mut Active<S, D>,
         msg: ServerResponse,
     ) -> Result<Flow, ErrorKind> {
-        let mux = active.mux;
         let Kind::Down {
             source, phase, len, ..
         } = &mut active.kind
@@ -24,10 +23,7 @@ impl<S: Sink, D: Source> Client<S, D> {
         };
         let len = *len;
         match (&*phase, msg) {
-            (&DownPhase::Initiate { expedited }, ServerResponse::InitiateDownload { mux: m }) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
-                }
+            (&DownPhase::Initiate { expedited }, ServerResponse::InitiateDownload { .. }) => {
                 if expedited {
                     active.done = len;
                     return Ok(Flow::Done);
@@ -51,15 +47,8 @@ impl<S: Sink, D: Source> Client<S, D> {
             }
             (
                 DownPhase::BlockInitiate,
-                ServerResponse::BlockDownloadInitiate {
-                    mux: m,
-                    crc,
-                    blksize,
-                },
+                ServerResponse::BlockDownloadInitiate { crc, blksize, .. },
             ) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
-                }
                 if blksize == 0 || blksize > MAX_BLOCK_SIZE {
                     return Err(protocol(Violation::BlockSize(blksize)));
                 }

@@ -14,7 +14,6 @@ impl<S: Sink, D: Source> Client<S, D> {
         active: &mut Active<S, D>,
         msg: ServerResponse,
     ) -> Result<Flow, ErrorKind> {
-        let mux = active.mux;
         let Kind::Up {
             sink,
             phase,
@@ -27,38 +26,30 @@ impl<S: Sink, D: Source> Client<S, D> {
         match (&*phase, msg) {
             (
                 UpPhase::Initiate | UpPhase::BlockInitiate,
-                ServerResponse::InitiateUpload { mux: m, data },
-            ) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
+                ServerResponse::InitiateUpload { data, .. },
+            ) => match data {
+                Initiate::Expedited { size, .. } => {
+                    *unsized_expedited = size.is_none();
+                    let bytes = data.expedited_data();
+                    let n = bytes.len() as u32;
+                    *total = Some(n);
+                    sink.expect_size(n).map_err(|_| ErrorKind::BufferFull)?;
+                    sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
+                    active.done = n;
+                    Ok(Flow::Done)
                 }
-                match data {
-                    Initiate::Expedited { size, .. } => {
-                        *unsized_expedited = size.is_none();
-                        let bytes = data.expedited_data();
-                        let n = bytes.len() as u32;
-                        *total = Some(n);
-                        sink.expect_size(n).map_err(|_| ErrorKind::BufferFull)?;
-                        sink.write(bytes).map_err(|_| ErrorKind::BufferFull)?;
-                        active.done = n;
-                        Ok(Flow::Done)
+                Initiate::Segmented { size } => {
+                    if let Some(size) = size {
+                        sink.expect_size(size).map_err(|_| ErrorKind::BufferFull)?;
                     }
-                    Initiate::Segmented { size } => {
-                        if let Some(size) = size {
-                            sink.expect_size(size).map_err(|_| ErrorKind::BufferFull)?;
-                        }
-                        *total = size;
-                        *phase = UpPhase::Segment { toggle: false };
-                        self.tx
-                            .push(ClientRequest::UploadSegment { toggle: false }.emit());
-                        Ok(Flow::Continue)
-                    }
+                    *total = size;
+                    *phase = UpPhase::Segment { toggle: false };
+                    self.tx
+                        .push(ClientRequest::UploadSegment { toggle: false }.emit());
+                    Ok(Flow::Continue)
                 }
-            }
-            (UpPhase::BlockInitiate, ServerResponse::BlockUploadInitiate { mux: m, crc, size }) => {
-                if m != mux {
-                    return Ok(Flow::Ignore);
-                }
+            },
+            (UpPhase::BlockInitiate, ServerResponse::BlockUploadInitiate { crc, size, .. }) => {
                 if let Some(size) = size {
                     sink.expect_size(size).map_err(|_| ErrorKind::BufferFull)?;
                 }
