@@ -167,7 +167,7 @@ impl Shared {
     /// Puts what the core has queued on the bus if the transport is free (see
     /// [`send`](Self::send)).
     pub(crate) fn send_queued_now(&self) -> Result<(), Error> {
-        let mut io = match self.inner.io.try_lock() {
+        let io = match self.inner.io.try_lock() {
             Ok(io) => io,
             Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner(),
             Err(std::sync::TryLockError::WouldBlock) => {
@@ -175,16 +175,7 @@ impl Shared {
                 return Ok(());
             }
         };
-        let now = io.now();
-        {
-            let mut c = self.core();
-            c.handle_timeout(now);
-            c.take_transmit(&mut io.out);
-        }
-        self.send_queued(&mut io, now, None)?;
-        drop(io);
-        self.notify();
-        Ok(())
+        self.send_with(io)
     }
 
     /// The blocking form of [`run_until`](Self::run_until): steps up to `until` exactly, and
@@ -218,7 +209,12 @@ impl Shared {
 
     /// The body of `Driver::flush`: sends what the core has queued, without waiting.
     pub(crate) fn flush(&self) -> Result<(), Error> {
-        let mut io = relock(self.inner.io.lock());
+        self.send_with(relock(self.inner.io.lock()))
+    }
+
+    /// Fires what is due, then hands what the core has queued to the transport held in `io`,
+    /// and wakes the waiters.
+    fn send_with(&self, mut io: MutexGuard<'_, Io>) -> Result<(), Error> {
         let now = io.now();
         {
             let mut c = self.core();
