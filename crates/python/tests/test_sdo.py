@@ -81,7 +81,7 @@ def test_values_that_do_not_fit_are_refused_before_sending(node: canola.RemoteNo
     with pytest.raises(ValueError, match="does not fit"):
         node.sdo["Producer heartbeat time"].raw = 70000
     with pytest.raises(TypeError):
-        node.sdo["Producer heartbeat time"].raw = [1]  # type: ignore[assignment]
+        node.sdo["Producer heartbeat time"].raw = [1]
     assert node.sdo["Producer heartbeat time"].raw == 500
 
 

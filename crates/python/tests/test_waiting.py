@@ -6,6 +6,7 @@ import asyncio
 import os
 import signal
 import threading
+from typing import Any
 
 import pytest
 
@@ -78,7 +79,7 @@ def test_awaitables_overlap_on_the_bus() -> None:
     with canola.Network(bus) as net:
         nodes = [net.add_node(id, str(EDS)) for id in range(1, 9)]
 
-        async def main() -> list[object]:
+        async def main() -> list[Any]:
             return await asyncio.gather(*(n.sdo[0x1018][1].aget_raw() for n in nodes))
 
         assert asyncio.run(main()) == [0x39] * 8
