@@ -4,9 +4,9 @@
 //!
 //! This crate wraps the `canola` facade and holds no protocol logic. What it adds is what
 //! Python needs: every wait releases the GIL and checks for signals (Ctrl-C) while it runs
-//! ([`wait`]), every awaitable twin runs the facade's own async operation and resolves an
-//! asyncio future ([`awaitable`]), and the facade's errors become the exceptions python-canopen
-//! programs catch ([`to_py_err`]).
+//! (`wait`), every awaitable twin runs the facade's own async operation and resolves an
+//! asyncio future (`awaitable`), and the facade's errors become the exceptions python-canopen
+//! programs catch (`to_py_err`).
 
 use std::future::IntoFuture;
 use std::sync::Arc;
