@@ -42,7 +42,7 @@ pub enum LedColour {
 }
 
 /// A colour value that is not a Bürkert colour code.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ColourError {
     /// A reserved UNSIGNED32 code.
@@ -54,6 +54,8 @@ pub enum ColourError {
     #[error("unknown colour name (use off, white, green, blue, yellow, orange, red or #RRGGBB)")]
     UnknownName,
 }
+
+debug_as_display!(ColourError);
 
 const PREDEFINED_BASE: u32 = 0x1000_0000;
 

@@ -51,7 +51,7 @@ impl From<BitRate> for Cia {
 }
 
 /// A value of 0x2001 that is outside the values the manual defines.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CommValueError {
     /// Bit-rate code above 8.
@@ -70,6 +70,8 @@ pub enum CommValueError {
     #[error("termination value {0} is undefined (0 inactive, 1 active)")]
     Termination(u8),
 }
+
+debug_as_display!(CommValueError);
 
 impl BitRate {
     /// All codes in table order.

@@ -23,11 +23,13 @@ pub enum LedMode {
 }
 
 /// An LED mode value the manual does not define (1, 5, 7 and above).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error(
     "{0} is not a Bürkert LED mode (0 NAMUR, 2 valve, 3 valve + warnings, 4 fixed colour, 6 off)"
 )]
 pub struct LedModeError(pub u32);
+
+debug_as_display!(LedModeError);
 
 impl LedMode {
     /// All modes in value order.

@@ -118,9 +118,14 @@ pub enum Error {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// The EDS has errors; each line is `FILE:LINE: error: ...`.
-    #[error("{0}")]
-    Parse(String),
+    /// The EDS has errors. The message lists them one per line as `FILE:LINE: error: ...`.
+    #[error("{}", render_errors(file, error))]
+    Parse {
+        /// The file, as the messages name it.
+        file: String,
+        /// The parser's diagnostics (the errors, and the warnings beside them).
+        error: canola_od::ParseError,
+    },
     /// No output directory: neither set nor `OUT_DIR` in the environment.
     #[error("no output directory: call Config::out_dir or run from a build script (OUT_DIR)")]
     NoOutDir,
@@ -320,14 +325,21 @@ fn parse(
 ) -> Result<(ObjectDictionary, Vec<Diagnostic>), Error> {
     match canola_od::parse_with(bytes, options) {
         Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
-        Err(e) => {
-            let mut msg = String::new();
-            for d in e.errors() {
-                let _ = writeln!(msg, "{}", d.render(file));
-            }
-            Err(Error::Parse(msg.trim_end().to_owned()))
-        }
+        Err(error) => Err(Error::Parse {
+            file: file.to_owned(),
+            error,
+        }),
     }
+}
+
+/// The errors of a file that did not parse, one per line.
+fn render_errors(file: &str, error: &canola_od::ParseError) -> String {
+    let mut msg = String::new();
+    for d in error.errors() {
+        let _ = writeln!(msg, "{}", d.render(file));
+    }
+    msg.truncate(msg.trim_end().len());
+    msg
 }
 
 fn write_if_changed(path: &Path, code: &str) -> Result<(), Error> {
@@ -641,3 +653,32 @@ impl Generator<'_> {
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 mod crate_readme {}
+
+/// The error convention (`docs/STYLE.md`): `Debug` prints the `Display` text, so a `main` (or a
+/// build script's `unwrap`) that returns this crate's error prints the EDS errors line by line.
+#[cfg(test)]
+mod error_convention {
+    #[test]
+    fn main_prints_the_text() {
+        let dir = std::env::temp_dir().join(format!("canola-codegen-error-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let eds = dir.join("garbage.eds");
+        std::fs::write(&eds, "garbage\n").unwrap();
+        let e = crate::Config::new()
+            .out_dir(&dir)
+            .compile(&eds)
+            .unwrap_err();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(matches!(&e, crate::Error::Parse { error, .. } if error.error_count() > 0));
+        let file = eds.display();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{file}:1: error: `garbage` is neither a [section] header, a key=value pair nor \
+                 a `;` comment\n{file}:1: error: no [section] header in the file: not an EDS or \
+                 DCF file"
+            )
+        );
+        assert_eq!(format!("{e:?}"), e.to_string());
+    }
+}

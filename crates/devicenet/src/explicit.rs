@@ -72,7 +72,7 @@ impl Header {
 }
 
 /// Why explicit bytes could not be decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ExplicitError {
     /// The frame or message is shorter than its fields.
@@ -82,6 +82,8 @@ pub enum ExplicitError {
     #[error("explicit message too long")]
     TooLong,
 }
+
+debug_as_display!(ExplicitError);
 
 /// One explicit frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -133,7 +133,7 @@ impl fmt::Display for AckStatus {
 }
 
 /// Why a fragment was not taken.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum FragmentError {
     /// A middle or last fragment without a first one.
@@ -154,6 +154,8 @@ pub enum FragmentError {
     #[error("unexpected acknowledgement")]
     UnexpectedAck,
 }
+
+debug_as_display!(FragmentError);
 
 /// Reassembles fragments (both protocols; the caller sends the explicit acknowledgements).
 #[derive(Debug, Clone, Default)]

@@ -22,9 +22,11 @@ use canola_frame::{CanId, StandardId};
 pub struct MacId(u8);
 
 /// A MAC ID above 63.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("MAC ID {0} is out of range (0..=63)")]
 pub struct MacIdError(pub u8);
+
+debug_as_display!(MacIdError);
 
 impl MacId {
     /// The address a DeviceNet device ships with (the cPos among them).

@@ -41,7 +41,7 @@ pub mod attr {
 pub const MAX_NAME: usize = 32;
 
 /// Why attribute data could not be decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum AttributeError {
     /// The data has the wrong length for the attribute's type.
@@ -58,6 +58,8 @@ pub enum AttributeError {
     #[error("product name is not a readable string of at most {MAX_NAME} bytes")]
     Name,
 }
+
+debug_as_display!(AttributeError);
 
 /// The Identity object's attributes 1..=7.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -177,9 +179,11 @@ pub struct DuplicateMacCheck {
 }
 
 /// A Duplicate MAC ID check message that is not 7 bytes long.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("duplicate MAC ID check message is {0} bytes, expected 7")]
 pub struct DuplicateMacError(pub usize);
+
+debug_as_display!(DuplicateMacError);
 
 impl DuplicateMacCheck {
     /// Decodes the 7 data bytes. Never panics.

@@ -142,7 +142,7 @@ impl fmt::Display for GeneralStatus {
 
 /// The status a device returned in an Error Response: general code and additional code (0xFF
 /// when the device gives none).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
 #[error("{general}, additional code 0x{additional:02X}")]
 pub struct CipError {
     /// General status.
@@ -150,6 +150,8 @@ pub struct CipError {
     /// Additional code (0xFF = none).
     pub additional: u8,
 }
+
+debug_as_display!(CipError);
 
 impl CipError {
     /// An error without an additional code.

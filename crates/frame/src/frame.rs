@@ -17,7 +17,7 @@ pub struct CanFrame {
 }
 
 /// Why a frame could not be built.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum FrameError {
     /// More than eight data bytes, or a remote frame DLC above 8.
@@ -37,6 +37,8 @@ pub enum FrameError {
     #[error("CAN FD flags {0:#x} have no classic CAN equivalent")]
     FdFlagsLost(u8),
 }
+
+debug_as_display!(FrameError);
 
 impl CanFrame {
     /// A data frame. Fails if `data` is longer than eight bytes.

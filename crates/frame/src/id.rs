@@ -25,7 +25,7 @@ pub struct StandardId(u16);
 pub struct ExtendedId(u32);
 
 /// An identifier value that does not fit its format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum IdError {
     /// A standard identifier above 0x7FF.
@@ -35,6 +35,8 @@ pub enum IdError {
     #[error("extended CAN identifier {0:#x} is above 0x1FFFFFFF")]
     ExtendedOutOfRange(u32),
 }
+
+debug_as_display!(IdError);
 
 impl StandardId {
     /// Validates an 11-bit identifier.

@@ -8,9 +8,11 @@ use core::fmt;
 pub struct NodeId(u8);
 
 /// A value outside 1..=127.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("node-ID {0} is outside 1..=127")]
 pub struct NodeIdError(pub u32);
+
+debug_as_display!(NodeIdError);
 
 impl NodeId {
     /// The smallest node-ID.

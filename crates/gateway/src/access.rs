@@ -76,7 +76,7 @@ impl fmt::Debug for Token {
 }
 
 /// Why a token is refused.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TokenError {
     /// Nothing (or only blanks) given.
@@ -89,6 +89,8 @@ pub enum TokenError {
     #[error("the token holds a blank or control character")]
     BadCharacter,
 }
+
+debug_as_display!(TokenError);
 
 impl Token {
     /// Shortest token taken.
@@ -134,9 +136,11 @@ pub struct AllowNet {
 }
 
 /// Why an allow-list entry does not read.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, PartialEq, Eq, thiserror::Error)]
 #[error("`{0}` is not ADDR or ADDR/PREFIX")]
 pub struct AllowNetError(String);
+
+debug_as_display!(AllowNetError);
 
 impl core::str::FromStr for AllowNet {
     type Err = AllowNetError;

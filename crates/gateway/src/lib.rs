@@ -59,6 +59,22 @@
 //! assert_eq!(req.to_string(), "[1] 4 read 0x1017 0 u16");
 //! ```
 
+/// Implements `Debug` as the `Display` text for this crate's error types (the error
+/// convention in `docs/STYLE.md`): a `main` that returns one of them with `?` prints readable
+/// English, not the structure; a program inspects the structure through its fields.
+macro_rules! debug_as_display {
+    ($name:ident $(<$($g:ident),+>)?) => {
+        impl$(<$($g),+>)? core::fmt::Debug for $name$(<$($g),+>)?
+        where
+            Self: core::fmt::Display,
+        {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                core::fmt::Display::fmt(self, f)
+            }
+        }
+    };
+}
+
 pub mod access;
 pub mod audit_log;
 pub mod command;
@@ -80,3 +96,15 @@ pub use value::{DataType, Value};
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 mod crate_readme {}
+
+/// The error convention (`docs/STYLE.md`): `Debug` prints the `Display` text, so a `main` that
+/// returns this crate's error with `?` prints `Error: ` and the text.
+#[cfg(test)]
+mod error_convention {
+    #[test]
+    fn main_prints_the_text() {
+        let e = "10.0.0.1/33".parse::<crate::AllowNet>().unwrap_err();
+        assert_eq!(e.to_string(), "`10.0.0.1/33` is not ADDR or ADDR/PREFIX");
+        assert_eq!(format!("{e:?}"), e.to_string());
+    }
+}

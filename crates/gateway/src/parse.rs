@@ -37,7 +37,8 @@ use crate::command::{
 use crate::value::{DataType, Value, parse_unsigned};
 
 /// Why a line is not a request.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ParseError {
     /// Malformed (gateway error 101).
     #[error("syntax error")]
@@ -69,6 +70,8 @@ pub enum ParseError {
         seq: Option<u32>,
     },
 }
+
+debug_as_display!(ParseError);
 
 impl ParseError {
     /// The SDO abort code this error is answered with (`ERROR:0x........`), if it is one.

@@ -237,7 +237,7 @@ pub enum Value {
 }
 
 /// Why a value's text or bytes do not fit its type.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ValueError {
     /// The text is not a value of the type.
@@ -269,6 +269,8 @@ pub enum ValueError {
         got: usize,
     },
 }
+
+debug_as_display!(ValueError);
 
 fn bad(data_type: DataType, text: &str) -> ValueError {
     ValueError::Text {

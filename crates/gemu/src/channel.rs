@@ -116,9 +116,11 @@ pub struct Channel {
 }
 
 /// The channel bytes had the wrong length.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("parameter channel is {0} bytes, expected 8")]
 pub struct ChannelLengthError(pub usize);
+
+debug_as_display!(ChannelLengthError);
 
 impl Channel {
     /// A channel with all fields given.

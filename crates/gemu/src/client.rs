@@ -68,7 +68,7 @@ impl Default for ClientConfig {
 pub struct RequestId(pub u32);
 
 /// A request refused by the client before anything was sent.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ClientError {
     /// The parameter is not in the table (use [`Client::set_raw`]/[`Client::get_raw`] to send it
@@ -97,8 +97,10 @@ pub enum ClientError {
     QueueFull,
 }
 
+debug_as_display!(ClientError);
+
 /// The device said no.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum Refusal {
     /// An external diagnostic code (reported by the carrier, or implied by the answer: 0x34 for
@@ -121,8 +123,10 @@ pub enum Refusal {
     },
 }
 
+debug_as_display!(Refusal);
+
 /// Why a request failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum Failure {
     /// The device refused.
@@ -132,6 +136,8 @@ pub enum Failure {
     #[error("no answer within the response timeout")]
     Timeout,
 }
+
+debug_as_display!(Failure);
 
 /// A successful answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

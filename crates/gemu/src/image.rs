@@ -94,7 +94,7 @@ impl fmt::Display for Field {
 }
 
 /// Why an image could not be decoded or built.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ImageError {
     /// The byte slice has the wrong length.
@@ -120,6 +120,8 @@ pub enum ImageError {
     #[error("digital outputs 0x{0:02X} use bits above K2 (allowed 0x00..=0x03)")]
     OutputsOutOfRange(u8),
 }
+
+debug_as_display!(ImageError);
 
 /// The four digital inputs the master sends (byte 4, bits 0..3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

@@ -91,7 +91,7 @@ pub enum ValueKind {
 }
 
 /// A value outside a parameter's range.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum RangeError {
     /// Below the minimum (the device would raise diagnostic 0x20).
@@ -111,6 +111,8 @@ pub enum RangeError {
         max: i64,
     },
 }
+
+debug_as_display!(RangeError);
 
 /// One row of the parameter table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

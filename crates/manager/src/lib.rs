@@ -17,6 +17,22 @@
 //! assert!(report.slaves.iter().all(|s| s.status == SlaveStatus::Operational));
 //! ```
 
+/// Implements `Debug` as the `Display` text for this crate's error types (the error
+/// convention in `docs/STYLE.md`): a `main` that returns one of them with `?` prints readable
+/// English, not the structure; a program inspects the structure through its fields.
+macro_rules! debug_as_display {
+    ($name:ident $(<$($g:ident),+>)?) => {
+        impl$(<$($g),+>)? core::fmt::Debug for $name$(<$($g),+>)?
+        where
+            Self: core::fmt::Display,
+        {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                core::fmt::Display::fmt(self, f)
+            }
+        }
+    };
+}
+
 #[cfg(feature = "tokio")]
 pub mod asynch;
 pub mod audit;
@@ -40,3 +56,19 @@ pub use supervise::{SuperviseEvent, supervise};
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 mod crate_readme {}
+
+/// The error convention (`docs/STYLE.md`): `Debug` prints the `Display` text, so a `main` that
+/// returns this crate's error with `?` prints `Error: ` and the text.
+#[cfg(test)]
+mod error_convention {
+    #[test]
+    fn main_prints_the_text() {
+        let e =
+            crate::NetworkConfig::parse("nodes = [", std::path::Path::new("net.toml")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "net.toml:1: nodes: unclosed array, expected `]`"
+        );
+        assert_eq!(format!("{e:?}"), e.to_string());
+    }
+}

@@ -2,7 +2,7 @@
 //! and capacity errors.
 
 /// Why bytes from the bus are not a valid message of the expected service.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum DecodeError {
     /// The data length does not fit the message.
@@ -24,16 +24,20 @@ pub enum DecodeError {
     WrongCobId(u32),
 }
 
+debug_as_display!(DecodeError);
+
 /// A bounded table (monitored nodes, queued messages) is full.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("table is full (capacity {capacity})")]
 pub struct CapacityError {
     /// The table's capacity.
     pub capacity: usize,
 }
 
+debug_as_display!(CapacityError);
+
 /// A configuration value (from an object dictionary entry) that CiA 301 does not allow.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ConfigError {
     /// 0x1019 synchronous counter overflow value 1 or 241..=255 (reserved by CiA 301).
@@ -46,3 +50,5 @@ pub enum ConfigError {
     #[error("{0} ms does not fit the 28-bit milliseconds field")]
     MillisOutOfRange(u32),
 }
+
+debug_as_display!(ConfigError);

@@ -66,7 +66,7 @@ impl fmt::Debug for ObjectAddress {
 }
 
 /// Why text is not an [`ObjectAddress`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum AddressError {
     /// No `:` between index and sub-index.
@@ -79,6 +79,8 @@ pub enum AddressError {
     #[error("the sub-index is not an 8-bit hex number")]
     SubIndex,
 }
+
+debug_as_display!(AddressError);
 
 /// Reads `INDEX:SUB` with both parts in hex, as CANopen writes them: `0x1018:01`, `1018:1`,
 /// `0x1A00:0x02` (an optional `0x` on each part, any case).

@@ -102,7 +102,7 @@ impl<T> fmt::Display for Entry<T> {
 }
 
 /// Why bytes do not fit an entry's type.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum EntryError {
     /// The payload length is not the data type's size.
@@ -133,6 +133,8 @@ pub enum EntryError {
     #[error("string is not valid text")]
     Text,
 }
+
+debug_as_display!(EntryError);
 
 /// A Rust type that can carry the value of an object dictionary entry.
 pub trait EntryValue: Sized {

@@ -32,7 +32,7 @@ impl LoadedFile {
 }
 
 /// Why a file could not be loaded.
-#[derive(Debug, thiserror::Error)]
+#[derive(thiserror::Error)]
 #[non_exhaustive]
 pub enum LoadError {
     /// The file could not be read.
@@ -52,6 +52,8 @@ pub enum LoadError {
         error: ParseError,
     },
 }
+
+debug_as_display!(LoadError);
 
 fn render_parse_error(path: &Path, error: &ParseError) -> String {
     let file = path.display().to_string();

@@ -333,11 +333,11 @@ pub fn encode_concise(entries: &[ConciseEntry]) -> Vec<u8> {
 }
 
 /// Why concise DCF bytes could not be decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ConciseError {
     /// The data ended inside entry `entry` (0-based; `None` for the count).
-    #[error("concise DCF truncated (in entry {entry:?})")]
+    #[error("concise DCF truncated {}", TruncatedIn(*entry))]
     Truncated {
         /// The entry being read.
         entry: Option<u32>,
@@ -345,6 +345,20 @@ pub enum ConciseError {
     /// Bytes after the last announced entry.
     #[error("{0} bytes after the last entry")]
     TrailingBytes(usize),
+}
+
+debug_as_display!(ConciseError);
+
+/// Where concise DCF data ended, in words.
+struct TruncatedIn(Option<u32>);
+
+impl core::fmt::Display for TruncatedIn {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.0 {
+            Some(entry) => write!(f, "in entry {entry}"),
+            None => f.write_str("in the entry count"),
+        }
+    }
 }
 
 /// Decodes a concise DCF. Never panics; allocates at most the input size.

@@ -280,7 +280,7 @@ impl CommParams {
 }
 
 /// A communication parameter an engine cannot use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum CommError {
     /// The COB-ID's identifier does not fit its format (bit 29 clear, bits 28..11 set).
@@ -290,6 +290,8 @@ pub enum CommError {
     #[error("transmission type {0} is reserved")]
     ReservedTransmissionType(u8),
 }
+
+debug_as_display!(CommError);
 
 #[cfg(test)]
 mod tests {

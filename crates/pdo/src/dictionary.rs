@@ -51,7 +51,7 @@ pub trait Dictionary: Catalog {
 }
 
 /// Why a parameter could not be read from a [`Dictionary`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ReadError {
     /// The entry does not exist.
@@ -72,9 +72,11 @@ pub enum ReadError {
     },
 }
 
+debug_as_display!(ReadError);
+
 /// Why an [`ObjectStore`] refused a read or write. The variants mirror the SDO abort codes a
 /// device would give for the same access, so a simulator can report them unchanged.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum StoreError {
     /// No such object (abort 0x0602_0000 / 0x0609_0011).
@@ -90,6 +92,8 @@ pub enum StoreError {
     #[error("refused with abort code {0:#010x}")]
     Other(u32),
 }
+
+debug_as_display!(StoreError);
 
 /// The live values of mapped objects, little-endian as on the bus.
 ///

@@ -60,6 +60,22 @@ extern crate alloc;
 #[cfg(feature = "std")]
 extern crate std;
 
+/// Implements `Debug` as the `Display` text for this crate's error types (the error
+/// convention in `docs/STYLE.md`): a `main` that returns one of them with `?` prints readable
+/// English, not the structure; a program inspects the structure through its fields.
+macro_rules! debug_as_display {
+    ($name:ident $(<$($g:ident),+>)?) => {
+        impl$(<$($g),+>)? core::fmt::Debug for $name$(<$($g),+>)?
+        where
+            Self: core::fmt::Display,
+        {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                core::fmt::Display::fmt(self, f)
+            }
+        }
+    };
+}
+
 pub mod comm;
 pub mod dictionary;
 pub mod engine;
@@ -94,3 +110,21 @@ pub use typed::{DefaultCobId, PairValue, PdoField, TypedPdo, TypedPdoError};
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 mod crate_readme {}
+
+/// The error convention (`docs/STYLE.md`): `Debug` prints the `Display` text, so a `main` that
+/// returns this crate's error with `?` prints `Error: ` and the text.
+#[cfg(test)]
+mod error_convention {
+    extern crate std;
+    use std::{format, string::ToString};
+
+    #[test]
+    fn main_prints_the_text() {
+        let e = crate::Mapping::from_raw(&[0x6000_0140, 0x6001_0140]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "the mapped objects need 128 bits; a PDO carries at most 64"
+        );
+        assert_eq!(format!("{e:?}"), e.to_string());
+    }
+}

@@ -200,7 +200,7 @@ pub struct Mapping {
 
 /// Why a mapping is not acceptable. Named after what the device would answer (SDO abort
 /// 0x0604_0041 "object cannot be mapped", 0x0604_0042 "would exceed PDO length", ...).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum MappingError {
     /// More than 64 entries (or sub 0 above 64 and not an MPDO code).
@@ -230,7 +230,7 @@ pub enum MappingError {
     #[error("object {0} is not PDO-mappable")]
     NotMappable(ObjectAddress),
     /// An RPDO maps an object that is not writable, or a TPDO one that is not readable.
-    #[error("object {addr} cannot be mapped into a {direction:?} PDO: access type forbids it")]
+    #[error("object {addr} cannot be mapped into a {} PDO: access type forbids it", match direction { Direction::Receive => "receive", Direction::Transmit => "transmit" })]
     AccessDenied {
         /// The object.
         addr: ObjectAddress,
@@ -265,6 +265,8 @@ pub enum MappingError {
     #[error("reading the mapping failed: {0}")]
     Read(ReadError),
 }
+
+debug_as_display!(MappingError);
 
 impl From<ReadError> for MappingError {
     fn from(e: ReadError) -> Self {

@@ -61,7 +61,7 @@ pub struct Mpdo {
 }
 
 /// An MPDO that cannot be decoded or built.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum MpdoError {
     /// An MPDO has exactly eight data bytes.
@@ -94,6 +94,8 @@ pub enum MpdoError {
     #[error(transparent)]
     Read(#[from] ReadError),
 }
+
+debug_as_display!(MpdoError);
 
 mod field {
     pub(super) const ADDR: usize = 0;

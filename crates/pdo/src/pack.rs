@@ -60,7 +60,7 @@ impl Bytes {
 }
 
 /// Why a value could not be packed, or data could not be unpacked.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PackError {
     /// The PDO data is shorter than the mapping (CiA 301 EMCY 0x8210 on a device).
@@ -94,6 +94,8 @@ pub enum PackError {
         bits: u8,
     },
 }
+
+debug_as_display!(PackError);
 
 /// Reads up to eight bytes as a little-endian word (missing bytes are zero).
 #[inline]

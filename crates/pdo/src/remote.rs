@@ -113,7 +113,7 @@ impl RemoteObjects<'_> {
 }
 
 /// Why no plan was produced.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum RemapError {
     /// PDO numbers run 0..=511 per direction.
@@ -135,6 +135,8 @@ pub enum RemapError {
         index: u16,
     },
 }
+
+debug_as_display!(RemapError);
 
 /// The writes that give PDO `number` (0-based: TPDO1 is `(Transmit, 0)`, object 0x1800/0x1A00)
 /// of a node the wanted parameters, in the CiA 301 order (see the module docs).

@@ -139,7 +139,7 @@ impl DefaultCobId {
 }
 
 /// Why a typed PDO could not be decoded or encoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TypedPdoError {
     /// The struct's mapping is not a valid mapping (not for generated structs, whose mappings
@@ -175,6 +175,8 @@ pub enum TypedPdoError {
     #[error("the PDO has no usable COB-ID")]
     NoCobId,
 }
+
+debug_as_display!(TypedPdoError);
 
 impl From<MappingError> for TypedPdoError {
     fn from(e: MappingError) -> Self {

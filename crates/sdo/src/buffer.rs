@@ -35,9 +35,11 @@ pub trait Source {
 }
 
 /// The buffer cannot take more data.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("the buffer is full")]
 pub struct Full;
+
+debug_as_display!(Full);
 
 fn read_slice(data: &[u8], offset: u32, out: &mut [u8]) -> usize {
     let start = (offset as usize).min(data.len());

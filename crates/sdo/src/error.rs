@@ -7,12 +7,14 @@ use crate::wire::Multiplexer;
 
 /// A transfer was refused because another one runs or its completion was not yet polled. Holds
 /// the buffer that was passed in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("an SDO transfer is already in progress")]
 pub struct Busy<T>(pub T);
 
+debug_as_display!(Busy<T>);
+
 /// Why a transfer failed, and for which object.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("SDO 0x{index:04X}:{subindex:02X}: {kind}")]
 pub struct TransferError {
     /// Object index.
@@ -22,6 +24,8 @@ pub struct TransferError {
     /// What went wrong.
     pub kind: ErrorKind,
 }
+
+debug_as_display!(TransferError);
 
 impl TransferError {
     /// The object.
@@ -42,7 +46,7 @@ impl TransferError {
 }
 
 /// What ended a transfer. The server's refusal is kept apart from local failures.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ErrorKind {
     /// The server aborted the transfer with this code.
@@ -63,6 +67,8 @@ pub enum ErrorKind {
     BufferFull,
 }
 
+debug_as_display!(ErrorKind);
+
 impl ErrorKind {
     /// The abort code that went over the bus for this failure.
     pub const fn abort_code(&self) -> AbortCode {
@@ -76,7 +82,7 @@ impl ErrorKind {
 }
 
 /// A protocol error detected by a machine, with the abort code it sends for it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum Violation {
     /// A message the protocol state does not allow (0x05040001).
@@ -117,6 +123,8 @@ pub enum Violation {
         received: u32,
     },
 }
+
+debug_as_display!(Violation);
 
 impl Violation {
     /// The abort code sent for this violation.

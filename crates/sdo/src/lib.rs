@@ -97,6 +97,22 @@ extern crate alloc;
 #[cfg(feature = "std")]
 extern crate std;
 
+/// Implements `Debug` as the `Display` text for this crate's error types (the error
+/// convention in `docs/STYLE.md`): a `main` that returns one of them with `?` prints readable
+/// English, not the structure; a program inspects the structure through its fields.
+macro_rules! debug_as_display {
+    ($name:ident $(<$($g:ident),+>)?) => {
+        impl$(<$($g),+>)? core::fmt::Debug for $name$(<$($g),+>)?
+        where
+            Self: core::fmt::Display,
+        {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                core::fmt::Display::fmt(self, f)
+            }
+        }
+    };
+}
+
 mod abort;
 pub mod buffer;
 pub mod client;
@@ -137,3 +153,21 @@ pub use wire::{
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 mod crate_readme {}
+
+/// The error convention (`docs/STYLE.md`): `Debug` prints the `Display` text, so a `main` that
+/// returns this crate's error with `?` prints `Error: ` and the text.
+#[cfg(test)]
+mod error_convention {
+    extern crate std;
+    use std::{format, string::ToString};
+
+    #[test]
+    fn main_prints_the_text() {
+        let e = crate::ServerResponse::parse(&[]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "an SDO message has 1..=8 data bytes, this one has 0"
+        );
+        assert_eq!(format!("{e:?}"), e.to_string());
+    }
+}

@@ -151,7 +151,7 @@ impl core::fmt::Display for Multiplexer {
 }
 
 /// Why bytes are not an SDO message.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum DecodeError {
     /// No SDO message: an empty frame, or more than eight bytes.
@@ -171,6 +171,8 @@ pub enum DecodeError {
     #[error("unknown SDO command byte {0:#04x}")]
     UnknownCommand(u8),
 }
+
+debug_as_display!(DecodeError);
 
 fn bytes8(data: &[u8]) -> Result<&[u8; 8], DecodeError> {
     <&[u8; 8]>::try_from(data).map_err(|_| DecodeError::Length(data.len()))

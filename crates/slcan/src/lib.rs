@@ -29,6 +29,22 @@
 #[cfg(feature = "std")]
 extern crate std;
 
+/// Implements `Debug` as the `Display` text for this crate's error types (the error
+/// convention in `docs/STYLE.md`): a `main` that returns one of them with `?` prints readable
+/// English, not the structure; a program inspects the structure through its fields.
+macro_rules! debug_as_display {
+    ($name:ident $(<$($g:ident),+>)?) => {
+        impl$(<$($g),+>)? core::fmt::Debug for $name$(<$($g),+>)?
+        where
+            Self: core::fmt::Display,
+        {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                core::fmt::Display::fmt(self, f)
+            }
+        }
+    };
+}
+
 mod bitrate;
 mod command;
 mod decoder;
@@ -68,3 +84,22 @@ pub const BEL: u8 = 0x07;
 #[cfg(all(doctest, feature = "serial"))]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
+
+/// The error convention (`docs/STYLE.md`): `Debug` prints the `Display` text, so a `main` that
+/// returns this crate's error with `?` prints `Error: ` and the text.
+#[cfg(test)]
+mod error_convention {
+    extern crate std;
+    use std::{format, string::ToString};
+
+    #[test]
+    fn main_prints_the_text() {
+        let e = crate::Decoder::new()
+            .decode(b"t12G0\r")
+            .1
+            .unwrap()
+            .unwrap_err();
+        assert_eq!(e.to_string(), "'G' is not a hexadecimal digit");
+        assert_eq!(format!("{e:?}"), e.to_string());
+    }
+}

@@ -181,7 +181,7 @@ pub struct LinkStats {
 }
 
 /// Failures of a [`Link`].
-#[derive(Debug, thiserror::Error)]
+#[derive(thiserror::Error)]
 #[non_exhaustive]
 pub enum LinkError {
     /// The serial port could not be opened or configured.
@@ -202,13 +202,13 @@ pub enum LinkError {
         source: io::Error,
     },
     /// The adapter did not answer a command or query in time.
-    #[error("the slcan adapter did not answer {command:?}")]
+    #[error("the slcan adapter did not answer '{command}'")]
     NoReply {
         /// The command letter.
         command: char,
     },
     /// The adapter answered a command with BEL.
-    #[error("the slcan adapter refused {command:?} (BEL)")]
+    #[error("the slcan adapter refused '{command}' (BEL)")]
     Refused {
         /// The command letter.
         command: char,
@@ -220,7 +220,7 @@ pub enum LinkError {
     #[error("the slcan link is closed")]
     Closed,
     /// `PATH[@BITRATE]` did not parse.
-    #[error("bad slcan spec {0:?}: expected PATH[@BITRATE]")]
+    #[error("bad slcan spec `{0}`: expected PATH[@BITRATE]")]
     BadSpec(String),
     /// No `Sn` code has this bit rate.
     #[error(
@@ -228,6 +228,8 @@ pub enum LinkError {
     )]
     UnsupportedBitrate(u32),
 }
+
+debug_as_display!(LinkError);
 
 /// A blocking slcan adapter connection; see the module docs.
 ///

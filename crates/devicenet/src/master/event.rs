@@ -5,7 +5,7 @@ use crate::identity::{AttributeError, DuplicateMacCheck, Identity};
 use crate::status::CipError;
 
 /// Why a connect attempt failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ConnectError {
     /// The slave refused a step.
@@ -37,8 +37,10 @@ pub enum ConnectError {
     Identity(AttributeError),
 }
 
+debug_as_display!(ConnectError);
+
 /// How an application's explicit request ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ExplicitFailure {
     /// The slave answered with an Error Response.
@@ -52,9 +54,11 @@ pub enum ExplicitFailure {
     NotConnected,
 }
 
+debug_as_display!(ExplicitFailure);
+
 /// A local refusal of [`Master::get_attribute`](super::Master::get_attribute) /
 /// [`Master::set_attribute`](super::Master::set_attribute).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum MasterError {
     /// Not connected.
@@ -67,6 +71,8 @@ pub enum MasterError {
     #[error("request data too long")]
     TooLong,
 }
+
+debug_as_display!(MasterError);
 
 /// Handle of an application's explicit request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -82,7 +82,7 @@ impl fmt::Display for ImageSizes {
 }
 
 /// The poll connection's sizes do not fit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum SizeError {
     /// Sizes the cPos does not offer (the device is not a cPos, or misconfigured).
@@ -97,3 +97,5 @@ pub enum SizeError {
         actual: ImageSizes,
     },
 }
+
+debug_as_display!(SizeError);

@@ -16,7 +16,7 @@ use canola::{Duration, NodeId, ObjectAddress, Value};
 use serde::Deserialize;
 
 /// An error in the network description: where (file, line, key) and what.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Clone, PartialEq, Eq)]
 pub struct ConfigError {
     /// The description file.
     pub path: PathBuf,
@@ -27,6 +27,8 @@ pub struct ConfigError {
     /// What is wrong.
     pub message: String,
 }
+
+debug_as_display!(ConfigError);
 
 impl core::fmt::Display for ConfigError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {

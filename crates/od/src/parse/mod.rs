@@ -54,12 +54,14 @@ pub struct Parsed {
 }
 
 /// A file that could not be understood: its errors (and the warnings) with their lines.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Clone, PartialEq, Eq)]
 pub struct ParseError {
     /// The diagnostics listed, sorted by line; at least one is an error. Beyond 25 of one
     /// severity and kind, one `Suppressed` diagnostic of that severity counts the rest.
     pub diagnostics: Vec<Diagnostic>,
 }
+
+debug_as_display!(ParseError);
 
 impl ParseError {
     /// The errors listed (including the `Suppressed` summaries of errors not listed).

@@ -12,7 +12,7 @@ use super::Value;
 use crate::types::DataType;
 
 /// Why a [`Value`] is not a value of a Rust type.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ConvertError {
     /// The value's type has no conversion to the Rust type.
@@ -40,6 +40,8 @@ pub enum ConvertError {
         data_type: DataType,
     },
 }
+
+debug_as_display!(ConvertError);
 
 /// A Rust type that a [`Value`] converts to, with the CANopen type it stands for (`u16` is
 /// UNSIGNED16): the type a typed read decodes with when nothing else says the object's type.

@@ -124,7 +124,7 @@ impl PartialEq for Value {
 }
 
 /// Why bytes could not be decoded into a [`Value`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum BytesError {
     /// A fixed-size type received the wrong number of bytes.
@@ -147,6 +147,8 @@ pub enum BytesError {
     #[error("{0} has no basic value encoding")]
     Unsupported(DataType),
 }
+
+debug_as_display!(BytesError);
 
 fn le_int(bytes: &[u8], signed: bool) -> i128 {
     let mut v: u64 = 0;

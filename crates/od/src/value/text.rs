@@ -12,7 +12,7 @@ use super::Value;
 use crate::types::DataType;
 
 /// Why EDS text could not be decoded into a value of the expected data type.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum TextError {
     /// The text is empty (or only `$NODEID+` with nothing after it).
@@ -43,6 +43,8 @@ pub enum TextError {
     #[error("{0} has no basic value encoding")]
     Unsupported(DataType),
 }
+
+debug_as_display!(TextError);
 
 /// Non-standard spellings that [`EdsValue::parse`] accepted; the parser reports each as a warning.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

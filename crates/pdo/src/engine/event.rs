@@ -80,7 +80,7 @@ impl Event {
 }
 
 /// Why the engine refused a configuration call.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum EngineError {
     /// The communication parameters cannot be used.
@@ -96,3 +96,5 @@ pub enum EngineError {
     #[error("the PDO's COB-ID is not valid")]
     NotValid,
 }
+
+debug_as_display!(EngineError);

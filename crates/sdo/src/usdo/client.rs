@@ -62,12 +62,14 @@ impl Default for UsdoClientConfig {
 }
 
 /// A transfer was refused: [`MAX_SESSIONS`] run or wait to be polled. Holds the buffer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("all USDO sessions are in use")]
 pub struct UsdoBusy<T>(pub T);
 
+debug_as_display!(UsdoBusy<T>);
+
 /// What ended a USDO transfer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum UsdoErrorKind {
     /// The server aborted with this code.
@@ -87,6 +89,8 @@ pub enum UsdoErrorKind {
     BufferFull(UsdoAbortCode),
 }
 
+debug_as_display!(UsdoErrorKind);
+
 impl UsdoErrorKind {
     /// The 1-byte code that went over the bus, in either direction.
     pub const fn abort_code(&self) -> UsdoAbortCode {
@@ -101,7 +105,7 @@ impl UsdoErrorKind {
 }
 
 /// Why a transfer failed, with which server, session and object.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("USDO {mux} on node {server}, session {session}: {kind}")]
 pub struct UsdoTransferError {
     /// The server's node-ID.
@@ -113,6 +117,8 @@ pub struct UsdoTransferError {
     /// What went wrong.
     pub kind: UsdoErrorKind,
 }
+
+debug_as_display!(UsdoTransferError);
 
 /// How a transfer ended. Exactly one event ends every started transfer.
 #[derive(Debug)]

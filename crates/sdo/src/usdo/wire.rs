@@ -77,7 +77,7 @@ mod field {
 }
 
 /// Why bytes are not a USDO frame.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum UsdoDecodeError {
     /// Shorter than the command needs.
@@ -110,8 +110,10 @@ pub enum UsdoDecodeError {
     },
 }
 
+debug_as_display!(UsdoDecodeError);
+
 /// Why a message cannot be written.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum UsdoEncodeError {
     /// Data longer than the frame allows (56 expedited, 60 end), or an empty download end.
@@ -124,6 +126,8 @@ pub enum UsdoEncodeError {
     #[error("USDO session-ID 0 is not valid")]
     SessionZero,
 }
+
+debug_as_display!(UsdoEncodeError);
 
 /// A data type code (CiA 301 §7.4.7.1, the codes of objects 0x0001..=0x001B) in the USDO data
 /// type byte. Open: every `u8` is kept.
