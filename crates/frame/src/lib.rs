@@ -38,6 +38,7 @@ macro_rules! debug_as_display {
     };
 }
 
+mod bitrate;
 pub mod cob;
 pub mod fd;
 mod frame;
@@ -46,6 +47,7 @@ mod node;
 pub mod time;
 pub mod timer;
 
+pub use bitrate::parse_bitrate;
 pub use cob::{CobId, FunctionCode, PdoNumber, is_restricted};
 pub use fd::{FdFlags, FdFrame};
 pub use frame::{CanFrame, FrameError, HexBytes};

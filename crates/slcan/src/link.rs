@@ -99,7 +99,8 @@ impl LinkConfig {
         }
         let mut config = Self::new(path);
         if let Some(rate) = rate {
-            let bps = parse_bps(rate).ok_or_else(|| LinkError::BadSpec(spec.to_string()))?;
+            let bps = canola_frame::parse_bitrate(rate)
+                .ok_or_else(|| LinkError::BadSpec(spec.to_string()))?;
             config.bitrate = Some(
                 NominalBitrate::from_bps(bps, BitrateTable::Lawicel)
                     .or_else(|| NominalBitrate::from_bps(bps, BitrateTable::Canable))
@@ -108,22 +109,6 @@ impl LinkConfig {
         }
         Ok(config)
     }
-}
-
-/// `500000`, `500k`, `1M`, `83.3k`.
-fn parse_bps(s: &str) -> Option<u32> {
-    let (num, scale) = match s.as_bytes().last()? {
-        b'k' | b'K' => (&s[..s.len() - 1], 1_000.0),
-        b'm' | b'M' => (&s[..s.len() - 1], 1_000_000.0),
-        _ => (s, 1.0),
-    };
-    let v: f64 = num.parse().ok()?;
-    let bps = v * scale;
-    (bps.is_finite() && (1.0..=16_000_000.0).contains(&bps)).then(|| {
-        // 83.3k is the common spelling of 83 333 bit/s.
-        let r = bps.round() as u32;
-        if r == 83_300 { 83_333 } else { r }
-    })
 }
 
 /// What [`Link::recv`] returns.

@@ -47,19 +47,14 @@ pub(crate) struct TopArgs {
     fps: u32,
 }
 
-/// `500k`, `1M`, `250000`.
+/// `500k`, `1M`, `250000` ([`canola::frame::parse_bitrate`]), 10k..1M.
 fn parse_bitrate(s: &str) -> Result<u32, CliError> {
-    let (num, mul) = match s.to_ascii_lowercase() {
-        t if t.ends_with('k') => (t.trim_end_matches('k').to_owned(), 1_000),
-        t if t.ends_with('m') => (t.trim_end_matches('m').to_owned(), 1_000_000),
-        t => (t, 1),
-    };
-    let v: u32 = num
-        .parse()
-        .map_err(|_| CliError::Argument(format!("`{s}` is not a bit rate (500k, 1M, 250000)")))?;
-    match v.checked_mul(mul) {
-        Some(b) if (10_000..=1_000_000).contains(&b) => Ok(b),
-        _ => Err(CliError::Argument(format!("`{s}`: give 10k..1M"))),
+    let bps = canola::frame::parse_bitrate(s)
+        .ok_or_else(|| CliError::Argument(format!("`{s}` is not a bit rate (500k, 1M, 250000)")))?;
+    if (10_000..=1_000_000).contains(&bps) {
+        Ok(bps)
+    } else {
+        Err(CliError::Argument(format!("`{s}`: give 10k..1M")))
     }
 }
 
