@@ -16,9 +16,9 @@ use std::os::fd::{AsFd, OwnedFd};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use canola_frame::{CanFrame, CanId};
+use canola_frame::{CanFrame, CanId, FdFrame};
 use canola_slcan::{
-    AckMode, Command, Decoder, FdFrame, Frame, Incoming, Item, Link, LinkConfig, MAX_COMMAND,
+    AckMode, Command, Decoder, Frame, Incoming, Item, Link, LinkConfig, MAX_COMMAND,
 };
 use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
 use nix::time::{ClockId, clock_gettime};
@@ -44,7 +44,7 @@ fn frames(kind: &str, n: usize) -> Vec<Frame> {
                 _ => {
                     let id = CanId::standard((i % 0x800) as u16).unwrap();
                     let data: Vec<u8> = b.iter().cycle().take(64).copied().collect();
-                    FdFrame::new(id, true, &data).unwrap().into()
+                    FdFrame::new(id, &data).unwrap().with_brs(true).into()
                 }
             }
         })

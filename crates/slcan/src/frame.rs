@@ -3,75 +3,19 @@
 //! (3 hex digits), upper case for 29-bit ones (8 hex digits); one length digit; the data as hex
 //! pairs. Received frames may carry a timestamp (4 hex digits of ms or 8 of µs) and an ESI digit.
 
-use canola_frame::{CanFrame, CanId};
+use canola_frame::fd::dlc_to_len;
+use canola_frame::{CanFrame, CanId, FdFrame};
 
 use crate::error::{EncodeError, LineError};
 use crate::hex::{self, Writer};
-
-/// Bytes of a CAN FD frame for each DLC code 0..=15 (ISO 11898-1:2015).
-const FD_LEN: [u8; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
-
-/// The data length of CAN FD DLC code `dlc` (0..=15); `None` above 15.
-pub fn fd_dlc_to_len(dlc: u8) -> Option<usize> {
-    FD_LEN.get(usize::from(dlc)).map(|&n| usize::from(n))
-}
-
-/// The DLC code of a CAN FD data length; `None` for a length that has none (9..=11, 13, ...).
-pub fn fd_len_to_dlc(len: usize) -> Option<u8> {
-    FD_LEN
-        .iter()
-        .position(|&n| usize::from(n) == len)
-        .map(|i| i as u8)
-}
-
-/// A CAN FD data frame: identifier, bit rate switch, and one of the sixteen FD lengths.
-///
-/// Minimal on purpose: a local stand-in until canola-frame has an FD type, to be replaced by it.
-/// Bytes past `len` are zero, so derived equality compares what is on the wire.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct FdFrame {
-    id: CanId,
-    brs: bool,
-    len: u8,
-    data: [u8; 64],
-}
-
-impl FdFrame {
-    /// A CAN FD frame; `None` unless `data.len()` is one of 0..=8, 12, 16, 20, 24, 32, 48, 64.
-    pub fn new(id: CanId, brs: bool, data: &[u8]) -> Option<Self> {
-        fd_len_to_dlc(data.len())?;
-        let mut buf = [0; 64];
-        buf[..data.len()].copy_from_slice(data);
-        Some(Self {
-            id,
-            brs,
-            len: data.len() as u8,
-            data: buf,
-        })
-    }
-
-    /// The identifier.
-    pub const fn id(&self) -> CanId {
-        self.id
-    }
-
-    /// Whether the data phase switches to the data bit rate (`b`/`B` lines).
-    pub const fn brs(&self) -> bool {
-        self.brs
-    }
-
-    /// The data bytes.
-    pub fn data(&self) -> &[u8] {
-        &self.data[..usize::from(self.len)]
-    }
-}
 
 /// A frame on an slcan line: classic or CAN FD.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Frame {
     /// A classic data or remote frame (`t`, `T`, `r`, `R`).
     Classic(CanFrame),
-    /// A CAN FD frame (`d`, `D`, `b`, `B`).
+    /// A CAN FD frame (`d`, `D`, `b`, `B`; the bit rate switch is its BRS flag; its ESI flag is
+    /// not written, an adapter reports it in [`RxFrame::esi`]).
     Fd(FdFrame),
 }
 
@@ -144,7 +88,7 @@ impl RxFrame {
 pub(crate) fn line_len(frame: &Frame) -> usize {
     let (id, data) = match frame {
         Frame::Classic(f) => (f.id(), f.data().len()),
-        Frame::Fd(f) => (f.id, f.data().len()),
+        Frame::Fd(f) => (f.id(), f.data().len()),
     };
     1 + if id.is_extended() { 8 } else { 3 } + 1 + 2 * data
 }
@@ -162,15 +106,13 @@ pub(crate) fn write_frame(w: &mut Writer<'_>, frame: &Frame) {
             (f.id(), kind, f.dlc() as u8, f.data())
         }
         Frame::Fd(f) => {
-            let kind = match (f.brs, f.id.is_extended()) {
+            let kind = match (f.brs(), f.id().is_extended()) {
                 (false, false) => b'd',
                 (false, true) => b'D',
                 (true, false) => b'b',
                 (true, true) => b'B',
             };
-            // FdFrame::new admits only lengths that have a DLC code.
-            let dlc = fd_len_to_dlc(f.data().len()).unwrap_or(0);
-            (f.id, kind, dlc, f.data())
+            (f.id(), kind, f.dlc_code(), f.data())
         }
     };
     w.byte(kind);
@@ -203,7 +145,7 @@ pub(crate) fn parse_frame(line: &[u8]) -> Result<(Frame, &[u8]), LineError> {
     let fd = matches!(kind, b'd' | b'D' | b'b' | b'B');
     let len = if fd {
         let code = hex::digit(dlc_char).map_err(|_| LineError::BadDlc(dlc_char))?;
-        fd_dlc_to_len(code).ok_or(LineError::BadDlc(dlc_char))?
+        dlc_to_len(code).ok_or(LineError::BadDlc(dlc_char))?
     } else {
         match dlc_char {
             b'0'..=b'8' => usize::from(dlc_char - b'0'),
@@ -220,9 +162,8 @@ pub(crate) fn parse_frame(line: &[u8]) -> Result<(Frame, &[u8]), LineError> {
     let mut data = [0u8; 64];
     hex::bytes(digits, &mut data[..len])?;
     let frame = if fd {
-        let f = FdFrame::new(id, matches!(kind, b'b' | b'B'), &data[..len])
-            .ok_or(LineError::BadDlc(dlc_char))?;
-        Frame::Fd(f)
+        let f = FdFrame::new(id, &data[..len]).map_err(|_| LineError::BadDlc(dlc_char))?;
+        Frame::Fd(f.with_brs(matches!(kind, b'b' | b'B')))
     } else {
         Frame::Classic(CanFrame::new(id, &data[..len]).map_err(|_| LineError::BadDlc(dlc_char))?)
     };

@@ -21,8 +21,8 @@
 //! CANable's official firmware; `S7` is 800 kbit/s on Lawicel and the kernel but 750 kbit/s on
 //! CANable ([`BitrateTable`]).
 //!
-//! CAN FD frames use the crate's own minimal [`FdFrame`] (identifier, bit rate switch, up to 64
-//! bytes) until canola-frame has an FD type; it is meant to be swapped for that one.
+//! CAN FD frames are `canola_frame`'s [`FdFrame`](canola_frame::FdFrame) (its DLC table too):
+//! the bit rate switch is its BRS flag.
 #![no_std]
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
@@ -59,7 +59,7 @@ pub use bitrate::{BitrateTable, Btr, DataBitrate, NominalBitrate, TimestampMode}
 pub use command::Command;
 pub use decoder::{Decoder, Items};
 pub use error::{EncodeError, LineError};
-pub use frame::{FdFrame, Frame, RxFrame, Timestamp, fd_dlc_to_len, fd_len_to_dlc};
+pub use frame::{Frame, RxFrame, Timestamp};
 #[cfg(feature = "serial")]
 pub use link::{
     AckMode, AdapterInfo, DEFAULT_SERIAL_BAUD, Incoming, Link, LinkConfig, LinkError, LinkStats,

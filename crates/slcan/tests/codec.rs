@@ -3,11 +3,10 @@
 //! (`drivers/net/can/slcan/slcan-core.c`), and the replies of Lawicel-style firmware, CANable's
 //! firmware and can-utils' slcanpty, as collected in the project's slcan spec notes.
 
-use canola_frame::{CanFrame, CanId};
+use canola_frame::{CanFrame, CanId, FdFrame};
 use canola_slcan::{
-    BitrateTable, Btr, BusErrors, BusState, Command, DataBitrate, Decoder, ErrorState, FdFrame,
-    Frame, Item, LineError, MAX_COMMAND, NominalBitrate, RxFrame, StatusFlags, Timestamp,
-    TimestampMode,
+    BitrateTable, Btr, BusErrors, BusState, Command, DataBitrate, Decoder, ErrorState, Frame, Item,
+    LineError, MAX_COMMAND, NominalBitrate, RxFrame, StatusFlags, Timestamp, TimestampMode,
 };
 use proptest::prelude::*;
 
@@ -90,7 +89,6 @@ fn frames_as_python_can_and_the_kernel_send_them() {
         (
             FdFrame::new(
                 sid(0x200),
-                false,
                 &[
                     0, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88, 0x99, 0xAA, 0xBB,
                 ],
@@ -100,8 +98,9 @@ fn frames_as_python_can_and_the_kernel_send_them() {
             b"d200900112233445566778899AABB\r",
         ),
         (
-            FdFrame::new(eid(0x1FFF_FFFF), true, &[0xEE; 64])
+            FdFrame::new(eid(0x1FFF_FFFF), &[0xEE; 64])
                 .unwrap()
+                .with_brs(true)
                 .into(),
             &[b"B1FFFFFFFF".as_slice(), &[b'E'; 128], b"\r"]
                 .concat()
@@ -361,8 +360,9 @@ fn any_frame() -> impl Strategy<Value = Frame> {
         (any_id(), prop::collection::vec(any::<u8>(), 0..=8))
             .prop_map(|(id, d)| Frame::Classic(CanFrame::new(id, &d).unwrap())),
         (any_id(), 0usize..=8).prop_map(|(id, n)| Frame::Classic(CanFrame::remote(id, n).unwrap())),
-        (any_id(), any::<bool>(), fd_lens, any::<[u8; 64]>())
-            .prop_map(|(id, brs, n, d)| Frame::Fd(FdFrame::new(id, brs, &d[..n]).unwrap())),
+        (any_id(), any::<bool>(), fd_lens, any::<[u8; 64]>()).prop_map(
+            |(id, brs, n, d)| Frame::Fd(FdFrame::new(id, &d[..n]).unwrap().with_brs(brs))
+        ),
     ]
 }
 

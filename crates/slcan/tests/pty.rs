@@ -17,10 +17,10 @@ use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use canola_frame::{CanFrame, CanId};
+use canola_frame::{CanFrame, CanId, FdFrame};
 use canola_slcan::{
-    AckMode, DataBitrate, FdFrame, Frame, Incoming, LineError, Link, LinkConfig, LinkError,
-    RxFrame, StatusFlags, Timestamp, TimestampMode,
+    AckMode, DataBitrate, Frame, Incoming, LineError, Link, LinkConfig, LinkError, RxFrame,
+    StatusFlags, Timestamp, TimestampMode,
 };
 use nix::poll::{PollFd, PollFlags, PollTimeout, poll};
 
@@ -429,7 +429,9 @@ fn canable_fd_frames_and_data_bitrate() {
     assert_eq!(fake.lines(4), ["C", "S6", "Y2", "O"]);
 
     let data: Vec<u8> = (0..64).collect();
-    let f = FdFrame::new(CanId::extended(0x01AB_CDEF).unwrap(), true, &data).unwrap();
+    let f = FdFrame::new(CanId::extended(0x01AB_CDEF).unwrap(), &data)
+        .unwrap()
+        .with_brs(true);
     link.send(&f.into()).unwrap();
     let hex: String = data.iter().map(|b| format!("{b:02X}")).collect();
     assert_eq!(fake.line(), format!("B01ABCDEFF{hex}"));
@@ -441,6 +443,6 @@ fn canable_fd_frames_and_data_bitrate() {
     ];
     assert_eq!(
         recv(&mut link),
-        rx(FdFrame::new(sid(0x200), false, &twelve).unwrap(), None)
+        rx(FdFrame::new(sid(0x200), &twelve).unwrap(), None)
     );
 }

@@ -79,10 +79,6 @@ impl SlcanStats {
     }
 }
 
-/// CAN FD frames from the adapter carry the FDF flag, as Linux 6.2 and later set it.
-const FD_FLAG_FDF: u8 = 0x04;
-const FD_FLAG_ESI: u8 = 0x02;
-const FD_FLAG_BRS: u8 = 0x01;
 /// SocketCAN's protocol-violation error class and its detail bits (`linux/can/error.h`).
 const CAN_ERR_PROT: u32 = 0x0000_0008;
 const CAN_ERR_ACK: u32 = 0x0000_0020;
@@ -238,21 +234,14 @@ impl Slcan {
                     }
                     Frame::Fd(fd) => {
                         self.fd_seen = true;
-                        let mut flags = FD_FLAG_FDF;
-                        if fd.brs() {
-                            flags |= FD_FLAG_BRS;
-                        }
+                        // FDF as Linux 6.2 and later set it; ESI from the adapter's trailer.
+                        let mut flags = fd.flags().union(FdFlags::FDF);
                         if rx.esi == Some(true) {
-                            flags |= FD_FLAG_ESI;
+                            flags = flags.union(FdFlags::ESI);
                         }
-                        match FdFrame::new(fd.id(), fd.data()) {
-                            Ok(frame) => BusEvent::FdFrame {
-                                frame: Box::new(
-                                    frame.with_flags(FdFlags::from_bits_truncate(flags)),
-                                ),
-                                at,
-                            },
-                            Err(_) => return,
+                        BusEvent::FdFrame {
+                            frame: Box::new(fd.with_flags(flags)),
+                            at,
                         }
                     }
                 }
@@ -383,9 +372,7 @@ impl Transport for Slcan {
         if self.down.is_some() {
             return Err(TransportError::InterfaceDown);
         }
-        let line = canola_slcan::FdFrame::new(frame.id(), frame.brs(), frame.data())
-            .ok_or_else(|| TransportError::Io(std::io::Error::other("frame not representable")))?;
-        match self.link.send(&Frame::Fd(line)) {
+        match self.link.send(&Frame::Fd(*frame)) {
             Ok(()) => {
                 self.stats.inner.frames_tx.fetch_add(1, Ordering::Relaxed);
                 Ok(())
