@@ -102,13 +102,9 @@ impl fmt::Display for DecodedPdo {
     }
 }
 
-/// The name of `index:sub` in `od`: `Object / Sub-object` for records and arrays.
+/// The name of `index:sub` in `od` ([`ObjectDictionary::display_name`]).
 pub(crate) fn object_name(od: &ObjectDictionary, index: u16, sub: u8) -> Option<String> {
-    let obj = od.get(index)?;
-    match obj.sub(sub) {
-        Some(s) if !obj.is_simple() => Some(format!("{} / {}", obj.name, s.name)),
-        _ => Some(obj.name.to_string()),
-    }
+    od.display_name(ObjectAddress::new(index, sub))
 }
 
 impl BusDictionary {

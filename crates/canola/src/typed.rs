@@ -18,7 +18,9 @@ use crate::network::Sdo;
 /// An object by name (as the node's dictionary spells it, any case) or by address.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ObjectKey<'a> {
-    /// A name: `"Producer heartbeat time"` or `"Identity object.Vendor-ID"`.
+    /// A name: `"Producer heartbeat time"`, or a sub-object after a slash or a dot
+    /// (`"Identity object/Vendor ID"`, `"Identity object.Vendor ID"`); see
+    /// [`ObjectDictionary::find`](canola_od::ObjectDictionary::find).
     Name(&'a str),
     /// An index and sub-index.
     Address(ObjectAddress),
@@ -114,16 +116,9 @@ fn type_name(t: DataType) -> String {
         .map_or_else(|| format!("data type {:#06x}", t.code()), str::to_string)
 }
 
-/// The object's name for messages.
+/// The object's name for messages ([`ObjectDictionary::display_name`], else its address).
 pub(crate) fn object_name(od: &ObjectDictionary, at: ObjectAddress) -> String {
-    match od.get(at.index) {
-        Some(o) if o.is_simple() => o.name.to_string(),
-        Some(o) => match o.sub(at.sub_index) {
-            Some(s) => format!("{}.{}", o.name, s.name),
-            None => o.name.to_string(),
-        },
-        None => at.to_string(),
-    }
+    od.display_name(at).unwrap_or_else(|| at.to_string())
 }
 
 /// `value` as a value of `t`, or why not.

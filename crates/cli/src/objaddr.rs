@@ -1,7 +1,8 @@
 //! How the SDO commands name an object: an index in hex (`0x1017`, CANopen's notation), a
 //! decimal number, or, with the node's dictionary (`--eds NODE=FILE`), the object's name
 //! (`"Producer heartbeat time"`, case-insensitive), optionally with the sub-object's name
-//! after a slash (`"Identity object/Serial number"`).
+//! after a slash or a dot (`"Identity object/Serial number"`, `"Identity object.Serial number"`,
+//! as the library's `ObjectDictionary::find` takes them).
 //!
 //! A plain four-digit decimal below 0x1000 (`1017`) is almost always a hex index typed without
 //! `0x`: it is still read as decimal, but a note on stderr (under `--json` a JSON warning
@@ -53,10 +54,7 @@ pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resol
              dictionary with --eds NODE=FILE"
         )));
     };
-    let (object, sub) = match text.split_once('/') {
-        Some((o, s)) => (o, Some(s)),
-        None => (text, None),
-    };
+    let (object, sub) = split_name(od, text);
     let objects: Vec<_> = od
         .objects
         .values()
@@ -111,6 +109,20 @@ pub(crate) fn resolve(text: &str, od: Option<&ObjectDictionary>) -> Result<Resol
             list(many.iter().map(|o| format!("0x{:04X}", o.index)))
         ))),
     }
+}
+
+/// The object's name and the sub-object's, the way the library reads them
+/// ([`ObjectDictionary::find`]): the whole text when an object has that name, else split at the
+/// first `/` or `.` (from the left) whose left part names an object.
+fn split_name<'t>(od: &ObjectDictionary, text: &'t str) -> (&'t str, Option<&'t str>) {
+    let names = |name: &str| od.objects.values().any(|o| same(&o.name, name));
+    if names(text) {
+        return (text, None);
+    }
+    text.match_indices(['/', '.'])
+        .map(|(at, _)| (&text[..at], &text[at + 1..]))
+        .find(|(object, _)| names(object))
+        .map_or((text, None), |(object, sub)| (object, Some(sub)))
 }
 
 fn list(items: impl Iterator<Item = String>) -> String {

@@ -140,6 +140,9 @@ fn indices_sub_defaults_and_names() {
     assert_eq!(stdout(&read(&["producer heartbeat time"])), "500\n");
     assert_eq!(stdout(&read(&["PRODUCER HEARTBEAT TIME", "0"])), "500\n");
     assert_eq!(stdout(&read(&["identity object/vendor id"])), "57\n");
+    // The library's syntax too: a dot, and the printed form `Object / Sub-object`.
+    assert_eq!(stdout(&read(&["Identity object.Vendor ID"])), "57\n");
+    assert_eq!(stdout(&read(&["Identity object / Vendor ID"])), "57\n");
     let o = read(&["No such object"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("no object named"), "{}", stderr(&o));

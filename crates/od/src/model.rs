@@ -611,19 +611,22 @@ impl ObjectDictionary {
         self.objects.values().find(|o| same_name(&o.name, name))
     }
 
-    /// The address of a value by name, the way python-canopen resolves names: an object's name
-    /// for a VAR (`"Producer heartbeat time"`), `"object.sub-object"` for an entry of an ARRAY
-    /// or RECORD (`"Identity object.Vendor-ID"`), case-insensitive. A name that contains dots
-    /// itself is tried whole first, then split at each dot from the left. `None` when nothing
-    /// matches, and for the name of an ARRAY or RECORD alone (it has no single value).
+    /// The address of a value by name: an object's name for a VAR (`"Producer heartbeat
+    /// time"`), the object's and the sub-object's name for an entry of an ARRAY or RECORD,
+    /// separated by `/` or `.` (`"Identity object/Vendor ID"`, `"Identity object.Vendor ID"`
+    /// as python-canopen writes it, or the printed form of [`display_name`](Self::display_name),
+    /// `"Identity object / Vendor ID"`), case-insensitive, blanks around the separator ignored.
+    /// A name that contains separators itself is tried whole first, then split at each
+    /// separator from the left. `None` when nothing matches, and for the name of an ARRAY or
+    /// RECORD alone (it has no single value).
     pub fn find(&self, name: &str) -> Option<crate::ObjectAddress> {
-        if let Some(o) = self.find_object(name)
+        if let Some(o) = self.find_object(name.trim())
             && o.is_simple()
         {
             return Some(crate::ObjectAddress::new(o.index, 0));
         }
-        for (dot, _) in name.match_indices('.') {
-            let (object, sub) = (&name[..dot], &name[dot + 1..]);
+        for (at, _) in name.match_indices(['/', '.']) {
+            let (object, sub) = (name[..at].trim(), name[at + 1..].trim());
             let found = self
                 .objects
                 .values()
@@ -639,6 +642,18 @@ impl ObjectDictionary {
             }
         }
         None
+    }
+
+    /// The name of the value at `at` as the stack prints it: the object's name for a VAR (or
+    /// a sub-index the object does not have), `Object / Sub-object` for an entry of an ARRAY or
+    /// RECORD (`"Identity object / Vendor ID"`). [`find`](Self::find) takes it back. `None`
+    /// when the dictionary has no object at `at.index`.
+    pub fn display_name(&self, at: crate::ObjectAddress) -> Option<String> {
+        let obj = self.get(at.index)?;
+        Some(match obj.sub(at.sub_index) {
+            Some(sub) if !obj.is_simple() => alloc::format!("{} / {}", obj.name, sub.name),
+            _ => String::from(obj.name.as_str()),
+        })
     }
 
     /// Iterates over every (index, sub-object) pair in index order.

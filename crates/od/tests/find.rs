@@ -1,5 +1,5 @@
-//! Finding objects by name: case-insensitive, `object.sub-object` for entries of records and
-//! arrays, names that contain dots.
+//! Finding objects by name: case-insensitive, `object/sub-object` or `object.sub-object` for
+//! entries of records and arrays, names that contain separators; the printed name found back.
 
 use canola_od::{
     AccessType, DataType, Object, ObjectAddress, ObjectCode, ObjectDictionary, SubObject,
@@ -62,5 +62,62 @@ fn names_with_dots() {
     assert_eq!(
         od.find("Axis 1.0.Highest sub-index supported"),
         Some(ObjectAddress::new(0x2001, 0))
+    );
+}
+
+#[test]
+fn both_separators_and_the_printed_name() {
+    let od = canola_od::parse(EDS).unwrap().od;
+    let vendor = Some(ObjectAddress::new(0x1018, 1));
+    assert_eq!(od.find("Identity object/Vendor ID"), vendor);
+    assert_eq!(od.find("Identity object.Vendor ID"), vendor);
+    assert_eq!(od.find("identity object / vendor id"), vendor);
+    assert_eq!(
+        od.find("  Producer heartbeat time "),
+        Some(ObjectAddress::new(0x1017, 0))
+    );
+    assert_eq!(od.find("Identity object/"), None);
+    assert_eq!(od.find("/Vendor ID"), None);
+    // One printed form, and `find` takes every printed name back.
+    assert_eq!(
+        od.display_name(ObjectAddress::new(0x1018, 1)).as_deref(),
+        Some("Identity Object / Vendor ID")
+    );
+    assert_eq!(
+        od.display_name(ObjectAddress::new(0x1017, 0)).as_deref(),
+        Some("Producer Heartbeat Time")
+    );
+    assert_eq!(od.display_name(ObjectAddress::new(0x0FFF, 0)), None);
+    for (index, sub) in od.entries() {
+        let at = ObjectAddress::new(index, sub.sub_index);
+        let name = od.display_name(at).unwrap();
+        assert_eq!(od.find(&name), Some(at), "{name}");
+    }
+}
+
+#[test]
+fn separators_inside_names() {
+    let mut od = ObjectDictionary::default();
+    let rw = AccessType::Rw;
+    od.insert(Object::complex(
+        0x2002,
+        "Load/Save",
+        ObjectCode::Record,
+        [
+            SubObject::new(0, "Highest sub-index supported", DataType::Unsigned8, rw),
+            SubObject::new(1, "In/Out", DataType::Unsigned8, rw),
+        ],
+    ));
+    assert_eq!(
+        od.find("load/save/in/out"),
+        Some(ObjectAddress::new(0x2002, 1))
+    );
+    assert_eq!(
+        od.find("Load/Save.In/Out"),
+        Some(ObjectAddress::new(0x2002, 1))
+    );
+    assert_eq!(
+        od.find(&od.display_name(ObjectAddress::new(0x2002, 1)).unwrap()),
+        Some(ObjectAddress::new(0x2002, 1))
     );
 }

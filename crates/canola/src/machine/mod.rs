@@ -192,12 +192,7 @@ impl Core {
     }
 
     pub(crate) fn object_name(&self, node: NodeId, entry: ObjectAddress) -> Option<String> {
-        let od = self.nodes.get(&node)?.od.as_ref()?;
-        let obj = od.get(entry.index)?;
-        match obj.sub(entry.sub_index) {
-            Some(sub) if !obj.is_simple() => Some(format!("{} / {}", obj.name, sub.name)),
-            _ => Some(obj.name.to_string()),
-        }
+        self.nodes.get(&node)?.od.as_ref()?.display_name(entry)
     }
 
     pub(crate) fn subscribe(&mut self) -> mpsc::Receiver<NetworkEvent> {
@@ -439,8 +434,8 @@ impl Core {
             self.pdo_next = next;
         }
         let mut due = Vec::new();
-        // A retain by hand: `Vec::retain` costs several times this loop over the one or two
-        // busy channels there mostly are.
+        // A retain by hand, cheaper than `Vec::retain` over the one or two busy channels there
+        // mostly are (see `crates/bench/README.md`, "Figures behind design choices").
         let mut i = 0;
         while let Some(&(node, ch)) = self.sdo_busy.get(i) {
             let keep = self

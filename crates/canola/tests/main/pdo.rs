@@ -123,8 +123,8 @@ fn read_tpdos_and_rpdos_with_the_dictionary() {
     assert_eq!(
         mapped,
         [
-            (a(0x2500, 1), 32, Some("Sensor Value 1.Value")),
-            (a(0x2501, 1), 32, Some("Sensor Value 2.Value")),
+            (a(0x2500, 1), 32, Some("Sensor Value 1 / Value")),
+            (a(0x2501, 1), 32, Some("Sensor Value 2 / Value")),
         ]
     );
     assert_eq!(

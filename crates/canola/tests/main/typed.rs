@@ -27,10 +27,19 @@ fn read_by_name_and_by_address() {
         node.sdo().get("Producer heartbeat time").wait().unwrap(),
         Value::Unsigned16(500)
     );
-    assert_eq!(
-        node.sdo().get("identity object.vendor id").wait().unwrap(),
-        Value::Unsigned32(0x39)
-    );
+    // A sub-object after a dot or a slash, or in the printed form `Object / Sub-object`
+    // (the CLI takes the same three).
+    for name in [
+        "identity object.vendor id",
+        "Identity object/Vendor ID",
+        "Identity object / Vendor ID",
+    ] {
+        assert_eq!(
+            node.sdo().get(name).wait().unwrap(),
+            Value::Unsigned32(0x39),
+            "{name}"
+        );
+    }
     assert_eq!(
         node.sdo().get((0x1018, 1)).wait().unwrap(),
         Value::Unsigned32(0x39)

@@ -210,13 +210,9 @@ pub(crate) struct Model {
     window_bits: u64,
 }
 
-/// The name of `index:sub` in `od` (`Object / Sub-object` for records and arrays).
+/// The name of `index:sub` in `od` ([`ObjectDictionary::display_name`]).
 pub(crate) fn object_name(od: &ObjectDictionary, index: u16, sub: u8) -> Option<String> {
-    let obj = od.get(index)?;
-    match obj.sub(sub) {
-        Some(s) if !obj.is_simple() => Some(format!("{} / {}", obj.name, s.name)),
-        _ => Some(obj.name.to_string()),
-    }
+    od.display_name(canola::ObjectAddress::new(index, sub))
 }
 
 fn raw_text(v: &RawValue) -> (String, Option<f64>) {
