@@ -1,7 +1,7 @@
 //! The tie between a network's clock and tokio's, for the async API (`tokio` feature): one
 //! anchor per network, a pair (tokio instant, network instant) that correspond, and the
 //! wake-up futures that drive a virtual clock wait on. It lives beside the network, which holds
-//! one, and knows nothing of it; `asynch::drive` uses it.
+//! one, and knows nothing of it; the tokio driving (`network/tokio_driving.rs`) uses it.
 
 use std::sync::Mutex;
 

@@ -15,9 +15,9 @@
 //! readable after the transport moved into a [`Network`](crate::Network).
 //!
 //! Waiting: [`Transport::recv_until`] blocks in `recvmsg` with the socket's receive timeout
-//! (`SO_RCVTIMEO`). That is the cheapest wait the kernel offers (measured in the QEMU guest of
-//! `tests/vcan`: a request/response round trip took about 30 µs longer with `ppoll`, whose
-//! high-resolution timer is costlier than the timer-wheel timeout of a blocking read). The kernel
+//! (`SO_RCVTIMEO`). That is the cheapest wait the kernel offers: the timer-wheel timeout of a
+//! blocking read costs less than the high-resolution timer of `ppoll` (the figure is in
+//! `crates/bench/README.md`, "Figures behind design choices in the facade"). The kernel
 //! rounds that timeout up to its timer tick (1 to 10 ms depending on `CONFIG_HZ`), so a wait
 //! may end up to a tick after its deadline, never before it. A timeout already set is reused
 //! while it lies between half and 17/16 of the wait needed, which saves a `setsockopt` per call
