@@ -236,7 +236,8 @@ pub enum Error {
     UnknownObject {
         /// The node.
         node: NodeId,
-        /// The name asked for (empty when the node has no dictionary at all).
+        /// The name asked for (for a write by address to a node without a dictionary, the
+        /// address).
         name: String,
         /// Why it does not resolve.
         reason: String,

@@ -180,15 +180,16 @@ pub(crate) fn convert(value: WriteValue, t: DataType) -> Result<Value, String> {
 }
 
 impl Sdo {
-    /// The dictionary of the node, or an error saying it has none.
-    fn typed_dictionary(&self) -> Result<std::sync::Arc<ObjectDictionary>, Error> {
+    /// The dictionary of the node, or an error saying it has none, naming `wanted` (the name
+    /// or address asked for).
+    fn typed_dictionary(&self, wanted: &str) -> Result<std::sync::Arc<ObjectDictionary>, Error> {
         let node = self.node_id();
         self.network()
             .core()
             .dictionary(node)
             .ok_or_else(|| Error::UnknownObject {
                 node,
-                name: String::new(),
+                name: wanted.into(),
                 reason:
                     "the node was added without a dictionary (Network::add_node_with_dictionary)"
                         .into(),
@@ -200,7 +201,7 @@ impl Sdo {
         match key.into() {
             ObjectKey::Address(a) => Ok(a),
             ObjectKey::Name(name) => {
-                let od = self.typed_dictionary()?;
+                let od = self.typed_dictionary(name)?;
                 od.find(name).ok_or_else(|| Error::UnknownObject {
                     node: self.node_id(),
                     name: name.into(),
@@ -247,7 +248,7 @@ impl Sdo {
         value: impl Into<WriteValue>,
     ) -> Result<(ObjectAddress, Value), Error> {
         let at = self.resolve(key)?;
-        let od = self.typed_dictionary()?;
+        let od = self.typed_dictionary(&at.to_string())?;
         let node = self.node_id();
         let Some(sub) = od.sub(at.index, at.sub_index) else {
             return Err(Error::Value {
