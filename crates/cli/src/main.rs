@@ -65,7 +65,8 @@ enum Command {
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
     Sdo(sdo_cmd::SdoCommand),
-    /// USDO transfers (CANopen FD): read|write, as `sdo`; needs a CAN FD bus (`--fd`).
+    /// USDO transfers (CANopen FD): read|write|upload, as `sdo`, over CAN FD frames: on
+    /// SocketCAN and the in-memory bus give `--fd`; the UDP bus carries CAN FD without it.
     #[command(subcommand)]
     Usdo(sdo_cmd::UsdoCommand),
     /// NMT module control: start|stop|preop|reset|reset-comm NODE|all [--wait]; `state`
@@ -189,13 +190,22 @@ pub(crate) fn outln(text: &str) {
 }
 
 fn main() -> ExitCode {
+    // First, before any thread starts (see `handle_signals`).
+    let signals = bus::handle_signals();
     let args = argv::options_after_values(&Cli::command(), std::env::args_os().collect());
-    let cli = Cli::parse_from(args);
+    let json = argv::asks_for_json(&args);
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => return error::report_clap(&e, json),
+    };
     let global = Global {
         json: cli.json,
         hex: cli.hex,
     };
     error::set_json(cli.json);
+    if let Err(e) = signals {
+        bus::warn("warning", &e.to_string(), serde_json::Map::new());
+    }
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
