@@ -278,7 +278,8 @@ fn python_can_with_its_default_channel_meets_the_ipv6_bus() {
         "import can, canopen\n\
          net = canopen.Network()\n\
          net.connect(interface='udp_multicast', port={port}, hop_limit=0)\n\
-         assert net.bus.channel_info.startswith('udp_multicast'), net.bus.channel_info\n\
+         from can.interfaces.udp_multicast import UdpMulticastBus\n\
+         assert UdpMulticastBus.DEFAULT_GROUP_IPv6 == 'ff15:7079:7468:6f6e:6465:6d6f:6d63:6173'\n\
          node = net.add_node(5, '{EDS}')\n\
          node.sdo[0x1017].raw = 750\n\
          print(node.sdo[0x1017].raw, node.sdo[0x1008].raw)\n\
