@@ -5,7 +5,9 @@
 //! simulator otherwise), so every command has a
 //! device to talk to without hardware.
 //!
-//! Also the argument parsers the bus commands share, and the warning printer.
+//! Also the argument parsers the bus commands share, the warning printer, what SIGINT, SIGTERM
+//! and SIGHUP do ([`handle_signals`]: files a command registered are removed before the process
+//! ends) and the watch on an slcan adapter that never said anything ([`silent_adapter`]).
 
 use std::process::ExitCode;
 
