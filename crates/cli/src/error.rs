@@ -423,8 +423,10 @@ mod tests {
         let e = CliError::usage("give the node-ID");
         assert_eq!(e.to_string(), "give the node-ID");
         assert_eq!(e.exit_code(), ExitCode::from(2));
+        // One rule: an argument that is wrong is a usage error too; what a device says is not.
         let e = CliError::Argument("x".into());
-        assert_eq!(e.exit_code(), ExitCode::FAILURE);
+        assert_eq!(e.exit_code(), ExitCode::from(2));
+        assert_eq!(CliError::Device("x".into()).exit_code(), ExitCode::FAILURE);
         let node = NodeId::new(5).unwrap();
         let e = e.into_usage().at(node, ObjectAddress::new(0x1017, 0));
         assert!(matches!(&e, CliError::Usage(inner) if matches!(**inner, CliError::Object { .. })));
