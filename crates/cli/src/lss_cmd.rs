@@ -226,7 +226,8 @@ fn in_use_check(lss: &canola::Lss, id: NodeId, force: bool) -> Result<(), CliErr
         .nodes_in_use(one, Duration::from_millis(IN_USE_TIMEOUT_MS))
         .wait()?;
     if in_use.contains(id) {
-        return Err(CliError::Argument(format!(
+        // What the bus says, not a wrong command line: exit 1.
+        return Err(CliError::Device(format!(
             "node-ID {id} is in use on the bus (a node answers or was heard with it): \
              not configured; give --force to configure it anyway"
         )));
