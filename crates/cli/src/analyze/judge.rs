@@ -1317,3 +1317,199 @@ fn hex(data: &[u8]) -> String {
         .collect::<Vec<_>>()
         .join(" ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Judges a log written as `SECONDS FRAME` lines (candump's format around them).
+    fn judge(lines: &[(f64, &str)], bitrate: u32) -> Analyzer {
+        let text: String = lines
+            .iter()
+            .map(|(t, f)| format!("({:.6}) can0 {f}\n", 1000.0 + t))
+            .collect();
+        let mut a = Analyzer::new(Config {
+            bitrate,
+            load_threshold: 70.0,
+            sdo_timeout_us: 500_000,
+            dictionary: BusDictionary::new(),
+        });
+        let mut reader = canola::candump::Reader::new(text.as_bytes());
+        while let Some(entry) = reader.next() {
+            let e = entry.expect("a good line");
+            a.frame(reader.line(), e.timestamp_us, &e.frame);
+        }
+        a.finish();
+        a
+    }
+
+    fn found(a: &Analyzer, kind: Kind) -> Vec<&Problem> {
+        a.problems.iter().filter(|p| p.kind == kind).collect()
+    }
+
+    fn at(a: &Analyzer, p: &Problem) -> f64 {
+        (p.time_us - a.first_us.unwrap()) as f64 / 1e6
+    }
+
+    /// Heartbeats of `node` every `period` s from `from` to `to` (exclusive).
+    fn heartbeats(node: u8, state: u8, from: f64, to: f64, period: f64) -> Vec<(f64, String)> {
+        let n = ((to - from) / period).round() as usize;
+        (0..n)
+            .map(|i| {
+                (
+                    from + i as f64 * period,
+                    format!("{:03X}#{state:02X}", 0x700 + u16::from(node)),
+                )
+            })
+            .collect()
+    }
+
+    fn lines(v: &[(f64, String)]) -> Vec<(f64, &str)> {
+        let mut out: Vec<(f64, &str)> = v.iter().map(|(t, s)| (*t, s.as_str())).collect();
+        out.sort_by(|a, b| a.0.total_cmp(&b.0));
+        out
+    }
+
+    #[test]
+    fn an_nmt_command_while_a_node_boots_is_found() {
+        let a = judge(
+            &[
+                (0.0, "705#00"),
+                (1.0, "000#8105"),
+                (1.01, "000#0105"),
+                (1.5, "705#00"),
+                (2.0, "000#0105"),
+            ],
+            500_000,
+        );
+        let p = found(&a, Kind::NmtWhileBooting);
+        assert_eq!(p.len(), 1, "{:#?}", a.problems);
+        assert_eq!((p[0].node, p[0].line), (Some(5), Some(3)));
+        assert!((at(&a, p[0]) - 1.01).abs() < 1e-6);
+        // The boot-up after the reset was asked for: not unexpected.
+        assert!(found(&a, Kind::UnexpectedBootUp).is_empty());
+        assert_eq!(a.timeline.len(), 5, "{:#?}", a.timeline);
+    }
+
+    #[test]
+    fn error_frames_bus_off_and_error_passive_are_found() {
+        let a = judge(
+            &[
+                (0.0, "705#05"),
+                (0.5, "20000004#0010000000000000"),
+                (0.6, "20000040#0000000000000000"),
+                (0.7, "20000020#0000000000000000"),
+            ],
+            500_000,
+        );
+        let p = found(&a, Kind::ErrorFrame);
+        // One problem per kind and node within the repeat window: the first, counted after.
+        assert_eq!(p.len(), 1, "{:#?}", a.problems);
+        assert!(p[0].seen.contains("error-passive"), "{}", p[0].seen);
+        assert_eq!(p[0].repeats, 2);
+        assert_eq!(a.error_frames, 3);
+        let a = judge(&[(0.0, "20000040#0000000000000000")], 500_000);
+        let p = found(&a, Kind::ErrorFrame);
+        assert_eq!(p[0].level, Level::Error);
+        assert!(p[0].seen.starts_with("bus-off"));
+    }
+
+    #[test]
+    fn an_lss_session_is_noted() {
+        let a = judge(
+            &[
+                (0.0, "7E5#0401000000000000"),
+                (0.01, "7E5#1109000000000000"),
+                (0.02, "7E4#1100000000000000"),
+                (0.03, "7E5#0400000000000000"),
+            ],
+            500_000,
+        );
+        let p = found(&a, Kind::LssSession);
+        assert_eq!(p.len(), 1, "{:#?}", a.problems);
+        assert_eq!(p[0].level, Level::Info);
+        assert_eq!(a.timeline.len(), 3, "{:#?}", a.timeline);
+        assert!(a.timeline[1].text.contains("9"), "{:#?}", a.timeline);
+    }
+
+    #[test]
+    fn bus_load_above_the_threshold_is_found() {
+        // 100 frames of 8 bytes (111 bits each) in one second at 10 kbit/s: 111 %.
+        let frames: Vec<(f64, String)> = (0..100)
+            .map(|i| (f64::from(i) * 0.01, "181#0102030405060708".to_string()))
+            .chain([(1.5, "705#05".to_string())])
+            .collect();
+        let a = judge(&lines(&frames), 10_000);
+        let p = found(&a, Kind::BusLoad);
+        assert_eq!(p.len(), 1, "{:#?}", a.problems);
+        assert!(p[0].seen.contains("111.0 %"), "{}", p[0].seen);
+        assert!((a.load_peak - 111.0).abs() < 0.01);
+        assert_eq!(at(&a, p[0]), 0.0);
+    }
+
+    #[test]
+    fn a_pdo_that_changes_rate_and_then_stops_is_found() {
+        let mut v = heartbeats(5, 5, 0.0, 3.0, 0.1);
+        v.extend((0..100).map(|i| (f64::from(i) * 0.01, "185#01".to_string())));
+        v.extend((0..30).map(|i| (1.0 + f64::from(i) * 0.05, "185#02".to_string())));
+        let a = judge(&lines(&v), 500_000);
+        let rate = found(&a, Kind::PdoRate);
+        assert_eq!(rate.len(), 1, "{:#?}", a.problems);
+        assert_eq!(rate[0].node, Some(5));
+        assert!(
+            rate[0].seen.contains("every 50.0 ms, before every 10.0 ms"),
+            "{}",
+            rate[0].seen
+        );
+        let stopped = found(&a, Kind::PdoStopped);
+        assert_eq!(stopped.len(), 1, "{:#?}", a.problems);
+        assert!(
+            stopped[0].seen.starts_with("TPDO1 node 5"),
+            "{}",
+            stopped[0].seen
+        );
+        let t = at(&a, stopped[0]);
+        // Due one mean interval after the last one, at 2.45 s.
+        assert!(t > 2.45 && t < 2.55, "{t}");
+    }
+
+    #[test]
+    fn a_sync_off_its_period_and_a_late_heartbeat_are_found() {
+        let mut v: Vec<(f64, String)> = (0..50)
+            .map(|i| (f64::from(i) * 0.01, "080#".to_string()))
+            .collect();
+        // One SYNC 10 ms late.
+        v.push((0.51, "080#".into()));
+        v.extend((0..20).map(|i| (0.52 + f64::from(i) * 0.01, "080#".to_string())));
+        v.extend(heartbeats(5, 5, 0.0, 0.5, 0.1));
+        v.push((0.58, "705#05".into()));
+        v.push((0.68, "705#05".into()));
+        let a = judge(&lines(&v), 500_000);
+        let sync = found(&a, Kind::SyncPeriod);
+        assert_eq!(sync.len(), 1, "{:#?}", a.problems);
+        assert!((at(&a, sync[0]) - 0.51).abs() < 1e-6);
+        let late = found(&a, Kind::HeartbeatLate);
+        assert_eq!(late.len(), 1, "{:#?}", a.problems);
+        assert_eq!(late[0].node, Some(5));
+        assert!((at(&a, late[0]) - 0.58).abs() < 1e-6);
+        assert!(late[0].seen.contains("180 ms"), "{}", late[0].seen);
+    }
+
+    #[test]
+    fn two_sdo_answers_to_one_request_are_a_duplicate_node_id() {
+        let a = judge(
+            &[
+                (0.0, "605#4018100100000000"),
+                (0.001, "585#4318100178000000"),
+                (0.0012, "585#4318100179000000"),
+            ],
+            500_000,
+        );
+        let p = found(&a, Kind::DuplicateNodeId);
+        assert_eq!(p.len(), 1, "{:#?}", a.problems);
+        assert_eq!((p[0].node, p[0].line), (Some(5), Some(3)));
+        // The first answer's vendor-ID is the node's.
+        let five = a.nodes().find(|n| n.node == 5).unwrap();
+        assert_eq!(five.vendor_id, Some(0x79));
+    }
+}
