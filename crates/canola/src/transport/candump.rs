@@ -223,8 +223,20 @@ pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
             .map(LogFrame::Can)
             .map_err(|_| bad_data());
     }
+    // candump -8 writes a classic frame's raw DLC above 8 after its 8 bytes (`_9`..`_F`); the
+    // frame carries those 8 bytes (the raw DLC is not kept).
+    let (data, raw_dlc) = match data.split_once('_') {
+        Some((d, dlc)) => (d, Some(dlc)),
+        None => (data, None),
+    };
     let mut bytes = [0u8; 8];
     let len = hex_pairs(data, &mut bytes).ok_or_else(bad_data)?;
+    if let Some(dlc) = raw_dlc {
+        let ok = matches!(dlc.as_bytes(), [d] if hex_val(*d).is_some_and(|v| v > 8));
+        if !ok || len != 8 || can_id.is_none() {
+            return Err(bad_data());
+        }
+    }
     match can_id {
         Some(can_id) => CanFrame::new(can_id, &bytes[..len])
             .map(LogFrame::Can)
@@ -390,7 +402,7 @@ fn may_be_cut(line: &str) -> bool {
     if let Some(rest) = data.strip_prefix(['R', 'r']) {
         return rest.is_empty();
     }
-    digits(data) < 16
+    !data.contains('_') && digits(data) < 16
 }
 
 /// Writes candump log lines.
@@ -561,6 +573,36 @@ mod tests {
             })
         ));
         assert_eq!(out[3].as_ref().unwrap().timestamp_us, 2_000_000);
+    }
+
+    #[test]
+    fn reads_candump_8s_raw_dlc_above_8() {
+        let e = parse_line("(1.0) can0 123#1122334455667788_C").unwrap();
+        assert_eq!(
+            e.frame,
+            LogFrame::Can(
+                CanFrame::new(
+                    sid(0x123),
+                    &[0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88]
+                )
+                .unwrap()
+            )
+        );
+        // Only after 8 bytes, only 9..F.
+        for bad in [
+            "(1.0) can0 123#11_C",
+            "(1.0) can0 123#1122334455667788_8",
+            "(1.0) can0 123#1122334455667788_",
+            "(1.0) can0 123#1122334455667788_CC",
+        ] {
+            assert!(
+                matches!(parse_line(bad), Err(CandumpError::BadData(_))),
+                "{bad}"
+            );
+        }
+        // A whole line: not cut.
+        let out: Vec<_> = Reader::new("(1.0) can0 123#1122334455667788_9".as_bytes()).collect();
+        assert!(out[0].is_ok(), "{out:?}");
     }
 
     #[test]
