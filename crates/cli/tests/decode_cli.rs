@@ -103,7 +103,11 @@ fn analyze_frames_decodes_a_log_without_replaying_it() {
         "{}",
         lines[2]
     );
-    assert!(lines[4].contains("SDO end block download request"), "{}", lines[4]);
+    assert!(
+        lines[4].contains("SDO end block download request"),
+        "{}",
+        lines[4]
+    );
     assert!(
         lines[6].contains("TPDO1 node 1: remote transmission request"),
         "{}",

@@ -224,8 +224,8 @@ struct Node {
     loop_reported: bool,
     /// An NMT reset sent at this time, no boot-up since.
     resetting: Option<u64>,
-    /// An SDO request waiting for its answer: time, line, text.
-    sdo: Option<(u64, usize, String)>,
+    /// An SDO request waiting for its answer: time, line, frame.
+    sdo: Option<(u64, usize, CanFrame)>,
     /// The last initiate answer: time (a second one right after it with no request is another
     /// device's).
     last_answer: Option<u64>,
@@ -758,8 +758,8 @@ impl Analyzer {
                 ),
             );
         }
-        let seen = self.seen(frame);
         if let Some(after) = back {
+            let seen = self.seen(frame);
             self.problem(
                 t,
                 Some(line),
@@ -918,9 +918,9 @@ impl Analyzer {
         let Ok(req) = ClientRequest::parse(frame.data()) else {
             return;
         };
-        let seen = self.seen(frame);
         if let ClientRequest::Abort { code, .. } = req {
             self.nodes[usize::from(n)].sdo = None;
+            let seen = self.seen(frame);
             self.problem(
                 t,
                 Some(line),
@@ -945,8 +945,8 @@ impl Analyzer {
         if !expects_answer {
             return;
         }
-        if let Some((at, l, text)) = self.nodes[usize::from(n)].sdo.take() {
-            self.unanswered(n, at, l, text, "the client sent another request");
+        if let Some((at, l, request)) = self.nodes[usize::from(n)].sdo.take() {
+            self.unanswered(n, at, l, &request, "the client sent another request");
         }
         // An SDO write of the heartbeat producer time: the period from then on.
         if let ClientRequest::InitiateDownload {
@@ -962,10 +962,11 @@ impl Analyzer {
             node.summary.heartbeat_ms = (ms > 0).then_some(ms);
             node.summary.heartbeat_from = (ms > 0).then_some(PeriodSource::SdoWrite);
         }
-        self.nodes[usize::from(n)].sdo = Some((t, line, seen));
+        self.nodes[usize::from(n)].sdo = Some((t, line, *frame));
     }
 
-    fn unanswered(&mut self, n: u8, at: u64, line: usize, seen: String, why: &str) {
+    fn unanswered(&mut self, n: u8, at: u64, line: usize, request: &CanFrame, why: &str) {
+        let seen = self.seen(request);
         self.problem(
             at,
             Some(line),
@@ -984,7 +985,6 @@ impl Analyzer {
         let Ok(resp) = ServerResponse::parse(frame.data()) else {
             return;
         };
-        let seen = self.seen(frame);
         let timeout = self.config.sdo_timeout_us;
         let node = &mut self.nodes[usize::from(n)];
         let pending = node.sdo.take();
@@ -1013,8 +1013,20 @@ impl Analyzer {
                 _ => {}
             }
         }
-        if second_answer && !node.duplicate_reported {
+        let report_twin = second_answer && !node.duplicate_reported;
+        if report_twin {
             node.duplicate_reported = true;
+        }
+        let late = pending.filter(|(at, _, _)| t - at > timeout);
+        let abort = match resp {
+            ServerResponse::Abort { code, .. } => Some(code),
+            _ => None,
+        };
+        if !report_twin && late.is_none() && abort.is_none() {
+            return;
+        }
+        let seen = self.seen(frame);
+        if report_twin {
             self.problem(
                 t,
                 Some(line),
@@ -1025,9 +1037,7 @@ impl Analyzer {
                 format!("two devices use node-ID {n}: their SDO answers and PDOs collide"),
             );
         }
-        if let Some((at, _, request)) = &pending
-            && t - at > timeout
-        {
+        if let Some((at, _, request)) = &late {
             self.problem(
                 t,
                 Some(line),
@@ -1035,8 +1045,9 @@ impl Analyzer {
                 Level::Warning,
                 Kind::SdoLate,
                 format!(
-                    "{seen}: answered {} ms after the request ({request})",
-                    (t - at) / 1000
+                    "{seen}: answered {} ms after the request ({})",
+                    (t - at) / 1000,
+                    self.seen(request)
                 ),
                 format!(
                     "slower than {} ms: a client with that timeout aborted the transfer already",
@@ -1044,7 +1055,7 @@ impl Analyzer {
                 ),
             );
         }
-        if let ServerResponse::Abort { code, .. } = resp {
+        if let Some(code) = abort {
             self.problem(
                 t,
                 Some(line),
@@ -1256,10 +1267,10 @@ impl Analyzer {
         self.close_second();
         let timeout = self.config.sdo_timeout_us;
         for n in 1..=127u8 {
-            if let Some((at, line, seen)) = self.nodes[usize::from(n)].sdo.take()
+            if let Some((at, line, request)) = self.nodes[usize::from(n)].sdo.take()
                 && end - at > timeout
             {
-                self.unanswered(n, at, line, seen, "the log ends");
+                self.unanswered(n, at, line, &request, "the log ends");
             }
         }
         self.problems.sort_by_key(|p| p.time_us);
