@@ -123,11 +123,7 @@ pub(crate) fn run(args: &AnalyzeArgs, opts: &BusOpts, g: Global) -> ExitCode {
     if g.json {
         outln(&report_json(&a, &args.log, args.bitrate).to_string());
     } else {
-        outln(
-            &report_text(&a, &args.log, args.bitrate)
-                .trim_end()
-                .to_string(),
-        );
+        outln(report_text(&a, &args.log, args.bitrate).trim_end());
     }
     if args.check && a.has_errors() {
         ExitCode::FAILURE
