@@ -10,7 +10,7 @@ use canola_frame::{Instant, NodeId};
 
 use crate::error::Error;
 use crate::network::operation;
-use crate::network::{Driver, Operation, Sdo};
+use crate::network::{Network, Operation, Sdo};
 
 // The CiA 305 vocabulary (addresses, bit timings, node-ID pools, the wire messages and the slave
 // machine), so `canola::lss` is the one LSS import of an application.
@@ -22,7 +22,14 @@ use crate::machine::lss::LssOutput;
 /// LSS master services of a network.
 #[derive(Debug, Clone)]
 pub struct Lss {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
+}
+
+impl Network {
+    /// The LSS master (CiA 305).
+    pub fn lss(&self) -> Lss {
+        Lss { net: self.clone() }
+    }
 }
 
 impl Lss {

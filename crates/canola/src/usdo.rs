@@ -1,5 +1,5 @@
 //! CANopen FD in the master: [`Usdo`], a node's universal SDO (CiA 1301) as `node.usdo()`,
-//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`](crate::Driver::send_fd),
+//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`](crate::Network::send_fd),
 //! [`Network::open_fd`](crate::Network::open_fd)).
 //!
 //! ```
@@ -35,7 +35,7 @@ use canola_od::{DataType, ObjectAddress, Value};
 use crate::error::Error;
 use crate::machine::usdo::data_type_of;
 use crate::machine::{Completion, DownSource, Op, SdoRequest, UpSink};
-use crate::network::{Driver, Operation, Pending, SdoValue};
+use crate::network::{Network, Operation, Pending, SdoValue};
 
 pub use crate::machine::usdo::{DEFAULT_USDO_NODE_ID, EDS_FD_KEY, eds_marks_fd};
 
@@ -43,7 +43,7 @@ pub use crate::machine::usdo::{DEFAULT_USDO_NODE_ID, EDS_FD_KEY, eds_marks_fd};
 /// [`Node::usdo`](crate::Node::usdo).
 #[derive(Debug, Clone)]
 pub struct Usdo {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) node: NodeId,
 }
 

@@ -93,7 +93,7 @@ pub enum NetworkEvent {
     /// A bus event from the transport.
     Bus(BusEvent),
     /// The transport failed while the background driver drove it; the driver has stopped
-    /// (see [`Network::stop_driver`](crate::Driver::stop_driver)).
+    /// (see [`Network::stop_driver`](crate::Network::stop_driver)).
     TransportFailed {
         /// The transport's error.
         error: String,
@@ -115,7 +115,7 @@ impl NetworkEvent {
     }
 }
 
-/// A received PDO as a callback sees it (see [`Network::on_pdo`](crate::Driver::on_pdo)):
+/// A received PDO as a callback sees it (see [`Network::on_pdo`](crate::Network::on_pdo)):
 /// borrowed for the duration of the call, nothing copied or allocated for it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
@@ -153,7 +153,7 @@ impl<'a> PdoReceived<'a> {
     }
 }
 
-/// Identifies a PDO callback for [`Network::remove_pdo_callback`](crate::Driver::remove_pdo_callback).
+/// Identifies a PDO callback for [`Network::remove_pdo_callback`](crate::Network::remove_pdo_callback).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct PdoCallbackId(pub(super) u64);
 

@@ -41,7 +41,7 @@ const MAX_REUSED_READINGS: u8 = 7;
 const STEP_ASIDE: std::time::Duration = std::time::Duration::from_millis(2);
 
 impl Shared {
-    /// The body of [`Driver::start_driver`](crate::Driver::start_driver).
+    /// The body of [`Network::start_driver`](crate::Network::start_driver).
     pub(crate) fn start_driver(&self) -> Result<(), Error> {
         self.install_driver(|weak, stop, error| {
             std::thread::Builder::new()
@@ -82,7 +82,7 @@ impl Shared {
         Ok(())
     }
 
-    /// The body of [`Driver::is_driven`](crate::Driver::is_driven).
+    /// The body of [`Network::is_driven`](crate::Network::is_driven).
     pub(crate) fn is_driven(&self) -> bool {
         let slot = relock(self.inner.driver.lock());
         slot.stop
@@ -90,7 +90,7 @@ impl Shared {
             .is_some_and(|s| !s.load(Ordering::SeqCst))
     }
 
-    /// The body of [`Driver::stop_driver`](crate::Driver::stop_driver).
+    /// The body of [`Network::stop_driver`](crate::Network::stop_driver).
     pub(crate) fn stop_driver(&self) -> Result<(), Error> {
         let slot = std::mem::take(&mut *relock(self.inner.driver.lock()));
         self.inner.driven.store(false, Ordering::SeqCst);
@@ -114,7 +114,7 @@ impl Shared {
         Ok(received)
     }
 
-    /// The body of [`Driver::run_step`](crate::Driver::run_step).
+    /// The body of [`Network::run_step`](crate::Network::run_step).
     pub(crate) fn run_step(&self, limit: impl Into<Duration>) -> Result<bool, Error> {
         let limit: Duration = limit.into();
         match self.inner.io.try_lock() {

@@ -7,7 +7,7 @@ use canola_frame::{Duration, Instant, NodeId};
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::ObjectDictionary;
 
-use super::driver::Driver;
+use super::handle::Network;
 use super::operation::{self, Operation};
 use super::request::{NodeRef, Sdo};
 use crate::error::Error;
@@ -65,10 +65,31 @@ impl ParameterGroup {
     }
 }
 
+/// Making node handles: the node handles are this module's, so their constructors are too.
+impl Network {
+    /// Adds a node without a dictionary (values are raw bytes).
+    pub fn add_node(&self, id: NodeId) -> Node {
+        self.core().add_node(id, None);
+        self.node(id)
+    }
+
+    /// Adds a node with its object dictionary (from an EDS/DCF or generated code): errors then
+    /// name objects, and typed reads decode values.
+    pub fn add_node_with_dictionary(&self, id: NodeId, od: ObjectDictionary) -> Node {
+        self.core().add_node(id, Some(Arc::new(od)));
+        self.node(id)
+    }
+
+    /// A handle to a node (added on first use if needed).
+    pub fn node(&self, id: NodeId) -> Node {
+        Node::new(self.clone(), id)
+    }
+}
+
 /// A node on the network.
 #[derive(Clone, Debug)]
 pub struct Node {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) id: NodeId,
 }
 
@@ -79,13 +100,12 @@ impl Node {
     }
 
     /// A handle to node `id` on `net`.
-    pub(crate) fn new(net: Driver, id: NodeId) -> Self {
+    pub(crate) fn new(net: Network, id: NodeId) -> Self {
         Node { net, id }
     }
 
-    /// The network this node is on: its [`Driver`], where the clock, subscriptions, SYNC and
-    /// the driving calls are (what a [`Network`](crate::Network) derefs to).
-    pub fn network(&self) -> &Driver {
+    /// The network this node is on.
+    pub fn network(&self) -> &Network {
         &self.net
     }
 
@@ -172,12 +192,12 @@ impl Node {
 /// boot-up of a node whose handle is made after waiting for another one is not lost.
 #[derive(Debug, Clone)]
 pub struct Nmt {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) target: NmtTarget,
 }
 
 impl Nmt {
-    fn new(net: &Driver, target: NmtTarget) -> Self {
+    fn new(net: &Network, target: NmtTarget) -> Self {
         Self {
             net: net.clone(),
             target,
@@ -185,11 +205,11 @@ impl Nmt {
     }
 
     /// NMT commands to all nodes (node-ID 0).
-    pub fn all(net: &Driver) -> Self {
+    pub fn all(net: &Network) -> Self {
         Self::new(net, NmtTarget::All)
     }
 
-    /// Queues `cmd` and puts it on the bus (see [`Driver::send`]).
+    /// Queues `cmd` and puts it on the bus (see [`Network::send`]).
     fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
         self.net.shared().catch_up_on_runtime()?;
         self.net.core().nmt(cmd, self.target);

@@ -102,7 +102,7 @@ impl<'a, T, E> Operation<'a, T, E> {
     /// The operation whose body is `body`: an async block that awaits operations of this
     /// crate (and [`Pending`](crate::Pending) requests), in order, as straight-line code. It
     /// must await nothing tied to one runtime (a tokio timer): [`wait`](Self::wait) runs it
-    /// on the calling thread. Wait on the bus with [`Driver::run_for`](crate::Driver::run_for).
+    /// on the calling thread. Wait on the bus with [`Network::run_for`](crate::Network::run_for).
     ///
     /// ```
     /// use canola::{Error, MemoryBus, Network, NodeId, Operation, SimDevice};

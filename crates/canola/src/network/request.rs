@@ -7,7 +7,7 @@ use canola_frame::{Duration, NodeId};
 use canola_od::{DataType, Value};
 use canola_sdo::{Method, SdoCobIds};
 
-use super::driver::Driver;
+use super::handle::Network;
 use super::operation::{self, Operation};
 use crate::error::{Error, SdoError};
 use crate::machine::{
@@ -23,7 +23,7 @@ use canola_od::ObjectAddress;
 /// bus with 0x08000000).
 #[must_use = "dropping a pending request cancels it"]
 pub struct Pending<T = Vec<u8>> {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) id: Option<RequestId>,
     pub(crate) node: NodeId,
     pub(crate) entry: ObjectAddress,
@@ -44,7 +44,7 @@ impl<T> core::fmt::Debug for Pending<T> {
 impl<T> Pending<T> {
     /// Submits `req` (an SDO or USDO request) to `net`'s core: the request runs from now on,
     /// and this value waits for it and takes `output` from its completion.
-    pub(crate) fn submit(net: Driver, req: SdoRequest, output: fn(Completion) -> T) -> Self {
+    pub(crate) fn submit(net: Network, req: SdoRequest, output: fn(Completion) -> T) -> Self {
         let (node, entry) = (req.node, req.entry);
         let id = net.shared().submit(req);
         Pending {
@@ -195,7 +195,7 @@ pub const DEFAULT_SDO_TIMEOUT: Duration = Duration::from_millis(1000);
 /// handles): its driver and node-ID, and the calls they need of it.
 #[derive(Clone, Debug)]
 pub(crate) struct NodeRef {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) id: NodeId,
 }
 
@@ -218,7 +218,7 @@ impl NodeRef {
 
 /// A node's SDO client (CiA 301 §7.2.4) as a builder: settings, then one operation.
 pub struct Sdo {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) node: NodeId,
     pub(crate) channel: SdoCobIds,
     pub(crate) method: Method,
@@ -250,7 +250,7 @@ fn download(value: impl SdoValue) -> Op {
 impl Sdo {
     /// The client of `node` on `net` with default settings (normal transfer, the node's
     /// default channel, [`DEFAULT_SDO_TIMEOUT`]).
-    pub(crate) fn new(net: Driver, node: NodeId) -> Self {
+    pub(crate) fn new(net: Network, node: NodeId) -> Self {
         Sdo {
             net,
             node,
@@ -267,7 +267,7 @@ impl Sdo {
     }
 
     /// The network.
-    pub fn network(&self) -> &Driver {
+    pub fn network(&self) -> &Network {
         &self.net
     }
 
@@ -315,7 +315,7 @@ impl Sdo {
     }
 
     /// The request for `op` on `entry` with this builder's settings, and the network.
-    fn into_request(self, entry: ObjectAddress, op: Op) -> (Driver, SdoRequest) {
+    fn into_request(self, entry: ObjectAddress, op: Op) -> (Network, SdoRequest) {
         let req = SdoRequest {
             node: self.node,
             channel: self.channel,

@@ -1,7 +1,7 @@
 //! What every handle of one network shares, at the bottom of the network layer: the core, the
 //! transport and its clock, the background driver's slot and the async side's clock tie
 //! ([`Inner`]), held through [`Shared`]. The driving loop (`driving`, `tokio_driving`) and the
-//! operations (`operation`) work on it; the public calls are the `Driver`'s, one floor up.
+//! operations (`operation`) work on it; the public calls are [`Network`](crate::Network)'s, one floor up.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
@@ -89,9 +89,8 @@ pub(super) fn relock<T>(r: std::sync::LockResult<T>) -> T {
 }
 
 /// What every handle of one network shares, below the operations that wait on it: the core,
-/// the transport and its clock, the background driver's slot. The public face is
-/// `Driver`; this is what `Operation`s
-/// and the driving loop hold.
+/// the transport and its clock, the background driver's slot. The public handle is
+/// [`Network`](crate::Network); this is what `Operation`s and the driving loop hold.
 #[derive(Clone)]
 pub(crate) struct Shared {
     pub(crate) inner: Arc<Inner>,
@@ -207,7 +206,7 @@ impl Shared {
         relock(self.inner.io.lock()).now()
     }
 
-    /// The body of `Driver::flush`: sends what the core has queued, without waiting.
+    /// The body of `Network::flush`: sends what the core has queued, without waiting.
     pub(crate) fn flush(&self) -> Result<(), Error> {
         self.send_with(relock(self.inner.io.lock()))
     }

@@ -14,7 +14,7 @@
 //!   clock and fire in their order.
 //!
 //! The tie between the two clocks is one anchor per network, a pair (tokio instant, network
-//! instant) that correspond. Blocking calls on the same virtual bus ([`Driver::run_for`](crate::Driver::run_for), a
+//! instant) that correspond. Blocking calls on the same virtual bus ([`Network::run_for`](crate::Network::run_for), a
 //! blocking SDO) still jump virtual time ahead; the anchor then moves so that time never runs
 //! backwards, and the async side follows tokio from there.
 
@@ -265,7 +265,7 @@ fn spawn_virtual_driver(
 }
 
 impl Shared {
-    /// The body of [`Driver::start_driver_on_runtime`](crate::Driver::start_driver_on_runtime).
+    /// The body of [`Network::start_driver_on_runtime`](crate::Network::start_driver_on_runtime).
     pub(crate) fn start_driver_on_runtime(&self) {
         let virtual_clock = self.reactor().virtual_clock;
         let started = self.install_driver(|weak, stop, error| {
