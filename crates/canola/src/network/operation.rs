@@ -58,39 +58,13 @@ use crate::machine::{Completion, Core, RequestId, SdoRequest, Taken};
 /// [`PdoSet`]: crate::PdoSet
 #[must_use = "an operation does nothing until it is waited on or awaited"]
 pub struct Operation<'a, T, E = Error> {
-    body: Body<'a, T, E>,
+    /// Straight-line async code over the primitives: every operation, a single SDO request
+    /// too, waits by one path.
+    body: BoxedBody<'a, T, E>,
 }
 
-/// An operation as a future: its code, or its one request made code.
+/// An operation as a future.
 type BoxedBody<'a, T, E> = Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>;
-
-/// What an operation runs.
-enum Body<'a, T, E> {
-    /// Straight-line async code over the primitives.
-    Code(BoxedBody<'a, T, E>),
-    /// One SDO (or USDO) request, the commonest operation, held as it is: a blocking wait runs
-    /// it with no future or waker made for it (`Shared::run`, as the code form's blocking
-    /// path does). `tests/operation.rs` checks that both forms give the same results.
-    Request(OneRequest<T, E>),
-}
-
-/// One request, what its completion gives and how its error reads.
-pub(crate) struct OneRequest<T, E> {
-    net: Shared,
-    req: SdoRequest,
-    output: fn(Completion) -> T,
-    error: fn(SdoError) -> E,
-}
-
-impl<T, E> OneRequest<T, E> {
-    /// The request as code (for `.await`).
-    async fn run(self) -> Result<T, E> {
-        run_request(&self.net, self.req)
-            .await
-            .map(self.output)
-            .map_err(self.error)
-    }
-}
 
 impl<T, E> core::fmt::Debug for Operation<'_, T, E> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -127,7 +101,7 @@ impl<'a, T, E> Operation<'a, T, E> {
     /// ```
     pub fn new(body: impl Future<Output = Result<T, E>> + Send + 'a) -> Self {
         Self {
-            body: Body::Code(Box::pin(body)),
+            body: Box::pin(body),
         }
     }
 
@@ -137,15 +111,12 @@ impl<'a, T, E> Operation<'a, T, E> {
         req: SdoRequest,
         output: fn(Completion) -> T,
         error: fn(SdoError) -> E,
-    ) -> Self {
-        Self {
-            body: Body::Request(OneRequest {
-                net,
-                req,
-                output,
-                error,
-            }),
-        }
+    ) -> Self
+    where
+        T: Send + 'a,
+        E: Send + 'a,
+    {
+        Self::new(async move { run_request(&net, req).await.map(output).map_err(error) })
     }
 
     /// An operation that ends at once with `r` (an argument already found wrong).
@@ -159,18 +130,7 @@ impl<'a, T, E> Operation<'a, T, E> {
 
     /// Finishes the operation on this thread, driving the network until it ends.
     pub fn wait(self) -> Result<T, E> {
-        let mut body = match self.body {
-            Body::Request(r) => {
-                let OneRequest {
-                    net,
-                    req,
-                    output,
-                    error,
-                } = r;
-                return net.run(req).map(output).map_err(error);
-            }
-            Body::Code(body) => body,
-        };
+        let mut body = self.body;
         let _mode = ModeGuard::enter(Mode::Blocking);
         let waker = THREAD_WAKER.with(Waker::clone);
         let mut cx = Context::from_waker(&waker);
@@ -192,10 +152,7 @@ impl<'a, T: 'a, E: 'a> std::future::IntoFuture for Operation<'a, T, E> {
     type IntoFuture = BoxedBody<'a, T, E>;
 
     fn into_future(self) -> Self::IntoFuture {
-        match self.body {
-            Body::Code(body) => body,
-            Body::Request(r) => Box::pin(r.run()),
-        }
+        self.body
     }
 }
 
