@@ -64,7 +64,7 @@ pub mod usdo;
 // work needs.
 pub use crate::machine::{
     CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
-    RequestId, TransferProgress,
+    TransferProgress,
 };
 #[cfg(feature = "tokio")]
 pub use asynch::{EventStream, Lagged};

@@ -14,7 +14,7 @@ struct Full;
 
 impl Write for Full {
     fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
-        Err(std::io::Error::other("no space left on device"))
+        Err(std::io::Error::from(std::io::ErrorKind::StorageFull))
     }
     fn flush(&mut self) -> std::io::Result<()> {
         Ok(())
@@ -38,7 +38,7 @@ fn a_failing_flush_fails_the_upload() {
         panic!("expected an SDO error, got {e}");
     };
     assert!(
-        matches!(&e.kind, SdoErrorKind::Io(m) if m.contains("no space left")),
+        matches!(e.kind, SdoErrorKind::Io(std::io::ErrorKind::StorageFull)),
         "{e}"
     );
     // Unbuffered, the first write fails and the transfer is aborted.

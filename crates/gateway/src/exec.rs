@@ -29,7 +29,7 @@ pub(crate) fn error_reply(e: &Error) -> Reply {
             SdoErrorKind::Io(_) => Reply::Abort(ABORT_OUT_OF_MEMORY),
             _ => Reply::Error(ErrorCode::INTERNAL_STATE),
         },
-        Error::Timeout(_) => Reply::Error(ErrorCode::TIMEOUT),
+        Error::Timeout { .. } => Reply::Error(ErrorCode::TIMEOUT),
         Error::Lss(e) => Reply::Error(lss_error(e)),
         _ => Reply::Error(ErrorCode::INTERNAL_STATE),
     }

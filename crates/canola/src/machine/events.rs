@@ -12,7 +12,7 @@ use crate::transport::BusEvent;
 
 /// Identifies one SDO request for its whole life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct RequestId(pub(crate) u64);
+pub(crate) struct RequestId(pub(crate) u64);
 
 /// How far a transfer is, for progress bars.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -95,8 +95,12 @@ pub enum NetworkEvent {
     /// The transport failed while the background driver drove it; the driver has stopped
     /// (see [`Network::stop_driver`](crate::Network::stop_driver)).
     TransportFailed {
-        /// The transport's error.
-        error: String,
+        /// The bus, when the network was opened by name
+        /// ([`Network::open`](crate::Network::open)).
+        bus: Option<String>,
+        /// How the transport failed (an operating-system error with its
+        /// [`io::ErrorKind`](std::io::ErrorKind)).
+        failure: crate::error::TransportFailure,
     },
 }
 

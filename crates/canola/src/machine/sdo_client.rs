@@ -231,7 +231,7 @@ impl Core {
                                 transferred: written,
                                 unsized_expedited,
                             }),
-                            Err(e) => Err(SdoErrorKind::Io(format!("flushing the output: {e}"))),
+                            Err(e) => Err(SdoErrorKind::Io(e.kind())),
                         },
                     },
                     SdoEvent::Downloaded { source, .. } => Ok(Completion {
@@ -242,7 +242,7 @@ impl Core {
                     SdoEvent::Failed { .. } if rebooted => Err(SdoErrorKind::NodeRebooted),
                     SdoEvent::Failed { error, buffer } => Err(match buffer {
                         canola_sdo::Buffer::Sink(UpSink::Stream { error: Some(e), .. }) => {
-                            SdoErrorKind::Io(e.to_string())
+                            SdoErrorKind::Io(e.kind())
                         }
                         _ => SdoErrorKind::Transfer(error.kind),
                     }),

@@ -23,7 +23,7 @@ use canola_sdo::usdo::{DataType, UsdoClient, UsdoClientConfig, UsdoEvent};
 use super::Core;
 use super::events::{Completion, RequestId};
 use super::sdo::{DownSource, Op, OutFrame, Outgoing, ReqState, SdoRequest, UpSink};
-use crate::error::{SdoError, SdoErrorKind};
+use crate::error::{FdRefusal, SdoError, SdoErrorKind};
 
 /// The master's own node-ID as a USDO client unless the application sets another: the
 /// highest node-ID, which devices are least often given.
@@ -170,17 +170,14 @@ impl Core {
             })))
         };
         if let Some(bus) = &self.usdo.classic_bus {
-            let state = refuse(SdoErrorKind::FdNotSupported(format!(
-                "FD not supported on {bus}"
-            )));
+            let state = refuse(SdoErrorKind::FdNotSupported(FdRefusal::ClassicBus {
+                bus: bus.clone(),
+            }));
             self.requests.push(id, state);
             return;
         }
         if !self.node_fd(node) {
-            let state = refuse(SdoErrorKind::FdNotSupported(format!(
-                "node {node} is not marked CANopen FD (its EDS has no {EDS_FD_KEY}=1; the \
-                 application can mark it)"
-            )));
+            let state = refuse(SdoErrorKind::FdNotSupported(FdRefusal::NodeNotFd));
             self.requests.push(id, state);
             return;
         }

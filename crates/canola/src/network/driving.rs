@@ -60,7 +60,7 @@ impl Shared {
         spawn: impl FnOnce(
             Weak<Inner>,
             Arc<AtomicBool>,
-            Arc<Mutex<Option<String>>>,
+            Arc<Mutex<Option<TransportFailure>>>,
         ) -> Result<Option<std::thread::JoinHandle<()>>, E>,
     ) -> Result<(), E> {
         let mut slot = relock(self.inner.driver.lock());
@@ -102,7 +102,10 @@ impl Shared {
             let _ = t.join();
         }
         match slot.error.and_then(|e| relock(e.lock()).take()) {
-            Some(text) => Err(Error::Driver(text)),
+            Some(failure) => Err(Error::Driver {
+                bus: self.inner.bus.clone(),
+                failure,
+            }),
             None => Ok(()),
         }
     }
@@ -493,7 +496,11 @@ impl Shared {
 
 /// The background driver's loop: one step whenever no waiting thread drives, until `stop` is
 /// set, the network is gone or the transport fails.
-pub(crate) fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) {
+pub(crate) fn drive(
+    inner: &Weak<Inner>,
+    stop: &AtomicBool,
+    error: &Mutex<Option<TransportFailure>>,
+) {
     let mut steps_seen = 0;
     while !stop.load(Ordering::SeqCst) {
         let Some(net) = Shared::upgrade(inner) else {
@@ -541,17 +548,16 @@ impl Shared {
     pub(crate) fn driver_failed(
         &self,
         e: &Error,
-        error: &Mutex<Option<String>>,
+        error: &Mutex<Option<TransportFailure>>,
         stop: &AtomicBool,
     ) {
-        let text = match e {
-            Error::Transport(t) => t.to_string(),
-            other => other.to_string(),
-        };
-        *relock(error.lock()) = Some(text.clone());
+        let failure = TransportFailure::from(e);
+        *relock(error.lock()) = Some(failure.clone());
         stop.store(true, Ordering::SeqCst);
-        self.core()
-            .publish(NetworkEvent::TransportFailed { error: text });
+        self.core().publish(NetworkEvent::TransportFailed {
+            bus: self.inner.bus.clone(),
+            failure,
+        });
         self.notify();
     }
 

@@ -34,8 +34,20 @@ impl Network {
     /// A network on `transport` (its clock is the network's clock).
     pub fn new(transport: impl crate::transport::Transport + 'static) -> Self {
         Self {
-            shared: Shared::new(transport),
+            shared: Shared::new(transport, None),
         }
+    }
+
+    /// A network on the bus `spec` names, with its background driver running.
+    fn open_spec(
+        spec: &str,
+        transport: impl crate::transport::Transport + 'static,
+    ) -> Result<Self, Error> {
+        let net = Self {
+            shared: Shared::new(transport, Some(spec.to_string())),
+        };
+        net.start_driver()?;
+        Ok(net)
     }
 
     /// Opens a bus by the name `canopen --iface` takes (see [`BusSpec`](crate::BusSpec)):
@@ -49,18 +61,14 @@ impl Network {
     /// # Ok::<(), canola::Error>(())
     /// ```
     pub fn open(spec: &str) -> Result<Self, Error> {
-        let net = Self::new(crate::transport::BusSpec::parse(spec)?.open()?);
-        net.start_driver()?;
-        Ok(net)
+        Self::open_spec(spec, crate::transport::BusSpec::parse(spec)?.open()?)
     }
 
     /// [`Network::open`] for CAN FD: the bus must carry FD frames (a SocketCAN interface with
     /// MTU 72, the UDP bus, an slcan adapter with a data bit rate); a classic-only one is an
     /// [`Error::Open`] saying `FD not supported on ...`.
     pub fn open_fd(spec: &str) -> Result<Self, Error> {
-        let net = Self::new(crate::transport::BusSpec::parse(spec)?.open_fd()?);
-        net.start_driver()?;
-        Ok(net)
+        Self::open_spec(spec, crate::transport::BusSpec::parse(spec)?.open_fd()?)
     }
 
     /// The core, locked (for the handles).

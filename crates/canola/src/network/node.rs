@@ -10,7 +10,7 @@ use canola_od::ObjectDictionary;
 use super::handle::Network;
 use super::operation::{self, Operation};
 use super::request::{NodeRef, Sdo};
-use crate::error::Error;
+use crate::error::{Awaited, Error, Misuse};
 use crate::pdo_access::{Mpdos, Rpdos, Tpdos};
 use crate::usdo::Usdo;
 
@@ -219,9 +219,7 @@ impl Nmt {
     fn node(&self) -> Result<NodeId, Error> {
         match self.target {
             NmtTarget::Node(id) => Ok(id),
-            _ => Err(Error::InvalidRequest(
-                "node states are per node: use node.nmt(), not Nmt::all".into(),
-            )),
+            _ => Err(Error::InvalidRequest(Misuse::StateOfAll)),
         }
     }
 
@@ -250,9 +248,10 @@ impl Nmt {
                     c.take_boots(node, boots);
                     Some(Ok(()))
                 } else if c.now() >= deadline {
-                    Some(Err(Error::Timeout(format!(
-                        "no boot-up from node {node} within {timeout}"
-                    ))))
+                    Some(Err(Error::Timeout {
+                        awaited: Awaited::BootUp { node },
+                        after: timeout,
+                    }))
                 } else {
                     None
                 }
@@ -279,9 +278,10 @@ impl Nmt {
                 if c.last_state(node) == Some(state) {
                     Some(Ok(()))
                 } else if c.now() >= deadline {
-                    Some(Err(Error::Timeout(format!(
-                        "node {node} not {state} within {timeout}"
-                    ))))
+                    Some(Err(Error::Timeout {
+                        awaited: Awaited::State { node, state },
+                        after: timeout,
+                    }))
                 } else {
                     None
                 }

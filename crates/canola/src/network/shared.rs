@@ -8,7 +8,7 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
 
 use canola_frame::Instant;
 
-use crate::error::Error;
+use crate::error::{Error, TransportFailure};
 use crate::machine::Core;
 use crate::transport::Transport;
 
@@ -30,6 +30,8 @@ pub(crate) struct Inner {
     pub(super) driver: Mutex<DriverSlot>,
     /// Whether a background driver was started (and not stopped).
     pub(super) driven: AtomicBool,
+    /// The bus's name, when the network was opened by name.
+    pub(super) bus: Option<String>,
 }
 
 /// The transport, and what the driving thread needs along with it.
@@ -65,7 +67,7 @@ pub(super) struct DriverSlot {
     pub(super) stop: Option<Arc<AtomicBool>>,
     pub(super) thread: Option<std::thread::JoinHandle<()>>,
     /// Why the driver ended, if the transport failed.
-    pub(super) error: Option<Arc<Mutex<Option<String>>>>,
+    pub(super) error: Option<Arc<Mutex<Option<TransportFailure>>>>,
 }
 
 impl Drop for Inner {
@@ -98,7 +100,7 @@ pub(crate) struct Shared {
 
 impl Shared {
     /// The shared state of a network on `transport` (its clock is the network's clock).
-    pub(crate) fn new(transport: impl Transport + 'static) -> Self {
+    pub(crate) fn new(transport: impl Transport + 'static, bus: Option<String>) -> Self {
         let mut core = Core::new();
         core.set_now(transport.now());
         core.set_classic_bus(crate::machine::usdo::classic_bus(&transport));
@@ -121,6 +123,7 @@ impl Shared {
                 waiter_steps: AtomicU64::new(0),
                 driver: Mutex::new(DriverSlot::default()),
                 driven: AtomicBool::new(false),
+                bus,
             }),
         }
     }

@@ -191,9 +191,9 @@ async fn wait_blocking<T: Send + 'static>(
     match r {
         Ok(Ok(Some(v))) => Ok(v),
         // Only a dropped future stops the wait, and then nobody reads this.
-        Ok(Ok(None)) => Err(Error::InvalidRequest("the wait was cancelled".into())),
+        Ok(Ok(None)) => Err(Error::TaskEnded),
         Ok(Err(e)) => Err(e),
-        Err(e) => Err(Error::Driver(format!("the waiting task failed: {e}"))),
+        Err(_) => Err(Error::TaskEnded),
     }
 }
 
@@ -206,7 +206,7 @@ pub(crate) async fn flush(net: &Shared) -> Result<(), Error> {
     let n = net.clone();
     tokio::task::spawn_blocking(move || n.flush())
         .await
-        .map_err(|e| Error::Driver(format!("the sending task failed: {e}")))?
+        .map_err(|_| Error::TaskEnded)?
 }
 
 /// Longest the virtual-clock driver sleeps without looking whether it should stop, on tokio's
@@ -219,7 +219,7 @@ const DRIVER_SLICE: std::time::Duration = std::time::Duration::from_millis(50);
 fn spawn_virtual_driver(
     inner: Weak<Inner>,
     stop: Arc<AtomicBool>,
-    error: Arc<Mutex<Option<String>>>,
+    error: Arc<Mutex<Option<crate::error::TransportFailure>>>,
 ) {
     drop(tokio::spawn(async move {
         while !stop.load(Ordering::SeqCst) {
