@@ -19,9 +19,13 @@ pub enum SdoErrorKind {
     Cancelled,
     /// The node's client refused to start (should not happen: requests queue).
     Busy,
-    /// Writing an upload into the caller's writer (or flushing it) failed: the kind of the
-    /// writer's I/O error.
-    Io(std::io::ErrorKind),
+    /// Writing an upload into the caller's writer (or flushing it) failed.
+    Io {
+        /// The kind of the writer's I/O error.
+        kind: std::io::ErrorKind,
+        /// Its words (with what was being done, e.g. flushing the output).
+        message: String,
+    },
     /// The transport failed while the request ran.
     Transport(TransportFailure),
     /// The node sent a boot-up message (it was reset or power-cycled) while the transfer ran:
@@ -210,7 +214,7 @@ impl core::fmt::Display for SdoError {
             SdoErrorKind::Transfer(k) => write!(f, "{k}"),
             SdoErrorKind::Cancelled => f.write_str("request cancelled"),
             SdoErrorKind::Busy => f.write_str("the node's SDO client is busy"),
-            SdoErrorKind::Io(kind) => write!(f, "local I/O error: {kind}"),
+            SdoErrorKind::Io { message, .. } => write!(f, "local I/O error: {message}"),
             SdoErrorKind::Transport(e) => write!(f, "transport failed: {e}"),
             SdoErrorKind::NodeRebooted => write!(
                 f,

@@ -231,7 +231,10 @@ impl Core {
                                 transferred: written,
                                 unsized_expedited,
                             }),
-                            Err(e) => Err(SdoErrorKind::Io(e.kind())),
+                            Err(e) => Err(SdoErrorKind::Io {
+                                kind: e.kind(),
+                                message: format!("flushing the output: {e}"),
+                            }),
                         },
                     },
                     SdoEvent::Downloaded { source, .. } => Ok(Completion {
@@ -242,7 +245,10 @@ impl Core {
                     SdoEvent::Failed { .. } if rebooted => Err(SdoErrorKind::NodeRebooted),
                     SdoEvent::Failed { error, buffer } => Err(match buffer {
                         canola_sdo::Buffer::Sink(UpSink::Stream { error: Some(e), .. }) => {
-                            SdoErrorKind::Io(e.kind())
+                            SdoErrorKind::Io {
+                                kind: e.kind(),
+                                message: e.to_string(),
+                            }
                         }
                         _ => SdoErrorKind::Transfer(error.kind),
                     }),
