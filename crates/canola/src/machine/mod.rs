@@ -40,7 +40,9 @@ pub use events::{
     TransferProgress,
 };
 pub(crate) use events::{Completion, RequestId};
-pub(crate) use sdo::{DownSource, Op, Outcome, Outgoing, SdoRequest, Taken, UpSink};
+pub(crate) use sdo::{
+    DownSource, Op, Outcome, Outgoing, Request, SdoRequest, Taken, UpSink, UsdoOp, UsdoRequest,
+};
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;

@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex, MutexGuard, Weak};
 use canola_frame::{Duration, Instant, NodeId};
 
 use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
-use crate::machine::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequest, Taken};
+use crate::machine::{Completion, Core, NetworkEvent, Outcome, Request, RequestId, Taken};
 use crate::transport::{Received, TransportError};
 use canola_od::ObjectAddress;
 
@@ -306,7 +306,7 @@ impl Shared {
         Ok(false)
     }
 
-    pub(crate) fn submit(&self, req: SdoRequest) -> RequestId {
+    pub(crate) fn submit(&self, req: Request) -> RequestId {
         let id = self.core().submit(req);
         self.wake();
         id
@@ -339,8 +339,8 @@ impl Shared {
     /// [`submit`](Self::submit) then [`wait`](Self::wait) do, but when the transport is free the
     /// first driving step starts under the lock the submission took (one lock of the core
     /// fewer, and no look for a result that cannot be there yet).
-    pub(crate) fn run(&self, req: SdoRequest) -> Result<Completion, SdoError> {
-        let (node, entry) = (req.node, req.entry);
+    pub(crate) fn run(&self, req: Request) -> Result<Completion, SdoError> {
+        let (node, entry) = (req.node(), req.entry());
         let mut c = self.core();
         let id = c.submit(req);
         // The core is locked and a driving step takes the transport first: only a free

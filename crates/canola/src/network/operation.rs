@@ -38,7 +38,7 @@ use canola_od::ObjectAddress;
 
 use super::shared::Shared;
 use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
-use crate::machine::{Completion, Core, RequestId, SdoRequest, Taken};
+use crate::machine::{Completion, Core, Request, RequestId, Taken};
 
 /// A facade call that waits on the bus (an SDO transfer, a scan, an LSS service, a wait for a
 /// node's state), typed by what it produces. Nothing happens until it is finished:
@@ -108,7 +108,7 @@ impl<'a, T, E> Operation<'a, T, E> {
     /// The operation that runs `req` to its end and takes `output` from its completion.
     pub(crate) fn request(
         net: Shared,
-        req: SdoRequest,
+        req: Request,
         output: fn(Completion) -> T,
         error: fn(SdoError) -> E,
     ) -> Self
@@ -489,11 +489,11 @@ pub(crate) async fn run_until(net: &Shared, until: Instant) -> Result<(), Error>
 
 /// Runs one SDO request to its end. Blocking, the first driving step starts under the lock the
 /// submission took (see `Shared::run`).
-pub(crate) async fn run_request(net: &Shared, req: SdoRequest) -> Result<Completion, SdoError> {
+pub(crate) async fn run_request(net: &Shared, req: Request) -> Result<Completion, SdoError> {
     if mode() == Mode::Blocking {
         return net.run(req);
     }
-    let (node, entry) = (req.node, req.entry);
+    let (node, entry) = (req.node(), req.entry());
     if let Err(e) = catch_up(net) {
         return Err(transport_error(net, node, entry, &e));
     }

@@ -11,7 +11,8 @@ use super::handle::Network;
 use super::operation::{self, Operation};
 use crate::error::{Error, SdoError};
 use crate::machine::{
-    Completion, DownSource, Op, ProgressFn, RequestId, SdoRequest, TransferProgress, UpSink,
+    Completion, DownSource, Op, ProgressFn, Request, RequestId, SdoRequest, TransferProgress,
+    UpSink,
 };
 use canola_od::ObjectAddress;
 
@@ -44,8 +45,8 @@ impl<T> core::fmt::Debug for Pending<T> {
 impl<T> Pending<T> {
     /// Submits `req` (an SDO or USDO request) to `net`'s core: the request runs from now on,
     /// and this value waits for it and takes `output` from its completion.
-    pub(crate) fn submit(net: Network, req: SdoRequest, output: fn(Completion) -> T) -> Self {
-        let (node, entry) = (req.node, req.entry);
+    pub(crate) fn submit(net: Network, req: Request, output: fn(Completion) -> T) -> Self {
+        let (node, entry) = (req.node(), req.entry());
         let id = net.shared().submit(req);
         Pending {
             net,
@@ -311,7 +312,7 @@ impl Sdo {
         output: fn(Completion) -> T,
     ) -> Pending<T> {
         let (net, req) = self.into_request(entry, op);
-        Pending::submit(net, req, output)
+        Pending::submit(net, req.into(), output)
     }
 
     /// The request for `op` on `entry` with this builder's settings, and the network.
@@ -337,7 +338,7 @@ impl Sdo {
         output: fn(Completion) -> T,
     ) -> Operation<'static, T> {
         let (net, req) = self.into_request(entry, op);
-        Operation::request(net.shared, req, output, Error::from)
+        Operation::request(net.shared, req.into(), output, Error::from)
     }
 
     /// Starts an upload into memory without waiting.
