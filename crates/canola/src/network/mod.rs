@@ -41,10 +41,9 @@
 //! slot, behind one `Arc`), the *driver* (the background thread or tokio task that steps the
 //! network when nobody waits), and [`Network`], the one public handle over the shared state.
 //!
-//! Files by job, from the bottom up (no file imports one after it; `shared` and the two
-//! driving files are one floor, whose `impl Shared` blocks call each other):
-//! `shared` (the shared state), `driving` and `tokio_driving` (the step, the wait loop, the
-//! background driver: the one loop, run by a waiting caller, a thread or a tokio task),
+//! Files by job, from the bottom up (no file imports one after it): `shared` (the shared
+//! state), `driving` (the step, the blocking wait loop, the background driver thread),
+//! `tokio_driving` (the async waits and the tokio driver task, over `driving`'s step),
 //! `operation` ([`Operation`], [`join_all`] and the waiting primitives), `handle` ([`Network`]
 //! and its calls on the shared state: opening a bus, clock, subscriptions, SYNC, raw frames,
 //! running), `request` ([`Sdo`], [`Pending`], [`SdoValue`]), `node` ([`Node`], [`Nmt`]; every

@@ -252,6 +252,20 @@ fn mode() -> Mode {
     }
 }
 
+impl Shared {
+    /// On a tokio runtime (`tokio` feature), brings a virtual-clock bus up to tokio's time (see
+    /// the `asynch` module), so what is queued next is stamped with the time the application
+    /// sees. Nothing to do otherwise. (Here, above the driving floor, so that the shared state
+    /// at the bottom names no driving file.)
+    pub(crate) fn catch_up_on_runtime(&self) -> Result<(), Error> {
+        #[cfg(feature = "tokio")]
+        if tokio::runtime::Handle::try_current().is_ok() {
+            return super::tokio_driving::catch_up(self);
+        }
+        Ok(())
+    }
+}
+
 /// Brings a virtual clock up to tokio's time before an operation stamps "now" (a request's
 /// timeout, an LSS machine's timers, a wait's deadline). Nothing to do when blocking or on a
 /// real clock.

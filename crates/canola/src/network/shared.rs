@@ -155,17 +155,6 @@ impl Shared {
         relock(self.inner.core.lock())
     }
 
-    /// On a tokio runtime (`tokio` feature), brings a virtual-clock bus up to tokio's time (see
-    /// the `asynch` module), so what is queued next is stamped with the time the application
-    /// sees. Nothing to do otherwise.
-    pub(crate) fn catch_up_on_runtime(&self) -> Result<(), Error> {
-        #[cfg(feature = "tokio")]
-        if tokio::runtime::Handle::try_current().is_ok() {
-            return super::tokio_driving::catch_up(self);
-        }
-        Ok(())
-    }
-
     /// Puts what the core has queued on the bus if the transport is free (see
     /// [`send`](Self::send)).
     pub(crate) fn send_queued_now(&self) -> Result<(), Error> {
