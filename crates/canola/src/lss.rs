@@ -1,4 +1,4 @@
-//! LSS master services on the [`Network`](crate::Network) (CiA 305): the `canola-lss` machines driven by the
+//! LSS master services on the [`Network`] (CiA 305): the `canola-lss` machines driven by the
 //! network's loop. One LSS job runs at a time (LSS has one channel per bus, COB-IDs 0x7E5/0x7E4).
 //!
 //! Every service goes through one driver, `Lss::run`: it starts the machine, hands it to the

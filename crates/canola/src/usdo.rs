@@ -1,6 +1,6 @@
 //! CANopen FD in the master: [`Usdo`], a node's universal SDO (CiA 1301) as `node.usdo()`,
-//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`](crate::Network::send_fd),
-//! [`Network::open_fd`](crate::Network::open_fd)).
+//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`],
+//! [`Network::open_fd`]).
 //!
 //! ```
 //! use canola::{BusConfig, MemoryBus, Network, NodeId, SimDevice};

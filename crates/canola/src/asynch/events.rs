@@ -14,7 +14,7 @@ use crate::machine::NetworkEvent;
 use crate::machine::events::EventSink;
 use crate::network::Network;
 
-/// Queue length of [`Network::events`](crate::Network::events).
+/// Queue length of [`Network::events`].
 pub const DEFAULT_EVENT_CAPACITY: usize = 1024;
 
 /// `n` events were lost between the item before this one and the item after it: the subscriber
@@ -72,7 +72,7 @@ impl Drop for Sink {
     }
 }
 
-/// A subscription to the network's events (see [`Network::events`](crate::Network::events)): a [`Stream`] of
+/// A subscription to the network's events (see [`Network::events`]): a [`Stream`] of
 /// `Result<NetworkEvent, Lagged>`. It ends when the network is gone; dropping it
 /// unsubscribes.
 ///

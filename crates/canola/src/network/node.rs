@@ -183,7 +183,7 @@ impl Node {
 /// heartbeats, boot-up and guarding answers report it.
 ///
 /// Boot-ups are counted per node, not sampled: [`wait_for_bootup`](Self::wait_for_bootup)
-/// returns for a boot-up received since the node was added ([`Network::add_node`](crate::Network::add_node); for a node
+/// returns for a boot-up received since the node was added ([`Network::add_node`]; for a node
 /// never added, since the network started), since the last NMT command to it (or to all), or
 /// since the last wait that returned, whichever came last. It does not matter when the handle
 /// was made, nor whether a heartbeat with the next state followed at once (or the background
