@@ -132,7 +132,7 @@ pub(crate) fn to_py_err(e: Error) -> PyErr {
                     set_attr(&err, "code", code.0);
                     err
                 }
-                (SdoErrorKind::Io(_), None) => PyValueError::new_err(text),
+                (SdoErrorKind::Io { .. }, None) => PyValueError::new_err(text),
                 _ => SdoCommunicationError::new_err(text),
             };
             set_attr(&err, "node", sdo.node.get());
@@ -142,7 +142,7 @@ pub(crate) fn to_py_err(e: Error) -> PyErr {
         }
         Error::UnknownObject { .. } => PyKeyError::new_err(text),
         Error::Value { .. } => PyValueError::new_err(text),
-        Error::Timeout(_) => NmtError::new_err(text),
+        Error::Timeout { .. } => NmtError::new_err(text),
         _ => NetworkError::new_err(text),
     }
 }
