@@ -83,3 +83,23 @@ def test_awaitables_overlap_on_the_bus() -> None:
             return await asyncio.gather(*(n.sdo[0x1018][1].aget_raw() for n in nodes))
 
         assert asyncio.run(main()) == [0x39] * 8
+
+
+def test_awaitable_twins_on_a_real_time_bus(
+    realtime: tuple[canola.Network, canola.MemoryBus],
+) -> None:
+    net, _ = realtime
+    node = net.add_node(5, str(EDS))
+    absent = net.add_node(9, str(EDS))
+
+    async def main() -> None:
+        assert await node.sdo[0x1017].aget_raw() == 500
+        await node.sdo[0x1017].aset_raw(120)
+        assert await node.sdo.aupload(0x1017, 0) == b"\x78\x00"
+        with pytest.raises(canola.SdoCommunicationError, match="node 9"):
+            await absent.sdo.aupload(0x1000, 0)
+
+    try:
+        asyncio.run(main())
+    finally:
+        net.disconnect()
