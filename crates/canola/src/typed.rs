@@ -11,7 +11,7 @@
 
 use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 
-use crate::error::Error;
+use crate::error::{Error, Unresolved};
 use crate::network::Operation;
 use crate::network::Sdo;
 
@@ -190,9 +190,7 @@ impl Sdo {
             .ok_or_else(|| Error::UnknownObject {
                 node,
                 name: wanted.into(),
-                reason:
-                    "the node was added without a dictionary (Network::add_node_with_dictionary)"
-                        .into(),
+                reason: Unresolved::NoDictionary,
             })
     }
 
@@ -206,10 +204,9 @@ impl Sdo {
                     node: self.node_id(),
                     name: name.into(),
                     reason: if od.find_object(name).is_some() {
-                        "it is an array or record: name a sub-object as \"object.sub-object\""
-                            .into()
+                        Unresolved::NotOneValue
                     } else {
-                        "no such object in the node's dictionary".into()
+                        Unresolved::NotFound
                     },
                 })
             }
