@@ -3,7 +3,8 @@
 //! decoded by name (events, callback, batch subscriber), a 40-byte RPDO set by name and seen in
 //! the device's values, both checked on the wire as CAN FD frames; the device's event timer
 //! sending the 64-byte TPDO again while its data stays the same; on a classic bus a 40-byte
-//! RPDO is refused with a clear error.
+//! RPDO is refused with a clear error; a TPDO of more than 8 bytes configured through `save()`
+//! and `remap_pdo`, and refused in bits and bytes where the node or the bus cannot carry it.
 
 use std::sync::{Arc, Mutex};
 
