@@ -206,7 +206,7 @@ pub(super) async fn save_set(
         }
         // The mapping is checked before anything is sent.
         let mapping = match p.mapping() {
-            Ok(m) => PdoMapping::Classic(m),
+            Ok(m) => PdoMapping::Classic(Box::new(m)),
             // More than 8 bytes: a CANopen FD PDO, where the node and the bus allow it.
             Err(classic) => match p.fd_mapping() {
                 Ok(fd) => fd_allowed(node, fd).map_err(|why| p.error(why))?,
@@ -228,15 +228,15 @@ pub(super) async fn save_set(
 
 /// A mapping checked under the limit of its PDO: classic CAN (8 bytes) or CAN FD (64 bytes).
 enum PdoMapping {
-    Classic(Mapping),
-    Fd(FdMapping),
+    Classic(Box<Mapping>),
+    Fd(Box<FdMapping>),
 }
 
 /// `fd` as a PDO mapping when it fits a classic frame, or when the node is marked CANopen FD
 /// and the bus carries CAN FD; otherwise why not, in bits and bytes.
 fn fd_allowed(node: &NodeRef, fd: FdMapping) -> Result<PdoMapping, String> {
     if let Ok(classic) = Mapping::try_from(&fd) {
-        return Ok(PdoMapping::Classic(classic));
+        return Ok(PdoMapping::Classic(Box::new(classic)));
     }
     let (bits, bytes) = (fd.bit_len(), fd.byte_len());
     let why = if let Some(bus) = node.net.core().classic_bus() {
@@ -244,7 +244,7 @@ fn fd_allowed(node: &NodeRef, fd: FdMapping) -> Result<PdoMapping, String> {
     } else if !node.is_fd() {
         format!("node {} is not marked CANopen FD", node.id)
     } else {
-        return Ok(PdoMapping::Fd(fd));
+        return Ok(PdoMapping::Fd(Box::new(fd)));
     };
     Err(format!(
         "the mapped objects need {bits} bits ({bytes} bytes), more than the 64 bits (8 bytes) of \
@@ -291,7 +291,7 @@ async fn configure(
             .await?;
     }
     let mapping = match mapping {
-        PdoMapping::Classic(m) => m,
+        PdoMapping::Classic(m) => *m,
         PdoMapping::Fd(fd) => {
             // A TPDO of more than 8 bytes is decoded from its CAN FD frames from now on; an
             // RPDO of more than 8 bytes is transmitted by `Rpdos::start` with what was saved.
@@ -300,7 +300,7 @@ async fn configure(
                 && let Ok(number) = u8::try_from(n + 1)
                 && let Ok(can_id) = comm.cob_id.can_id()
             {
-                node.net.core().mirror_fd_tpdo(node.id, number, can_id, fd);
+                node.net.core().mirror_fd_tpdo(node.id, number, can_id, *fd);
             }
             return Ok(());
         }
