@@ -1022,7 +1022,7 @@ impl Drive {
     /// Starts a cyclic synchronous stream in `mode` (csp, csv or cst) through the node's RPDO
     /// number `rpdo`, which is remapped to carry only the mode's target (0x607A, 0x60FF or
     /// 0x6071) on every SYNC (type 1). 0x60C2 is set to `period`, the SYNC period the master
-    /// produces (start it with [`Network::start_sync`](canola::Driver::start_sync)); the node
+    /// produces (start it with [`Network::start_sync`](canola::Network::start_sync)); the node
     /// must be operational for its RPDOs to count.
     ///
     /// The first target is the present actual value for csp (the drive does not jump:
