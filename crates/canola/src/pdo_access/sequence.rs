@@ -15,7 +15,7 @@ use crate::error::{Error, Misuse};
 use crate::network::Operation;
 use crate::network::request::NodeRef;
 
-use super::params::{MappedVariable, PdoParameters, PdoSet, Present, name_of};
+use super::params::{MappedVariable, PdoParameters, PdoSet, Present, kind_name, name_of};
 
 /// The master follows what the node holds for `p`: a TPDO is decoded with it, a transmitted
 /// RPDO uses its COB-ID and mapping.
