@@ -1,0 +1,84 @@
+//! Homing (mode hm): the method 0x6098, the start edge and the wait for homing attained.
+
+use std::format;
+use std::prelude::rust_2024::*;
+
+use canola::Operation;
+
+use crate::mode::{HomingStatus, ModeOfOperation};
+use crate::objects::{self as obj};
+use crate::state::{PlanError, State};
+use crate::words::Controlword;
+
+use super::{Drive, DriveError, DriveOp};
+
+impl Drive {
+    /// Homing: selects mode hm (in any state) and the method 0x6098 if given, then, in operation
+    /// enabled only, starts it (bit 4 rising) and waits until it is attained (bits 12 and 10)
+    /// or fails (bit 13). From any other state: [`DriveError::NotEnabled`] after the mode
+    /// selection, the power state untouched (python-canopen #244, ros2_canopen #421). Returns
+    /// the position where homing ended.
+    pub fn home(&self, method: Option<i8>) -> DriveOp<i32> {
+        let d = self.clone();
+        Operation::new(async move {
+            d.select_mode(ModeOfOperation::Homing).await?;
+            if let Some(m) = method {
+                d.node.sdo().write(d.at(obj::HOMING_METHOD), m).await?;
+            }
+            d.require_enabled().await?;
+            let base = Controlword::from_raw(0x000F);
+            d.put_controlword(base).await?;
+            d.put_controlword(base.with(0x0010, true)).await?;
+            let result = d.until_homed().await;
+            // Bit 4 back to 0 (the homing start is an edge), whatever the result.
+            if matches!(
+                d.statusword().await.map(State::decode),
+                Ok(Some(State::OperationEnabled))
+            ) {
+                let _ = d.put_controlword(base).await;
+            }
+            result
+        })
+    }
+
+    async fn until_homed(&self) -> Result<i32, DriveError> {
+        let start = self.node.network().now();
+        loop {
+            let sw = self.statusword().await?;
+            let status = HomingStatus::decode(sw);
+            match State::decode(sw) {
+                Some(State::OperationEnabled) => {}
+                Some(State::Fault | State::FaultReactionActive) => {
+                    return Err(self.fault_error(sw).await);
+                }
+                Some(state) => {
+                    return Err(DriveError::NotEnabled {
+                        state,
+                        statusword: sw,
+                    });
+                }
+                None => return Err(PlanError::UnknownState(sw).into()),
+            }
+            if status == HomingStatus::Completed {
+                return self.position().await;
+            }
+            if status.is_error() {
+                return Err(DriveError::Homing {
+                    status,
+                    statusword: sw,
+                });
+            }
+            let waited = self.node.network().now() - start;
+            if waited >= self.timeouts.homing {
+                return Err(DriveError::Timeout {
+                    waiting_for: "homing attained (statusword bits 10, 12)",
+                    expected: "homing completed".into(),
+                    reached: format!("{status:?}"),
+                    statusword: sw,
+                    waited,
+                });
+            }
+            self.sleep().await?;
+        }
+    }
+}
