@@ -8,7 +8,7 @@ use std::future::IntoFuture;
 use std::sync::{Arc, Mutex};
 
 use canola::{Duration, MemoryBus, Network, NodeId};
-use canola_cia402::master::{Drive, DriveError, Move, Timeouts, simulated_drive};
+use canola_cia402::master::{Awaited, Drive, DriveError, Move, Reached, Timeouts, simulated_drive};
 use canola_cia402::sim::{SimDrive, SimFault};
 use canola_cia402::{ModeOfOperation, State};
 
@@ -224,18 +224,17 @@ async fn a_spawned_move_times_out_on_the_bus_clock_naming_expected_reached_and_s
         Err(e @ DriveError::Timeout { .. }) => {
             let text = e.to_string();
             let DriveError::Timeout {
-                waiting_for,
-                expected,
+                awaited,
                 reached,
                 statusword,
                 waited,
+                ..
             } = e
             else {
                 unreachable!()
             };
-            assert_eq!(waiting_for, "target reached (statusword bit 10)");
-            assert_eq!(expected, "target reached");
-            assert!(reached.contains("at position"), "{reached}");
+            assert_eq!(awaited, Awaited::TargetReached);
+            assert!(matches!(reached, Reached::Position(_)), "{reached}");
             assert!(!statusword.target_reached(), "{statusword}");
             assert!(
                 waited >= Duration::from_millis(50) && waited < Duration::from_millis(100),

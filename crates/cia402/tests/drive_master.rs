@@ -6,7 +6,7 @@
 use std::sync::{Arc, Mutex};
 
 use canola::{CanFrame, CanId, Duration, MemoryBus, Network, NodeId, Received, Transport as _};
-use canola_cia402::master::{Drive, DriveError, Move, simulated_drive};
+use canola_cia402::master::{Awaited, Drive, DriveError, Move, Reached, simulated_drive};
 use canola_cia402::sim::{SimConfig, SimDrive, SimFault};
 use canola_cia402::{ModeOfOperation, PlanError, QuickStopOption, State};
 
@@ -274,16 +274,13 @@ fn a_fault_names_0x603f_and_the_emcy_and_the_reset_clears_it() {
     match r.drive.wait_target_reached(|_| {}).wait() {
         Err(DriveError::Fault { code, emcy, .. }) => {
             assert_eq!(code.0, 0x8611);
-            assert!(emcy.unwrap().contains("0x8611"));
+            assert_eq!(emcy.unwrap().code.0, 0x8611);
         }
         other => panic!("{other:?}"),
     }
     let report = r.drive.fault_reset().wait().unwrap();
     assert_eq!(report.code.0, 0x8611);
-    assert!(
-        report.emcy.as_deref().unwrap_or("").contains("0x8611"),
-        "{report:?}"
-    );
+    assert_eq!(report.emcy.map(|e| e.code.0), Some(0x8611), "{report:?}");
     assert_eq!(report.from, State::Fault);
     assert_eq!(report.state, State::SwitchOnDisabled);
     assert_eq!(r.drive.error_code().wait().unwrap().0, 0);
@@ -307,22 +304,28 @@ fn a_wait_that_times_out_names_expected_reached_and_statusword() {
         .unwrap_err();
     match &e {
         DriveError::Timeout {
-            expected,
+            awaited,
             reached,
             statusword,
             ..
         } => {
-            assert_eq!(expected, "target reached");
-            assert!(reached.starts_with("operation enabled"), "{reached}");
+            assert_eq!(*awaited, Awaited::TargetReached);
+            assert!(
+                matches!(reached, Reached::Position(p) if *p > 0 && *p < 100_000),
+                "{reached}"
+            );
             assert!(!statusword.target_reached());
         }
         other => panic!("{other:?}"),
     }
     let text = e.to_string();
     assert!(
-        text.contains("expected target reached") && text.contains("statusword"),
+        text.contains("waiting for target reached (statusword bit 10): the drive is at position")
+            && text.contains("statusword"),
         "{text}"
     );
+    // What `main` prints when it returns the error with `?`: the same sentence.
+    assert_eq!(format!("{e:?}"), text);
 }
 
 #[test]

@@ -183,7 +183,7 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
                     &json!({
                         "error_code": format!("{:#06x}", r.code.0),
                         "error": r.code.name(),
-                        "emcy": r.emcy,
+                        "emcy": r.emcy.map(|e| e.to_string()),
                         "from": r.from.name(),
                         "state": r.state.name(),
                     })

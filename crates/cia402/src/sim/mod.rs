@@ -134,7 +134,7 @@ pub struct Emcy {
 }
 
 /// Why a read or write of the simulated dictionary fails, with its CiA 301 SDO abort code.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum AccessError {
     /// 0x06020000.
@@ -155,6 +155,13 @@ pub enum AccessError {
     /// 0x08000022: not now, in the drive's present state.
     #[error("{0:#06x}:{1} cannot be written in the drive's present state")]
     DeviceState(u16, u8),
+}
+
+/// `Debug` prints what `Display` prints (the stack's error convention).
+impl core::fmt::Debug for AccessError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
 }
 
 impl AccessError {

@@ -23,7 +23,7 @@ pub struct Step {
 }
 
 /// Why no plan reaches the target.
-#[derive(Clone, Copy, PartialEq, Eq, Debug, thiserror::Error)]
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum PlanError {
     /// The statusword shows no state.
@@ -46,6 +46,13 @@ pub enum PlanError {
         /// The statusword.
         statusword: Statusword,
     },
+}
+
+/// `Debug` prints what `Display` prints (the stack's error convention).
+impl core::fmt::Debug for PlanError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
 }
 
 /// When the planner reads statusword bit 4 (voltage enabled) as a gate for switching on.

@@ -2,7 +2,6 @@
 //! on every SYNC, set up on a mapping of its own ([`Drive::start_cyclic`]) or on the PDOs a DCF
 //! configures ([`Drive::start_cyclic_from_dcf`]).
 
-use std::format;
 use std::prelude::rust_2024::*;
 
 use canola::{Duration, Operation};
@@ -11,7 +10,7 @@ use super::super::dcf::{DcfPdo, DcfPdos};
 use crate::mode::ModeOfOperation;
 use crate::objects::{self as obj};
 
-use super::{Drive, DriveError, DriveOp, lock};
+use super::{CyclicSetup, Drive, DriveError, DriveOp, lock};
 
 /// A cyclic synchronous stream (csp, csv, cst) of one drive: its target goes in an RPDO the
 /// master's PDO engine sends after every SYNC the master produces (see
@@ -89,7 +88,7 @@ impl Drive {
             let mut set = rpdos.read().await?;
             let p = set
                 .get_mut(rpdo)
-                .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
+                .ok_or_else(|| DriveError::Cyclic(CyclicSetup::NoRpdo(rpdo)))?;
             p.clear();
             p.map_entry(canola::ObjectAddress::new(target.0, target.1), bits);
             p.set_transmission_type(canola::pdo::TransmissionType::SyncCyclic(1));
@@ -97,7 +96,7 @@ impl Drive {
             rpdos.save(&mut set).await?;
             let p = set
                 .get(rpdo)
-                .ok_or_else(|| DriveError::Cyclic(format!("the node has no RPDO{rpdo}")))?;
+                .ok_or_else(|| DriveError::Cyclic(CyclicSetup::NoRpdo(rpdo)))?;
             let sender = rpdos.start(p, canola::Transmission::on_sync())?;
             sender.set(target, first)?;
             // Also by SDO, so the target is in place before the mode switch whatever the SYNC
@@ -117,9 +116,8 @@ impl Drive {
 
     /// 0x60C2 (interpolation time period) set to `period`.
     async fn write_interpolation_period(&self, period: Duration) -> Result<(), DriveError> {
-        let ip = obj::InterpolationPeriod::from_micros(period.as_micros()).ok_or_else(|| {
-            DriveError::Cyclic(format!("a period of {period} does not fit 0x60C2"))
-        })?;
+        let ip = obj::InterpolationPeriod::from_micros(period.as_micros())
+            .ok_or_else(|| DriveError::Cyclic(CyclicSetup::Period(period)))?;
         let sdo = || self.node.sdo();
         sdo()
             .write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)
@@ -171,9 +169,9 @@ impl Drive {
             let mut set = rpdos.read().await?;
             apply_dcf_pdo(&mut set, &m.rpdo)?;
             rpdos.save(&mut set).await?;
-            let p = set.get(m.rpdo.number).ok_or_else(|| {
-                DriveError::Cyclic(format!("the node has no RPDO{}", m.rpdo.number))
-            })?;
+            let p = set
+                .get(m.rpdo.number)
+                .ok_or_else(|| DriveError::Cyclic(CyclicSetup::NoRpdo(m.rpdo.number)))?;
             let sender = rpdos.start(p, canola::Transmission::on_sync())?;
             let cw_at = d.at(obj::CONTROLWORD);
             let mode_at = d.at(obj::MODES_OF_OPERATION);
@@ -219,16 +217,13 @@ impl Drive {
 
 /// Sets PDO `d.number` of `set` to the DCF's parameters and mapping.
 fn apply_dcf_pdo(set: &mut canola::PdoSet, d: &DcfPdo) -> Result<(), DriveError> {
-    let kind = match set.direction() {
-        canola::pdo::Direction::Receive => "RPDO",
-        canola::pdo::Direction::Transmit => "TPDO",
-    };
-    let p = set.get_mut(d.number).ok_or_else(|| {
-        DriveError::Cyclic(format!(
-            "the DCF configures {kind}{}, which the node does not have",
-            d.number
-        ))
-    })?;
+    let direction = set.direction();
+    let p = set
+        .get_mut(d.number)
+        .ok_or(DriveError::Cyclic(CyclicSetup::NoPdoForDcf {
+            direction,
+            number: d.number,
+        }))?;
     p.clear();
     for (index, sub, bits) in d.objects() {
         p.map_entry(canola::ObjectAddress::new(index, sub), bits);

@@ -1,6 +1,5 @@
 //! Homing (mode hm): the method 0x6098, the start edge and the wait for homing attained.
 
-use std::format;
 use std::prelude::rust_2024::*;
 
 use canola::Operation;
@@ -10,7 +9,7 @@ use crate::objects::{self as obj};
 use crate::state::{PlanError, State};
 use crate::words::Controlword;
 
-use super::{Drive, DriveError, DriveOp};
+use super::{Awaited, Drive, DriveError, DriveOp, Reached};
 
 impl Drive {
     /// Homing: selects mode hm (in any state) and the method 0x6098 if given, then, in operation
@@ -71,9 +70,8 @@ impl Drive {
             let waited = self.node.network().now() - start;
             if waited >= self.timeouts.homing {
                 return Err(DriveError::Timeout {
-                    waiting_for: "homing attained (statusword bits 10, 12)",
-                    expected: "homing completed".into(),
-                    reached: format!("{status:?}"),
+                    awaited: Awaited::HomingCompleted,
+                    reached: Reached::Homing(status),
                     statusword: sw,
                     waited,
                 });

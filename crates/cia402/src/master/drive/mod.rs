@@ -41,7 +41,8 @@ mod states;
 
 use actuals::Following;
 pub use cyclic::CyclicStream;
-pub use error::DriveError;
+pub(super) use error::pdo_kind;
+pub use error::{Awaited, CyclicSetup, DriveError, Reached};
 pub use motion::Move;
 pub use states::FaultReport;
 
@@ -266,12 +267,12 @@ impl Drive {
         })
     }
 
-    /// The node's latest EMCY (since the network started), as text.
-    pub fn last_emcy(&self) -> Option<String> {
+    /// The node's latest EMCY (since the network started).
+    pub fn last_emcy(&self) -> Option<canola::nmt::Emcy> {
         self.node
             .network()
             .last_emcy(self.node.id())
-            .map(|e| e.emcy.to_string())
+            .map(|e| e.emcy)
     }
 
     /// Writes the controlword 0x6040 (by SDO; also into a cyclic stream's RPDO that maps it).

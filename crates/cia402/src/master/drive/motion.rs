@@ -1,7 +1,6 @@
 //! Modes and motion: selecting a mode (confirmed by 0x6061), profile-position moves with the
 //! set-point handshake and the wait for target reached, profile velocity and profile torque.
 
-use std::format;
 use std::prelude::rust_2024::*;
 
 use canola::{Duration, Operation};
@@ -11,7 +10,7 @@ use crate::objects::{self as obj};
 use crate::state::{PlanError, State};
 use crate::words::{Controlword, Statusword};
 
-use super::{Drive, DriveError, DriveOp};
+use super::{Awaited, Drive, DriveError, DriveOp, Reached};
 
 /// A profile-position move.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -57,9 +56,8 @@ impl Drive {
             let waited = self.node.network().now() - start;
             if waited >= self.timeouts.mode {
                 return Err(DriveError::Timeout {
-                    waiting_for: "mode (0x6061)",
-                    expected: mode_name(mode),
-                    reached: mode_name(now_mode),
+                    awaited: Awaited::Mode(mode),
+                    reached: Reached::Mode(now_mode),
                     statusword: self.statusword().await?,
                     waited,
                 });
@@ -100,7 +98,7 @@ impl Drive {
         self.wait_bit(
             12,
             true,
-            "set-point acknowledge (statusword bit 12)",
+            Awaited::SetPointAcknowledge,
             self.timeouts.set_point,
         )
         .await?;
@@ -142,9 +140,8 @@ impl Drive {
             let waited = self.node.network().now() - start;
             if waited >= self.timeouts.motion {
                 return Err(DriveError::Timeout {
-                    waiting_for: "target reached (statusword bit 10)",
-                    expected: "target reached".into(),
-                    reached: format!("{} at position {position}", State::OperationEnabled),
+                    awaited: Awaited::TargetReached,
+                    reached: Reached::Position(position),
                     statusword: sw,
                     waited,
                 });
@@ -167,7 +164,7 @@ impl Drive {
         &self,
         bit: u32,
         on: bool,
-        what: &'static str,
+        what: Awaited,
         timeout: Duration,
     ) -> Result<Statusword, DriveError> {
         let start = self.node.network().now();
@@ -183,9 +180,8 @@ impl Drive {
             let waited = self.node.network().now() - start;
             if waited >= timeout {
                 return Err(DriveError::Timeout {
-                    waiting_for: what,
-                    expected: format!("bit {bit} {}", if on { "set" } else { "clear" }),
-                    reached: state.map_or_else(|| "no state".into(), |s| s.name().to_string()),
+                    awaited: what,
+                    reached: Reached::State(state),
                     statusword: sw,
                     waited,
                 });
@@ -228,8 +224,4 @@ impl Drive {
         }
         Ok(())
     }
-}
-
-fn mode_name(m: ModeOfOperation) -> String {
-    format!("{} ({})", m.short_name().unwrap_or("?"), m.code())
 }

@@ -10,7 +10,7 @@ use crate::objects::{self as obj, ErrorCode, QuickStopOption};
 use crate::state::{PlanError, Planner, State, Transition};
 use crate::words::{Controlword, Statusword};
 
-use super::{Drive, DriveError, DriveOp};
+use super::{Awaited, Drive, DriveError, DriveOp, Reached};
 
 /// What a fault reset found and did.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -18,7 +18,7 @@ pub struct FaultReport {
     /// 0x603F before the reset.
     pub code: ErrorCode,
     /// The node's last EMCY before the reset, as text.
-    pub emcy: Option<String>,
+    pub emcy: Option<canola::nmt::Emcy>,
     /// The state before the reset.
     pub from: State,
     /// The state after it.
@@ -99,11 +99,10 @@ impl Drive {
                         .unwrap_or(0);
                     i += j + 1;
                 }
-                Err(DriveError::Timeout { reached, .. })
-                    if step.transition == Transition::T16
-                        && reached == State::QuickStopActive.name()
-                        && planner.transition_16 =>
-                {
+                Err(DriveError::Timeout {
+                    reached: Reached::State(Some(State::QuickStopActive)),
+                    ..
+                }) if step.transition == Transition::T16 && planner.transition_16 => {
                     return Ok(Walked::NoTransition16);
                 }
                 Err(e) => return Err(e),
@@ -134,13 +133,8 @@ impl Drive {
             let waited = self.node.network().now() - start;
             if waited >= timeout {
                 return Err(DriveError::Timeout {
-                    waiting_for: "state",
-                    expected: states
-                        .iter()
-                        .map(|s| s.name())
-                        .collect::<Vec<_>>()
-                        .join(" or "),
-                    reached: state.map_or_else(|| "no state".to_string(), |s| s.name().to_string()),
+                    awaited: Awaited::State(states.to_vec()),
+                    reached: Reached::State(state),
                     statusword: sw,
                     waited,
                 });
