@@ -15,11 +15,27 @@ use super::{CyclicSetup, Drive, DriveError, DriveOp, lock};
 /// A cyclic synchronous stream (csp, csv, cst) of one drive: its target goes in an RPDO the
 /// master's PDO engine sends after every SYNC the master produces (see
 /// [`Drive::start_cyclic`]). Set the next target once per cycle; nothing here waits.
+///
+/// Dropped without [`stop`](Self::stop) (a task cancelled, a panic unwinding, a `?` leaving
+/// early), it stops the RPDO and the drive as [`Drive::on_cancel`] says (a quick stop unless set
+/// otherwise; see [`OnCancel`](super::OnCancel) for what a panic leaves).
 #[derive(Debug)]
 pub struct CyclicStream {
     drive: Drive,
     sender: canola::RpdoSender,
     target: (u16, u8),
+    /// Ended by [`stop`](Self::stop): nothing for the drop to do.
+    stopped: bool,
+}
+
+impl Drop for CyclicStream {
+    fn drop(&mut self) {
+        if !self.stopped {
+            // The controlword goes into the RPDO too when it maps it, before it stops.
+            self.drive.stop_unwaited(self.drive.on_cancel);
+            let _ = self.end();
+        }
+    }
 }
 
 impl CyclicStream {
@@ -40,8 +56,14 @@ impl CyclicStream {
         self.sender.number()
     }
 
-    /// Stops sending the RPDO (the drive keeps its last target). Does not wait.
-    pub fn stop(self) -> Result<(), DriveError> {
+    /// Stops sending the RPDO (the drive keeps its last target and goes on as commanded: this
+    /// is the planned end, which does not stop the drive). Does not wait.
+    pub fn stop(mut self) -> Result<(), DriveError> {
+        self.stopped = true;
+        self.end()
+    }
+
+    fn end(&self) -> Result<(), DriveError> {
         let mut slot = lock(&self.drive.shared.stream_controlword);
         if slot
             .as_ref()
@@ -110,6 +132,7 @@ impl Drive {
                 drive: d,
                 sender,
                 target,
+                stopped: false,
             })
         })
     }
@@ -210,6 +233,7 @@ impl Drive {
                 drive: d,
                 sender,
                 target: m.target,
+                stopped: false,
             })
         })
     }

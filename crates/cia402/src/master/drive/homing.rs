@@ -9,14 +9,15 @@ use crate::objects::{self as obj};
 use crate::state::{PlanError, State};
 use crate::words::Controlword;
 
-use super::{Awaited, Drive, DriveError, DriveOp, Reached};
+use super::{Awaited, Drive, DriveError, DriveOp, Reached, StopGuard};
 
 impl Drive {
     /// Homing: selects mode hm (in any state) and the method 0x6098 if given, then, in operation
     /// enabled only, starts it (bit 4 rising) and waits until it is attained (bits 12 and 10)
     /// or fails (bit 13). From any other state: [`DriveError::NotEnabled`] after the mode
     /// selection, the power state untouched (python-canopen #244, ros2_canopen #421). Returns
-    /// the position where homing ended.
+    /// the position where homing ended. Dropped or cancelled after homing started, it stops the
+    /// drive as [`on_cancel`](Self::on_cancel) says.
     pub fn home(&self, method: Option<i8>) -> DriveOp<i32> {
         let d = self.clone();
         Operation::new(async move {
@@ -26,9 +27,14 @@ impl Drive {
             }
             d.require_enabled().await?;
             let base = Controlword::from_raw(0x000F);
-            d.put_controlword(base).await?;
-            d.put_controlword(base.with(0x0010, true)).await?;
-            let result = d.until_homed().await;
+            let guard = StopGuard::new(&d);
+            let result = async {
+                d.put_controlword(base).await?;
+                d.put_controlword(base.with(0x0010, true)).await?;
+                d.until_homed().await
+            }
+            .await;
+            guard.disarm();
             // Bit 4 back to 0 (the homing start is an edge), whatever the result.
             if matches!(
                 d.statusword().await.map(State::decode),

@@ -38,6 +38,7 @@ mod error;
 mod homing;
 mod motion;
 mod states;
+mod stop;
 
 use actuals::Following;
 pub use cyclic::CyclicStream;
@@ -45,6 +46,8 @@ pub(super) use error::pdo_kind;
 pub use error::{Awaited, CyclicSetup, DriveError, Reached};
 pub use motion::Move;
 pub use states::FaultReport;
+pub use stop::OnCancel;
+use stop::StopGuard;
 
 /// How long each kind of wait may take, and how often it polls.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,6 +111,7 @@ pub struct Drive {
     axis: u8,
     timeouts: Timeouts,
     transition_16: bool,
+    on_cancel: OnCancel,
     shared: Arc<Shared>,
 }
 
@@ -124,6 +128,8 @@ struct Shared {
     /// where: every controlword written goes into it as well, so its next frame does not undo
     /// the write.
     stream_controlword: Mutex<Option<(canola::RpdoSender, (u16, u8))>>,
+    /// The stop a cancelled motion command started (see `stop`), running on its own.
+    stopping: Mutex<Option<canola::Pending<()>>>,
 }
 
 /// What the drive's commands return: an operation finished by `.wait()` or `.await`.
@@ -138,6 +144,14 @@ impl Drop for Shared {
             .take()
         {
             self.node.network().remove_pdo_callback(f.callback);
+        }
+        // The last clone is gone while a cancelled command's stop still runs: it is finished
+        // on a thread of its own rather than cancelled with the drive.
+        let stopping = self.stopping.get_mut().unwrap_or_else(|p| p.into_inner());
+        if let Some(p) = stopping.take().filter(|p| !p.is_done()) {
+            let _ = std::thread::Builder::new()
+                .name("canola-cia402-stop".into())
+                .spawn(move || p.wait());
         }
     }
 }
@@ -160,11 +174,13 @@ impl Drive {
                 last_cw: Mutex::new(None),
                 tpdo: Mutex::new(None),
                 stream_controlword: Mutex::new(None),
+                stopping: Mutex::new(None),
             }),
             node,
             axis: axis.min(obj::MAX_AXIS),
             timeouts: Timeouts::default(),
             transition_16: true,
+            on_cancel: OnCancel::default(),
         }
     }
 

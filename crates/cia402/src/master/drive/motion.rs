@@ -10,7 +10,7 @@ use crate::objects::{self as obj};
 use crate::state::{PlanError, State};
 use crate::words::{Controlword, Statusword};
 
-use super::{Awaited, Drive, DriveError, DriveOp, Reached};
+use super::{Awaited, Drive, DriveError, DriveOp, Reached, StopGuard};
 
 /// A profile-position move.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -106,13 +106,19 @@ impl Drive {
     }
 
     /// Waits for target reached, statusword bit 10 (not bit 4: OpenCAN #51), calling `each`
-    /// with the actual position at every poll. Returns the final position.
+    /// with the actual position at every poll. Returns the final position. Dropped or
+    /// cancelled before it ends, it stops the drive as [`on_cancel`](Self::on_cancel) says.
     pub fn wait_target_reached<'a>(
         &self,
         mut each: impl FnMut(i32) + Send + 'a,
     ) -> Operation<'a, i32, DriveError> {
         let d = self.clone();
-        Operation::new(async move { d.until_target_reached(&mut each).await })
+        Operation::new(async move {
+            let guard = StopGuard::new(&d);
+            let r = d.until_target_reached(&mut each).await;
+            guard.disarm();
+            r
+        })
     }
 
     async fn until_target_reached(
@@ -152,11 +158,20 @@ impl Drive {
 
     /// A profile-position move to the end: [`start_move`](Self::start_move), then
     /// [`wait_target_reached`](Self::wait_target_reached). Returns the final position.
+    ///
+    /// Dropped or cancelled before it ends, it stops the drive as [`on_cancel`](Self::on_cancel)
+    /// says (a quick stop unless set otherwise; see [`OnCancel`] for what a panic leaves).
     pub fn move_to(&self, m: Move) -> DriveOp<i32> {
         let d = self.clone();
         Operation::new(async move {
-            d.begin_move(m).await?;
-            d.until_target_reached(&mut |_| {}).await
+            let guard = StopGuard::new(&d);
+            let r = async {
+                d.begin_move(m).await?;
+                d.until_target_reached(&mut |_| {}).await
+            }
+            .await;
+            guard.disarm();
+            r
         })
     }
 
