@@ -718,3 +718,45 @@ fn two_drives_follow_one_sync_with_both_rpdos_in_every_cycle() {
     assert!((drives[0].position().wait().unwrap() - 1_000).abs() <= 20);
     assert!((drives[1].position().wait().unwrap() - 2_000).abs() <= 20);
 }
+
+#[test]
+fn a_csv_stream_dropped_unstopped_quick_stops_the_drive() {
+    let r = rig(SimConfig::default());
+    r.drive.enable().wait().unwrap();
+    r.drive.node().nmt().start().unwrap();
+    r.net.start_sync(Duration::from_millis(1));
+    let stream = r
+        .drive
+        .start_cyclic(
+            ModeOfOperation::CyclicSyncVelocity,
+            4,
+            Duration::from_millis(1),
+        )
+        .wait()
+        .unwrap();
+    stream.set_target(5_000).unwrap();
+    r.net.run_for(Duration::from_millis(300)).wait().unwrap();
+    assert!(r.model.lock().unwrap().velocity() > 4_000.0);
+    // A task that held the stream ended early (an error, a panic): the stream is dropped.
+    drop(stream);
+    r.net.run_for(Duration::from_millis(500)).wait().unwrap();
+    assert_eq!(r.drive.state().wait().unwrap(), State::SwitchOnDisabled);
+    assert!(r.model.lock().unwrap().velocity().abs() < 1.0);
+    // Stopped on purpose, a stream leaves the drive as commanded.
+    r.drive.enable().wait().unwrap();
+    let stream = r
+        .drive
+        .start_cyclic(
+            ModeOfOperation::CyclicSyncVelocity,
+            4,
+            Duration::from_millis(1),
+        )
+        .wait()
+        .unwrap();
+    stream.set_target(2_000).unwrap();
+    r.net.run_for(Duration::from_millis(300)).wait().unwrap();
+    stream.stop().unwrap();
+    r.net.run_for(Duration::from_millis(100)).wait().unwrap();
+    assert_eq!(r.drive.state().wait().unwrap(), State::OperationEnabled);
+    assert!(r.model.lock().unwrap().velocity() > 1_500.0);
+}
