@@ -185,6 +185,18 @@ pub const fn axis_of(index: u16) -> Option<(u8, u16)> {
     Some((axis, index - axis as u16 * AXIS_OFFSET))
 }
 
+/// The profile object at `index`/`sub` of any axis (index + axis × 0x800), from the table
+/// [`ALL`]: its name, axis-0 index and data type. `None` for an object the table does not have.
+pub fn find(index: u16, sub: u8) -> Option<&'static ObjectInfo> {
+    let (_, base) = axis_of(index)?;
+    ALL.iter().find(|o| o.index == base && o.sub_index == sub)
+}
+
+/// Whether a device type 0x1000 names the CiA 402 profile (its lower 16 bits are 402).
+pub const fn is_drive_profile(device_type: u32) -> bool {
+    device_type & 0xFFFF == 402
+}
+
 /// How a drive numbers quick stop option codes 5 and 6. SSC,
 /// the JS decoder, Beckhoff, Synapticon and UDTStudio agree on [`Standard`](Self::Standard); a
 /// Harmonic Drive SDK header swaps 5 and 6.

@@ -9,7 +9,7 @@ mod sim_device;
 
 pub use dcf::{DcfPdo, DcfPdoError, DcfPdos, ModePdos};
 pub use drive::{
-    Awaited, CyclicSetup, CyclicStream, Drive, DriveError, DriveStatus, FaultReport, Move,
+    Awaited, CyclicSetup, CyclicStream, Drive, DriveError, DriveStatus, FaultReport, Homing, Move,
     OnCancel, Reached, Timeouts,
 };
 pub use sim_device::{DriveHook, simulated_drive};

@@ -9,6 +9,8 @@ use canola::{Duration, Operation};
 use super::super::dcf::{DcfPdo, DcfPdos};
 use crate::mode::ModeOfOperation;
 use crate::objects::{self as obj};
+use crate::state::State;
+use crate::words::Controlword;
 
 use super::{CyclicSetup, Drive, DriveError, DriveOp, lock};
 
@@ -78,15 +80,21 @@ impl CyclicStream {
 }
 
 impl Drive {
-    /// Starts a cyclic synchronous stream in `mode` (csp, csv or cst) through the node's RPDO
-    /// number `rpdo`, which is remapped to carry only the mode's target (0x607A, 0x60FF or
-    /// 0x6071) on every SYNC (type 1). 0x60C2 is set to `period`, the SYNC period the master
-    /// produces (start it with [`Network::start_sync`](canola::Driver::start_sync)); the node
-    /// must be operational for its RPDOs to count.
+    /// Starts a cyclic stream in `mode` through the node's RPDO number `rpdo`, which is remapped
+    /// to carry only the mode's target on every SYNC (type 1): csp 0x607A, csv 0x60FF, cst
+    /// 0x6071, or interpolated position (ip) 0x60C1:1, the interpolation data record. 0x60C2 is
+    /// set to `period`, the SYNC period the master produces (start it with
+    /// [`Network::start_sync`](canola::Driver::start_sync)); the node must be operational for
+    /// its RPDOs to count.
     ///
-    /// The first target is the present actual value for csp (the drive does not jump:
+    /// The first target is the present actual value for csp and ip (the drive does not jump:
     /// ethercat_driver_ros2 #125) and 0 for csv and cst; it is in the RPDO before the mode is
     /// switched, so the drive never takes a stale target. The power state is not changed.
+    ///
+    /// For ip, the linear sub-mode is selected (0x60C0 = 0; a drive without 0x60C0 has only
+    /// that one), and a drive in operation enabled gets controlword bit 4 (enable ip mode), so
+    /// it follows the set-points at once; a drive enabled later needs that bit written
+    /// ([`write_controlword`](Self::write_controlword)`(0x001F)`).
     pub fn start_cyclic(
         &self,
         mode: ModeOfOperation,
@@ -103,14 +111,27 @@ impl Drive {
                 ),
                 ModeOfOperation::CyclicSyncVelocity => (d.at(obj::TARGET_VELOCITY), 32, 0),
                 ModeOfOperation::CyclicSyncTorque => (d.at(obj::TARGET_TORQUE), 16, 0),
+                ModeOfOperation::InterpolatedPosition => (
+                    d.at(obj::INTERPOLATION_DATA_RECORD),
+                    32,
+                    i64::from(d.position().await?),
+                ),
                 m => return Err(DriveError::NotCyclic(m)),
             };
+            if mode == ModeOfOperation::InterpolatedPosition {
+                let sub_mode = d.at(obj::INTERPOLATION_SUB_MODE_SELECT);
+                match d.node.sdo().write(sub_mode, 0i16).await {
+                    // Without 0x60C0 the drive has only linear interpolation.
+                    Err(e) if e.server_abort().is_some_and(|c| c.0 == 0x0602_0000) => {}
+                    r => r?,
+                }
+            }
             d.write_interpolation_period(period).await?;
             let rpdos = d.node.rpdo();
             let mut set = rpdos.read().await?;
             let p = set
                 .get_mut(rpdo)
-                .ok_or_else(|| DriveError::Cyclic(CyclicSetup::NoRpdo(rpdo)))?;
+                .ok_or(DriveError::Cyclic(CyclicSetup::NoRpdo(rpdo)))?;
             p.clear();
             p.map_entry(canola::ObjectAddress::new(target.0, target.1), bits);
             p.set_transmission_type(canola::pdo::TransmissionType::SyncCyclic(1));
@@ -118,7 +139,7 @@ impl Drive {
             rpdos.save(&mut set).await?;
             let p = set
                 .get(rpdo)
-                .ok_or_else(|| DriveError::Cyclic(CyclicSetup::NoRpdo(rpdo)))?;
+                .ok_or(DriveError::Cyclic(CyclicSetup::NoRpdo(rpdo)))?;
             let sender = rpdos.start(p, canola::Transmission::on_sync())?;
             sender.set(target, first)?;
             // Also by SDO, so the target is in place before the mode switch whatever the SYNC
@@ -128,6 +149,11 @@ impl Drive {
                 _ => d.node.sdo().write(target, first as i32).await?,
             }
             d.select_mode(mode).await?;
+            if mode == ModeOfOperation::InterpolatedPosition
+                && State::decode(d.statusword().await?) == Some(State::OperationEnabled)
+            {
+                d.put_controlword(Controlword::from_raw(0x001F)).await?;
+            }
             Ok(CyclicStream {
                 drive: d,
                 sender,
@@ -140,7 +166,7 @@ impl Drive {
     /// 0x60C2 (interpolation time period) set to `period`.
     async fn write_interpolation_period(&self, period: Duration) -> Result<(), DriveError> {
         let ip = obj::InterpolationPeriod::from_micros(period.as_micros())
-            .ok_or_else(|| DriveError::Cyclic(CyclicSetup::Period(period)))?;
+            .ok_or(DriveError::Cyclic(CyclicSetup::Period(period)))?;
         let sdo = || self.node.sdo();
         sdo()
             .write(self.at(obj::INTERPOLATION_TIME_PERIOD_VALUE), ip.value)
@@ -194,7 +220,7 @@ impl Drive {
             rpdos.save(&mut set).await?;
             let p = set
                 .get(m.rpdo.number)
-                .ok_or_else(|| DriveError::Cyclic(CyclicSetup::NoRpdo(m.rpdo.number)))?;
+                .ok_or(DriveError::Cyclic(CyclicSetup::NoRpdo(m.rpdo.number)))?;
             let sender = rpdos.start(p, canola::Transmission::on_sync())?;
             let cw_at = d.at(obj::CONTROLWORD);
             let mode_at = d.at(obj::MODES_OF_OPERATION);

@@ -16,7 +16,7 @@ use super::super::dcf::DcfPdoError;
 use crate::mode::{HomingStatus, ModeOfOperation};
 use crate::objects::ErrorCode;
 use crate::state::{PlanError, State};
-use crate::words::Statusword;
+use crate::words::{Controlword, Statusword};
 
 /// What a wait of a drive command awaited.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -160,8 +160,8 @@ pub enum DriveError {
         /// The statusword.
         statusword: Statusword,
     },
-    /// A cyclic stream needs csp, csv or cst.
-    #[error("mode {0} is not a cyclic synchronous mode (csp, csv, cst)")]
+    /// A cyclic stream needs csp, csv, cst (or, on an RPDO of its own, ip).
+    #[error("mode {0} is not a cyclic mode (csp, csv, cst, ip)")]
     NotCyclic(ModeOfOperation),
     /// The DCF's PDOs cannot serve the mode (see [`Drive::start_cyclic_from_dcf`](super::Drive::start_cyclic_from_dcf)).
     #[error(transparent)]
@@ -169,6 +169,16 @@ pub enum DriveError {
     /// The node has no such PDO, or the period does not fit 0x60C2.
     #[error("cannot set up the cyclic stream: {0}")]
     Cyclic(CyclicSetup),
+    /// The drive refused a mode change while halt (controlword bit 8) is set, as some drives do.
+    #[error(
+        "the drive refused mode {mode} while halt is set (controlword {controlword}); clear halt first (it resumes what the drive was doing)"
+    )]
+    ModeRefusedWhileHalted {
+        /// The mode asked for.
+        mode: ModeOfOperation,
+        /// The controlword read back, bit 8 set.
+        controlword: Controlword,
+    },
     /// Homing ended with an error (statusword bit 13).
     #[error("homing failed: {status} (statusword {statusword})")]
     Homing {

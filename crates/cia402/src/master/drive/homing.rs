@@ -1,4 +1,5 @@
-//! Homing (mode hm): the method 0x6098, the start edge and the wait for homing attained.
+//! Homing (mode hm): how to home ([`Homing`]: the method set, a method number, the present
+//! position, or not at all), the start edge and the wait for homing attained.
 
 use std::prelude::rust_2024::*;
 
@@ -11,7 +12,41 @@ use crate::words::Controlword;
 
 use super::{Awaited, Drive, DriveError, DriveOp, Reached, StopGuard};
 
+/// How [`Drive::home_with`] homes (ros2_canopen #245, #328: homing skippable or custom).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Homing {
+    /// The method 0x6098 holds already.
+    #[default]
+    Configured,
+    /// This method, written to 0x6098 first (CiA 402-2 §10: 1..=35 and 37; negative codes are
+    /// manufacturer-specific).
+    Method(i8),
+    /// Homing on the present position (method 37): no motion, the home offset 0x607C becomes
+    /// the actual position.
+    CurrentPosition,
+    /// The drive is homed already (an absolute encoder, homed by an earlier run or by its own
+    /// program): nothing is written, the mode is left as it is, and the actual position is
+    /// returned. For code that always homes before it moves.
+    AlreadyHomed,
+}
+
+impl Homing {
+    /// CiA 402-2's method code for homing on the present position (35 in drafts before 2016).
+    pub const CURRENT_POSITION_METHOD: i8 = 37;
+}
+
 impl Drive {
+    /// Homes as `how` says (see [`Homing`]); [`home`](Self::home) for the rest.
+    pub fn home_with(&self, how: Homing) -> DriveOp<i32> {
+        match how {
+            Homing::Configured => self.home(None),
+            Homing::Method(m) => self.home(Some(m)),
+            Homing::CurrentPosition => self.home(Some(Homing::CURRENT_POSITION_METHOD)),
+            Homing::AlreadyHomed => self.position(),
+        }
+    }
+
     /// Homing: selects mode hm (in any state) and the method 0x6098 if given, then, in operation
     /// enabled only, starts it (bit 4 rising) and waits until it is attained (bits 12 and 10)
     /// or fails (bit 13). From any other state: [`DriveError::NotEnabled`] after the mode

@@ -44,6 +44,7 @@ use actuals::Following;
 pub use cyclic::CyclicStream;
 pub(super) use error::pdo_kind;
 pub use error::{Awaited, CyclicSetup, DriveError, Reached};
+pub use homing::Homing;
 pub use motion::Move;
 pub use states::FaultReport;
 pub use stop::OnCancel;

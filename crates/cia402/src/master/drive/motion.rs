@@ -30,6 +30,11 @@ impl Drive {
     /// 0x6061 already shows it (ros2_canopen #445); does not read 0x6502 (ros2_canopen #299: a
     /// mode the drive refuses is its SDO abort); does not change the power state (python-canopen
     /// #244). Returns the mode before.
+    ///
+    /// Some drives refuse a mode change while halt (controlword bit 8) is set (ros2_canopen
+    /// #234): the refusal (an SDO abort, or 0x6061 not following) is then
+    /// [`DriveError::ModeRefusedWhileHalted`]. Halt is not cleared here: clearing it resumes
+    /// what the drive was doing; clear it with [`halt`](Self::halt)`(false)` when that is wanted.
     pub fn set_mode(&self, mode: ModeOfOperation) -> DriveOp<ModeOfOperation> {
         let d = self.clone();
         Operation::new(async move { d.select_mode(mode).await })
@@ -43,10 +48,14 @@ impl Drive {
         if before == mode {
             return Ok(before);
         }
-        self.node
+        if let Err(e) = self
+            .node
             .sdo()
             .write(self.at(obj::MODES_OF_OPERATION), mode.code())
-            .await?;
+            .await
+        {
+            return Err(self.halt_refusal(mode).await.unwrap_or(e.into()));
+        }
         let start = self.node.network().now();
         loop {
             let now_mode = self.mode().await?;
@@ -55,6 +64,9 @@ impl Drive {
             }
             let waited = self.node.network().now() - start;
             if waited >= self.timeouts.mode {
+                if let Some(e) = self.halt_refusal(mode).await {
+                    return Err(e);
+                }
                 return Err(DriveError::Timeout {
                     awaited: Awaited::Mode(mode),
                     reached: Reached::Mode(now_mode),
@@ -64,6 +76,16 @@ impl Drive {
             }
             self.sleep().await?;
         }
+    }
+
+    /// A refused change to `mode` explained by halt: the controlword (read back by SDO) has
+    /// bit 8 set.
+    async fn halt_refusal(&self, mode: ModeOfOperation) -> Option<DriveError> {
+        let cw = Controlword::from_le_bytes(self.read_at(self.at(obj::CONTROLWORD)).await.ok()?);
+        cw.halt().then_some(DriveError::ModeRefusedWhileHalted {
+            mode,
+            controlword: cw,
+        })
     }
 
     /// Starts a profile-position move: mode pp, profile velocity, target 0x607A, then the new
