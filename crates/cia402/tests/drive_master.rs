@@ -1,7 +1,7 @@
 //! The `Drive` API against the simulated drive (`DriveHook` behind a `SimDevice` from
 //! `eds/cia402-servo.eds`) on the in-memory bus, through the real SDO and PDO codecs: the
-//! state walk, moves, modes, homing, faults, and one test per master pitfall of
-//! `shared/spec/cia402.md` §7.
+//! state walk, moves, modes, homing, faults, and one test per master pitfall known from
+//! other stacks.
 
 use std::sync::{Arc, Mutex};
 

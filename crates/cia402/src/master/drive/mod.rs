@@ -14,8 +14,9 @@
 //! enabled.
 //!
 //! Waits poll the statusword every [`Timeouts::poll`] of the network's clock (bus time on the
-//! in-memory bus) and end with [`DriveError::Timeout`], which names what was awaited, the state
-//! expected, the state reached and the last statusword.
+//! in-memory bus) and end with [`DriveError::Timeout`], which holds what was awaited
+//! ([`Awaited`]), what the drive showed ([`Reached`]) and the last statusword. A motion command
+//! dropped or cancelled unfinished stops the drive ([`OnCancel`], in `stop`).
 //!
 //! This file holds [`Drive`], what its clones share, the controlword and the reads every command
 //! uses; the errors are in `error`, the state walking in `states`, modes and motion in `motion`,
