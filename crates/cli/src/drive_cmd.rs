@@ -253,12 +253,28 @@ fn interrupted(drive: &Drive, g: Global) -> ExitCode {
     let stopped = (|| -> Result<(State, i32), DriveError> {
         let mut state = drive.quick_stop().wait()?;
         let net = drive.node().network();
+        // Braking on the quick stop ramp takes a while. A drive whose 0x605A (2 when it has
+        // none) ends the quick stop in switch on disabled says so when it stands still; one
+        // that stays in quick stop active, by its velocity.
+        let at = canola_cia402::objects::on_axis(
+            canola_cia402::objects::QUICK_STOP_OPTION_CODE,
+            drive.axis(),
+        );
+        let stays = match at {
+            Some(e) => match drive.node().sdo().read((e.index(), e.sub_index())).wait() {
+                Ok(b) if b.len() >= 2 => {
+                    canola_cia402::QuickStopOption(i16::from_le_bytes([b[0], b[1]]))
+                        .stays_in_quick_stop()
+                }
+                _ => false,
+            },
+            None => false,
+        };
         let start = net.now();
-        // Braking on the quick stop ramp takes a while; the state says when it is over.
-        while state == State::QuickStopActive
-            && drive.velocity().wait()? != 0
-            && net.now() - start < Duration::from_secs(10)
-        {
+        while state == State::QuickStopActive && net.now() - start < Duration::from_secs(10) {
+            if stays && drive.velocity().wait()? == 0 {
+                break;
+            }
             net.run_for(Duration::from_millis(20)).wait()?;
             state = drive.state().wait()?;
         }
