@@ -399,6 +399,7 @@ impl fmt::Display for Transition {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::objects::QuickStopOption;
 
     #[test]
     fn state_table_of_the_spec() {

@@ -182,7 +182,7 @@ impl Drive {
     /// [`wait_target_reached`](Self::wait_target_reached). Returns the final position.
     ///
     /// Dropped or cancelled before it ends, it stops the drive as [`on_cancel`](Self::on_cancel)
-    /// says (a quick stop unless set otherwise; see [`OnCancel`] for what a panic leaves).
+    /// says (a quick stop unless set otherwise; see [`OnCancel`](super::OnCancel) for what a panic leaves).
     pub fn move_to(&self, m: Move) -> DriveOp<i32> {
         let d = self.clone();
         Operation::new(async move {
