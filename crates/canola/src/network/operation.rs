@@ -70,7 +70,7 @@ enum Body<'a, T, E> {
     Code(BoxedBody<'a, T, E>),
     /// One SDO (or USDO) request, the commonest operation, held as it is: a blocking wait runs
     /// it with no future or waker made for it (`Shared::run`, as the code form's blocking
-    /// path does). `tests/operation.rs` checks that both forms give the same results.
+    /// path does). `tests/main/operation.rs` checks that both forms give the same results.
     Request(OneRequest<T, E>),
 }
 

@@ -1,4 +1,4 @@
-"""python-can as the peer of the CAN FD interop test (tests/fd_python.rs).
+"""python-can as the peer of the CAN FD interop test (tests/main/fd_python.rs).
 
 Joins python-can's udp_multicast bus (CAN FD enabled), prints the first CAN FD frame it
 receives as python-can decoded it, then sends one CAN FD frame of its own.

@@ -1,4 +1,4 @@
-"""python-canopen 2.4.1 as the device for the PDO interop test (tests/pdo_python.rs).
+"""python-canopen 2.4.1 as the device for the PDO interop test (tests/main/pdo_python.rs).
 
 A LocalNode with the Buerkert EDS on python-can's udp_multicast bus. It consumes its RPDO1 as
 python-canopen decodes it (one line per reception) and, on "TPDO" from stdin, reads its own

@@ -8,7 +8,7 @@ use canola::{AbortCode, MemoryBus, Network, NodeId, ParameterGroup, SimDevice};
 
 /// A device with 0x1010/0x1011 (all parameters, communication, application, manufacturer)
 /// and a manufacturer-specific parameter.
-pub const STORING_EDS: &str = "[FileInfo]\nFileName=storing.eds\nFileVersion=1\nEDSVersion=4.0\n\
+const STORING_EDS: &str = "[FileInfo]\nFileName=storing.eds\nFileVersion=1\nEDSVersion=4.0\n\
 [DeviceInfo]\nVendorName=test\nProductName=storing\nVendorNumber=0x39\nProductNumber=2\n\
 [MandatoryObjects]\nSupportedObjects=3\n1=0x1000\n2=0x1001\n3=0x1018\n\
 [1000]\nParameterName=Device type\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0\nPDOMapping=0\n\
@@ -112,7 +112,7 @@ fn a_wrong_signature_and_a_device_without_storage_are_refused() {
     assert_eq!(abort(&e), Some(AbortCode::SUBINDEX_DOES_NOT_EXIST), "{e}");
 
     // The Bürkert device has no 0x1010: the abort says storing is not supported.
-    let eds = include_bytes!("../../../eds/burkert-generic.eds");
+    let eds = include_bytes!("../../../../eds/burkert-generic.eds");
     let (_bus, _net, node) = setup(eds);
     let e = node.store_parameters().wait().unwrap_err();
     assert_eq!(abort(&e), Some(AbortCode::OBJECT_DOES_NOT_EXIST), "{e}");

@@ -2,13 +2,11 @@
 //! with no future made for it), every other one as async code: both forms, and the blocking
 //! and awaited ways to finish each, give the same result for the same transfer.
 
-#![cfg(feature = "tokio")]
-
 use std::future::IntoFuture;
 
 use canola::{Duration, Error, MemoryBus, Method, Network, NodeId, Operation, SimDevice};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

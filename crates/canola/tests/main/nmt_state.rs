@@ -6,7 +6,7 @@ use canola::transport::Transport;
 use canola::{Error, Network, NmtState, SimDevice};
 use canola_frame::{CanFrame, CanId, Duration, NodeId};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

@@ -19,7 +19,7 @@ fn a_simulated_device_keeps_its_eds_warnings() {
         device.warnings()
     );
     assert_eq!(device.warnings(), parsed.diagnostics.as_slice());
-    let clean = include_bytes!("../../../eds/burkert-generic.eds");
+    let clean = include_bytes!("../../../../eds/burkert-generic.eds");
     let device = SimDevice::from_eds(NodeId::new(5).unwrap(), clean).unwrap();
     let parsed = canola::od::parse(&clean[..]).unwrap();
     assert_eq!(device.warnings(), parsed.diagnostics.as_slice());

@@ -10,7 +10,7 @@ use canola::{Network, SimDevice, Value};
 use canola_frame::{Duration, NodeId};
 use canola_od::{DataType, Entry};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

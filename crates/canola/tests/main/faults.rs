@@ -16,7 +16,7 @@ use canola::{
     SdoErrorKind, SimDevice, Station, Transport,
 };
 
-const EDS: &[u8] = include_bytes!("../../../tests/vcan/test-device.eds");
+const EDS: &[u8] = include_bytes!("../../../../tests/vcan/test-device.eds");
 const NODE: u8 = 5;
 /// The variable-size object the transfers move (VISIBLE_STRING "Test text").
 const BIG: (u16, u8) = (0x2001, 0);

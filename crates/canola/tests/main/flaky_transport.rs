@@ -23,7 +23,7 @@ use canola::transport::{Received, Transport, TransportError};
 use canola::{Error, HeartbeatEvent, Method, Network, NetworkEvent, SdoErrorKind, SimDevice};
 use canola_frame::{CanFrame, Duration, Instant, NodeId};
 
-const EDS: &[u8] = include_bytes!("../../../tests/vcan/test-device.eds");
+const EDS: &[u8] = include_bytes!("../../../../tests/vcan/test-device.eds");
 const NODE: u8 = 5;
 
 fn n(id: u8) -> NodeId {

@@ -7,7 +7,7 @@ use canola::mem::MemoryBus;
 use canola::{Error, Network, SdoErrorKind, SimDevice};
 use canola_frame::NodeId;
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 /// Takes nothing: like writing to `/dev/full`.
 struct Full;

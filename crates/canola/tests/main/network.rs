@@ -9,7 +9,7 @@ use canola_frame::{CanFrame, Duration, NodeId};
 use canola_nmt::{DeviceState, Emcy, EmcyCode, ErrorRegister, HeartbeatEvent};
 use canola_sdo::{AbortCode, ErrorKind};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 use canola::{MemoryBus, Network, SdoErrorKind, SimDevice};
 use canola_frame::{Duration, NodeId};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

@@ -5,8 +5,6 @@
 //! bytes and BEL, and that a vanished adapter is an event and an error and comes back when the
 //! path works again.
 
-#![cfg(all(unix, feature = "slcan"))]
-
 use std::os::fd::{AsFd, OwnedFd};
 use std::path::PathBuf;
 use std::sync::mpsc;

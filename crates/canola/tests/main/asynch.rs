@@ -1,12 +1,11 @@
 //! The async API: the same core, futures on top; dropping a future cancels its request.
-#![cfg(feature = "tokio")]
 
 use canola::mem::{BusConfig, ClockMode, MemoryBus};
 use canola::transport::{Received, Transport};
 use canola::{Network, SimDevice};
 use canola_frame::{Duration, NodeId};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

@@ -6,7 +6,6 @@
 //! Runs with `$CANOPEN_PYTHON` or `<workspace>/.venv/bin/python` (python-can and msgpack
 //! importable); without them the test prints that it skipped, unless
 //! `CANOPEN_REQUIRE_PYTHON=1`.
-#![cfg(all(feature = "socketcan", target_os = "linux"))]
 
 use std::io::{BufRead, BufReader};
 use std::net::{Ipv4Addr, SocketAddrV4};

@@ -7,7 +7,7 @@ use canola::mem::MemoryBus;
 use canola::{Error, Network, SimDevice};
 use canola_frame::{CanId, NodeId};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

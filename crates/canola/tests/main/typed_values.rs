@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use canola::{Identity, MemoryBus, Network, NodeId, SimDevice, Value};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 #[test]
 fn values_convert_to_rust_types() {

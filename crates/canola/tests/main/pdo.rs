@@ -13,7 +13,7 @@ use canola::transport::{Received, Transport};
 use canola::{Network, NetworkEvent, ObjectAddress, SimDevice, Transmission};
 use canola_frame::{CanFrame, CanId, Duration, Instant, NodeId};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

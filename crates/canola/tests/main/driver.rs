@@ -10,7 +10,7 @@ use canola::transport::{Received, Transport, TransportError};
 use canola::{Error, HeartbeatEvent, Network, NetworkEvent, SimDevice};
 use canola_frame::{CanFrame, Duration, Instant, NodeId};
 
-const EDS: &[u8] = include_bytes!("../../../eds/burkert-generic.eds");
+const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
 
 fn n(id: u8) -> NodeId {
     NodeId::new(id).unwrap()

@@ -1,0 +1,182 @@
+//! `canola.RemoteNode` (a node on the network, with its `sdo` and `nmt`) and `canola.NmtMaster`
+//! (`node.nmt`: the node's state, NMT commands, waits for boot-up and heartbeat).
+
+use std::sync::{Arc, Mutex};
+
+use canola::{NmtState, NodeId, ObjectDictionary};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::network::{Network, load_dictionary, lock, node_id};
+use crate::sdo::SdoClient;
+use crate::{NetworkError, NmtError, seconds, wait};
+
+/// What every handle of one node shares: its ID, its dictionary, and the network it was added
+/// to (looked up at each call, so a disconnected network fails the call).
+pub(crate) struct NodeLink {
+    pub(crate) id: NodeId,
+    pub(crate) od: Option<Arc<ObjectDictionary>>,
+    network: Mutex<Option<Py<Network>>>,
+}
+
+impl NodeLink {
+    pub(crate) fn new(id: NodeId, od: Option<ObjectDictionary>) -> Arc<Self> {
+        Arc::new(Self {
+            id,
+            od: od.map(Arc::new),
+            network: Mutex::new(None),
+        })
+    }
+
+    /// The node now belongs to `network`.
+    pub(crate) fn attach(&self, network: Py<Network>) {
+        *lock(&self.network) = Some(network);
+    }
+
+    /// The facade's handle of the node, on the network it was added to.
+    pub(crate) fn node(&self) -> PyResult<canola::Node> {
+        let net = lock(&self.network)
+            .as_ref()
+            .ok_or_else(|| {
+                NetworkError::new_err(format!(
+                    "node {} is not on a network: network.add_node() it first",
+                    self.id
+                ))
+            })?
+            .get()
+            .connected()?;
+        Ok(net.node(self.id))
+    }
+}
+
+/// A CANopen node as the master sees it (python-canopen's `RemoteNode`): `sdo`, `nmt`.
+#[pyclass(module = "canola", frozen)]
+pub(crate) struct RemoteNode {
+    pub(crate) link: Arc<NodeLink>,
+    sdo: Py<SdoClient>,
+    nmt: Py<NmtMaster>,
+}
+
+impl RemoteNode {
+    /// A node over `link`, its handles made (needs the GIL: they are Python objects).
+    pub(crate) fn from_link(link: Arc<NodeLink>) -> Self {
+        Python::attach(|py| Self {
+            sdo: Py::new(py, SdoClient::new(link.clone())).expect("allocating a handle"),
+            nmt: Py::new(py, NmtMaster { link: link.clone() }).expect("allocating a handle"),
+            link,
+        })
+    }
+}
+
+#[pymethods]
+impl RemoteNode {
+    /// The node `node_id` described by `object_dictionary` (an EDS/DCF path or bytes); add it
+    /// to a network with `network.add_node(node)`.
+    #[new]
+    #[pyo3(signature = (node_id, object_dictionary = None))]
+    fn new(node_id: i64, object_dictionary: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+        let id = self::node_id(node_id)?;
+        let od = object_dictionary.map(load_dictionary).transpose()?;
+        Ok(Self::from_link(NodeLink::new(id, od)))
+    }
+
+    /// The node-ID.
+    #[getter]
+    fn id(&self) -> u8 {
+        self.link.id.get()
+    }
+
+    /// The SDO client: objects by index or name, `upload`, `download`.
+    #[getter]
+    fn sdo(&self, py: Python<'_>) -> Py<SdoClient> {
+        self.sdo.clone_ref(py)
+    }
+
+    /// The node's NMT: state, commands, waits.
+    #[getter]
+    fn nmt(&self, py: Python<'_>) -> Py<NmtMaster> {
+        self.nmt.clone_ref(py)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<canola.RemoteNode {}>", self.link.id)
+    }
+}
+
+/// python-canopen's name of an NMT state.
+fn state_name(state: Option<NmtState>) -> String {
+    match state {
+        None | Some(NmtState::BootUp) => "INITIALISING".into(),
+        Some(NmtState::Stopped) => "STOPPED".into(),
+        Some(NmtState::Operational) => "OPERATIONAL".into(),
+        Some(NmtState::PreOperational) => "PRE-OPERATIONAL".into(),
+        Some(NmtState::Unknown(v)) => format!("UNKNOWN STATE {v}"),
+    }
+}
+
+/// A node's NMT (python-canopen's `NmtMaster`, `node.nmt`).
+#[pyclass(module = "canola", frozen)]
+pub(crate) struct NmtMaster {
+    link: Arc<NodeLink>,
+}
+
+#[pymethods]
+impl NmtMaster {
+    /// The node's state as it last reported it (heartbeat, node guarding or boot-up):
+    /// `"INITIALISING"` (nothing heard yet, or its boot-up), `"PRE-OPERATIONAL"`,
+    /// `"OPERATIONAL"`, `"STOPPED"`. Setting it sends the NMT command: `"OPERATIONAL"`,
+    /// `"STOPPED"`, `"PRE-OPERATIONAL"`, `"RESET"`, `"RESET COMMUNICATION"`.
+    #[getter]
+    fn state(&self) -> PyResult<String> {
+        Ok(state_name(self.link.node()?.nmt().state()))
+    }
+
+    #[setter]
+    fn set_state(&self, state: &str) -> PyResult<()> {
+        let nmt = self.link.node()?.nmt();
+        let sent = match state.to_ascii_uppercase().as_str() {
+            "OPERATIONAL" => nmt.start(),
+            "STOPPED" => nmt.stop(),
+            "PRE-OPERATIONAL" => nmt.enter_preoperational(),
+            "RESET" | "INITIALISING" => nmt.reset_node(),
+            "RESET COMMUNICATION" => nmt.reset_communication(),
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "{state:?} is not an NMT command of CiA 301: OPERATIONAL, STOPPED, \
+                     PRE-OPERATIONAL, RESET or RESET COMMUNICATION"
+                )));
+            }
+        };
+        sent.map_err(crate::to_py_err)
+    }
+
+    /// Waits for a boot-up message of the node not waited for yet (one that came before the
+    /// call counts, so a reset and then this wait cannot miss it). Raises `NmtError` after
+    /// `timeout` seconds.
+    #[pyo3(signature = (timeout = 10.0))]
+    fn wait_for_bootup(&self, py: Python<'_>, timeout: f64) -> PyResult<()> {
+        let op = self.link.node()?.nmt().wait_for_bootup(seconds(timeout)?);
+        wait(py, op)
+    }
+
+    /// Waits for the node's next heartbeat (or another sign of life) and returns its state.
+    /// Raises `NmtError` after `timeout` seconds.
+    #[pyo3(signature = (timeout = 10.0))]
+    fn wait_for_heartbeat(&self, py: Python<'_>, timeout: f64) -> PyResult<String> {
+        let node = self.link.node()?;
+        let net = node.network().clone();
+        let now = net.now();
+        let op = node.nmt().wait_for_life(Some(now), now + seconds(timeout)?);
+        if !wait(py, op)? {
+            return Err(NmtError::new_err(format!(
+                "no heartbeat from node {} within {timeout} s",
+                self.link.id
+            )));
+        }
+        self.state()
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<canola.NmtMaster node {}>", self.link.id)
+    }
+}

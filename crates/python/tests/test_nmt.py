@@ -1,0 +1,40 @@
+"""NMT through python-canopen's vocabulary: state, commands, boot-up and heartbeat waits."""
+
+from __future__ import annotations
+
+import pytest
+
+import canola
+from conftest import EDS
+
+
+def test_state_is_what_the_node_reports(node: canola.RemoteNode) -> None:
+    assert node.nmt.wait_for_heartbeat(2) == "PRE-OPERATIONAL"
+    assert node.nmt.state == "PRE-OPERATIONAL"
+    node.nmt.state = "OPERATIONAL"
+    assert node.nmt.wait_for_heartbeat(2) == "OPERATIONAL"
+    assert node.nmt.state == "OPERATIONAL"
+    node.nmt.state = "STOPPED"
+    assert node.nmt.wait_for_heartbeat(2) == "STOPPED"
+
+
+def test_reset_then_wait_for_bootup(node: canola.RemoteNode) -> None:
+    node.nmt.state = "OPERATIONAL"
+    assert node.nmt.wait_for_heartbeat(2) == "OPERATIONAL"
+    node.nmt.state = "RESET"
+    node.nmt.wait_for_bootup(2)
+    assert node.nmt.wait_for_heartbeat(2) == "PRE-OPERATIONAL"
+
+
+def test_waits_time_out_with_nmt_error(network: canola.Network) -> None:
+    absent = network.add_node(9, str(EDS))
+    with pytest.raises(canola.NmtError, match="node 9"):
+        absent.nmt.wait_for_bootup(0.5)
+    with pytest.raises(canola.NmtError, match="node 9"):
+        absent.nmt.wait_for_heartbeat(0.5)
+    assert absent.nmt.state == "INITIALISING"
+
+
+def test_commands_outside_cia_301_are_refused(node: canola.RemoteNode) -> None:
+    with pytest.raises(ValueError, match="SLEEP"):
+        node.nmt.state = "SLEEP"
