@@ -29,29 +29,31 @@
 //!   each event of the simulation;
 //! - the status LED computed with [`LedState::indication`] ([`BurkertDevice::led`]).
 //!
-//! One cohesive machine (the device hook and the station share the device's state), so it
-//! stays in one file.
+//! The device and its station are here; the SDO hook (the object checks) is in `hook`, the
+//! logbook in `logbook`; both share the device's state through `Shared`.
 
 use std::prelude::rust_2024::*;
 use std::{format, vec};
 
 use std::collections::{BTreeMap, VecDeque};
-use std::fmt::Write as _;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use canola::transport::Station;
-use canola::{DeviceHook, HookActions, SimDevice, Values};
+use canola::{SimDevice, Values};
 use canola_frame::{CanFrame, CanId, Duration, Instant, NodeId};
 use canola_nmt::DeviceState;
 use canola_od::{DataType, ObjectDictionary};
-use canola_pdo::{Direction, Mapping, MappingError};
-use canola_sdo::AbortCode;
 
 use crate::colour::{LedColour, PredefinedColour};
-use crate::comm::{BitRate, BusMode, CanOperationStatus, ResetCommand, Termination};
+use crate::comm::{CanOperationStatus, ResetCommand};
 use crate::led::{LedIndication, LedMode, LedState, ValveModeColours, ValvePosition};
 use crate::ne107::Ne107Status;
-use canola_pdo::OdView;
+
+mod hook;
+mod logbook;
+
+use hook::BurkertHook;
+use logbook::{LogEntry, history};
 
 /// How long the LED flashes after a locate.
 pub const LOCATE_DURATION: Duration = Duration::from_secs(10);
@@ -69,15 +71,6 @@ fn operation_status(state: DeviceState) -> CanOperationStatus {
             CanOperationStatus::PreOperational
         }
     }
-}
-
-#[derive(Debug, Clone)]
-struct LogEntry {
-    /// Seconds relative to the start of the simulation (negative: history).
-    time_s: f64,
-    status: Ne107Status,
-    source: &'static str,
-    text: String,
 }
 
 /// State shared by the device and its SDO hook.
@@ -113,282 +106,10 @@ impl Shared {
             text: text.into(),
         });
     }
-
-    fn logbook_xml(&self, values: &Values) -> Vec<u8> {
-        let name = values
-            .get(0x2000, 1)
-            .map(|b| String::from_utf8_lossy(b).into_owned())
-            .unwrap_or_default();
-        let serial = values.get_u64(0x2000, 7).unwrap_or(0);
-        let mut x = String::with_capacity(4096 + 96 * self.log.len());
-        x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-        let _ = writeln!(
-            x,
-            "<logbook device=\"{}\" serial=\"{serial}\" node-id=\"{}\" boots=\"{}\">",
-            xml_escape(&name),
-            self.node.get(),
-            self.boots
-        );
-        for (i, e) in self.log.iter().enumerate() {
-            let _ = writeln!(
-                x,
-                "  <entry id=\"{}\" time-s=\"{:.3}\" ne107=\"{}\" source=\"{}\">{}</entry>",
-                i + 1,
-                e.time_s,
-                e.status.to_raw(),
-                e.source,
-                xml_escape(&e.text)
-            );
-        }
-        x.push_str("</logbook>\n");
-        x.into_bytes()
-    }
-}
-
-fn xml_escape(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '&' => out.push_str("&amp;"),
-            '"' => out.push_str("&quot;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-fn history() -> Vec<LogEntry> {
-    const TEXTS: [(&str, Ne107Status); 6] = [
-        ("device started", Ne107Status::DiagnosisInactive),
-        (
-            "supply voltage below 18 V for 120 ms",
-            Ne107Status::OutOfSpecification,
-        ),
-        (
-            "supply voltage back in range",
-            Ne107Status::DiagnosisInactive,
-        ),
-        (
-            "maintenance interval reached (100000 switching cycles)",
-            Ne107Status::MaintenanceRequired,
-        ),
-        ("maintenance acknowledged", Ne107Status::DiagnosisInactive),
-        (
-            "parameter set changed over bUS",
-            Ne107Status::DiagnosisActive,
-        ),
-    ];
-    (0..HISTORIC_LOG_ENTRIES)
-        .map(|i| {
-            let (text, status) = TEXTS[i % TEXTS.len()];
-            LogEntry {
-                time_s: -3600.0 * (HISTORIC_LOG_ENTRIES - i) as f64,
-                status,
-                source: "history",
-                text: text.into(),
-            }
-        })
-        .collect()
 }
 
 fn lock(m: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
-
-/// The SDO side of the Bürkert behaviour.
-struct BurkertHook {
-    shared: Arc<Mutex<Shared>>,
-}
-
-/// Any undefined value of a typed object is refused the same way.
-fn invalid<E>(_: E) -> AbortCode {
-    AbortCode::INVALID_VALUE
-}
-
-fn one_byte(value: &[u8]) -> Result<u8, AbortCode> {
-    match value {
-        [b] => Ok(*b),
-        _ => Err(AbortCode::LENGTH_MISMATCH),
-    }
-}
-
-fn u32_of(value: &[u8]) -> Result<u32, AbortCode> {
-    value
-        .try_into()
-        .map(u32::from_le_bytes)
-        .map_err(|_| AbortCode::LENGTH_MISMATCH)
-}
-
-impl BurkertHook {
-    /// Checks a mapping about to be enabled (sub 0 = `count`) against the dictionary.
-    fn check_mapping(
-        od: &ObjectDictionary,
-        values: &Values,
-        index: u16,
-        count: u8,
-    ) -> Result<(), AbortCode> {
-        let direction = if index >= 0x1A00 {
-            Direction::Transmit
-        } else {
-            Direction::Receive
-        };
-        let raw: Vec<u32> = (1..=count)
-            .map(|sub| values.get_u64(index, sub).unwrap_or(0) as u32)
-            .collect();
-        let dict = OdView::with_values(od, values);
-        match Mapping::from_raw_checked(direction, &raw, &dict) {
-            Ok(_) => Ok(()),
-            Err(MappingError::TooLong(_) | MappingError::TooManyEntries(_)) => {
-                Err(AbortCode::PDO_LENGTH_EXCEEDED)
-            }
-            Err(
-                MappingError::NotMappable(_)
-                | MappingError::NoSuchObject(_)
-                | MappingError::AccessDenied { .. },
-            ) => Err(AbortCode::NOT_MAPPABLE),
-            Err(_) => Err(AbortCode::PARAMETER_INCOMPATIBILITY),
-        }
-    }
-}
-
-impl DeviceHook for BurkertHook {
-    fn on_write(
-        &mut self,
-        now: Instant,
-        values: &mut Values,
-        index: u16,
-        sub: u8,
-        value: &[u8],
-        _actions: &mut HookActions,
-    ) -> Result<(), AbortCode> {
-        let mut s = lock(&self.shared);
-        s.now = now;
-        match (index, sub) {
-            (0x2101, 1) => match one_byte(value)? {
-                0 => {
-                    if s.locate_latched {
-                        s.log("master", "locating set back to 0");
-                    }
-                    s.locate_latched = false;
-                    s.locate_until = None;
-                }
-                1 if !s.locate_latched => {
-                    s.locate_latched = true;
-                    s.locate_until = Some(now + LOCATE_DURATION);
-                    s.log("master", "locating started");
-                }
-                // Still 1: the manual wants a 0 first; nothing restarts.
-                1 => {}
-                _ => return Err(AbortCode::INVALID_VALUE),
-            },
-            (0x210A, 1) => {
-                let on = match one_byte(value)? {
-                    0 => false,
-                    1 => true,
-                    _ => return Err(AbortCode::INVALID_VALUE),
-                };
-                if on != s.maintenance {
-                    s.maintenance = on;
-                    s.log(
-                        "master",
-                        if on {
-                            "maintenance state entered"
-                        } else {
-                            "maintenance state left"
-                        },
-                    );
-                }
-                values.set(0x2004, 1, vec![s.ne107().to_raw()]);
-            }
-            (0x2120, 0) => {
-                LedMode::from_u32(u32_of(value)?).map_err(invalid)?;
-            }
-            (0x2121, 1..=3) | (0x2122, 0) => {
-                LedColour::from_u32(u32_of(value)?).map_err(invalid)?;
-            }
-            (0x2001, 1) => {
-                let rate = BitRate::from_code(one_byte(value)?).map_err(invalid)?;
-                if !rate.offered_by_burkert() {
-                    return Err(AbortCode::INVALID_VALUE);
-                }
-                s.log("master", format!("bit rate {rate} stored"));
-            }
-            (0x2001, 2) => {
-                let id = one_byte(value)?;
-                NodeId::new(id).map_err(|_| AbortCode::INVALID_VALUE)?;
-                s.log("master", format!("node-ID {id} stored"));
-            }
-            (0x2001, 3) => {
-                BusMode::from_u8(one_byte(value)?).map_err(invalid)?;
-            }
-            (0x2001, 4) => match ResetCommand::from_u8(one_byte(value)?).map_err(invalid)? {
-                ResetCommand::None => {}
-                r => s.pending_reset = Some(r),
-            },
-            (0x2001, 0x0B) => {
-                Termination::from_u8(one_byte(value)?).map_err(invalid)?;
-            }
-            (0x1400..=0x1BFF, _) => {
-                let is_mapping = matches!(index, 0x1600..=0x17FF | 0x1A00..=0x1BFF);
-                if is_mapping && sub == 0 {
-                    let count = one_byte(value)?;
-                    if count > 0 {
-                        let od = s.od.clone();
-                        Self::check_mapping(&od, values, index, count)?;
-                    }
-                }
-            }
-            _ => {}
-        }
-        Ok(())
-    }
-
-    fn on_read(
-        &mut self,
-        now: Instant,
-        values: &Values,
-        index: u16,
-        sub: u8,
-    ) -> Option<Result<Vec<u8>, AbortCode>> {
-        let mut s = lock(&self.shared);
-        s.now = now;
-        match (index, sub) {
-            (0x2003, 4) => Some(Ok(s.logbook_xml(values))),
-            (0x2004, 1) => Some(Ok(vec![s.ne107().to_raw()])),
-            (0x2001, 0x0A) => Some(Ok(vec![operation_status(s.state).to_u8()])),
-            (0x2004, 0x12) => {
-                let secs = now.saturating_duration_since(s.booted_at).as_micros() / 1_000_000;
-                Some(Ok((secs as u32).to_le_bytes().to_vec()))
-            }
-            (0x2004, 4) => {
-                let secs = now.as_micros() / 1_000_000;
-                Some(Ok((secs as u32).to_le_bytes().to_vec()))
-            }
-            _ => None,
-        }
-    }
-
-    fn on_timeout(&mut self, now: Instant, _values: &mut Values, _actions: &mut HookActions) {
-        let mut s = lock(&self.shared);
-        s.now = now;
-        if s.locate_until.is_some_and(|t| t <= now) {
-            s.locate_until = None;
-            s.log("device", "locating ended (LED flashing stopped)");
-        }
-    }
-
-    fn poll_timeout(&self) -> Option<Instant> {
-        lock(&self.shared).locate_until
-    }
-
-    fn on_state(&mut self, now: Instant, state: DeviceState, values: &mut Values) {
-        let mut s = lock(&self.shared);
-        s.now = now;
-        s.state = state;
-        values.set(0x2001, 0x0A, vec![operation_status(state).to_u8()]);
-    }
 }
 
 /// A simulated Bürkert device. See the module docs.

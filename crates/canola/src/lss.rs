@@ -1,4 +1,4 @@
-//! LSS master services on the [`Network`](crate::Network) (CiA 305): the `canola-lss` machines driven by the
+//! LSS master services on the [`Network`] (CiA 305): the `canola-lss` machines driven by the
 //! network's loop. One LSS job runs at a time (LSS has one channel per bus, COB-IDs 0x7E5/0x7E4).
 //!
 //! Every service goes through one driver, `Lss::run`: it starts the machine, hands it to the
@@ -10,7 +10,7 @@ use canola_frame::{Instant, NodeId};
 
 use crate::error::Error;
 use crate::network::operation;
-use crate::network::{Driver, Operation, Sdo};
+use crate::network::{Network, Operation, Sdo};
 
 // The CiA 305 vocabulary (addresses, bit timings, node-ID pools, the wire messages and the slave
 // machine), so `canola::lss` is the one LSS import of an application.
@@ -22,7 +22,14 @@ use crate::machine::lss::LssOutput;
 /// LSS master services of a network.
 #[derive(Debug, Clone)]
 pub struct Lss {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
+}
+
+impl Network {
+    /// The LSS master (CiA 305).
+    pub fn lss(&self) -> Lss {
+        Lss { net: self.clone() }
+    }
 }
 
 impl Lss {

@@ -11,7 +11,7 @@
 
 use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 
-use crate::error::Error;
+use crate::error::{Error, Unresolved};
 use crate::network::Operation;
 use crate::network::Sdo;
 
@@ -189,9 +189,7 @@ impl Sdo {
             .ok_or_else(|| Error::UnknownObject {
                 node,
                 name: String::new(),
-                reason:
-                    "the node was added without a dictionary (Network::add_node_with_dictionary)"
-                        .into(),
+                reason: Unresolved::NoDictionary,
             })
     }
 
@@ -205,10 +203,9 @@ impl Sdo {
                     node: self.node_id(),
                     name: name.into(),
                     reason: if od.find_object(name).is_some() {
-                        "it is an array or record: name a sub-object as \"object.sub-object\""
-                            .into()
+                        Unresolved::NotOneValue
                     } else {
-                        "no such object in the node's dictionary".into()
+                        Unresolved::NotFound
                     },
                 })
             }

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::{CommandFactory as _, Parser, Subcommand};
 
 mod adapter;
+mod analyze;
 mod argv;
 mod boot;
 mod burkert;
@@ -123,6 +124,10 @@ enum Command {
         /// candump log file.
         file: std::path::PathBuf,
     },
+    /// Judge a candump log: summary, timeline and problem list (lost heartbeats, boot-up
+    /// loops, EMCY, SDO aborts and silence, SYNC, PDOs, error frames, duplicate node-IDs, bus
+    /// load); --check for CI, --frames to decode every frame.
+    Analyze(analyze::AnalyzeArgs),
     /// A live view of the network in the terminal: nodes, bus load, PDO values, SDO transfers,
     /// events; keys for NMT, SDO read and write (see `?` inside). With --replay, a candump log.
     Top(top::TopArgs),
@@ -219,6 +224,7 @@ fn main() -> ExitCode {
         },
         Command::Record { output, duration } => traffic::run_record(&cli.bus, &output, duration),
         Command::Replay { file } => traffic::run_replay(&cli.bus, &file, global),
+        Command::Analyze(args) => analyze::run(&args, &cli.bus, global),
         Command::Demo => demo::run(),
         Command::Top(args) => top::run(&args, &cli.bus, global),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),

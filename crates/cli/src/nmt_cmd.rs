@@ -158,7 +158,7 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
         };
         match r.wait() {
             Ok(()) => confirmed.push((node, want)),
-            Err(canola::Error::Timeout(_)) => {
+            Err(canola::Error::Timeout { .. }) => {
                 missing.push(unconfirmed(&net, node, &want, args.timeout))
             }
             Err(e) => return fail(e),

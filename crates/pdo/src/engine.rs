@@ -44,16 +44,23 @@
 //! 0x8220). The receive deadline (event timer of a receive PDO) is armed by each reception and
 //! reported once per lapse ([`Event::Timeout`]).
 //!
-//! One cohesive machine (its receive and transmit halves share the timers and the SYNC
-//! counter), so it stays in one file.
+//! The receive and transmit halves share the timers and the SYNC counter, so both stay in this
+//! file; the state kept per PDO is in `slots`, the events and errors the engine reports in
+//! `event`.
 
-use canola_frame::{CanFrame, CanId, Duration, Instant};
+use canola_frame::{CanFrame, CanId, Instant};
 use heapless::{Deque, Vec};
 
-use crate::comm::{CommError, CommParams, TransmissionType};
-use crate::dictionary::{ObjectAddress, ObjectStore, StoreError};
+use crate::comm::{CommParams, TransmissionType};
+use crate::dictionary::ObjectStore;
 use crate::mapping::{Mapping, field_mask};
 use crate::pack::{Unpacked, field, load_word};
+
+mod event;
+mod slots;
+
+pub use event::{EngineError, Event, PdoRef};
+use slots::{NO_KEY, Rx, Tx, config_key, key_of};
 
 /// Default capacity `Q` of an engine's transmit and event queues: frames and events it buffers
 /// between two drains of [`Engine::poll_transmit`] / [`Engine::poll_event`]. One SYNC can make
@@ -95,198 +102,6 @@ impl TpdoId {
     /// 0-based position.
     pub const fn index(self) -> usize {
         self.0 as usize
-    }
-}
-
-/// Either kind of PDO.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum PdoRef {
-    /// A receive PDO.
-    Rx(RpdoId),
-    /// A transmit PDO.
-    Tx(TpdoId),
-}
-
-/// What happened, for the owner to act on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum Event {
-    /// A receive PDO took effect: its values are in the store and in [`Engine::received`].
-    /// Bit `i` of `changed` is set when mapped object `i` differs from the previous reception
-    /// (all bits on the first one).
-    Received {
-        /// Which PDO.
-        pdo: RpdoId,
-        /// Changed mapped objects, bit `i` for object `i`.
-        changed: u64,
-    },
-    /// A receive PDO did not arrive within its event time after the previous one.
-    Timeout {
-        /// Which PDO.
-        pdo: RpdoId,
-        /// When the deadline passed.
-        deadline: Instant,
-    },
-    /// A receive PDO with fewer data bytes than mapped; not processed (EMCY 0x8210).
-    LengthError {
-        /// Which PDO.
-        pdo: RpdoId,
-        /// Bytes the mapping needs.
-        expected: u8,
-        /// Bytes received.
-        actual: u8,
-    },
-    /// A receive PDO with more data bytes than mapped; processed from its first bytes
-    /// (EMCY 0x8220).
-    LengthExceeded {
-        /// Which PDO.
-        pdo: RpdoId,
-        /// Bytes the mapping needs.
-        expected: u8,
-        /// Bytes received.
-        actual: u8,
-    },
-    /// The store refused to read (transmit PDO: not sent) or write (receive PDO: the other
-    /// objects were written) a mapped object.
-    StoreFailed {
-        /// Which PDO.
-        pdo: PdoRef,
-        /// The object.
-        addr: ObjectAddress,
-        /// The store's reason.
-        error: StoreError,
-    },
-}
-
-impl Event {
-    /// The CiA 301 emergency error code a device reports for this event, if any:
-    /// 0x8210 "PDO not processed due to length error", 0x8220 "PDO length exceeded".
-    pub const fn emcy_code(&self) -> Option<u16> {
-        match self {
-            Self::LengthError { .. } => Some(0x8210),
-            Self::LengthExceeded { .. } => Some(0x8220),
-            _ => None,
-        }
-    }
-}
-
-/// Why the engine refused a configuration call.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum EngineError {
-    /// The communication parameters cannot be used.
-    #[error(transparent)]
-    Comm(#[from] CommError),
-    /// The engine's table for this direction is full.
-    #[error("the engine holds no more PDOs of this direction")]
-    Full,
-    /// No such PDO in this engine.
-    #[error("no such PDO")]
-    UnknownPdo,
-    /// The PDO's COB-ID is marked invalid (bit 31): it does not exist on the bus.
-    #[error("the PDO's COB-ID is not valid")]
-    NotValid,
-}
-
-/// Matching key of a CAN identifier: the raw value, bit 31 set for 29-bit identifiers.
-const fn key_of(id: CanId) -> u32 {
-    match id {
-        CanId::Standard(s) => s.as_raw() as u32,
-        CanId::Extended(e) => e.as_raw() | 1 << 31,
-    }
-}
-
-/// Key of a PDO that takes part in nothing (invalid COB-ID or empty mapping). No identifier
-/// has this key: an extended one is at most 0x9FFF_FFFF.
-const NO_KEY: u32 = u32::MAX;
-
-fn config_key(config: &PdoConfig) -> Result<(u32, Option<CanId>), EngineError> {
-    config.comm.validate()?;
-    let id = config.comm.cob_id.can_id()?;
-    if !config.comm.cob_id.is_valid() || config.mapping.is_empty() {
-        return Ok((NO_KEY, Some(id)));
-    }
-    Ok((key_of(id), Some(id)))
-}
-
-#[derive(Debug)]
-struct Rx {
-    config: PdoConfig,
-    /// Last data that took effect.
-    word: u64,
-    received: bool,
-    /// Synchronous PDO data waiting for the next SYNC.
-    pending: Option<u64>,
-    deadline: Option<Instant>,
-    can_id: Option<CanId>,
-}
-
-#[derive(Debug)]
-struct Tx {
-    config: PdoConfig,
-    can_id: Option<CanId>,
-    key: u32,
-    last_tx: Option<Instant>,
-    last_word: Option<u64>,
-    /// Event-driven: a frame is due but the inhibit time has not passed.
-    pending: bool,
-    event_deadline: Option<Instant>,
-    sync_count: u8,
-    sync_started: bool,
-    /// Type 0: an event happened since the last SYNC.
-    event_flag: bool,
-    /// Type 252: data sampled at the last SYNC.
-    rtr_buffer: Option<u64>,
-}
-
-impl Tx {
-    fn new(config: PdoConfig, key: u32, can_id: Option<CanId>) -> Self {
-        Self {
-            config,
-            can_id,
-            key,
-            last_tx: None,
-            last_word: None,
-            pending: false,
-            event_deadline: None,
-            sync_count: 0,
-            sync_started: false,
-            event_flag: false,
-            rtr_buffer: None,
-        }
-    }
-
-    fn reset(&mut self, now: Instant) {
-        self.last_tx = None;
-        self.last_word = None;
-        self.pending = false;
-        self.sync_count = 0;
-        self.sync_started = false;
-        self.event_flag = false;
-        self.rtr_buffer = None;
-        self.event_deadline = self.timer_from(now);
-    }
-
-    fn active(&self) -> bool {
-        self.key != NO_KEY
-    }
-
-    fn timer_from(&self, now: Instant) -> Option<Instant> {
-        let et = self.config.comm.event_time();
-        (self.active() && self.config.comm.transmission_type.is_event_driven() && !et.is_zero())
-            .then(|| now + et)
-    }
-
-    fn inhibit_end(&self) -> Option<Instant> {
-        let inhibit: Duration = self.config.comm.inhibit();
-        if inhibit.is_zero() || !self.config.comm.transmission_type.is_event_driven() {
-            return None;
-        }
-        self.last_tx.map(|t| t + inhibit)
-    }
-
-    fn inhibit_passed(&self, now: Instant) -> bool {
-        self.inhibit_end().is_none_or(|end| now >= end)
     }
 }
 

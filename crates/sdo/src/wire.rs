@@ -35,10 +35,17 @@
 //! All `parse` functions are total: any byte slice gives a value or a [`DecodeError`], never a
 //! panic. Reserved bits are ignored on parse and written as zero by `emit`, so
 //! `parse(emit(m)) == m` for every message `m` built from in-range fields.
+//!
+//! The bytes each command uses and the padding of short frames are in `length`, the `Display`
+//! texts in `text`.
 
 use crate::abort::AbortCode;
 
+mod length;
 mod text;
+
+pub(crate) use length::{carries_mux, short_frame_mux};
+use length::{client_needs, padded, server_needs};
 
 /// Byte offsets and bit masks of the SDO messages.
 mod field {
@@ -167,110 +174,6 @@ pub enum DecodeError {
 
 fn bytes8(data: &[u8]) -> Result<&[u8; 8], DecodeError> {
     <&[u8; 8]>::try_from(data).map_err(|_| DecodeError::Length(data.len()))
-}
-
-/// The frame's bytes padded with zeros to eight, when it holds the `needs(command)` bytes its
-/// command uses.
-fn padded(data: &[u8], needs: fn(u8) -> usize) -> Result<[u8; 8], DecodeError> {
-    let (&command, _) = data
-        .split_first()
-        .filter(|_| data.len() <= 8)
-        .ok_or(DecodeError::Length(data.len()))?;
-    let needs = needs(command);
-    if data.len() < needs {
-        return Err(DecodeError::Short {
-            command,
-            needs,
-            len: data.len(),
-        });
-    }
-    let mut b = [0u8; 8];
-    b[..data.len()].copy_from_slice(data);
-    Ok(b)
-}
-
-/// The multiplexer of a frame too short for its command, when its command carries one
-/// (initiate, block initiate, abort) and the frame holds it.
-pub(crate) fn short_frame_mux(data: &[u8]) -> Option<Multiplexer> {
-    let cmd = *data.first()?;
-    match data.get(..4) {
-        Some(&[_, lo, hi, subindex]) if carries_mux(cmd) => Some(Multiplexer {
-            index: u16::from_le_bytes([lo, hi]),
-            subindex,
-        }),
-        _ => None,
-    }
-}
-
-/// Whether messages with command byte `cmd` carry a multiplexer, in either direction: the
-/// initiate messages, the abort and the block initiate messages do; the acknowledgements, the
-/// ends and the block upload start do not.
-pub(crate) fn carries_mux(cmd: u8) -> bool {
-    match cmd >> field::CS_SHIFT {
-        1..=4 => true,
-        5 => cmd & 0x03 == 0,
-        6 => cmd & 0x01 == 0,
-        _ => false,
-    }
-}
-
-/// Bytes a segment (download segment request, upload segment response) uses: the command byte
-/// and its 7 − n data bytes.
-fn segment_needs(cmd: u8) -> usize {
-    8 - usize::from((cmd & field::SEG_N_MASK) >> field::SEG_N_SHIFT)
-}
-
-/// Bytes an initiate download request or initiate upload response uses: expedited with size
-/// indicated, the command, multiplexer and its 4 − n data bytes; expedited without size, all
-/// eight; segmented, the size if indicated, else the multiplexer.
-fn initiate_needs(cmd: u8) -> usize {
-    let sized = cmd & field::SIZE != 0;
-    match (cmd & field::EXPEDITED != 0, sized) {
-        (true, true) => 8 - usize::from((cmd & field::INIT_N_MASK) >> field::INIT_N_SHIFT),
-        (true, false) | (false, true) => 8,
-        (false, false) => field::DATA.start,
-    }
-}
-
-/// Bytes a block initiate with an optional size uses (block download request, block upload
-/// response).
-fn sized_block_initiate_needs(cmd: u8) -> usize {
-    if cmd & field::BLOCK_SIZE != 0 {
-        8
-    } else {
-        field::DATA.start
-    }
-}
-
-/// Bytes each client request uses (commands that do not exist need only their command byte,
-/// to be told apart as unknown).
-fn client_needs(cmd: u8) -> usize {
-    match (cmd >> field::CS_SHIFT, cmd & 0x03) {
-        (0, _) => segment_needs(cmd),
-        (1, _) => initiate_needs(cmd),
-        (2, _) => field::DATA.start,
-        (4, _) => 8,
-        (5, 0) => field::PST + 1,
-        (5, 2) => field::ACK_BLKSIZE + 1,
-        (6, 1) | (6, 3) => field::CRC.end,
-        (6, _) => sized_block_initiate_needs(cmd),
-        _ => 1,
-    }
-}
-
-/// Bytes each server response uses.
-fn server_needs(cmd: u8) -> usize {
-    match (cmd >> field::CS_SHIFT, cmd & 0x03) {
-        (0, _) => segment_needs(cmd),
-        (2, _) => initiate_needs(cmd),
-        (3, _) => field::DATA.start,
-        (4, _) => 8,
-        (5, 0) => field::INIT_RESP_BLKSIZE + 1,
-        (5, 2) => field::ACK_BLKSIZE + 1,
-        (6, 1) | (6, 3) => field::CRC.end,
-        (6, _) => sized_block_initiate_needs(cmd),
-        _ => 1,
-    }
 }
 
 fn data4(b: &[u8; 8]) -> [u8; 4] {

@@ -2,15 +2,16 @@
 //! request table, with no I/O and no clock.
 //!
 //! [`Network`](crate::Network) wraps one `Core` in a mutex and drives it from a transport
-//! (STYLE habit 8: the blocking and async APIs are loops around this one core). The core follows
+//! (the blocking and async APIs are loops around this one core). The core follows
 //! the sans-IO call order of the protocol crates: [`Core::handle_frame`] for every received frame,
 //! [`Core::handle_timeout`] when [`Core::poll_timeout`] has passed, then drain
 //! [`Core::take_transmit`].
 //!
 //! Routing (CiA 301 predefined connection set, §7.3.5):
 //! * 0x581..=0x5FF SDO responses → the node's SDO client (`canola-sdo`);
-//! * 0x701..=0x77F error control → the heartbeat consumer (`canola-nmt`);
-//! * 0x081..=0x0FF EMCY → the EMCY consumer (`canola-nmt`);
+//! * 0x701..=0x77F error control → the heartbeat consumer or the guarding master
+//!   (`canola-nmt`), boot-ups counted (`life`);
+//! * 0x081..=0x0FF EMCY → the EMCY consumer (`canola-nmt`), the latest kept per node (`life`);
 //! * TPDO1..4 → PDO events; a TPDO the node was configured to send on another COB-ID
 //!   (learnt from reading or saving its PDO parameters) is routed by that COB-ID;
 //! * 0x7E4 LSS responses → LSS events.
@@ -20,9 +21,14 @@
 //! that id, and the SDO client ignores responses whose multiplexer is not the running
 //! transfer's, so a late answer to a cancelled request never completes another one.
 //!
-//! One cohesive machine: the routing, the request table and the per-node machines it feeds
+//! Who owns what: this file the `Core` state, the routing of received frames, the timers and
+//! the transmit queue; `life` the boot-up, EMCY and sign-of-life bookkeeping and the NMT
+//! commands; `sdo` and `sdo_client` the request table and the SDO channels; `pdo`,
+//! `pdo_routes` and `mpdo` the PDOs; `usdo` the USDO client; `lss` the LSS jobs; `events` and
+//! `subscribers` what the master publishes and to whom; `nodes` the per-node slots.
 
 pub(crate) mod events;
+mod life;
 pub(crate) mod lss;
 mod mpdo;
 mod nodes;
@@ -33,14 +39,16 @@ mod sdo_client;
 mod subscribers;
 pub(crate) mod usdo;
 
-pub(crate) use events::Completion;
 #[cfg(feature = "tokio")]
 use events::EventSink;
 pub use events::{
     CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
-    RequestId, TransferProgress,
+    TransferProgress,
 };
-pub(crate) use sdo::{DownSource, Op, Outcome, Outgoing, SdoRequest, Taken, UpSink};
+pub(crate) use events::{Completion, RequestId};
+pub(crate) use sdo::{
+    DownSource, Op, Outcome, Outgoing, Request, SdoRequest, Taken, UpSink, UsdoOp, UsdoRequest,
+};
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;
@@ -48,10 +56,7 @@ use std::sync::mpsc;
 
 use canola_frame::cob::{FunctionCode, LSS_SLAVE_TO_MASTER};
 use canola_frame::{CanFrame, CanId, CobId, Duration, Instant, NodeId, is_due};
-use canola_nmt::{
-    CommandSpecifier, EmcyConsumer, GuardingMaster, HeartbeatConsumer, NmtCommand, NmtState,
-    NmtTarget, SyncConfig, SyncProducer,
-};
+use canola_nmt::{EmcyConsumer, GuardingMaster, HeartbeatConsumer, SyncConfig, SyncProducer};
 use canola_od::{ObjectAddress, ObjectDictionary, Value};
 
 use crate::pdo_subscriber::PdoPublisher;
@@ -210,23 +215,8 @@ impl Core {
     }
 
     pub(crate) fn publish(&mut self, ev: NetworkEvent) {
-        use canola_nmt::{GuardingEvent, HeartbeatEvent};
-        if let NetworkEvent::Heartbeat(
-            HeartbeatEvent::StateChanged { node, .. } | HeartbeatEvent::Recovered { node, .. },
-        )
-        | NetworkEvent::Guarding(
-            GuardingEvent::StateChanged { node, .. } | GuardingEvent::Recovered { node, .. },
-        ) = &ev
-        {
-            *self.life_reports.entry(*node).or_insert(0) += 1;
-        }
+        self.count_life_report(&ev);
         self.subs.deliver(ev);
-    }
-
-    /// How many state changes and recoveries the heartbeat or node guarding of `node` reported
-    /// since the network started.
-    pub(crate) fn life_reports(&self, node: NodeId) -> u64 {
-        self.life_reports.get(&node).copied().unwrap_or(0)
     }
 
     /// Holds the channel subscribers' events back until [`release_events`](Self::release_events):
@@ -260,56 +250,9 @@ impl Core {
         }
     }
 
-    pub(crate) fn last_state(&self, node: NodeId) -> Option<NmtState> {
-        self.guarding
-            .state(node)
-            .or_else(|| self.heartbeat.state(node))
-    }
-
-    /// When the latest heartbeat or boot-up of `node` arrived.
-    pub(crate) fn last_heartbeat(&self, node: NodeId) -> Option<Instant> {
-        self.heartbeat.last_seen(node)
-    }
-
-    /// The latest EMCY `node` sent.
-    pub(crate) fn last_emcy(&self, node: NodeId) -> Option<canola_nmt::EmcyEvent> {
-        self.emcys.get(&node).copied()
-    }
-
-    /// How many boot-up messages `node` has sent since the network started.
-    pub(crate) fn boot_count(&self, node: NodeId) -> u64 {
-        self.boots.get(&node).copied().unwrap_or(0)
-    }
-
-    /// The boot-ups of `node` already accounted for (see `boots_taken`).
-    pub(crate) fn boots_taken(&self, node: NodeId) -> u64 {
-        self.boots_taken.get(&node).copied().unwrap_or(0)
-    }
-
-    /// Marks the first `count` boot-ups of `node` as accounted for.
-    pub(crate) fn take_boots(&mut self, node: NodeId, count: u64) {
-        let t = self.boots_taken.entry(node).or_default();
-        *t = (*t).max(count);
-    }
-
     /// The time of the latest frame or timer the core was given.
     pub(crate) fn now(&self) -> Instant {
         self.now
-    }
-
-    /// Queues an NMT command (COB-ID 0x000).
-    /// The boot-ups heard before it no longer count for waits.
-    pub(crate) fn nmt(&mut self, cmd: CommandSpecifier, target: NmtTarget) {
-        match target {
-            NmtTarget::Node(id) => self.take_boots(id, self.boot_count(id)),
-            _ => {
-                let counts: Vec<_> = self.boots.iter().map(|(n, c)| (*n, *c)).collect();
-                for (n, c) in counts {
-                    self.take_boots(n, c);
-                }
-            }
-        }
-        self.queue(NmtCommand::new(cmd, target).to_frame());
     }
 
     pub(crate) fn send_raw(&mut self, frame: CanFrame) {
@@ -340,26 +283,6 @@ impl Core {
             self.tx.push_front(o);
         } else {
             self.tx.push_back(o);
-        }
-    }
-
-    pub(crate) fn monitor_heartbeat(&mut self, node: NodeId, timeout: Duration) -> bool {
-        self.heartbeat.monitor(node, timeout).is_ok()
-    }
-
-    pub(crate) fn guard_node(&mut self, node: NodeId, guard_time: Duration, factor: u8) -> bool {
-        let now = self.now;
-        let ok = self.guarding.guard(now, node, guard_time, factor).is_ok();
-        self.drain_guarding();
-        ok
-    }
-
-    fn drain_guarding(&mut self) {
-        while let Some(f) = self.guarding.poll_transmit_frame() {
-            self.queue_periodic(f, false);
-        }
-        while let Some(ev) = self.guarding.poll_event() {
-            self.publish(NetworkEvent::Guarding(ev));
         }
     }
 
@@ -440,39 +363,11 @@ impl Core {
             Some(CobId {
                 function: FunctionCode::NmtErrorControl,
                 node: Some(node),
-            }) => {
-                if !frame.is_remote() && frame.data() == [0] {
-                    *self.boots.entry(node).or_default() += 1;
-                    self.end_transfers_on_boot(node);
-                }
-                // A node-ID in use: an LSS job handing out node-IDs must not give it.
-                if !frame.is_remote()
-                    && frame.data().len() == 1
-                    && let Some(job) = &mut self.lss
-                {
-                    job.node_id_heard(node);
-                    self.pump_lss();
-                }
-                // A guarded node's answers go to the guarding master alone (their toggle bit
-                // is no heartbeat state); every other node's frames to the heartbeat consumer,
-                // which reports boot-ups and state changes of unmonitored nodes too.
-                let guarded = self.guarding.handle_frame(now, frame).unwrap_or(false);
-                self.drain_guarding();
-                if !guarded {
-                    let _ = self.heartbeat.handle_frame(now, frame);
-                    self.drain_heartbeat();
-                }
-            }
+            }) => self.handle_error_control(now, node, frame),
             Some(CobId {
                 function: FunctionCode::Emcy,
                 node: Some(_),
-            }) => {
-                let _ = self.emcy.handle_frame(now, frame);
-                while let Some(ev) = self.emcy.poll_event() {
-                    self.emcys.insert(ev.node, ev);
-                    self.publish(NetworkEvent::Emcy(ev));
-                }
-            }
+            }) => self.handle_emcy(now, frame),
             _ if frame.is_remote() => {}
             _ if !self.mpdo_routes.is_empty() && self.mpdo_routes.contains_key(&frame.id()) => {
                 self.handle_mpdo(now, frame);
@@ -488,12 +383,6 @@ impl Core {
                 node: Some(node),
             }) => self.handle_tpdo(now, node, Some(n.get()), frame),
             _ => {}
-        }
-    }
-
-    fn drain_heartbeat(&mut self) {
-        while let Some(ev) = self.heartbeat.poll_event() {
-            self.publish(NetworkEvent::Heartbeat(ev));
         }
     }
 

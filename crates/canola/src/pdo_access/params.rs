@@ -185,7 +185,7 @@ impl PdoParameters {
             return Err(Error::UnknownObject {
                 node: self.node,
                 name: String::new(),
-                reason: "the node has no dictionary: give the length (map_entry)".into(),
+                reason: crate::error::Unresolved::NoDictionary,
             });
         };
         let key = key.into();
@@ -194,7 +194,7 @@ impl PdoParameters {
             ObjectKey::Name(name) => od.find(name).ok_or_else(|| Error::UnknownObject {
                 node: self.node,
                 name: name.into(),
-                reason: "no such object in the node's dictionary".into(),
+                reason: crate::error::Unresolved::NotFound,
             })?,
         };
         let info = OdView::new(&od, self.node.get())

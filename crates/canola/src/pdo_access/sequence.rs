@@ -11,11 +11,11 @@ use canola_pdo::{
 };
 use canola_sdo::AbortCode;
 
-use crate::error::Error;
+use crate::error::{Error, Misuse};
 use crate::network::Operation;
 use crate::network::request::NodeRef;
 
-use super::params::{MappedVariable, PdoParameters, PdoSet, Present, kind_name, name_of};
+use super::params::{MappedVariable, PdoParameters, PdoSet, Present, name_of};
 
 /// The master follows what the node holds for `p`: a TPDO is decoded with it, a transmitted
 /// RPDO uses its COB-ID and mapping.
@@ -183,18 +183,17 @@ pub(super) async fn save_set(
     set: &mut PdoSet,
 ) -> Result<(), Error> {
     if set.direction != direction {
-        return Err(Error::InvalidRequest(format!(
-            "a set of {}s cannot be saved as {}s",
-            kind_name(set.direction),
-            kind_name(direction)
-        )));
+        return Err(Error::InvalidRequest(Misuse::PdoDirection {
+            set: set.direction,
+            saved_as: direction,
+        }));
     }
     for p in &set.pdos {
         if p.node != node.id {
-            return Err(Error::InvalidRequest(format!(
-                "these PDO parameters were read from node {}, not node {}",
-                p.node, node.id
-            )));
+            return Err(Error::InvalidRequest(Misuse::PdoOfOtherNode {
+                read_from: p.node,
+                saved_to: node.id,
+            }));
         }
     }
     for p in &mut set.pdos {

@@ -84,7 +84,7 @@ impl Drive {
     /// to carry only the mode's target on every SYNC (type 1): csp 0x607A, csv 0x60FF, cst
     /// 0x6071, or interpolated position (ip) 0x60C1:1, the interpolation data record. 0x60C2 is
     /// set to `period`, the SYNC period the master produces (start it with
-    /// [`Network::start_sync`](canola::Driver::start_sync)); the node must be operational for
+    /// [`Network::start_sync`](canola::Network::start_sync)); the node must be operational for
     /// its RPDOs to count.
     ///
     /// The first target is the present actual value for csp and ip (the drive does not jump:
