@@ -377,6 +377,31 @@ mod tests {
         assert_eq!(serial, address(0).serial_number.to_le_bytes());
     }
 
+    /// Switch mode global reaches every slave: the assignment of one node-ID refuses when
+    /// several answer, configures none of them and leaves them in waiting state.
+    #[test]
+    fn assign_node_id_refuses_several_slaves() {
+        let (_bus, net) = bus(2, StoreSupport::Supported);
+        let id = NodeId::new(9).unwrap();
+        let r = net
+            .lss()
+            .procedure(Procedure::assign_node_id(id, true))
+            .wait();
+        assert!(
+            matches!(r, Err(Error::Lss(LssError::SeveralSlaves { .. }))),
+            "{r:?}"
+        );
+        net.run_for(Duration::from_millis(10)).wait().unwrap();
+        assert!(net.node(id).sdo().read((0x1018, 4)).wait().is_err());
+        // Both still unconfigured and found by Fastscan (in waiting state, as found).
+        let found = net
+            .lss()
+            .discover_all(FastscanConfig::default())
+            .wait()
+            .unwrap();
+        assert_eq!(found, [address(0), address(1)]);
+    }
+
     #[test]
     fn a_switch_is_on_the_bus_when_the_call_returns() {
         let (bus, net) = bus(0, StoreSupport::Supported);

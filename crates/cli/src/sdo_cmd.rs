@@ -523,6 +523,7 @@ fn data_type_of(
                 .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
         })
         .or_else(|| canola::od::profile::communication_type(entry.index, entry.sub_index))
+        .or_else(|| crate::drive_cmd::profile_type(net, node, entry))
 }
 
 /// The transfer's progress bar on stderr, drawn only when stderr is a terminal; a transfer

@@ -404,13 +404,18 @@ impl Node {
     /// from `canola_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
     /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
     /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
+    ///
+    /// `mapping` is a classic [`Mapping`](canola_pdo::Mapping) (up to 8 bytes) or an
+    /// [`FdMapping`](canola_pdo::FdMapping) of up to 64 bytes, which a node marked CANopen FD
+    /// ([`set_fd`](Self::set_fd)) on a CAN FD bus takes; elsewhere a mapping of more than 8
+    /// bytes is refused before anything is sent, saying why.
     pub fn remap_pdo(
         &self,
         direction: canola_pdo::Direction,
         number: u16,
         comm: canola_pdo::CommParams,
-        mapping: canola_pdo::Mapping,
+        mapping: impl Into<canola_pdo::FdMapping>,
     ) -> Operation<'static, ()> {
-        crate::pdo_access::remap(self.node_ref(), direction, number, comm, mapping)
+        crate::pdo_access::remap(self.node_ref(), direction, number, comm, mapping.into())
     }
 }

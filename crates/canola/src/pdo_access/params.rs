@@ -244,6 +244,22 @@ impl PdoParameters {
         mapping.map_err(|e| self.error(e.to_string()))
     }
 
+    /// The mapping under the CAN FD limits (up to 64 bytes, CANopen FD), checked as
+    /// [`mapping`](Self::mapping) is. `save()` uses it for a PDO of more than 8 bytes on a node
+    /// marked CANopen FD on a CAN FD bus.
+    pub fn fd_mapping(&self) -> Result<canola_pdo::FdMapping, Error> {
+        let raw: Vec<u32> = self.raw_entries().collect();
+        let mapping = match self.od.as_deref() {
+            Some(od) => canola_pdo::FdMapping::from_raw_checked(
+                self.direction,
+                &raw,
+                &OdView::new(od, self.node.get()),
+            ),
+            None => canola_pdo::FdMapping::from_raw(&raw),
+        };
+        mapping.map_err(|e| self.error(e.to_string()))
+    }
+
     /// The mapping for decoding and encoding: checked when possible, else with every object
     /// read as unsigned (a node may report a mapping its dictionary does not allow).
     pub(super) fn mapping_lenient(&self) -> Option<Mapping> {
