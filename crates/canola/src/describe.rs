@@ -260,30 +260,65 @@ impl Monitor {
         describe(frame, &self.dictionary).what().to_string()
     }
 
+    /// Follows the next frame on the bus as [`what`](Self::what) does, without describing it:
+    /// `true` when it is a segment of a block transfer in progress (for an analysis that reads
+    /// the other frames with the protocol decoders itself).
+    pub fn observe(&mut self, frame: &CanFrame) -> bool {
+        if self.next_segment(frame).is_some() {
+            return true;
+        }
+        self.follow(frame);
+        false
+    }
+
     /// What a CAN FD frame is: a PDO the dictionary maps, decoded as [`what`](Self::what)
     /// decodes a classic one ([`describe_fd`]).
     pub fn what_fd(&mut self, frame: &FdFrame) -> String {
         describe_fd(frame, &self.dictionary).to_string()
     }
 
-    /// The text of `frame` when it is a segment of a block transfer in progress.
-    fn block_segment(&mut self, frame: &CanFrame) -> Option<String> {
+    /// Whether `frame`, the next frame on the bus, is a segment of a block transfer in progress
+    /// (as [`what`](Self::what) will read it). Asks without following the frame.
+    pub fn is_block_segment(&self, frame: &CanFrame) -> bool {
+        self.segment_of(frame).is_some()
+    }
+
+    /// The node and segment when `frame` is a segment of a block transfer in progress: a frame
+    /// of the side that sends segments, whose sequence number is not 0 (byte 0 `0x80` there is
+    /// an abort transfer message, CiA 301 §7.2.4.3.17).
+    fn segment_of(&self, frame: &CanFrame) -> Option<(NodeId, canola_sdo::BlockSegment)> {
+        if frame.is_remote() {
+            return None;
+        }
         let cob = CobId::classify(frame.cob_id()?)?;
         let node = cob.node?;
-        let block = self.blocks.get_mut(&node)?;
-        match (cob.function, *block) {
+        match (cob.function, self.blocks.get(&node)?) {
             (FunctionCode::SdoTx, Block::Upload { ended: false })
             | (FunctionCode::SdoRx, Block::Download { ended: false }) => {}
             _ => return None,
         }
         let segment = canola_sdo::BlockSegment::parse(frame.data()).ok()?;
+        (segment.seqno != 0).then_some((node, segment))
+    }
+
+    /// The text of `frame` when it is a segment of a block transfer in progress.
+    fn block_segment(&mut self, frame: &CanFrame) -> Option<String> {
+        let (node, segment) = self.next_segment(frame)?;
+        Some(format!("node {node}: {segment}"))
+    }
+
+    /// The node and segment when `frame` is a segment of a block transfer in progress, the
+    /// transfer's state moved on by it.
+    fn next_segment(&mut self, frame: &CanFrame) -> Option<(NodeId, canola_sdo::BlockSegment)> {
+        let (node, segment) = self.segment_of(frame)?;
+        let block = self.blocks.get_mut(&node)?;
         if segment.last {
             *block = match block {
                 Block::Upload { .. } => Block::Upload { ended: true },
                 Block::Download { .. } => Block::Download { ended: true },
             };
         }
-        Some(format!("node {node}: {segment}"))
+        Some((node, segment))
     }
 
     /// Starts or ends a node's block transfer by the messages that do.
@@ -298,7 +333,12 @@ impl Monitor {
                 Ok(ClientRequest::BlockUploadStart) => {
                     self.blocks.insert(node, Block::Upload { ended: false });
                 }
-                Ok(ClientRequest::BlockUploadAck { .. }) => {}
+                // A log may start inside a transfer: an acknowledgement says the server sends
+                // the next sub-block (unless the last segment already went by).
+                Ok(ClientRequest::BlockUploadAck { .. }) => {
+                    let ended = self.blocks.get(&node) == Some(&Block::Upload { ended: true });
+                    self.blocks.insert(node, Block::Upload { ended });
+                }
                 Ok(ClientRequest::BlockDownloadEnd { .. } | ClientRequest::Abort { .. }) => {
                     self.blocks.remove(&node);
                 }
@@ -308,7 +348,10 @@ impl Monitor {
                 Ok(ServerResponse::BlockDownloadInitiate { .. }) => {
                     self.blocks.insert(node, Block::Download { ended: false });
                 }
-                Ok(ServerResponse::BlockDownloadAck { .. }) => {}
+                Ok(ServerResponse::BlockDownloadAck { .. }) => {
+                    let ended = self.blocks.get(&node) == Some(&Block::Download { ended: true });
+                    self.blocks.insert(node, Block::Download { ended });
+                }
                 Ok(ServerResponse::BlockUploadEnd { .. } | ServerResponse::Abort { .. }) => {
                     self.blocks.remove(&node);
                 }
@@ -388,6 +431,18 @@ impl fmt::Display for What<'_> {
                 Ok(e) => write!(f, "node {n}: {e}"),
                 Err(e) => write!(f, "node {n}: EMCY, undecodable ({e}): {}", HexBytes(data)),
             },
+            (FunctionCode::Tpdo(p), Some(n)) if frame.is_remote() => write!(
+                f,
+                "TPDO{} node {n}: remote transmission request ({} bytes asked)",
+                p.get(),
+                frame.dlc()
+            ),
+            (FunctionCode::Rpdo(p), Some(n)) if frame.is_remote() => write!(
+                f,
+                "RPDO{} node {n}: remote transmission request ({} bytes asked)",
+                p.get(),
+                frame.dlc()
+            ),
             (FunctionCode::Tpdo(p), Some(n)) => {
                 write!(f, "TPDO{} node {n}: {}", p.get(), HexBytes(data))
             }
@@ -517,6 +572,50 @@ mod tests {
         assert!(
             m.describe(&f(0x585, &seg))
                 .contains("SDO upload segment response")
+        );
+    }
+
+    #[test]
+    fn a_log_that_starts_inside_a_block_transfer_reads_its_segments() {
+        let mut m = Monitor::new(BusDictionary::new());
+        let f = |id, d: &[u8]| frame(id, d);
+        // Block download in progress, its initiate not seen: the server's acknowledgement
+        // (ackseq 127, blksize 127) says the client sends block segments next.
+        let ack = m.describe(&f(0x584, &[0xA2, 0x7F, 0x7F, 0, 0, 0, 0, 0]));
+        assert!(ack.contains("block"), "{ack}");
+        let seg = m.describe(&f(0x604, &[0x81, 1, 2, 3, 4, 5, 6, 7]));
+        assert!(
+            seg.contains("SDO block segment 1") && seg.ends_with("last"),
+            "{seg}"
+        );
+        // The end message after the last segment is not read as a segment.
+        let end = m.describe(&f(0x604, &[0xC5, 0, 0, 0, 0, 0, 0, 0]));
+        assert!(!end.contains("block segment"), "{end}");
+        // Block upload in progress: the client's acknowledgement starts the next sub-block.
+        m.describe(&f(0x606, &[0xA2, 127, 127, 0, 0, 0, 0, 0]));
+        let up = m.describe(&f(0x586, &[0x01, 1, 2, 3, 4, 5, 6, 7]));
+        assert!(up.contains("SDO block segment 1"), "{up}");
+        // An abort from the server inside it is an abort (a segment's seqno is never 0),
+        // and ends the transfer.
+        let abort = m.describe(&f(0x586, &[0x80, 0x00, 0x60, 0x01, 0, 0, 2, 6]));
+        assert!(abort.contains("SDO abort transfer 0x6000:01"), "{abort}");
+        let after = m.describe(&f(0x586, &[0x01, 1, 2, 3, 4, 5, 6, 7]));
+        assert!(after.contains("SDO upload segment response"), "{after}");
+    }
+
+    #[test]
+    fn a_remote_request_for_a_pdo_says_so() {
+        let none = BusDictionary::new();
+        let rtr = CanFrame::remote(CanId::standard(0x181).unwrap(), 0).unwrap();
+        assert_eq!(
+            describe(&rtr, &none).what().to_string(),
+            "TPDO1 node 1: remote transmission request (0 bytes asked)"
+        );
+        let d = burkert(5);
+        let rtr = CanFrame::remote(CanId::standard(0x185).unwrap(), 8).unwrap();
+        assert_eq!(
+            describe(&rtr, &d).what().to_string(),
+            "TPDO1 node 5: remote transmission request (8 bytes asked)"
         );
     }
 

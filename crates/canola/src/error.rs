@@ -2,7 +2,8 @@
 //! what went wrong — the server's abort code with its CiA 301 meaning kept apart from local
 //! failures (timeout, cancel, I/O).
 
-use canola_frame::NodeId;
+use canola_frame::{Duration, NodeId};
+use canola_nmt::NmtState;
 use canola_sdo::{AbortCode, ErrorKind};
 
 use crate::transport::TransportError;
@@ -18,8 +19,13 @@ pub enum SdoErrorKind {
     Cancelled,
     /// The node's client refused to start (should not happen: requests queue).
     Busy,
-    /// Writing an upload into the caller's writer (or reading a download) failed.
-    Io(String),
+    /// Writing an upload into the caller's writer (or flushing it) failed.
+    Io {
+        /// The kind of the writer's I/O error.
+        kind: std::io::ErrorKind,
+        /// Its words (with what was being done, e.g. flushing the output).
+        message: String,
+    },
     /// The transport failed while the request ran.
     Transport(TransportFailure),
     /// The node sent a boot-up message (it was reset or power-cycled) while the transfer ran:
@@ -32,9 +38,40 @@ pub enum SdoErrorKind {
     /// timeout, a protocol violation ([`SdoError::server_abort`] gives the CiA 301 code of a
     /// server abort).
     Usdo(canola_sdo::usdo::UsdoErrorKind),
-    /// A USDO request needs CAN FD that is not there: the bus carries classic frames only, or
-    /// the node is not marked CANopen FD. Nothing was sent.
-    FdNotSupported(String),
+    /// A USDO request needs CAN FD that is not there. Nothing was sent.
+    FdNotSupported(FdRefusal),
+}
+
+/// Why a USDO request was refused before anything was sent ([`SdoErrorKind::FdNotSupported`]).
+#[derive(Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum FdRefusal {
+    /// The bus carries classic frames only.
+    ClassicBus {
+        /// The bus and why it is classic-only (the transport's words).
+        bus: String,
+    },
+    /// The node is not marked CANopen FD (its EDS has no `CANopenFD=1`, and the application
+    /// did not mark it).
+    NodeNotFd,
+}
+
+impl core::fmt::Display for FdRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::ClassicBus { bus } => write!(f, "FD not supported on {bus}"),
+            Self::NodeNotFd => f.write_str(
+                "the node is not marked CANopen FD (its EDS has no CANopenFD=1; the \
+                 application can mark it)",
+            ),
+        }
+    }
+}
+
+impl core::fmt::Debug for FdRefusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
 }
 
 /// How the transport failed under an SDO request: a [`TransportError`] as a value that can be
@@ -69,6 +106,16 @@ pub enum TransportFailure {
         /// Its words.
         message: String,
     },
+}
+
+impl TransportFailure {
+    /// The kind of the operating-system error, for an [`Io`](Self::Io) failure.
+    pub fn io_kind(&self) -> Option<std::io::ErrorKind> {
+        match self {
+            Self::Io { kind, .. } => Some(*kind),
+            _ => None,
+        }
+    }
 }
 
 impl From<&TransportError> for TransportFailure {
@@ -167,7 +214,7 @@ impl core::fmt::Display for SdoError {
             SdoErrorKind::Transfer(k) => write!(f, "{k}"),
             SdoErrorKind::Cancelled => f.write_str("request cancelled"),
             SdoErrorKind::Busy => f.write_str("the node's SDO client is busy"),
-            SdoErrorKind::Io(e) => write!(f, "local I/O error: {e}"),
+            SdoErrorKind::Io { message, .. } => write!(f, "local I/O error: {message}"),
             SdoErrorKind::Transport(e) => write!(f, "transport failed: {e}"),
             SdoErrorKind::NodeRebooted => write!(
                 f,
@@ -179,7 +226,13 @@ impl core::fmt::Display for SdoError {
                 write!(f, "USDO abort {code}")
             }
             SdoErrorKind::Usdo(k) => write!(f, "USDO: {k}"),
-            SdoErrorKind::FdNotSupported(why) => f.write_str(why),
+            SdoErrorKind::FdNotSupported(FdRefusal::NodeNotFd) => write!(
+                f,
+                "node {} is not marked CANopen FD (its EDS has no CANopenFD=1; the application \
+                 can mark it)",
+                self.node
+            ),
+            SdoErrorKind::FdNotSupported(why) => write!(f, "{why}"),
         }
     }
 }
@@ -222,9 +275,15 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
-    /// No answer within the time allowed (for services without their own timeout).
-    #[error("timed out: {0}")]
-    Timeout(String),
+    /// What was awaited did not happen within the time allowed (for services without their
+    /// own timeout).
+    #[error("timed out after {after} waiting for {awaited}")]
+    Timeout {
+        /// What was awaited.
+        awaited: Awaited,
+        /// The time allowed, on the network's clock.
+        after: Duration,
+    },
     /// An LSS service failed (CiA 305).
     #[error("LSS: {0}")]
     Lss(canola_lss::LssError),
@@ -232,14 +291,15 @@ pub enum Error {
     #[error("I/O: {0}")]
     Io(#[from] std::io::Error),
     /// A name the node's dictionary does not resolve to one value.
-    #[error("node {node}, object {name:?}: {reason}")]
+    #[error("node {node}, object \"{name}\": {reason}")]
     UnknownObject {
         /// The node.
         node: NodeId,
-        /// The name asked for (empty when the node has no dictionary at all).
+        /// The name asked for (for a write by address to a node without a dictionary, the
+        /// address).
         name: String,
         /// Why it does not resolve.
-        reason: String,
+        reason: Unresolved,
     },
     /// The master refused to configure a COB-ID entry with a CAN identifier CiA 301
     /// restricts (see [`restricted_cob_id`](crate::restricted_cob_id)): nothing was written.
@@ -256,12 +316,162 @@ pub enum Error {
         /// The restricted 11-bit identifier.
         can_id: u16,
     },
-    /// A request the API cannot serve as asked (the message says why).
+    /// A request the API cannot serve as asked.
     #[error("{0}")]
-    InvalidRequest(String),
-    /// The background driver ended because the transport failed (the transport's words).
-    #[error("the network's driver stopped: {0}")]
-    Driver(String),
+    InvalidRequest(Misuse),
+    /// The background driver ended because the transport failed.
+    #[error("the network's driver stopped{}: {failure}", on_bus(bus))]
+    Driver {
+        /// The bus, when the network was opened by name ([`Network::open`](crate::Network::open)).
+        bus: Option<String>,
+        /// How the transport failed.
+        failure: TransportFailure,
+    },
+    /// A task of the async API ended before its work was done (it panicked, or its runtime
+    /// shut down).
+    #[error("a task of the async API ended before its work was done")]
+    TaskEnded,
+}
+
+/// `" on BUS"` when the bus is known.
+pub(crate) fn on_bus(bus: &Option<String>) -> String {
+    bus.as_ref()
+        .map_or_else(String::new, |b| format!(" on {b}"))
+}
+
+/// What a wait that timed out waited for ([`Error::Timeout`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Awaited {
+    /// A boot-up message of the node.
+    BootUp {
+        /// The node.
+        node: NodeId,
+    },
+    /// The node reporting an NMT state.
+    State {
+        /// The node.
+        node: NodeId,
+        /// The state awaited.
+        state: NmtState,
+    },
+}
+
+impl core::fmt::Display for Awaited {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::BootUp { node } => write!(f, "a boot-up from node {node}"),
+            Self::State { node, state } => write!(f, "node {node} to report {state}"),
+        }
+    }
+}
+
+impl core::fmt::Debug for Awaited {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
+}
+
+/// Why a name does not resolve in a node's dictionary ([`Error::UnknownObject`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Unresolved {
+    /// The node was added without a dictionary
+    /// ([`Network::add_node_with_dictionary`](crate::Network::add_node_with_dictionary)).
+    NoDictionary,
+    /// The dictionary has no object of that name.
+    NotFound,
+    /// The name is an array or record: a sub-object has to be named.
+    NotOneValue,
+}
+
+impl core::fmt::Display for Unresolved {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::NoDictionary => {
+                "the node was added without a dictionary (Network::add_node_with_dictionary)"
+            }
+            Self::NotFound => "no such object in the node's dictionary",
+            Self::NotOneValue => {
+                "it is an array or record: name a sub-object as \"object.sub-object\""
+            }
+        })
+    }
+}
+
+impl core::fmt::Debug for Unresolved {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
+}
+
+/// A call the API cannot serve as asked ([`Error::InvalidRequest`]).
+#[derive(Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Misuse {
+    /// A node's state asked of the NMT handle of all nodes ([`Nmt::all`](crate::Nmt::all)).
+    StateOfAll,
+    /// An RPDO written or triggered that is not being transmitted (never started, or
+    /// stopped).
+    RpdoNotTransmitted {
+        /// The node.
+        node: NodeId,
+        /// The RPDO number (1-based).
+        rpdo: u16,
+    },
+    /// A set of PDO parameters saved as the other direction's (TPDOs as RPDOs).
+    PdoDirection {
+        /// The direction the set was read as.
+        set: canola_pdo::Direction,
+        /// The direction it was to be saved as.
+        saved_as: canola_pdo::Direction,
+    },
+    /// PDO parameters read from one node saved to another.
+    PdoOfOtherNode {
+        /// The node they were read from.
+        read_from: NodeId,
+        /// The node they were to be saved to.
+        saved_to: NodeId,
+    },
+}
+
+fn pdo_kind(d: canola_pdo::Direction) -> &'static str {
+    match d {
+        canola_pdo::Direction::Transmit => "TPDO",
+        canola_pdo::Direction::Receive => "RPDO",
+    }
+}
+
+impl core::fmt::Display for Misuse {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::StateOfAll => {
+                f.write_str("node states are per node: use node.nmt(), not Nmt::all")
+            }
+            Self::RpdoNotTransmitted { node, rpdo } => {
+                write!(f, "node {node}: RPDO{rpdo} is not being transmitted")
+            }
+            Self::PdoDirection { set, saved_as } => write!(
+                f,
+                "a set of {}s cannot be saved as {}s",
+                pdo_kind(*set),
+                pdo_kind(*saved_as)
+            ),
+            Self::PdoOfOtherNode {
+                read_from,
+                saved_to,
+            } => write!(
+                f,
+                "these PDO parameters were read from node {read_from}, not node {saved_to}"
+            ),
+        }
+    }
+}
+
+impl core::fmt::Debug for Misuse {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
 }
 
 impl core::fmt::Debug for Error {

@@ -19,8 +19,8 @@
 //! * Services over the network: [`lss`] (CiA 305), [`scan`], [`typed`] values, PDOs
 //!   ([`Node::tpdo`] / [`Node::rpdo`] read and save a node's PDO parameters, [`Rpdos::start`]
 //!   transmits RPDOs through the `canola-pdo` engine; TPDOs arrive decoded as
-//!   [`NetworkEvent::PdoValues`], in batches from [`Network::subscribe_pdos`](crate::Driver::subscribe_pdos) or to an
-//!   [`Network::on_pdo`](crate::Driver::on_pdo) callback), [`mod@describe`] (traffic in words).
+//!   [`NetworkEvent::PdoValues`], in batches from [`Network::subscribe_pdos`](crate::Network::subscribe_pdos) or to an
+//!   [`Network::on_pdo`](crate::Network::on_pdo) callback), [`mod@describe`] (traffic in words).
 //! * `asynch` (`tokio` feature): what awaiting an operation means on each clock (a tie between
 //!   the network's clock and tokio's lets a virtual-clock bus follow tokio's time), and the
 //!   event stream.
@@ -64,7 +64,7 @@ pub mod usdo;
 // work needs.
 pub use crate::machine::{
     CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
-    RequestId, TransferProgress,
+    TransferProgress,
 };
 #[cfg(feature = "tokio")]
 pub use asynch::{EventStream, Lagged};
@@ -84,8 +84,7 @@ pub use error::{Error, SdoError, SdoErrorKind, TransportFailure};
 pub use lss::{Lss, LssOutcome};
 pub use mem::{BusConfig, ClockMode, Endpoint, Faults, MemoryBus};
 pub use network::{
-    Driver, Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue, join_all,
-    wait_all_with,
+    Network, Nmt, Node, Operation, ParameterGroup, Pending, Sdo, SdoValue, join_all, wait_all_with,
 };
 pub use pdo_access::{
     DamSender, MappedVariable, Mpdos, PdoParameters, PdoSet, RpdoSender, Rpdos, Tpdos, Transmission,

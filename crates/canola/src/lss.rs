@@ -1,4 +1,4 @@
-//! LSS master services on the [`Network`](crate::Network) (CiA 305): the `canola-lss` machines driven by the
+//! LSS master services on the [`Network`] (CiA 305): the `canola-lss` machines driven by the
 //! network's loop. One LSS job runs at a time (LSS has one channel per bus, COB-IDs 0x7E5/0x7E4).
 //!
 //! Every service goes through one driver, `Lss::run`: it starts the machine, hands it to the
@@ -10,7 +10,7 @@ use canola_frame::{Instant, NodeId};
 
 use crate::error::Error;
 use crate::network::operation;
-use crate::network::{Driver, Operation, Sdo};
+use crate::network::{Network, Operation, Sdo};
 
 // The CiA 305 vocabulary (addresses, bit timings, node-ID pools, the wire messages and the slave
 // machine), so `canola::lss` is the one LSS import of an application.
@@ -22,7 +22,14 @@ use crate::machine::lss::LssOutput;
 /// LSS master services of a network.
 #[derive(Debug, Clone)]
 pub struct Lss {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
+}
+
+impl Network {
+    /// The LSS master (CiA 305).
+    pub fn lss(&self) -> Lss {
+        Lss { net: self.clone() }
+    }
 }
 
 impl Lss {
@@ -368,6 +375,31 @@ mod tests {
         net.run_for(Duration::from_millis(10)).wait().unwrap();
         let serial = net.node(id).sdo().read((0x1018, 4)).wait().unwrap();
         assert_eq!(serial, address(0).serial_number.to_le_bytes());
+    }
+
+    /// Switch mode global reaches every slave: the assignment of one node-ID refuses when
+    /// several answer, configures none of them and leaves them in waiting state.
+    #[test]
+    fn assign_node_id_refuses_several_slaves() {
+        let (_bus, net) = bus(2, StoreSupport::Supported);
+        let id = NodeId::new(9).unwrap();
+        let r = net
+            .lss()
+            .procedure(Procedure::assign_node_id(id, true))
+            .wait();
+        assert!(
+            matches!(r, Err(Error::Lss(LssError::SeveralSlaves { .. }))),
+            "{r:?}"
+        );
+        net.run_for(Duration::from_millis(10)).wait().unwrap();
+        assert!(net.node(id).sdo().read((0x1018, 4)).wait().is_err());
+        // Both still unconfigured and found by Fastscan (in waiting state, as found).
+        let found = net
+            .lss()
+            .discover_all(FastscanConfig::default())
+            .wait()
+            .unwrap();
+        assert_eq!(found, [address(0), address(1)]);
     }
 
     #[test]

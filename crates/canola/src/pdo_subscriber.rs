@@ -1,10 +1,10 @@
-//! A subscriber for received PDOs that takes them in batches: [`Network::subscribe_pdos`](crate::Driver::subscribe_pdos).
+//! A subscriber for received PDOs that takes them in batches: [`Network::subscribe_pdos`](crate::Network::subscribe_pdos).
 //!
-//! [`Network::subscribe`](crate::Driver::subscribe) hands out one [`NetworkEvent`](crate::NetworkEvent) per frame through
+//! [`Network::subscribe`](crate::Network::subscribe) hands out one [`NetworkEvent`](crate::NetworkEvent) per frame through
 //! a channel, each event owning its decoded values; at full bus load that allocation and the
 //! channel's per-message work cost more than decoding the frame. A [`PdoSubscriber`] instead
 //! takes everything received since its last call in one [`PdoBatch`], read as the same borrowed
-//! [`PdoReceived`] views an [`on_pdo`](crate::Driver::on_pdo) callback gets, but on the
+//! [`PdoReceived`] views an [`on_pdo`](crate::Network::on_pdo) callback gets, but on the
 //! application's own thread.
 //!
 //! Three buffers rotate between the network and the subscriber (the network's pending one, the
@@ -82,7 +82,7 @@ impl PdoBatch {
         self.records.is_empty()
     }
 
-    /// The PDOs in reception order, as an [`on_pdo`](crate::Driver::on_pdo) callback sees them.
+    /// The PDOs in reception order, as an [`on_pdo`](crate::Network::on_pdo) callback sees them.
     pub fn iter(&self) -> PdoBatchIter<'_> {
         PdoBatchIter {
             batch: self,
@@ -281,9 +281,9 @@ impl Drop for PdoPublisher {
 }
 
 /// Receives the PDOs of a [`Network`](crate::Network) in batches (see
-/// [`Network::subscribe_pdos`](crate::Driver::subscribe_pdos)): every PDO received from a
+/// [`Network::subscribe_pdos`](crate::Network::subscribe_pdos)): every PDO received from a
 /// node after the subscription, decoded through the node's dictionary where the master can
-/// (values empty otherwise, as for [`on_pdo`](crate::Driver::on_pdo)). Nothing is dropped:
+/// (values empty otherwise, as for [`on_pdo`](crate::Network::on_pdo)). Nothing is dropped:
 /// PDOs wait for the subscriber however long it takes, so a subscriber that stops reading
 /// should be dropped. The `recv` calls block the calling thread, so on a network driven by
 /// the same thread (no driver) use [`try_recv`](Self::try_recv) between steps.

@@ -7,7 +7,7 @@
 use canola_frame::{Duration, NodeId};
 
 use crate::network::operation::{self, Req};
-use crate::network::{Driver, Operation, Sdo};
+use crate::network::{Network, Operation, Sdo};
 
 /// The identity object (0x1018) of a node: sub-index 1 (vendor-ID) is mandatory, the others
 /// are `None` when the node does not implement them.
@@ -57,8 +57,17 @@ fn u32_of(bytes: &[u8]) -> Option<u32> {
         .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
 }
 
-/// The scan of [`Network::scan`](crate::Network::scan) on `net`.
-pub(crate) fn scan(net: &Driver, timeout: Duration) -> Operation<'static, Vec<ScannedNode>> {
+impl Network {
+    /// The nodes that answer an SDO read of 0x1018:01 within `timeout`, in node-ID order, with
+    /// their identity (sub-indices 2..=4 read from each node found, all at once). Dropping the
+    /// operation cancels the reads.
+    pub fn scan(&self, timeout: impl Into<Duration>) -> Operation<'static, Vec<ScannedNode>> {
+        scan_on(self, timeout.into())
+    }
+}
+
+/// The scan of [`Network::scan`] on `net`.
+fn scan_on(net: &Network, timeout: Duration) -> Operation<'static, Vec<ScannedNode>> {
     let net = net.clone();
     Operation::new(async move {
         operation::catch_up(net.shared())?;

@@ -11,7 +11,7 @@
 
 use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 
-use crate::error::Error;
+use crate::error::{Error, Unresolved};
 use crate::network::Operation;
 use crate::network::Sdo;
 
@@ -175,18 +175,17 @@ pub(crate) fn convert(value: WriteValue, t: DataType) -> Result<Value, String> {
 }
 
 impl Sdo {
-    /// The dictionary of the node, or an error saying it has none.
-    fn typed_dictionary(&self) -> Result<std::sync::Arc<ObjectDictionary>, Error> {
+    /// The dictionary of the node, or an error saying it has none, naming `wanted` (the name
+    /// or address asked for).
+    fn typed_dictionary(&self, wanted: &str) -> Result<std::sync::Arc<ObjectDictionary>, Error> {
         let node = self.node_id();
         self.network()
             .core()
             .dictionary(node)
             .ok_or_else(|| Error::UnknownObject {
                 node,
-                name: String::new(),
-                reason:
-                    "the node was added without a dictionary (Network::add_node_with_dictionary)"
-                        .into(),
+                name: wanted.into(),
+                reason: Unresolved::NoDictionary,
             })
     }
 
@@ -195,15 +194,14 @@ impl Sdo {
         match key.into() {
             ObjectKey::Address(a) => Ok(a),
             ObjectKey::Name(name) => {
-                let od = self.typed_dictionary()?;
+                let od = self.typed_dictionary(name)?;
                 od.find(name).ok_or_else(|| Error::UnknownObject {
                     node: self.node_id(),
                     name: name.into(),
                     reason: if od.find_object(name).is_some() {
-                        "it is an array or record: name a sub-object as \"object.sub-object\""
-                            .into()
+                        Unresolved::NotOneValue
                     } else {
-                        "no such object in the node's dictionary".into()
+                        Unresolved::NotFound
                     },
                 })
             }
@@ -242,7 +240,7 @@ impl Sdo {
         value: impl Into<WriteValue>,
     ) -> Result<(ObjectAddress, Value), Error> {
         let at = self.resolve(key)?;
-        let od = self.typed_dictionary()?;
+        let od = self.typed_dictionary(&at.to_string())?;
         let node = self.node_id();
         let Some(sub) = od.sub(at.index, at.sub_index) else {
             return Err(Error::Value {

@@ -1,6 +1,6 @@
 //! CANopen FD in the master: [`Usdo`], a node's universal SDO (CiA 1301) as `node.usdo()`,
-//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`](crate::Driver::send_fd),
-//! [`Network::open_fd`](crate::Network::open_fd)).
+//! the node's CAN FD mark, and the network's CAN FD frames ([`Network::send_fd`],
+//! [`Network::open_fd`]).
 //!
 //! ```
 //! use canola::{BusConfig, MemoryBus, Network, NodeId, SimDevice};
@@ -29,13 +29,13 @@
 //! [`SdoErrorKind::FdNotSupported`](crate::SdoErrorKind::FdNotSupported) when the bus or the
 //! node has no CAN FD (nothing is sent then).
 
-use canola_frame::{Duration, NodeId};
+use canola_frame::NodeId;
 use canola_od::{DataType, ObjectAddress, Value};
 
 use crate::error::Error;
 use crate::machine::usdo::data_type_of;
-use crate::machine::{Completion, DownSource, Op, SdoRequest, UpSink};
-use crate::network::{Driver, Operation, Pending, SdoValue};
+use crate::machine::{Completion, DownSource, UpSink, UsdoOp, UsdoRequest};
+use crate::network::{Network, Operation, Pending, SdoValue};
 
 pub use crate::machine::usdo::{DEFAULT_USDO_NODE_ID, EDS_FD_KEY, eds_marks_fd};
 
@@ -43,7 +43,7 @@ pub use crate::machine::usdo::{DEFAULT_USDO_NODE_ID, EDS_FD_KEY, eds_marks_fd};
 /// [`Node::usdo`](crate::Node::usdo).
 #[derive(Debug, Clone)]
 pub struct Usdo {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) node: NodeId,
 }
 
@@ -53,31 +53,32 @@ impl Usdo {
         self.node
     }
 
-    fn request(&self, entry: ObjectAddress, op: Op) -> SdoRequest {
-        SdoRequest {
+    fn request(&self, entry: ObjectAddress, op: UsdoOp) -> UsdoRequest {
+        UsdoRequest {
             node: self.node,
-            channel: canola_sdo::SdoCobIds::default_for(self.node),
             entry,
             op,
-            method: canola_sdo::Method::Normal,
-            timeout: Duration::from_millis(canola_sdo::usdo::assumed::DEFAULT_TIMEOUT_MS),
-            progress: None,
         }
     }
 
-    fn download(&self, entry: ObjectAddress, value: impl SdoValue) -> Op {
+    fn download(&self, entry: ObjectAddress, value: impl SdoValue) -> UsdoOp {
         let data_type = data_type_of(self.net.core().dictionary(self.node).as_deref(), entry);
-        Op::UsdoDownload(DownSource(value.to_sdo_bytes()), data_type)
+        UsdoOp::Download(DownSource(value.to_sdo_bytes()), data_type)
     }
 
-    fn submit<T>(self, entry: ObjectAddress, op: Op, output: fn(Completion) -> T) -> Pending<T> {
+    fn submit<T>(
+        self,
+        entry: ObjectAddress,
+        op: UsdoOp,
+        output: fn(Completion) -> T,
+    ) -> Pending<T> {
         let req = self.request(entry, op);
-        Pending::submit(self.net, req, output)
+        Pending::submit(self.net, req.into(), output)
     }
 
     /// Starts a read (USDO upload) without waiting.
     pub fn submit_read(self, entry: impl Into<ObjectAddress>) -> Pending<Vec<u8>> {
-        self.submit(entry.into(), Op::UsdoUpload(UpSink::Mem(Vec::new())), |c| {
+        self.submit(entry.into(), UsdoOp::Upload(UpSink::Mem(Vec::new())), |c| {
             c.data
         })
     }
@@ -98,19 +99,19 @@ impl Usdo {
     fn transfer<T: Send + 'static>(
         self,
         entry: ObjectAddress,
-        op: Op,
+        op: UsdoOp,
         output: fn(Completion) -> T,
     ) -> Operation<'static, T> {
         let req = self.request(entry, op);
         let net = self.net;
-        Operation::request(net.shared, req, output, Error::from)
+        Operation::request(net.shared, req.into(), output, Error::from)
     }
 
     /// Reads an object's bytes (USDO upload): expedited up to 56 bytes, segmented beyond,
     /// as the server answers.
     pub fn read(self, entry: impl Into<ObjectAddress>) -> Operation<'static, Vec<u8>> {
         let entry = entry.into();
-        self.transfer(entry, Op::UsdoUpload(UpSink::Mem(Vec::new())), |c| c.data)
+        self.transfer(entry, UsdoOp::Upload(UpSink::Mem(Vec::new())), |c| c.data)
     }
 
     /// Writes an object (USDO download), announcing the data type from the node's dictionary

@@ -2,7 +2,7 @@
 //! state and its statusword bits out. The simulated drive ([`crate::sim`] with `std`) runs its
 //! state machine with it, and the planner's tests feed their plans to it.
 //!
-//! Device behaviour where drives differ (`shared/spec/cia402.md` §3.2, §3.3):
+//! Device behaviour where drives differ:
 //! - enable operation (0x000F) in ready to switch on: transition 3 then 4 (CiA DS402 V3.0
 //!   Table 27, Synapticon, Toshiba: the default) or only 3 (Elmo), [`DeviceConfig::enable_from_ready`];
 //! - transition 16 present or not (optional, python-canopen #169), [`DeviceConfig::transition_16`];

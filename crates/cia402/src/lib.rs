@@ -19,9 +19,10 @@
 //! - `master` (feature `master`): `Drive`, one axis of a drive commanded over the `canola`
 //!   facade, and `DriveHook`, the simulated drive behind a `canola::SimDevice` on the bus.
 //!
-//! Facts and their sources: `shared/spec/cia402.md` of the project. Where the sources disagree
-//! the majority is the default and the minority is selectable (see
-//! [`device::DeviceConfig`]).
+//! Facts come from CiA 402-2 and from what public drives and masters do (python-canopen,
+//! ros2_canopen, Maxon EPOS4, Elmo, Synapticon, Toshiba, Beckhoff's EtherCAT SSC); each item
+//! names its sources. Where the sources disagree the majority is the default and the minority is
+//! selectable (see [`device::DeviceConfig`]).
 //!
 //! Every decoder is total: any statusword, controlword, mode code or option code decodes to a
 //! value (unknown codes are kept), never a panic. `#![no_std]` without an allocator when built

@@ -335,6 +335,20 @@ impl HomingStatus {
     }
 }
 
+impl fmt::Display for HomingStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InProgress => f.write_str("in progress"),
+            Self::Interrupted => f.write_str("interrupted or not started"),
+            Self::Attained => f.write_str("attained, target not reached"),
+            Self::Completed => f.write_str("completed"),
+            Self::ErrorMoving => f.write_str("error, still moving"),
+            Self::ErrorStandstill => f.write_str("error, at standstill"),
+            Self::Reserved(bits) => write!(f, "reserved bits {bits:#06x}"),
+        }
+    }
+}
+
 /// Profile position controlword bits (4, 5, 6, 8, 9), CiA 402-2 §12.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub struct ProfilePositionControl {

@@ -3,8 +3,9 @@
 //! 0x605A..0x605E, the error code 0x603F, supported drive modes 0x6502 and the interpolation time
 //! period 0x60C2.
 //!
-//! Types and indices follow `shared/spec/cia402.md` §1 (majority of the sources: 0x6060 and 0x6098
-//! are `INTEGER8`, 0x607C `INTEGER32`). A few objects that the spec table does not list but
+//! Types and indices follow the majority of the sources (EPOS4, Beckhoff SSC, Toshiba, the
+//! ros_canopen and Pilz EDS files: 0x6060 and 0x6098 are `INTEGER8`, 0x607C `INTEGER32`). A few
+//! objects those sources do not list but
 //! CiA 402-2 defines (vl 0x6043/0x6044, windows 0x606D/0x606E, 0x6072, 0x607F, 0x60F4, 0x60FD ...)
 //! are here too; their indices and types are those of CiA 402-2.
 
@@ -184,7 +185,19 @@ pub const fn axis_of(index: u16) -> Option<(u8, u16)> {
     Some((axis, index - axis as u16 * AXIS_OFFSET))
 }
 
-/// How a drive numbers quick stop option codes 5 and 6. `shared/spec/cia402.md` §3.4: SSC,
+/// The profile object at `index`/`sub` of any axis (index + axis × 0x800), from the table
+/// [`ALL`]: its name, axis-0 index and data type. `None` for an object the table does not have.
+pub fn find(index: u16, sub: u8) -> Option<&'static ObjectInfo> {
+    let (_, base) = axis_of(index)?;
+    ALL.iter().find(|o| o.index == base && o.sub_index == sub)
+}
+
+/// Whether a device type 0x1000 names the CiA 402 profile (its lower 16 bits are 402).
+pub const fn is_drive_profile(device_type: u32) -> bool {
+    device_type & 0xFFFF == 402
+}
+
+/// How a drive numbers quick stop option codes 5 and 6. SSC,
 /// the JS decoder, Beckhoff, Synapticon and UDTStudio agree on [`Standard`](Self::Standard); a
 /// Harmonic Drive SDK header swaps 5 and 6.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]

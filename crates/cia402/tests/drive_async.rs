@@ -8,7 +8,9 @@ use std::future::IntoFuture;
 use std::sync::{Arc, Mutex};
 
 use canola::{Duration, MemoryBus, Network, NodeId};
-use canola_cia402::master::{Drive, DriveError, Move, Timeouts, simulated_drive};
+use canola_cia402::master::{
+    Awaited, Drive, DriveError, Move, OnCancel, Reached, Timeouts, simulated_drive,
+};
 use canola_cia402::sim::{SimDrive, SimFault};
 use canola_cia402::{ModeOfOperation, State};
 
@@ -152,10 +154,11 @@ async fn two_drives_move_together_under_join() {
 }
 
 #[tokio::test(start_paused = true)]
-async fn dropping_a_move_half_way_leaves_the_drive_usable() {
+async fn dropping_a_move_half_way_quick_stops_the_drive_and_leaves_it_usable() {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
     let (drive, model) = drive_at(&bus, &net, 5).await;
+    assert_eq!(drive.on_cancel(), OnCancel::QuickStop);
     drive.enable().await.unwrap();
     let long = drive.move_to(Move {
         target: 100_000,
@@ -169,8 +172,21 @@ async fn dropping_a_move_half_way_leaves_the_drive_usable() {
         halfway > 100.0 && halfway < 99_000.0,
         "the move had started: {halfway}"
     );
+    // The drop sent a quick stop: the drive brakes and ends as 0x605A (2) says, standing still
+    // far from the target.
+    net.run_for(Duration::from_millis(500)).await.unwrap();
+    assert_eq!(drive.state().await.unwrap(), State::SwitchOnDisabled);
+    let stopped = shaft(&model);
+    net.run_for(Duration::from_millis(200)).await.unwrap();
+    assert!(
+        (shaft(&model) - stopped).abs() < 1.0,
+        "{stopped} -> {}",
+        shaft(&model)
+    );
+    assert!(stopped < 20_000.0, "{stopped}");
+    drive.enable().await.unwrap();
     // The dropped move's requests are gone: the next commands run at once, and a new move
-    // (a rising set-point edge again) takes over from wherever the shaft is.
+    // (a rising set-point edge again) starts from wherever the shaft is.
     assert_eq!(drive.state().await.unwrap(), State::OperationEnabled);
     let pos = drive
         .move_to(Move {
@@ -202,6 +218,45 @@ async fn dropping_a_move_half_way_leaves_the_drive_usable() {
 }
 
 #[tokio::test(start_paused = true)]
+async fn a_move_dropped_with_on_cancel_halt_halts_and_stays_enabled() {
+    let bus = MemoryBus::new();
+    let net = Network::new(bus.endpoint());
+    let (drive, model) = drive_at(&bus, &net, 5).await;
+    let drive = drive.with_on_cancel(OnCancel::Halt);
+    drive.enable().await.unwrap();
+    let long = drive.move_to(Move {
+        target: 100_000,
+        velocity: Some(20_000),
+        ..Move::default()
+    });
+    assert!(
+        tokio::time::timeout(std::time::Duration::from_millis(300), long)
+            .await
+            .is_err()
+    );
+    net.run_for(Duration::from_millis(500)).await.unwrap();
+    let status = drive.status().await.unwrap();
+    assert_eq!(status.state, Some(State::OperationEnabled));
+    assert!(status.statusword.bit(10), "halted: the axis stands still");
+    let stopped = shaft(&model);
+    net.run_for(Duration::from_millis(200)).await.unwrap();
+    assert!((shaft(&model) - stopped).abs() < 1.0);
+    assert!(stopped < 20_000.0, "{stopped}");
+    // Halt cleared, a new move runs to its end (and, finished, stops nothing).
+    drive.halt(false).await.unwrap();
+    let pos = drive
+        .move_to(Move {
+            target: 1_000,
+            immediate: true,
+            ..Move::default()
+        })
+        .await
+        .unwrap();
+    assert!((pos - 1_000).abs() <= 10, "{pos}");
+    assert_eq!(drive.state().await.unwrap(), State::OperationEnabled);
+}
+
+#[tokio::test(start_paused = true)]
 async fn a_spawned_move_times_out_on_the_bus_clock_naming_expected_reached_and_statusword() {
     let bus = MemoryBus::new();
     let net = Network::new(bus.endpoint());
@@ -224,18 +279,17 @@ async fn a_spawned_move_times_out_on_the_bus_clock_naming_expected_reached_and_s
         Err(e @ DriveError::Timeout { .. }) => {
             let text = e.to_string();
             let DriveError::Timeout {
-                waiting_for,
-                expected,
+                awaited,
                 reached,
                 statusword,
                 waited,
+                ..
             } = e
             else {
                 unreachable!()
             };
-            assert_eq!(waiting_for, "target reached (statusword bit 10)");
-            assert_eq!(expected, "target reached");
-            assert!(reached.contains("at position"), "{reached}");
+            assert_eq!(awaited, Awaited::TargetReached);
+            assert!(matches!(reached, Reached::Position(_)), "{reached}");
             assert!(!statusword.target_reached(), "{statusword}");
             assert!(
                 waited >= Duration::from_millis(50) && waited < Duration::from_millis(100),

@@ -335,7 +335,14 @@ fn a_dcf_mapping_an_object_the_device_lacks_is_a_pdo_error() {
     let e = DcfPdos::parse(text.as_bytes(), NodeId::new(NODE).unwrap()).unwrap_err();
     let msg = e.to_string();
     assert!(
-        matches!(&e, DcfPdoError::Pdo { pdo, .. } if pdo == "RPDO2"),
+        matches!(
+            &e,
+            DcfPdoError::Pdo {
+                direction: canola::pdo::Direction::Receive,
+                number: 2,
+                ..
+            }
+        ),
         "{msg}"
     );
     assert!(msg.contains("0x1601"), "{msg}");

@@ -1,4 +1,4 @@
-//! The CiA 402 mistakes masters are known to make (`shared/spec/cia402.md` §7), as tests of this
+//! The CiA 402 mistakes masters are known to make, as tests of this
 //! crate at the profile layer. Where a pitfall is about the master's waiting, PDO caching or
 //! SDO fallbacks (python-canopen #168, #178, #554, ros2_canopen #298) it needs the Drive API
 //! over the facade and is not tested here.

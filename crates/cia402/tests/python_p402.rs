@@ -302,7 +302,7 @@ fn python_canopen_agrees_on_homing_status_and_modes() {
     }
 }
 
-/// python-canopen's known deviations from CiA 402 (`shared/spec/cia402.md` §7), each asserted
+/// python-canopen's known deviations from CiA 402, each asserted
 /// against its tables so the list stays true.
 #[test]
 fn deviations_of_python_canopen() {

@@ -100,6 +100,15 @@ pub(crate) fn options_after_values(cmd: &Command, args: Vec<OsString>) -> Vec<Os
     out.into_iter().map(OsString::from).collect()
 }
 
+/// Whether `args` (the program name first) ask for `--json` ahead of any `--`: read before clap
+/// parses, so that a command line clap refuses is reported as JSON too.
+pub(crate) fn asks_for_json(args: &[OsString]) -> bool {
+    args.iter()
+        .skip(1)
+        .take_while(|a| *a != "--")
+        .any(|a| a == "--json")
+}
+
 /// The options of the subcommand `before` (the arguments ahead of `--`) selects, with the
 /// global options of every command on the way.
 fn options_of(root: &Command, before: &[String]) -> Known {
@@ -163,6 +172,20 @@ mod tests {
             run("cpos set Offset -- -5 --json"),
             "cpos set Offset --json -- -5"
         );
+    }
+
+    #[test]
+    fn json_is_seen_before_the_dashes_only() {
+        let args = |line: &str| -> Vec<OsString> {
+            std::iter::once("canopen")
+                .chain(line.split(' '))
+                .map(OsString::from)
+                .collect()
+        };
+        assert!(asks_for_json(&args("--json sdo read 128 0x1017")));
+        assert!(asks_for_json(&args("sdo read 128 0x1017 --json")));
+        assert!(!asks_for_json(&args("sdo write 4 0x2000 -- --json")));
+        assert!(!asks_for_json(&args("sdo read 4 0x1017")));
     }
 
     #[test]

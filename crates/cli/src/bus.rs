@@ -5,7 +5,9 @@
 //! simulator otherwise), so every command has a
 //! device to talk to without hardware.
 //!
-//! Also the argument parsers the bus commands share, and the warning printer.
+//! Also the argument parsers the bus commands share, the warning printer, what SIGINT, SIGTERM
+//! and SIGHUP do ([`handle_signals`]: files a command registered are removed before the process
+//! ends) and the watch on an slcan adapter that never said anything ([`silent_adapter`]).
 
 use std::process::ExitCode;
 
@@ -272,33 +274,102 @@ impl Bus {
 /// Set when SIGINT or SIGTERM arrived after [`stop_on_signals`].
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
+/// Set by [`stop_on_signals`]: the first signal sets [`STOP`] instead of ending the process.
+static GRACEFUL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Set by [`signals_end_normally`]: a signal ends the process with status 0 and this text.
+static NORMAL_END: std::sync::Mutex<Option<&'static str>> = std::sync::Mutex::new(None);
+
+/// Whether the signal thread runs (see [`handle_signals`]).
+static HANDLED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+
 /// Whether SIGINT or SIGTERM arrived after [`stop_on_signals`].
 pub(crate) fn stop_requested() -> bool {
     STOP.load(std::sync::atomic::Ordering::Relaxed)
 }
 
-/// Makes Ctrl-C (SIGINT) and SIGTERM end [`Bus::pump`] at its next turn (within 200 ms)
-/// instead of killing the process, so `record` can still put its file in place; a second
-/// signal ends the process (exit status 130). Call it before any other thread starts: the
-/// signals are blocked in this thread (and so in every thread started later) and taken by a
-/// thread of their own with `sigwait`.
+/// Takes SIGINT, SIGTERM and SIGHUP in a thread of their own (`sigwait`), so that the files
+/// the command registered with [`remove_on_signal`] (temporary output files, the gateway's
+/// Unix sockets) are removed before the process ends: with `error: interrupted by SIGINT` and
+/// exit status 128 + the signal's number (130 for SIGINT, 143 for SIGTERM), or as
+/// [`stop_on_signals`] and [`signals_end_normally`] ask. `main` calls it first, before any
+/// other thread starts: the signals are blocked in the calling thread and so in every thread
+/// started later. Calling it again does nothing.
+#[cfg(unix)]
+pub(crate) fn handle_signals() -> Result<(), CliError> {
+    use nix::sys::signal::{SigSet, Signal};
+    let mut failed = None;
+    HANDLED.get_or_init(|| {
+        let mut set = SigSet::empty();
+        set.add(Signal::SIGINT);
+        set.add(Signal::SIGTERM);
+        set.add(Signal::SIGHUP);
+        if let Err(e) = set.thread_block() {
+            failed = Some(e);
+            return false;
+        }
+        std::thread::spawn(move || {
+            while let Ok(signal) = set.wait() {
+                on_signal(signal);
+            }
+        });
+        true
+    });
+    match failed {
+        Some(e) => Err(CliError::System {
+            what: "cannot block SIGINT".into(),
+            source: e.into(),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// What a signal does (see [`handle_signals`]).
+#[cfg(unix)]
+fn on_signal(signal: nix::sys::signal::Signal) {
+    use std::sync::atomic::Ordering::Relaxed;
+    if GRACEFUL.load(Relaxed) && !STOP.swap(true, Relaxed) {
+        return;
+    }
+    remove_registered();
+    let normal = *NORMAL_END.lock().unwrap_or_else(|e| e.into_inner());
+    let name = signal.as_str();
+    if let Some(who) = normal {
+        if crate::error::json() {
+            eprintln!("{}", serde_json::json!({ "stopped": who, "signal": name }));
+        } else {
+            eprintln!("{who}: stopped by {name}");
+        }
+        std::process::exit(0);
+    }
+    // A command that stops on the first signal has said what it does; this is the second.
+    if !GRACEFUL.load(Relaxed) {
+        let _ = CliError::Interrupted { signal: name }.report();
+    }
+    std::process::exit(128 + signal as i32);
+}
+
+/// Makes Ctrl-C (SIGINT) and SIGTERM (and SIGHUP) end [`Bus::pump`] at its next turn (within
+/// 200 ms), and set [`stop_requested`] for the loops of other commands, instead of ending the
+/// process, so `record` can still put its file in place and a drive can be stopped; a second
+/// signal ends the process (exit status 128 + its number, 130 for SIGINT) after removing the
+/// files registered with [`remove_on_signal`].
 #[cfg(unix)]
 pub(crate) fn stop_on_signals() -> Result<(), CliError> {
-    use nix::sys::signal::{SigSet, Signal};
-    let mut set = SigSet::empty();
-    set.add(Signal::SIGINT);
-    set.add(Signal::SIGTERM);
-    set.thread_block().map_err(|e| CliError::System {
-        what: "cannot block SIGINT".into(),
-        source: e.into(),
-    })?;
-    std::thread::spawn(move || {
-        while set.wait().is_ok() {
-            if STOP.swap(true, std::sync::atomic::Ordering::Relaxed) {
-                std::process::exit(130);
-            }
-        }
-    });
+    GRACEFUL.store(true, std::sync::atomic::Ordering::Relaxed);
+    handle_signals()
+}
+
+/// Makes a signal the normal end of a command that runs until stopped (the gateway): the files
+/// registered with [`remove_on_signal`] are removed, `WHO: stopped by SIGTERM` is printed
+/// (under `--json` `{"stopped": WHO, "signal": "SIGTERM"}`), and the exit status is 0.
+pub(crate) fn signals_end_normally(who: &'static str) {
+    *NORMAL_END.lock().unwrap_or_else(|e| e.into_inner()) = Some(who);
+}
+
+/// Elsewhere signals end the process as usual.
+#[cfg(not(unix))]
+pub(crate) fn handle_signals() -> Result<(), CliError> {
     Ok(())
 }
 
@@ -306,6 +377,93 @@ pub(crate) fn stop_on_signals() -> Result<(), CliError> {
 #[cfg(not(unix))]
 pub(crate) fn stop_on_signals() -> Result<(), CliError> {
     Ok(())
+}
+
+/// A file to remove when the process ends by a signal: what [`remove_on_signal`] registered.
+struct Registered {
+    key: u64,
+    path: std::path::PathBuf,
+    /// Device and inode of the file when it was registered: another file that took its place
+    /// since is left alone.
+    id: Option<(u64, u64)>,
+}
+
+static REGISTERED: std::sync::Mutex<Vec<Registered>> = std::sync::Mutex::new(Vec::new());
+static NEXT_KEY: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Device and inode of `path` (the file itself, not what a link points to).
+fn file_id(path: &std::path::Path) -> Option<(u64, u64)> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        std::fs::symlink_metadata(path)
+            .ok()
+            .map(|m| (m.dev(), m.ino()))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        None
+    }
+}
+
+/// Removes `path` if it is still the file that was registered.
+fn remove_if_same(path: &std::path::Path, id: Option<(u64, u64)>) {
+    if id.is_none() || file_id(path) == id {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+/// Removes every registered file (the process is ending by a signal).
+fn remove_registered() {
+    let list = REGISTERED.lock().unwrap_or_else(|e| e.into_inner());
+    for r in list.iter() {
+        remove_if_same(&r.path, r.id);
+    }
+}
+
+/// Registers `path` (which exists now) for removal when the process ends by a signal (see
+/// [`handle_signals`]). Dropping the guard takes the registration back and leaves the file;
+/// [`SignalGuard::remove`] removes it too.
+pub(crate) fn remove_on_signal(path: &std::path::Path) -> SignalGuard {
+    let key = NEXT_KEY.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    REGISTERED
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(Registered {
+            key,
+            path: path.to_owned(),
+            id: file_id(path),
+        });
+    SignalGuard { key }
+}
+
+/// A file registered with [`remove_on_signal`]; dropped, it is no longer removed.
+#[derive(Debug)]
+pub(crate) struct SignalGuard {
+    key: u64,
+}
+
+impl SignalGuard {
+    /// Removes the file now (if it is still the one registered) and takes the registration
+    /// back.
+    pub(crate) fn remove(self) {
+        let list = REGISTERED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(r) = list.iter().find(|r| r.key == self.key) {
+            remove_if_same(&r.path, r.id);
+        }
+        // Before `self` takes the registration back.
+        drop(list);
+    }
+}
+
+impl Drop for SignalGuard {
+    fn drop(&mut self) {
+        REGISTERED
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .retain(|r| r.key != self.key);
+    }
 }
 
 /// A frame [`Bus::pump`] received.
@@ -359,13 +517,54 @@ pub(crate) fn open_transport_fd(iface: &str) -> Result<Box<dyn Transport>, CliEr
 }
 
 /// [`open_transport`], on SocketCAN receiving CAN FD frames too when `fd`. Errors are the
-/// library's: they name the bus and carry its hints.
+/// library's: they name the bus and carry its hints. An slcan adapter is watched (see
+/// [`silent_adapter`]).
 fn open_transport_with(iface: &str, fd: bool) -> Result<Box<dyn Transport>, CliError> {
     let spec = canola::BusSpec::parse(iface)?;
     if let Some(w) = spec.warning() {
         eprintln!("warning: {w}");
     }
+    if let canola::BusSpec::Slcan(_) = &spec {
+        let adapter = spec.open_slcan()?;
+        *SLCAN.lock().unwrap_or_else(|e| e.into_inner()) = Some(SlcanWatch {
+            name: iface.to_owned(),
+            acknowledges: adapter.link().acknowledges(),
+            stats: adapter.stats(),
+        });
+        return Ok(Box::new(adapter));
+    }
     Ok(spec.open_with(fd)?)
+}
+
+/// What is known of the slcan adapter the command opened: whether it acknowledged the commands
+/// that opened it, and its counters (frames received).
+struct SlcanWatch {
+    name: String,
+    acknowledges: bool,
+    stats: canola::slcan::SlcanStats,
+}
+
+static SLCAN: std::sync::Mutex<Option<SlcanWatch>> = std::sync::Mutex::new(None);
+
+/// An error when the bus is an slcan adapter that acknowledged none of the commands that opened
+/// it and sent no frame at all since: a silent serial device looks just like an empty bus, so
+/// a command that lists what it heard (`scan`, `nmt state`) says so instead of printing an
+/// empty list.
+pub(crate) fn silent_adapter() -> Option<CliError> {
+    let watch = SLCAN.lock().unwrap_or_else(|e| e.into_inner());
+    let w = watch.as_ref()?;
+    if w.acknowledges || w.stats.frames_rx() > 0 {
+        return None;
+    }
+    Some(CliError::Device(format!(
+        "{}: the adapter acknowledged no command and no frame arrived, so nothing was heard \
+             from the bus\nhint: either what is at this path is not an slcan adapter that \
+             answers (another device, a serial speed the adapter does not use, an adapter not \
+             powered) or it is one that never acknowledges (CANable slcan firmware) on a bus \
+             where no node sent anything (nodes off, another bit rate: give slcan:PATH@BITRATE, \
+             no termination); `canopen adapter info --iface {}` shows what it answers",
+        w.name, w.name
+    )))
 }
 
 /// Reports `e` (see [`CliError::report`]) and gives the exit code.

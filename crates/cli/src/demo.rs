@@ -21,6 +21,9 @@ fn step(title: &str) {
     outln(&format!("== {title}"));
 }
 
+/// Shows the first `max` frames the tap received since the last call. The frames not shown
+/// still go through the monitor: it follows SDO block transfers across frames, and a transfer
+/// left half-seen would make it read the next section's frames as block segments.
 fn show_traffic(tap: &mut canola::Endpoint, monitor: &mut Monitor, max: usize) {
     let mut shown = 0;
     let mut skipped = 0;
@@ -29,6 +32,7 @@ fn show_traffic(tap: &mut canola::Endpoint, monitor: &mut Monitor, max: usize) {
             outln(&format!("   {at}  {}", monitor.describe(&frame)));
             shown += 1;
         } else {
+            monitor.observe(&frame);
             skipped += 1;
         }
     }

@@ -2,16 +2,24 @@
 //! the power states, modes, homing, profile-position moves with their live position, velocity
 //! and torque. Also the simulated drive the bus commands run for a 402 dictionary (on the
 //! in-memory bus and in `canopen simulate`).
+//!
+//! The commands that start motion (`home`, `move`, `velocity`, `torque`) take SIGINT and SIGTERM
+//! (Ctrl-C) while they run: the drive gets a quick stop (it brakes on its quick stop ramp and
+//! ends as its 0x605A says), the command says what it did and where the drive stopped, and exits
+//! with status 130. A second signal ends the process at once.
 
+use std::future::{Future, IntoFuture};
+use std::pin::Pin;
 use std::process::ExitCode;
+use std::task::{Context, Poll};
 
-use canola::NodeId;
+use canola::{Duration, NodeId, Operation};
 use canola_cia402::master::{Drive, DriveError, DriveStatus, Move};
 use canola_cia402::{ModeOfOperation, State};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail, open_network, parse_node};
+use crate::bus::{BusOpts, fail, open_network, parse_node, stop_on_signals, stop_requested};
 use crate::error::CliError;
 use crate::{Global, outln};
 
@@ -46,7 +54,8 @@ enum DriveCommand {
         #[arg(value_parser = parse_mode, allow_negative_numbers = true)]
         mode: ModeOfOperation,
     },
-    /// Homing (mode hm), optionally with a method (0x6098); needs operation enabled.
+    /// Homing (mode hm), optionally with a method (0x6098); needs operation enabled. Ctrl-C
+    /// (SIGINT) or SIGTERM quick-stops the drive (it ends as 0x605A says) and exits 130.
     Home {
         /// The homing method.
         #[arg(allow_negative_numbers = true)]
@@ -56,7 +65,8 @@ enum DriveCommand {
         enable: bool,
     },
     /// Profile-position move to POS (counts), printing the position while it moves, until
-    /// target reached (statusword bit 10). Needs operation enabled.
+    /// target reached (statusword bit 10). Needs operation enabled. Ctrl-C (SIGINT) or SIGTERM
+    /// quick-stops the drive (it ends as 0x605A says) and exits 130.
     Move {
         /// The target, counts.
         #[arg(allow_negative_numbers = true)]
@@ -71,7 +81,8 @@ enum DriveCommand {
         #[arg(long)]
         enable: bool,
     },
-    /// Profile velocity: mode pv, target velocity 0x60FF (counts/s).
+    /// Profile velocity: mode pv, target velocity 0x60FF (counts/s). The drive keeps the
+    /// velocity after the command ends; stop it with `quick-stop`, `velocity 0` or `disable`.
     Velocity {
         /// Counts/s.
         #[arg(allow_negative_numbers = true)]
@@ -80,7 +91,8 @@ enum DriveCommand {
         #[arg(long)]
         enable: bool,
     },
-    /// Profile torque: mode tq, target torque 0x6071 (‰ of rated torque).
+    /// Profile torque: mode tq, target torque 0x6071 (‰ of rated torque). The drive keeps the
+    /// torque after the command ends; stop it with `quick-stop`, `torque 0` or `disable`.
     Torque {
         /// ‰ of rated torque.
         #[arg(allow_negative_numbers = true)]
@@ -141,8 +153,33 @@ fn enable_first(drive: &Drive, enable: bool) -> Result<(), DriveError> {
     Ok(())
 }
 
+/// Why a motion command ended early.
+enum Ended {
+    /// The drive command failed.
+    Drive(DriveError),
+    /// SIGINT or SIGTERM arrived.
+    Signal,
+}
+
+impl From<DriveError> for Ended {
+    fn from(e: DriveError) -> Self {
+        Self::Drive(e)
+    }
+}
+
 /// `canopen drive NODE COMMAND`
 pub(crate) fn run(args: DriveArgs, opts: &BusOpts, g: Global) -> ExitCode {
+    let moves = matches!(
+        args.command,
+        DriveCommand::Home { .. }
+            | DriveCommand::Move { .. }
+            | DriveCommand::Velocity { .. }
+            | DriveCommand::Torque { .. }
+    );
+    // Before the network's threads start: the signals go to a thread of their own.
+    if moves && let Err(e) = stop_on_signals() {
+        return fail(e);
+    }
     let (net, _mem) = match open_network(opts) {
         Ok(b) => b,
         Err(e) => return fail(e),
@@ -150,11 +187,126 @@ pub(crate) fn run(args: DriveArgs, opts: &BusOpts, g: Global) -> ExitCode {
     let drive = Drive::on_axis(net.node(args.node), args.axis);
     match run_command(&drive, args.command, g) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => fail(e),
+        Err(Ended::Drive(e @ DriveError::NotEnabled { .. })) if moves => {
+            let hint = "give --enable to enable the drive first";
+            if g.json {
+                eprintln!("{}", json!({"error": e.to_string(), "hint": hint}));
+            } else {
+                eprintln!("error: {e}\nhint: {hint}");
+            }
+            ExitCode::FAILURE
+        }
+        Err(Ended::Drive(e)) => fail(e),
+        Err(Ended::Signal) => interrupted(&drive, g),
     }
 }
 
-fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), DriveError> {
+/// `op` run until it ends or SIGINT/SIGTERM arrives ([`Ended::Signal`]; `op` is then
+/// dropped, which starts the drive's quick stop).
+fn until_signal<T: Send>(drive: &Drive, op: Operation<'_, T, DriveError>) -> Result<T, Ended> {
+    let net = drive.node().network().clone();
+    let watch = Box::pin(async move {
+        while !stop_requested() {
+            if net.run_for(Duration::from_millis(20)).await.is_err() {
+                // The bus failed: the command's own operation says so.
+                std::future::pending::<()>().await;
+            }
+        }
+    });
+    let first = First {
+        op: Box::pin(op.into_future()),
+        watch,
+    };
+    // In a join, the operations awaited inside poll without blocking (a plain wait would run
+    // the command's operation to its end before the watch is looked at).
+    let raced = Operation::new(async move { Ok::<_, DriveError>(first.await) });
+    match canola::join_all([raced]).wait()?.pop() {
+        Some(Ok(Some(r))) => Ok(r?),
+        Some(Err(e)) => Err(e.into()),
+        Some(Ok(None)) | None => Err(Ended::Signal),
+    }
+}
+
+/// The command's operation raced against the signal watch: `None` when the watch ends first.
+struct First<A, W> {
+    op: Pin<Box<A>>,
+    watch: Pin<Box<W>>,
+}
+
+impl<A: Future, W: Future<Output = ()>> Future for First<A, W> {
+    type Output = Option<A::Output>;
+
+    fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Self::Output> {
+        if let Poll::Ready(r) = self.op.as_mut().poll(cx) {
+            return Poll::Ready(Some(r));
+        }
+        match self.watch.as_mut().poll(cx) {
+            Poll::Ready(()) => Poll::Ready(None),
+            Poll::Pending => Poll::Pending,
+        }
+    }
+}
+
+/// After a signal: the quick stop (sent already when the command's operation was dropped),
+/// waited until the drive stands still or leaves quick stop active, then reported; exit 130.
+fn interrupted(drive: &Drive, g: Global) -> ExitCode {
+    let stopped = (|| -> Result<(State, i32), DriveError> {
+        let mut state = drive.quick_stop().wait()?;
+        let net = drive.node().network();
+        // Braking on the quick stop ramp takes a while. A drive whose 0x605A (2 when it has
+        // none) ends the quick stop in switch on disabled says so when it stands still; one
+        // that stays in quick stop active, by its velocity.
+        let at = canola_cia402::objects::on_axis(
+            canola_cia402::objects::QUICK_STOP_OPTION_CODE,
+            drive.axis(),
+        );
+        let stays = match at {
+            Some(e) => match drive.node().sdo().read((e.index(), e.sub_index())).wait() {
+                Ok(b) if b.len() >= 2 => {
+                    canola_cia402::QuickStopOption(i16::from_le_bytes([b[0], b[1]]))
+                        .stays_in_quick_stop()
+                }
+                _ => false,
+            },
+            None => false,
+        };
+        let start = net.now();
+        while state == State::QuickStopActive && net.now() - start < Duration::from_secs(10) {
+            if stays && drive.velocity().wait()? == 0 {
+                break;
+            }
+            net.run_for(Duration::from_millis(20)).wait()?;
+            state = drive.state().wait()?;
+        }
+        Ok((state, drive.position().wait()?))
+    })();
+    match stopped {
+        Ok((state, position)) => {
+            if g.json {
+                eprintln!(
+                    "{}",
+                    json!({"error": "interrupted", "stopped_by": "quick stop", "state": state.name(), "position": position})
+                );
+            } else {
+                eprintln!(
+                    "interrupted: quick stop sent; the drive stopped in state \"{state}\" at position {position}"
+                );
+            }
+        }
+        Err(e) => {
+            let text =
+                format!("interrupted: quick stop sent, but the drive did not confirm it: {e}");
+            if g.json {
+                eprintln!("{}", json!({"error": text}));
+            } else {
+                eprintln!("error: {text}");
+            }
+        }
+    }
+    ExitCode::from(130)
+}
+
+fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Ended> {
     match command {
         DriveCommand::Status => {
             let s = drive.status().wait()?;
@@ -183,7 +335,7 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
                     &json!({
                         "error_code": format!("{:#06x}", r.code.0),
                         "error": r.code.name(),
-                        "emcy": r.emcy,
+                        "emcy": r.emcy.map(|e| e.to_string()),
                         "from": r.from.name(),
                         "state": r.state.name(),
                     })
@@ -211,7 +363,7 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
                 drive.set_mode(ModeOfOperation::Homing).wait()?;
                 enable_first(drive, true)?;
             }
-            let pos = drive.home(method).wait()?;
+            let pos = until_signal(drive, drive.home(method))?;
             if g.json {
                 outln(&json!({"homed": true, "position": pos}).to_string());
             } else {
@@ -225,27 +377,28 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
             enable,
         } => {
             enable_first(drive, enable)?;
-            drive
-                .start_move(Move {
+            until_signal(
+                drive,
+                drive.start_move(Move {
                     target: position,
                     relative,
                     velocity,
                     immediate: false,
-                })
-                .wait()?;
+                }),
+            )?;
             let net = drive.node().network().clone();
             let mut last_print = None;
-            let pos = drive
-                .wait_target_reached(|p| {
+            let pos = until_signal(
+                drive,
+                drive.wait_target_reached(|p| {
                     let now = net.now();
-                    let due =
-                        last_print.is_none_or(|t| now - t >= canola::Duration::from_millis(100));
+                    let due = last_print.is_none_or(|t| now - t >= Duration::from_millis(100));
                     if due && !g.json {
                         outln(&format!("position {p}"));
                         last_print = Some(now);
                     }
-                })
-                .wait()?;
+                }),
+            )?;
             let sw = drive.statusword().wait()?;
             if g.json {
                 outln(&json!({"target_reached": true, "position": pos, "statusword": format!("{:#06x}", sw.raw())}).to_string());
@@ -254,7 +407,7 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
             }
         }
         DriveCommand::Velocity { velocity, enable } => {
-            drive.set_velocity(velocity).wait()?;
+            until_signal(drive, drive.set_velocity(velocity))?;
             enable_first(drive, enable)?;
             let state = drive.state().wait()?;
             if g.json {
@@ -267,7 +420,7 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
             }
         }
         DriveCommand::Torque { torque, enable } => {
-            drive.set_torque(torque).wait()?;
+            until_signal(drive, drive.set_torque(torque))?;
             enable_first(drive, enable)?;
             let state = drive.state().wait()?;
             if g.json {
@@ -281,4 +434,18 @@ fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Dr
         }
     }
     Ok(())
+}
+
+/// The type of a CiA 402 object (0x6000..=0x9FFF, any axis) on a node whose device type 0x1000
+/// names profile 402 (read by SDO once the other sources of a type gave none), as the CLI knows
+/// the CiA 301 objects' types without an EDS.
+pub(crate) fn profile_type(
+    net: &canola::Network,
+    node: NodeId,
+    entry: canola::ObjectAddress,
+) -> Option<canola::od::DataType> {
+    let info = canola_cia402::objects::find(entry.index, entry.sub_index)?;
+    let bytes = net.node(node).sdo().read((0x1000, 0)).wait().ok()?;
+    let device_type = u32::from_le_bytes(bytes.get(..4)?.try_into().ok()?);
+    canola_cia402::objects::is_drive_profile(device_type).then_some(info.data_type)
 }

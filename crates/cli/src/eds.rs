@@ -278,7 +278,10 @@ fn check(files: &[PathBuf], report_opts: Report, global: Global) -> ExitCode {
                     for l in &lines {
                         eprintln!("{l}");
                     }
-                    crate::outln(&format!("{name}: FAILED, {errors} errors"));
+                    crate::outln(&format!(
+                        "{name}: FAILED, {errors} error{}",
+                        if errors == 1 { "" } else { "s" }
+                    ));
                 }
             }
         }

@@ -5,7 +5,12 @@
 //! [`CliError::report`] prints it once on stderr and gives the exit code: `error: TEXT` (with
 //! a hint on a line of its own, `hint: ...`), or under `--json` one JSON object with `error`,
 //! `hint`, and for an SDO failure `node`, `index`, `sub`, `name`, `abort_code` and `meaning`.
-//! The exit code is 1, for a command line that is wrong as a whole 2 (as clap's).
+//!
+//! The exit code follows one rule: 2 when the command line itself is wrong (an argument that
+//! does not parse or is out of range, one that is missing or too many, options that do not fit
+//! together or with the bus, a name the dictionary does not have), as clap's own errors;
+//! 1 when something the command line names fails (a file, the bus, a device, the system).
+//! Under `--json` clap's errors print as JSON too ([`report_clap`]).
 
 use std::fmt;
 use std::path::PathBuf;
@@ -100,6 +105,11 @@ pub(crate) enum CliError {
     Unconfirmed(Vec<String>),
     /// A command line that is wrong as a whole (exit code 2).
     Usage(Box<CliError>),
+    /// The process was ended by a signal (its files removed first).
+    Interrupted {
+        /// The signal's name (`SIGINT`).
+        signal: &'static str,
+    },
 }
 
 impl CliError {
@@ -134,11 +144,21 @@ impl CliError {
         move |source| Self::File { path, source }
     }
 
+    /// Whether the command line itself is wrong (see the module docs): the argument errors,
+    /// node-IDs out of range, values the library refused, and errors marked as usage errors.
+    pub(crate) fn is_usage(&self) -> bool {
+        matches!(
+            self,
+            Self::Usage(_) | Self::Argument(_) | Self::NodeId(_) | Self::Rejected { .. }
+        )
+    }
+
     /// The exit code: 2 for a usage error, else 1.
     pub(crate) fn exit_code(&self) -> ExitCode {
-        match self {
-            Self::Usage(_) => ExitCode::from(2),
-            _ => ExitCode::FAILURE,
+        if self.is_usage() {
+            ExitCode::from(2)
+        } else {
+            ExitCode::FAILURE
         }
     }
 
@@ -162,6 +182,9 @@ impl CliError {
                 }
             }
             Self::Usage(inner) => return inner.fields(),
+            Self::Interrupted { signal } => {
+                fields.insert("signal".into(), json!(signal));
+            }
             _ => {}
         }
         fields
@@ -169,9 +192,72 @@ impl CliError {
 
     /// Prints the error on stderr (see the module docs) and gives the exit code.
     pub(crate) fn report(self) -> ExitCode {
-        print(&self.to_string(), self.fields());
+        let mut fields = self.fields();
+        if json() && self.is_usage() {
+            fields.insert("usage".into(), true.into());
+        }
+        print(&self.to_string(), fields);
         self.exit_code()
     }
+}
+
+/// Reports a command line clap refused, or prints the help or version it asked for: as clap
+/// does, or under `--json` (when `json`) an error as one JSON object on stderr: `error` (clap's
+/// message without its `error: `), `usage` true, `kind` (clap's kind of error, kebab-case:
+/// `invalid-value`, `unknown-argument`, `missing-required-argument`, ...), `argument` (the
+/// argument it is about, when clap names one), `value` (the value refused, when there is one),
+/// `hint` (clap's suggestion, when it has one). Help and version print as text and exit 0.
+pub(crate) fn report_clap(e: &clap::Error, json: bool) -> ExitCode {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    if !json || !e.use_stderr() {
+        let _ = e.print();
+        return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+    }
+    let text = e.render().to_string();
+    let body = text.strip_prefix("error: ").unwrap_or(&text);
+    // clap's message ends at the first blank line; its tips and usage follow.
+    let message = body.split("\n\n").next().unwrap_or(body).trim();
+    let mut fields = Map::new();
+    let mut tips = Vec::new();
+    for line in body.lines() {
+        if let Some(tip) = line.trim().strip_prefix("tip: ") {
+            tips.push(tip.to_owned());
+        }
+    }
+    let kind = match e.kind() {
+        ErrorKind::InvalidValue => "invalid-value",
+        ErrorKind::UnknownArgument => "unknown-argument",
+        ErrorKind::InvalidSubcommand => "invalid-subcommand",
+        ErrorKind::NoEquals => "no-equals",
+        ErrorKind::ValueValidation => "value-validation",
+        ErrorKind::TooManyValues => "too-many-values",
+        ErrorKind::TooFewValues => "too-few-values",
+        ErrorKind::WrongNumberOfValues => "wrong-number-of-values",
+        ErrorKind::ArgumentConflict => "argument-conflict",
+        ErrorKind::MissingRequiredArgument => "missing-required-argument",
+        ErrorKind::MissingSubcommand => "missing-subcommand",
+        ErrorKind::InvalidUtf8 => "invalid-utf8",
+        _ => "usage",
+    };
+    fields.insert("usage".into(), true.into());
+    fields.insert("kind".into(), kind.into());
+    let text_of = |c: Option<&ContextValue>| match c {
+        Some(ContextValue::String(s)) => Some(s.clone()),
+        Some(ContextValue::Strings(v)) => Some(v.join(", ")),
+        _ => None,
+    };
+    if let Some(arg) = text_of(e.get(ContextKind::InvalidArg)) {
+        fields.insert("argument".into(), arg.into());
+    }
+    if let Some(value) = text_of(e.get(ContextKind::InvalidValue)) {
+        fields.insert("value".into(), value.into());
+    }
+    if !tips.is_empty() {
+        fields.insert("hint".into(), tips.join("; ").into());
+    }
+    fields.insert("error".into(), message.into());
+    eprintln!("{}", Json::Object(fields));
+    ExitCode::from(2)
 }
 
 /// Whether errors print as JSON (`--json`); set once by `main`.
@@ -258,6 +344,7 @@ impl fmt::Display for CliError {
             } => write!(f, "node {node}, object {entry}: {source}"),
             Self::Unconfirmed(reasons) => f.write_str(&reasons.join("; ")),
             Self::Usage(inner) => write!(f, "{inner}"),
+            Self::Interrupted { signal } => write!(f, "interrupted by {signal}"),
         }
     }
 }
@@ -279,7 +366,10 @@ impl std::error::Error for CliError {
             Self::NodeId(e) => Some(e),
             Self::Rejected { source, .. } => Some(source.as_ref()),
             Self::Object { source, .. } | Self::Usage(source) => Some(source.as_ref()),
-            Self::Argument(_) | Self::Device(_) | Self::Unconfirmed(_) => None,
+            Self::Argument(_)
+            | Self::Device(_)
+            | Self::Unconfirmed(_)
+            | Self::Interrupted { .. } => None,
         }
     }
 }
@@ -333,8 +423,10 @@ mod tests {
         let e = CliError::usage("give the node-ID");
         assert_eq!(e.to_string(), "give the node-ID");
         assert_eq!(e.exit_code(), ExitCode::from(2));
+        // One rule: an argument that is wrong is a usage error too; what a device says is not.
         let e = CliError::Argument("x".into());
-        assert_eq!(e.exit_code(), ExitCode::FAILURE);
+        assert_eq!(e.exit_code(), ExitCode::from(2));
+        assert_eq!(CliError::Device("x".into()).exit_code(), ExitCode::FAILURE);
         let node = NodeId::new(5).unwrap();
         let e = e.into_usage().at(node, ObjectAddress::new(0x1017, 0));
         assert!(matches!(&e, CliError::Usage(inner) if matches!(**inner, CliError::Object { .. })));

@@ -1,6 +1,11 @@
 //! `canopen gateway`: the CiA 309-3 ASCII gateway (`canola-gateway`) on the bus the global
 //! options open (`--iface`, or the in-memory bus with the `--eds` devices simulated), over TCP,
 //! Unix sockets and stdio at once.
+//!
+//! A Unix socket is the gateway's for as long as it runs: it is removed when the gateway ends,
+//! by the end of stdin or by SIGINT/SIGTERM (then exit status 0). At start, a socket at the
+//! path that nobody listens on (left by a gateway that was killed) is replaced; one that
+//! answers, or a path that is not a socket, is refused.
 
 use std::process::ExitCode;
 
@@ -51,12 +56,57 @@ fn bind(spec: &str, socket_mode: u32) -> Result<(Listener, String), CliError> {
     let _ = socket_mode; // Unix sockets only
     #[cfg(unix)]
     if let Some(path) = spec.strip_prefix("unix:") {
+        clear_stale_socket(spec, std::path::Path::new(path))?;
         let l = crate::gateway_access::bind_unix(path, socket_mode).map_err(system(spec))?;
         return Ok((Listener::Unix(l), spec.to_owned()));
     }
     Err(CliError::Argument(format!(
         "--listen {spec}: expected tcp:HOST:PORT, tcp:PORT or unix:PATH"
     )))
+}
+
+/// Makes way for the Unix socket `path`: a socket there that nobody listens on is removed; one
+/// that answers, or a file that is not a socket, is an error with a hint.
+#[cfg(unix)]
+fn clear_stale_socket(spec: &str, path: &std::path::Path) -> Result<(), CliError> {
+    use std::io::{Error, ErrorKind};
+    use std::os::unix::fs::FileTypeExt as _;
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(system(spec)(e)),
+    };
+    if !meta.file_type().is_socket() {
+        return Err(system(spec)(Error::new(
+            ErrorKind::AlreadyExists,
+            "the path exists and is not a socket; it is left alone\nhint: remove it, or give \
+             another --listen unix:PATH",
+        )));
+    }
+    match std::os::unix::net::UnixStream::connect(path) {
+        Ok(_) => Err(system(spec)(Error::new(
+            ErrorKind::AddrInUse,
+            "a program is listening on this socket (another gateway?)\nhint: stop it first, \
+             or give another --listen unix:PATH",
+        ))),
+        // A socket file whose listener is gone (a gateway that was killed).
+        Err(e) if e.kind() == ErrorKind::ConnectionRefused => {
+            std::fs::remove_file(path).map_err(system(spec))
+        }
+        Err(e) => Err(system(spec)(e)),
+    }
+}
+
+/// The gateway's Unix sockets: removed when dropped, and when the process ends by a signal.
+#[derive(Default)]
+struct Sockets(Vec<crate::bus::SignalGuard>);
+
+impl Drop for Sockets {
+    fn drop(&mut self) {
+        for s in self.0.drain(..) {
+            s.remove();
+        }
+    }
 }
 
 /// A listening socket `spec` that failed.
@@ -70,11 +120,13 @@ fn system(spec: &str) -> impl Fn(std::io::Error) -> CliError {
 /// `canopen gateway ...`
 pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
     if args.listen.is_empty() && !args.stdio {
-        eprintln!(
-            "error: nothing to serve: give --listen tcp:HOST:PORT, --listen unix:PATH or --stdio"
-        );
-        return ExitCode::FAILURE;
+        return CliError::usage(
+            "nothing to serve: give --listen tcp:HOST:PORT, --listen unix:PATH or --stdio",
+        )
+        .report();
     }
+    // A signal is how a gateway is stopped: its sockets are removed, the exit status is 0.
+    crate::bus::signals_end_normally("canopen gateway");
     // Access hook: tokens, allow-list, read-only, audit log; refuses a remote listen address
     // that is not guarded.
     let access = match crate::gateway_access::settings(&args.access, &args.listen) {
@@ -82,9 +134,17 @@ pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
         Err(e) => return crate::bus::fail(e),
     };
     let mut listeners = Vec::new();
+    let mut sockets = Sockets::default();
     for spec in &args.listen {
         match bind(spec, access.socket_mode) {
-            Ok(l) => listeners.push(l),
+            Ok(l) => {
+                if let Some(path) = l.1.strip_prefix("unix:") {
+                    sockets
+                        .0
+                        .push(crate::bus::remove_on_signal(std::path::Path::new(path)));
+                }
+                listeners.push(l);
+            }
             Err(e) => return crate::bus::fail(e),
         }
     }
@@ -111,10 +171,12 @@ pub(crate) fn run(args: GatewayArgs, opts: &BusOpts) -> ExitCode {
     }
     if args.stdio {
         gateway.serve_stdio();
+        drop(sockets);
         return ExitCode::SUCCESS;
     }
     for t in threads {
         let _ = t.join();
     }
+    drop(sockets);
     ExitCode::SUCCESS
 }

@@ -9,7 +9,9 @@
 //!
 //! Node-IDs in use are never given: `assign-all` leaves out and reports those heard or
 //! answering before the run and those heard during it ([`canola::Lss::assign_all`]), and
-//! `configure-node-id` refuses one in use unless `--force`.
+//! `configure-node-id` refuses one in use unless `--force`. Nor is one node-ID given to several
+//! slaves: `configure-node-id` configures only when exactly one slave answers after switch
+//! mode global (every LSS slave enters configuration state), or the one picked by `--address`.
 
 use canola::frame::is_due;
 use std::process::ExitCode;
@@ -132,14 +134,22 @@ pub(crate) enum MasterCommand {
         /// Serial number.
         serial: String,
     },
-    /// Configure node-ID of the one slave on the bus (switch global, configure, store, switch
-    /// back); a slave without store support is reported "assigned, not stored".
+    /// Configure node-ID of the one LSS slave on the bus (switch global, configure, store,
+    /// switch back), or of the slave with --address; a slave without store support is
+    /// reported "assigned, not stored".
     ///
-    /// A node-ID in use on the bus (heard, or answering an SDO read of 0x1000) is refused:
-    /// two nodes with one node-ID break both.
+    /// Switch global puts every LSS slave in configuration state, configured or not, and each
+    /// would take the node-ID: unless exactly one answers an inquiry of its LSS address,
+    /// nothing is configured (use `assign-all`, or pick one slave with --address). A node-ID
+    /// in use on the bus (heard, or answering an SDO read of 0x1000) is refused: two nodes
+    /// with one node-ID break both.
     ConfigureNodeId {
         /// The new node-ID.
         node_id: u8,
+        /// Configure only the slave with this LSS address (switch mode selective), so other
+        /// slaves may be on the bus; `discover-all` lists the unconfigured slaves' addresses.
+        #[arg(long, value_name = "VENDOR,PRODUCT,REVISION,SERIAL")]
+        address: Option<String>,
         /// Do not store the configuration.
         #[arg(long)]
         no_store: bool,
@@ -226,12 +236,41 @@ fn in_use_check(lss: &canola::Lss, id: NodeId, force: bool) -> Result<(), CliErr
         .nodes_in_use(one, Duration::from_millis(IN_USE_TIMEOUT_MS))
         .wait()?;
     if in_use.contains(id) {
-        return Err(CliError::Argument(format!(
+        // What the bus says, not a wrong command line: exit 1.
+        return Err(CliError::Device(format!(
             "node-ID {id} is in use on the bus (a node answers or was heard with it): \
              not configured; give --force to configure it anyway"
         )));
     }
     Ok(())
+}
+
+/// An LSS address given as `VENDOR,PRODUCT,REVISION,SERIAL` (0x hex or decimal each).
+fn parse_address(text: &str) -> Result<LssAddress, CliError> {
+    let parts: Vec<Result<u32, _>> = text.split(',').map(|p| num(p.trim())).collect();
+    match parts[..] {
+        [Ok(v), Ok(p), Ok(r), Ok(s)] => Ok(LssAddress::new(v, p, r, s)),
+        _ => Err(CliError::usage(format!(
+            "--address {text}: give VENDOR,PRODUCT,REVISION,SERIAL, four numbers (0x hex or \
+             decimal)"
+        ))),
+    }
+}
+
+/// Several slaves answered after switch mode global: nothing was configured; say what to do.
+fn several_slaves(e: canola::Error) -> CliError {
+    match e {
+        canola::Error::Lss(canola::lss::LssError::SeveralSlaves { .. }) => {
+            CliError::Device(format!(
+                "{e}; nothing was configured and the slaves are back in waiting state\n\
+                 hint: give each unconfigured slave a node-ID with `canopen lss assign-all`, or \
+                 configure one by its LSS address (switch mode selective) with \
+                 `canopen lss configure-node-id N --address VENDOR,PRODUCT,REVISION,SERIAL` \
+                 (`canopen lss discover-all` lists the unconfigured slaves' addresses)"
+            ))
+        }
+        e => CliError::from(e),
+    }
 }
 
 const NONE_ANSWERED: &str = "no unconfigured slave answered";
@@ -460,13 +499,19 @@ fn command(
         }
         MasterCommand::ConfigureNodeId {
             node_id,
+            address,
             no_store,
             force,
-        } => match NodeId::new(node_id) {
-            Ok(n) => match in_use_check(&lss, n, force) {
+        } => match (NodeId::new(node_id), address.as_deref().map(parse_address)) {
+            (Err(e), _) => Err(e.into()),
+            (_, Some(Err(e))) => Err(e),
+            (Ok(n), address) => match in_use_check(&lss, n, force) {
                 Err(e) => Err(e),
                 Ok(()) => lss
-                    .procedure(Procedure::assign_node_id(n, !no_store))
+                    .procedure(match address {
+                        Some(Ok(a)) => Procedure::assign_node_id_selective(a, n, !no_store),
+                        _ => Procedure::assign_node_id(n, !no_store),
+                    })
                     .wait()
                     .map(|r| {
                         let stored = r.stored == Some(true);
@@ -485,9 +530,8 @@ fn command(
                         }
                         json!({"node_id": node_id, "stored": stored})
                     })
-                    .map_err(CliError::from),
+                    .map_err(several_slaves),
             },
-            Err(e) => Err(e.into()),
         },
         MasterCommand::SetBitRate { kbit, delay } => {
             match BitRate::ALL

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::{CommandFactory as _, Parser, Subcommand};
 
 mod adapter;
+mod analyze;
 mod argv;
 mod boot;
 mod burkert;
@@ -65,7 +66,8 @@ enum Command {
     /// SDO upload/download: read, write, upload to a file, download from a file.
     #[command(subcommand)]
     Sdo(sdo_cmd::SdoCommand),
-    /// USDO transfers (CANopen FD): read|write, as `sdo`; needs a CAN FD bus (`--fd`).
+    /// USDO transfers (CANopen FD): read|write|upload, as `sdo`, over CAN FD frames: on
+    /// SocketCAN and the in-memory bus give `--fd`; the UDP bus carries CAN FD without it.
     #[command(subcommand)]
     Usdo(sdo_cmd::UsdoCommand),
     /// NMT module control: start|stop|preop|reset|reset-comm NODE|all [--wait]; `state`
@@ -123,6 +125,10 @@ enum Command {
         /// candump log file.
         file: std::path::PathBuf,
     },
+    /// Judge a candump log: summary, timeline and problem list (lost heartbeats, boot-up
+    /// loops, EMCY, SDO aborts and silence, SYNC, PDOs, error frames, duplicate node-IDs, bus
+    /// load); --check for CI, --frames to decode every frame.
+    Analyze(analyze::AnalyzeArgs),
     /// A live view of the network in the terminal: nodes, bus load, PDO values, SDO transfers,
     /// events; keys for NMT, SDO read and write (see `?` inside). With --replay, a candump log.
     Top(top::TopArgs),
@@ -189,13 +195,22 @@ pub(crate) fn outln(text: &str) {
 }
 
 fn main() -> ExitCode {
+    // First, before any thread starts (see `handle_signals`).
+    let signals = bus::handle_signals();
     let args = argv::options_after_values(&Cli::command(), std::env::args_os().collect());
-    let cli = Cli::parse_from(args);
+    let json = argv::asks_for_json(&args);
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => return error::report_clap(&e, json),
+    };
     let global = Global {
         json: cli.json,
         hex: cli.hex,
     };
     error::set_json(cli.json);
+    if let Err(e) = signals {
+        bus::warn("warning", &e.to_string(), serde_json::Map::new());
+    }
     match cli.command {
         Command::Eds(cmd) => eds::run(cmd, global),
         Command::Sdo(cmd) => sdo_cmd::run(cmd, &cli.bus, global),
@@ -219,6 +234,7 @@ fn main() -> ExitCode {
         },
         Command::Record { output, duration } => traffic::run_record(&cli.bus, &output, duration),
         Command::Replay { file } => traffic::run_replay(&cli.bus, &file, global),
+        Command::Analyze(args) => analyze::run(&args, &cli.bus, global),
         Command::Demo => demo::run(),
         Command::Top(args) => top::run(&args, &cli.bus, global),
         Command::Lss(args) => lss_cmd::run(args, &cli.bus, global),

@@ -158,7 +158,7 @@ pub(crate) fn run(args: NmtArgs, opts: &BusOpts, g: Global) -> ExitCode {
         };
         match r.wait() {
             Ok(()) => confirmed.push((node, want)),
-            Err(canola::Error::Timeout(_)) => {
+            Err(canola::Error::Timeout { .. }) => {
                 missing.push(unconfirmed(&net, node, &want, args.timeout))
             }
             Err(e) => return fail(e),
@@ -219,6 +219,11 @@ fn run_state(listen: f64, opts: &BusOpts, g: Global) -> ExitCode {
             Some((n, state, age))
         })
         .collect();
+    if nodes.is_empty()
+        && let Some(e) = crate::bus::silent_adapter()
+    {
+        return fail(e);
+    }
     if g.json {
         let list: Vec<_> = nodes
             .iter()
@@ -245,6 +250,12 @@ pub(crate) fn run_scan(opts: &BusOpts, g: Global) -> ExitCode {
         Ok(found) => found,
         Err(e) => return fail(e),
     };
+    // An adapter that said nothing at all is no proof of an empty bus.
+    if found.is_empty()
+        && let Some(e) = crate::bus::silent_adapter()
+    {
+        return fail(e);
+    }
     // Decimal like every command's values; `--hex` zero-padded hex.
     let fmt = |v: Option<u32>| v.map_or("-".to_string(), |v| g.u32(v));
     if g.json {

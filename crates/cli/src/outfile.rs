@@ -3,7 +3,9 @@
 //! A command that writes `-o FILE` (`sdo upload`, `record`, ...) writes a temporary file beside
 //! it (`.FILE.PID.tmp`, same directory, so same file system) and renames it over `FILE` only
 //! when everything was written and flushed: a failed upload or recording leaves an existing
-//! `FILE` as it was and no partial file behind. A `FILE` that exists and is not a regular file
+//! `FILE` as it was and no partial file behind, also when the process ends by a signal (Ctrl-C,
+//! SIGTERM: the temporary file is registered with [`crate::bus::remove_on_signal`]). A `FILE`
+//! that exists and is not a regular file
 //! (`/dev/null`, `/dev/full`, a FIFO, `/dev/stdout`) is written directly: renaming over it
 //! would replace the device, and a write error there is still reported.
 
@@ -20,6 +22,8 @@ pub(crate) struct OutFile {
     /// The temporary file, `None` when writing `path` directly.
     temp: Option<PathBuf>,
     file: File,
+    /// Removes the temporary file when the process ends by a signal.
+    on_signal: Option<crate::bus::SignalGuard>,
 }
 
 impl OutFile {
@@ -36,6 +40,7 @@ impl OutFile {
                 path: path.to_owned(),
                 temp: None,
                 file,
+                on_signal: None,
             });
         }
         let temp = temp_beside(path);
@@ -45,10 +50,12 @@ impl OutFile {
             .truncate(true)
             .open(&temp)
             .map_err(CliError::file(path))?;
+        let on_signal = Some(crate::bus::remove_on_signal(&temp));
         Ok(Self {
             path: path.to_owned(),
             temp: Some(temp),
             file,
+            on_signal,
         })
     }
 
@@ -59,6 +66,8 @@ impl OutFile {
 
     /// Puts the written file in place of `FILE`. Everything must have been flushed.
     pub(crate) fn commit(mut self) -> Result<(), CliError> {
+        // Once renamed, the file at the temporary path's inode is `FILE`: it stays.
+        let _registered = self.on_signal.take();
         match self.temp.take() {
             Some(temp) => std::fs::rename(&temp, &self.path).map_err(|e| {
                 let _ = std::fs::remove_file(&temp);

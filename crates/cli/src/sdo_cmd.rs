@@ -144,9 +144,9 @@ pub(crate) enum SdoCommand {
 }
 
 /// USDO transfers (CANopen FD, CiA 1301) over CAN FD frames: the same objects and values as
-/// `sdo`. The bus must carry CAN FD: give `--fd` (on SocketCAN an interface with MTU 72; on
-/// the in-memory bus the `--eds` devices then serve USDO). The node is taken as a CANopen FD
-/// device.
+/// `sdo`. The bus must carry CAN FD: on SocketCAN give `--fd` (an interface with MTU 72), on
+/// the in-memory bus too (its `--eds` devices then serve USDO); the UDP bus carries CAN FD
+/// frames without it. The node is taken as a CANopen FD device.
 #[derive(Debug, Subcommand)]
 pub(crate) enum UsdoCommand {
     /// Read an object; prints the value alone (as `sdo read`).
@@ -162,6 +162,21 @@ pub(crate) enum UsdoCommand {
         /// Value type (default: from --eds, else bytes).
         #[arg(short = 't', long = "type", value_enum)]
         ty: Option<Ty>,
+    },
+    /// Upload an object into a file (a DOMAIN, say), written whole or not at all (as `sdo
+    /// upload`).
+    Upload {
+        /// Node-ID.
+        #[arg(value_parser = parse_node)]
+        node: NodeId,
+        #[arg(help = OBJECT_HELP)]
+        object: String,
+        /// Sub-index (default 0).
+        #[arg(value_parser = parse_u8)]
+        sub: Option<u8>,
+        /// Output file.
+        #[arg(short, long)]
+        output: PathBuf,
     },
     /// Write an object: `write NODE OBJECT [SUB] VALUE` (values as `sdo write`).
     #[command(override_usage = "canopen usdo write [OPTIONS] <NODE> <OBJECT> [SUB] <VALUE>")]
@@ -194,6 +209,12 @@ pub(crate) fn run_usdo(cmd: UsdoCommand, opts: &BusOpts, g: Global) -> ExitCode 
             sub,
             ty,
         } => usdo_read(&net, node, &object, sub, ty, g),
+        UsdoCommand::Upload {
+            node,
+            object,
+            sub,
+            output,
+        } => usdo_upload(&net, node, &object, sub, &output, g),
         UsdoCommand::Write {
             node,
             object,
@@ -219,7 +240,7 @@ fn usdo_read(
     let Some(dt) = data_type_of(net, node, entry, ty) else {
         if g.json {
             outln(&with(addr_json(node, entry), "bytes", json!(hex(&bytes))));
-        } else {
+        } else if !too_long_for_terminal(&bytes, None, "usdo", node, entry) {
             outln(&hex(&bytes));
         }
         return Ok(ExitCode::SUCCESS);
@@ -231,6 +252,9 @@ fn usdo_read(
             message: e.to_string(),
         })
     })?;
+    if !g.json && too_long_for_terminal(&bytes, Some(dt), "usdo", node, entry) {
+        return Ok(ExitCode::SUCCESS);
+    }
     if g.json {
         let mut v = addr_json(node, entry);
         v["raw"] = json!(hex(&bytes));
@@ -268,6 +292,66 @@ fn usdo_write(
         outln(&with(addr_json(node, entry), "ok", json!(true)));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn usdo_upload(
+    net: &Network,
+    node: NodeId,
+    object: &str,
+    sub: Option<u8>,
+    output: &std::path::Path,
+    g: Global,
+) -> Result<ExitCode, CliError> {
+    let entry = address(net, node, object, sub)?;
+    let n = net.node(node);
+    n.set_fd(true);
+    // Opened first: a file that cannot be written is said before the transfer.
+    let file = OutFile::create(output)?;
+    let bytes = n.usdo().read(entry).wait()?;
+    let mut w = file.writer()?;
+    w.write_all(&bytes)
+        .and_then(|()| w.flush())
+        .map_err(CliError::file(output))?;
+    file.commit()?;
+    if g.json {
+        outln(&with(addr_json(node, entry), "bytes", json!(bytes.len())));
+    } else {
+        eprintln!("{} bytes written to {}", bytes.len(), output.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Byte values longer than this are not printed in hex on a terminal.
+const TERMINAL_BYTES: usize = 256;
+
+/// Whether `bytes` (a value of type `dt`, `None` when unknown) are a byte value too long to
+/// print in hex on a terminal: then a note on stderr gives their size and the `upload` of
+/// `group` (`sdo`, `usdo`) that writes them to a file. Piped, they print whole.
+fn too_long_for_terminal(
+    bytes: &[u8],
+    dt: Option<DataType>,
+    group: &str,
+    node: NodeId,
+    entry: ObjectAddress,
+) -> bool {
+    let is_bytes = dt.is_none_or(|dt| matches!(dt, DataType::Domain | DataType::OctetString));
+    if !is_bytes || bytes.len() <= TERMINAL_BYTES || !std::io::stdout().is_terminal() {
+        return false;
+    }
+    let what = dt.map_or_else(|| "bytes".to_string(), |dt| format!("a {dt}"));
+    let note = format!(
+        "node {node}, object {entry}: {what} of {} bytes, not printed in hex on a terminal;          `canopen {group} upload {node} 0x{:04X} {} -o FILE` writes it to a file (or pipe the          output)",
+        bytes.len(),
+        entry.index,
+        entry.sub_index
+    );
+    let mut fields = serde_json::Map::new();
+    fields.insert("node".into(), node.get().into());
+    fields.insert("index".into(), entry.index.into());
+    fields.insert("sub".into(), entry.sub_index.into());
+    fields.insert("size".into(), bytes.len().into());
+    crate::bus::warn("note", &note, fields);
+    true
 }
 
 /// Splits `[SUB] LAST` positionals; `what` names LAST in the message when it is missing.
@@ -439,6 +523,7 @@ fn data_type_of(
                 .and_then(|od| od.sub(entry.index, entry.sub_index).map(|s| s.data_type))
         })
         .or_else(|| canola::od::profile::communication_type(entry.index, entry.sub_index))
+        .or_else(|| crate::drive_cmd::profile_type(net, node, entry))
 }
 
 /// The transfer's progress bar on stderr, drawn only when stderr is a terminal; a transfer
@@ -530,7 +615,7 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, CliErro
                 crate::bus::warn("note", &note, fields);
                 if g.json {
                     outln(&with(addr_json(node, entry), "bytes", json!(hex(&bytes))));
-                } else {
+                } else if !too_long_for_terminal(&bytes, None, "sdo", node, entry) {
                     outln(&hex(&bytes));
                 }
                 return Ok(ExitCode::SUCCESS);
@@ -541,6 +626,10 @@ fn run_on(net: &Network, cmd: SdoCommand, g: Global) -> Result<ExitCode, CliErro
                 .block(block)
                 .read_as(entry, dt)
                 .wait()?;
+            if !g.json && too_long_for_terminal(&value.to_le_bytes(), Some(dt), "sdo", node, entry)
+            {
+                return Ok(ExitCode::SUCCESS);
+            }
             if g.json {
                 let mut v = addr_json(node, entry);
                 v["raw"] = json!(hex(&value.to_le_bytes()));

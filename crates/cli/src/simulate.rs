@@ -31,6 +31,10 @@ pub(crate) fn run(
         Ok(b) => b,
         Err(e) => return fail(e),
     };
+    // Refused before anything is said to run.
+    if bus.memory.is_some() && duration.is_none() {
+        return fail(needs_duration());
+    }
     eprintln!("simulating node {node} from {}", eds.display());
     let dictionary = BusDictionary::new().with_node(node, od.clone());
     let mut device = crate::sim_device::simulated_device(node, od);
@@ -39,6 +43,13 @@ pub(crate) fn run(
         device.set_fd(true);
     }
     run_station(bus, device, &dictionary, duration, g)
+}
+
+/// A run on the in-memory bus without `--duration` (a usage error).
+fn needs_duration() -> CliError {
+    CliError::usage(
+        "on the in-memory bus give --duration SECONDS (it runs on bus time, not until stopped)",
+    )
 }
 
 /// Runs `station` on the bus: on SocketCAN until `duration` (or forever), on the in-memory bus
@@ -52,9 +63,7 @@ pub(crate) fn run_station(
 ) -> ExitCode {
     if let Some(mem) = bus.memory.as_ref() {
         let Some(secs) = duration else {
-            return fail(CliError::Argument(
-                "on the in-memory bus give --duration SECONDS".into(),
-            ));
+            return fail(needs_duration());
         };
         let mut tap = mem.endpoint();
         let mut monitor = Monitor::new(dictionary.clone());

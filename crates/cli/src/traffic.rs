@@ -150,34 +150,83 @@ pub(crate) fn run_monitor(
                 monitor.what_fd(frame),
             ),
         };
-        if g.json {
-            let mut line =
-                json!({"time": at.as_micros() as f64 / 1e6, "frame": shown, "decoded": what});
-            // A PDO an EDS maps: its values as JSON values too.
-            let pdo = match traffic {
-                Traffic::Can(_) if devicenet => None,
-                Traffic::Can(frame) => dictionary.decode_pdo(frame),
-                Traffic::Fd(frame) => dictionary.decode_fd_pdo(frame),
-            };
-            if let Some(Ok(pdo)) = pdo {
-                line["pdo"] = json!(pdo.label);
-                line["values"] = pdo
-                    .values
-                    .iter()
-                    .map(|v| {
-                        json!({"index": v.address.index, "sub": v.address.sub_index,
-                               "name": v.name, "value": raw_json(&v.value)})
-                    })
-                    .collect();
-            }
-            outln(&line.to_string());
-        } else {
-            outln(&format!("{at}  {shown:<28} {what}"));
-        }
+        let pdo = || match traffic {
+            Traffic::Can(_) if devicenet => None,
+            Traffic::Can(frame) => dictionary.decode_pdo(frame),
+            Traffic::Fd(frame) => dictionary.decode_fd_pdo(frame),
+        };
+        outln(&shown_line(at.as_micros(), &shown, &what, pdo, g.json));
     });
     match r {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => fail(e),
+    }
+}
+
+/// One frame as `monitor` prints it: `SECONDS  FRAME  WHAT`, or with `json` one JSON object
+/// (`time`, `frame`, `decoded`; for a PDO an EDS maps also `pdo` and its `values`).
+fn shown_line(
+    time_us: u64,
+    shown: &str,
+    what: &str,
+    pdo: impl FnOnce() -> Option<Result<canola::DecodedPdo, canola::pdo::PackError>>,
+    json: bool,
+) -> String {
+    if !json {
+        return format!(
+            "{}.{:06}  {shown:<28} {what}",
+            time_us / 1_000_000,
+            time_us % 1_000_000
+        );
+    }
+    let mut line = json!({"time": time_us as f64 / 1e6, "frame": shown, "decoded": what});
+    // A PDO an EDS maps: its values as JSON values too.
+    if let Some(Ok(pdo)) = pdo() {
+        line["pdo"] = json!(pdo.label);
+        line["values"] = pdo
+            .values
+            .iter()
+            .map(|v| {
+                json!({"index": v.address.index, "sub": v.address.sub_index,
+                       "name": v.name, "value": raw_json(&v.value)})
+            })
+            .collect();
+    }
+    line.to_string()
+}
+
+/// One frame of a log decoded as `monitor` decodes a frame on the bus (the same decoder, the
+/// same line), at its time stamp: for `canopen analyze --frames`.
+pub(crate) fn log_line(
+    monitor: &mut Monitor,
+    dictionary: &canola::BusDictionary,
+    time_us: u64,
+    frame: &LogFrame,
+    json: bool,
+) -> String {
+    let shown = candump::format_frame(frame);
+    match frame {
+        LogFrame::Can(f) => {
+            let what = monitor.what(f);
+            shown_line(
+                time_us,
+                &f.to_string(),
+                &what,
+                || dictionary.decode_pdo(f),
+                json,
+            )
+        }
+        LogFrame::Fd(f) => {
+            let what = monitor.what_fd(f);
+            shown_line(time_us, &shown, &what, || dictionary.decode_fd_pdo(f), json)
+        }
+        LogFrame::Error { class, data } => {
+            let what = format!(
+                "CAN error frame: class {class:#x}, data {}",
+                canola::frame::HexBytes(data)
+            );
+            shown_line(time_us, &shown, &what, || None, json)
+        }
     }
 }
 
@@ -338,10 +387,22 @@ pub(crate) fn run_replay(opts: &BusOpts, file: &Path, g: Global) -> ExitCode {
             &json!({"sent": sent, "sent_fd": sent_fd, "skipped_fd": skipped_fd, "skipped_error_frames": other})
                 .to_string(),
         );
-    } else if sent_fd > 0 {
-        eprintln!("{sent} frames replayed ({sent_fd} of them CAN FD)");
     } else {
-        eprintln!("{sent} frames replayed");
+        let mut notes = Vec::new();
+        if sent_fd > 0 {
+            notes.push(format!("{sent_fd} of them CAN FD"));
+        }
+        if skipped_fd > 0 {
+            notes.push(format!("{skipped_fd} CAN FD frames skipped"));
+        }
+        if other > 0 {
+            notes.push(format!("{other} error frames skipped"));
+        }
+        if notes.is_empty() {
+            eprintln!("{sent} frames replayed");
+        } else {
+            eprintln!("{sent} frames replayed ({})", notes.join(", "));
+        }
     }
     ExitCode::SUCCESS
 }

@@ -102,3 +102,122 @@ fn drive_commands_over_the_udp_bus_against_canopen_simulate() {
     let _ = sim.kill();
     let _ = sim.wait();
 }
+
+/// `canopen drive 5 move ...` against `canopen simulate` on the UDP bus, ended by `signal` once
+/// the drive moves: it must stop the drive, say so, and exit 130.
+fn move_ended_by(signal: nix::sys::signal::Signal, salt: u16) {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+    let iface = common::udp_bus(salt);
+    let mut sim = common::simulator(&iface, EDS, "5", "60");
+    let mut mover = Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args([
+            "--iface",
+            iface.as_str(),
+            "drive",
+            "5",
+            "move",
+            "1000000",
+            "--velocity",
+            "5000",
+            "--enable",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Moving: the live position has left 0.
+    let mut lines = BufReader::new(mover.stdout.take().unwrap()).lines();
+    let moving = lines
+        .by_ref()
+        .map_while(Result::ok)
+        .find(|l| l.strip_prefix("position ").is_some_and(|p| p != "0"));
+    assert!(moving.is_some(), "the move never showed a position");
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(mover.id() as i32), signal).unwrap();
+    let out = mover.wait_with_output().unwrap();
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("interrupted: quick stop sent; the drive stopped in state \"switch on disabled\" at position"),
+        "{err}"
+    );
+    // Stopped for good: switch on disabled (0x605A = 2), standing still, far from the target.
+    let status = |args: &[&str]| -> serde_json::Value {
+        let mut all = vec!["--iface", iface.as_str(), "--json"];
+        all.extend_from_slice(args);
+        let o = canopen(&all);
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_str(&stdout(&o)).unwrap()
+    };
+    let a = status(&["drive", "5", "status"]);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let b = status(&["drive", "5", "status"]);
+    assert_eq!(b["state"], "switch on disabled", "{b}");
+    assert_eq!(b["velocity"], 0, "{b}");
+    assert_eq!(a["position"], b["position"], "{a} {b}");
+    assert!(b["position"].as_i64().unwrap() < 100_000, "{b}");
+    let _ = sim.kill();
+    let _ = sim.wait();
+}
+
+#[test]
+fn ctrl_c_during_a_move_quick_stops_the_drive_and_exits_130() {
+    move_ended_by(nix::sys::signal::Signal::SIGINT, 1);
+}
+
+#[test]
+fn sigterm_during_a_move_quick_stops_the_drive_too() {
+    move_ended_by(nix::sys::signal::Signal::SIGTERM, 2);
+}
+
+#[test]
+fn a_move_without_enable_names_the_state_and_hints_enable() {
+    let eds = format!("5={EDS}");
+    let o = canopen(&["--eds", &eds, "drive", "5", "move", "4000"]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("the drive is in state \"not ready to switch on\"")
+            && err.contains("\nhint: give --enable to enable the drive first"),
+        "{err}"
+    );
+    let o = canopen(&["--eds", &eds, "--json", "drive", "5", "move", "4000"]);
+    let e: serde_json::Value = serde_json::from_str(stderr(&o).trim()).unwrap();
+    assert_eq!(e["hint"], "give --enable to enable the drive first", "{e}");
+}
+
+#[test]
+fn cia402_objects_are_typed_without_an_eds_on_a_profile_402_node() {
+    let iface = common::udp_bus(3);
+    let mut sim = common::simulator(&iface, EDS, "5", "30");
+    let run = |args: &[&str]| {
+        let mut all = vec!["--iface", iface.as_str()];
+        all.extend_from_slice(args);
+        canopen(&all)
+    };
+    // 0x1000 says profile 402: 0x6040 is an UNSIGNED16, 0x6081 an UNSIGNED32, 0x607A an
+    // INTEGER32, as the CiA 402 tables say.
+    let o = run(&["sdo", "write", "5", "0x6040", "0", "6"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["sdo", "write", "5", "0x6081", "0", "20000"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["sdo", "read", "5", "0x6081"]);
+    assert_eq!(stdout(&o), "20000\n", "{}", stderr(&o));
+    assert_eq!(stderr(&o), "");
+    let o = run(&["sdo", "write", "5", "0x607A", "0", "-1500"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["sdo", "read", "5", "0x607A"]);
+    assert_eq!(stdout(&o), "-1500\n", "{}", stderr(&o));
+    let o = run(&["--hex", "sdo", "read", "5", "0x6041"]);
+    assert!(stdout(&o).starts_with("0x"), "{}", stdout(&o));
+    assert_eq!(stdout(&o).trim().len(), 6, "an UNSIGNED16: {}", stdout(&o));
+    // The shutdown written above took the drive to ready to switch on.
+    let o = run(&["drive", "5", "status"]);
+    assert!(
+        stdout(&o).starts_with("state: ready to switch on\n"),
+        "{}",
+        stdout(&o)
+    );
+    let _ = sim.kill();
+    let _ = sim.wait();
+}

@@ -278,6 +278,11 @@ fn assign_all_leaves_out_node_ids_in_use_and_reports_them() {
     assert_eq!(v["in_use"], serde_json::json!([5, 6]), "{v}");
 }
 
+/// The LSS address of the `n`th simulated unconfigured device (`--unconfigured`).
+fn sim_address(n: u32) -> String {
+    format!("0x39,0x01000001,1,{}", 1000 + n)
+}
+
 #[test]
 fn configure_node_id_refuses_a_node_id_in_use_unless_forced() {
     let base = ["lss", "--unconfigured", "1", "--running", "5"];
@@ -290,7 +295,18 @@ fn configure_node_id_refuses_a_node_id_in_use_unless_forced() {
         "{}",
         stderr(&o)
     );
+    // Forced, switch mode global would reach the running node's LSS slave as well: refused.
     args.push("--force");
+    let o = canopen(&args);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("several LSS slaves are in configuration state"),
+        "{}",
+        stderr(&o)
+    );
+    // Forced onto the unconfigured slave picked by its address.
+    let address = sim_address(1);
+    args.extend(["--address", &address]);
     let o = canopen(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
@@ -300,9 +316,94 @@ fn configure_node_id_refuses_a_node_id_in_use_unless_forced() {
     );
     // A free node-ID goes through without --force.
     let mut args = base.to_vec();
-    args.extend(["configure-node-id", "7"]);
+    args.extend(["configure-node-id", "7", "--address", &address]);
     let o = canopen(&args);
     assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Switch mode global puts every LSS slave in configuration state (CiA 305), and each one
+/// answers configure node-ID: with two unconfigured slaves `configure-node-id` would give both
+/// node-ID 9. It configures nothing, puts them back in waiting state and says what to use.
+#[test]
+fn configure_node_id_refuses_several_slaves_in_configuration_state() {
+    let (o, frames) = recorded(
+        "several.log",
+        &["--unconfigured", "2", "configure-node-id", "9"],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("several LSS slaves are in configuration state")
+            && err.contains("nothing was configured")
+            && err.contains("assign-all")
+            && err.contains("--address"),
+        "{err}"
+    );
+    assert!(stdout(&o).is_empty(), "{}", stdout(&o));
+    assert!(
+        !frames.iter().any(|f| f.starts_with("7E5#11")),
+        "no configure node-ID may be sent: {frames:?}"
+    );
+    // The LSS frames (before them: the SDO probe of node-ID 9 in use) start with switch mode
+    // global to configuration and end with it back to waiting.
+    let lss: Vec<&String> = frames.iter().filter(|f| f.starts_with("7E")).collect();
+    assert_eq!(
+        lss.first().map(|f| f.as_str()),
+        Some("7E5#0401000000000000")
+    );
+    assert_eq!(lss.last().map(|f| f.as_str()), Some("7E5#0400000000000000"));
+    // Under --json the error and the hint are fields.
+    let o = canopen(&[
+        "--json",
+        "lss",
+        "--unconfigured",
+        "2",
+        "configure-node-id",
+        "9",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).unwrap();
+    assert!(
+        v["error"].as_str().unwrap().contains("several LSS slaves"),
+        "{v}"
+    );
+    assert!(v["hint"].as_str().unwrap().contains("assign-all"), "{v}");
+    // One of them picked by its address: only it is configured.
+    let address = sim_address(2);
+    let (o, frames) = recorded(
+        "selective.log",
+        &[
+            "--unconfigured",
+            "2",
+            "configure-node-id",
+            "9",
+            "--address",
+            &address,
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), "node-ID 9 assigned and stored");
+    assert_eq!(
+        frames.iter().filter(|f| f.starts_with("7E4#1100")).count(),
+        1,
+        "one slave answers configure node-ID: {frames:?}"
+    );
+    // Switch mode selective ends with the serial number, 1002.
+    assert!(
+        frames.contains(&"7E5#43EA030000000000".to_string()),
+        "{frames:?}"
+    );
+    // A malformed address is a usage error.
+    let o = canopen(&[
+        "lss",
+        "--unconfigured",
+        "1",
+        "configure-node-id",
+        "9",
+        "--address",
+        "0x39,1",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
 
 /// `lss assign-all` on a live bus of other processes: nodes 5 and 6 running (`simulate`), two

@@ -400,6 +400,7 @@ const USDO: &[&str] = &[
     "canopen --iface vcan0 --fd simulate eds/burkert-generic.eds --node-id 5",
     "canopen --iface vcan0 --fd usdo read 5 0x1008",
     "canopen --iface vcan0 --fd usdo write 5 0x1017 0 750",
+    "canopen --iface vcan0 --fd usdo upload 5 0x2003 4 -o logbook.xml",
 ];
 
 /// "CANopen FD: USDO": the FD device in another process, USDO over the UDP bus's CAN FD frames.
@@ -413,6 +414,10 @@ fn usdo_lines() {
     wait_for_node(&bus, "5");
     assert_eq!(ok(&l[1], &dir, &bus), "Buerkert generic device\n");
     ok(&l[2], &dir, &bus);
+    // The logbook, a DOMAIN, into a file.
+    ok(&l[3], &dir, &bus);
+    let xml = std::fs::read_to_string(dir.join("logbook.xml")).unwrap();
+    assert!(xml.starts_with("<?xml"), "{xml}");
     // What the write put there, read back by USDO.
     let o = common::canopen(&["--iface", &bus, "--fd", "usdo", "read", "5", "0x1017"]);
     assert_eq!(stdout(&o), "750\n", "{}", stderr(&o));

@@ -6,7 +6,8 @@
 //! scan, monitor, record) runs unchanged; `adapter info` shows the adapter's `V`, `N` and `F`
 //! answers. A second fake, two adapters bridged onto one bus, carries `canopen simulate` on one
 //! and the master's SDO on the other, and LSS slaves on one and `lss assign-all` on the other;
-//! the gateway (stdio), `replay`, and a CiA 302-2 boot and audit run through the first.
+//! the gateway (stdio), `replay`, and a CiA 302-2 boot and audit run through the first. A pty
+//! that never answers is not taken for an empty bus.
 
 #![cfg(unix)]
 
@@ -556,4 +557,33 @@ fn boot_and_audit_run_unchanged_over_an_slcan_adapter() {
     let o = canopen(&["--iface", &iface, "audit", toml]);
     let _ = std::fs::remove_dir_all(&dir);
     assert!(o.status.success(), "{}{}", stdout(&o), stderr(&o));
+}
+
+#[test]
+fn a_silent_serial_device_is_not_taken_for_an_empty_bus() {
+    // A pty nobody answers on: no acknowledgement, no frame, ever.
+    let pty = nix::pty::openpty(None, None).expect("openpty");
+    let path = nix::unistd::ttyname(pty.slave.as_fd())
+        .expect("ttyname")
+        .to_string_lossy()
+        .into_owned();
+    let iface = format!("slcan:{path}@500k");
+    for args in [vec!["scan"], vec!["nmt", "state", "--listen", "0.3"]] {
+        let mut all = vec!["--iface", iface.as_str()];
+        all.extend(args.iter().copied());
+        let o = canopen(&all);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("the adapter acknowledged no command and no frame arrived"),
+            "{args:?}: {err}"
+        );
+        assert!(err.contains("\nhint: "), "{err}");
+        assert!(!stdout(&o).contains("node"), "{}", stdout(&o));
+    }
+    // Under --json, one object with the hint apart.
+    let o = canopen(&["--json", "--iface", &iface, "scan"]);
+    let v: serde_json::Value = serde_json::from_str(stderr(&o).trim()).unwrap();
+    assert!(v["hint"].as_str().unwrap().contains("CANable"), "{v}");
+    drop(pty);
 }

@@ -202,3 +202,92 @@ fn interoperates_with_python_can_udp_multicast() {
     assert_eq!(seen, "000#0105 605#4017100000000000", "python-can received");
     assert!(py.wait().unwrap().success());
 }
+
+/// An IPv6 bus of this test process's own (`udp:[ff15:7079:7468:6f6e::SALT]:PORT`, python-can's
+/// default group's prefix), or `None`, said on stderr, where this host carries no IPv6
+/// multicast.
+fn ipv6_bus(salt: u16) -> Option<(String, u16)> {
+    let port = 30000 + (std::process::id() % 4000) as u16 * 8 + salt;
+    let iface = format!("udp:[ff15:7079:7468:6f6e::{salt:x}]:{port}");
+    let o = bin()
+        .args(["--iface", &iface, "nmt", "state", "--listen", "0"])
+        .output()
+        .unwrap();
+    if o.status.success() {
+        return Some((iface, port));
+    }
+    let err = stderr(&o);
+    assert!(err.contains("IPv6"), "not an IPv6 multicast failure: {err}");
+    eprintln!("SKIPPED: this host carries no IPv6 multicast: {err}");
+    None
+}
+
+#[test]
+fn an_ipv6_group_carries_the_bus_between_processes() {
+    let Some((iface, _)) = ipv6_bus(2) else {
+        return;
+    };
+    let mut sim = simulator(&iface, "20");
+    let o = bin()
+        .args(["--iface", &iface, "sdo", "read", "5", "0x1008"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "Buerkert generic device\n");
+    let _ = sim.kill();
+    let _ = sim.wait();
+    // python-can's default channel spelled without brackets, and a bad one.
+    let o = bin()
+        .args([
+            "--iface",
+            "udp:ff15:7079:7468:6f6e:6465:6d6f:6d63:6173",
+            "nmt",
+            "state",
+            "--listen",
+            "0",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bin()
+        .args(["--iface", "udp:ff15", "scan"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        !stderr(&o).contains("invalid IPv4 address syntax"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// python-canopen with python-can's default channel (the IPv6 group) reads the CLI's simulator
+/// on `udp:ff15:7079:7468:6f6e:6465:6d6f:6d63:6173`: the README's "python-can with its
+/// defaults". A port of the test's own, and `hop_limit=0` so that python-can's frames stay on
+/// this machine. Needs the workspace's `.venv` (as the test above).
+#[test]
+fn python_can_with_its_default_channel_meets_the_ipv6_bus() {
+    if ipv6_bus(3).is_none() {
+        return;
+    }
+    let port = 30000 + (std::process::id() % 4000) as u16 * 8 + 4;
+    let iface = format!("udp:[ff15:7079:7468:6f6e:6465:6d6f:6d63:6173]:{port}");
+    let python = concat!(env!("CARGO_MANIFEST_DIR"), "/../../.venv/bin/python");
+    let mut sim = simulator(&iface, "20");
+    let script = format!(
+        "import can, canopen\n\
+         net = canopen.Network()\n\
+         net.connect(interface='udp_multicast', port={port}, hop_limit=0)\n\
+         from can.interfaces.udp_multicast import UdpMulticastBus\n\
+         assert UdpMulticastBus.DEFAULT_GROUP_IPv6 == 'ff15:7079:7468:6f6e:6465:6d6f:6d63:6173'\n\
+         node = net.add_node(5, '{EDS}')\n\
+         node.sdo[0x1017].raw = 750\n\
+         print(node.sdo[0x1017].raw, node.sdo[0x1008].raw)\n\
+         net.disconnect()\n"
+    );
+    let o = Command::new(python).args(["-c", &script]).output().unwrap();
+    let _ = sim.kill();
+    let _ = sim.wait();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o), "750 Buerkert generic device\n");
+}

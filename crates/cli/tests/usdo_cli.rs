@@ -102,3 +102,73 @@ fn usdo_against_a_simulator_in_another_process_over_the_udp_bus() {
     assert!(written);
     assert_eq!(stdout(&o), "1234\n", "{}", stderr(&o));
 }
+
+/// The Bürkert logbook (0x2003:04, a DOMAIN of some 4 KB): piped, `usdo read` prints it whole
+/// in hex and `usdo upload -o` writes the same bytes; to a terminal, `usdo read` says its size
+/// and the upload that writes it instead of filling the screen.
+#[cfg(unix)]
+#[test]
+fn a_large_domain_is_uploaded_to_a_file_not_dumped_on_a_terminal() {
+    let o = fd_node5(&["usdo", "read", "5", "0x2003", "4"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let hex = stdout(&o).trim().to_string();
+    assert!(hex.len() > 2 * 1024, "{} hex digits", hex.len());
+    let bytes: Vec<u8> = (0..hex.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+        .collect();
+    assert!(bytes.starts_with(b"<?xml"));
+
+    let dir = std::env::temp_dir().join(format!("canopen-usdo-upload-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("logbook.xml");
+    let o = fd_node5(&[
+        "usdo",
+        "upload",
+        "5",
+        "0x2003",
+        "4",
+        "-o",
+        file.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&file).unwrap(), bytes);
+    assert!(
+        stderr(&o).contains(&format!("{} bytes written to", bytes.len())),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+
+    // stdout a terminal: the size and the upload to use, no hex.
+    use std::os::fd::AsFd as _;
+    let pty = nix::pty::openpty(None, None).expect("openpty");
+    let eds = format!("5={EDS}");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_canopen"))
+        .args(["--fd", "--eds", &eds, "usdo", "read", "5", "0x2003", "4"])
+        .stdout(std::process::Stdio::from(
+            pty.slave.as_fd().try_clone_to_owned().unwrap(),
+        ))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    drop(pty.slave);
+    let mut shown = Vec::new();
+    let mut buf = [0u8; 4096];
+    while let Ok(n) = nix::unistd::read(&pty.master, &mut buf) {
+        if n == 0 {
+            break;
+        }
+        shown.extend_from_slice(&buf[..n]);
+    }
+    assert!(shown.len() < 100, "{}", String::from_utf8_lossy(&shown));
+    let err = stderr(&o);
+    assert!(
+        err.contains(&format!("a DOMAIN of {} bytes", bytes.len())),
+        "{err}"
+    );
+    assert!(
+        err.contains("`canopen usdo upload 5 0x2003 4 -o FILE`"),
+        "{err}"
+    );
+}

@@ -26,10 +26,10 @@ pub(crate) fn error_reply(e: &Error) -> Reply {
     match e {
         Error::Sdo(e) => match &e.kind {
             SdoErrorKind::Transfer(k) => Reply::Abort(k.abort_code().get()),
-            SdoErrorKind::Io(_) => Reply::Abort(ABORT_OUT_OF_MEMORY),
+            SdoErrorKind::Io { .. } => Reply::Abort(ABORT_OUT_OF_MEMORY),
             _ => Reply::Error(ErrorCode::INTERNAL_STATE),
         },
-        Error::Timeout(_) => Reply::Error(ErrorCode::TIMEOUT),
+        Error::Timeout { .. } => Reply::Error(ErrorCode::TIMEOUT),
         Error::Lss(e) => Reply::Error(lss_error(e)),
         _ => Reply::Error(ErrorCode::INTERNAL_STATE),
     }

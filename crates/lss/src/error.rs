@@ -79,6 +79,23 @@ pub enum LssError {
         /// The address part whose confirmation failed.
         part: AddressPart,
     },
+    /// Several slaves are in configuration state where exactly one must be: configure node-ID
+    /// after switch mode global would give each the same node-ID. Two answers came to one
+    /// inquiry: `first` and `second` (equal when the slaves share that part; a real bus may
+    /// merge equal answers into one frame, which is why every part is inquired). The slaves
+    /// were switched back to waiting state.
+    #[error(
+        "several LSS slaves are in configuration state (inquire {part} was answered with \
+         {first:#010X} and {second:#010X}): one node-ID would go to each of them"
+    )]
+    SeveralSlaves {
+        /// The address part whose inquiry was answered twice.
+        part: AddressPart,
+        /// The first answer.
+        first: u32,
+        /// The second answer.
+        second: u32,
+    },
     /// The workflow's node-ID pool had no free node-ID left for a found slave.
     #[error("no free node-ID left for the slave")]
     NoFreeNodeId,

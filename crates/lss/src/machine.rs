@@ -268,6 +268,9 @@ impl<T, P> Events<T, P> {
 pub(crate) enum Reply {
     /// At least one matching response.
     Answer(Response),
+    /// Two answers in a window that asked for one answerer ([`Exchange::ask_one`]): the first
+    /// and the second (equal or not), so several slaves answered.
+    Several(Response, Response),
     /// The response window closed without a matching response.
     Silence,
 }
@@ -277,7 +280,10 @@ struct Wait {
     cs: u8,
     deadline: Instant,
     collect: bool,
+    /// Report a second answer ([`Reply::Several`]) instead of ignoring it.
+    one: bool,
     got: Option<Response>,
+    second: Option<Response>,
 }
 
 /// At most this many requests are queued at once (switch selective is 4, an identify probe 6).
@@ -321,8 +327,19 @@ impl Exchange {
             cs,
             deadline: now + timeout,
             collect,
+            one: false,
             got: None,
+            second: None,
         });
+    }
+
+    /// Queues `req` and awaits exactly one answerer: the whole window is waited out, and a
+    /// second answer makes the reply [`Reply::Several`].
+    pub(crate) fn ask_one(&mut self, now: Instant, req: Request, cs: u8, timeout: Duration) {
+        self.ask(now, req, cs, timeout, true);
+        if let Some(w) = self.wait.as_mut() {
+            w.one = true;
+        }
     }
 
     pub(crate) fn poll_transmit(&mut self) -> Option<Request> {
@@ -356,6 +373,8 @@ impl Exchange {
         if wait.collect {
             if wait.got.is_none() {
                 wait.got = Some(*resp);
+            } else if wait.second.is_none() {
+                wait.second = Some(*resp);
             }
             None
         } else {
@@ -371,9 +390,10 @@ impl Exchange {
             return None;
         }
         self.wait = None;
-        Some(match wait.got {
-            Some(r) => Reply::Answer(r),
-            None => Reply::Silence,
+        Some(match (wait.got, wait.second) {
+            (Some(a), Some(b)) if wait.one => Reply::Several(a, b),
+            (Some(r), _) => Reply::Answer(r),
+            (None, _) => Reply::Silence,
         })
     }
 }
@@ -406,6 +426,28 @@ mod tests {
         assert_eq!(ex.on_response(&ok), Some(Reply::Answer(ok)));
         assert!(!ex.is_waiting());
         assert_eq!(ex.on_response(&ok), None, "duplicate after the end");
+    }
+
+    #[test]
+    fn a_window_for_one_answerer_reports_a_second_answer() {
+        let t0 = Instant::from_millis(0);
+        let req = Request::InquireIdentity(crate::address::AddressPart::Serial);
+        let a = Response::InquireIdentity(crate::address::AddressPart::Serial, 1);
+        let b = Response::InquireIdentity(crate::address::AddressPart::Serial, 2);
+        for (answers, want) in [
+            (&[][..], Reply::Silence),
+            (&[a][..], Reply::Answer(a)),
+            (&[a, b][..], Reply::Several(a, b)),
+            (&[a, a, b][..], Reply::Several(a, a)),
+        ] {
+            let mut ex = Exchange::new();
+            ex.ask_one(t0, req, cs::INQUIRE_VENDOR + 3, Duration::from_millis(5));
+            while ex.poll_transmit().is_some() {}
+            for r in answers {
+                assert_eq!(ex.on_response(r), None, "the window stays open");
+            }
+            assert_eq!(ex.on_timeout(Instant::from_millis(5)), Some(want));
+        }
     }
 
     #[test]

@@ -6,7 +6,9 @@
 //!   activate bit timing, wait twice the switch delay, switch mode global (waiting) — the seed's
 //!   steps 1, 2, 3, 5;
 //! - [`Procedure::assign_node_id`]: switch mode global (configuration), configure node-ID,
-//!   optionally store configuration, switch mode global (waiting) — steps 1, 4, 5 (+ store);
+//!   optionally store configuration, switch mode global (waiting) — steps 1, 4, 5 (+ store),
+//!   with a check between steps 1 and 4 that exactly one slave is in configuration state
+//!   (switch mode global reaches them all; [`Step::InquireSingle`]);
 //! - selective variants that address one slave by its LSS address, so other slaves may stay
 //!   on the bus.
 //!
@@ -130,6 +132,11 @@ pub enum Step {
     StoreConfiguration,
     /// Inquire one part of the identity.
     InquireIdentity(AddressPart),
+    /// Inquire one part of the identity of the one slave that must be in configuration state:
+    /// the whole response window is waited out, and a second answer (several slaves are in
+    /// configuration state) fails the procedure with [`LssError::SeveralSlaves`]. Any failure
+    /// of this step switches every slave back to waiting state before the procedure ends.
+    InquireSingle(AddressPart),
     /// Inquire the node-ID.
     InquireNodeId,
     /// Identify remote slave; the report says whether anybody answered.
@@ -195,7 +202,13 @@ impl Procedure {
     }
 
     /// The seed's node-ID assignment (steps 1, 4, 5), with store configuration before step 5
-    /// when `store`. Only the slave being configured may be on the bus.
+    /// when `store`, made safe for a bus with several LSS slaves: switch mode global reaches
+    /// every slave (configured or not), and each would take the node-ID. So after the switch
+    /// the procedure inquires the four parts of the LSS address ([`Step::InquireSingle`]) and
+    /// configures only when exactly one slave answers; with several it switches them back to
+    /// waiting and fails with [`LssError::SeveralSlaves`] (then use
+    /// [`assign_node_id_selective`](Self::assign_node_id_selective) or
+    /// [`AssignAll`](crate::AssignAll)). The report holds the configured slave's address.
     pub fn assign_node_id(node_id: NodeId, store: bool) -> Self {
         Self::assign(None, node_id.get(), store)
     }
@@ -213,10 +226,17 @@ impl Procedure {
 
     fn assign(address: Option<LssAddress>, raw: u8, store: bool) -> Self {
         let mut p = Self::new();
-        let _ = p.steps.push(match address {
-            Some(a) => Step::SwitchModeSelective(a),
-            None => Step::SwitchModeGlobal(Mode::Configuration),
-        });
+        match address {
+            Some(a) => {
+                let _ = p.steps.push(Step::SwitchModeSelective(a));
+            }
+            None => {
+                let _ = p.steps.push(Step::SwitchModeGlobal(Mode::Configuration));
+                for part in AddressPart::ALL {
+                    let _ = p.steps.push(Step::InquireSingle(part));
+                }
+            }
+        }
         let _ = p.steps.push(Step::ConfigureNodeId(raw));
         if store {
             let _ = p.steps.push(Step::StoreConfiguration);
@@ -439,6 +459,15 @@ impl LssMaster {
                 Request::InquireIdentity(part),
                 cs::INQUIRE_VENDOR + part.index(),
             ),
+            Step::InquireSingle(part) => {
+                self.io.ex.ask_one(
+                    now,
+                    Request::InquireIdentity(part),
+                    cs::INQUIRE_VENDOR + part.index(),
+                    self.config.response_timeout,
+                );
+                self.current = Some(step);
+            }
             Step::InquireNodeId => self.ask(now, step, Request::InquireNodeId, cs::INQUIRE_NODE_ID),
             Step::IdentifyRemoteSlave(q) => {
                 let [a, b, c, d, e, f] = q.requests();
@@ -466,7 +495,7 @@ impl LssMaster {
             Step::ConfigureNodeId(_) => Service::ConfigureNodeId,
             Step::ConfigureBitTiming(_) => Service::ConfigureBitTiming,
             Step::StoreConfiguration => Service::StoreConfiguration,
-            Step::InquireIdentity(p) => Service::InquireIdentity(p),
+            Step::InquireIdentity(p) | Step::InquireSingle(p) => Service::InquireIdentity(p),
             Step::InquireNodeId => Service::InquireNodeId,
             Step::IdentifyRemoteSlave(_) => Service::IdentifyRemoteSlave,
             Step::IdentifyNonConfigured => Service::IdentifyNonConfigured,
@@ -496,6 +525,17 @@ impl LssMaster {
                     };
                     Err(crate::machine::timeout(service, timeout))
                 }
+            },
+            Reply::Several(a, b) => match (a, b) {
+                (Response::InquireIdentity(part, first), Response::InquireIdentity(_, second)) => {
+                    Err(LssError::SeveralSlaves {
+                        part,
+                        first,
+                        second,
+                    })
+                }
+                // Only inquire-single asks for one answerer.
+                _ => Ok(()),
             },
             Reply::Answer(r) => match r {
                 Response::StoreConfiguration(s)
@@ -532,6 +572,10 @@ impl LssMaster {
             Ok(()) => self.advance(now),
             Err(e) => {
                 self.io.ex.clear();
+                if let Step::InquireSingle(_) = step {
+                    // Nothing was configured: leave every slave in waiting state, as found.
+                    self.io.ex.send(Request::SwitchModeGlobal(Mode::Waiting));
+                }
                 self.finish(Err(e));
             }
         }

@@ -688,16 +688,85 @@ fn seed_assign_node_id_global() {
     let mut bus = Bus::with_unconfigured(Delivery::Merged, &[a]);
     let (r, _) = run_procedure(&mut bus, Procedure::assign_node_id(id(42), false));
     r.unwrap();
+    let report = r.unwrap();
     let reqs: Vec<Request> = bus.sent.iter().map(|s| s.1).collect();
+    // The seed's steps 1, 4, 5, with the check between 1 and 4 that one slave answers.
     assert_eq!(
         reqs,
         vec![
             Request::SwitchModeGlobal(Mode::Configuration),
+            Request::InquireIdentity(AddressPart::Vendor),
+            Request::InquireIdentity(AddressPart::Product),
+            Request::InquireIdentity(AddressPart::Revision),
+            Request::InquireIdentity(AddressPart::Serial),
             Request::ConfigureNodeId(42),
             Request::SwitchModeGlobal(Mode::Waiting),
         ]
     );
     assert_eq!(bus.slave(a).active_node_id(), 42);
+    assert_eq!(report.address(), Some(a));
+}
+
+/// Switch mode global puts every LSS slave in configuration state (CiA 305), configured or
+/// not, and each one answers configure node-ID: the global assignment refuses to configure
+/// unless exactly one answers, and leaves them all in waiting state as it found them.
+#[test]
+fn global_assign_refuses_several_slaves_in_configuration() {
+    let mut rng = Rng::new(62);
+    let same_product = [
+        LssAddress::new(0x39, 0x0100_0001, 1, 1001),
+        LssAddress::new(0x39, 0x0100_0001, 1, 1002),
+    ];
+    let mut configured = SlaveConfig::unconfigured(LssAddress::new(0x39, 0x0100_0001, 1, 1003));
+    configured.node_id = 5;
+    for delivery in DELIVERIES {
+        for (slaves, extra) in [
+            (same_product.to_vec(), None),
+            (random_addresses(&mut rng, 3), None),
+            (same_product[..1].to_vec(), Some(configured)),
+        ] {
+            let mut bus = Bus::with_unconfigured(delivery, &slaves);
+            if let Some(c) = extra {
+                bus.add(c);
+            }
+            let (r, _) = run_procedure(&mut bus, Procedure::assign_node_id(id(9), true));
+            let Err(LssError::SeveralSlaves {
+                part,
+                first,
+                second,
+            }) = r
+            else {
+                panic!("{delivery:?} {slaves:?}: {r:?}");
+            };
+            if delivery == Delivery::Merged {
+                // Equal answers merge on the bus: two different values show the second slave.
+                assert_ne!(first, second, "{part}");
+            }
+            let reqs: Vec<Request> = bus.sent.iter().map(|s| s.1).collect();
+            assert!(
+                !reqs
+                    .iter()
+                    .any(|r| matches!(r, Request::ConfigureNodeId(_))),
+                "{reqs:?}"
+            );
+            assert_eq!(reqs.last(), Some(&Request::SwitchModeGlobal(Mode::Waiting)));
+            for s in &bus.slaves {
+                assert_eq!(s.state(), SlaveState::Waiting);
+                assert_ne!(s.pending_node_id(), 9);
+            }
+        }
+    }
+    // The error says what was found, and what it would have done.
+    let e = LssError::SeveralSlaves {
+        part: AddressPart::Serial,
+        first: 1001,
+        second: 1002,
+    };
+    assert_eq!(
+        e.to_string(),
+        "several LSS slaves are in configuration state (inquire serial number was answered \
+         with 0x000003E9 and 0x000003EA): one node-ID would go to each of them"
+    );
 }
 
 #[test]
@@ -831,8 +900,22 @@ fn configure_node_id_errors() {
             error: ResponseError::VendorSpecific(3)
         })
     );
+    // Nobody there: the check that one slave is in configuration state hears nothing.
     let mut bus = Bus::new(Delivery::Merged);
     let (r, _) = run_procedure(&mut bus, Procedure::assign_node_id(id(4), false));
+    assert_eq!(
+        r,
+        Err(LssError::Timeout {
+            service: Service::InquireIdentity(AddressPart::Vendor),
+            timeout: Duration::from_millis(100)
+        })
+    );
+    let (r, _) = run_procedure(
+        &mut bus,
+        Procedure::single(Step::SwitchModeGlobal(Mode::Configuration))
+            .then(Step::ConfigureNodeId(4))
+            .unwrap(),
+    );
     assert_eq!(
         r,
         Err(LssError::Timeout {

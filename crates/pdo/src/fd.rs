@@ -179,6 +179,27 @@ impl From<&Mapping> for FdMapping {
     }
 }
 
+impl From<Mapping> for FdMapping {
+    /// The same objects at the same offsets (see [`From<&Mapping>`](#impl-From%3C%26Mapping%3E-for-FdMapping)).
+    fn from(m: Mapping) -> Self {
+        Self::from(&m)
+    }
+}
+
+impl TryFrom<&FdMapping> for Mapping {
+    type Error = MappingError;
+
+    /// The classic mapping of the same objects, when they fit eight bytes
+    /// ([`MappingError::TooLong`] otherwise).
+    fn try_from(fd: &FdMapping) -> Result<Self, MappingError> {
+        let mut m = Mapping::new();
+        for o in fd.objects() {
+            m.push(o.entry, o.kind)?;
+        }
+        Ok(m)
+    }
+}
+
 /// The `bits` bits at bit `offset` of `data` (which holds them).
 fn read_field(data: &[u8], offset: u16, bits: u8) -> u64 {
     let first = usize::from(offset / 8);

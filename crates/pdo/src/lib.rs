@@ -103,7 +103,7 @@ pub use mpdo::{
 #[cfg(feature = "od")]
 pub use od::{OdView, ValueSource};
 pub use pack::{PackError, RawValue, Unpacked, pack, unpack};
-pub use remote::{RemapError, RemapSteps, RemoteObjects, SdoWrite, remap};
+pub use remote::{RemapError, RemapSteps, RemoteObjects, SdoWrite, remap, remap_fd};
 pub use typed::{DefaultCobId, PairValue, PdoField, TypedPdo, TypedPdoError};
 
 /// This crate's README, whose example runs as a doctest.

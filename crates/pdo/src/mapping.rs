@@ -206,11 +206,19 @@ pub enum MappingError {
     /// More than 64 entries (or sub 0 above 64 and not an MPDO code).
     #[error("{0} mapping entries; a PDO maps at most 64")]
     TooManyEntries(usize),
-    /// The entries add up to more than 64 bits.
-    #[error("the mapped objects need {0} bits; a PDO carries at most 64")]
+    /// The entries add up to more than 64 bits (the eight data bytes of a classic CAN frame).
+    #[error(
+        "the mapped objects need {0} bits ({bytes} bytes); a classic CAN PDO carries at most 64 \
+         bits (8 bytes)",
+        bytes = .0.div_ceil(8)
+    )]
     TooLong(u32),
     /// The entries of a CAN FD PDO add up to more than 512 bits (64 data bytes).
-    #[error("the mapped objects need {0} bits; a CAN FD PDO carries at most 512")]
+    #[error(
+        "the mapped objects need {0} bits ({bytes} bytes); a CAN FD PDO carries at most 512 bits \
+         (64 bytes)",
+        bytes = .0.div_ceil(8)
+    )]
     FdTooLong(u32),
     /// One entry of a CAN FD PDO longer than 64 bits (the packer holds each value in 64 bits).
     #[error("mapping entry {addr} has {mapped_bits} bits; one mapped object holds at most 64")]

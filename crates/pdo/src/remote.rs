@@ -23,6 +23,7 @@ use crate::comm::{
     COB_ID_INVALID, CommParams, Direction, MAX_PDOS_PER_DIRECTION, SUB_COB_ID, SUB_EVENT_TIMER,
     SUB_INHIBIT_TIME, SUB_SYNC_START, SUB_TRANSMISSION_TYPE,
 };
+use crate::fd::FdMapping;
 use crate::mapping::{MAX_ENTRIES, Mapping};
 
 /// Most steps one plan holds: COB-ID twice, sub 0 twice, 64 entries, four parameters.
@@ -147,6 +148,50 @@ pub fn remap(
     mapping: &Mapping,
     node: &RemoteObjects<'_>,
 ) -> Result<RemapSteps, RemapError> {
+    plan(
+        direction,
+        number,
+        comm,
+        &entries(mapping.raw_entries()),
+        node,
+    )
+}
+
+/// [`remap`] for a CAN FD PDO of up to 64 bytes (CANopen FD): the same writes in the same
+/// order, with the entries of `mapping`.
+pub fn remap_fd(
+    direction: Direction,
+    number: u16,
+    comm: &CommParams,
+    mapping: &FdMapping,
+    node: &RemoteObjects<'_>,
+) -> Result<RemapSteps, RemapError> {
+    plan(
+        direction,
+        number,
+        comm,
+        &entries(mapping.raw_entries()),
+        node,
+    )
+}
+
+/// The raw entries of a mapping (at most 64, as both mapping types guarantee).
+fn entries(raw: impl Iterator<Item = u32>) -> Vec<u32, MAX_ENTRIES> {
+    let mut v = Vec::new();
+    for e in raw {
+        let _ = v.push(e);
+    }
+    v
+}
+
+/// The writes of [`remap`] for the raw mapping `entries`.
+fn plan(
+    direction: Direction,
+    number: u16,
+    comm: &CommParams,
+    entries: &[u32],
+    node: &RemoteObjects<'_>,
+) -> Result<RemapSteps, RemapError> {
     if number >= MAX_PDOS_PER_DIRECTION {
         return Err(RemapError::PdoNumber(number));
     }
@@ -158,7 +203,7 @@ pub fn remap(
         let current = node
             .current_mapping
             .ok_or(RemapError::StaticMappingUnknown { index: map_index })?;
-        if !current.iter().copied().eq(mapping.raw_entries()) {
+        if current != entries {
             return Err(RemapError::StaticMapping { index: map_index });
         }
         false
@@ -173,10 +218,10 @@ pub fn remap(
     ));
     if write_mapping {
         let _ = steps.push(SdoWrite::u8(map_index, 0, 0));
-        for (sub, raw) in (1u8..).zip(mapping.raw_entries()) {
-            let _ = steps.push(SdoWrite::u32(map_index, sub, raw));
+        for (sub, raw) in (1u8..).zip(entries) {
+            let _ = steps.push(SdoWrite::u32(map_index, sub, *raw));
         }
-        let _ = steps.push(SdoWrite::u8(map_index, 0, mapping.len() as u8));
+        let _ = steps.push(SdoWrite::u8(map_index, 0, entries.len() as u8));
     }
     let _ = steps.push(SdoWrite::u8(
         comm_index,
@@ -220,6 +265,7 @@ pub fn disable(
 #[cfg(test)]
 mod tests {
     extern crate std;
+    use std::string::ToString;
     use std::vec::Vec;
 
     use super::*;
@@ -229,6 +275,56 @@ mod tests {
         s.iter()
             .map(|w| (w.index, w.subindex, w.value().to_vec()))
             .collect()
+    }
+
+    #[test]
+    fn an_fd_pdo_of_64_bytes_is_remapped_in_the_same_order() {
+        let comm = CommParams {
+            cob_id: PdoCobId(0x185),
+            transmission_type: TransmissionType::EventProfile,
+            inhibit_time: 0,
+            event_timer: 0,
+            sync_start: 0,
+        };
+        // Sixteen UNSIGNED32: 512 bits, too long for a classic PDO.
+        let raw: Vec<u32> = (1..=16u32).map(|s| 0x2100_0020 | (s << 8)).collect();
+        assert_eq!(
+            Mapping::from_raw(&raw),
+            Err(crate::MappingError::TooLong(96)),
+            "the classic limit is hit at the third entry"
+        );
+        let fd = FdMapping::from_raw(&raw).unwrap();
+        let node = RemoteObjects::dynamic(Direction::Transmit);
+        let s = remap_fd(Direction::Transmit, 0, &comm, &fd, &node).unwrap();
+        let t = steps_as_tuples(&s);
+        assert_eq!(t[0], (0x1800, 1, [0x85, 0x01, 0x00, 0x80].to_vec()));
+        assert_eq!(t[1], (0x1A00, 0, [0].to_vec()));
+        for (i, raw) in raw.iter().enumerate() {
+            assert_eq!(t[2 + i], (0x1A00, i as u8 + 1, raw.to_le_bytes().to_vec()));
+        }
+        assert_eq!(t[18], (0x1A00, 0, [16].to_vec()));
+        assert_eq!(
+            t.last(),
+            Some(&(0x1800, 1, [0x85, 0x01, 0x00, 0x00].to_vec()))
+        );
+        // A classic mapping gives the same writes through either function.
+        let classic = Mapping::from_raw(&raw[..2]).unwrap();
+        assert_eq!(
+            remap(Direction::Transmit, 0, &comm, &classic, &node),
+            remap_fd(
+                Direction::Transmit,
+                0,
+                &comm,
+                &FdMapping::from(&classic),
+                &node
+            )
+        );
+        // The error says bits and bytes.
+        assert_eq!(
+            crate::MappingError::TooLong(96).to_string(),
+            "the mapped objects need 96 bits (12 bytes); a classic CAN PDO carries at most 64 \
+             bits (8 bytes)"
+        );
     }
 
     #[test]

@@ -132,7 +132,7 @@ pub(crate) fn to_py_err(e: Error) -> PyErr {
                     set_attr(&err, "code", code.0);
                     err
                 }
-                (SdoErrorKind::Io(_), None) => PyValueError::new_err(text),
+                (SdoErrorKind::Io { .. }, None) => PyValueError::new_err(text),
                 _ => SdoCommunicationError::new_err(text),
             };
             set_attr(&err, "node", sdo.node.get());
@@ -142,7 +142,7 @@ pub(crate) fn to_py_err(e: Error) -> PyErr {
         }
         Error::UnknownObject { .. } => PyKeyError::new_err(text),
         Error::Value { .. } => PyValueError::new_err(text),
-        Error::Timeout(_) => NmtError::new_err(text),
+        Error::Timeout { .. } => NmtError::new_err(text),
         _ => NetworkError::new_err(text),
     }
 }
@@ -155,11 +155,16 @@ fn set_attr<V: for<'py> IntoPyObject<'py>>(err: &PyErr, name: &str, value: V) {
     });
 }
 
-/// A duration in seconds from Python (a timeout), refused when negative or not finite.
+/// The longest time in seconds a call takes (about 31 years): beyond it a deadline would leave
+/// the clock's range.
+const MAX_SECONDS: f64 = 1e9;
+
+/// A duration in seconds from Python (a timeout), refused when negative, not finite or beyond
+/// [`MAX_SECONDS`].
 pub(crate) fn seconds(s: f64) -> PyResult<canola::Duration> {
-    if !s.is_finite() || s < 0.0 {
+    if !(0.0..=MAX_SECONDS).contains(&s) {
         return Err(PyValueError::new_err(format!(
-            "a time in seconds must be finite and not negative, not {s}"
+            "a time in seconds is in 0..={MAX_SECONDS}, not {s}"
         )));
     }
     Ok(canola::Duration::from_micros((s * 1e6).round() as u64))

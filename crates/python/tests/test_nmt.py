@@ -38,3 +38,11 @@ def test_waits_time_out_with_nmt_error(network: canola.Network) -> None:
 def test_commands_outside_cia_301_are_refused(node: canola.RemoteNode) -> None:
     with pytest.raises(ValueError, match="SLEEP"):
         node.nmt.state = "SLEEP"
+
+
+@pytest.mark.parametrize("timeout", [-1.0, float("nan"), float("inf"), 1e300])
+def test_timeouts_out_of_range_are_value_errors(node: canola.RemoteNode, timeout: float) -> None:
+    with pytest.raises(ValueError, match="a time in seconds"):
+        node.nmt.wait_for_bootup(timeout)
+    with pytest.raises(ValueError, match="a time in seconds"):
+        node.nmt.wait_for_heartbeat(timeout)

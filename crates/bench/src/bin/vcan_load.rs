@@ -392,7 +392,7 @@ struct Tally {
     /// Bus events in order (interface down/up), with the PDO count at the time.
     link_events: Vec<(BusEvent, u64)>,
     other_bus_events: u64,
-    transport_failed: Option<String>,
+    transport_failed: Option<canola::error::TransportFailure>,
     marker: bool,
     last: BTreeMap<(u8, u8), u32>,
 }
@@ -437,7 +437,7 @@ impl Tally {
                 self.link_events.push((e, self.received));
             }
             NetworkEvent::Bus(_) => self.other_bus_events += 1,
-            NetworkEvent::TransportFailed { error } => self.transport_failed = Some(error),
+            NetworkEvent::TransportFailed { failure, .. } => self.transport_failed = Some(failure),
             _ => {}
         }
     }

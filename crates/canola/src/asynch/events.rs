@@ -12,9 +12,9 @@ use futures_core::Stream;
 
 use crate::machine::NetworkEvent;
 use crate::machine::events::EventSink;
-use crate::network::Driver;
+use crate::network::Network;
 
-/// Queue length of [`Network::events`](crate::Network::events).
+/// Queue length of [`Network::events`].
 pub const DEFAULT_EVENT_CAPACITY: usize = 1024;
 
 /// `n` events were lost between the item before this one and the item after it: the subscriber
@@ -72,7 +72,7 @@ impl Drop for Sink {
     }
 }
 
-/// A subscription to the network's events (see [`Network::events`](crate::Network::events)): a [`Stream`] of
+/// A subscription to the network's events (see [`Network::events`]): a [`Stream`] of
 /// `Result<NetworkEvent, Lagged>`. It ends when the network is gone; dropping it
 /// unsubscribes.
 ///
@@ -141,10 +141,28 @@ impl Stream for EventStream {
     }
 }
 
+/// The network's events as a stream.
+impl Network {
+    /// Subscribes to the network's events as a [`Stream`](futures_core::Stream), with a queue
+    /// of [`DEFAULT_EVENT_CAPACITY`] events (see
+    /// [`events_with_capacity`](Self::events_with_capacity)).
+    pub fn events(&self) -> EventStream {
+        self.events_with_capacity(DEFAULT_EVENT_CAPACITY)
+    }
+
+    /// Subscribes to the network's events as a [`Stream`](futures_core::Stream) whose queue
+    /// holds `capacity` events (at least one). Each subscriber has its own queue; when it is
+    /// full the oldest event goes and the stream yields `Err(Lagged(n))` in place of the `n`
+    /// lost ones.
+    pub fn events_with_capacity(&self, capacity: usize) -> EventStream {
+        EventStream::new(self, capacity)
+    }
+}
+
 impl EventStream {
     /// A stream of `net`'s events whose queue holds `capacity` events (at least one): see
-    /// [`Network::events_with_capacity`](crate::Network::events_with_capacity).
-    pub(crate) fn new(net: &Driver, capacity: usize) -> Self {
+    /// [`Network::events_with_capacity`].
+    fn new(net: &Network, capacity: usize) -> Self {
         let queue = Arc::new(Mutex::new(Queue {
             events: VecDeque::new(),
             capacity: capacity.max(1),

@@ -4,8 +4,8 @@
 //!
 //! There is no second API: `node.sdo().read(entry)` returns one [`Operation`], finished with
 //! `.wait()` in blocking code and with `.await` here; calls that never wait (NMT commands,
-//! [`Network::send`](crate::Driver::send), [`RpdoSender::set`](crate::RpdoSender::set)) are the same plain calls in
-//! both. The network's events: [`Network::subscribe`](crate::Driver::subscribe) (a blocking channel) or
+//! [`Network::send`](crate::Network::send), [`RpdoSender::set`](crate::RpdoSender::set)) are the same plain calls in
+//! both. The network's events: [`Network::subscribe`](crate::Network::subscribe) (a blocking channel) or
 //! [`Network::events`] (an [`EventStream`]); PDO batches: [`PdoSubscriber`](crate::PdoSubscriber).
 //!
 //! **Cancel by drop.** Dropping an SDO operation's future (or a scan's) cancels its requests: a
@@ -26,11 +26,11 @@
 //!   whenever every task is idle, so a test runs in microseconds and stays deterministic. Either
 //!   way `tokio::time::timeout(50 ms, sdo.read(..))` fires after 50 ms of that clock,
 //!   before a 10 s SDO timeout, and the dropped read sends its abort. The blocking and
-//!   stepping calls ([`Network::run_for`](crate::Driver::run_for), a blocking read) still jump virtual time as before;
+//!   stepping calls ([`Network::run_for`](crate::Network::run_for), a blocking read) still jump virtual time as before;
 //!   time never runs backwards, the async side follows tokio from where they left it. Nothing
 //!   moves a virtual bus while no future waits: for events to flow meanwhile, start the driver
-//!   with [`Network::start_driver_on_runtime`](crate::Driver::start_driver_on_runtime) (on a virtual bus, a task that keeps the bus at
-//!   tokio's time and ends with the network) or await [`Network::run_for`](crate::Driver::run_for) in a task.
+//!   with [`Network::start_driver_on_runtime`](crate::Network::start_driver_on_runtime) (on a virtual bus, a task that keeps the bus at
+//!   tokio's time and ends with the network) or await [`Network::run_for`](crate::Network::run_for) in a task.
 //!
 //! See [`events`] for the event stream.
 //!

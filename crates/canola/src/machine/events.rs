@@ -12,7 +12,7 @@ use crate::transport::BusEvent;
 
 /// Identifies one SDO request for its whole life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct RequestId(pub(crate) u64);
+pub(crate) struct RequestId(pub(crate) u64);
 
 /// How far a transfer is, for progress bars.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -93,10 +93,14 @@ pub enum NetworkEvent {
     /// A bus event from the transport.
     Bus(BusEvent),
     /// The transport failed while the background driver drove it; the driver has stopped
-    /// (see [`Network::stop_driver`](crate::Driver::stop_driver)).
+    /// (see [`Network::stop_driver`](crate::Network::stop_driver)).
     TransportFailed {
-        /// The transport's error.
-        error: String,
+        /// The bus, when the network was opened by name
+        /// ([`Network::open`](crate::Network::open)).
+        bus: Option<String>,
+        /// How the transport failed (an operating-system error with its
+        /// [`io::ErrorKind`](std::io::ErrorKind)).
+        failure: crate::error::TransportFailure,
     },
 }
 
@@ -115,7 +119,7 @@ impl NetworkEvent {
     }
 }
 
-/// A received PDO as a callback sees it (see [`Network::on_pdo`](crate::Driver::on_pdo)):
+/// A received PDO as a callback sees it (see [`Network::on_pdo`](crate::Network::on_pdo)):
 /// borrowed for the duration of the call, nothing copied or allocated for it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[non_exhaustive]
@@ -153,7 +157,7 @@ impl<'a> PdoReceived<'a> {
     }
 }
 
-/// Identifies a PDO callback for [`Network::remove_pdo_callback`](crate::Driver::remove_pdo_callback).
+/// Identifies a PDO callback for [`Network::remove_pdo_callback`](crate::Network::remove_pdo_callback).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct PdoCallbackId(pub(super) u64);
 

@@ -39,14 +39,16 @@ mod sdo_client;
 mod subscribers;
 pub(crate) mod usdo;
 
-pub(crate) use events::Completion;
 #[cfg(feature = "tokio")]
 use events::EventSink;
 pub use events::{
     CANCEL_ABORT, NetworkEvent, Occupancy, PdoCallbackId, PdoData, PdoReceived, ProgressFn,
-    RequestId, TransferProgress,
+    TransferProgress,
 };
-pub(crate) use sdo::{DownSource, Op, Outcome, Outgoing, SdoRequest, Taken, UpSink};
+pub(crate) use events::{Completion, RequestId};
+pub(crate) use sdo::{
+    DownSource, Op, Outcome, Outgoing, Request, SdoRequest, Taken, UpSink, UsdoOp, UsdoRequest,
+};
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;

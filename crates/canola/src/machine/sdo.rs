@@ -66,10 +66,59 @@ pub(crate) enum Op {
     Upload(UpSink),
     /// Write the source's bytes to the entry.
     Download(DownSource),
-    /// Read the entry by USDO (CANopen FD) into the sink.
-    UsdoUpload(UpSink),
-    /// Write the source's bytes to the entry by USDO, announcing this data type code.
-    UsdoDownload(DownSource, u8),
+}
+
+/// What a USDO request (CANopen FD) does, with the buffer it needs.
+pub(crate) enum UsdoOp {
+    /// Read the entry into the sink.
+    Upload(UpSink),
+    /// Write the source's bytes to the entry, announcing this data type code.
+    Download(DownSource, u8),
+}
+
+/// A request the core runs to its end: an SDO transfer on one of a node's server channels, or
+/// a USDO transfer on the master's USDO client. Each kind carries only what it uses.
+pub(crate) enum Request {
+    Sdo(SdoRequest),
+    Usdo(UsdoRequest),
+}
+
+impl Request {
+    /// The node the request is for.
+    pub(crate) fn node(&self) -> NodeId {
+        match self {
+            Self::Sdo(r) => r.node,
+            Self::Usdo(r) => r.node,
+        }
+    }
+
+    /// The object the request is for.
+    pub(crate) fn entry(&self) -> ObjectAddress {
+        match self {
+            Self::Sdo(r) => r.entry,
+            Self::Usdo(r) => r.entry,
+        }
+    }
+}
+
+impl From<SdoRequest> for Request {
+    fn from(r: SdoRequest) -> Self {
+        Self::Sdo(r)
+    }
+}
+
+impl From<UsdoRequest> for Request {
+    fn from(r: UsdoRequest) -> Self {
+        Self::Usdo(r)
+    }
+}
+
+/// One USDO request: the server, the object and what to do (the timeout and the session are
+/// the USDO client's).
+pub(crate) struct UsdoRequest {
+    pub(crate) node: NodeId,
+    pub(crate) entry: ObjectAddress,
+    pub(crate) op: UsdoOp,
 }
 
 /// One SDO request.
@@ -91,6 +140,8 @@ pub(crate) struct SdoRequest {
 pub(super) enum ReqState {
     /// In the channel's queue; the request itself is kept here until it starts.
     Queued(SdoRequest),
+    /// In the USDO client's queue, waiting for a free session.
+    QueuedUsdo(UsdoRequest),
     /// Running on `channel` of `node` (its buffer now belongs to the client machine); what a
     /// finished transfer needs to report is kept here.
     Active {

@@ -9,7 +9,7 @@ use canola_sdo::{Event as SdoEvent, Multiplexer, SdoCobIds};
 
 use super::Core;
 use super::events::{CANCEL_ABORT, Completion, RequestId, TransferProgress};
-use super::sdo::{Op, Outgoing, ReqState, SdoChannel, SdoRequest, Taken, UpSink};
+use super::sdo::{Op, Outgoing, ReqState, Request, SdoChannel, SdoRequest, Taken, UpSink};
 use crate::error::{SdoError, SdoErrorKind};
 
 impl Core {
@@ -89,14 +89,18 @@ impl Core {
         }
     }
 
-    /// Queues an SDO request; it starts when the node's earlier requests are done.
-    pub(crate) fn submit(&mut self, req: SdoRequest) -> RequestId {
+    /// Queues a request: an SDO one starts when the node's earlier requests on its channel
+    /// are done, a USDO one when a session of the USDO client is free.
+    pub(crate) fn submit(&mut self, req: Request) -> RequestId {
         let id = RequestId(self.next_request);
         self.next_request += 1;
-        if req.op.is_usdo() {
-            self.submit_usdo(id, req);
-            return id;
-        }
+        let req = match req {
+            Request::Sdo(req) => req,
+            Request::Usdo(req) => {
+                self.submit_usdo(id, req);
+                return id;
+            }
+        };
         let node = req.node;
         let ch = self.channel_index(node, req.channel);
         let now = self.now;
@@ -144,7 +148,7 @@ impl Core {
             return;
         };
         match state {
-            ReqState::Queued(req) if req.op.is_usdo() => self.unqueue_usdo(id),
+            ReqState::QueuedUsdo(_) => self.unqueue_usdo(id),
             ReqState::Queued(req) => {
                 if let Some(slot) = self.nodes.get_mut(&req.node) {
                     for c in &mut slot.channels {
@@ -231,7 +235,10 @@ impl Core {
                                 transferred: written,
                                 unsized_expedited,
                             }),
-                            Err(e) => Err(SdoErrorKind::Io(format!("flushing the output: {e}"))),
+                            Err(e) => Err(SdoErrorKind::Io {
+                                kind: e.kind(),
+                                message: format!("flushing the output: {e}"),
+                            }),
                         },
                     },
                     SdoEvent::Downloaded { source, .. } => Ok(Completion {
@@ -242,7 +249,10 @@ impl Core {
                     SdoEvent::Failed { .. } if rebooted => Err(SdoErrorKind::NodeRebooted),
                     SdoEvent::Failed { error, buffer } => Err(match buffer {
                         canola_sdo::Buffer::Sink(UpSink::Stream { error: Some(e), .. }) => {
-                            SdoErrorKind::Io(e.to_string())
+                            SdoErrorKind::Io {
+                                kind: e.kind(),
+                                message: e.to_string(),
+                            }
                         }
                         _ => SdoErrorKind::Transfer(error.kind),
                     }),
@@ -318,8 +328,6 @@ impl Core {
         let started = match op {
             Op::Upload(sink) => c.client.start_upload(now, mux, sink, method).is_ok(),
             Op::Download(src) => c.client.start_download(now, mux, src, method).is_ok(),
-            // USDO requests go to the USDO client (`submit`), never to an SDO channel.
-            Op::UsdoUpload(_) | Op::UsdoDownload(..) => false,
         };
         if started {
             c.active = Some(id);

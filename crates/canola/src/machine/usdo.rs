@@ -22,8 +22,8 @@ use canola_sdo::usdo::{DataType, UsdoClient, UsdoClientConfig, UsdoEvent};
 
 use super::Core;
 use super::events::{Completion, RequestId};
-use super::sdo::{DownSource, Op, OutFrame, Outgoing, ReqState, SdoRequest, UpSink};
-use crate::error::{SdoError, SdoErrorKind};
+use super::sdo::{DownSource, OutFrame, Outgoing, ReqState, UpSink, UsdoOp, UsdoRequest};
+use crate::error::{FdRefusal, SdoError, SdoErrorKind};
 
 /// The master's own node-ID as a USDO client unless the application sets another: the
 /// highest node-ID, which devices are least often given.
@@ -90,13 +90,6 @@ impl UsdoState {
     }
 }
 
-impl Op {
-    /// Whether this is a USDO operation.
-    pub(crate) fn is_usdo(&self) -> bool {
-        matches!(self, Op::UsdoUpload(_) | Op::UsdoDownload(..))
-    }
-}
-
 impl Core {
     /// Sets the master's own node-ID as a USDO client (its CAN-ID is 0x600 + it). Takes effect
     /// when no USDO transfer runs; returns whether it did.
@@ -159,7 +152,7 @@ impl Core {
     }
 
     /// Queues a USDO request; it starts when a session is free.
-    pub(super) fn submit_usdo(&mut self, id: RequestId, req: SdoRequest) {
+    pub(super) fn submit_usdo(&mut self, id: RequestId, req: UsdoRequest) {
         let (node, entry) = (req.node, req.entry);
         let refuse = |kind| {
             ReqState::Done(Err(Box::new(SdoError {
@@ -170,21 +163,18 @@ impl Core {
             })))
         };
         if let Some(bus) = &self.usdo.classic_bus {
-            let state = refuse(SdoErrorKind::FdNotSupported(format!(
-                "FD not supported on {bus}"
-            )));
+            let state = refuse(SdoErrorKind::FdNotSupported(FdRefusal::ClassicBus {
+                bus: bus.clone(),
+            }));
             self.requests.push(id, state);
             return;
         }
         if !self.node_fd(node) {
-            let state = refuse(SdoErrorKind::FdNotSupported(format!(
-                "node {node} is not marked CANopen FD (its EDS has no {EDS_FD_KEY}=1; the \
-                 application can mark it)"
-            )));
+            let state = refuse(SdoErrorKind::FdNotSupported(FdRefusal::NodeNotFd));
             self.requests.push(id, state);
             return;
         }
-        self.requests.push(id, ReqState::Queued(req));
+        self.requests.push(id, ReqState::QueuedUsdo(req));
         self.usdo.queue.push_back(id);
         self.pump_usdo();
     }
@@ -221,27 +211,20 @@ impl Core {
                 continue;
             };
             let req = match core::mem::replace(slot, ReqState::Done(Ok(Completion::default()))) {
-                ReqState::Queued(req) => req,
+                ReqState::QueuedUsdo(req) => req,
                 other => {
                     *slot = other;
                     continue;
                 }
             };
-            let SdoRequest {
-                node, entry, op, ..
-            } = req;
+            let UsdoRequest { node, entry, op } = req;
             let mux = Multiplexer::new(entry.index, entry.sub_index);
             let client = self.usdo.client();
             let started = match op {
-                Op::UsdoUpload(sink) | Op::Upload(sink) => {
-                    client.start_upload(now, node, mux, sink).ok()
-                }
-                Op::UsdoDownload(src, t) => {
+                UsdoOp::Upload(sink) => client.start_upload(now, node, mux, sink).ok(),
+                UsdoOp::Download(src, t) => {
                     client.start_download(now, node, mux, DataType(t), src).ok()
                 }
-                Op::Download(src) => client
-                    .start_download(now, node, mux, DataType::DOMAIN, src)
-                    .ok(),
             };
             let state = match started {
                 Some(session) => {

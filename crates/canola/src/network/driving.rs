@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex, MutexGuard, Weak};
 use canola_frame::{Duration, Instant, NodeId};
 
 use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
-use crate::machine::{Completion, Core, NetworkEvent, Outcome, RequestId, SdoRequest, Taken};
+use crate::machine::{Completion, Core, NetworkEvent, Outcome, Request, RequestId, Taken};
 use crate::transport::{Received, TransportError};
 use canola_od::ObjectAddress;
 
@@ -41,7 +41,7 @@ const MAX_REUSED_READINGS: u8 = 7;
 const STEP_ASIDE: std::time::Duration = std::time::Duration::from_millis(2);
 
 impl Shared {
-    /// The body of [`Driver::start_driver`](crate::Driver::start_driver).
+    /// The body of [`Network::start_driver`](crate::Network::start_driver).
     pub(crate) fn start_driver(&self) -> Result<(), Error> {
         self.install_driver(|weak, stop, error| {
             std::thread::Builder::new()
@@ -60,7 +60,7 @@ impl Shared {
         spawn: impl FnOnce(
             Weak<Inner>,
             Arc<AtomicBool>,
-            Arc<Mutex<Option<String>>>,
+            Arc<Mutex<Option<TransportFailure>>>,
         ) -> Result<Option<std::thread::JoinHandle<()>>, E>,
     ) -> Result<(), E> {
         let mut slot = relock(self.inner.driver.lock());
@@ -82,7 +82,7 @@ impl Shared {
         Ok(())
     }
 
-    /// The body of [`Driver::is_driven`](crate::Driver::is_driven).
+    /// The body of [`Network::is_driven`](crate::Network::is_driven).
     pub(crate) fn is_driven(&self) -> bool {
         let slot = relock(self.inner.driver.lock());
         slot.stop
@@ -90,7 +90,7 @@ impl Shared {
             .is_some_and(|s| !s.load(Ordering::SeqCst))
     }
 
-    /// The body of [`Driver::stop_driver`](crate::Driver::stop_driver).
+    /// The body of [`Network::stop_driver`](crate::Network::stop_driver).
     pub(crate) fn stop_driver(&self) -> Result<(), Error> {
         let slot = std::mem::take(&mut *relock(self.inner.driver.lock()));
         self.inner.driven.store(false, Ordering::SeqCst);
@@ -102,7 +102,10 @@ impl Shared {
             let _ = t.join();
         }
         match slot.error.and_then(|e| relock(e.lock()).take()) {
-            Some(text) => Err(Error::Driver(text)),
+            Some(failure) => Err(Error::Driver {
+                bus: self.inner.bus.clone(),
+                failure,
+            }),
             None => Ok(()),
         }
     }
@@ -114,7 +117,7 @@ impl Shared {
         Ok(received)
     }
 
-    /// The body of [`Driver::run_step`](crate::Driver::run_step).
+    /// The body of [`Network::run_step`](crate::Network::run_step).
     pub(crate) fn run_step(&self, limit: impl Into<Duration>) -> Result<bool, Error> {
         let limit: Duration = limit.into();
         match self.inner.io.try_lock() {
@@ -303,7 +306,7 @@ impl Shared {
         Ok(false)
     }
 
-    pub(crate) fn submit(&self, req: SdoRequest) -> RequestId {
+    pub(crate) fn submit(&self, req: Request) -> RequestId {
         let id = self.core().submit(req);
         self.wake();
         id
@@ -336,8 +339,8 @@ impl Shared {
     /// [`submit`](Self::submit) then [`wait`](Self::wait) do, but when the transport is free the
     /// first driving step starts under the lock the submission took (one lock of the core
     /// fewer, and no look for a result that cannot be there yet).
-    pub(crate) fn run(&self, req: SdoRequest) -> Result<Completion, SdoError> {
-        let (node, entry) = (req.node, req.entry);
+    pub(crate) fn run(&self, req: Request) -> Result<Completion, SdoError> {
+        let (node, entry) = (req.node(), req.entry());
         let mut c = self.core();
         let id = c.submit(req);
         // The core is locked and a driving step takes the transport first: only a free
@@ -493,7 +496,11 @@ impl Shared {
 
 /// The background driver's loop: one step whenever no waiting thread drives, until `stop` is
 /// set, the network is gone or the transport fails.
-pub(crate) fn drive(inner: &Weak<Inner>, stop: &AtomicBool, error: &Mutex<Option<String>>) {
+pub(crate) fn drive(
+    inner: &Weak<Inner>,
+    stop: &AtomicBool,
+    error: &Mutex<Option<TransportFailure>>,
+) {
     let mut steps_seen = 0;
     while !stop.load(Ordering::SeqCst) {
         let Some(net) = Shared::upgrade(inner) else {
@@ -541,17 +548,16 @@ impl Shared {
     pub(crate) fn driver_failed(
         &self,
         e: &Error,
-        error: &Mutex<Option<String>>,
+        error: &Mutex<Option<TransportFailure>>,
         stop: &AtomicBool,
     ) {
-        let text = match e {
-            Error::Transport(t) => t.to_string(),
-            other => other.to_string(),
-        };
-        *relock(error.lock()) = Some(text.clone());
+        let failure = TransportFailure::from(e);
+        *relock(error.lock()) = Some(failure.clone());
         stop.store(true, Ordering::SeqCst);
-        self.core()
-            .publish(NetworkEvent::TransportFailed { error: text });
+        self.core().publish(NetworkEvent::TransportFailed {
+            bus: self.inner.bus.clone(),
+            failure,
+        });
         self.notify();
     }
 

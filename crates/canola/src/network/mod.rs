@@ -19,36 +19,38 @@
 //! blocking pool on a real clock, steps it from the task on a virtual clock (whose time then
 //! follows tokio's), and cancels the request when the future is dropped.
 //!
-//! Running by itself: [`Network::start_driver`](crate::Driver::start_driver) starts a background driver (a thread; under the
+//! Running by itself: [`Network::start_driver`](crate::Network::start_driver) starts a background driver (a thread; under the
 //! `tokio` feature `Network::start_driver_on_runtime` runs it on the caller's runtime's
 //! blocking pool) that drives the network whenever nobody else does, so heartbeats, EMCY, PDO
 //! events, SYNC and timeouts flow with no call from the application. It steps aside while a
 //! thread waits for a request (that thread drives, so a request costs no hand-over between
-//! threads), and stops when [`Network::stop_driver`](crate::Driver::stop_driver) is called or the last handle to the
+//! threads), and stops when [`Network::stop_driver`](crate::Network::stop_driver) is called or the last handle to the
 //! network is dropped. A transport that fails for good (closed, an operating-system error) ends
 //! it: subscribers get
-//! [`NetworkEvent::TransportFailed`](crate::NetworkEvent::TransportFailed) and [`Network::stop_driver`](crate::Driver::stop_driver) returns the error.
+//! [`NetworkEvent::TransportFailed`](crate::NetworkEvent::TransportFailed) and [`Network::stop_driver`](crate::Network::stop_driver) returns the error.
 //!
 //! The explicit stepping mode stays for deterministic tests: without a driver nothing happens
-//! between calls, and [`Network::run_for`](crate::Driver::run_for) advances a virtual-clock bus by exactly the time
+//! between calls, and [`Network::run_for`](crate::Network::run_for) advances a virtual-clock bus by exactly the time
 //! asked. A driver thread on a virtual-clock bus would run simulated time as fast as the CPU
 //! allows; use it on SocketCAN or a [`ClockMode::RealTime`](crate::transport::mem::ClockMode::RealTime)
 //! bus. (Under the `tokio` feature, `start_driver_on_runtime` on a virtual-clock bus is a task
 //! that keeps the bus at tokio's time instead.)
 //!
-//! Files by job, from the bottom up (no file imports one after it; `shared` and the two
-//! driving files are one floor, whose `impl Shared` blocks call each other):
-//! `shared` (what every handle of one network shares: the core, the transport and its clock,
-//! the background driver's slot), `driving` and `tokio_driving` (the step, the wait loop, the
-//! background driver: the one loop, run by a waiting caller, a thread or a tokio task),
-//! `operation` ([`Operation`], [`join_all`] and the waiting primitives), `driver` ([`Driver`],
-//! the public calls of the shared state: clock, subscriptions, SYNC, raw frames, running),
-//! `request` ([`Sdo`], [`Pending`], [`SdoValue`]), `node` ([`Node`], [`Nmt`]; every handle a
-//! node makes), `handle` ([`Network`]: opens a bus, makes nodes and the other handles, derefs to
-//! its [`Driver`]). The handles (`Sdo`, `Node`, `Lss`, the PDO and USDO handles) hold a
-//! `Driver`, never a `Network`, so nothing below `handle` names it.
+//! One name per part: the *core* (`crate::machine::Core`, the sans-IO protocol machines), the
+//! *shared state* (`Shared`: the core, the transport and its clock, the background driver's
+//! slot, behind one `Arc`), the *driver* (the background thread or tokio task that steps the
+//! network when nobody waits), and [`Network`], the one public handle over the shared state.
+//!
+//! Files by job, from the bottom up (no file imports one after it): `shared` (the shared
+//! state), `driving` (the step, the blocking wait loop, the background driver thread),
+//! `tokio_driving` (the async waits and the tokio driver task, over `driving`'s step),
+//! `operation` ([`Operation`], [`join_all`] and the waiting primitives), `handle` ([`Network`]
+//! and its calls on the shared state: opening a bus, clock, subscriptions, SYNC, raw frames,
+//! running), `request` ([`Sdo`], [`Pending`], [`SdoValue`]), `node` ([`Node`], [`Nmt`]; every
+//! handle a node makes, and `impl Network` for making nodes). Each service module above adds
+//! its own `impl Network` block for the handle it makes (`crate::lss`, `crate::scan`, the event
+//! stream), so `handle` names none of them.
 
-pub(crate) mod driver;
 pub(crate) mod driving;
 pub(crate) mod handle;
 pub(crate) mod node;
@@ -58,7 +60,6 @@ pub(crate) mod shared;
 #[cfg(feature = "tokio")]
 pub(crate) mod tokio_driving;
 
-pub use driver::Driver;
 pub use handle::Network;
 pub use node::{Nmt, Node, ParameterGroup};
 pub use operation::{Operation, join_all, wait_all_with};

@@ -7,10 +7,10 @@ use canola_frame::{Duration, Instant, NodeId};
 use canola_nmt::{CommandSpecifier, NmtState, NmtTarget};
 use canola_od::ObjectDictionary;
 
-use super::driver::Driver;
+use super::handle::Network;
 use super::operation::{self, Operation};
 use super::request::{NodeRef, Sdo};
-use crate::error::Error;
+use crate::error::{Awaited, Error, Misuse};
 use crate::pdo_access::{Mpdos, Rpdos, Tpdos};
 use crate::usdo::Usdo;
 
@@ -65,10 +65,31 @@ impl ParameterGroup {
     }
 }
 
+/// Making node handles: the node handles are this module's, so their constructors are too.
+impl Network {
+    /// Adds a node without a dictionary (values are raw bytes).
+    pub fn add_node(&self, id: NodeId) -> Node {
+        self.core().add_node(id, None);
+        self.node(id)
+    }
+
+    /// Adds a node with its object dictionary (from an EDS/DCF or generated code): errors then
+    /// name objects, and typed reads decode values.
+    pub fn add_node_with_dictionary(&self, id: NodeId, od: ObjectDictionary) -> Node {
+        self.core().add_node(id, Some(Arc::new(od)));
+        self.node(id)
+    }
+
+    /// A handle to a node (added on first use if needed).
+    pub fn node(&self, id: NodeId) -> Node {
+        Node::new(self.clone(), id)
+    }
+}
+
 /// A node on the network.
 #[derive(Clone, Debug)]
 pub struct Node {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) id: NodeId,
 }
 
@@ -79,13 +100,12 @@ impl Node {
     }
 
     /// A handle to node `id` on `net`.
-    pub(crate) fn new(net: Driver, id: NodeId) -> Self {
+    pub(crate) fn new(net: Network, id: NodeId) -> Self {
         Node { net, id }
     }
 
-    /// The network this node is on: its [`Driver`], where the clock, subscriptions, SYNC and
-    /// the driving calls are (what a [`Network`](crate::Network) derefs to).
-    pub fn network(&self) -> &Driver {
+    /// The network this node is on.
+    pub fn network(&self) -> &Network {
         &self.net
     }
 
@@ -163,7 +183,7 @@ impl Node {
 /// heartbeats, boot-up and guarding answers report it.
 ///
 /// Boot-ups are counted per node, not sampled: [`wait_for_bootup`](Self::wait_for_bootup)
-/// returns for a boot-up received since the node was added ([`Network::add_node`](crate::Network::add_node); for a node
+/// returns for a boot-up received since the node was added ([`Network::add_node`]; for a node
 /// never added, since the network started), since the last NMT command to it (or to all), or
 /// since the last wait that returned, whichever came last. It does not matter when the handle
 /// was made, nor whether a heartbeat with the next state followed at once (or the background
@@ -172,12 +192,12 @@ impl Node {
 /// boot-up of a node whose handle is made after waiting for another one is not lost.
 #[derive(Debug, Clone)]
 pub struct Nmt {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) target: NmtTarget,
 }
 
 impl Nmt {
-    fn new(net: &Driver, target: NmtTarget) -> Self {
+    fn new(net: &Network, target: NmtTarget) -> Self {
         Self {
             net: net.clone(),
             target,
@@ -185,11 +205,11 @@ impl Nmt {
     }
 
     /// NMT commands to all nodes (node-ID 0).
-    pub fn all(net: &Driver) -> Self {
+    pub fn all(net: &Network) -> Self {
         Self::new(net, NmtTarget::All)
     }
 
-    /// Queues `cmd` and puts it on the bus (see [`Driver::send`]).
+    /// Queues `cmd` and puts it on the bus (see [`Network::send`]).
     fn send(&self, cmd: CommandSpecifier) -> Result<(), Error> {
         self.net.shared().catch_up_on_runtime()?;
         self.net.core().nmt(cmd, self.target);
@@ -199,9 +219,7 @@ impl Nmt {
     fn node(&self) -> Result<NodeId, Error> {
         match self.target {
             NmtTarget::Node(id) => Ok(id),
-            _ => Err(Error::InvalidRequest(
-                "node states are per node: use node.nmt(), not Nmt::all".into(),
-            )),
+            _ => Err(Error::InvalidRequest(Misuse::StateOfAll)),
         }
     }
 
@@ -230,9 +248,10 @@ impl Nmt {
                     c.take_boots(node, boots);
                     Some(Ok(()))
                 } else if c.now() >= deadline {
-                    Some(Err(Error::Timeout(format!(
-                        "no boot-up from node {node} within {timeout}"
-                    ))))
+                    Some(Err(Error::Timeout {
+                        awaited: Awaited::BootUp { node },
+                        after: timeout,
+                    }))
                 } else {
                     None
                 }
@@ -259,9 +278,10 @@ impl Nmt {
                 if c.last_state(node) == Some(state) {
                     Some(Ok(()))
                 } else if c.now() >= deadline {
-                    Some(Err(Error::Timeout(format!(
-                        "node {node} not {state} within {timeout}"
-                    ))))
+                    Some(Err(Error::Timeout {
+                        awaited: Awaited::State { node, state },
+                        after: timeout,
+                    }))
                 } else {
                     None
                 }
@@ -384,13 +404,18 @@ impl Node {
     /// from `canola_pdo::remap`; the same sequence `node.tpdo().save()` uses). After a TPDO
     /// remap the master decodes that TPDO from its COB-ID with the new mapping; after an RPDO
     /// remap an RPDO the master transmits ([`Rpdos::start`](crate::Rpdos::start)) follows.
+    ///
+    /// `mapping` is a classic [`Mapping`](canola_pdo::Mapping) (up to 8 bytes) or an
+    /// [`FdMapping`](canola_pdo::FdMapping) of up to 64 bytes, which a node marked CANopen FD
+    /// ([`set_fd`](Self::set_fd)) on a CAN FD bus takes; elsewhere a mapping of more than 8
+    /// bytes is refused before anything is sent, saying why.
     pub fn remap_pdo(
         &self,
         direction: canola_pdo::Direction,
         number: u16,
         comm: canola_pdo::CommParams,
-        mapping: canola_pdo::Mapping,
+        mapping: impl Into<canola_pdo::FdMapping>,
     ) -> Operation<'static, ()> {
-        crate::pdo_access::remap(self.node_ref(), direction, number, comm, mapping)
+        crate::pdo_access::remap(self.node_ref(), direction, number, comm, mapping.into())
     }
 }

@@ -38,7 +38,7 @@ use canola_od::ObjectAddress;
 
 use super::shared::Shared;
 use crate::error::{Error, SdoError, SdoErrorKind, TransportFailure};
-use crate::machine::{Completion, Core, RequestId, SdoRequest, Taken};
+use crate::machine::{Completion, Core, Request, RequestId, Taken};
 
 /// A facade call that waits on the bus (an SDO transfer, a scan, an LSS service, a wait for a
 /// node's state), typed by what it produces. Nothing happens until it is finished:
@@ -58,39 +58,13 @@ use crate::machine::{Completion, Core, RequestId, SdoRequest, Taken};
 /// [`PdoSet`]: crate::PdoSet
 #[must_use = "an operation does nothing until it is waited on or awaited"]
 pub struct Operation<'a, T, E = Error> {
-    body: Body<'a, T, E>,
+    /// Straight-line async code over the primitives: every operation, a single SDO request
+    /// too, waits by one path.
+    body: BoxedBody<'a, T, E>,
 }
 
-/// An operation as a future: its code, or its one request made code.
+/// An operation as a future.
 type BoxedBody<'a, T, E> = Pin<Box<dyn Future<Output = Result<T, E>> + Send + 'a>>;
-
-/// What an operation runs.
-enum Body<'a, T, E> {
-    /// Straight-line async code over the primitives.
-    Code(BoxedBody<'a, T, E>),
-    /// One SDO (or USDO) request, the commonest operation, held as it is: a blocking wait runs
-    /// it with no future or waker made for it (`Shared::run`, as the code form's blocking
-    /// path does). `tests/main/operation.rs` checks that both forms give the same results.
-    Request(OneRequest<T, E>),
-}
-
-/// One request, what its completion gives and how its error reads.
-pub(crate) struct OneRequest<T, E> {
-    net: Shared,
-    req: SdoRequest,
-    output: fn(Completion) -> T,
-    error: fn(SdoError) -> E,
-}
-
-impl<T, E> OneRequest<T, E> {
-    /// The request as code (for `.await`).
-    async fn run(self) -> Result<T, E> {
-        run_request(&self.net, self.req)
-            .await
-            .map(self.output)
-            .map_err(self.error)
-    }
-}
 
 impl<T, E> core::fmt::Debug for Operation<'_, T, E> {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -102,7 +76,7 @@ impl<'a, T, E> Operation<'a, T, E> {
     /// The operation whose body is `body`: an async block that awaits operations of this
     /// crate (and [`Pending`](crate::Pending) requests), in order, as straight-line code. It
     /// must await nothing tied to one runtime (a tokio timer): [`wait`](Self::wait) runs it
-    /// on the calling thread. Wait on the bus with [`Driver::run_for`](crate::Driver::run_for).
+    /// on the calling thread. Wait on the bus with [`Network::run_for`](crate::Network::run_for).
     ///
     /// ```
     /// use canola::{Error, MemoryBus, Network, NodeId, Operation, SimDevice};
@@ -127,25 +101,22 @@ impl<'a, T, E> Operation<'a, T, E> {
     /// ```
     pub fn new(body: impl Future<Output = Result<T, E>> + Send + 'a) -> Self {
         Self {
-            body: Body::Code(Box::pin(body)),
+            body: Box::pin(body),
         }
     }
 
     /// The operation that runs `req` to its end and takes `output` from its completion.
     pub(crate) fn request(
         net: Shared,
-        req: SdoRequest,
+        req: Request,
         output: fn(Completion) -> T,
         error: fn(SdoError) -> E,
-    ) -> Self {
-        Self {
-            body: Body::Request(OneRequest {
-                net,
-                req,
-                output,
-                error,
-            }),
-        }
+    ) -> Self
+    where
+        T: Send + 'a,
+        E: Send + 'a,
+    {
+        Self::new(async move { run_request(&net, req).await.map(output).map_err(error) })
     }
 
     /// An operation that ends at once with `r` (an argument already found wrong).
@@ -159,18 +130,7 @@ impl<'a, T, E> Operation<'a, T, E> {
 
     /// Finishes the operation on this thread, driving the network until it ends.
     pub fn wait(self) -> Result<T, E> {
-        let mut body = match self.body {
-            Body::Request(r) => {
-                let OneRequest {
-                    net,
-                    req,
-                    output,
-                    error,
-                } = r;
-                return net.run(req).map(output).map_err(error);
-            }
-            Body::Code(body) => body,
-        };
+        let mut body = self.body;
         let _mode = ModeGuard::enter(Mode::Blocking);
         let waker = THREAD_WAKER.with(Waker::clone);
         let mut cx = Context::from_waker(&waker);
@@ -192,10 +152,7 @@ impl<'a, T: 'a, E: 'a> std::future::IntoFuture for Operation<'a, T, E> {
     type IntoFuture = BoxedBody<'a, T, E>;
 
     fn into_future(self) -> Self::IntoFuture {
-        match self.body {
-            Body::Code(body) => body,
-            Body::Request(r) => Box::pin(r.run()),
-        }
+        self.body
     }
 }
 
@@ -292,6 +249,20 @@ fn mode() -> Mode {
     match MODE.with(Cell::get) {
         Mode::Async if !cfg!(feature = "tokio") => Mode::Blocking,
         m => m,
+    }
+}
+
+impl Shared {
+    /// On a tokio runtime (`tokio` feature), brings a virtual-clock bus up to tokio's time (see
+    /// the `asynch` module), so what is queued next is stamped with the time the application
+    /// sees. Nothing to do otherwise. (Here, above the driving floor, so that the shared state
+    /// at the bottom names no driving file.)
+    pub(crate) fn catch_up_on_runtime(&self) -> Result<(), Error> {
+        #[cfg(feature = "tokio")]
+        if tokio::runtime::Handle::try_current().is_ok() {
+            return super::tokio_driving::catch_up(self);
+        }
+        Ok(())
     }
 }
 
@@ -532,11 +503,11 @@ pub(crate) async fn run_until(net: &Shared, until: Instant) -> Result<(), Error>
 
 /// Runs one SDO request to its end. Blocking, the first driving step starts under the lock the
 /// submission took (see `Shared::run`).
-pub(crate) async fn run_request(net: &Shared, req: SdoRequest) -> Result<Completion, SdoError> {
+pub(crate) async fn run_request(net: &Shared, req: Request) -> Result<Completion, SdoError> {
     if mode() == Mode::Blocking {
         return net.run(req);
     }
-    let (node, entry) = (req.node, req.entry);
+    let (node, entry) = (req.node(), req.entry());
     if let Err(e) = catch_up(net) {
         return Err(transport_error(net, node, entry, &e));
     }

@@ -7,11 +7,12 @@ use canola_frame::{Duration, NodeId};
 use canola_od::{DataType, Value};
 use canola_sdo::{Method, SdoCobIds};
 
-use super::driver::Driver;
+use super::handle::Network;
 use super::operation::{self, Operation};
 use crate::error::{Error, SdoError};
 use crate::machine::{
-    Completion, DownSource, Op, ProgressFn, RequestId, SdoRequest, TransferProgress, UpSink,
+    Completion, DownSource, Op, ProgressFn, Request, RequestId, SdoRequest, TransferProgress,
+    UpSink,
 };
 use canola_od::ObjectAddress;
 
@@ -23,7 +24,7 @@ use canola_od::ObjectAddress;
 /// bus with 0x08000000).
 #[must_use = "dropping a pending request cancels it"]
 pub struct Pending<T = Vec<u8>> {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) id: Option<RequestId>,
     pub(crate) node: NodeId,
     pub(crate) entry: ObjectAddress,
@@ -44,8 +45,8 @@ impl<T> core::fmt::Debug for Pending<T> {
 impl<T> Pending<T> {
     /// Submits `req` (an SDO or USDO request) to `net`'s core: the request runs from now on,
     /// and this value waits for it and takes `output` from its completion.
-    pub(crate) fn submit(net: Driver, req: SdoRequest, output: fn(Completion) -> T) -> Self {
-        let (node, entry) = (req.node, req.entry);
+    pub(crate) fn submit(net: Network, req: Request, output: fn(Completion) -> T) -> Self {
+        let (node, entry) = (req.node(), req.entry());
         let id = net.shared().submit(req);
         Pending {
             net,
@@ -195,7 +196,7 @@ pub const DEFAULT_SDO_TIMEOUT: Duration = Duration::from_millis(1000);
 /// handles): its driver and node-ID, and the calls they need of it.
 #[derive(Clone, Debug)]
 pub(crate) struct NodeRef {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) id: NodeId,
 }
 
@@ -218,7 +219,7 @@ impl NodeRef {
 
 /// A node's SDO client (CiA 301 §7.2.4) as a builder: settings, then one operation.
 pub struct Sdo {
-    pub(crate) net: Driver,
+    pub(crate) net: Network,
     pub(crate) node: NodeId,
     pub(crate) channel: SdoCobIds,
     pub(crate) method: Method,
@@ -250,7 +251,7 @@ fn download(value: impl SdoValue) -> Op {
 impl Sdo {
     /// The client of `node` on `net` with default settings (normal transfer, the node's
     /// default channel, [`DEFAULT_SDO_TIMEOUT`]).
-    pub(crate) fn new(net: Driver, node: NodeId) -> Self {
+    pub(crate) fn new(net: Network, node: NodeId) -> Self {
         Sdo {
             net,
             node,
@@ -267,7 +268,7 @@ impl Sdo {
     }
 
     /// The network.
-    pub fn network(&self) -> &Driver {
+    pub fn network(&self) -> &Network {
         &self.net
     }
 
@@ -311,11 +312,11 @@ impl Sdo {
         output: fn(Completion) -> T,
     ) -> Pending<T> {
         let (net, req) = self.into_request(entry, op);
-        Pending::submit(net, req, output)
+        Pending::submit(net, req.into(), output)
     }
 
     /// The request for `op` on `entry` with this builder's settings, and the network.
-    fn into_request(self, entry: ObjectAddress, op: Op) -> (Driver, SdoRequest) {
+    fn into_request(self, entry: ObjectAddress, op: Op) -> (Network, SdoRequest) {
         let req = SdoRequest {
             node: self.node,
             channel: self.channel,
@@ -337,7 +338,7 @@ impl Sdo {
         output: fn(Completion) -> T,
     ) -> Operation<'static, T> {
         let (net, req) = self.into_request(entry, op);
-        Operation::request(net.shared, req, output, Error::from)
+        Operation::request(net.shared, req.into(), output, Error::from)
     }
 
     /// Starts an upload into memory without waiting.

@@ -1,14 +1,14 @@
 //! What every handle of one network shares, at the bottom of the network layer: the core, the
 //! transport and its clock, the background driver's slot and the async side's clock tie
 //! ([`Inner`]), held through [`Shared`]. The driving loop (`driving`, `tokio_driving`) and the
-//! operations (`operation`) work on it; the public calls are the `Driver`'s, one floor up.
+//! operations (`operation`) work on it; the public calls are [`Network`](crate::Network)'s, one floor up.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
 
 use canola_frame::Instant;
 
-use crate::error::Error;
+use crate::error::{Error, TransportFailure};
 use crate::machine::Core;
 use crate::transport::Transport;
 
@@ -30,6 +30,8 @@ pub(crate) struct Inner {
     pub(super) driver: Mutex<DriverSlot>,
     /// Whether a background driver was started (and not stopped).
     pub(super) driven: AtomicBool,
+    /// The bus's name, when the network was opened by name.
+    pub(super) bus: Option<String>,
 }
 
 /// The transport, and what the driving thread needs along with it.
@@ -65,7 +67,7 @@ pub(super) struct DriverSlot {
     pub(super) stop: Option<Arc<AtomicBool>>,
     pub(super) thread: Option<std::thread::JoinHandle<()>>,
     /// Why the driver ended, if the transport failed.
-    pub(super) error: Option<Arc<Mutex<Option<String>>>>,
+    pub(super) error: Option<Arc<Mutex<Option<TransportFailure>>>>,
 }
 
 impl Drop for Inner {
@@ -89,9 +91,8 @@ pub(super) fn relock<T>(r: std::sync::LockResult<T>) -> T {
 }
 
 /// What every handle of one network shares, below the operations that wait on it: the core,
-/// the transport and its clock, the background driver's slot. The public face is
-/// `Driver`; this is what `Operation`s
-/// and the driving loop hold.
+/// the transport and its clock, the background driver's slot. The public handle is
+/// [`Network`](crate::Network); this is what `Operation`s and the driving loop hold.
 #[derive(Clone)]
 pub(crate) struct Shared {
     pub(crate) inner: Arc<Inner>,
@@ -99,7 +100,7 @@ pub(crate) struct Shared {
 
 impl Shared {
     /// The shared state of a network on `transport` (its clock is the network's clock).
-    pub(crate) fn new(transport: impl Transport + 'static) -> Self {
+    pub(crate) fn new(transport: impl Transport + 'static, bus: Option<String>) -> Self {
         let mut core = Core::new();
         core.set_now(transport.now());
         core.set_classic_bus(crate::machine::usdo::classic_bus(&transport));
@@ -122,6 +123,7 @@ impl Shared {
                 waiter_steps: AtomicU64::new(0),
                 driver: Mutex::new(DriverSlot::default()),
                 driven: AtomicBool::new(false),
+                bus,
             }),
         }
     }
@@ -151,17 +153,6 @@ impl Shared {
 
     pub(crate) fn core(&self) -> MutexGuard<'_, Core> {
         relock(self.inner.core.lock())
-    }
-
-    /// On a tokio runtime (`tokio` feature), brings a virtual-clock bus up to tokio's time (see
-    /// the `asynch` module), so what is queued next is stamped with the time the application
-    /// sees. Nothing to do otherwise.
-    pub(crate) fn catch_up_on_runtime(&self) -> Result<(), Error> {
-        #[cfg(feature = "tokio")]
-        if tokio::runtime::Handle::try_current().is_ok() {
-            return super::tokio_driving::catch_up(self);
-        }
-        Ok(())
     }
 
     /// Puts what the core has queued on the bus if the transport is free (see
@@ -207,7 +198,7 @@ impl Shared {
         relock(self.inner.io.lock()).now()
     }
 
-    /// The body of `Driver::flush`: sends what the core has queued, without waiting.
+    /// The body of `Network::flush`: sends what the core has queued, without waiting.
     pub(crate) fn flush(&self) -> Result<(), Error> {
         self.send_with(relock(self.inner.io.lock()))
     }

@@ -14,7 +14,7 @@
 //!   clock and fire in their order.
 //!
 //! The tie between the two clocks is one anchor per network, a pair (tokio instant, network
-//! instant) that correspond. Blocking calls on the same virtual bus ([`Driver::run_for`](crate::Driver::run_for), a
+//! instant) that correspond. Blocking calls on the same virtual bus ([`Network::run_for`](crate::Network::run_for), a
 //! blocking SDO) still jump virtual time ahead; the anchor then moves so that time never runs
 //! backwards, and the async side follows tokio from there.
 
@@ -191,9 +191,9 @@ async fn wait_blocking<T: Send + 'static>(
     match r {
         Ok(Ok(Some(v))) => Ok(v),
         // Only a dropped future stops the wait, and then nobody reads this.
-        Ok(Ok(None)) => Err(Error::InvalidRequest("the wait was cancelled".into())),
+        Ok(Ok(None)) => Err(Error::TaskEnded),
         Ok(Err(e)) => Err(e),
-        Err(e) => Err(Error::Driver(format!("the waiting task failed: {e}"))),
+        Err(_) => Err(Error::TaskEnded),
     }
 }
 
@@ -206,7 +206,7 @@ pub(crate) async fn flush(net: &Shared) -> Result<(), Error> {
     let n = net.clone();
     tokio::task::spawn_blocking(move || n.flush())
         .await
-        .map_err(|e| Error::Driver(format!("the sending task failed: {e}")))?
+        .map_err(|_| Error::TaskEnded)?
 }
 
 /// Longest the virtual-clock driver sleeps without looking whether it should stop, on tokio's
@@ -219,7 +219,7 @@ const DRIVER_SLICE: std::time::Duration = std::time::Duration::from_millis(50);
 fn spawn_virtual_driver(
     inner: Weak<Inner>,
     stop: Arc<AtomicBool>,
-    error: Arc<Mutex<Option<String>>>,
+    error: Arc<Mutex<Option<crate::error::TransportFailure>>>,
 ) {
     drop(tokio::spawn(async move {
         while !stop.load(Ordering::SeqCst) {
@@ -265,7 +265,7 @@ fn spawn_virtual_driver(
 }
 
 impl Shared {
-    /// The body of [`Driver::start_driver_on_runtime`](crate::Driver::start_driver_on_runtime).
+    /// The body of [`Network::start_driver_on_runtime`](crate::Network::start_driver_on_runtime).
     pub(crate) fn start_driver_on_runtime(&self) {
         let virtual_clock = self.reactor().virtual_clock;
         let started = self.install_driver(|weak, stop, error| {

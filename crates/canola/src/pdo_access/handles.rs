@@ -61,9 +61,9 @@ impl Rpdos {
     /// from the master as `how` says, until [`RpdoSender::stop`]. Mapped values start at zero;
     /// set them through the returned sender. Starting an RPDO that is being transmitted
     /// replaces its transmission parameters. The master's engine holds four transmitted RPDOs
-    /// per node. Nothing waits: the first frame is sent as [`Network::send`](crate::Driver::send) says.
+    /// per node. Nothing waits: the first frame is sent as [`Network::send`](crate::Network::send) says.
     ///
-    /// [`Network::send`](crate::Driver::send): crate::Network::send
+    /// [`Network::send`](crate::Network::send): crate::Network::send
     pub fn start(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
         self.node.net.shared().catch_up_on_runtime()?;
         let sender = self.engage(pdo, how)?;

@@ -24,9 +24,9 @@ impl Mpdos {
     /// or 29-bit with bit 29 set) as its TPDO `number` from now on: a SAM-MPDO of this node
     /// when an entry of `scanner` covers its object (entries as in the object scanner list
     /// 0x1FA0..: block size, index, sub-index), a DAM-MPDO when addressed to all nodes or to
-    /// the master's own node-ID ([`Network::set_usdo_node_id`](crate::Driver::set_usdo_node_id)).
+    /// the master's own node-ID ([`Network::set_usdo_node_id`](crate::Network::set_usdo_node_id)).
     /// Each arrives as a PDO with one value: [`NetworkEvent::PdoValues`](crate::NetworkEvent::PdoValues),
-    /// the [`on_pdo`](crate::Driver::on_pdo) callbacks, the [`PdoSubscriber`](crate::PdoSubscriber)s.
+    /// the [`on_pdo`](crate::Network::on_pdo) callbacks, the [`PdoSubscriber`](crate::PdoSubscriber)s.
     pub fn receive(&self, number: u8, cob_id: u32, scanner: &[ScannerEntry]) -> Result<(), Error> {
         let can_id = self.can_id(0x1800 + u16::from(number.saturating_sub(1)), cob_id)?;
         let scanner = scanner.iter().copied().filter(|e| !e.is_unused()).collect();
@@ -71,7 +71,7 @@ impl Mpdos {
 }
 
 /// Writes a node's objects with DAM-MPDOs ([`Mpdos::dam`]). Never waits: each write is one
-/// frame, sent as [`Network::send`](crate::Driver::send) sends.
+/// frame, sent as [`Network::send`](crate::Network::send) sends.
 #[derive(Debug, Clone)]
 pub struct DamSender {
     pub(crate) node: NodeRef,

@@ -185,7 +185,7 @@ impl PdoParameters {
             return Err(Error::UnknownObject {
                 node: self.node,
                 name: String::new(),
-                reason: "the node has no dictionary: give the length (map_entry)".into(),
+                reason: crate::error::Unresolved::NoDictionary,
             });
         };
         let key = key.into();
@@ -194,7 +194,7 @@ impl PdoParameters {
             ObjectKey::Name(name) => od.find(name).ok_or_else(|| Error::UnknownObject {
                 node: self.node,
                 name: name.into(),
-                reason: "no such object in the node's dictionary".into(),
+                reason: crate::error::Unresolved::NotFound,
             })?,
         };
         let info = OdView::new(&od, self.node.get())
@@ -240,6 +240,22 @@ impl PdoParameters {
                 Mapping::from_raw_checked(self.direction, &raw, &OdView::new(od, self.node.get()))
             }
             None => Mapping::from_raw(&raw),
+        };
+        mapping.map_err(|e| self.error(e.to_string()))
+    }
+
+    /// The mapping under the CAN FD limits (up to 64 bytes, CANopen FD), checked as
+    /// [`mapping`](Self::mapping) is. `save()` uses it for a PDO of more than 8 bytes on a node
+    /// marked CANopen FD on a CAN FD bus.
+    pub fn fd_mapping(&self) -> Result<canola_pdo::FdMapping, Error> {
+        let raw: Vec<u32> = self.raw_entries().collect();
+        let mapping = match self.od.as_deref() {
+            Some(od) => canola_pdo::FdMapping::from_raw_checked(
+                self.direction,
+                &raw,
+                &OdView::new(od, self.node.get()),
+            ),
+            None => canola_pdo::FdMapping::from_raw(&raw),
         };
         mapping.map_err(|e| self.error(e.to_string()))
     }

@@ -6,12 +6,12 @@ use std::sync::Arc;
 
 use canola_od::{ObjectAddress, ObjectDictionary};
 use canola_pdo::{
-    CommParams, Direction, Mapping, MappingEntry, PdoCobId, PdoConfig, RemoteObjects,
+    CommParams, Direction, FdMapping, Mapping, MappingEntry, PdoCobId, PdoConfig, RemoteObjects,
     TransmissionType,
 };
 use canola_sdo::AbortCode;
 
-use crate::error::Error;
+use crate::error::{Error, Misuse};
 use crate::network::Operation;
 use crate::network::request::NodeRef;
 
@@ -183,18 +183,17 @@ pub(super) async fn save_set(
     set: &mut PdoSet,
 ) -> Result<(), Error> {
     if set.direction != direction {
-        return Err(Error::InvalidRequest(format!(
-            "a set of {}s cannot be saved as {}s",
-            kind_name(set.direction),
-            kind_name(direction)
-        )));
+        return Err(Error::InvalidRequest(Misuse::PdoDirection {
+            set: set.direction,
+            saved_as: direction,
+        }));
     }
     for p in &set.pdos {
         if p.node != node.id {
-            return Err(Error::InvalidRequest(format!(
-                "these PDO parameters were read from node {}, not node {}",
-                p.node, node.id
-            )));
+            return Err(Error::InvalidRequest(Misuse::PdoOfOtherNode {
+                read_from: p.node,
+                saved_to: node.id,
+            }));
         }
     }
     for p in &mut set.pdos {
@@ -205,7 +204,14 @@ pub(super) async fn save_set(
             return Err(p.error("an MPDO mapping is not saved by this API".into()));
         }
         // The mapping is checked before anything is sent.
-        let mapping = p.mapping()?;
+        let mapping = match p.mapping() {
+            Ok(m) => PdoMapping::Classic(Box::new(m)),
+            // More than 8 bytes: a CANopen FD PDO, where the node and the bus allow it.
+            Err(classic) => match p.fd_mapping() {
+                Ok(fd) => fd_allowed(node, fd).map_err(|why| p.error(why))?,
+                Err(_) => return Err(classic),
+            },
+        };
         let remote = RemoteObjects {
             mapping_writable: p.present.mapping_writable,
             current_mapping: Some(&p.saved.1),
@@ -219,6 +225,33 @@ pub(super) async fn save_set(
     Ok(())
 }
 
+/// A mapping checked under the limit of its PDO: classic CAN (8 bytes) or CAN FD (64 bytes).
+enum PdoMapping {
+    Classic(Box<Mapping>),
+    Fd(Box<FdMapping>),
+}
+
+/// `fd` as a PDO mapping when it fits a classic frame, or when the node is marked CANopen FD
+/// and the bus carries CAN FD; otherwise why not, in bits and bytes.
+fn fd_allowed(node: &NodeRef, fd: FdMapping) -> Result<PdoMapping, String> {
+    if let Ok(classic) = Mapping::try_from(&fd) {
+        return Ok(PdoMapping::Classic(Box::new(classic)));
+    }
+    let (bits, bytes) = (fd.bit_len(), fd.byte_len());
+    let why = if let Some(bus) = node.net.core().classic_bus() {
+        format!("{bus} carries no CAN FD")
+    } else if !node.is_fd() {
+        format!("node {} is not marked CANopen FD", node.id)
+    } else {
+        return Ok(PdoMapping::Fd(Box::new(fd)));
+    };
+    Err(format!(
+        "the mapped objects need {bits} bits ({bytes} bytes), more than the 64 bits (8 bytes) of \
+         a classic CAN frame, and {why}: a PDO of up to 64 bytes needs a node marked CANopen FD \
+         on a CAN FD bus"
+    ))
+}
+
 /// Gives PDO `n` (0-based) of the node `comm` and `mapping` by SDO, the CiA 301 way (the plan
 /// from `canola_pdo::remap`), then makes the master follow: a TPDO is decoded with the new
 /// mapping, a transmitted RPDO uses the new COB-ID and mapping. [`Node::remap_pdo`] and
@@ -228,15 +261,18 @@ async fn configure(
     direction: Direction,
     n: u16,
     comm: &CommParams,
-    mapping: Mapping,
+    mapping: PdoMapping,
     remote: &RemoteObjects<'_>,
 ) -> Result<(), Error> {
-    let steps =
-        canola_pdo::remap(direction, n, comm, &mapping, remote).map_err(|e| Error::Value {
-            node: node.id,
-            entry: ObjectAddress::new(direction.comm_index(n), 0),
-            message: e.to_string(),
-        })?;
+    let steps = match &mapping {
+        PdoMapping::Classic(m) => canola_pdo::remap(direction, n, comm, m, remote),
+        PdoMapping::Fd(m) => canola_pdo::remap_fd(direction, n, comm, m, remote),
+    }
+    .map_err(|e| Error::Value {
+        node: node.id,
+        entry: ObjectAddress::new(direction.comm_index(n), 0),
+        message: e.to_string(),
+    })?;
     // No step is sent when one would give the PDO a restricted identifier.
     for step in &steps {
         if let Some(can_id) = crate::restricted_cob_id(step.index, step.subindex, step.value_u32())
@@ -253,6 +289,21 @@ async fn configure(
             .write(ObjectAddress::new(step.index, step.subindex), step.value())
             .await?;
     }
+    let mapping = match mapping {
+        PdoMapping::Classic(m) => *m,
+        PdoMapping::Fd(fd) => {
+            // A TPDO of more than 8 bytes is decoded from its CAN FD frames from now on; an
+            // RPDO of more than 8 bytes is transmitted by `Rpdos::start` with what was saved.
+            if direction == Direction::Transmit
+                && comm.cob_id.is_valid()
+                && let Ok(number) = u8::try_from(n + 1)
+                && let Ok(can_id) = comm.cob_id.can_id()
+            {
+                node.net.core().mirror_fd_tpdo(node.id, number, can_id, *fd);
+            }
+            return Ok(());
+        }
+    };
     let mapping = match node.dictionary() {
         Some(od) => crate::machine::pdo::typed_mapping(&od, node.id, direction, mapping),
         None => mapping,
@@ -272,15 +323,21 @@ async fn configure(
 }
 
 /// The remap of [`Node::remap_pdo`](crate::Node::remap_pdo): PDO `number` (1-based) of
-/// `direction` on `node`.
+/// `direction` on `node`. A mapping of more than 8 bytes needs a node marked CANopen FD on a
+/// CAN FD bus (checked before anything is sent).
 pub(crate) fn remap(
     node: NodeRef,
     direction: canola_pdo::Direction,
     number: u16,
     comm: canola_pdo::CommParams,
-    mapping: canola_pdo::Mapping,
+    mapping: FdMapping,
 ) -> Operation<'static, ()> {
     let n = number.saturating_sub(1);
+    let mapping = fd_allowed(&node, mapping).map_err(|message| Error::Value {
+        node: node.id,
+        entry: ObjectAddress::new(direction.comm_index(n), 0),
+        message: format!("{}{number}: {message}", kind_name(direction)),
+    });
     let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
     // With a dictionary, write only the sub-indices the node has.
     if let Some(od) = node.dictionary() {
@@ -294,5 +351,5 @@ pub(crate) fn remap(
             .sub(direction.mapping_index(n), 0)
             .is_none_or(|s| s.access.is_writable());
     }
-    Operation::new(async move { configure(&node, direction, n, &comm, mapping, &remote).await })
+    Operation::new(async move { configure(&node, direction, n, &comm, mapping?, &remote).await })
 }

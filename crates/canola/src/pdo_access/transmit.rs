@@ -198,10 +198,10 @@ impl RpdoSender {
     }
 
     pub(super) fn stopped(&self) -> Error {
-        Error::InvalidRequest(format!(
-            "node {}: RPDO{} is not being transmitted",
-            self.node.id, self.number
-        ))
+        Error::InvalidRequest(crate::error::Misuse::RpdoNotTransmitted {
+            node: self.node.id,
+            rpdo: self.number,
+        })
     }
 }
 

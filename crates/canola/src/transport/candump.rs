@@ -92,6 +92,10 @@ pub enum CandumpError {
     /// The line is not UTF-8.
     #[error("line is not UTF-8 text")]
     NotText,
+    /// The last line of the log has no line end and its frame could go on (fewer data bytes
+    /// than a frame carries): the file may have been cut there, and the frame with it.
+    #[error("last line has no line end: the log may have been cut inside this frame")]
+    MaybeCut,
 }
 
 /// An I/O failure or a bad line, with its 1-based line number.
@@ -219,8 +223,20 @@ pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
             .map(LogFrame::Can)
             .map_err(|_| bad_data());
     }
+    // candump -8 writes a classic frame's raw DLC above 8 after its 8 bytes (`_9`..`_F`); the
+    // frame carries those 8 bytes (the raw DLC is not kept).
+    let (data, raw_dlc) = match data.split_once('_') {
+        Some((d, dlc)) => (d, Some(dlc)),
+        None => (data, None),
+    };
     let mut bytes = [0u8; 8];
     let len = hex_pairs(data, &mut bytes).ok_or_else(bad_data)?;
+    if let Some(dlc) = raw_dlc {
+        let ok = matches!(dlc.as_bytes(), [d] if hex_val(*d).is_some_and(|v| v > 8));
+        if !ok || len != 8 || can_id.is_none() {
+            return Err(bad_data());
+        }
+    }
     match can_id {
         Some(can_id) => CanFrame::new(can_id, &bytes[..len])
             .map(LogFrame::Can)
@@ -297,15 +313,21 @@ impl<R: BufRead> Reader<R> {
         }
     }
 
-    /// Reads one line of at most `MAX_LINE` bytes (the rest of a longer line is skipped).
-    fn read_line(&mut self) -> Result<Option<bool>, std::io::Error> {
+    /// The 1-based number of the last line read (0 before the first).
+    pub fn line(&self) -> usize {
+        self.line
+    }
+
+    /// Reads one line of at most `MAX_LINE` bytes (the rest of a longer line is skipped):
+    /// whether it was too long, and whether it ended with a line break.
+    fn read_line(&mut self) -> Result<Option<(bool, bool)>, std::io::Error> {
         self.buf.clear();
         let mut too_long = false;
         let mut any = false;
         loop {
             let avail = self.inner.fill_buf()?;
             if avail.is_empty() {
-                return Ok(any.then_some(too_long));
+                return Ok(any.then_some((too_long, false)));
             }
             any = true;
             let (chunk, done) = match avail.iter().position(|b| *b == b'\n') {
@@ -320,7 +342,7 @@ impl<R: BufRead> Reader<R> {
             let consumed = done.unwrap_or(avail.len());
             self.inner.consume(consumed);
             if done.is_some() {
-                return Ok(Some(too_long));
+                return Ok(Some((too_long, true)));
             }
         }
     }
@@ -331,7 +353,7 @@ impl<R: BufRead> Iterator for Reader<R> {
 
     fn next(&mut self) -> Option<Self::Item> {
         loop {
-            let too_long = match self.read_line() {
+            let (too_long, ended) = match self.read_line() {
                 Ok(Some(t)) => t,
                 Ok(None) => return None,
                 Err(e) => return Some(Err(e.into())),
@@ -349,9 +371,38 @@ impl<R: BufRead> Iterator for Reader<R> {
             if text.is_empty() {
                 continue;
             }
-            return Some(parse_line(text).map_err(|error| ReadError::Line { line, error }));
+            return Some(match parse_line(text) {
+                // candump and `canopen record` end every line: a last line without its end
+                // whose frame could be longer was probably cut when the log was copied or the
+                // recorder killed, and would replay as a shorter frame.
+                Ok(_) if !ended && may_be_cut(text) => Err(ReadError::Line {
+                    line,
+                    error: CandumpError::MaybeCut,
+                }),
+                r => r.map_err(|error| ReadError::Line { line, error }),
+            });
         }
     }
+}
+
+/// Whether a line that reads could be the beginning of a longer one: its frame field is last
+/// (no direction marker after it) and more data digits could follow (fewer than 8 bytes in a
+/// classic frame or 64 in an FD frame, a remote frame without its length digit).
+fn may_be_cut(line: &str) -> bool {
+    let Some(field) = line.split_ascii_whitespace().next_back() else {
+        return false;
+    };
+    let Some((_, data)) = field.split_once('#') else {
+        return false;
+    };
+    let digits = |t: &str| t.bytes().filter(|b| *b != b'.').count();
+    if let Some(fd) = data.strip_prefix('#') {
+        return digits(fd.get(1..).unwrap_or("")) < 128;
+    }
+    if let Some(rest) = data.strip_prefix(['R', 'r']) {
+        return rest.is_empty();
+    }
+    !data.contains('_') && digits(data) < 16
 }
 
 /// Writes candump log lines.
@@ -501,7 +552,7 @@ mod tests {
     #[test]
     fn reader_numbers_lines_and_bounds_them() {
         let text = format!(
-            "(1.000000) can0 123#01\n\n(x) can0 1#\n{}\n(2.000000) can0 124#02",
+            "(1.000000) can0 123#01\n\n(x) can0 1#\n{}\n(2.000000) can0 124#02\n",
             "A".repeat(1000)
         );
         let out: Vec<_> = Reader::new(text.as_bytes()).collect();
@@ -522,6 +573,91 @@ mod tests {
             })
         ));
         assert_eq!(out[3].as_ref().unwrap().timestamp_us, 2_000_000);
+    }
+
+    #[test]
+    fn reads_candump_8s_raw_dlc_above_8() {
+        let e = parse_line("(1.0) can0 123#1122334455667788_C").unwrap();
+        assert_eq!(
+            e.frame,
+            LogFrame::Can(
+                CanFrame::new(
+                    sid(0x123),
+                    &[0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88]
+                )
+                .unwrap()
+            )
+        );
+        // Only after 8 bytes, only 9..F.
+        for bad in [
+            "(1.0) can0 123#11_C",
+            "(1.0) can0 123#1122334455667788_8",
+            "(1.0) can0 123#1122334455667788_",
+            "(1.0) can0 123#1122334455667788_CC",
+        ] {
+            assert!(
+                matches!(parse_line(bad), Err(CandumpError::BadData(_))),
+                "{bad}"
+            );
+        }
+        // A whole line: not cut.
+        let out: Vec<_> = Reader::new("(1.0) can0 123#1122334455667788_9".as_bytes()).collect();
+        assert!(out[0].is_ok(), "{out:?}");
+    }
+
+    #[test]
+    fn a_last_line_cut_at_a_byte_boundary_is_reported() {
+        let whole = "(1.000000) can0 705#05\n(1.100000) can0 185#2E93\n";
+        assert!(Reader::new(whole.as_bytes()).all(|e| e.is_ok()));
+        // The same log cut after `2E93` (its line end lost): the frame may have had more bytes.
+        let cut = &whole[..whole.len() - 1];
+        let out: Vec<_> = Reader::new(cut.as_bytes()).collect();
+        assert!(out[0].is_ok());
+        assert!(
+            matches!(
+                out[1],
+                Err(ReadError::Line {
+                    line: 2,
+                    error: CandumpError::MaybeCut
+                })
+            ),
+            "{out:?}"
+        );
+        assert!(
+            out[1]
+                .as_ref()
+                .unwrap_err()
+                .to_string()
+                .starts_with("line 2: ")
+        );
+        // A last line without its end that cannot go on reads: 8 data bytes, a remote frame with
+        // its length, a direction marker after the frame, a 64-byte FD frame.
+        for last in [
+            "(1.0) can0 185#0102030405060708",
+            "(1.0) can0 185#R8",
+            "(1.0) can0 185#01 R",
+            &format!("(1.0) can0 185##1{}", "00".repeat(64)),
+        ] {
+            let out: Vec<_> = Reader::new(last.as_bytes()).collect();
+            assert!(out.len() == 1 && out[0].is_ok(), "{last}: {out:?}");
+        }
+        for cut in [
+            "(1.0) can0 080#",
+            "(1.0) can0 185#R",
+            "(1.0) can0 185##1000102",
+        ] {
+            let out: Vec<_> = Reader::new(cut.as_bytes()).collect();
+            assert!(
+                matches!(
+                    out[0],
+                    Err(ReadError::Line {
+                        line: 1,
+                        error: CandumpError::MaybeCut
+                    })
+                ),
+                "{cut}: {out:?}"
+            );
+        }
     }
 
     proptest! {

@@ -27,8 +27,8 @@ pub enum BusSpec {
     /// The UDP multicast bus: its group and how far it reaches.
     #[cfg(all(feature = "socketcan", target_os = "linux"))]
     Udp {
-        /// Multicast group and port.
-        group: std::net::SocketAddrV4,
+        /// Multicast group (IPv4 or IPv6) and port.
+        group: std::net::SocketAddr,
         /// This machine only, or an interface's segment.
         scope: crate::transport::udp::UdpScope,
     },
@@ -382,6 +382,17 @@ fn can_list() -> String {
 /// The hint for a SocketCAN interface that does not exist: which do, and how to make a
 /// virtual one.
 fn no_such_interface(iface: &str) -> OpenError {
+    if let Some(meant) = misspelt_bus(iface) {
+        return OpenError::new(
+            iface,
+            OpenErrorKind::NoSuchInterface,
+            Some(format!(
+                "there is no interface `{iface}`; did you mean `{meant}`? ({}; `ip link` lists \
+                 all)",
+                can_list()
+            )),
+        );
+    }
     OpenError::new(
         iface,
         OpenErrorKind::NoSuchInterface,
@@ -393,6 +404,49 @@ fn no_such_interface(iface: &str) -> OpenError {
             can_list()
         )),
     )
+}
+
+#[cfg_attr(not(all(feature = "socketcan", target_os = "linux")), allow(dead_code))]
+/// The bus a name that is no interface was likely meant to be: a spelling of `udp` or `slcan`
+/// one letter off (`udpp`, `upd`, `slcna`), or `slcan` without its path.
+fn misspelt_bus(name: &str) -> Option<&'static str> {
+    let name = name.to_ascii_lowercase();
+    [("udp", "udp"), ("slcan", "slcan:PATH[@BITRATE]")]
+        .into_iter()
+        .find(|(word, _)| one_edit_apart(&name, word))
+        .map(|(_, meant)| meant)
+}
+
+/// Whether `a` and `b` are equal or one insertion, deletion, substitution or swap of two
+/// neighbours apart.
+fn one_edit_apart(a: &str, b: &str) -> bool {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    if a == b {
+        return true;
+    }
+    let (short, long) = if a.len() <= b.len() {
+        (&a, &b)
+    } else {
+        (&b, &a)
+    };
+    match long.len() - short.len() {
+        0 => {
+            let diff: Vec<usize> = (0..a.len()).filter(|&i| a[i] != b[i]).collect();
+            match diff[..] {
+                [_] => true,
+                [i, j] => j == i + 1 && a[i] == b[j] && a[j] == b[i],
+                _ => false,
+            }
+        }
+        1 => (0..long.len()).any(|skip| {
+            long.iter()
+                .enumerate()
+                .filter(|&(i, _)| i != skip)
+                .map(|(_, c)| c)
+                .eq(short.iter())
+        }),
+        _ => false,
+    }
 }
 
 #[cfg(all(feature = "socketcan", target_os = "linux"))]
@@ -554,6 +608,13 @@ mod tests {
             let e = BusSpec::parse(bad).unwrap_err();
             assert!(matches!(e.kind, OpenErrorKind::BadSpec(_)), "{bad}: {e}");
         }
+        // python-can's default group is IPv6; its name round-trips.
+        let s = BusSpec::parse("udp:ff15:7079:7468:6f6e:6465:6d6f:6d63:6173").unwrap();
+        assert_eq!(
+            s.name(),
+            "udp:[ff15:7079:7468:6f6e:6465:6d6f:6d63:6173]:43113"
+        );
+        assert_eq!(BusSpec::parse(&s.name()).unwrap(), s);
     }
 
     #[cfg(feature = "slcan")]
@@ -602,6 +663,28 @@ mod tests {
         let e = crate::Network::open("nosuchcan7").unwrap_err();
         assert!(matches!(e, crate::Error::Open(_)));
         assert!(e.to_string().contains("type vcan"), "{e}");
+    }
+
+    #[cfg(all(feature = "socketcan", target_os = "linux"))]
+    #[test]
+    fn a_misspelt_bus_name_is_answered_with_the_bus_meant() {
+        for (typo, meant) in [
+            ("udpp", "`udp`"),
+            ("upd", "`udp`"),
+            ("UDP", "`udp`"),
+            ("slcna", "`slcan:PATH[@BITRATE]`"),
+            ("slcan", "`slcan:PATH[@BITRATE]`"),
+        ] {
+            let e = err(typo);
+            assert!(matches!(e.kind, OpenErrorKind::NoSuchInterface), "{e}");
+            let text = e.to_string();
+            assert!(text.contains(&format!("did you mean {meant}?")), "{text}");
+            assert!(!text.contains("type vcan"), "{text}");
+        }
+        // Two letters off is a name of its own.
+        assert!(!err("udpxx").to_string().contains("did you mean"));
+        assert!(one_edit_apart("udp", "ud") && one_edit_apart("dup", "udp"));
+        assert!(!one_edit_apart("pdu", "udp"));
     }
 
     #[cfg(all(feature = "socketcan", target_os = "linux"))]

@@ -179,7 +179,7 @@ async fn nmt_commands_and_state_waits() {
     // Nothing happened since the node was added: a boot-up wait times out on tokio's clock.
     let t0 = tokio::time::Instant::now();
     match nmt.wait_for_bootup(Duration::from_millis(200)).await {
-        Err(Error::Timeout(_)) => {}
+        Err(Error::Timeout { .. }) => {}
         other => panic!("{other:?}"),
     }
     assert_eq!(t0.elapsed(), std::time::Duration::from_millis(200));
@@ -623,7 +623,7 @@ async fn waiting_futures_on_a_virtual_bus_in_real_time_sleep_rather_than_spin() 
         nmt.wait_for_state(NmtState::Stopped, Duration::from_millis(300)),
         net.run_for(Duration::from_millis(300)),
     );
-    assert!(matches!(a, Err(Error::Timeout(_))), "{a:?}");
+    assert!(matches!(a, Err(Error::Timeout { .. })), "{a:?}");
     b.unwrap();
     // Each catches up to tokio's time when its timer fires (in steps of at most 2 ms), not in
     // a loop that wakes the others: spinning futures would make hundreds of thousands of calls

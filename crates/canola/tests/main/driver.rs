@@ -7,7 +7,7 @@ use std::time::Duration as StdDuration;
 
 use canola::mem::{BusConfig, ClockMode, Endpoint, MemoryBus};
 use canola::transport::{Received, Transport, TransportError};
-use canola::{Error, HeartbeatEvent, Network, NetworkEvent, SimDevice};
+use canola::{Error, HeartbeatEvent, Network, NetworkEvent, SimDevice, TransportFailure};
 use canola_frame::{CanFrame, Duration, Instant, NodeId};
 
 const EDS: &[u8] = include_bytes!("../../../../eds/burkert-generic.eds");
@@ -143,12 +143,15 @@ fn a_dead_transport_is_an_event_and_an_error() {
     assert_eq!(
         failed,
         NetworkEvent::TransportFailed {
-            error: "the transport is closed".into()
+            bus: None,
+            failure: TransportFailure::Closed,
         }
     );
     assert!(!net.is_driven());
     match net.stop_driver() {
-        Err(Error::Driver(text)) => assert_eq!(text, "the transport is closed"),
+        Err(Error::Driver { bus: None, failure }) => {
+            assert_eq!(failure, TransportFailure::Closed)
+        }
         other => panic!("expected the driver's error, got {other:?}"),
     }
     // A request now fails with the transport's error instead of hanging.

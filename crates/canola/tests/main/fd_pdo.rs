@@ -3,7 +3,8 @@
 //! decoded by name (events, callback, batch subscriber), a 40-byte RPDO set by name and seen in
 //! the device's values, both checked on the wire as CAN FD frames; the device's event timer
 //! sending the 64-byte TPDO again while its data stays the same; on a classic bus a 40-byte
-//! RPDO is refused with a clear error.
+//! RPDO is refused with a clear error; a TPDO of more than 8 bytes configured through `save()`
+//! and `remap_pdo`, and refused in bits and bytes where the node or the bus cannot carry it.
 
 use std::sync::{Arc, Mutex};
 
@@ -421,4 +422,137 @@ fn the_event_timer_sends_an_unchanged_64_byte_tpdo_again() {
     let _ = fd_frames(&mut tap, 0x185);
     net.run_for(Duration::from_millis(200)).wait().unwrap();
     assert!(fd_frames(&mut tap, 0x185).is_empty());
+}
+
+/// The TPDO1 mapping node 5 holds (0x1A00), read by SDO.
+fn tpdo1_entries(node: &canola::Node) -> Vec<u32> {
+    let count = node.sdo().read((0x1A00, 0)).wait().unwrap()[0];
+    (1..=count)
+        .map(|sub| {
+            let b = node.sdo().read((0x1A00, sub)).wait().unwrap();
+            u32::from_le_bytes(b[..4].try_into().unwrap())
+        })
+        .collect()
+}
+
+/// The values of the TPDO1 events since `events` was made.
+fn tpdo1_values(
+    events: &std::sync::mpsc::Receiver<NetworkEvent>,
+) -> Vec<Vec<(canola::od::ObjectAddress, Value)>> {
+    events
+        .try_iter()
+        .filter_map(|e| match e {
+            NetworkEvent::PdoValues {
+                number: 1, values, ..
+            } => Some(values),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A PDO of more than 8 bytes configured through the API on a node marked CANopen FD on a CAN
+/// FD bus: `save()` of three entries (96 bits) read back from the node and decoded from its CAN
+/// FD frames, then `remap_pdo` of an `FdMapping` of twelve (48 bytes).
+#[test]
+fn a_pdo_of_more_than_8_bytes_is_saved_and_remapped_on_an_fd_node() {
+    let bus = fd_bus();
+    let net = Network::new(bus.endpoint());
+    let text = eds(true);
+    let device = bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+    let od = canola::od::parse(text.as_bytes()).unwrap().od;
+    let node = net.add_node_with_dictionary(id(5), od);
+
+    let mut set = node.tpdo().read().wait().unwrap();
+    let pdo = set.get_mut(1).unwrap();
+    pdo.clear();
+    for name in ["Inputs.Input 3", "Inputs.Input 1", "Inputs.Input 2"] {
+        pdo.map(name).unwrap();
+    }
+    node.tpdo().save(&mut set).wait().unwrap();
+    assert_eq!(
+        tpdo1_entries(&node),
+        [0x2000_0320, 0x2000_0120, 0x2000_0220]
+    );
+
+    node.nmt().start().unwrap();
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let events = net.subscribe();
+    bus.with_station(device, |d: &mut SimDevice| {
+        d.set_value(
+            canola::Instant::ZERO,
+            0x2000,
+            3,
+            33u32.to_le_bytes().to_vec(),
+        );
+    });
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let values = tpdo1_values(&events);
+    let last = values.last().expect("TPDO1 decoded");
+    assert_eq!(last.len(), 3);
+    assert_eq!(last[0].1, Value::Unsigned32(33));
+
+    // remap_pdo with twelve entries.
+    let raw: Vec<u32> = (1..=12u32).map(|s| 0x2000_0020 | (s << 8)).collect();
+    let mapping = canola::pdo::FdMapping::from_raw(&raw).unwrap();
+    let comm = set.get(1).unwrap().comm;
+    node.remap_pdo(canola::pdo::Direction::Transmit, 1, comm, mapping)
+        .wait()
+        .unwrap();
+    assert_eq!(tpdo1_entries(&node), raw);
+    let events = net.subscribe();
+    bus.with_station(device, |d: &mut SimDevice| {
+        d.set_value(
+            canola::Instant::ZERO,
+            0x2000,
+            12,
+            12u32.to_le_bytes().to_vec(),
+        );
+    });
+    net.run_for(Duration::from_millis(5)).wait().unwrap();
+    let values = tpdo1_values(&events);
+    let last = values.last().expect("TPDO1 decoded after the remap");
+    assert_eq!(last.len(), 12);
+    assert_eq!(last[11].1, Value::Unsigned32(12));
+    assert_eq!(last[2].1, Value::Unsigned32(33));
+}
+
+/// Where a PDO of more than 8 bytes cannot be (a node not marked CANopen FD, a classic bus)
+/// `save()` and `remap_pdo` say so in bits and bytes, and why, before anything is written.
+#[test]
+fn a_pdo_of_more_than_8_bytes_is_refused_in_bits_and_bytes_where_it_cannot_be() {
+    for (fd_bus_, fd_node, why) in [
+        (true, false, "node 5 is not marked CANopen FD"),
+        (false, true, "carries no CAN FD"),
+    ] {
+        let bus = if fd_bus_ { fd_bus() } else { MemoryBus::new() };
+        let net = Network::new(bus.endpoint());
+        let text = eds(true);
+        bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+        let od = canola::od::parse(text.as_bytes()).unwrap().od;
+        let node = net.add_node_with_dictionary(id(5), od);
+        node.set_fd(fd_node);
+        let before = tpdo1_entries(&node);
+        let mut set = node.tpdo().read().wait().unwrap();
+        let pdo = set.get_mut(1).unwrap();
+        pdo.clear();
+        for name in ["Inputs.Input 1", "Inputs.Input 2", "Inputs.Input 3"] {
+            pdo.map(name).unwrap();
+        }
+        let err = node.tpdo().save(&mut set).wait().unwrap_err().to_string();
+        for part in ["TPDO1", "96 bits (12 bytes)", "64 bits (8 bytes)", why] {
+            assert!(err.contains(part), "{part}: {err}");
+        }
+        let raw = [0x2000_0120, 0x2000_0220, 0x2000_0320];
+        let mapping = canola::pdo::FdMapping::from_raw(&raw).unwrap();
+        let comm = set.get(1).unwrap().comm;
+        let err = node
+            .remap_pdo(canola::pdo::Direction::Transmit, 1, comm, mapping)
+            .wait()
+            .unwrap_err()
+            .to_string();
+        for part in ["TPDO1", "96 bits (12 bytes)", why] {
+            assert!(err.contains(part), "{part}: {err}");
+        }
+        assert_eq!(tpdo1_entries(&node), before, "nothing was written");
+    }
 }

@@ -314,15 +314,20 @@ fn the_driver_rides_out_transient_send_errors_and_stops_cleanly_on_an_io_error()
         .iter()
         .find(|e| matches!(e, NetworkEvent::TransportFailed { .. }))
         .expect("the failure is published");
+    let NetworkEvent::TransportFailed { bus: None, failure } = failed else {
+        panic!("expected the transport's failure, got {failed:?}");
+    };
+    assert_eq!(failure.io_kind(), Some(std::io::ErrorKind::Other));
     assert_eq!(
-        failed,
-        NetworkEvent::TransportFailed {
-            error: "CAN I/O error: injected receive failure".into()
-        }
+        failure.to_string(),
+        "CAN I/O error: injected receive failure"
     );
     assert!(!net.is_driven());
     match net.stop_driver() {
-        Err(Error::Driver(text)) => assert_eq!(text, "CAN I/O error: injected receive failure"),
+        Err(e @ Error::Driver { .. }) => assert_eq!(
+            e.to_string(),
+            "the network's driver stopped: CAN I/O error: injected receive failure"
+        ),
         other => panic!("expected the driver's error, got {other:?}"),
     }
 

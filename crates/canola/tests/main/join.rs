@@ -172,7 +172,9 @@ fn results_come_in_the_order_of_the_operations() {
         let node = net.node(n(6));
         Operation::new(async move { node.read_typed::<u32>((0x1018, 1)).await })
     };
-    let bad = Operation::ready(Err(Error::InvalidRequest("refused".into())));
+    let bad = Operation::ready(Err(Error::InvalidRequest(
+        canola::error::Misuse::StateOfAll,
+    )));
     let r = join_all([slow, fast, bad]).wait().unwrap();
     assert_eq!(r[0].as_ref().unwrap(), &700);
     let vendor = net

@@ -1,6 +1,7 @@
 //! A node's NMT state through `node.nmt()`: state, waiting for boot-up and for a state, on the
 //! virtual-clock bus against the simulator and against raw frames.
 
+use canola::error::Awaited;
 use canola::mem::MemoryBus;
 use canola::transport::Transport;
 use canola::{Error, Network, NmtState, SimDevice};
@@ -43,13 +44,45 @@ fn reset_then_wait_for_bootup_and_states_of_the_simulator() {
         .wait_for_bootup(Duration::from_millis(300))
         .wait()
         .unwrap_err();
-    assert!(matches!(e, Error::Timeout(_)), "{e}");
+    // What was awaited and for how long are values, and the message says them.
+    match &e {
+        Error::Timeout {
+            awaited: Awaited::BootUp { node },
+            after,
+        } => {
+            assert_eq!(*node, n(5));
+            assert_eq!(*after, Duration::from_millis(300));
+        }
+        other => panic!("expected a boot-up timeout, got {other}"),
+    }
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "timed out after {} waiting for a boot-up from node {}",
+            Duration::from_millis(300),
+            n(5)
+        )
+    );
+    assert_eq!(format!("{e:?}"), e.to_string());
     assert!(net.now() >= t0 + Duration::from_millis(300));
     let e = nmt
         .wait_for_state(NmtState::Stopped, Duration::from_millis(100))
         .wait()
         .unwrap_err();
-    assert!(e.to_string().contains("not Stopped"), "{e}");
+    assert!(
+        matches!(
+            e,
+            Error::Timeout {
+                awaited: Awaited::State {
+                    state: NmtState::Stopped,
+                    ..
+                },
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("to report Stopped"), "{e}");
 }
 
 /// python-canopen's race: a boot-up and a heartbeat handled together leave the state at

@@ -14,7 +14,10 @@ struct Full;
 
 impl Write for Full {
     fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
-        Err(std::io::Error::other("no space left on device"))
+        Err(std::io::Error::new(
+            std::io::ErrorKind::StorageFull,
+            "no space left on device",
+        ))
     }
     fn flush(&mut self) -> std::io::Result<()> {
         Ok(())
@@ -38,7 +41,13 @@ fn a_failing_flush_fails_the_upload() {
         panic!("expected an SDO error, got {e}");
     };
     assert!(
-        matches!(&e.kind, SdoErrorKind::Io(m) if m.contains("no space left")),
+        matches!(
+            e.kind,
+            SdoErrorKind::Io {
+                kind: std::io::ErrorKind::StorageFull,
+                ..
+            }
+        ),
         "{e}"
     );
     // Unbuffered, the first write fails and the transfer is aborted.

@@ -1,6 +1,6 @@
-//! An operation that is one SDO request is held as the request (its blocking wait runs it
-//! with no future made for it), every other one as async code: both forms, and the blocking
-//! and awaited ways to finish each, give the same result for the same transfer.
+//! Every operation waits by one path: a single SDO request and the same request inside an
+//! operation of the application's own code, each finished by blocking and by awaiting, give
+//! the same result for the same transfer.
 
 use std::future::IntoFuture;
 

@@ -102,5 +102,5 @@ fn a_streamed_upload_runs_as_a_pending_request() {
     };
     let p = net.node(n(5)).sdo().submit_upload_to((0x1008, 0), small);
     let e = p.wait().unwrap_err();
-    assert!(matches!(e.kind, SdoErrorKind::Io(_)), "{e:?}");
+    assert!(matches!(e.kind, SdoErrorKind::Io { .. }), "{e:?}");
 }

@@ -121,7 +121,23 @@ fn values_that_do_not_fit_fail_before_anything_is_sent() {
     assert!(matches!(e, Error::UnknownObject { .. }), "{e}");
     let e = node.sdo().get("Identity Object").wait().unwrap_err();
     assert!(e.to_string().contains("array or record"), "{e}");
-    // A node without a dictionary has no names.
+    // A node without a dictionary has no names; the error keeps the name asked for.
     let e = net.node(n(6)).sdo().get("Device type").wait().unwrap_err();
     assert!(e.to_string().contains("without a dictionary"), "{e}");
+    assert!(
+        matches!(&e, Error::UnknownObject { name, .. } if name == "Device type"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("\"Device type\""), "{e}");
+    // A write by address to such a node names the address.
+    let e = net
+        .node(n(6))
+        .sdo()
+        .set((0x1017, 0), 100u16)
+        .wait()
+        .unwrap_err();
+    assert!(
+        matches!(&e, Error::UnknownObject { name, .. } if name == "0x1017:00"),
+        "{e}"
+    );
 }

@@ -21,6 +21,8 @@ use canola::pdo::{CommParams, Dictionary, Direction, Mapping, MappingEntry, OdVi
 use crate::mode::ModeOfOperation;
 use crate::objects as obj;
 
+use super::drive::pdo_kind;
+
 /// One PDO as a DCF configures it.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct DcfPdo {
@@ -54,11 +56,7 @@ impl DcfPdo {
     }
 
     fn name(&self) -> String {
-        let kind = match self.direction {
-            Direction::Receive => "RPDO",
-            Direction::Transmit => "TPDO",
-        };
-        format!("{kind}{}", self.number)
+        format!("{}{}", pdo_kind(self.direction), self.number)
     }
 
     /// `RPDO3 (COB-ID 0x405, type 1): 0x607A:00, 0x6040:00`, for error messages.
@@ -86,44 +84,73 @@ impl DcfPdo {
 }
 
 /// Why the PDOs of a DCF cannot serve a mode.
-#[derive(Debug, thiserror::Error)]
+#[derive(thiserror::Error)]
 #[non_exhaustive]
 pub enum DcfPdoError {
     /// The file is not a DCF the parser reads.
     #[error("the DCF does not parse: {0}")]
-    Parse(String),
+    Parse(canola::od::ParseError),
     /// A valid PDO of the file is not one a device could run (a mapped object the file does not
     /// have, not mappable, of another size, over 64 bits; a reserved transmission type).
-    #[error("{pdo} in the DCF: {message}")]
+    #[error("{}{number} in the DCF: {problem}", pdo_kind(*direction))]
     Pdo {
-        /// `RPDO3`, `TPDO1`, ...
-        pdo: String,
-        /// What is wrong with it.
-        message: String,
+        /// RPDO or TPDO (seen from the device).
+        direction: Direction,
+        /// Its number, 1-based.
+        number: u16,
+        /// What is wrong with it: the object and the PDO reader's explanation.
+        problem: String,
     },
     /// The mode is not one of the cyclic synchronous modes.
-    #[error("{0:?} is not a cyclic synchronous mode (csp, csv, cst)")]
+    #[error("mode {0} is not a cyclic synchronous mode (csp, csv, cst)")]
     NotCyclic(ModeOfOperation),
     /// The DCF maps an object the mode needs in no PDO that could carry it.
     #[error(
-        "{mode} needs {object} (0x{index:04X}:{sub_index:02X}) in {carrier}; the DCF maps it in none. Its {kind}s: {found}"
+        "{} needs {object} (0x{index:04X}:{sub_index:02X}) in {}; the DCF maps it in none. Its {}s: {}",
+        mode.short_name().unwrap_or("the mode"),
+        carrier(*direction),
+        pdo_kind(*direction),
+        described(found)
     )]
     Missing {
-        /// The mode's short name (`csp`).
-        mode: &'static str,
+        /// The mode.
+        mode: ModeOfOperation,
         /// What the object is (`the target position`).
         object: &'static str,
         /// The object's index (axis offset included).
         index: u16,
         /// Its sub-index.
         sub_index: u8,
-        /// What kind of PDO must carry it (`a valid synchronous RPDO`).
-        carrier: &'static str,
-        /// `RPDO` or `TPDO`.
-        kind: &'static str,
-        /// The PDOs of that direction the DCF has, described.
-        found: String,
+        /// Which PDOs must carry it: a valid synchronous RPDO, or a valid TPDO.
+        direction: Direction,
+        /// The PDOs of that direction the DCF has.
+        found: Vec<DcfPdo>,
     },
+}
+
+/// `Debug` prints what `Display` prints (the stack's error convention).
+impl core::fmt::Debug for DcfPdoError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        core::fmt::Display::fmt(self, f)
+    }
+}
+
+fn carrier(direction: Direction) -> &'static str {
+    match direction {
+        Direction::Receive => "a valid synchronous RPDO",
+        Direction::Transmit => "a valid TPDO",
+    }
+}
+
+fn described(pdos: &[DcfPdo]) -> String {
+    if pdos.is_empty() {
+        "none".to_string()
+    } else {
+        pdos.iter()
+            .map(DcfPdo::describe)
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
 }
 
 /// What one mode runs on, from a DCF ([`DcfPdos::for_mode`]).
@@ -151,9 +178,7 @@ pub struct DcfPdos {
 impl DcfPdos {
     /// Parses DCF (or EDS) text and reads its PDOs for node `node` (what `$NODEID` stands for).
     pub fn parse(text: &[u8], node: NodeId) -> Result<Self, DcfPdoError> {
-        let od = canola::od::parse(text)
-            .map_err(|e| DcfPdoError::Parse(e.to_string()))?
-            .od;
+        let od = canola::od::parse(text).map_err(DcfPdoError::Parse)?.od;
         Self::from_dictionary(&od, node)
     }
 
@@ -170,16 +195,10 @@ impl DcfPdos {
                 if od.sub(comm_index, 1).is_none() {
                     continue;
                 }
-                let pdo_name = |number: u16| {
-                    let kind = match direction {
-                        Direction::Receive => "RPDO",
-                        Direction::Transmit => "TPDO",
-                    };
-                    format!("{kind}{number}")
-                };
-                let bad = |message: String| DcfPdoError::Pdo {
-                    pdo: pdo_name(n + 1),
-                    message,
+                let bad = |problem: String| DcfPdoError::Pdo {
+                    direction,
+                    number: n + 1,
+                    problem,
                 };
                 let comm = CommParams::read_from(&view, comm_index)
                     .map_err(|e| bad(format!("0x{comm_index:04X}: {e}")))?;
@@ -243,9 +262,8 @@ impl DcfPdos {
     /// every valid TPDO mapping its actual value (0x6064, 0x606C, 0x6077). Either missing is
     /// [`DcfPdoError::Missing`], which lists the PDOs the DCF has.
     pub fn for_mode(&self, mode: ModeOfOperation, axis: u8) -> Result<ModePdos, DcfPdoError> {
-        let (short, target, target_name, bits, actual, actual_name) = match mode {
+        let (target, target_name, bits, actual, actual_name) = match mode {
             ModeOfOperation::CyclicSyncPosition => (
-                "csp",
                 obj::TARGET_POSITION.index(),
                 "the target position",
                 32,
@@ -253,7 +271,6 @@ impl DcfPdos {
                 "the position actual value",
             ),
             ModeOfOperation::CyclicSyncVelocity => (
-                "csv",
                 obj::TARGET_VELOCITY.index(),
                 "the target velocity",
                 32,
@@ -261,7 +278,6 @@ impl DcfPdos {
                 "the velocity actual value",
             ),
             ModeOfOperation::CyclicSyncTorque => (
-                "cst",
                 obj::TARGET_TORQUE.index(),
                 "the target torque",
                 16,
@@ -273,28 +289,17 @@ impl DcfPdos {
         let offset = u16::from(axis.min(obj::MAX_AXIS)) * obj::AXIS_OFFSET;
         let target = (target + offset, 0u8);
         let actual = (actual + offset, 0u8);
-        let list = |pdos: &[DcfPdo]| {
-            if pdos.is_empty() {
-                "none".to_string()
-            } else {
-                pdos.iter()
-                    .map(DcfPdo::describe)
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            }
-        };
         let rpdo = self
             .rpdos
             .iter()
             .find(|p| p.is_valid() && p.comm.transmission_type.is_synchronous() && p.maps(target))
             .ok_or_else(|| DcfPdoError::Missing {
-                mode: short,
+                mode,
                 object: target_name,
                 index: target.0,
                 sub_index: target.1,
-                carrier: "a valid synchronous RPDO",
-                kind: "RPDO",
-                found: list(&self.rpdos),
+                direction: Direction::Receive,
+                found: self.rpdos.clone(),
             })?;
         let tpdos: Vec<DcfPdo> = self
             .tpdos
@@ -304,13 +309,12 @@ impl DcfPdos {
             .collect();
         if tpdos.is_empty() {
             return Err(DcfPdoError::Missing {
-                mode: short,
+                mode,
                 object: actual_name,
                 index: actual.0,
                 sub_index: actual.1,
-                carrier: "a valid TPDO",
-                kind: "TPDO",
-                found: list(&self.tpdos),
+                direction: Direction::Transmit,
+                found: self.tpdos.clone(),
             });
         }
         Ok(ModePdos {

@@ -8,5 +8,8 @@ mod drive;
 mod sim_device;
 
 pub use dcf::{DcfPdo, DcfPdoError, DcfPdos, ModePdos};
-pub use drive::{CyclicStream, Drive, DriveError, DriveStatus, FaultReport, Move, Timeouts};
+pub use drive::{
+    Awaited, CyclicSetup, CyclicStream, Drive, DriveError, DriveStatus, FaultReport, Homing, Move,
+    OnCancel, Reached, Timeouts,
+};
 pub use sim_device::{DriveHook, simulated_drive};

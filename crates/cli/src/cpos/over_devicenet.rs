@@ -205,7 +205,12 @@ impl Link {
         loop {
             while let Some(f) = self.master.poll_transmit() {
                 if let Err(e) = self.transport.send(&f) {
-                    eprintln!("error: cannot send: {e}");
+                    // As every error: JSON under --json.
+                    let _ = CliError::System {
+                        what: "cannot send".into(),
+                        source: std::io::Error::other(e.to_string()),
+                    }
+                    .report();
                     std::process::exit(1);
                 }
             }
@@ -218,7 +223,11 @@ impl Link {
                 Ok(Some(Received::Frame { frame, at })) => self.master.handle_frame(at, &frame),
                 Ok(_) => {}
                 Err(e) => {
-                    eprintln!("error: cannot receive: {e}");
+                    let _ = CliError::System {
+                        what: "cannot receive".into(),
+                        source: std::io::Error::other(e.to_string()),
+                    }
+                    .report();
                     std::process::exit(1);
                 }
             }

@@ -156,9 +156,11 @@ struct App {
 /// `canopen top [--replay FILE]` (`--hex`: values read with `g` in hex)
 pub(crate) fn run(args: &TopArgs, opts: &BusOpts, g: crate::Global) -> ExitCode {
     if !std::io::stdout().is_terminal() {
-        return fail(CliError::Argument(
-            "canopen top draws on a terminal: stdout is not one (use `monitor` for text)".into(),
-        ));
+        // Where it runs, not a wrong command line: exit 1.
+        return fail(CliError::System {
+            what: "canopen top draws on a terminal".into(),
+            source: std::io::Error::other("stdout is not one (use `monitor` for text)"),
+        });
     }
     // Before the bus opens (its transport may start threads): SIGTERM ends the view cleanly.
     if let Err(e) = crate::bus::stop_on_signals() {

@@ -4,7 +4,7 @@
 //! The dispatcher keeps at most one job per node in flight: it starts a node's next job (the
 //! node's queue is fair over the connections) as a [`Pending`](canola::Pending) SDO request,
 //! so requests to different nodes run on the bus together, drives the network itself with
-//! [`Network::run_step`](canola::Driver::run_step) while any runs, and answers each job as its
+//! [`Network::run_step`](canola::Network::run_step) while any runs, and answers each job as its
 //! request ends. NMT jobs wait on nothing: they are answered as they are started. While no job
 //! runs, it waits for one to be queued, driving the network meanwhile when
 //! [`Config::drive_period`](super::Config::drive_period) asks for it (heartbeats, boot-up and

@@ -226,7 +226,7 @@ impl SlaveBoot<'_> {
         let no_boot_up = "no boot-up after NMT reset communication";
         match nmt.wait_for_bootup(self.config.master.boot_timeout).await {
             Ok(()) => {}
-            Err(canola::Error::Timeout(_)) => return Err(no_state(no_boot_up)),
+            Err(canola::Error::Timeout { .. }) => return Err(no_state(no_boot_up)),
             Err(e) => return Err(no_state(&format!("{no_boot_up}: {e}"))),
         }
         self.step_done(BootStep::NodeState, None);

@@ -2,16 +2,19 @@
 //! for several processes on one machine (or, on purpose, one LAN segment: see [`scope`])
 //! without CAN hardware or vcan.
 //!
-//! Every attached process joins one IPv4 multicast group and port; each frame is one datagram
+//! Every attached process joins one multicast group (IPv4, or IPv6 as python-can's default)
+//! and port; each frame is one datagram
 //! holding a MessagePack map with the keys python-can writes: `timestamp` (float seconds),
 //! `arbitration_id`, `is_extended_id`, `is_remote_frame`, `is_error_frame`, `channel`, `dlc`,
 //! `data` (binary), `is_fd`, `bitrate_switch`, `error_state_indicator`. python-can's default
-//! IPv4 group is `239.74.163.2`, its default port 43113 (its default group is an IPv6 one:
-//! give python-can `channel="239.74.163.2"` to meet this transport).
+//! IPv4 group is `239.74.163.2`, its default port 43113; its default group is the IPv6 one
+//! `ff15:7079:7468:6f6e:6465:6d6f:6d63:6173` ([`DEFAULT_GROUP_V6`]), which this transport joins
+//! as `udp:ff15:7079:7468:6f6e:6465:6d6f:6d63:6173` (`udp` alone is the IPv4 group).
 //!
 //! Like python-can, the socket binds the group's port with `SO_REUSEADDR`/`SO_REUSEPORT` and
-//! sends with a TTL of 1 and multicast loopback on, so processes on the same machine hear each
-//! other. Unlike python-can, it binds the group's address (no unicast datagrams to the port) and
+//! sends with multicast loopback on, so processes on the same machine hear each other (with a
+//! TTL of 1 on IPv4 and on an interface's segment, a hop limit of 0 for an IPv6 group on this
+//! machine only). Unlike python-can, it binds the group's address (no unicast datagrams to the port) and
 //! by default joins and sends on the loopback interface only: nothing leaves the machine and
 //! only this machine's datagrams are taken ([`UdpScope`]). Frames are sent from
 //! a second socket on an ephemeral port; a datagram whose source port is that port is this
@@ -40,4 +43,6 @@ mod tests;
 
 pub use codec::{DecodeError, Message, decode, encode, encode_fd};
 pub use scope::{UdpScope, parse_scoped_spec};
-pub use socket::{DEFAULT_GROUP, DEFAULT_PORT, MAX_DATAGRAM, UdpMulticast, parse_spec};
+pub use socket::{
+    DEFAULT_GROUP, DEFAULT_GROUP_V6, DEFAULT_PORT, MAX_DATAGRAM, UdpMulticast, parse_spec,
+};

@@ -1,13 +1,14 @@
 //! The multicast sockets: [`UdpMulticast`] joins the group, sends each frame as one datagram
 //! and receives the others' frames as a [`Transport`](crate::Transport).
 
-use std::net::{Ipv4Addr, SocketAddrV4, UdpSocket};
+use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr, SocketAddrV4, SocketAddrV6, UdpSocket};
 use std::os::fd::AsRawFd;
 
 use canola_frame::time::MonotonicClock;
 use canola_frame::{CanFrame, FdFrame, Instant};
 use nix::sys::socket::{
-    AddressFamily, SockFlag, SockProtocol, SockType, SockaddrIn, bind, setsockopt, socket, sockopt,
+    AddressFamily, SockFlag, SockProtocol, SockType, SockaddrIn, SockaddrIn6, bind, setsockopt,
+    socket, sockopt,
 };
 
 use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
@@ -22,38 +23,78 @@ pub const DEFAULT_PORT: u16 = 43113;
 /// Largest datagram read (python-can's receive buffer size).
 pub const MAX_DATAGRAM: usize = 4096;
 
-/// Where a UDP multicast bus lives: `udp`, `udp:GROUP` or `udp:GROUP:PORT` (python-can's
-/// defaults for the parts left out). `None` when `spec` does not start with `udp`.
-pub fn parse_spec(spec: &str) -> Option<Result<SocketAddrV4, String>> {
+/// python-can's default group of `udp_multicast` (its `channel` when none is given), an IPv6
+/// site-local group.
+pub const DEFAULT_GROUP_V6: Ipv6Addr = Ipv6Addr::new(
+    0xff15, 0x7079, 0x7468, 0x6f6e, 0x6465, 0x6d6f, 0x6d63, 0x6173,
+);
+
+/// Where a UDP multicast bus lives: `udp`, `udp:GROUP` or `udp:GROUP:PORT` with an IPv4 group,
+/// `udp:GROUP6` or `udp:[GROUP6]:PORT` with an IPv6 one (python-can's defaults for the parts
+/// left out: group 239.74.163.2, port 43113). `None` when `spec` does not start with `udp`.
+pub fn parse_spec(spec: &str) -> Option<Result<SocketAddr, String>> {
     let rest = spec.strip_prefix("udp")?;
     let rest = match rest.strip_prefix(':') {
         Some(r) => r,
-        None if rest.is_empty() => return Some(Ok(SocketAddrV4::new(DEFAULT_GROUP, DEFAULT_PORT))),
+        None if rest.is_empty() => {
+            return Some(Ok(SocketAddrV4::new(DEFAULT_GROUP, DEFAULT_PORT).into()));
+        }
         None => return None,
     };
-    let (group, port) = match rest.split_once(':') {
-        Some((g, p)) => (g, Some(p)),
-        None => (rest, None),
+    let (group, port) = if let Some(inner) = rest.strip_prefix('[') {
+        // `[GROUP6]` or `[GROUP6]:PORT`
+        let Some((g, after)) = inner.split_once(']') else {
+            return Some(Err(format!("`{spec}`: no `]` after the IPv6 group")));
+        };
+        match after {
+            "" => (g, None),
+            p => match p.strip_prefix(':') {
+                Some(p) => (g, Some(p)),
+                None => return Some(Err(format!("`{spec}`: expected `:PORT` after `]`"))),
+            },
+        }
+    } else if rest.matches(':').count() > 1 {
+        // An IPv6 group alone (its port needs the brackets).
+        (rest, None)
+    } else {
+        match rest.split_once(':') {
+            Some((g, p)) => (g, Some(p)),
+            None => (rest, None),
+        }
     };
-    let group = match group.parse::<Ipv4Addr>() {
+    let group = match group.parse::<IpAddr>() {
         Ok(g) if g.is_multicast() => g,
-        Ok(g) => return Some(Err(format!("{g} is not a multicast address (224.0.0.0/4)"))),
-        Err(e) => return Some(Err(format!("`{group}`: {e}"))),
+        Ok(IpAddr::V4(g)) => {
+            return Some(Err(format!("{g} is not a multicast address (224.0.0.0/4)")));
+        }
+        Ok(IpAddr::V6(g)) => {
+            return Some(Err(format!("{g} is not a multicast address (ff00::/8)")));
+        }
+        Err(_) if group.contains(':') => {
+            return Some(Err(format!(
+                "`{group}` is not an IPv6 address (a port after one: udp:[GROUP]:PORT)"
+            )));
+        }
+        Err(_) => {
+            return Some(Err(format!(
+                "`{group}` is not an IPv4 or IPv6 multicast address"
+            )));
+        }
     };
     let port = match port.map(str::parse::<u16>) {
         None => DEFAULT_PORT,
         Some(Ok(p)) if p != 0 => p,
         Some(_) => return Some(Err(format!("`{spec}`: the port is 1..=65535"))),
     };
-    Some(Ok(SocketAddrV4::new(group, port)))
+    Some(Ok(SocketAddr::new(group, port)))
 }
 
 /// A CAN bus over UDP multicast (see the module documentation).
 #[derive(Debug)]
 pub struct UdpMulticast {
     rx: UdpSocket,
-    tx: UdpSocket,
-    group: SocketAddrV4,
+    pub(super) tx: UdpSocket,
+    group: SocketAddr,
     own_port: u16,
     clock: MonotonicClock,
     skipped: u64,
@@ -66,32 +107,22 @@ pub struct UdpMulticast {
 }
 
 impl UdpMulticast {
-    /// Joins the bus at `group` (an IPv4 multicast address and port) on this machine only
-    /// ([`UdpScope::Loopback`]).
-    pub fn open(group: SocketAddrV4) -> Result<Self, TransportError> {
+    /// Joins the bus at `group` (an IPv4 or IPv6 multicast address and port) on this machine
+    /// only ([`UdpScope::Loopback`]).
+    pub fn open(group: impl Into<SocketAddr>) -> Result<Self, TransportError> {
         Self::open_scoped(group, UdpScope::Loopback)
     }
 
     /// Joins the bus at `group` in `scope` ([`super::scope`]).
-    pub fn open_scoped(group: SocketAddrV4, scope: UdpScope) -> Result<Self, TransportError> {
-        let io = |e: nix::errno::Errno| TransportError::Io(e.into());
-        let fd = socket(
-            AddressFamily::Inet,
-            SockType::Datagram,
-            SockFlag::SOCK_CLOEXEC,
-            SockProtocol::Udp,
-        )
-        .map_err(io)?;
-        setsockopt(&fd, sockopt::ReuseAddr, &true).map_err(io)?;
-        setsockopt(&fd, sockopt::ReusePort, &true).map_err(io)?;
-        // Bound to the group (no unicast to the port), joined on the scope's interface only,
-        // sent from its address (so out of that interface only).
-        bind(fd.as_raw_fd(), &SockaddrIn::from(group)).map_err(io)?;
-        let rx = UdpSocket::from(fd);
-        rx.join_multicast_v4(group.ip(), &scope.interface_addr())?;
-        let tx = UdpSocket::bind(SocketAddrV4::new(scope.interface_addr(), 0))?;
-        tx.set_multicast_ttl_v4(1)?;
-        tx.set_multicast_loop_v4(true)?;
+    pub fn open_scoped(
+        group: impl Into<SocketAddr>,
+        scope: UdpScope,
+    ) -> Result<Self, TransportError> {
+        let group = group.into();
+        let (rx, tx) = match group {
+            SocketAddr::V4(g) => Self::sockets_v4(g, &scope)?,
+            SocketAddr::V6(g) => Self::sockets_v6(g, &scope)?,
+        };
         let own_port = tx.local_addr()?.port();
         Ok(Self {
             rx,
@@ -107,13 +138,95 @@ impl UdpMulticast {
         })
     }
 
+    /// The receiving socket bound to `group` (no unicast to the port), shared with the other
+    /// processes on the port.
+    fn bound(group: SocketAddr) -> Result<UdpSocket, TransportError> {
+        let io = |e: nix::errno::Errno| TransportError::Io(e.into());
+        let family = match group {
+            SocketAddr::V4(_) => AddressFamily::Inet,
+            SocketAddr::V6(_) => AddressFamily::Inet6,
+        };
+        let fd = socket(
+            family,
+            SockType::Datagram,
+            SockFlag::SOCK_CLOEXEC,
+            SockProtocol::Udp,
+        )
+        .map_err(io)?;
+        setsockopt(&fd, sockopt::ReuseAddr, &true).map_err(io)?;
+        setsockopt(&fd, sockopt::ReusePort, &true).map_err(io)?;
+        match group {
+            SocketAddr::V4(g) => bind(fd.as_raw_fd(), &SockaddrIn::from(g)),
+            SocketAddr::V6(g) => {
+                setsockopt(&fd, sockopt::Ipv6V6Only, &true).map_err(io)?;
+                bind(fd.as_raw_fd(), &SockaddrIn6::from(g))
+            }
+        }
+        .map_err(io)?;
+        Ok(UdpSocket::from(fd))
+    }
+
+    /// IPv4: joined on the scope's interface only, sent from its address (so out of that
+    /// interface only).
+    fn sockets_v4(
+        group: SocketAddrV4,
+        scope: &UdpScope,
+    ) -> Result<(UdpSocket, UdpSocket), TransportError> {
+        let on = match scope.interface_addr() {
+            IpAddr::V4(a) => a,
+            IpAddr::V6(_) => Ipv4Addr::LOCALHOST,
+        };
+        let rx = Self::bound(group.into())?;
+        rx.join_multicast_v4(group.ip(), &on)?;
+        let tx = UdpSocket::bind(SocketAddrV4::new(on, 0))?;
+        tx.set_multicast_ttl_v4(1)?;
+        tx.set_multicast_loop_v4(true)?;
+        Ok((rx, tx))
+    }
+
+    /// IPv6: the loopback interface carries no IPv6 multicast, so on this machine only the
+    /// group is joined on the interface the host routes it to and sent with a hop limit of 0:
+    /// looped back to this machine's sockets, never onto a network. On an interface's segment,
+    /// joined and sent on that interface with a hop limit of 1.
+    fn sockets_v6(
+        group: SocketAddrV6,
+        scope: &UdpScope,
+    ) -> Result<(UdpSocket, UdpSocket), TransportError> {
+        let io = |e: nix::errno::Errno| TransportError::Io(e.into());
+        let no_multicast = |e: std::io::Error| {
+            TransportError::Io(std::io::Error::new(
+                e.kind(),
+                format!(
+                    "joining the IPv6 group {}: {e} (does this host carry IPv6 multicast? \
+                     `ip -6 route` should show a route for ff00::/8; else give an IPv4 group)",
+                    group.ip()
+                ),
+            ))
+        };
+        let rx = Self::bound(group.into())?;
+        rx.join_multicast_v6(group.ip(), scope.interface_index())
+            .map_err(no_multicast)?;
+        let tx = UdpSocket::bind(SocketAddrV6::new(Ipv6Addr::UNSPECIFIED, 0, 0, 0))?;
+        let hops = match scope {
+            UdpScope::Loopback => 0,
+            UdpScope::Interface { name, .. } => {
+                setsockopt(&tx, sockopt::BindToDevice, &std::ffi::OsString::from(name))
+                    .map_err(io)?;
+                1
+            }
+        };
+        setsockopt(&tx, sockopt::Ipv6MulticastHops, &hops).map_err(io)?;
+        tx.set_multicast_loop_v6(true)?;
+        Ok((rx, tx))
+    }
+
     /// Where the bus reaches.
     pub fn scope(&self) -> &UdpScope {
         &self.scope
     }
 
     /// The group and port of the bus.
-    pub fn group(&self) -> SocketAddrV4 {
+    pub fn group(&self) -> SocketAddr {
         self.group
     }
 

@@ -1,13 +1,13 @@
 //! The datagram codec against python-can's format and arbitrary bytes, and the sockets.
 
-use std::net::{Ipv4Addr, SocketAddrV4};
+use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, SocketAddrV4, SocketAddrV6};
 
 use canola_frame::{CanFrame, CanId, FdFlags, FdFrame};
 
 use crate::transport::contract::{BusEvent, Received, Transport};
 
 use super::codec::{DecodeError, Message, decode, encode, encode_fd};
-use super::socket::{DEFAULT_GROUP, DEFAULT_PORT, UdpMulticast, parse_spec};
+use super::socket::{DEFAULT_GROUP, DEFAULT_GROUP_V6, DEFAULT_PORT, UdpMulticast, parse_spec};
 
 use proptest::prelude::*;
 
@@ -137,16 +137,96 @@ fn rejects_what_is_not_a_frame() {
 fn parses_bus_specs() {
     assert_eq!(
         parse_spec("udp"),
-        Some(Ok(SocketAddrV4::new(DEFAULT_GROUP, DEFAULT_PORT)))
+        Some(Ok(SocketAddrV4::new(DEFAULT_GROUP, DEFAULT_PORT).into()))
     );
     assert_eq!(
         parse_spec("udp:239.0.0.1:5000"),
-        Some(Ok(SocketAddrV4::new(Ipv4Addr::new(239, 0, 0, 1), 5000)))
+        Some(Ok(
+            SocketAddrV4::new(Ipv4Addr::new(239, 0, 0, 1), 5000).into()
+        ))
     );
     assert!(matches!(parse_spec("udp:10.0.0.1"), Some(Err(_))));
     assert!(matches!(parse_spec("udp:239.0.0.1:0"), Some(Err(_))));
     assert_eq!(parse_spec("vcan0"), None);
     assert_eq!(parse_spec("udpx"), None);
+}
+
+#[test]
+fn parses_ipv6_groups() {
+    let v6 = |g: Ipv6Addr, port| Some(Ok(SocketAddr::V6(SocketAddrV6::new(g, port, 0, 0))));
+    // python-can's default channel, alone and with a port in brackets.
+    assert_eq!(
+        parse_spec("udp:ff15:7079:7468:6f6e:6465:6d6f:6d63:6173"),
+        v6(DEFAULT_GROUP_V6, DEFAULT_PORT)
+    );
+    assert_eq!(
+        parse_spec("udp:[ff15:7079:7468:6f6e:6465:6d6f:6d63:6173]:5000"),
+        v6(DEFAULT_GROUP_V6, 5000)
+    );
+    let short: Ipv6Addr = "ff15::1".parse().unwrap();
+    assert_eq!(parse_spec("udp:ff15::1"), v6(short, DEFAULT_PORT));
+    assert_eq!(parse_spec("udp:[ff15::1]"), v6(short, DEFAULT_PORT));
+    for (bad, says) in [
+        ("udp:fd00::1", "not a multicast address (ff00::/8)"),
+        ("udp:[ff15::1]5000", "expected `:PORT`"),
+        ("udp:[ff15::1", "no `]`"),
+        ("udp:[ff15::1]:0", "1..=65535"),
+        ("udp:ff15::1::5", "udp:[GROUP]:PORT"),
+        ("udp:ff15", "not an IPv4 or IPv6 multicast address"),
+    ] {
+        match parse_spec(bad) {
+            Some(Err(e)) => assert!(e.contains(says), "{bad}: {e}"),
+            other => panic!("{bad}: {other:?}"),
+        }
+    }
+}
+
+/// A site-local IPv6 group of this test run's own, and whether this host carries IPv6
+/// multicast (a transport joins it); else the test says it skipped.
+fn ipv6_group(salt: u16) -> Option<SocketAddrV6> {
+    let port = 40000 + ((std::process::id() + 13 + u32::from(salt)) % 20000) as u16;
+    let group = SocketAddrV6::new(
+        Ipv6Addr::new(0xff15, 0x7079, 0x7468, 0x6f6e, 0, 0, 0, salt),
+        port,
+        0,
+        0,
+    );
+    match UdpMulticast::open(group) {
+        Ok(_) => Some(group),
+        Err(e) => {
+            eprintln!("SKIPPED: this host carries no IPv6 multicast: {e}");
+            None
+        }
+    }
+}
+
+#[test]
+fn ipv6_transports_hear_each_other_on_this_machine_only() {
+    let Some(group) = ipv6_group(1) else { return };
+    let (mut a, mut b) = (
+        UdpMulticast::open(group).unwrap(),
+        UdpMulticast::open(group).unwrap(),
+    );
+    assert_eq!(a.group(), SocketAddr::V6(group));
+    let f = CanFrame::new(sid(0x185), &[1, 2, 3, 4]).unwrap();
+    a.send(&f).unwrap();
+    let got = b
+        .recv_timeout(canola_frame::Duration::from_millis(2000))
+        .unwrap();
+    assert!(
+        matches!(got, Some(Received::Frame { frame, .. }) if frame == f),
+        "{got:?}"
+    );
+    // Not received by its sender.
+    assert_eq!(
+        a.recv_timeout(canola_frame::Duration::from_millis(50))
+            .unwrap(),
+        None
+    );
+    // Sent with a hop limit of 0: looped back to this machine, never onto a network.
+    let hops =
+        nix::sys::socket::getsockopt(&a.tx, nix::sys::socket::sockopt::Ipv6MulticastHops).unwrap();
+    assert_eq!(hops, 0);
 }
 
 #[test]

@@ -23,13 +23,21 @@
 //! [`DecodeError`]) and an `emit` into an eight-byte buffer. Unknown command specifiers are kept
 //! with their seven data bytes, so decode-then-encode loses nothing. Reserved bytes of known
 //! messages are ignored on decode and sent as zero.
+//!
+//! Files by concern: this one holds the frame layout (offsets, command specifiers, the
+//! shared byte helpers), the decode error and the small values both directions carry
+//! ([`Mode`], [`IdentifyField`]); `request` the master-to-slave [`Request`]; `response` the
+//! slave-to-master [`Response`] with its status ([`ConfigStatus`], [`ResponseError`]).
 
 use core::fmt;
 
-use canola_frame::cob::{LSS_MASTER_TO_SLAVE, LSS_SLAVE_TO_MASTER};
-use canola_frame::{CanFrame, CanId};
+use canola_frame::CanFrame;
 
-use crate::address::{AddressPart, BitTiming};
+mod request;
+mod response;
+
+pub use request::Request;
+pub use response::{ConfigStatus, Response, ResponseError};
 
 /// Byte offsets inside the eight data bytes.
 mod field {
@@ -178,161 +186,6 @@ impl IdentifyField {
     }
 }
 
-/// The status carried by the configure node-ID, configure bit timing and store configuration
-/// responses: an error code and a manufacturer-specific extension, kept raw so that decoding
-/// is lossless. [`ConfigStatus::result`] gives the typed meaning.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct ConfigStatus {
-    /// 0 = success, 1 = not supported / invalid, 2 = storage media error (store only),
-    /// 255 = see `extension`, other values reserved.
-    pub code: u8,
-    /// Manufacturer-specific error, meaningful when `code` is 255.
-    pub extension: u8,
-}
-
-impl ConfigStatus {
-    /// Success.
-    pub const OK: ConfigStatus = ConfigStatus {
-        code: 0,
-        extension: 0,
-    };
-
-    /// The status that reports `error`.
-    pub const fn from_error(error: ResponseError) -> Self {
-        match error {
-            ResponseError::NotSupported => Self {
-                code: 1,
-                extension: 0,
-            },
-            ResponseError::StorageMediaAccess => Self {
-                code: 2,
-                extension: 0,
-            },
-            ResponseError::VendorSpecific(extension) => Self {
-                code: 255,
-                extension,
-            },
-            ResponseError::Reserved { code, extension } => Self { code, extension },
-        }
-    }
-
-    /// `Ok` for code 0, otherwise what the slave reported.
-    pub const fn result(self) -> Result<(), ResponseError> {
-        match self.code {
-            0 => Ok(()),
-            1 => Err(ResponseError::NotSupported),
-            2 => Err(ResponseError::StorageMediaAccess),
-            255 => Err(ResponseError::VendorSpecific(self.extension)),
-            code => Err(ResponseError::Reserved {
-                code,
-                extension: self.extension,
-            }),
-        }
-    }
-}
-
-/// What a slave said no with (CiA 305 configure node-ID, configure bit timing, store configuration): the peer's answer, never a local
-/// failure.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, thiserror::Error)]
-#[non_exhaustive]
-pub enum ResponseError {
-    /// Code 1: configure node-ID — node-ID out of range; configure bit timing — bit timing not
-    /// supported; store configuration — store not supported.
-    #[error("not supported or invalid (error code 1)")]
-    NotSupported,
-    /// Code 2 (store configuration): storage media access error.
-    #[error("storage media access error (error code 2)")]
-    StorageMediaAccess,
-    /// Code 255: a manufacturer-specific error, given by the extension byte.
-    #[error("manufacturer-specific error {0:#04X} (error code 255)")]
-    VendorSpecific(u8),
-    /// A code the standard reserves.
-    #[error("reserved error code {code} (extension {extension:#04X})")]
-    Reserved {
-        /// The error code.
-        code: u8,
-        /// The extension byte.
-        extension: u8,
-    },
-}
-
-/// A master-to-slave LSS message (COB-ID 0x7E5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Request {
-    /// Switch mode global (0x04): every slave enters `mode`.
-    SwitchModeGlobal(Mode),
-    /// Switch mode selective (0x40..=0x43): one part of the address; a slave that matched all
-    /// four in order enters configuration and answers 0x44.
-    SwitchModeSelective(AddressPart, u32),
-    /// Configure node-ID (0x11): 1..=127, or [`UNCONFIGURED_NODE_ID`]; other values are sent as
-    /// given (the slave answers "invalid").
-    ConfigureNodeId(u8),
-    /// Configure bit timing parameters (0x13).
-    ConfigureBitTiming(BitTiming),
-    /// Activate bit timing parameters (0x15), switch delay in milliseconds.
-    ActivateBitTiming {
-        /// Each slave waits this long, switches, and waits this long again before sending.
-        delay_ms: u16,
-    },
-    /// Store configuration (0x17).
-    StoreConfiguration,
-    /// Inquire identity vendor-ID / product code / revision / serial (0x5A..=0x5D).
-    InquireIdentity(AddressPart),
-    /// Inquire node-ID (0x5E).
-    InquireNodeId,
-    /// Identify remote slave (0x46..=0x4B).
-    IdentifyRemoteSlave(IdentifyField, u32),
-    /// Identify non-configured remote slave (0x4C).
-    IdentifyNonConfigured,
-    /// LSS Fastscan (0x51). Fields raw so that any value round-trips; see [`BIT_CHECK_CONFIRM`]
-    /// and [`AddressPart`] for their meaning.
-    Fastscan {
-        /// IDNumber: the value compared with the slave's address part `lss_sub`.
-        id_number: u32,
-        /// BitChecked: bits `bit_check..=31` are compared (0..=31), or 0x80 = confirm/reset.
-        bit_check: u8,
-        /// LSSSub: the address part compared (0..=3).
-        lss_sub: u8,
-        /// LSSNext: the part a matching slave compares next (0..=3).
-        lss_next: u8,
-    },
-    /// A command specifier this crate does not know, with the seven bytes after it.
-    Unknown {
-        /// Command specifier.
-        cs: u8,
-        /// Bytes 1..=7.
-        data: [u8; 7],
-    },
-}
-
-/// A slave-to-master LSS message (COB-ID 0x7E4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Response {
-    /// Switch mode selective response (0x44).
-    SwitchModeSelective,
-    /// Configure node-ID response (0x11).
-    ConfigureNodeId(ConfigStatus),
-    /// Configure bit timing response (0x13).
-    ConfigureBitTiming(ConfigStatus),
-    /// Store configuration response (0x17).
-    StoreConfiguration(ConfigStatus),
-    /// Inquire identity response (0x5A..=0x5D).
-    InquireIdentity(AddressPart, u32),
-    /// Inquire node-ID response (0x5E): the active node-ID, 0xFF when unconfigured.
-    InquireNodeId(u8),
-    /// Identify slave (0x4F): answer to identify remote slave and to Fastscan.
-    IdentifySlave,
-    /// Identify non-configured slave (0x50).
-    IdentifyNonConfiguredSlave,
-    /// A command specifier this crate does not know, with the seven bytes after it.
-    Unknown {
-        /// Command specifier.
-        cs: u8,
-        /// Bytes 1..=7.
-        data: [u8; 7],
-    },
-}
-
 impl fmt::Display for Mode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -353,16 +206,6 @@ impl fmt::Display for IdentifyField {
             Self::SerialLow => "serial number low",
             Self::SerialHigh => "serial number high",
         })
-    }
-}
-
-impl fmt::Display for ConfigStatus {
-    /// `success`, or the error the slave reported.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.result() {
-            Ok(()) => f.write_str("success"),
-            Err(e) => write!(f, "error: {e}"),
-        }
     }
 }
 
@@ -392,68 +235,6 @@ impl fmt::Display for Rest {
     }
 }
 
-impl fmt::Display for Request {
-    /// The CiA 305 service name and its parameters, e.g. `LSS switch state global
-    /// configuration` or `LSS Fastscan id 0x00000000 bit 31 sub 0 next 0`.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("LSS ")?;
-        match *self {
-            Self::SwitchModeGlobal(mode) => write!(f, "switch state global {mode}"),
-            Self::SwitchModeSelective(part, v) => {
-                write!(f, "switch state selective {part} {v:#010x}")
-            }
-            Self::ConfigureNodeId(id) => write!(f, "configure node-ID {}", NodeIdByte(id)),
-            Self::ConfigureBitTiming(t) => write!(f, "configure bit timing {t}"),
-            Self::ActivateBitTiming { delay_ms } => {
-                write!(f, "activate bit timing, switch delay {delay_ms} ms")
-            }
-            Self::StoreConfiguration => f.write_str("store configuration"),
-            Self::InquireIdentity(part) => write!(f, "inquire identity {part}"),
-            Self::InquireNodeId => f.write_str("inquire node-ID"),
-            Self::IdentifyRemoteSlave(field, v) => {
-                write!(f, "identify remote slave {field} {v:#010x}")
-            }
-            Self::IdentifyNonConfigured => f.write_str("identify non-configured remote slave"),
-            Self::Fastscan {
-                id_number,
-                bit_check,
-                lss_sub,
-                lss_next,
-            } => {
-                write!(f, "Fastscan id {id_number:#010x} bit ")?;
-                if bit_check == BIT_CHECK_CONFIRM {
-                    f.write_str("0x80 (confirm)")?;
-                } else {
-                    write!(f, "{bit_check}")?;
-                }
-                write!(f, " sub {lss_sub} next {lss_next}")
-            }
-            Self::Unknown { cs, data } => write!(f, "unknown cs {cs:#04X}: {}", Rest(data)),
-        }
-    }
-}
-
-impl fmt::Display for Response {
-    /// The CiA 305 response name and its parameters, e.g. `LSS configure node-ID response:
-    /// success` or `LSS identify slave`.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("LSS ")?;
-        match *self {
-            Self::SwitchModeSelective => f.write_str("switch state selective response"),
-            Self::ConfigureNodeId(s) => write!(f, "configure node-ID response: {s}"),
-            Self::ConfigureBitTiming(s) => write!(f, "configure bit timing response: {s}"),
-            Self::StoreConfiguration(s) => write!(f, "store configuration response: {s}"),
-            Self::InquireIdentity(part, v) => {
-                write!(f, "inquire identity {part} response {v:#010x}")
-            }
-            Self::InquireNodeId(id) => write!(f, "inquire node-ID response {}", NodeIdByte(id)),
-            Self::IdentifySlave => f.write_str("identify slave"),
-            Self::IdentifyNonConfiguredSlave => f.write_str("identify non-configured slave"),
-            Self::Unknown { cs, data } => write!(f, "unknown cs {cs:#04X}: {}", Rest(data)),
-        }
-    }
-}
-
 /// The 8 bytes of `data`, or the length error. The only place that looks at the length.
 fn eight(data: &[u8]) -> Result<&[u8; 8], DecodeError> {
     data.try_into().map_err(|_| DecodeError::Length(data.len()))
@@ -473,18 +254,6 @@ fn put_u32(buf: &mut [u8; 8], v: u32) {
     buf[field::U32].copy_from_slice(&v.to_le_bytes());
 }
 
-fn status(b: &[u8; 8]) -> ConfigStatus {
-    ConfigStatus {
-        code: b[field::ERROR],
-        extension: b[field::SPEC],
-    }
-}
-
-fn put_status(buf: &mut [u8; 8], s: ConfigStatus) {
-    buf[field::ERROR] = s.code;
-    buf[field::SPEC] = s.extension;
-}
-
 fn check_frame(frame: &CanFrame, cob: u16) -> Result<&[u8], DecodeError> {
     if frame.cob_id() != Some(cob) {
         return Err(DecodeError::WrongCobId(frame.id().as_raw()));
@@ -495,203 +264,11 @@ fn check_frame(frame: &CanFrame, cob: u16) -> Result<&[u8], DecodeError> {
     Ok(frame.data())
 }
 
-const MASTER_ID: CanId = match CanId::standard(LSS_MASTER_TO_SLAVE) {
-    Ok(id) => id,
-    Err(_) => panic!("0x7E5 is a standard identifier"),
-};
-const SLAVE_ID: CanId = match CanId::standard(LSS_SLAVE_TO_MASTER) {
-    Ok(id) => id,
-    Err(_) => panic!("0x7E4 is a standard identifier"),
-};
-
-impl Request {
-    /// Decodes eight data bytes. Never panics.
-    pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
-        let b = eight(data)?;
-        let c = b[field::CS];
-        Ok(match c {
-            cs::SWITCH_MODE_GLOBAL => Self::SwitchModeGlobal(Mode::from_raw(b[field::BYTE1])),
-            cs::CONFIGURE_NODE_ID => Self::ConfigureNodeId(b[field::BYTE1]),
-            cs::CONFIGURE_BIT_TIMING => Self::ConfigureBitTiming(BitTiming {
-                table: b[field::ERROR],
-                index: b[field::SPEC],
-            }),
-            cs::ACTIVATE_BIT_TIMING => Self::ActivateBitTiming {
-                delay_ms: u16::from_le_bytes([b[1], b[2]]),
-            },
-            cs::STORE_CONFIGURATION => Self::StoreConfiguration,
-            0x40..=0x43 => match AddressPart::from_index(c - cs::SWITCH_SELECTIVE_VENDOR) {
-                Some(part) => Self::SwitchModeSelective(part, get_u32(b)),
-                None => Self::Unknown {
-                    cs: c,
-                    data: rest(b),
-                },
-            },
-            0x46..=0x4B => {
-                let field = IdentifyField::ALL[usize::from(c - cs::IDENTIFY_REMOTE_VENDOR) % 6];
-                Self::IdentifyRemoteSlave(field, get_u32(b))
-            }
-            cs::IDENTIFY_NON_CONFIGURED => Self::IdentifyNonConfigured,
-            cs::FASTSCAN => Self::Fastscan {
-                id_number: get_u32(b),
-                bit_check: b[field::BIT_CHECK],
-                lss_sub: b[field::LSS_SUB],
-                lss_next: b[field::LSS_NEXT],
-            },
-            0x5A..=0x5D => match AddressPart::from_index(c - cs::INQUIRE_VENDOR) {
-                Some(part) => Self::InquireIdentity(part),
-                None => Self::Unknown {
-                    cs: c,
-                    data: rest(b),
-                },
-            },
-            cs::INQUIRE_NODE_ID => Self::InquireNodeId,
-            _ => Self::Unknown {
-                cs: c,
-                data: rest(b),
-            },
-        })
-    }
-
-    /// The command specifier.
-    pub const fn cs(&self) -> u8 {
-        match *self {
-            Self::SwitchModeGlobal(_) => cs::SWITCH_MODE_GLOBAL,
-            Self::SwitchModeSelective(part, _) => cs::SWITCH_SELECTIVE_VENDOR + part.index(),
-            Self::ConfigureNodeId(_) => cs::CONFIGURE_NODE_ID,
-            Self::ConfigureBitTiming(_) => cs::CONFIGURE_BIT_TIMING,
-            Self::ActivateBitTiming { .. } => cs::ACTIVATE_BIT_TIMING,
-            Self::StoreConfiguration => cs::STORE_CONFIGURATION,
-            Self::InquireIdentity(part) => cs::INQUIRE_VENDOR + part.index(),
-            Self::InquireNodeId => cs::INQUIRE_NODE_ID,
-            Self::IdentifyRemoteSlave(field, _) => field.cs(),
-            Self::IdentifyNonConfigured => cs::IDENTIFY_NON_CONFIGURED,
-            Self::Fastscan { .. } => cs::FASTSCAN,
-            Self::Unknown { cs, .. } => cs,
-        }
-    }
-
-    /// Encodes into eight bytes, unused bytes zero.
-    pub fn emit(&self) -> [u8; 8] {
-        let mut buf = [0u8; 8];
-        buf[field::CS] = self.cs();
-        match *self {
-            Self::SwitchModeGlobal(mode) => buf[field::BYTE1] = mode.raw(),
-            Self::SwitchModeSelective(_, v) | Self::IdentifyRemoteSlave(_, v) => {
-                put_u32(&mut buf, v)
-            }
-            Self::ConfigureNodeId(id) => buf[field::BYTE1] = id,
-            Self::ConfigureBitTiming(t) => {
-                buf[field::ERROR] = t.table;
-                buf[field::SPEC] = t.index;
-            }
-            Self::ActivateBitTiming { delay_ms } => {
-                buf[1..3].copy_from_slice(&delay_ms.to_le_bytes())
-            }
-            Self::Fastscan {
-                id_number,
-                bit_check,
-                lss_sub,
-                lss_next,
-            } => {
-                put_u32(&mut buf, id_number);
-                buf[field::BIT_CHECK] = bit_check;
-                buf[field::LSS_SUB] = lss_sub;
-                buf[field::LSS_NEXT] = lss_next;
-            }
-            Self::Unknown { data, .. } => buf[1..].copy_from_slice(&data),
-            Self::StoreConfiguration
-            | Self::InquireIdentity(_)
-            | Self::InquireNodeId
-            | Self::IdentifyNonConfigured => {}
-        }
-        buf
-    }
-
-    /// The frame on COB-ID 0x7E5.
-    pub fn to_frame(&self) -> CanFrame {
-        CanFrame::from_array(MASTER_ID, self.emit())
-    }
-
-    /// Decodes a frame, checking that it is a data frame on COB-ID 0x7E5.
-    pub fn from_frame(frame: &CanFrame) -> Result<Self, DecodeError> {
-        Self::parse(check_frame(frame, LSS_MASTER_TO_SLAVE)?)
-    }
-}
-
-impl Response {
-    /// Decodes eight data bytes. Never panics.
-    pub fn parse(data: &[u8]) -> Result<Self, DecodeError> {
-        let b = eight(data)?;
-        let c = b[field::CS];
-        Ok(match c {
-            cs::SWITCH_SELECTIVE_RESPONSE => Self::SwitchModeSelective,
-            cs::CONFIGURE_NODE_ID => Self::ConfigureNodeId(status(b)),
-            cs::CONFIGURE_BIT_TIMING => Self::ConfigureBitTiming(status(b)),
-            cs::STORE_CONFIGURATION => Self::StoreConfiguration(status(b)),
-            0x5A..=0x5D => match AddressPart::from_index(c - cs::INQUIRE_VENDOR) {
-                Some(part) => Self::InquireIdentity(part, get_u32(b)),
-                None => Self::Unknown {
-                    cs: c,
-                    data: rest(b),
-                },
-            },
-            cs::INQUIRE_NODE_ID => Self::InquireNodeId(b[field::BYTE1]),
-            cs::IDENTIFY_SLAVE => Self::IdentifySlave,
-            cs::IDENTIFY_NON_CONFIGURED_SLAVE => Self::IdentifyNonConfiguredSlave,
-            _ => Self::Unknown {
-                cs: c,
-                data: rest(b),
-            },
-        })
-    }
-
-    /// The command specifier.
-    pub const fn cs(&self) -> u8 {
-        match *self {
-            Self::SwitchModeSelective => cs::SWITCH_SELECTIVE_RESPONSE,
-            Self::ConfigureNodeId(_) => cs::CONFIGURE_NODE_ID,
-            Self::ConfigureBitTiming(_) => cs::CONFIGURE_BIT_TIMING,
-            Self::StoreConfiguration(_) => cs::STORE_CONFIGURATION,
-            Self::InquireIdentity(part, _) => cs::INQUIRE_VENDOR + part.index(),
-            Self::InquireNodeId(_) => cs::INQUIRE_NODE_ID,
-            Self::IdentifySlave => cs::IDENTIFY_SLAVE,
-            Self::IdentifyNonConfiguredSlave => cs::IDENTIFY_NON_CONFIGURED_SLAVE,
-            Self::Unknown { cs, .. } => cs,
-        }
-    }
-
-    /// Encodes into eight bytes, unused bytes zero.
-    pub fn emit(&self) -> [u8; 8] {
-        let mut buf = [0u8; 8];
-        buf[field::CS] = self.cs();
-        match *self {
-            Self::ConfigureNodeId(s)
-            | Self::ConfigureBitTiming(s)
-            | Self::StoreConfiguration(s) => put_status(&mut buf, s),
-            Self::InquireIdentity(_, v) => put_u32(&mut buf, v),
-            Self::InquireNodeId(id) => buf[field::BYTE1] = id,
-            Self::Unknown { data, .. } => buf[1..].copy_from_slice(&data),
-            Self::SwitchModeSelective | Self::IdentifySlave | Self::IdentifyNonConfiguredSlave => {}
-        }
-        buf
-    }
-
-    /// The frame on COB-ID 0x7E4.
-    pub fn to_frame(&self) -> CanFrame {
-        CanFrame::from_array(SLAVE_ID, self.emit())
-    }
-
-    /// Decodes a frame, checking that it is a data frame on COB-ID 0x7E4.
-    pub fn from_frame(frame: &CanFrame) -> Result<Self, DecodeError> {
-        Self::parse(check_frame(frame, LSS_SLAVE_TO_MASTER)?)
-    }
-}
-
 #[cfg(test)]
 mod tests {
+    use super::response::SLAVE_ID;
     use super::*;
-    use crate::address::BitRate;
+    use crate::address::{AddressPart, BitRate, BitTiming};
     use proptest::prelude::*;
     use std::vec;
 
