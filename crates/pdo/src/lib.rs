@@ -123,7 +123,8 @@ mod error_convention {
         let e = crate::Mapping::from_raw(&[0x6000_0140, 0x6001_0140]).unwrap_err();
         assert_eq!(
             e.to_string(),
-            "the mapped objects need 128 bits; a PDO carries at most 64"
+            "the mapped objects need 128 bits (16 bytes); a classic CAN PDO carries at most 64 bits \
+             (8 bytes)"
         );
         assert_eq!(format!("{e:?}"), e.to_string());
     }
