@@ -797,6 +797,15 @@ const NOT_RUN: &[(&str, &str)] = &[
         "the whole test run, of which this test is a part",
     ),
     (
+        "python3 -m venv .venv && .venv/bin/pip install maturin",
+        "the python stage of scripts/test-all makes this venv and installs maturin into it",
+    ),
+    (
+        "VIRTUAL_ENV=$PWD/.venv .venv/bin/maturin develop --release -m crates/python/Cargo.toml",
+        "the python stage of scripts/test-all runs `maturin develop` (a debug build, to share \
+         the tests' target dir) and then the package's pytest suite",
+    ),
+    (
         "canopen --iface slcan:/dev/ttyACM0@500k scan",
         "needs a USB slcan adapter; the same commands run through a fake adapter on a \
          pseudo-terminal in slcan_cli.rs, and against the kernel's slcan driver in the rig",
