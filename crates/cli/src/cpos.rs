@@ -298,13 +298,10 @@ fn find_param(name: &str) -> Option<&'static ParamDef> {
     as_id.or_else(|| params::by_name(t))
 }
 
-fn fail(global: Global, msg: impl std::fmt::Display) -> ExitCode {
-    if global.json {
-        crate::outln(&json!({ "ok": false, "error": msg.to_string() }).to_string());
-    } else {
-        eprintln!("error: {msg}");
-    }
-    ExitCode::FAILURE
+/// Reports a failure as every command does: text or (`--json`) one JSON object on stderr, exit 2
+/// for a usage error and 1 for another.
+fn fail(e: CliError) -> ExitCode {
+    e.report()
 }
 
 fn param_json(p: &ParamDef) -> Json {
@@ -353,34 +350,37 @@ pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCo
         }
         CposCommand::Get { name } => {
             let Some(p) = find_param(&name) else {
-                return fail(global, format!("no parameter {name:?}"));
+                return fail(CliError::Argument(format!("no parameter {name:?}")));
             };
             let mut b = match bench() {
                 Ok(b) => b,
-                Err(e) => return fail(global, e),
+                Err(e) => return fail(e),
             };
             let now = b.now;
             let id = match b.client().get(now, p.id) {
                 Ok(id) => id,
-                Err(e) => return fail(global, e.to_string()),
+                Err(e) => return fail(CliError::Device(e.to_string())),
             };
             report_value(global, p, b.wait(id))
         }
         CposCommand::Set { name, value } => {
             let Some(p) = find_param(&name) else {
-                return fail(global, format!("no parameter {name:?}"));
+                return fail(CliError::Argument(format!("no parameter {name:?}")));
             };
             let Some(v) = p.parse_value(&value) else {
-                return fail(global, format!("{value:?} is not a value of {}", p.name));
+                return fail(CliError::Argument(format!(
+                    "{value:?} is not a value of {}",
+                    p.name
+                )));
             };
             let mut b = match bench() {
                 Ok(b) => b,
-                Err(e) => return fail(global, e),
+                Err(e) => return fail(e),
             };
             let now = b.now;
             let id = match b.client().set(now, p.id, v) {
                 Ok(id) => id,
-                Err(e) => return fail(global, format!("{}: {e}", p.name)),
+                Err(e) => return fail(CliError::Device(format!("{}: {e}", p.name))),
             };
             report_value(global, p, b.wait(id))
         }
@@ -393,17 +393,17 @@ pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCo
         } => {
             let request = match build_action(action, function, pwm) {
                 Ok(r) => r,
-                Err(e) => return fail(global, e),
+                Err(e) => return fail(e),
             };
             if fault.is_some() && (iface.is_some() || dn.over_devicenet) {
-                return fail(
-                    global,
-                    "--fault needs the in-process simulator (without --iface and --over-devicenet)",
-                );
+                return fail(CliError::Argument(
+                    "--fault needs the in-process simulator (without --iface and --over-devicenet)"
+                        .into(),
+                ));
             }
             let mut b = match bench() {
                 Ok(b) => b,
-                Err(e) => return fail(global, e),
+                Err(e) => return fail(e),
             };
             if let (Some(code), Some(sim)) = (fault, b.sim()) {
                 sim.inject_fault(request.action(), fault_step, ErrorCode(code));
@@ -412,11 +412,11 @@ pub(crate) fn run(args: CposArgs, iface: Option<&str>, global: Global) -> ExitCo
         }
         CposCommand::Errors => match bench() {
             Ok(mut b) => errors(&mut b, global),
-            Err(e) => fail(global, e),
+            Err(e) => fail(e),
         },
         CposCommand::Demo => match bench() {
             Ok(b) => demo(b, global),
-            Err(e) => fail(global, e),
+            Err(e) => fail(e),
         },
         CposCommand::Simulate { duration } => {
             over_devicenet::simulate(&sim, &dn, iface, duration, global)
@@ -440,8 +440,8 @@ fn report_value(global: Global, p: &ParamDef, r: Result<Reply, Failure>) -> Exit
             }
             ExitCode::SUCCESS
         }
-        Ok(other) => fail(global, format!("unexpected reply {other:?}")),
-        Err(e) => fail(global, format!("{}: {e}", p.name)),
+        Ok(other) => fail(CliError::Device(format!("unexpected reply {other:?}"))),
+        Err(e) => fail(CliError::Device(format!("{}: {e}", p.name))),
     }
 }
 
@@ -517,7 +517,7 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
     let now = b.now;
     let id = match b.client().action(now, request) {
         Ok(id) => id,
-        Err(e) => return fail(global, e.to_string()),
+        Err(e) => return fail(CliError::Device(e.to_string())),
     };
     let first = b.wait(id);
     if let Err(e) = first {
@@ -525,7 +525,7 @@ fn run_action(b: &mut Bench, global: Global, request: ActionRequest) -> ExitCode
             Failure::Refused(Refusal::Diagnostic(d)) => format!("{action}: refused, {d}"),
             other => format!("{action}: {other}"),
         };
-        return fail(global, msg);
+        return fail(CliError::Device(msg));
     }
     let mut acknowledged = false;
     let mut followups = 0;

@@ -201,3 +201,38 @@ fn simulate_on_the_in_memory_bus() {
     assert_eq!(v["event"], "on line (Duplicate MAC ID check passed)");
     assert_eq!(v["time"], 2.0);
 }
+
+/// `cpos` fails as every command does: a usage error exits 2, a refusal 1, and under `--json`
+/// each is one JSON object on stderr with nothing on stdout.
+#[test]
+fn cpos_errors_follow_the_exit_code_and_json_rules() {
+    let out = canopen(&["--json", "cpos", "get", "No Such Parameter"]);
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    assert!(stdout(&out).is_empty(), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let v: serde_json::Value =
+        serde_json::from_str(err.trim()).unwrap_or_else(|e| panic!("{e}: {err}"));
+    assert!(v["error"].as_str().unwrap().contains("no parameter"), "{v}");
+    assert_eq!(v["usage"], true, "{v}");
+
+    let out = canopen(&["--json", "cpos", "--no-air", "action", "init-valve"]);
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    assert!(stdout(&out).is_empty(), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let v: serde_json::Value =
+        serde_json::from_str(err.trim()).unwrap_or_else(|e| panic!("{e}: {err}"));
+    assert!(
+        v["error"]
+            .as_str()
+            .unwrap()
+            .contains("Init Valve cannot be started"),
+        "{v}"
+    );
+
+    let out = canopen(&["--json", "cpos", "simulate"]);
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let v: serde_json::Value =
+        serde_json::from_str(err.trim()).unwrap_or_else(|e| panic!("{e}: {err}"));
+    assert!(v["error"].as_str().unwrap().contains("--duration"), "{v}");
+}

@@ -330,13 +330,10 @@ pub(crate) fn simulate(
     duration: Option<f64>,
     global: Global,
 ) -> ExitCode {
-    let fail = |m: &dyn std::fmt::Display| {
-        eprintln!("canopen cpos simulate: {m}");
-        ExitCode::FAILURE
-    };
+    let fail = |e: CliError| e.report();
     let sizes = match opts.sizes() {
         Ok(s) => s,
-        Err(e) => return fail(&e),
+        Err(e) => return fail(e),
     };
     let config = cpos_slave_config(opts.mac(), sizes, 0x1436_0000 | opts.mac as u32);
     let mut station = SimStation {
@@ -348,7 +345,7 @@ pub(crate) fn simulate(
         Some(iface) => {
             let mut transport = match open(iface) {
                 Ok(t) => t,
-                Err(e) => return fail(&e),
+                Err(e) => return fail(e),
             };
             station.slave.start(transport.now());
             if !global.json {
@@ -365,12 +362,14 @@ pub(crate) fn simulate(
             });
             match r {
                 Ok(()) => ExitCode::SUCCESS,
-                Err(e) => fail(&format!("{iface}: {e}")),
+                Err(e) => fail(CliError::Transport(e)),
             }
         }
         None => {
             let Some(d) = duration else {
-                return fail(&"--duration is required on the in-memory bus");
+                return fail(CliError::Argument(
+                    "--duration is required on the in-memory bus".into(),
+                ));
             };
             let bus = MemoryBus::new();
             station.slave.start(bus.now());
