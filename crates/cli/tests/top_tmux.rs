@@ -334,17 +334,19 @@ fn top_in_tmux_shows_the_network_and_takes_the_keys() {
     let s = t.wait("the filter", |s| s.contains("[filter: servo]"));
     assert!(row(&s, "Generic CANop").is_empty(), "{s}");
     assert!(!row(&s, "CiA 402 servo").is_empty(), "{s}");
-    t.keys(&["/", "C-u", "Enter"]);
-    t.wait("no filter", |s| !row(s, "Generic CANop").is_empty());
 
-    // `s` saves the traffic so far as a candump log.
+    // `s` saves the traffic so far as a candump log: every frame, also while a filter narrows
+    // the view, and the message says so ("unfiltered") beside the filter shown.
     let log = dir.join("bus.log");
     t.keys(&["s", "C-u"]);
     t.text("bus.log");
     t.keys(&["Enter"]);
-    t.wait("the log saved", |s| {
+    let s = t.wait("the log saved", |s| {
         s.lines().last().is_some_and(|l| l.starts_with("saved "))
     });
+    assert!(s.contains(" unfiltered frames to bus.log"), "{s}");
+    t.keys(&["/", "C-u", "Enter"]);
+    t.wait("no filter", |s| !row(s, "Generic CANop").is_empty());
     let text = std::fs::read_to_string(&log).unwrap();
     let entries: Vec<_> = canola::candump::Reader::new(text.as_bytes())
         .collect::<Result<_, _>>()

@@ -78,7 +78,9 @@ impl Recording {
         self.frames.push_back((ts, frame));
     }
 
-    fn save(&self, path: &std::path::Path) -> Result<String, CliError> {
+    /// Writes every frame kept; `filtered` (a filter narrows the view) puts "unfiltered" in the
+    /// message, which the status line shows beside `[filter: ...]`.
+    fn save(&self, path: &std::path::Path, filtered: bool) -> Result<String, CliError> {
         let out = crate::outfile::OutFile::create(path)?;
         let mut w = candump::Writer::new(std::io::BufWriter::new(out.writer()?));
         for (ts, frame) in &self.frames {
@@ -97,8 +99,9 @@ impl Recording {
         } else {
             String::new()
         };
+        let which = if filtered { " unfiltered" } else { "" };
         Ok(format!(
-            "saved {} frames to {}{older}",
+            "saved {}{which} frames to {}{older}",
             self.frames.len(),
             path.display()
         ))
@@ -479,7 +482,10 @@ impl App {
                 if text.is_empty() {
                     return;
                 }
-                self.status = match self.recording.save(std::path::Path::new(text)) {
+                self.status = match self
+                    .recording
+                    .save(std::path::Path::new(text), !self.filter.is_empty())
+                {
                     Ok(s) => s,
                     Err(e) => format!("cannot save: {e}"),
                 };
