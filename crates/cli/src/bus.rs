@@ -255,7 +255,7 @@ impl Bus {
             let deadline = end.map_or(now + Duration::from_millis(200), |e| {
                 e.min(now + Duration::from_millis(200))
             });
-            if end.is_some_and(|e| now >= e) || STOP.load(std::sync::atomic::Ordering::Relaxed) {
+            if end.is_some_and(|e| now >= e) || stop_requested() {
                 return Ok(());
             }
             match self.transport.recv_until(deadline) {
@@ -271,8 +271,8 @@ impl Bus {
     }
 }
 
-/// Set when SIGINT or SIGTERM arrived after [`stop_on_signals`].
-static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// The number of the first SIGINT or SIGTERM that arrived after [`stop_on_signals`] (0: none).
+static STOP: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
 
 /// Set by [`stop_on_signals`]: the first signal sets [`STOP`] instead of ending the process.
 static GRACEFUL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -285,7 +285,17 @@ static HANDLED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
 
 /// Whether SIGINT or SIGTERM arrived after [`stop_on_signals`].
 pub(crate) fn stop_requested() -> bool {
-    STOP.load(std::sync::atomic::Ordering::Relaxed)
+    STOP.load(std::sync::atomic::Ordering::Relaxed) != 0
+}
+
+/// The exit status of a command [`stop_requested`] ended: 128 + the signal's number (130 for
+/// SIGINT, 143 for SIGTERM, as a shell reports a process that signal ended), and its name.
+pub(crate) fn stopped_by() -> (u8, &'static str) {
+    match STOP.load(std::sync::atomic::Ordering::Relaxed) {
+        15 => (143, "SIGTERM"),
+        1 => (129, "SIGHUP"),
+        _ => (130, "SIGINT"),
+    }
 }
 
 /// Takes SIGINT, SIGTERM and SIGHUP in a thread of their own (`sigwait`), so that the files
@@ -328,7 +338,11 @@ pub(crate) fn handle_signals() -> Result<(), CliError> {
 #[cfg(unix)]
 fn on_signal(signal: nix::sys::signal::Signal) {
     use std::sync::atomic::Ordering::Relaxed;
-    if GRACEFUL.load(Relaxed) && !STOP.swap(true, Relaxed) {
+    if GRACEFUL.load(Relaxed)
+        && STOP
+            .compare_exchange(0, signal as i32, Relaxed, Relaxed)
+            .is_ok()
+    {
         return;
     }
     remove_registered();

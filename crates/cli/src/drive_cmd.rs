@@ -6,7 +6,8 @@
 //! The commands that start motion (`home`, `move`, `velocity`, `torque`) take SIGINT and SIGTERM
 //! (Ctrl-C) while they run: the drive gets a quick stop (it brakes on its quick stop ramp and
 //! ends as its 0x605A says), the command says what it did and where the drive stopped, and exits
-//! with status 130. A second signal ends the process at once.
+//! with status 128 + the signal's number (130 for SIGINT, 143 for SIGTERM). A second signal ends
+//! the process at once.
 
 use std::future::{Future, IntoFuture};
 use std::pin::Pin;
@@ -19,7 +20,9 @@ use canola_cia402::{ModeOfOperation, State};
 use clap::{Args, Subcommand};
 use serde_json::json;
 
-use crate::bus::{BusOpts, fail, open_network, parse_node, stop_on_signals, stop_requested};
+use crate::bus::{
+    BusOpts, fail, open_network, parse_node, stop_on_signals, stop_requested, stopped_by,
+};
 use crate::error::CliError;
 use crate::{Global, outln};
 
@@ -55,7 +58,8 @@ enum DriveCommand {
         mode: ModeOfOperation,
     },
     /// Homing (mode hm), optionally with a method (0x6098); needs operation enabled. Ctrl-C
-    /// (SIGINT) or SIGTERM quick-stops the drive (it ends as 0x605A says) and exits 130.
+    /// (SIGINT) or SIGTERM quick-stops the drive (it ends as 0x605A says) and exits 130 (143
+    /// for SIGTERM).
     Home {
         /// The homing method.
         #[arg(allow_negative_numbers = true)]
@@ -66,7 +70,7 @@ enum DriveCommand {
     },
     /// Profile-position move to POS (counts), printing the position while it moves, until
     /// target reached (statusword bit 10). Needs operation enabled. Ctrl-C (SIGINT) or SIGTERM
-    /// quick-stops the drive (it ends as 0x605A says) and exits 130.
+    /// quick-stops the drive (it ends as 0x605A says) and exits 130 (143 for SIGTERM).
     Move {
         /// The target, counts.
         #[arg(allow_negative_numbers = true)]
@@ -248,8 +252,10 @@ impl<A: Future, W: Future<Output = ()>> Future for First<A, W> {
 }
 
 /// After a signal: the quick stop (sent already when the command's operation was dropped),
-/// waited until the drive stands still or leaves quick stop active, then reported; exit 130.
+/// waited until the drive stands still or leaves quick stop active, then reported; exit status
+/// 128 + the signal's number (130 for SIGINT, 143 for SIGTERM).
 fn interrupted(drive: &Drive, g: Global) -> ExitCode {
+    let (status, signal) = stopped_by();
     let stopped = (|| -> Result<(State, i32), DriveError> {
         let mut state = drive.quick_stop().wait()?;
         let net = drive.node().network();
@@ -285,25 +291,26 @@ fn interrupted(drive: &Drive, g: Global) -> ExitCode {
             if g.json {
                 eprintln!(
                     "{}",
-                    json!({"error": "interrupted", "stopped_by": "quick stop", "state": state.name(), "position": position})
+                    json!({"error": "interrupted", "signal": signal, "stopped_by": "quick stop", "state": state.name(), "position": position})
                 );
             } else {
                 eprintln!(
-                    "interrupted: quick stop sent; the drive stopped in state \"{state}\" at position {position}"
+                    "interrupted by {signal}: quick stop sent; the drive stopped in state \"{state}\" at position {position}"
                 );
             }
         }
         Err(e) => {
-            let text =
-                format!("interrupted: quick stop sent, but the drive did not confirm it: {e}");
+            let text = format!(
+                "interrupted by {signal}: quick stop sent, but the drive did not confirm it: {e}"
+            );
             if g.json {
-                eprintln!("{}", json!({"error": text}));
+                eprintln!("{}", json!({"error": text, "signal": signal}));
             } else {
                 eprintln!("error: {text}");
             }
         }
     }
-    ExitCode::from(130)
+    ExitCode::from(status)
 }
 
 fn run_command(drive: &Drive, command: DriveCommand, g: Global) -> Result<(), Ended> {

@@ -104,7 +104,8 @@ fn drive_commands_over_the_udp_bus_against_canopen_simulate() {
 }
 
 /// `canopen drive 5 move ...` against `canopen simulate` on the UDP bus, ended by `signal` once
-/// the drive moves: it must stop the drive, say so, and exit 130.
+/// the drive moves: it must stop the drive, say so, and exit with 128 + the signal's number
+/// (130 for SIGINT, 143 for SIGTERM).
 fn move_ended_by(signal: nix::sys::signal::Signal, salt: u16) {
     use std::io::{BufRead, BufReader};
     use std::process::{Command, Stdio};
@@ -136,11 +137,12 @@ fn move_ended_by(signal: nix::sys::signal::Signal, salt: u16) {
     nix::sys::signal::kill(nix::unistd::Pid::from_raw(mover.id() as i32), signal).unwrap();
     let out = mover.wait_with_output().unwrap();
     let err = stderr(&out);
-    assert_eq!(out.status.code(), Some(130), "{err}");
-    assert!(
-        err.contains("interrupted: quick stop sent; the drive stopped in state \"switch on disabled\" at position"),
-        "{err}"
+    assert_eq!(out.status.code(), Some(128 + signal as i32), "{err}");
+    let said = format!(
+        "interrupted by {}: quick stop sent; the drive stopped in state \"switch on disabled\" at position",
+        signal.as_str()
     );
+    assert!(err.contains(&said), "{err}");
     // Stopped for good: switch on disabled (0x605A = 2), standing still, far from the target.
     let status = |args: &[&str]| -> serde_json::Value {
         let mut all = vec!["--iface", iface.as_str(), "--json"];
@@ -166,7 +168,7 @@ fn ctrl_c_during_a_move_quick_stops_the_drive_and_exits_130() {
 }
 
 #[test]
-fn sigterm_during_a_move_quick_stops_the_drive_too() {
+fn sigterm_during_a_move_quick_stops_the_drive_and_exits_143() {
     move_ended_by(nix::sys::signal::Signal::SIGTERM, 2);
 }
 
