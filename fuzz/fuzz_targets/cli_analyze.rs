@@ -8,7 +8,7 @@ use libfuzzer_sys::fuzz_target;
 
 // The analyzer itself, the file the binary compiles (it depends on canola and canola-cia402).
 #[allow(dead_code)]
-#[path = "../../crates/cli/src/analyze/judge.rs"]
+#[path = "../../crates/cli/src/analyze/judge/mod.rs"]
 mod judge;
 
 fuzz_target!(|data: &[u8]| {

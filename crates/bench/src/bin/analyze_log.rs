@@ -17,7 +17,7 @@ use canola::candump::{LogEntry, LogFrame, ReadError, Reader, Writer};
 use canola::{CanFrame, CanId};
 
 #[allow(dead_code)]
-#[path = "../../../cli/src/analyze/judge.rs"]
+#[path = "../../../cli/src/analyze/judge/mod.rs"]
 mod judge;
 
 fn usage() -> ! {
