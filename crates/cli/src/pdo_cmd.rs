@@ -442,9 +442,8 @@ fn map(
         v["node"] = json!(node.id().get());
         outln(&v.to_string());
     } else {
-        let (bits, bytes) = size(p);
         eprintln!(
-            "node {}: {} {} with {} object(s), {bits} bits ({bytes} bytes)",
+            "node {}: {} {} with {} object(s), {}",
             node.id(),
             label(p),
             if p.is_enabled() {
@@ -452,7 +451,8 @@ fn map(
             } else {
                 "mapped, left invalid"
             },
-            p.mapped.len()
+            p.mapped.len(),
+            length_text(p)
         );
     }
     Ok(())
@@ -487,6 +487,13 @@ fn fd_hint(node: &Node, opts: &BusOpts, bits: u32, e: &CliError) -> Option<Strin
 fn size(p: &PdoParameters) -> (u32, u32) {
     let bits: u32 = p.mapped.iter().map(|m| u32::from(m.bits)).sum();
     (bits, bits.div_ceil(8))
+}
+
+/// `96 bits (12 bytes)`, `8 bits (1 byte)`.
+fn length_text(p: &PdoParameters) -> String {
+    let (bits, bytes) = size(p);
+    let unit = if bytes == 1 { "byte" } else { "bytes" };
+    format!("{bits} bits ({bytes} {unit})")
 }
 
 /// The transmission type in words.
@@ -577,13 +584,13 @@ fn pdo_text(p: &PdoParameters) -> String {
             None => out.push_str(&format!("  {addr}  {:>2} bits\n", m.bits)),
         }
     }
-    let (bits, bytes) = size(p);
     if p.mapped.is_empty() {
         out.push_str("  nothing mapped\n");
     } else {
         out.push_str(&format!(
-            "  {} object(s), {bits} bits ({bytes} bytes)\n",
-            p.mapped.len()
+            "  {} object(s), {}\n",
+            p.mapped.len(),
+            length_text(p)
         ));
     }
     out
