@@ -4,7 +4,8 @@
 //! bus that would not open, the master operation, the file and its line, the argument) and
 //! [`CliError::report`] prints it once on stderr and gives the exit code: `error: TEXT` (with
 //! a hint on a line of its own, `hint: ...`), or under `--json` one JSON object with `error`,
-//! `hint`, and for an SDO failure `node`, `index`, `sub`, `name`, `abort_code` and `meaning`.
+//! `hint`, and for an SDO failure `node`, `index`, `sub`, `name`, `abort_code` and `meaning`
+//! (for a value or PDO mapping the master refused `node`, `index` and `sub`).
 //!
 //! The exit code follows one rule: 2 when the command line itself is wrong (an argument that
 //! does not parse or is out of range, one that is missing or too many, options that do not fit
@@ -35,7 +36,8 @@ pub(crate) enum CliError {
         source: canola::slcan::LinkError,
     },
     /// A master operation failed (NMT, SDO, LSS, a wait); an SDO failure gives its node,
-    /// object and abort code as JSON fields, a timed-out one a hint.
+    /// object and abort code as JSON fields, a timed-out one a hint, a refused value its node
+    /// and object.
     Op(canola::Error),
     /// A CiA 402 drive command failed other than by an SDO transfer.
     Drive(canola_cia402::master::DriveError),
@@ -105,6 +107,14 @@ pub(crate) enum CliError {
     Unconfirmed(Vec<String>),
     /// A command line that is wrong as a whole (exit code 2).
     Usage(Box<CliError>),
+    /// An error with what the user may do about it (`hint: ...` after its text, under
+    /// `--json` in `hint`); the exit code and JSON fields are the error's.
+    Hinted {
+        /// The error.
+        source: Box<CliError>,
+        /// What to do.
+        hint: String,
+    },
     /// The process was ended by a signal (its files removed first).
     Interrupted {
         /// The signal's name (`SIGINT`).
@@ -123,6 +133,14 @@ impl CliError {
         match self {
             e @ Self::Usage(_) => e,
             e => Self::Usage(Box::new(e)),
+        }
+    }
+
+    /// This error with a hint (see [`CliError::Hinted`]).
+    pub(crate) fn with_hint(self, hint: impl Into<String>) -> Self {
+        Self::Hinted {
+            source: Box::new(self),
+            hint: hint.into(),
         }
     }
 
@@ -147,10 +165,13 @@ impl CliError {
     /// Whether the command line itself is wrong (see the module docs): the argument errors,
     /// node-IDs out of range, values the library refused, and errors marked as usage errors.
     pub(crate) fn is_usage(&self) -> bool {
-        matches!(
-            self,
-            Self::Usage(_) | Self::Argument(_) | Self::NodeId(_) | Self::Rejected { .. }
-        )
+        match self {
+            Self::Hinted { source, .. } => source.is_usage(),
+            _ => matches!(
+                self,
+                Self::Usage(_) | Self::Argument(_) | Self::NodeId(_) | Self::Rejected { .. }
+            ),
+        }
     }
 
     /// The exit code: 2 for a usage error, else 1.
@@ -181,7 +202,14 @@ impl CliError {
                     );
                 }
             }
-            Self::Usage(inner) => return inner.fields(),
+            // A value or configuration the master refused for one object of one node (a PDO
+            // mapping too long for the frame, a value of the wrong type).
+            Self::Op(canola::Error::Value { node, entry, .. }) => {
+                fields.insert("node".into(), json!(node.get()));
+                fields.insert("index".into(), json!(entry.index));
+                fields.insert("sub".into(), json!(entry.sub_index));
+            }
+            Self::Usage(inner) | Self::Hinted { source: inner, .. } => return inner.fields(),
             Self::Interrupted { signal } => {
                 fields.insert("signal".into(), json!(signal));
             }
@@ -344,6 +372,7 @@ impl fmt::Display for CliError {
             } => write!(f, "node {node}, object {entry}: {source}"),
             Self::Unconfirmed(reasons) => f.write_str(&reasons.join("; ")),
             Self::Usage(inner) => write!(f, "{inner}"),
+            Self::Hinted { source, hint } => write!(f, "{source}\nhint: {hint}"),
             Self::Interrupted { signal } => write!(f, "interrupted by {signal}"),
         }
     }
@@ -365,7 +394,9 @@ impl std::error::Error for CliError {
             Self::Demo(e) => Some(e.as_ref()),
             Self::NodeId(e) => Some(e),
             Self::Rejected { source, .. } => Some(source.as_ref()),
-            Self::Object { source, .. } | Self::Usage(source) => Some(source.as_ref()),
+            Self::Object { source, .. } | Self::Usage(source) | Self::Hinted { source, .. } => {
+                Some(source.as_ref())
+            }
             Self::Argument(_)
             | Self::Device(_)
             | Self::Unconfirmed(_)

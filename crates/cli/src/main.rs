@@ -24,6 +24,7 @@ mod lss_cmd;
 mod nmt_cmd;
 mod objaddr;
 mod outfile;
+mod pdo_cmd;
 mod sdo_cmd;
 mod sim_device;
 mod simulate;
@@ -80,6 +81,10 @@ enum Command {
     /// Restore a node's default parameters (0x1011, signature `load`); they take effect at
     /// its next reset.
     Restore(store_cmd::StoreArgs),
+    /// A node's PDOs by SDO: `show [tpdo|rpdo] [N]` reads their parameters and mapping; `map
+    /// tpdo|rpdo N ENTRY...` remaps one the CiA 301 way (in pre-operational), up to 64 bytes
+    /// on a node marked CANopen FD on a CAN FD bus.
+    Pdo(pdo_cmd::PdoArgs),
     /// Decoded live traffic, optionally filtered as candump filters (CAN FD frames shown in
     /// candump's syntax; those that are PDOs an `--eds` maps, up to 64 bytes, decoded).
     Monitor {
@@ -219,6 +224,7 @@ fn main() -> ExitCode {
         Command::Scan => nmt_cmd::run_scan(&cli.bus, global),
         Command::Store(args) => store_cmd::run(args, false, &cli.bus, global),
         Command::Restore(args) => store_cmd::run(args, true, &cli.bus, global),
+        Command::Pdo(args) => pdo_cmd::run(args, &cli.bus, global),
         Command::Monitor {
             duration,
             devicenet,

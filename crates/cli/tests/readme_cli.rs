@@ -150,13 +150,13 @@ fn readme(line: &str) -> ReadmeCommand {
         .unwrap_or_else(|| panic!("README.md shows no command line `{line}`"))
 }
 
-/// A directory to run the README's lines in: `eds` and `crates` of the checkout, `dev.eds`
-/// the Bürkert EDS.
+/// A directory to run the README's lines in: `eds`, `crates` and `tests` of the checkout,
+/// `dev.eds` the Bürkert EDS.
 fn workdir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("canopen-readme-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    for d in ["eds", "crates"] {
+    for d in ["eds", "crates", "tests"] {
         std::os::unix::fs::symlink(Path::new(ROOT).join(d), dir.join(d)).unwrap();
     }
     std::fs::copy(
@@ -779,6 +779,53 @@ fn assign_all_leaves_running_nodes_alone() {
     assert!(!ids.contains(&"5") && !ids.contains(&"6"), "{out}");
 }
 
+const PDO: &[&str] = &[
+    "canopen --iface can0 --eds 5=dev.eds pdo 5 show",
+    "canopen --iface can0 nmt preop 5",
+    "canopen --iface can0 --eds 5=dev.eds pdo 5 map tpdo 1 0x2500:01 0x2004:01 --event-timer 1000",
+    "canopen --iface can0 nmt start 5",
+    "canopen --iface vcan0 --fd simulate tests/vcan/fd-device.eds --node-id 7",
+    "canopen --iface vcan0 --fd --eds 7=tests/vcan/fd-device.eds pdo 7 map tpdo 1 0x2101:00 0x2100:01 0x2100:02",
+    "canopen --iface vcan0 --fd --eds 7=tests/vcan/fd-device.eds pdo 7 show tpdo 1",
+    "canopen --iface vcan0 --fd --eds 5=eds/burkert-generic.eds pdo 5 map tpdo 1 0x2500:01 0x2501:01 0x2502:01",
+];
+
+/// `canopen pdo`: a Bürkert device (node 5) remapped in pre-operational, the CANopen FD device
+/// (node 7) given a TPDO of 96 bits and shown as the README shows it, and the same 96 bits
+/// refused on the Bürkert device with the README's error.
+#[test]
+fn pdo_lines() {
+    // A group and port of their own (as `usdo_lines`).
+    let bus = format!("udp:239.74.163.31:{}", 20000 + std::process::id() % 9000);
+    let dir = workdir("pdo");
+    let c: Vec<ReadmeCommand> = PDO.iter().map(|l| readme(l)).collect();
+    let _node5 = Background(common::simulator(&bus, EDS, "5", "60"));
+    let _node7 = background(&c[4].text, &dir, &bus);
+    wait_for_node(&bus, "7");
+
+    let shown = ok(&c[0].text, &dir, &bus);
+    assert!(shown.starts_with("RPDO1 (0x1400, 0x1600): "), "{shown}");
+    assert!(shown.contains("\nTPDO4 (0x1803, 0x1A03): "), "{shown}");
+    ok(&c[1].text, &dir, &bus);
+    let o = run(&c[2].text, &dir, &bus);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        "node 5: TPDO1 mapped and valid with 2 object(s), 40 bits (5 bytes)\n"
+    );
+    ok(&c[3].text, &dir, &bus);
+
+    let o = run(&c[5].text, &dir, &bus);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let shown = ok(&c[6].text, &dir, &bus);
+    assert!(matches_readme(&c[6].output, &shown), "{shown}");
+
+    // The error, exit 1: the README's lines are its stderr.
+    let o = run(&c[7].text, &dir, &bus);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(matches_readme(&c[7].output, &stderr(&o)), "{}", stderr(&o));
+}
+
 const NOT_RUN: &[(&str, &str)] = &[
     (
         "canopen --eds 5=eds/burkert-generic.eds --eds 6=eds/cia402-servo.eds top",
@@ -825,6 +872,7 @@ fn every_readme_line_is_run() {
         .chain(DRIVE)
         .chain(NMT)
         .chain(USDO)
+        .chain(PDO)
         .copied()
         .chain([
             "canopen --iface udp simulate eds/burkert-generic.eds --node-id 5",
