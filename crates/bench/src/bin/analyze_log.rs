@@ -74,6 +74,7 @@ fn generate(file: &str, seconds: u64) {
                 timestamp_us: t + offset,
                 interface: "can0".into(),
                 frame: f,
+                len8_dlc: None,
             })
             .expect("write the log");
             frames += 1;
