@@ -149,6 +149,9 @@ CANDUMP = [
     b"vcan0 1FFFFFFF#DEADBEEF\nvcan0 123#R\nvcan0 123#R3\n",
     b"(0.000001) vcan0 123##1112233445566778899AABBCCDDEEFF\n",
     b"(1.5) can1 7E5#0401000000000000 R\n# comment\n\n",
+    # candump -8: a raw DLC above 8 after 8 bytes (kept), and ones that do not fit.
+    b"(2.000000) can0 123#1122334455667788_C\n(2.1) can0 12345678#R8_9\n"
+    b"(2.2) can0 123#1122334455667788_8\n(2.3) can0 123#11_C\n",
 ]
 
 

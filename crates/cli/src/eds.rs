@@ -9,6 +9,7 @@ use clap::{Args, Subcommand};
 use serde_json::{Value as Json, json};
 
 use crate::Global;
+use crate::error::CliError;
 
 /// What the parser reports (every subcommand that reads a file prints its diagnostics).
 #[derive(Debug, Clone, Copy, Args)]
@@ -93,14 +94,14 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
     match cmd {
         EdsCommand::Check { files, report } => check(&files, report, global),
         EdsCommand::Lint { file } => lint(&file, global),
-        EdsCommand::Show { file, report } => with_od(&file, report, |od| show(od, global)),
+        EdsCommand::Show { file, report } => with_od(&file, report, global, |od| show(od, global)),
         EdsCommand::ToDcf {
             file,
             node_id,
             baudrate,
             output,
             report,
-        } => with_od(&file, report, |od| {
+        } => with_od(&file, report, global, |od| {
             emit(
                 output.as_deref(),
                 &canola::od::write_dcf(od, node_id, baudrate),
@@ -113,7 +114,7 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
             for_canola,
             output,
             report,
-        } => with_od(&file, report, |od| {
+        } => with_od(&file, report, global, |od| {
             let name = file.file_name().map_or_else(
                 || file.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
@@ -136,13 +137,55 @@ pub(crate) fn run(cmd: EdsCommand, global: Global) -> ExitCode {
     }
 }
 
-/// A file that could not be read or parsed: its diagnostics rendered as `FILE:LINE: ...`
-/// lines, and how many errors it has (listed or not).
-struct Failed {
-    lines: Vec<String>,
-    errors: usize,
-    /// The diagnostics themselves (empty when the file could not be read: see `lines`).
-    diagnostics: Vec<Diagnostic>,
+/// Why a file did not load: it could not be read, or it did not parse.
+enum Failed {
+    Read(std::io::Error),
+    Parse(canola::od::ParseError),
+}
+
+impl Failed {
+    /// The diagnostics as `FILE:LINE: ...` lines (a read error as `FILE: error: ...`).
+    fn lines(&self, name: &str) -> Vec<String> {
+        match self {
+            Self::Read(e) => vec![format!("{name}: error: {e}")],
+            Self::Parse(e) => e
+                .diagnostics
+                .iter()
+                .map(|d| d.render(name).to_string())
+                .collect(),
+        }
+    }
+
+    /// How many errors the file has, listed or not.
+    fn errors(&self) -> usize {
+        match self {
+            Self::Read(_) => 1,
+            Self::Parse(e) => e.error_count(),
+        }
+    }
+
+    /// The diagnostics themselves (none when the file could not be read).
+    fn diagnostics(&self) -> &[Diagnostic] {
+        match self {
+            Self::Read(_) => &[],
+            Self::Parse(e) => &e.diagnostics,
+        }
+    }
+
+    /// The error every other command reports for it (under `--json` one JSON object with the
+    /// file, and for a parse error the line and the diagnostics).
+    fn into_cli_error(self, file: &Path) -> CliError {
+        match self {
+            Self::Read(source) => CliError::File {
+                path: file.to_owned(),
+                source,
+            },
+            Self::Parse(source) => CliError::Dictionary {
+                path: file.to_owned(),
+                source,
+            },
+        }
+    }
 }
 
 /// A diagnostic as `eds check --json` and `eds lint --json` give it.
@@ -151,7 +194,7 @@ fn diagnostic_json(file: &str, d: &Diagnostic) -> Json {
 }
 
 /// The diagnostics of `severity` as JSON objects.
-fn diagnostics_json(file: &str, diagnostics: &[Diagnostic], severity: Severity) -> Json {
+pub(crate) fn diagnostics_json(file: &str, diagnostics: &[Diagnostic], severity: Severity) -> Json {
     Json::Array(
         diagnostics
             .iter()
@@ -163,37 +206,45 @@ fn diagnostics_json(file: &str, diagnostics: &[Diagnostic], severity: Severity) 
 
 /// Reads and parses a file: the dictionary and its warnings, or why it failed.
 fn load(file: &Path, report: Report) -> Result<(ObjectDictionary, Vec<Diagnostic>), Failed> {
-    let name = file.display().to_string();
-    let bytes = std::fs::read(file).map_err(|e| Failed {
-        lines: vec![format!("{name}: error: {e}")],
-        errors: 1,
-        diagnostics: Vec::new(),
-    })?;
-    match canola::od::parse_with(&bytes, report.options()) {
-        Ok(parsed) => Ok((parsed.od, parsed.diagnostics)),
-        Err(e) => Err(Failed {
-            lines: e
-                .diagnostics
-                .iter()
-                .map(|d| d.render(&name).to_string())
-                .collect(),
-            errors: e.error_count(),
-            diagnostics: e.diagnostics.clone(),
-        }),
+    let bytes = std::fs::read(file).map_err(Failed::Read)?;
+    canola::od::parse_with(&bytes, report.options())
+        .map(|parsed| (parsed.od, parsed.diagnostics))
+        .map_err(Failed::Parse)
+}
+
+/// Prints a diagnostic on stderr as `FILE:LINE: severity: message`, or under `--json` as one
+/// JSON object (`warning` or `error`, `level`, `file`, `line`), as every command's warnings.
+fn print_diagnostic(name: &str, d: &Diagnostic, global: Global) {
+    if global.json {
+        let mut fields = serde_json::Map::new();
+        fields.insert("file".into(), name.into());
+        fields.insert("line".into(), d.line.into());
+        crate::bus::warn(&d.severity.to_string(), &d.message, fields);
+    } else {
+        eprintln!("{}", d.render(name));
     }
 }
 
-fn with_od(file: &Path, report: Report, f: impl FnOnce(&ObjectDictionary) -> ExitCode) -> ExitCode {
+/// Loads `file` and runs `f` on its dictionary. Its warnings go to stderr; a file that does
+/// not load is reported as text (`FILE:LINE: error: ...` lines), or under `--json` as one JSON
+/// error object.
+fn with_od(
+    file: &Path,
+    report: Report,
+    global: Global,
+    f: impl FnOnce(&ObjectDictionary) -> ExitCode,
+) -> ExitCode {
+    let name = file.display().to_string();
     match load(file, report) {
         Ok((od, diagnostics)) => {
-            let name = file.display().to_string();
             for d in &diagnostics {
-                eprintln!("{}", d.render(&name));
+                print_diagnostic(&name, d, global);
             }
             f(&od)
         }
+        Err(failed) if global.json => failed.into_cli_error(file).report(),
         Err(failed) => {
-            for l in failed.lines {
+            for l in failed.lines(&name) {
                 eprintln!("{l}");
             }
             ExitCode::FAILURE
@@ -250,14 +301,12 @@ fn check(files: &[PathBuf], report_opts: Report, global: Global) -> ExitCode {
                     ));
                 }
             }
-            Err(Failed {
-                lines,
-                errors,
-                diagnostics,
-            }) => {
+            Err(failed) => {
                 all_ok = false;
+                let (lines, errors) = (failed.lines(&name), failed.errors());
+                let diagnostics = failed.diagnostics();
                 if global.json {
-                    let mut error_list = diagnostics_json(&name, &diagnostics, Severity::Error);
+                    let mut error_list = diagnostics_json(&name, diagnostics, Severity::Error);
                     if diagnostics.is_empty() {
                         // Not read at all: the reason as the one error.
                         error_list = Json::Array(
@@ -270,9 +319,9 @@ fn check(files: &[PathBuf], report_opts: Report, global: Global) -> ExitCode {
                     report.push(json!({
                         "file": name, "ok": false,
                         "error_count": errors,
-                        "warning_count": total(&diagnostics, Severity::Warning),
+                        "warning_count": total(diagnostics, Severity::Warning),
                         "errors": error_list,
-                        "warnings": diagnostics_json(&name, &diagnostics, Severity::Warning),
+                        "warnings": diagnostics_json(&name, diagnostics, Severity::Warning),
                     }));
                 } else {
                     for l in &lines {
@@ -300,6 +349,7 @@ fn lint(file: &Path, global: Global) -> ExitCode {
     let name = file.display().to_string();
     let bytes = match std::fs::read(file) {
         Ok(b) => b,
+        Err(e) if global.json => return Failed::Read(e).into_cli_error(file).report(),
         Err(e) => {
             eprintln!("{name}: error: {e}");
             return ExitCode::FAILURE;
@@ -307,6 +357,7 @@ fn lint(file: &Path, global: Global) -> ExitCode {
     };
     let findings = match canola::od::lint::lint_source(&bytes) {
         Ok(f) => f,
+        Err(e) if global.json => return Failed::Parse(e).into_cli_error(file).report(),
         Err(e) => {
             for d in &e.diagnostics {
                 eprintln!("{}", d.render(&name));

@@ -4,8 +4,10 @@
 //! bus that would not open, the master operation, the file and its line, the argument) and
 //! [`CliError::report`] prints it once on stderr and gives the exit code: `error: TEXT` (with
 //! a hint on a line of its own, `hint: ...`), or under `--json` one JSON object with `error`,
-//! `hint`, and for an SDO failure `node`, `index`, `sub`, `name`, `abort_code` and `meaning`
-//! (for a value or PDO mapping the master refused `node`, `index` and `sub`).
+//! `hint`, for an SDO failure `node`, `index`, `sub`, `name`, `abort_code` and `meaning`, for
+//! a value or PDO mapping the master refused `node`, `index` and `sub`, for a file that failed
+//! `file`, and for an EDS/DCF that does not parse also `line` (of its first error),
+//! `error_count` and `errors` (`{file, line, severity, message}` as `eds check --json`).
 //!
 //! The exit code follows one rule: 2 when the command line itself is wrong (an argument that
 //! does not parse or is out of range, one that is missing or too many, options that do not fit
@@ -208,6 +210,25 @@ impl CliError {
                 fields.insert("node".into(), json!(node.get()));
                 fields.insert("index".into(), json!(entry.index));
                 fields.insert("sub".into(), json!(entry.sub_index));
+            }
+            Self::Dictionary { path, source } => {
+                let file = path.display().to_string();
+                if let Some(first) = source.errors().next() {
+                    fields.insert("line".into(), json!(first.line));
+                }
+                fields.insert("file".into(), json!(file));
+                fields.insert("error_count".into(), json!(source.error_count()));
+                fields.insert(
+                    "errors".into(),
+                    crate::eds::diagnostics_json(
+                        &file,
+                        &source.diagnostics,
+                        canola::od::Severity::Error,
+                    ),
+                );
+            }
+            Self::File { path, .. } | Self::Log { path, .. } => {
+                fields.insert("file".into(), json!(path.display().to_string()));
             }
             Self::Usage(inner) | Self::Hinted { source: inner, .. } => return inner.fields(),
             Self::Interrupted { signal } => {

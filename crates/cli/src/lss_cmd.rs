@@ -71,6 +71,7 @@ impl Station for Recorder {
             timestamp_us: now.as_micros(),
             interface: "mem".into(),
             frame: LogFrame::Can(*frame),
+            len8_dlc: None,
         };
         self.0.lock().unwrap_or_else(|p| p.into_inner()).push(entry);
     }

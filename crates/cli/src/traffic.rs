@@ -179,6 +179,16 @@ fn shown_line(
             time_us % 1_000_000
         );
     }
+    shown_json(time_us, shown, what, pdo).to_string()
+}
+
+/// [`shown_line`]'s JSON object.
+fn shown_json(
+    time_us: u64,
+    shown: &str,
+    what: &str,
+    pdo: impl FnOnce() -> Option<Result<canola::DecodedPdo, canola::pdo::PackError>>,
+) -> serde_json::Value {
     let mut line = json!({"time": time_us as f64 / 1e6, "frame": shown, "decoded": what});
     // A PDO an EDS maps: its values as JSON values too.
     if let Some(Ok(pdo)) = pdo() {
@@ -192,29 +202,33 @@ fn shown_line(
             })
             .collect();
     }
-    line.to_string()
+    line
 }
 
 /// One frame of a log decoded as `monitor` decodes a frame on the bus (the same decoder, the
-/// same line), at its time stamp: for `canopen analyze --frames`.
+/// same line), at its time stamp: for `canopen analyze --frames`. A classic frame's raw DLC
+/// above 8 (`candump -8`) shows as the log writes it (`123#1122334455667788_C`), and under
+/// `--json` also as `len8_dlc`.
 pub(crate) fn log_line(
     monitor: &mut Monitor,
     dictionary: &canola::BusDictionary,
-    time_us: u64,
-    frame: &LogFrame,
+    entry: &LogEntry,
     json: bool,
 ) -> String {
-    let shown = candump::format_frame(frame);
+    let (time_us, frame) = (entry.timestamp_us, &entry.frame);
+    let shown = candump::format_frame_len8(frame, entry.len8_dlc);
     match frame {
         LogFrame::Can(f) => {
             let what = monitor.what(f);
-            shown_line(
-                time_us,
-                &f.to_string(),
-                &what,
-                || dictionary.decode_pdo(f),
-                json,
-            )
+            let pdo = || dictionary.decode_pdo(f);
+            match entry.raw_dlc() {
+                Some(dlc) if json => {
+                    let mut line = shown_json(time_us, &shown, &what, pdo);
+                    line["len8_dlc"] = json!(dlc);
+                    line.to_string()
+                }
+                _ => shown_line(time_us, &shown, &what, pdo, json),
+            }
         }
         LogFrame::Fd(f) => {
             let what = monitor.what_fd(f);
@@ -273,6 +287,8 @@ pub(crate) fn run_record(opts: &BusOpts, output: &Path, duration: Option<f64>) -
             timestamp_us: epoch + (at - start).as_micros(),
             interface: iface.clone(),
             frame,
+            // The transports do not report a classic frame's raw DLC.
+            len8_dlc: None,
         };
         match w.write(&entry) {
             Ok(()) => {

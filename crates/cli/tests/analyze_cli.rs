@@ -80,6 +80,7 @@ impl Rig {
                     timestamp_us: EPOCH_US + at.as_micros(),
                     interface: "can0".into(),
                     frame: LogFrame::Can(frame),
+                    len8_dlc: None,
                 }));
             }
         }
@@ -417,4 +418,50 @@ fn bad_and_cut_lines_are_reported_with_their_numbers_never_a_panic() {
     let out = canopen(&["analyze", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stdout(&out).contains("bad-line"));
+}
+
+#[test]
+fn a_raw_dlc_above_8_shows_in_frames_and_a_bad_one_is_a_bad_line_with_its_number() {
+    // As `candump -8` writes a classic frame whose DLC is 12 (8 bytes carried), then a line
+    // whose raw DLC is not above 8.
+    let text = "(1700000000.000000) can0 185#1122334455667788_C\n\
+                (1700000000.001000) can0 185#1122334455667788_8\n\
+                (1700000000.002000) can0 185#1122334455667788\n";
+    let path = std::env::temp_dir().join(format!("canopen-analyze-dlc-{}.log", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let log = path.to_str().unwrap();
+
+    let out = canopen(&["analyze", "--frames", log]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let lines: Vec<_> = stdout(&out).lines().map(str::to_owned).collect();
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert!(
+        lines[0].contains(" 185#1122334455667788_C "),
+        "{}",
+        lines[0]
+    );
+    assert!(!lines[1].contains('_'), "{}", lines[1]);
+    assert!(
+        stderr(&out).contains(": line 2: bad raw DLC `_8`"),
+        "{}",
+        stderr(&out)
+    );
+
+    let out = canopen(&["analyze", "--frames", "--json", log]);
+    let first: Value = serde_json::from_str(stdout(&out).lines().next().unwrap()).unwrap();
+    assert_eq!(first["frame"], "185#1122334455667788_C");
+    assert_eq!(first["len8_dlc"], 12);
+    let third: Value = serde_json::from_str(stdout(&out).lines().nth(1).unwrap()).unwrap();
+    assert_eq!(third["frame"], "185#1122334455667788");
+    assert!(third.get("len8_dlc").is_none(), "{third}");
+
+    let report = analyze(&path, &[]);
+    assert_eq!(report["summary"]["frames"], 2, "{report:#}");
+    let bad = problems(&report, "bad-line");
+    assert_eq!(bad.len(), 1, "{report:#}");
+    assert_eq!(bad[0]["line"], 2);
+    assert!(
+        bad[0]["seen"].as_str().unwrap().contains("bad raw DLC"),
+        "{report:#}"
+    );
 }

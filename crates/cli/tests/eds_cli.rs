@@ -455,3 +455,90 @@ fn check_json_is_only_json_with_diagnostics_as_objects() {
         "{v}"
     );
 }
+
+/// Every line of stderr as a JSON object (panics on one that is not).
+fn stderr_json(out: &std::process::Output) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(&out.stderr)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: not JSON: {l}")))
+        .collect()
+}
+
+#[test]
+fn show_json_reports_every_error_as_json() {
+    let dir = std::env::temp_dir().join(format!("canopen-eds-show-json-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+
+    // A file that is not there: one JSON error naming it, exit 1, nothing on stdout.
+    let missing = dir.join("missing.eds");
+    let missing = missing.to_str().unwrap();
+    let out = canopen(&["eds", "show", "--json", missing]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(out.stdout.is_empty());
+    let errs = stderr_json(&out);
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    assert_eq!(errs[0]["file"], missing);
+    assert!(
+        errs[0]["error"].as_str().unwrap().starts_with(missing),
+        "{errs:?}"
+    );
+
+    // A file that does not parse: the file, the line of its first error and the errors as
+    // `eds check --json` gives them.
+    let bad = dir.join("bad.eds");
+    std::fs::write(
+        &bad,
+        WARNING_EDS.replace("DefaultValue=0\n", "DefaultValue=0x1Z\n"),
+    )
+    .unwrap();
+    let bad = bad.to_str().unwrap();
+    let out = canopen(&["eds", "show", "--json", bad]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(out.stdout.is_empty());
+    let errs = stderr_json(&out);
+    assert_eq!(errs.len(), 1, "{errs:?}");
+    let e = &errs[0];
+    assert_eq!(e["file"], bad);
+    assert_eq!(e["line"], 13);
+    assert_eq!(e["error_count"], 1);
+    assert_eq!(e["errors"][0]["file"], bad);
+    assert_eq!(e["errors"][0]["line"], 13);
+    assert_eq!(e["errors"][0]["severity"], "error");
+    assert!(e["error"].as_str().unwrap().contains("0x1Z"), "{e}");
+    assert!(e.get("usage").is_none(), "{e}");
+
+    // Bad arguments: clap's errors as JSON, exit 2.
+    let out = canopen(&["eds", "show", "--json"]);
+    assert_eq!(out.status.code(), Some(2));
+    let errs = stderr_json(&out);
+    assert_eq!(errs[0]["kind"], "missing-required-argument", "{errs:?}");
+    assert_eq!(errs[0]["usage"], true);
+    let out = canopen(&["eds", "show", "--json", "--bogus", bad]);
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(stderr_json(&out)[0]["kind"], "unknown-argument");
+
+    // Warnings of a file that loads: JSON too, with the file and line; the objects on stdout.
+    let warn = dir.join("warn.eds");
+    std::fs::write(&warn, WARNING_EDS).unwrap();
+    let warn = warn.to_str().unwrap();
+    let out = canopen(&["eds", "show", "--json", warn]);
+    assert!(out.status.success());
+    let warnings = stderr_json(&out);
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w["file"] == warn && w["line"] == 23 && w["level"] == "warning"),
+        "{warnings:?}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(v["objects"].as_array().unwrap().len(), 2);
+
+    // Without --json, the same failures stay text in the FILE:LINE form.
+    let out = canopen(&["eds", "show", bad]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).starts_with(&format!("{bad}:13: error: ")),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

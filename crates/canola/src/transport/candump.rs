@@ -4,7 +4,10 @@
 //! `(1700000000.123456) can0 123#DEADBEEF`. `FRAME` is a 3-digit hex identifier (11-bit) or an
 //! 8-digit one (29-bit), `#`, then the data as hex pairs (can-utils also accepts `.` between
 //! pairs), or `R` for a remote frame with an optional length digit (`123#R`, `123#R8`). An
-//! 8-digit identifier with the error flag `0x20000000` is a CAN error frame. A CAN FD frame is
+//! 8-digit identifier with the error flag `0x20000000` is a CAN error frame. `candump -8` (and
+//! `-L`, with the socket's `CAN_CTRLMODE_CC_LEN8_DLC`) writes the raw DLC 9..=F of a classic
+//! frame that carries 8 bytes after them: `123#1122334455667788_C`, `123#R8_9`; it is kept in
+//! [`LogEntry::len8_dlc`] and written back. A CAN FD frame is
 //! `ID##F` then its data: `F` is one hex digit of flags (bit 0 bit-rate switch, bit 1 error
 //! state indicator), the data 0 to 8, 12, 16, 20, 24, 32, 48 or 64 bytes. FD lines are read
 //! as [`LogFrame::Fd`] (the stack's [`FdFrame`]); `canopen replay` sends them on a bus that
@@ -59,6 +62,27 @@ pub struct LogEntry {
     pub interface: String,
     /// The frame.
     pub frame: LogFrame,
+    /// The raw DLC 9..=15 of a classic frame of 8 bytes (a data frame with 8 data bytes, a
+    /// remote frame of length 8), as `candump -8` writes it after them (`_9`..`_F`); SocketCAN's
+    /// `len8_dlc`. `None` for every other frame, and for a frame whose DLC is its length.
+    /// [`format_line`] writes it only where it is valid (9..=15, on such a frame).
+    pub len8_dlc: Option<u8>,
+}
+
+impl LogEntry {
+    /// The raw DLC its line carries: [`len8_dlc`](Self::len8_dlc) when it is 9..=15 and the
+    /// frame a classic frame of 8 bytes, else `None`.
+    pub fn raw_dlc(&self) -> Option<u8> {
+        valid_len8_dlc(&self.frame, self.len8_dlc)
+    }
+}
+
+/// `len8_dlc` when it is 9..=15 on a classic frame of 8 bytes.
+fn valid_len8_dlc(frame: &LogFrame, len8_dlc: Option<u8>) -> Option<u8> {
+    match (frame, len8_dlc) {
+        (LogFrame::Can(f), Some(dlc @ 9..=15)) if f.dlc() == 8 => Some(dlc),
+        _ => None,
+    }
 }
 
 /// Why a log line could not be read.
@@ -80,6 +104,10 @@ pub enum CandumpError {
     /// The data are not hex pairs, or more than 8 bytes.
     #[error("bad frame data `{0}`")]
     BadData(String),
+    /// A raw DLC suffix (`_X`, `candump -8`) that is not one hex digit 9..=F after a classic
+    /// frame of 8 bytes (8 data bytes, or `R8`): the text after the `_`.
+    #[error("bad raw DLC `_{0}` (candump -8 writes one hex digit 9..F after 8 data bytes or `R8`)")]
+    BadRawDlc(String),
     /// A CAN FD line (`##`) whose flags digit is missing or not hex.
     #[error("bad CAN FD flags `{0}` (expected one hex digit after `##`)")]
     BadFdFlags(String),
@@ -176,8 +204,26 @@ fn hex_pairs(text: &str, out: &mut [u8]) -> Option<usize> {
     Some(len)
 }
 
-/// Decodes the `ID#DATA` field.
+/// Decodes the `ID#DATA` field. A raw DLC suffix (`_C`) is checked but not returned: see
+/// [`parse_frame_len8`].
 pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
+    parse_frame_len8(s).map(|(frame, _)| frame)
+}
+
+/// The raw DLC of a `_X` suffix: one hex digit 9..=F, else [`CandumpError::BadRawDlc`].
+fn raw_dlc(text: &str) -> Result<u8, CandumpError> {
+    match text.as_bytes() {
+        [d] => match hex_val(*d) {
+            Some(v) if v > 8 => Ok(v),
+            _ => Err(CandumpError::BadRawDlc(text.into())),
+        },
+        _ => Err(CandumpError::BadRawDlc(text.into())),
+    }
+}
+
+/// Decodes the `ID#DATA` field and its raw DLC (`_9`..`_F` after a classic frame of 8 bytes,
+/// see [`LogEntry::len8_dlc`]).
+pub fn parse_frame_len8(s: &str) -> Result<(LogFrame, Option<u8>), CandumpError> {
     let (id, data) = s.split_once('#').ok_or(CandumpError::MissingFrame)?;
     let raw = parse_hex_u32(id).ok_or_else(|| CandumpError::BadId(id.into()))?;
     let bad_id = || CandumpError::BadId(id.into());
@@ -198,7 +244,8 @@ pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
         let len = hex_pairs(rest, &mut bytes).ok_or_else(bad_data)?;
         return FdFrame::new(can_id, &bytes[..len])
             .map(|f| {
-                LogFrame::Fd(f.with_flags(canola_frame::FdFlags::from_bits_truncate(flags as u8)))
+                let flags = canola_frame::FdFlags::from_bits_truncate(flags as u8);
+                (LogFrame::Fd(f.with_flags(flags)), None)
             })
             .map_err(|_| bad_data());
     }
@@ -210,6 +257,12 @@ pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
         _ => return Err(bad_id()),
     };
     let bad_data = || CandumpError::BadData(data.into());
+    // candump -8 writes a classic frame's raw DLC above 8 after its 8 bytes (`_9`..`_F`, see
+    // can-utils' lib.h: `123#1122334455667788_E`, `123#R8_9`).
+    let (data, suffix) = match data.split_once('_') {
+        Some((d, dlc)) => (d, Some(dlc)),
+        None => (data, None),
+    };
     if let Some(rest) = data.strip_prefix(['R', 'r']) {
         let Some(can_id) = can_id else {
             return Err(bad_data());
@@ -219,32 +272,34 @@ pub fn parse_frame(s: &str) -> Result<LogFrame, CandumpError> {
             [d] if d.is_ascii_digit() && *d <= b'8' => usize::from(d - b'0'),
             _ => return Err(bad_data()),
         };
+        let len8_dlc = match suffix {
+            Some(text) if dlc == 8 => Some(raw_dlc(text)?),
+            Some(text) => return Err(CandumpError::BadRawDlc(text.into())),
+            None => None,
+        };
         return CanFrame::remote(can_id, dlc)
-            .map(LogFrame::Can)
+            .map(|f| (LogFrame::Can(f), len8_dlc))
             .map_err(|_| bad_data());
     }
-    // candump -8 writes a classic frame's raw DLC above 8 after its 8 bytes (`_9`..`_F`); the
-    // frame carries those 8 bytes (the raw DLC is not kept).
-    let (data, raw_dlc) = match data.split_once('_') {
-        Some((d, dlc)) => (d, Some(dlc)),
-        None => (data, None),
-    };
     let mut bytes = [0u8; 8];
     let len = hex_pairs(data, &mut bytes).ok_or_else(bad_data)?;
-    if let Some(dlc) = raw_dlc {
-        let ok = matches!(dlc.as_bytes(), [d] if hex_val(*d).is_some_and(|v| v > 8));
-        if !ok || len != 8 || can_id.is_none() {
-            return Err(bad_data());
-        }
-    }
+    let len8_dlc = match suffix {
+        // Error frames have no DLC of their own to keep.
+        Some(text) if len == 8 && can_id.is_some() => Some(raw_dlc(text)?),
+        Some(text) => return Err(CandumpError::BadRawDlc(text.into())),
+        None => None,
+    };
     match can_id {
         Some(can_id) => CanFrame::new(can_id, &bytes[..len])
-            .map(LogFrame::Can)
+            .map(|f| (LogFrame::Can(f), len8_dlc))
             .map_err(|_| bad_data()),
-        None => Ok(LogFrame::Error {
-            class: raw & !ERROR_FLAG,
-            data: bytes,
-        }),
+        None => Ok((
+            LogFrame::Error {
+                class: raw & !ERROR_FLAG,
+                data: bytes,
+            },
+            None,
+        )),
     }
 }
 
@@ -253,7 +308,7 @@ pub fn parse_line(line: &str) -> Result<LogEntry, CandumpError> {
     let mut fields = line.split_ascii_whitespace();
     let ts = parse_timestamp(fields.next().ok_or(CandumpError::BadTimestamp)?)?;
     let iface = fields.next().ok_or(CandumpError::MissingInterface)?;
-    let frame = parse_frame(fields.next().ok_or(CandumpError::MissingFrame)?)?;
+    let (frame, len8_dlc) = parse_frame_len8(fields.next().ok_or(CandumpError::MissingFrame)?)?;
     // candump -l may append a direction marker ("T"/"R") in some versions; anything else is an error.
     match fields.next() {
         None | Some("T" | "R") => {}
@@ -266,6 +321,7 @@ pub fn parse_line(line: &str) -> Result<LogEntry, CandumpError> {
         timestamp_us: ts,
         interface: iface.into(),
         frame,
+        len8_dlc,
     })
 }
 
@@ -284,6 +340,17 @@ pub fn format_frame(frame: &LogFrame) -> String {
     }
 }
 
+/// Formats the `ID#DATA` field with a raw DLC as `candump -8` writes it (`_C` after a
+/// classic frame of 8 bytes, when `len8_dlc` is 9..=15; otherwise as [`format_frame`]).
+pub fn format_frame_len8(frame: &LogFrame, len8_dlc: Option<u8>) -> String {
+    let mut s = format_frame(frame);
+    if let Some(dlc) = valid_len8_dlc(frame, len8_dlc) {
+        s.push('_');
+        s.push(char::from(b"0123456789ABCDEF"[usize::from(dlc)]));
+    }
+    s
+}
+
 /// Formats one log line (without the line break).
 pub fn format_line(entry: &LogEntry) -> String {
     format!(
@@ -291,7 +358,7 @@ pub fn format_line(entry: &LogEntry) -> String {
         entry.timestamp_us / 1_000_000,
         entry.timestamp_us % 1_000_000,
         entry.interface,
-        format_frame(&entry.frame)
+        format_frame_len8(&entry.frame, entry.len8_dlc)
     )
 }
 
@@ -576,8 +643,9 @@ mod tests {
     }
 
     #[test]
-    fn reads_candump_8s_raw_dlc_above_8() {
-        let e = parse_line("(1.0) can0 123#1122334455667788_C").unwrap();
+    fn keeps_candump_8s_raw_dlc_above_8_and_writes_it_back() {
+        let line = "(1.000000) can0 123#1122334455667788_C";
+        let e = parse_line(line).unwrap();
         assert_eq!(
             e.frame,
             LogFrame::Can(
@@ -588,21 +656,82 @@ mod tests {
                 .unwrap()
             )
         );
-        // Only after 8 bytes, only 9..F.
-        for bad in [
-            "(1.0) can0 123#11_C",
-            "(1.0) can0 123#1122334455667788_8",
-            "(1.0) can0 123#1122334455667788_",
-            "(1.0) can0 123#1122334455667788_CC",
+        assert_eq!(e.len8_dlc, Some(12));
+        assert_eq!(format_line(&e), line);
+        // Lower-case digits read; they are written as candump writes them.
+        let lower = parse_line("(1.000000) can0 123#1122334455667788_f").unwrap();
+        assert_eq!(lower.len8_dlc, Some(15));
+        assert!(format_line(&lower).ends_with("_F"));
+        // A remote frame of length 8 (`123#R8_9` in can-utils' lib.h).
+        let remote = "(1.000000) can0 12345678#R8_9";
+        let r = parse_line(remote).unwrap();
+        assert_eq!(r.len8_dlc, Some(9));
+        assert_eq!(format_line(&r), remote);
+        // Without the suffix there is none; one set on a frame it does not fit is not written.
+        assert_eq!(
+            parse_line("(1.0) can0 123#1122334455667788")
+                .unwrap()
+                .len8_dlc,
+            None
+        );
+        let short = LogEntry {
+            len8_dlc: Some(12),
+            ..parse_line("(1.000000) can0 123#11").unwrap()
+        };
+        assert_eq!(format_line(&short), "(1.000000) can0 123#11");
+        assert_eq!(short.raw_dlc(), None);
+        assert_eq!(e.raw_dlc(), Some(12));
+        // A whole line: not cut.
+        let out: Vec<_> = Reader::new("(1.0) can0 123#1122334455667788_9".as_bytes()).collect();
+        assert_eq!(out[0].as_ref().unwrap().len8_dlc, Some(9), "{out:?}");
+    }
+
+    #[test]
+    fn a_raw_dlc_of_8_or_less_or_not_hex_or_after_fewer_bytes_is_a_typed_error() {
+        // Only after 8 bytes, only one hex digit 9..F.
+        for (bad, text) in [
+            ("(1.0) can0 123#1122334455667788_8", "8"),
+            ("(1.0) can0 123#1122334455667788_0", "0"),
+            ("(1.0) can0 123#1122334455667788_G", "G"),
+            ("(1.0) can0 123#1122334455667788_", ""),
+            ("(1.0) can0 123#1122334455667788_CC", "CC"),
+            ("(1.0) can0 123#11_C", "C"),
+            ("(1.0) can0 123#_C", "C"),
+            ("(1.0) can0 123#R7_C", "C"),
+            ("(1.0) can0 123#R_C", "C"),
+            ("(1.0) can0 123#R8_8", "8"),
+            ("(1.0) can0 20000004#0004000000000000_C", "C"),
         ] {
-            assert!(
-                matches!(parse_line(bad), Err(CandumpError::BadData(_))),
+            assert_eq!(
+                parse_line(bad),
+                Err(CandumpError::BadRawDlc(text.into())),
                 "{bad}"
             );
         }
-        // A whole line: not cut.
-        let out: Vec<_> = Reader::new("(1.0) can0 123#1122334455667788_9".as_bytes()).collect();
-        assert!(out[0].is_ok(), "{out:?}");
+        // Bad data before the suffix is bad data.
+        assert!(matches!(
+            parse_line("(1.0) can0 123#11223344556677zz_C"),
+            Err(CandumpError::BadData(_))
+        ));
+        // Through the reader: with its line number, and a sentence naming the suffix.
+        let text = "(1.000000) can0 123#1122334455667788_C\n(1.1) can0 123#1122334455667788_8\n";
+        let out: Vec<_> = Reader::new(text.as_bytes()).collect();
+        assert!(out[0].is_ok());
+        let err = out[1].as_ref().unwrap_err();
+        assert!(
+            matches!(
+                err,
+                ReadError::Line {
+                    line: 2,
+                    error: CandumpError::BadRawDlc(t)
+                } if t == "8"
+            ),
+            "{err:?}"
+        );
+        assert_eq!(
+            err.to_string(),
+            "line 2: bad raw DLC `_8` (candump -8 writes one hex digit 9..F after 8 data bytes or `R8`)"
+        );
     }
 
     #[test]
@@ -669,13 +798,21 @@ mod tests {
 
         #[test]
         fn round_trip(ts in 0u64..=4_000_000_000_000_000, raw in 0u16..=0x7FF,
-                      data in proptest::collection::vec(any::<u8>(), 0..=8), remote in any::<bool>()) {
+                      data in proptest::collection::vec(any::<u8>(), 0..=8), remote in any::<bool>(),
+                      raw_dlc in proptest::option::of(9u8..=15)) {
             let frame = if remote {
                 CanFrame::remote(sid(raw), data.len()).unwrap()
             } else {
                 CanFrame::new(sid(raw), &data).unwrap()
             };
-            let e = LogEntry { timestamp_us: ts, interface: "can0".into(), frame: LogFrame::Can(frame) };
+            // A raw DLC only where candump -8 writes one: a frame of 8 bytes.
+            let len8_dlc = raw_dlc.filter(|_| data.len() == 8);
+            let e = LogEntry {
+                timestamp_us: ts,
+                interface: "can0".into(),
+                frame: LogFrame::Can(frame),
+                len8_dlc,
+            };
             prop_assert_eq!(parse_line(&format_line(&e)), Ok(e));
         }
     }

@@ -142,8 +142,7 @@ fn frames(input: Box<dyn BufRead>, path: &Path, dictionary: BusDictionary, g: Gl
             Ok(e) => outln(&crate::traffic::log_line(
                 &mut monitor,
                 &dictionary,
-                e.timestamp_us,
-                &e.frame,
+                &e,
                 g.json,
             )),
             Err(source @ ReadError::Line { .. }) => {

@@ -88,6 +88,7 @@ impl Recording {
                 timestamp_us: *ts,
                 interface: self.interface.clone(),
                 frame: *frame,
+                len8_dlc: None,
             })
             .map_err(CliError::file(path))?;
         }
