@@ -1,5 +1,5 @@
 //! `canopen monitor`, `record` and `replay`: the bus's traffic decoded in CiA vocabulary
-//! ([`canola::describe`]), written to a candump log, or sent again from one.
+//! ([`canola::describe()`]), written to a candump log, or sent again from one.
 
 use std::path::Path;
 use std::process::ExitCode;

@@ -3,7 +3,7 @@
 //! timeline and a problem list.
 //!
 //! Frames are read with the stack's own decoders (the SDO, NMT, EMCY and LSS wire types that
-//! [`canola::describe`] shows, and [`Monitor`]'s tracking of SDO block transfers); the text of
+//! [`canola::describe()`] shows, and [`Monitor`]'s tracking of SDO block transfers); the text of
 //! a problem's "seen" is the line `canopen monitor` prints for the frame. Memory does not grow
 //! with the log: per node a few numbers, one pending SDO request and the last boot-ups; per
 //! PDO identifier a few numbers; problems and timeline entries are capped ([`MAX_ENTRIES`]),
