@@ -17,9 +17,13 @@ use canola::{Error, Operation, SdoErrorKind};
 use pyo3::exceptions::{PyException, PyKeyError, PyValueError};
 use pyo3::prelude::*;
 
+mod dispatch;
+mod emcy;
 mod network;
 mod node;
+mod pdo;
 mod sdo;
+mod services;
 
 pyo3::create_exception!(
     canola,
@@ -76,9 +80,14 @@ pub(crate) fn wait<T: Send + 'static>(py: Python<'_>, op: Operation<'static, T>)
         .await
     });
     let mut interrupt: Option<PyErr> = None;
+    let waiting = dispatch::Waiting::enter();
     let result = py.detach(|| {
         let mut last = std::time::Instant::now();
         canola::wait_all_with([guarded], || {
+            dispatch::poll();
+            if dispatch::pending() {
+                Python::attach(dispatch::run_pending);
+            }
             if interrupt.is_some() || last.elapsed() < SIGNAL_CHECK {
                 return;
             }
@@ -90,6 +99,10 @@ pub(crate) fn wait<T: Send + 'static>(py: Python<'_>, op: Operation<'static, T>)
         })
         .pop()
     });
+    // The callbacks of what came during the wait run before it returns.
+    dispatch::poll();
+    dispatch::run_pending(py);
+    drop(waiting);
     match result {
         Some(Ok(Some(v))) => Ok(v),
         Some(Err(e)) => Err(to_py_err(e)),
@@ -193,5 +206,12 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sdo::SdoVariable>()?;
     m.add_class::<sdo::SdoRecord>()?;
     m.add_class::<sdo::SdoArray>()?;
+    m.add("EmcyError", emcy::emcy_error_type(py)?)?;
+    m.add_class::<emcy::EmcyConsumer>()?;
+    m.add_class::<services::SyncProducer>()?;
+    m.add_class::<services::NodeScanner>()?;
+    m.add_class::<pdo::PdoBase>()?;
+    m.add_class::<pdo::PdoMap>()?;
+    m.add_class::<pdo::PdoVariable>()?;
     Ok(())
 }

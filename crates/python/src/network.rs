@@ -2,7 +2,7 @@
 //! and the simulation side: `canola.MemoryBus` and `canola.SimDevice`.
 
 use std::collections::{BTreeMap, HashMap};
-use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 
 use canola::mem::{BusConfig, ClockMode};
 use canola::{NodeId, ObjectDictionary};
@@ -11,12 +11,26 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use crate::NetworkError;
-use crate::node::{NodeLink, RemoteNode};
+use crate::node::{NmtMaster, NmtTarget, NodeLink, RemoteNode};
+use crate::services::{NodeScanner, SyncProducer};
 
 /// Locks a mutex, taking the data of one a panicking thread left behind (the data here is
 /// never left half-changed).
 pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// A network's facade handle as its parts share it (`network.nmt`, `network.sync`, ...):
+/// `None` while it is not connected.
+pub(crate) type NetCell = Arc<Mutex<Option<canola::Network>>>;
+
+/// The facade's network in `cell`, or the error that it is not connected.
+pub(crate) fn connected(cell: &NetCell) -> PyResult<canola::Network> {
+    lock(cell).clone().ok_or_else(|| {
+        NetworkError::new_err(
+            "the network is not connected: connect() it or make it with Network.open()",
+        )
+    })
 }
 
 /// A node-ID from Python, checked (1..=127).
@@ -173,25 +187,34 @@ impl SimDevice {
 /// python-canopen's `Network`. `with Network(...) as net:` disconnects at the end.
 #[pyclass(module = "canola", frozen, mapping)]
 pub(crate) struct Network {
-    net: Mutex<Option<canola::Network>>,
+    net: NetCell,
     nodes: Mutex<BTreeMap<u8, Py<RemoteNode>>>,
+    nmt: Py<NmtMaster>,
+    sync: Py<SyncProducer>,
+    scanner: Py<NodeScanner>,
 }
 
 impl Network {
     fn with(net: Option<canola::Network>) -> Self {
-        Self {
-            net: Mutex::new(net),
+        let net: NetCell = Arc::new(Mutex::new(net));
+        Python::attach(|py| Self {
+            nmt: Py::new(
+                py,
+                NmtMaster {
+                    target: NmtTarget::All(net.clone(), Mutex::new("INITIALISING".into())),
+                },
+            )
+            .expect("allocating a handle"),
+            sync: Py::new(py, SyncProducer::new(net.clone())).expect("allocating a handle"),
+            scanner: Py::new(py, NodeScanner::new(net.clone())).expect("allocating a handle"),
+            net,
             nodes: Mutex::new(BTreeMap::new()),
-        }
+        })
     }
 
     /// The facade's network, or the error that it is not connected.
     pub(crate) fn connected(&self) -> PyResult<canola::Network> {
-        lock(&self.net).clone().ok_or_else(|| {
-            NetworkError::new_err(
-                "the network is not connected: connect() it or make it with Network.open()",
-            )
-        })
+        connected(&self.net)
     }
 
     /// Connects to the bus `spec` names (a bus spec of this stack), running the background
@@ -334,8 +357,56 @@ impl Network {
             Some(od) => net.add_node_with_dictionary(link.id, ObjectDictionary::clone(od)),
             None => net.add_node(link.id),
         };
+        node.get().emcy.get().shared.subscribe(&net);
         lock(&this.nodes).insert(link.id.get(), node.clone_ref(py));
         Ok(node)
+    }
+
+    /// NMT commands to every node (`network.nmt.state = "OPERATIONAL"`,
+    /// `network.nmt.send_command(0x01)`).
+    #[getter]
+    fn nmt(&self, py: Python<'_>) -> Py<NmtMaster> {
+        self.nmt.clone_ref(py)
+    }
+
+    /// The master's SYNC producer: `start(period)`, `stop()`, `transmit()`.
+    #[getter]
+    fn sync(&self, py: Python<'_>) -> Py<SyncProducer> {
+        self.sync.clone_ref(py)
+    }
+
+    /// The node scanner: `search()`, then the node-IDs found in `nodes`.
+    #[getter]
+    fn scanner(&self, py: Python<'_>) -> Py<NodeScanner> {
+        self.scanner.clone_ref(py)
+    }
+
+    /// Sends one CAN frame: `can_id` (11-bit, or 29-bit when above 0x7FF or `extended`),
+    /// up to 8 bytes of `data`, or a remote request of `len(data)` bytes when `remote`.
+    #[pyo3(signature = (can_id, data, remote = false, extended = false))]
+    fn send_message(
+        &self,
+        can_id: u32,
+        data: &Bound<'_, PyAny>,
+        remote: bool,
+        extended: bool,
+    ) -> PyResult<()> {
+        let data: Vec<u8> = data
+            .extract()
+            .map_err(|_| PyTypeError::new_err("data is bytes, bytearray or a list of ints"))?;
+        let id = if extended || can_id > 0x7FF {
+            canola::CanId::extended(can_id)
+        } else {
+            canola::CanId::standard(can_id as u16)
+        }
+        .map_err(|e| PyValueError::new_err(format!("CAN-ID 0x{can_id:X}: {e}")))?;
+        let frame = if remote {
+            canola::CanFrame::remote(id, data.len())
+        } else {
+            canola::CanFrame::new(id, &data)
+        }
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        self.connected()?.send(frame).map_err(crate::to_py_err)
     }
 
     fn __getitem__(&self, py: Python<'_>, id: u8) -> PyResult<Py<RemoteNode>> {
@@ -354,8 +425,9 @@ impl Network {
     }
 
     /// The node-IDs of the nodes added, in order.
-    fn keys(&self) -> Vec<u8> {
-        lock(&self.nodes).keys().copied().collect()
+    fn keys(&self) -> Vec<u16> {
+        // As ints (a `Vec<u8>` would be `bytes`).
+        lock(&self.nodes).keys().map(|&k| u16::from(k)).collect()
     }
 
     fn __iter__(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {

@@ -1,13 +1,17 @@
-//! `canola.RemoteNode` (a node on the network, with its `sdo` and `nmt`) and `canola.NmtMaster`
+//! `canola.RemoteNode` (a node on the network, with its `sdo`, `nmt`, `tpdo`, `rpdo`
+//! and `emcy`) and `canola.NmtMaster`
 //! (`node.nmt`: the node's state, NMT commands, waits for boot-up and heartbeat).
 
 use std::sync::{Arc, Mutex};
 
+use canola::pdo::Direction;
 use canola::{NmtState, NodeId, ObjectDictionary};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use crate::network::{Network, load_dictionary, lock, node_id};
+use crate::emcy::{EmcyConsumer, EmcyShared};
+use crate::network::{NetCell, Network, connected, load_dictionary, lock, node_id};
+use crate::pdo::PdoBase;
 use crate::sdo::SdoClient;
 use crate::{NetworkError, NmtError, seconds, wait};
 
@@ -49,12 +53,16 @@ impl NodeLink {
     }
 }
 
-/// A CANopen node as the master sees it (python-canopen's `RemoteNode`): `sdo`, `nmt`.
+/// A CANopen node as the master sees it (python-canopen's `RemoteNode`): `sdo`, `nmt`, `tpdo`, `rpdo`,
+/// `emcy`.
 #[pyclass(module = "canola", frozen)]
 pub(crate) struct RemoteNode {
     pub(crate) link: Arc<NodeLink>,
     sdo: Py<SdoClient>,
     nmt: Py<NmtMaster>,
+    tpdo: Py<PdoBase>,
+    rpdo: Py<PdoBase>,
+    pub(crate) emcy: Py<EmcyConsumer>,
 }
 
 impl RemoteNode {
@@ -62,7 +70,24 @@ impl RemoteNode {
     pub(crate) fn from_link(link: Arc<NodeLink>) -> Self {
         Python::attach(|py| Self {
             sdo: Py::new(py, SdoClient::new(link.clone())).expect("allocating a handle"),
-            nmt: Py::new(py, NmtMaster { link: link.clone() }).expect("allocating a handle"),
+            nmt: Py::new(
+                py,
+                NmtMaster {
+                    target: NmtTarget::Node(link.clone()),
+                },
+            )
+            .expect("allocating a handle"),
+            tpdo: Py::new(py, PdoBase::new(link.clone(), Direction::Transmit))
+                .expect("allocating a handle"),
+            rpdo: Py::new(py, PdoBase::new(link.clone(), Direction::Receive))
+                .expect("allocating a handle"),
+            emcy: Py::new(
+                py,
+                EmcyConsumer {
+                    shared: EmcyShared::new(link.clone()),
+                },
+            )
+            .expect("allocating a handle"),
             link,
         })
     }
@@ -98,6 +123,24 @@ impl RemoteNode {
         self.nmt.clone_ref(py)
     }
 
+    /// The node's transmit PDOs: `read()`, maps by number, values as received.
+    #[getter]
+    fn tpdo(&self, py: Python<'_>) -> Py<PdoBase> {
+        self.tpdo.clone_ref(py)
+    }
+
+    /// The node's receive PDOs: `read()`, maps by number, sent by the master.
+    #[getter]
+    fn rpdo(&self, py: Python<'_>) -> Py<PdoBase> {
+        self.rpdo.clone_ref(py)
+    }
+
+    /// The node's emergencies: `active`, `log`, callbacks, `wait()`.
+    #[getter]
+    fn emcy(&self, py: Python<'_>) -> Py<EmcyConsumer> {
+        self.emcy.clone_ref(py)
+    }
+
     fn __repr__(&self) -> String {
         format!("<canola.RemoteNode {}>", self.link.id)
     }
@@ -114,32 +157,73 @@ fn state_name(state: Option<NmtState>) -> String {
     }
 }
 
-/// A node's NMT (python-canopen's `NmtMaster`, `node.nmt`).
+/// What an `NmtMaster` commands: one node, or every node (`network.nmt`, node-ID 0).
+pub(crate) enum NmtTarget {
+    Node(Arc<NodeLink>),
+    /// The network's facade handle, and the state last commanded to all nodes.
+    All(NetCell, Mutex<String>),
+}
+
+/// python-canopen's state name after an NMT command.
+fn commanded_state(code: u8) -> &'static str {
+    match code {
+        0x01 => "OPERATIONAL",
+        0x02 => "STOPPED",
+        0x80 => "PRE-OPERATIONAL",
+        _ => "INITIALISING",
+    }
+}
+
+/// A node's NMT (python-canopen's `NmtMaster`, `node.nmt`), or the network's (`network.nmt`),
+/// whose commands go to every node.
 #[pyclass(module = "canola", frozen)]
 pub(crate) struct NmtMaster {
-    link: Arc<NodeLink>,
+    pub(crate) target: NmtTarget,
+}
+
+impl NmtMaster {
+    /// The facade's NMT handle of the target.
+    fn nmt(&self) -> PyResult<canola::Nmt> {
+        match &self.target {
+            NmtTarget::Node(link) => Ok(link.node()?.nmt()),
+            NmtTarget::All(net, _) => Ok(canola::Nmt::all(&connected(net)?)),
+        }
+    }
+
+    /// The node, for what only a node has (its state, its boot-up, its heartbeat).
+    fn link(&self) -> PyResult<&Arc<NodeLink>> {
+        match &self.target {
+            NmtTarget::Node(link) => Ok(link),
+            NmtTarget::All(..) => Err(PyValueError::new_err(
+                "network.nmt commands every node; a node's state and waits are node.nmt's",
+            )),
+        }
+    }
 }
 
 #[pymethods]
 impl NmtMaster {
     /// The node's state as it last reported it (heartbeat, node guarding or boot-up):
     /// `"INITIALISING"` (nothing heard yet, or its boot-up), `"PRE-OPERATIONAL"`,
-    /// `"OPERATIONAL"`, `"STOPPED"`. Setting it sends the NMT command: `"OPERATIONAL"`,
-    /// `"STOPPED"`, `"PRE-OPERATIONAL"`, `"RESET"`, `"RESET COMMUNICATION"`.
+    /// `"OPERATIONAL"`, `"STOPPED"`; for `network.nmt` the state last commanded. Setting it
+    /// sends the NMT command: `"OPERATIONAL"`, `"STOPPED"`, `"PRE-OPERATIONAL"`, `"RESET"`,
+    /// `"RESET COMMUNICATION"`.
     #[getter]
     fn state(&self) -> PyResult<String> {
-        Ok(state_name(self.link.node()?.nmt().state()))
+        match &self.target {
+            NmtTarget::Node(link) => Ok(state_name(link.node()?.nmt().state())),
+            NmtTarget::All(_, commanded) => Ok(lock(commanded).clone()),
+        }
     }
 
     #[setter]
     fn set_state(&self, state: &str) -> PyResult<()> {
-        let nmt = self.link.node()?.nmt();
-        let sent = match state.to_ascii_uppercase().as_str() {
-            "OPERATIONAL" => nmt.start(),
-            "STOPPED" => nmt.stop(),
-            "PRE-OPERATIONAL" => nmt.enter_preoperational(),
-            "RESET" | "INITIALISING" => nmt.reset_node(),
-            "RESET COMMUNICATION" => nmt.reset_communication(),
+        let code = match state.to_ascii_uppercase().as_str() {
+            "OPERATIONAL" => 0x01,
+            "STOPPED" => 0x02,
+            "PRE-OPERATIONAL" => 0x80,
+            "RESET" | "INITIALISING" => 0x81,
+            "RESET COMMUNICATION" => 0x82,
             _ => {
                 return Err(PyValueError::new_err(format!(
                     "{state:?} is not an NMT command of CiA 301: OPERATIONAL, STOPPED, \
@@ -147,7 +231,30 @@ impl NmtMaster {
                 )));
             }
         };
-        sent.map_err(crate::to_py_err)
+        self.send_command(code)
+    }
+
+    /// Sends the NMT command `code`: 0x01 start, 0x02 stop, 0x80 enter pre-operational, 0x81
+    /// reset node, 0x82 reset communication.
+    fn send_command(&self, code: u8) -> PyResult<()> {
+        let nmt = self.nmt()?;
+        let sent = match code {
+            0x01 => nmt.start(),
+            0x02 => nmt.stop(),
+            0x80 => nmt.enter_preoperational(),
+            0x81 => nmt.reset_node(),
+            0x82 => nmt.reset_communication(),
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "0x{code:02X} is not an NMT command of CiA 301 (0x01, 0x02, 0x80, 0x81, 0x82)"
+                )));
+            }
+        };
+        sent.map_err(crate::to_py_err)?;
+        if let NmtTarget::All(_, commanded) = &self.target {
+            *lock(commanded) = commanded_state(code).into();
+        }
+        Ok(())
     }
 
     /// Waits for a boot-up message of the node not waited for yet (one that came before the
@@ -155,7 +262,11 @@ impl NmtMaster {
     /// `timeout` seconds.
     #[pyo3(signature = (timeout = 10.0))]
     fn wait_for_bootup(&self, py: Python<'_>, timeout: f64) -> PyResult<()> {
-        let op = self.link.node()?.nmt().wait_for_bootup(seconds(timeout)?);
+        let op = self
+            .link()?
+            .node()?
+            .nmt()
+            .wait_for_bootup(seconds(timeout)?);
         wait(py, op)
     }
 
@@ -163,20 +274,24 @@ impl NmtMaster {
     /// Raises `NmtError` after `timeout` seconds.
     #[pyo3(signature = (timeout = 10.0))]
     fn wait_for_heartbeat(&self, py: Python<'_>, timeout: f64) -> PyResult<String> {
-        let node = self.link.node()?;
+        let link = self.link()?;
+        let node = link.node()?;
         let net = node.network().clone();
         let now = net.now();
         let op = node.nmt().wait_for_life(Some(now), now + seconds(timeout)?);
         if !wait(py, op)? {
             return Err(NmtError::new_err(format!(
                 "no heartbeat from node {} within {timeout} s",
-                self.link.id
+                link.id
             )));
         }
         self.state()
     }
 
     fn __repr__(&self) -> String {
-        format!("<canola.NmtMaster node {}>", self.link.id)
+        match &self.target {
+            NmtTarget::Node(link) => format!("<canola.NmtMaster node {}>", link.id),
+            NmtTarget::All(..) => "<canola.NmtMaster all nodes>".into(),
+        }
     }
 }

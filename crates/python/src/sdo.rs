@@ -17,7 +17,7 @@ use crate::{awaitable, wait};
 
 /// A decoded value as python-canopen gives it: `int`, `bool`, `float`, `str` for the string
 /// types (trailing NULs stripped), `bytes` for the rest.
-fn value_to_py(py: Python<'_>, v: Value) -> PyResult<Py<PyAny>> {
+pub(crate) fn value_to_py(py: Python<'_>, v: Value) -> PyResult<Py<PyAny>> {
     let text = |s: String| s.trim_end_matches('\0').to_string();
     match v {
         Value::Boolean(b) => b.into_py_any(py),
@@ -34,7 +34,7 @@ fn value_to_py(py: Python<'_>, v: Value) -> PyResult<Py<PyAny>> {
 }
 
 /// A Python value to write, converted to the object's type by the facade.
-fn write_value(v: &Bound<'_, PyAny>) -> PyResult<WriteValue> {
+pub(crate) fn write_value(v: &Bound<'_, PyAny>) -> PyResult<WriteValue> {
     if let Ok(b) = v.cast::<PyBool>() {
         return Ok(WriteValue::from(b.is_true()));
     }
@@ -69,7 +69,7 @@ fn data_bytes(data: &Bound<'_, PyAny>) -> PyResult<Vec<u8>> {
 }
 
 /// An SDO address from Python, checked.
-fn address(index: i64, subindex: i64) -> PyResult<ObjectAddress> {
+pub(crate) fn address(index: i64, subindex: i64) -> PyResult<ObjectAddress> {
     match (u16::try_from(index), u8::try_from(subindex)) {
         (Ok(i), Ok(s)) => Ok(ObjectAddress::new(i, s)),
         _ => Err(PyValueError::new_err(format!(
