@@ -16,6 +16,8 @@ __version__: str
 __all__ = [
     "EmcyConsumer",
     "EmcyError",
+    "LssError",
+    "LssMaster",
     "MemoryBus",
     "NetworkError",
     "Network",
@@ -74,6 +76,9 @@ class EmcyError(Exception):
     def get_desc(self) -> str:
         """The CiA 301 meaning of the code ("" when it has none)."""
 
+class LssError(Exception):
+    """An LSS service failed: no answer, or the slave refused it."""
+
 @final
 class NetworkError(Exception):
     """The bus could not be opened, failed, or is not connected."""
@@ -97,8 +102,11 @@ class SimDevice:
 
     @staticmethod
     def from_eds(eds: _EdsSource, node_id: int) -> SimDevice: ...
+    @staticmethod
+    def unconfigured(eds: _EdsSource, address: tuple[int, int, int, int]) -> SimDevice:
+        """A device without a node-ID with this LSS address (vendor, product, revision, serial)."""
     @property
-    def id(self) -> int: ...
+    def id(self) -> Optional[int]: ...
 
 @final
 class Network:
@@ -124,6 +132,8 @@ class Network:
     def sync(self) -> SyncProducer: ...
     @property
     def scanner(self) -> NodeScanner: ...
+    @property
+    def lss(self) -> LssMaster: ...
     def send_message(
         self,
         can_id: int,
@@ -362,3 +372,32 @@ class NodeScanner:
     def nodes(self) -> list[int]: ...
     def search(self, limit: int = 127, timeout: float = 0.5) -> None: ...
     def reset(self) -> None: ...
+
+@final
+class LssMaster:
+    """The LSS master (`network.lss`, CiA 305)."""
+
+    WAITING_STATE: int
+    CONFIGURATION_STATE: int
+    def send_switch_state_global(self, mode: int) -> None: ...
+    def send_switch_mode_global(self, mode: int) -> None: ...
+    def send_switch_state_selective(
+        self, vendorId: int, productCode: int, revisionNumber: int, serialNumber: int
+    ) -> bool: ...
+    def inquire_node_id(self) -> int: ...
+    def inquire_lss_address(self, req_cs: int) -> int: ...
+    def configure_node_id(self, new_node_id: int) -> None: ...
+    def configure_bit_timing(self, new_bit_timing: int) -> None: ...
+    def activate_bit_timing(self, switch_delay_ms: int) -> None: ...
+    def store_configuration(self) -> None: ...
+    def send_identify_remote_slave(
+        self,
+        vendorId: int,
+        productCode: int,
+        revisionNumberLow: int,
+        revisionNumberHigh: int,
+        serialNumberLow: int,
+        serialNumberHigh: int,
+    ) -> bool: ...
+    def send_identify_non_configured_remote_slave(self) -> bool: ...
+    def fast_scan(self) -> tuple[bool, Optional[list[int]]]: ...

@@ -19,6 +19,7 @@ use pyo3::prelude::*;
 
 mod dispatch;
 mod emcy;
+mod lss;
 mod network;
 mod node;
 mod pdo;
@@ -156,6 +157,7 @@ pub(crate) fn to_py_err(e: Error) -> PyErr {
         Error::UnknownObject { .. } => PyKeyError::new_err(text),
         Error::Value { .. } => PyValueError::new_err(text),
         Error::Timeout { .. } => NmtError::new_err(text),
+        Error::Lss(_) => lss::LssError::new_err(text),
         _ => NetworkError::new_err(text),
     }
 }
@@ -208,6 +210,8 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sdo::SdoArray>()?;
     m.add("EmcyError", emcy::emcy_error_type(py)?)?;
     m.add_class::<emcy::EmcyConsumer>()?;
+    m.add("LssError", py.get_type::<lss::LssError>())?;
+    m.add_class::<lss::LssMaster>()?;
     m.add_class::<services::SyncProducer>()?;
     m.add_class::<services::NodeScanner>()?;
     m.add_class::<pdo::PdoBase>()?;

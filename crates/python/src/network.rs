@@ -11,6 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use crate::NetworkError;
+use crate::lss::LssMaster;
 use crate::node::{NmtMaster, NmtTarget, NodeLink, RemoteNode};
 use crate::services::{NodeScanner, SyncProducer};
 
@@ -154,7 +155,7 @@ impl MemoryBus {
 #[pyclass(module = "canola", frozen)]
 pub(crate) struct SimDevice {
     device: Mutex<Option<canola::SimDevice>>,
-    node: NodeId,
+    node: Option<NodeId>,
 }
 
 #[pymethods]
@@ -168,18 +169,35 @@ impl SimDevice {
             .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
         Ok(Self {
             device: Mutex::new(Some(device)),
-            node,
+            node: Some(node),
         })
     }
 
-    /// The device's node-ID.
+    /// A device without a node-ID (CiA 305 "unconfigured") whose LSS address is `address`
+    /// (vendor-ID, product code, revision number, serial number; also its 0x1018): silent but
+    /// for LSS until a master gives it a node-ID (`network.lss`), then it boots with it.
+    #[staticmethod]
+    fn unconfigured(eds: &Bound<'_, PyAny>, address: (u32, u32, u32, u32)) -> PyResult<Self> {
+        let od = load_dictionary(eds)?;
+        let (v, p, r, s) = address;
+        let device = canola::SimDevice::unconfigured(od, canola::lss::LssAddress::new(v, p, r, s));
+        Ok(Self {
+            device: Mutex::new(Some(device)),
+            node: None,
+        })
+    }
+
+    /// The device's node-ID (`None` for an unconfigured one, as made).
     #[getter]
-    fn id(&self) -> u8 {
-        self.node.get()
+    fn id(&self) -> Option<u8> {
+        self.node.map(NodeId::get)
     }
 
     fn __repr__(&self) -> String {
-        format!("<canola.SimDevice node {}>", self.node)
+        match self.node {
+            Some(n) => format!("<canola.SimDevice node {n}>"),
+            None => "<canola.SimDevice unconfigured>".into(),
+        }
     }
 }
 
@@ -192,6 +210,7 @@ pub(crate) struct Network {
     nmt: Py<NmtMaster>,
     sync: Py<SyncProducer>,
     scanner: Py<NodeScanner>,
+    lss: Py<LssMaster>,
 }
 
 impl Network {
@@ -207,6 +226,7 @@ impl Network {
             .expect("allocating a handle"),
             sync: Py::new(py, SyncProducer::new(net.clone())).expect("allocating a handle"),
             scanner: Py::new(py, NodeScanner::new(net.clone())).expect("allocating a handle"),
+            lss: Py::new(py, LssMaster::new(net.clone())).expect("allocating a handle"),
             net,
             nodes: Mutex::new(BTreeMap::new()),
         })
@@ -379,6 +399,12 @@ impl Network {
     #[getter]
     fn scanner(&self, py: Python<'_>) -> Py<NodeScanner> {
         self.scanner.clone_ref(py)
+    }
+
+    /// The LSS master (CiA 305): switch state, configure and inquire, Fastscan.
+    #[getter]
+    fn lss(&self, py: Python<'_>) -> Py<LssMaster> {
+        self.lss.clone_ref(py)
     }
 
     /// Sends one CAN frame: `can_id` (11-bit, or 29-bit when above 0x7FF or `extended`),

@@ -144,3 +144,26 @@ def test_a_tpdo_is_not_the_masters_to_send(node: canola.RemoteNode) -> None:
         node.tpdo[1]["no such object"]
     with pytest.raises(KeyError):
         node.tpdo[0x3000]
+
+
+def test_callbacks_come_by_themselves_on_a_real_time_bus() -> None:
+    """On a network driven in the background, callbacks run without a call that waits."""
+    import time
+
+    from conftest import EDS
+
+    bus = canola.MemoryBus(realtime=True)
+    bus.attach(canola.SimDevice.from_eds(str(EDS), 5))
+    with canola.Network(bus) as net:
+        node = net.add_node(5, str(EDS))
+        node.tpdo.read()
+        node.tpdo[1].event_timer = 10
+        node.tpdo[1].inhibit_time = 0
+        node.tpdo.save()
+        got: list[float] = []
+        node.tpdo[1].add_callback(lambda m: got.append(m.timestamp or 0.0))
+        net.nmt.state = "OPERATIONAL"
+        end = time.monotonic() + 10
+        while len(got) < 3 and time.monotonic() < end:
+            time.sleep(0.01)
+        assert len(got) >= 3
