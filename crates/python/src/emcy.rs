@@ -117,6 +117,9 @@ impl EmcyShared {
             }
             None => false,
         }));
+        // The subscription gets every event of the network: drained by the dispatcher
+        // thread too, it does not grow while the program makes no call (a driven network).
+        dispatch::start_dispatcher();
     }
 
     /// Takes the events that came: the node's EMCYs go to the lists and queue the callbacks.

@@ -208,6 +208,7 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<sdo::SdoVariable>()?;
     m.add_class::<sdo::SdoRecord>()?;
     m.add_class::<sdo::SdoArray>()?;
+    m.add_class::<sdo::SdoBits>()?;
     m.add("EmcyError", emcy::emcy_error_type(py)?)?;
     m.add_class::<emcy::EmcyConsumer>()?;
     m.add("LssError", py.get_type::<lss::LssError>())?;

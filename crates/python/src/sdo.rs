@@ -226,6 +226,76 @@ impl SdoClient {
     }
 }
 
+/// The bits of an integer value (python-canopen's `Bits`, `var.bits`): the value as read when
+/// it was made; setting bits writes the whole value back.
+#[pyclass(module = "canola", frozen)]
+pub(crate) struct SdoBits {
+    var: Py<SdoVariable>,
+    raw: std::sync::Mutex<i128>,
+}
+
+/// The bit numbers `key` names: an int, a slice with start and stop, or a list of ints.
+fn bit_numbers(key: &Bound<'_, PyAny>) -> PyResult<Vec<u32>> {
+    let numbers: Vec<i64> = if let Ok(n) = key.extract::<i64>() {
+        vec![n]
+    } else if let Ok(slice) = key.cast::<pyo3::types::PySlice>() {
+        let part = |name: &str| -> PyResult<Option<i64>> { slice.getattr(name)?.extract() };
+        let (Some(start), Some(stop)) = (part("start")?, part("stop")?) else {
+            return Err(PyValueError::new_err(
+                "a slice of bits gives start and stop",
+            ));
+        };
+        let step = part("step")?.unwrap_or(1);
+        if step <= 0 {
+            return Err(PyValueError::new_err("a slice of bits steps upwards"));
+        }
+        (start..stop).step_by(step as usize).collect()
+    } else {
+        key.extract().map_err(|_| {
+            PyKeyError::new_err(
+                "bits are named by number, slice or list (the dictionary names no bits)",
+            )
+        })?
+    };
+    if numbers.is_empty() {
+        return Err(PyValueError::new_err("no bits named"));
+    }
+    numbers
+        .into_iter()
+        .map(|n| {
+            u32::try_from(n)
+                .ok()
+                .filter(|n| *n < 64)
+                .ok_or_else(|| PyValueError::new_err(format!("bit {n} is not in 0..64")))
+        })
+        .collect()
+}
+
+#[pymethods]
+impl SdoBits {
+    /// The bits' value: `(raw & mask) >> lowest bit`.
+    fn __getitem__(&self, key: &Bound<'_, PyAny>) -> PyResult<i128> {
+        let bits = bit_numbers(key)?;
+        let mask = bits.iter().fold(0i128, |m, b| m | 1 << b);
+        let low = bits.iter().min().copied().unwrap_or(0);
+        Ok((*crate::network::lock(&self.raw) & mask) >> low)
+    }
+
+    /// Sets the bits to `value` (shifted to the lowest bit) and writes the value.
+    fn __setitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>, value: i128) -> PyResult<()> {
+        let bits = bit_numbers(key)?;
+        let mask = bits.iter().fold(0i128, |m, b| m | 1 << b);
+        let low = bits.iter().min().copied().unwrap_or(0);
+        let raw = {
+            let mut raw = crate::network::lock(&self.raw);
+            *raw = (*raw & !mask) | ((value << low) & mask);
+            *raw
+        };
+        let raw = raw.into_pyobject(py)?;
+        self.var.get().set_raw(py, raw.as_any())
+    }
+}
+
 /// One value of a node's dictionary, read and written over SDO (python-canopen's
 /// `SdoVariable`).
 #[pyclass(module = "canola", frozen)]
@@ -281,24 +351,56 @@ impl SdoVariable {
         wait(py, op)
     }
 
-    /// Reads the value; `fmt` is `"raw"` (the only format so far).
+    /// The physical value: `raw` times the object's factor, which is 1 (the stack's
+    /// dictionary has no `Factor`, a python-canopen extension of EDS); setting it sets `raw`.
+    #[getter]
+    fn phys(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.raw(py)
+    }
+
+    #[setter]
+    fn set_phys(&self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.set_raw(py, value)
+    }
+
+    /// The bits of the (integer) value, read now: `var.bits[3]`, `var.bits[0:4]`,
+    /// `var.bits[[0, 2]]`; setting some writes the value back.
+    #[getter]
+    fn bits(slf: Bound<'_, Self>) -> PyResult<SdoBits> {
+        let py = slf.py();
+        let raw = slf.get().raw(py)?;
+        let raw: i128 = raw.bind(py).extract().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "{} is not an integer: it has no bits",
+                slf.get().name()
+            ))
+        })?;
+        Ok(SdoBits {
+            var: slf.unbind(),
+            raw: std::sync::Mutex::new(raw),
+        })
+    }
+
+    /// Reads the value; `fmt` is `"raw"` or `"phys"`.
     #[pyo3(signature = (fmt = "raw"))]
     fn read(&self, py: Python<'_>, fmt: &str) -> PyResult<Py<PyAny>> {
         match fmt {
             "raw" => self.raw(py),
+            "phys" => self.phys(py),
             _ => Err(PyValueError::new_err(format!(
-                "format {fmt:?} is not supported yet (only \"raw\")"
+                "format {fmt:?} is not supported (\"raw\" or \"phys\"; no value descriptions)"
             ))),
         }
     }
 
-    /// Writes the value; `fmt` is `"raw"` (the only format so far).
+    /// Writes the value; `fmt` is `"raw"` or `"phys"`.
     #[pyo3(signature = (value, fmt = "raw"))]
     fn write(&self, py: Python<'_>, value: &Bound<'_, PyAny>, fmt: &str) -> PyResult<()> {
         match fmt {
             "raw" => self.set_raw(py, value),
+            "phys" => self.set_phys(py, value),
             _ => Err(PyValueError::new_err(format!(
-                "format {fmt:?} is not supported yet (only \"raw\")"
+                "format {fmt:?} is not supported (\"raw\" or \"phys\"; no value descriptions)"
             ))),
         }
     }

@@ -103,3 +103,31 @@ def test_remote_node_made_first_then_added(network: canola.Network) -> None:
     assert network.add_node(node) is node
     assert network[5] is node and 5 in network and list(network) == [5]
     assert node.sdo[0x1017].raw == 500
+
+
+def test_phys_is_raw_with_factor_one(node: canola.RemoteNode) -> None:
+    var = node.sdo["Producer heartbeat time"]
+    var.phys = 300
+    assert var.raw == 300 and var.phys == 300
+    assert var.read("phys") == 300
+    var.write(400, "phys")
+    assert var.raw == 400
+    with pytest.raises(ValueError):
+        var.read("desc")
+
+
+def test_bits_read_and_write_the_value(node: canola.RemoteNode) -> None:
+    var = node.sdo[0x1017]
+    var.raw = 0b1010
+    bits = var.bits
+    assert (bits[0], bits[1], bits[3]) == (0, 1, 1)
+    assert bits[0:4] == 0b1010
+    assert bits[[1, 3]] == 0b101
+    bits[0] = 1
+    assert var.raw == 0b1011
+    bits[4:8] = 0xF
+    assert var.raw == 0xFB
+    with pytest.raises(TypeError):
+        _ = node.sdo["Manufacturer device name"].bits
+    with pytest.raises(ValueError):
+        bits[64]
