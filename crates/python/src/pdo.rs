@@ -257,8 +257,21 @@ impl PdoShared {
         f(s).map_err(to_py_err)
     }
 
+    /// The values given to RPDO `number`'s objects that it maps now (a remap may have dropped
+    /// some).
     fn values(&self, number: u16) -> Vec<(ObjectAddress, WriteValue)> {
-        lock(&self.values).get(&number).cloned().unwrap_or_default()
+        let mapped: Vec<ObjectAddress> = self
+            .with(number, |p| p.mapped.iter().map(|m| m.addr).collect())
+            .unwrap_or_default();
+        lock(&self.values)
+            .get(&number)
+            .map(|vs| {
+                vs.iter()
+                    .filter(|(a, _)| mapped.contains(a))
+                    .cloned()
+                    .collect()
+            })
+            .unwrap_or_default()
     }
 }
 
@@ -632,7 +645,7 @@ impl PdoMap {
         self.shared.read(py)
     }
 
-    /// The data of the latest reception (a TPDO) or the data last handed to the engine.
+    /// The data of the latest reception of this TPDO (empty before one, and for an RPDO).
     #[getter]
     fn data<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
         let received = lock(&self.shared.received);
@@ -865,15 +878,15 @@ impl PdoVariable {
             ));
         }
         let value = write_value(value)?;
-        let values = {
+        {
             let mut all = lock(&self.shared.values);
             let vs = all.entry(self.number).or_default();
             match vs.iter_mut().find(|(a, _)| *a == self.addr) {
                 Some(slot) => slot.1 = value,
                 None => vs.push((self.addr, value)),
             }
-            vs.clone()
-        };
+        }
+        let values = self.shared.values(self.number);
         let mut senders = lock(&self.shared.senders);
         if let Some(s) = senders.get_mut(&self.number)
             && s.periodic

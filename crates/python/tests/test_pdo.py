@@ -167,3 +167,18 @@ def test_callbacks_come_by_themselves_on_a_real_time_bus() -> None:
         while len(got) < 3 and time.monotonic() < end:
             time.sleep(0.01)
         assert len(got) >= 3
+
+
+def test_an_rpdo_remapped_sends_what_it_maps_now(node: canola.RemoteNode) -> None:
+    node.rpdo.read()
+    rpdo1 = node.rpdo[1]
+    node.nmt.state = "OPERATIONAL"
+    rpdo1[CONTROL].raw = 5.0
+    rpdo1.transmit()
+    rpdo1.clear()
+    rpdo1.add_variable("Control Value 2.Value")
+    rpdo1.save()
+    rpdo1["Control Value 2.Value"].raw = 6.0
+    rpdo1.transmit()  # the value given to Control Value 1 is not sent any more
+    assert node.sdo["Control Value 2.Value"].raw == 6.0
+    assert node.sdo[CONTROL].raw == 5.0
