@@ -54,6 +54,8 @@ pub(crate) struct PdoShared {
     /// RPDOs: each one the master transmits, with the values last handed to it and whether it
     /// is periodic (`start()`) rather than sent on `transmit()` only.
     senders: Mutex<HashMap<u16, Sender>>,
+    /// RPDOs: the period of `start()`, by number.
+    periods: Mutex<HashMap<u16, f64>>,
 }
 
 struct Sender {
@@ -107,6 +109,7 @@ impl PdoShared {
             subscription: Mutex::new(None),
             values: Mutex::new(HashMap::new()),
             senders: Mutex::new(HashMap::new()),
+            periods: Mutex::new(HashMap::new()),
         })
     }
 
@@ -716,14 +719,17 @@ impl PdoMap {
     }
 
     /// Sends this RPDO every `period` seconds (whole milliseconds) from the master, and at
-    /// once when a mapped value changes, until `stop()`.
+    /// once when a mapped value changes, until `stop()`. Without `period`, the `period` set
+    /// before.
     #[pyo3(signature = (period = None))]
     fn start(&self, period: Option<f64>) -> PyResult<()> {
         self.rpdo_only()?;
-        let period = period.ok_or_else(|| {
-            PyValueError::new_err("A valid transmission period has not been given")
-        })?;
-        let period = seconds(period)?;
+        let period = period
+            .or_else(|| lock(&self.shared.periods).get(&self.number).copied())
+            .ok_or_else(|| {
+                PyValueError::new_err("A valid transmission period has not been given")
+            })?;
+        let every = seconds(period)?;
         self.stop()?;
         let params = self.shared.with(self.number, |p| p.clone())?;
         let sender = self
@@ -731,7 +737,7 @@ impl PdoMap {
             .link
             .node()?
             .rpdo()
-            .start(&params, Transmission::cyclic(period))
+            .start(&params, Transmission::cyclic(every))
             .map_err(to_py_err)?;
         let mut s = Sender {
             sender,
@@ -740,7 +746,82 @@ impl PdoMap {
         };
         hand_over(&mut s, self.shared.values(self.number), false).map_err(to_py_err)?;
         lock(&self.shared.senders).insert(self.number, s);
+        lock(&self.shared.periods).insert(self.number, period);
         Ok(())
+    }
+
+    /// The period in seconds of `start()` (`None` before one is given).
+    #[getter]
+    fn period(&self) -> Option<f64> {
+        lock(&self.shared.periods).get(&self.number).copied()
+    }
+
+    #[setter]
+    fn set_period(&self, period: Option<f64>) -> PyResult<()> {
+        let mut periods = lock(&self.shared.periods);
+        match period {
+            Some(p) => {
+                seconds(p)?;
+                periods.insert(self.number, p);
+            }
+            None => {
+                periods.remove(&self.number);
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the PDO goes out regularly: a period given, or a synchronous transmission type.
+    #[getter]
+    fn is_periodic(&self) -> PyResult<bool> {
+        if self.period().is_some() {
+            return Ok(true);
+        }
+        self.shared
+            .with(self.number, |p| p.transmission_type().is_synchronous())
+    }
+
+    /// The SYNC start value (sub 6; `None` when the node has none for this PDO).
+    #[getter]
+    fn sync_start_value(&self) -> PyResult<Option<u8>> {
+        self.shared.with(self.number, |p| {
+            p.has_sync_start().then_some(p.comm.sync_start)
+        })
+    }
+
+    /// Hands the values given to a started RPDO's objects to the master's engine (python-canopen
+    /// needs it after a change; here a started RPDO takes a change at once).
+    fn update(&self) -> PyResult<()> {
+        let values = self.shared.values(self.number);
+        if let Some(s) = lock(&self.shared.senders).get_mut(&self.number) {
+            hand_over(s, values, false).map_err(to_py_err)?;
+        }
+        Ok(())
+    }
+
+    /// Asks the node for this TPDO by a remote frame (nothing when the PDO is not valid or
+    /// allows no remote request).
+    fn remote_request(&self) -> PyResult<()> {
+        let (ok, id, len) = self.shared.with(self.number, |p| {
+            let bytes = p
+                .mapped
+                .iter()
+                .map(|m| usize::from(m.bits))
+                .sum::<usize>()
+                .div_ceil(8);
+            (p.is_enabled() && p.rtr_allowed(), p.can_id(), bytes.min(8))
+        })?;
+        if !ok {
+            return Ok(());
+        }
+        let frame = canola::CanFrame::remote(id.map_err(to_py_err)?, len)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        self.shared
+            .link
+            .node()?
+            .network()
+            .send(frame)
+            .map_err(to_py_err)
     }
 
     /// Stops transmitting this RPDO.

@@ -130,6 +130,8 @@ def test_rpdo_start_sends_periodically_until_stop(node: canola.RemoteNode) -> No
     assert node.sdo[0x2540][1].raw == 4.0
     rpdo1.stop()
     node.rpdo.stop()
+    assert rpdo1.period == 0.05  # start() again sends at the same period
+    rpdo1.period = None
     with pytest.raises(ValueError, match="period"):
         rpdo1.start()
 
@@ -182,3 +184,29 @@ def test_an_rpdo_remapped_sends_what_it_maps_now(node: canola.RemoteNode) -> Non
     rpdo1.transmit()  # the value given to Control Value 1 is not sent any more
     assert node.sdo["Control Value 2.Value"].raw == 6.0
     assert node.sdo[CONTROL].raw == 5.0
+
+
+def test_remote_request_of_an_rtr_only_tpdo(node: canola.RemoteNode) -> None:
+    node.tpdo.read()
+    tpdo1 = node.tpdo[1]
+    assert tpdo1.rtr_allowed and tpdo1.is_periodic is False
+    tpdo1.trans_type = 253  # sent on a remote request only
+    tpdo1.save()
+    node.nmt.state = "OPERATIONAL"
+    assert tpdo1.wait_for_reception(1.5) is None
+    tpdo1.remote_request()
+    assert tpdo1.wait_for_reception(0.5) is not None
+
+
+def test_period_set_before_start(node: canola.RemoteNode) -> None:
+    node.rpdo.read()
+    rpdo1 = node.rpdo[1]
+    node.nmt.state = "OPERATIONAL"
+    rpdo1.period = 0.02
+    assert rpdo1.is_periodic
+    rpdo1.start()
+    rpdo1[CONTROL].raw = 7.0
+    rpdo1.update()
+    assert node.sdo[CONTROL].raw == 7.0
+    rpdo1.stop()
+    assert rpdo1.period == 0.02
