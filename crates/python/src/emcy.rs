@@ -2,12 +2,13 @@
 //! `canola.EmcyError` exceptions, with `active`, `log`, callbacks and a wait.
 //!
 //! The master decodes every EMCY (`NetworkEvent::Emcy`, from `Network::subscribe`); this module
-//! keeps python-canopen's lists of them. The subscription is drained wherever this package
-//! polls (see `dispatch`): between the driving steps of a blocking call, on the dispatcher
-//! thread, and when the lists are read.
+//! keeps python-canopen's lists of them. One subscription per network (`EmcyRouter`) is
+//! drained wherever this package polls (see `dispatch`): between the driving steps of a
+//! blocking call, on the dispatcher thread, and when the lists are read.
 
-use std::sync::mpsc::{Receiver, TryRecvError};
-use std::sync::{Arc, Mutex};
+use std::collections::HashMap;
+use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex, Weak};
 
 use canola::nmt::EmcyEvent;
 use canola::{Duration, NetworkEvent, Operation};
@@ -76,10 +77,76 @@ fn emcy_error(py: Python<'_>, e: &EmcyEvent) -> PyResult<Py<PyAny>> {
         .unbind())
 }
 
+/// A network's one subscription to its events, handing each node's EMCYs to its `node.emcy`
+/// (one subscription per network, not per node: each gets every event of the network).
+pub(crate) struct EmcyRouter {
+    rx: Mutex<Option<Receiver<NetworkEvent>>>,
+    nodes: Mutex<HashMap<u8, Weak<EmcyShared>>>,
+}
+
+impl EmcyRouter {
+    /// A router, polled (see `dispatch`) as long as it exists.
+    pub(crate) fn new() -> Arc<Self> {
+        let router = Arc::new(Self {
+            rx: Mutex::new(None),
+            nodes: Mutex::new(HashMap::new()),
+        });
+        let me = Arc::downgrade(&router);
+        dispatch::add_poller(Box::new(move || match me.upgrade() {
+            Some(me) => {
+                me.poll();
+                true
+            }
+            None => false,
+        }));
+        router
+    }
+
+    /// Follows the events of `net` (the network connected now; `None`: none).
+    pub(crate) fn attach(&self, net: Option<&canola::Network>) {
+        *lock(&self.rx) = net.map(canola::Network::subscribe);
+        if net.is_some() {
+            // Drained by the dispatcher thread too, the subscription does not grow while the
+            // program makes no call (a network driven in the background).
+            dispatch::start_dispatcher();
+        }
+    }
+
+    /// Routes the EMCYs of node `shared` to it from now on.
+    pub(crate) fn add(self: &Arc<Self>, shared: &Arc<EmcyShared>) {
+        *lock(&shared.router) = Arc::downgrade(self);
+        lock(&self.nodes).insert(shared.link.id.get(), Arc::downgrade(shared));
+    }
+
+    /// Takes the events that came: each node's EMCYs go to its lists and queue its callbacks.
+    fn poll(&self) {
+        let mut emcys = Vec::new();
+        {
+            let rx = lock(&self.rx);
+            let Some(r) = rx.as_ref() else { return };
+            while let Ok(event) = r.try_recv() {
+                if let NetworkEvent::Emcy(e) = event {
+                    emcys.push(e);
+                }
+            }
+        }
+        if emcys.is_empty() {
+            return;
+        }
+        let nodes = lock(&self.nodes);
+        for e in emcys {
+            if let Some(shared) = nodes.get(&e.node.get()).and_then(Weak::upgrade) {
+                shared.received(e);
+            }
+        }
+    }
+}
+
 /// What `node.emcy` holds.
 pub(crate) struct EmcyShared {
     link: Arc<NodeLink>,
-    rx: Mutex<Option<Receiver<NetworkEvent>>>,
+    /// The router of the network the node was added to.
+    router: Mutex<Weak<EmcyRouter>>,
     state: Mutex<EmcyState>,
     callbacks: Mutex<Vec<Py<PyAny>>>,
 }
@@ -100,42 +167,17 @@ impl EmcyShared {
     pub(crate) fn new(link: Arc<NodeLink>) -> Arc<Self> {
         Arc::new(Self {
             link,
-            rx: Mutex::new(None),
+            router: Mutex::new(Weak::new()),
             state: Mutex::new(EmcyState::default()),
             callbacks: Mutex::new(Vec::new()),
         })
     }
 
-    /// Follows the node's EMCYs on `net` from now on (the network it was added to).
-    pub(crate) fn subscribe(self: &Arc<Self>, net: &canola::Network) {
-        *lock(&self.rx) = Some(net.subscribe());
-        let me = Arc::downgrade(self);
-        dispatch::add_poller(Box::new(move || match me.upgrade() {
-            Some(me) => {
-                me.poll();
-                true
-            }
-            None => false,
-        }));
-        // The subscription gets every event of the network: drained by the dispatcher
-        // thread too, it does not grow while the program makes no call (a driven network).
-        dispatch::start_dispatcher();
-    }
-
-    /// Takes the events that came: the node's EMCYs go to the lists and queue the callbacks.
-    fn poll(self: &Arc<Self>) {
-        let mut rx = lock(&self.rx);
-        let Some(r) = rx.as_ref() else { return };
-        loop {
-            match r.try_recv() {
-                Ok(NetworkEvent::Emcy(e)) if e.node == self.link.id => self.received(e),
-                Ok(_) => {}
-                Err(TryRecvError::Empty) => return,
-                Err(TryRecvError::Disconnected) => {
-                    *rx = None;
-                    return;
-                }
-            }
+    /// Takes what the network's subscription holds now.
+    fn poll(&self) {
+        let router = lock(&self.router).upgrade();
+        if let Some(r) = router {
+            r.poll();
         }
     }
 

@@ -11,6 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use crate::NetworkError;
+use crate::emcy::EmcyRouter;
 use crate::lss::LssMaster;
 use crate::node::{NmtMaster, NmtTarget, NodeLink, RemoteNode};
 use crate::services::{NodeScanner, SyncProducer};
@@ -211,10 +212,13 @@ pub(crate) struct Network {
     sync: Py<SyncProducer>,
     scanner: Py<NodeScanner>,
     lss: Py<LssMaster>,
+    emcy: Arc<EmcyRouter>,
 }
 
 impl Network {
     fn with(net: Option<canola::Network>) -> Self {
+        let emcy = EmcyRouter::new();
+        emcy.attach(net.as_ref());
         let net: NetCell = Arc::new(Mutex::new(net));
         Python::attach(|py| Self {
             nmt: Py::new(
@@ -229,6 +233,7 @@ impl Network {
             lss: Py::new(py, LssMaster::new(net.clone())).expect("allocating a handle"),
             net,
             nodes: Mutex::new(BTreeMap::new()),
+            emcy,
         })
     }
 
@@ -246,6 +251,7 @@ impl Network {
 
     /// Puts `net` in place of the network connected now, which is disconnected.
     fn replace(&self, net: Option<canola::Network>) -> PyResult<()> {
+        self.emcy.attach(net.as_ref());
         let old = std::mem::replace(&mut *lock(&self.net), net);
         match old {
             Some(old) if old.is_driven() => old.stop_driver().map_err(crate::to_py_err),
@@ -377,7 +383,7 @@ impl Network {
             Some(od) => net.add_node_with_dictionary(link.id, ObjectDictionary::clone(od)),
             None => net.add_node(link.id),
         };
-        node.get().emcy.get().shared.subscribe(&net);
+        this.emcy.add(&node.get().emcy.get().shared);
         lock(&this.nodes).insert(link.id.get(), node.clone_ref(py));
         Ok(node)
     }

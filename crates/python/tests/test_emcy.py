@@ -63,3 +63,17 @@ def test_raising_an_emcy_error_works() -> None:
     with pytest.raises(canola.EmcyError) as info:
         raise canola.EmcyError(0x3210, 4, b"", 0.0, "Voltage")
     assert info.value.get_desc() == "Voltage"
+
+
+def test_each_node_gets_its_own_emcys(
+    network: canola.Network, node: canola.RemoteNode, device: canola.Network
+) -> None:
+    from conftest import EDS
+
+    other = network.add_node(6, str(EDS))
+    device.send_message(0x86, (0x6100).to_bytes(2, "little") + bytes(6))
+    emcy(device, 0x4210)
+    err = other.emcy.wait(timeout=1.0)
+    assert err is not None and err.code == 0x6100
+    assert [e.code for e in node.emcy.log] == [0x4210]
+    assert [e.code for e in other.emcy.log] == [0x6100]
