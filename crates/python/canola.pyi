@@ -171,6 +171,10 @@ class RemoteNode:
     def nmt(self) -> NmtMaster: ...
     @property
     def emcy(self) -> EmcyConsumer: ...
+    def store(self, subindex: int = 1) -> None:
+        """Stores parameters in the node's non-volatile memory (0x1010)."""
+    def restore(self, subindex: int = 1) -> None:
+        """Restores the default parameters at the node's next reset (0x1011)."""
     @property
     def tpdo(self) -> PdoBase: ...
     @property

@@ -135,6 +135,22 @@ impl RemoteNode {
         self.rpdo.clone_ref(py)
     }
 
+    /// Stores parameters in the node's non-volatile memory: the signature `save` to
+    /// 0x1010 `subindex` (1 all, 2 communication, 3 application, 4 manufacturer-specific).
+    #[pyo3(signature = (subindex = 1))]
+    fn store(&self, py: Python<'_>, subindex: u8) -> PyResult<()> {
+        let group = canola::ParameterGroup::from_sub_index(subindex);
+        wait(py, self.link.node()?.store_parameters_of(group))
+    }
+
+    /// Restores the default parameters (at the node's next reset): the signature `load` to
+    /// 0x1011 `subindex` (as for `store`).
+    #[pyo3(signature = (subindex = 1))]
+    fn restore(&self, py: Python<'_>, subindex: u8) -> PyResult<()> {
+        let group = canola::ParameterGroup::from_sub_index(subindex);
+        wait(py, self.link.node()?.restore_defaults_of(group))
+    }
+
     /// The node's emergencies: `active`, `log`, callbacks, `wait()`.
     #[getter]
     fn emcy(&self, py: Python<'_>) -> Py<EmcyConsumer> {

@@ -131,3 +131,73 @@ def test_bits_read_and_write_the_value(node: canola.RemoteNode) -> None:
         _ = node.sdo["Manufacturer device name"].bits
     with pytest.raises(ValueError):
         bits[64]
+
+
+STORE_OBJECTS = b"""
+[1010]
+ParameterName=Store parameters
+ObjectType=0x8
+SubNumber=2
+
+[1010sub0]
+ParameterName=Highest sub-index supported
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+DefaultValue=1
+PDOMapping=0
+
+[1010sub1]
+ParameterName=Save all parameters
+ObjectType=0x7
+DataType=0x0007
+AccessType=rw
+DefaultValue=1
+PDOMapping=0
+
+[1011]
+ParameterName=Restore default parameters
+ObjectType=0x8
+SubNumber=2
+
+[1011sub0]
+ParameterName=Highest sub-index supported
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+DefaultValue=1
+PDOMapping=0
+
+[1011sub1]
+ParameterName=Restore all default parameters
+ObjectType=0x7
+DataType=0x0007
+AccessType=rw
+DefaultValue=1
+PDOMapping=0
+"""
+
+
+def test_store_without_0x1010_is_an_abort(node: canola.RemoteNode) -> None:
+    with pytest.raises(canola.SdoAbortedError) as info:
+        node.store()
+    assert info.value.code == 0x06020000
+
+
+def test_store_and_restore_survive_a_reset() -> None:
+    from conftest import EDS
+
+    eds = EDS.read_bytes() + STORE_OBJECTS
+    bus = canola.MemoryBus()
+    bus.attach(canola.SimDevice.from_eds(eds, 5))
+    with canola.Network(bus) as net:
+        node = net.add_node(5, eds)
+        node.sdo["Producer heartbeat time"].raw = 300
+        node.store()
+        node.nmt.state = "RESET"
+        node.nmt.wait_for_bootup(5.0)
+        assert node.sdo["Producer heartbeat time"].raw == 300
+        node.restore()
+        node.nmt.state = "RESET"
+        node.nmt.wait_for_bootup(5.0)
+        assert node.sdo["Producer heartbeat time"].raw == 500
