@@ -273,6 +273,32 @@ impl NmtMaster {
         Ok(())
     }
 
+    /// Guards the node (CiA 301 node guarding): a remote request every `period` seconds, whose
+    /// answers give the node's state (as heartbeats do).
+    fn start_node_guarding(&self, period: f64) -> PyResult<()> {
+        let link = self.link()?;
+        let every = seconds(period)?;
+        if every.as_micros() == 0 {
+            return Err(PyValueError::new_err("the guarding period is above zero"));
+        }
+        if !link.node()?.network().guard_node(link.id, every, 1) {
+            return Err(PyValueError::new_err(format!(
+                "node {} cannot be guarded every {period} s",
+                link.id
+            )));
+        }
+        Ok(())
+    }
+
+    /// Stops guarding the node.
+    fn stop_node_guarding(&self) -> PyResult<()> {
+        let link = self.link()?;
+        link.node()?
+            .network()
+            .guard_node(link.id, canola::Duration::ZERO, 1);
+        Ok(())
+    }
+
     /// Waits for a boot-up message of the node not waited for yet (one that came before the
     /// call counts, so a reset and then this wait cannot miss it). Raises `NmtError` after
     /// `timeout` seconds.
