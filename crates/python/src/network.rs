@@ -2,6 +2,7 @@
 //! and the simulation side: `canola.MemoryBus` and `canola.SimDevice`.
 
 use std::collections::{BTreeMap, HashMap};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 
 use canola::mem::{BusConfig, ClockMode};
@@ -33,6 +34,14 @@ pub(crate) fn connected(cell: &NetCell) -> PyResult<canola::Network> {
             "the network is not connected: connect() it or make it with Network.open()",
         )
     })
+}
+
+/// Makes the node of `link` known to `net`, with its dictionary.
+fn register(net: &canola::Network, link: &NodeLink) {
+    match &link.od {
+        Some(od) => net.add_node_with_dictionary(link.id, ObjectDictionary::clone(od)),
+        None => net.add_node(link.id),
+    };
 }
 
 /// A node-ID from Python, checked (1..=127).
@@ -213,6 +222,8 @@ pub(crate) struct Network {
     scanner: Py<NodeScanner>,
     lss: Py<LssMaster>,
     emcy: Arc<EmcyRouter>,
+    /// Connections made so far: a handle that subscribed to an earlier one subscribes again.
+    generation: AtomicU64,
 }
 
 impl Network {
@@ -234,12 +245,18 @@ impl Network {
             net,
             nodes: Mutex::new(BTreeMap::new()),
             emcy,
+            generation: AtomicU64::new(0),
         })
     }
 
     /// The facade's network, or the error that it is not connected.
     pub(crate) fn connected(&self) -> PyResult<canola::Network> {
         connected(&self.net)
+    }
+
+    /// Which connection this is (see `generation`).
+    pub(crate) fn generation(&self) -> u64 {
+        self.generation.load(Ordering::SeqCst)
     }
 
     /// Connects to the bus `spec` names (a bus spec of this stack), running the background
@@ -252,6 +269,13 @@ impl Network {
     /// Puts `net` in place of the network connected now, which is disconnected.
     fn replace(&self, net: Option<canola::Network>) -> PyResult<()> {
         self.emcy.attach(net.as_ref());
+        if let Some(net) = &net {
+            // The nodes added stay: the new connection knows them and their dictionaries.
+            for node in lock(&self.nodes).values() {
+                register(net, &node.get().link);
+            }
+        }
+        self.generation.fetch_add(1, Ordering::SeqCst);
         let old = std::mem::replace(&mut *lock(&self.net), net);
         match old {
             Some(old) if old.is_driven() => old.stop_driver().map_err(crate::to_py_err),
@@ -379,10 +403,7 @@ impl Network {
         link.attach(slf.clone().unbind());
         let this = slf.get();
         let net = this.connected()?;
-        match &link.od {
-            Some(od) => net.add_node_with_dictionary(link.id, ObjectDictionary::clone(od)),
-            None => net.add_node(link.id),
-        };
+        register(&net, &link);
         this.emcy.add(&node.get().emcy.get().shared);
         lock(&this.nodes).insert(link.id.get(), node.clone_ref(py));
         Ok(node)

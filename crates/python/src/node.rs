@@ -51,6 +51,13 @@ impl NodeLink {
             .connected()?;
         Ok(net.node(self.id))
     }
+
+    /// Which connection of its network the node is on now (0 before it is added).
+    pub(crate) fn generation(&self) -> u64 {
+        lock(&self.network)
+            .as_ref()
+            .map_or(0, |n| n.get().generation())
+    }
 }
 
 /// A CANopen node as the master sees it (python-canopen's `RemoteNode`): `sdo`, `nmt`, `tpdo`, `rpdo`,

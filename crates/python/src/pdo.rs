@@ -45,10 +45,11 @@ pub(crate) struct PdoShared {
     received: Mutex<HashMap<u16, Received>>,
     /// TPDOs: the Python callbacks of each, by number.
     callbacks: Mutex<HashMap<u16, Vec<Py<PyAny>>>>,
-    /// TPDOs: the facade callback that fills `received` (added by the first read or save).
-    /// It stays with the network: it holds this only weakly, and removing it when this goes
-    /// could happen inside it (the network locked), which would wait for itself.
-    subscription: Mutex<Option<PdoCallbackId>>,
+    /// TPDOs: the facade callback that fills `received` (added by the first read or save on
+    /// each connection of the network, with the connection's generation). It stays with the
+    /// network: it holds this only weakly, and removing it when this goes could happen inside
+    /// it (the network locked), which would wait for itself.
+    subscription: Mutex<Option<(u64, PdoCallbackId)>>,
     /// RPDOs: the values given to each (`rpdo[1]["x"].raw = v`), by number, in order.
     values: Mutex<HashMap<u16, Vec<(ObjectAddress, WriteValue)>>>,
     /// RPDOs: each one the master transmits, with the values last handed to it and whether it
@@ -141,7 +142,8 @@ impl PdoShared {
             return Ok(());
         }
         let mut sub = lock(&self.subscription);
-        if sub.is_some() {
+        let generation = self.link.generation();
+        if sub.is_some_and(|(g, _)| g == generation) {
             return Ok(());
         }
         let net = self.link.node()?.network().clone();
@@ -173,7 +175,7 @@ impl PdoShared {
                 dispatch::push(Box::new(move |py| me.run_callbacks(py, number)));
             }
         });
-        *sub = Some(id);
+        *sub = Some((generation, id));
         Ok(())
     }
 

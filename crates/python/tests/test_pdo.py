@@ -210,3 +210,30 @@ def test_period_set_before_start(node: canola.RemoteNode) -> None:
     assert node.sdo[CONTROL].raw == 7.0
     rpdo1.stop()
     assert rpdo1.period == 0.02
+
+
+def test_a_reconnected_network_keeps_its_nodes() -> None:
+    """After disconnect() and connect(), the nodes are on the new connection with their
+    dictionaries, and TPDOs read again are received."""
+    from conftest import EDS
+
+    canola.MemoryBus.virtual_channel("pdo-reconnect").attach(
+        canola.SimDevice.from_eds(str(EDS), 5)
+    )
+    net = canola.Network()
+    net.connect(interface="virtual", channel="pdo-reconnect")
+    try:
+        node = net.add_node(5, str(EDS))
+        node.tpdo.read()
+        node.tpdo[1].event_timer = 20
+        node.tpdo[1].inhibit_time = 0
+        node.tpdo.save()
+        net.disconnect()
+        net.connect(interface="virtual", channel="pdo-reconnect")
+        assert node.sdo["Producer heartbeat time"].raw == 500  # typed by the EDS
+        node.tpdo.read()
+        node.nmt.state = "OPERATIONAL"
+        assert node.tpdo[1].wait_for_reception(5.0) is not None
+        assert node.tpdo[1][SENSOR].raw == 0.0
+    finally:
+        net.disconnect()
