@@ -24,6 +24,7 @@ __all__ = [
     "NmtError",
     "NmtMaster",
     "NodeScanner",
+    "PDO",
     "PdoBase",
     "PdoMap",
     "PdoVariable",
@@ -176,6 +177,8 @@ class RemoteNode:
     def restore(self, subindex: int = 1) -> None:
         """Restores the default parameters at the node's next reset (0x1011)."""
     @property
+    def pdo(self) -> PDO: ...
+    @property
     def tpdo(self) -> PdoBase: ...
     @property
     def rpdo(self) -> PdoBase: ...
@@ -267,6 +270,22 @@ class SdoClient:
     def adownload(
         self, index: int, subindex: int, data: Union[bytes, bytearray], force_segment: bool = False
     ) -> Awaitable[None]: ...
+
+@final
+class PDO:
+    """Both directions (`node.pdo`): `tx` the TPDOs, `rx` the RPDOs, maps by mapping index."""
+
+    @property
+    def tx(self) -> PdoBase: ...
+    @property
+    def rx(self) -> PdoBase: ...
+    def read(self, from_od: bool = False) -> None: ...
+    def save(self) -> None: ...
+    @overload
+    def __getitem__(self, key: int, /) -> PdoMap: ...
+    @overload
+    def __getitem__(self, key: str, /) -> PdoVariable: ...
+    def stop(self) -> None: ...
 
 @final
 class PdoBase:

@@ -215,6 +215,7 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<lss::LssMaster>()?;
     m.add_class::<services::SyncProducer>()?;
     m.add_class::<services::NodeScanner>()?;
+    m.add_class::<pdo::Pdo>()?;
     m.add_class::<pdo::PdoBase>()?;
     m.add_class::<pdo::PdoMap>()?;
     m.add_class::<pdo::PdoVariable>()?;

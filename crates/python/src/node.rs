@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 
 use crate::emcy::{EmcyConsumer, EmcyShared};
 use crate::network::{NetCell, Network, connected, load_dictionary, lock, node_id};
-use crate::pdo::PdoBase;
+use crate::pdo::{Pdo, PdoBase};
 use crate::sdo::SdoClient;
 use crate::{NetworkError, NmtError, seconds, wait};
 
@@ -70,32 +70,45 @@ pub(crate) struct RemoteNode {
     tpdo: Py<PdoBase>,
     rpdo: Py<PdoBase>,
     pub(crate) emcy: Py<EmcyConsumer>,
+    pdo: Py<Pdo>,
+}
+
+/// A new handle object (allocating one fails only when memory is gone).
+fn handle<T>(made: PyResult<Py<T>>) -> Py<T> {
+    made.expect("allocating a handle")
 }
 
 impl RemoteNode {
     /// A node over `link`, its handles made (needs the GIL: they are Python objects).
     pub(crate) fn from_link(link: Arc<NodeLink>) -> Self {
-        Python::attach(|py| Self {
-            sdo: Py::new(py, SdoClient::new(link.clone())).expect("allocating a handle"),
-            nmt: Py::new(
-                py,
-                NmtMaster {
-                    target: NmtTarget::Node(link.clone()),
-                },
-            )
-            .expect("allocating a handle"),
-            tpdo: Py::new(py, PdoBase::new(link.clone(), Direction::Transmit))
-                .expect("allocating a handle"),
-            rpdo: Py::new(py, PdoBase::new(link.clone(), Direction::Receive))
-                .expect("allocating a handle"),
-            emcy: Py::new(
-                py,
-                EmcyConsumer {
-                    shared: EmcyShared::new(link.clone()),
-                },
-            )
-            .expect("allocating a handle"),
-            link,
+        Python::attach(|py| {
+            let tpdo = handle(Py::new(py, PdoBase::new(link.clone(), Direction::Transmit)));
+            let rpdo = handle(Py::new(py, PdoBase::new(link.clone(), Direction::Receive)));
+            Self {
+                sdo: handle(Py::new(py, SdoClient::new(link.clone()))),
+                nmt: handle(Py::new(
+                    py,
+                    NmtMaster {
+                        target: NmtTarget::Node(link.clone()),
+                    },
+                )),
+                pdo: handle(Py::new(
+                    py,
+                    Pdo {
+                        tx: tpdo.clone_ref(py),
+                        rx: rpdo.clone_ref(py),
+                    },
+                )),
+                tpdo,
+                rpdo,
+                emcy: handle(Py::new(
+                    py,
+                    EmcyConsumer {
+                        shared: EmcyShared::new(link.clone()),
+                    },
+                )),
+                link,
+            }
         })
     }
 }
@@ -128,6 +141,12 @@ impl RemoteNode {
     #[getter]
     fn nmt(&self, py: Python<'_>) -> Py<NmtMaster> {
         self.nmt.clone_ref(py)
+    }
+
+    /// Both directions (python-canopen's `node.pdo`): `tx`, `rx`, maps by mapping index.
+    #[getter]
+    fn pdo(&self, py: Python<'_>) -> Py<Pdo> {
+        self.pdo.clone_ref(py)
     }
 
     /// The node's transmit PDOs: `read()`, maps by number, values as received.

@@ -988,3 +988,67 @@ impl PdoVariable {
         )
     }
 }
+
+/// Both directions at once (python-canopen's `PDO`, `node.pdo`): `tx` the TPDOs, `rx` the
+/// RPDOs; maps by mapping index (0x1A00.. a TPDO, 0x1600.. an RPDO).
+#[pyclass(module = "canola", frozen, name = "PDO")]
+pub(crate) struct Pdo {
+    pub(crate) tx: Py<PdoBase>,
+    pub(crate) rx: Py<PdoBase>,
+}
+
+#[pymethods]
+impl Pdo {
+    /// The TPDOs (`node.tpdo`).
+    #[getter]
+    fn tx(&self, py: Python<'_>) -> Py<PdoBase> {
+        self.tx.clone_ref(py)
+    }
+
+    /// The RPDOs (`node.rpdo`).
+    #[getter]
+    fn rx(&self, py: Python<'_>) -> Py<PdoBase> {
+        self.rx.clone_ref(py)
+    }
+
+    /// Reads the TPDOs' and the RPDOs' parameters.
+    #[pyo3(signature = (from_od = false))]
+    fn read(&self, py: Python<'_>, from_od: bool) -> PyResult<()> {
+        self.tx.get().read(py, from_od)?;
+        self.rx.get().read(py, from_od)
+    }
+
+    /// Saves the TPDOs and RPDOs changed since they were read.
+    fn save(&self, py: Python<'_>) -> PyResult<()> {
+        self.tx.get().save(py)?;
+        self.rx.get().save(py)
+    }
+
+    /// A map by mapping index (0x1A00.. a TPDO, 0x1600.. an RPDO), or a mapped object by name
+    /// (the TPDOs searched first).
+    fn __getitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        if key.cast::<PyString>().is_ok() {
+            return self
+                .tx
+                .get()
+                .__getitem__(py, key)
+                .or_else(|_| self.rx.get().__getitem__(py, key));
+        }
+        let index: i64 = key.extract()?;
+        let base = match index {
+            0x1A00..=0x1BFF => &self.tx,
+            0x1600..=0x17FF => &self.rx,
+            _ => {
+                return Err(PyKeyError::new_err(format!(
+                    "0x{index:X} is not a PDO mapping index (0x1600.. RPDO, 0x1A00.. TPDO)"
+                )));
+            }
+        };
+        base.get().__getitem__(py, key)
+    }
+
+    /// Stops every RPDO the master transmits.
+    fn stop(&self) -> PyResult<()> {
+        self.rx.get().stop()
+    }
+}

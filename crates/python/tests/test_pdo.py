@@ -237,3 +237,17 @@ def test_a_reconnected_network_keeps_its_nodes() -> None:
         assert node.tpdo[1][SENSOR].raw == 0.0
     finally:
         net.disconnect()
+
+
+def test_node_pdo_holds_both_directions(node: canola.RemoteNode) -> None:
+    node.pdo.read()
+    assert node.pdo[0x1A00].cob_id == 0x185
+    assert node.pdo[0x1600].cob_id == 0x205
+    assert node.pdo.tx[1].name == "TxPDO1_node5"
+    assert node.pdo.rx[1].name == "RxPDO1_node5"
+    assert node.pdo[CONTROL].index == 0x2540
+    assert node.pdo[SENSOR].index == 0x2500
+    with pytest.raises(KeyError):
+        node.pdo[0x1800]
+    node.pdo.save()  # nothing changed: nothing written
+    node.pdo.stop()
