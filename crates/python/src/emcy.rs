@@ -78,8 +78,11 @@ fn emcy_error(py: Python<'_>, e: &EmcyEvent) -> PyResult<Py<PyAny>> {
 }
 
 /// A network's one subscription to its events, handing each node's EMCYs to its `node.emcy`
-/// (one subscription per network, not per node: each gets every event of the network).
+/// (one subscription per network, not per node: each gets every event of the network). It
+/// subscribes once a node is added: a network without nodes pays nothing for it.
 pub(crate) struct EmcyRouter {
+    /// The network connected now.
+    net: Mutex<Option<canola::Network>>,
     rx: Mutex<Option<Receiver<NetworkEvent>>>,
     nodes: Mutex<HashMap<u8, Weak<EmcyShared>>>,
 }
@@ -88,6 +91,7 @@ impl EmcyRouter {
     /// A router, polled (see `dispatch`) as long as it exists.
     pub(crate) fn new() -> Arc<Self> {
         let router = Arc::new(Self {
+            net: Mutex::new(None),
             rx: Mutex::new(None),
             nodes: Mutex::new(HashMap::new()),
         });
@@ -104,8 +108,21 @@ impl EmcyRouter {
 
     /// Follows the events of `net` (the network connected now; `None`: none).
     pub(crate) fn attach(&self, net: Option<&canola::Network>) {
-        *lock(&self.rx) = net.map(canola::Network::subscribe);
-        if net.is_some() {
+        *lock(&self.net) = net.cloned();
+        *lock(&self.rx) = None;
+        if !lock(&self.nodes).is_empty() {
+            self.subscribe();
+        }
+    }
+
+    /// Subscribes to the network connected now, if not yet.
+    fn subscribe(&self) {
+        let mut rx = lock(&self.rx);
+        if rx.is_some() {
+            return;
+        }
+        if let Some(net) = lock(&self.net).as_ref() {
+            *rx = Some(net.subscribe());
             // Drained by the dispatcher thread too, the subscription does not grow while the
             // program makes no call (a network driven in the background).
             dispatch::start_dispatcher();
@@ -116,6 +133,7 @@ impl EmcyRouter {
     pub(crate) fn add(self: &Arc<Self>, shared: &Arc<EmcyShared>) {
         *lock(&shared.router) = Arc::downgrade(self);
         lock(&self.nodes).insert(shared.link.id.get(), Arc::downgrade(shared));
+        self.subscribe();
     }
 
     /// Takes the events that came: each node's EMCYs go to its lists and queue its callbacks.
