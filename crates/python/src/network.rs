@@ -53,8 +53,11 @@ pub(crate) fn node_id(id: i64) -> PyResult<NodeId> {
 }
 
 /// An object dictionary from what python-canopen's `import_od` takes: a path to an EDS/DCF
-/// file (str or path-like) or the file's bytes.
+/// file (str or path-like) or the file's bytes; or one `import_od` gave.
 pub(crate) fn load_dictionary(source: &Bound<'_, PyAny>) -> PyResult<ObjectDictionary> {
+    if let Ok(od) = source.cast::<crate::od::ObjectDictionary>() {
+        return Ok(ObjectDictionary::clone(&od.get().od));
+    }
     let (text, name) = eds_text(source)?;
     canola::od::parse(&text)
         .map(|parsed| parsed.od)

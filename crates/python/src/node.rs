@@ -149,6 +149,15 @@ impl RemoteNode {
         self.pdo.clone_ref(py)
     }
 
+    /// The node's object dictionary (`None` when it was added without one).
+    #[getter]
+    fn object_dictionary(&self) -> Option<crate::od::ObjectDictionary> {
+        self.link
+            .od
+            .clone()
+            .map(|od| crate::od::ObjectDictionary::new(od, Some(self.link.id.get())))
+    }
+
     /// The node's transmit PDOs: `read()`, maps by number, values as received.
     #[getter]
     fn tpdo(&self, py: Python<'_>) -> Py<PdoBase> {
