@@ -6,6 +6,7 @@ use std::sync::{Arc, Mutex};
 
 use canola::pdo::Direction;
 use canola::{NmtState, NodeId, ObjectDictionary};
+use pyo3::IntoPyObjectExt;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -13,7 +14,7 @@ use crate::emcy::{EmcyConsumer, EmcyShared};
 use crate::network::{NetCell, Network, connected, load_dictionary, lock, node_id};
 use crate::pdo::{Pdo, PdoBase};
 use crate::sdo::SdoClient;
-use crate::{NetworkError, NmtError, seconds, wait};
+use crate::{NetworkError, NmtError, dispatch, seconds, wait};
 
 /// What every handle of one node shares: its ID, its dictionary, and the network it was added
 /// to (looked up at each call, so a disconnected network fails the call).
@@ -89,7 +90,7 @@ impl RemoteNode {
                 nmt: handle(Py::new(
                     py,
                     NmtMaster {
-                        target: NmtTarget::Node(link.clone()),
+                        target: NmtTarget::Node(link.clone(), HeartbeatWatch::new(link.clone())),
                     },
                 )),
                 pdo: handle(Py::new(
@@ -208,9 +209,81 @@ fn state_name(state: Option<NmtState>) -> String {
     }
 }
 
+/// A node's heartbeat callbacks (`node.nmt.add_heartbeat_callback`). The master keeps when
+/// the node's latest heartbeat came (`Network::last_heartbeat`); this looks at it wherever
+/// the package polls (see `dispatch`) and calls the callbacks with the node's state when a
+/// newer one came: once per look, however many came since the previous.
+pub(crate) struct HeartbeatWatch {
+    link: Arc<NodeLink>,
+    last: Mutex<Option<canola::Instant>>,
+    callbacks: Mutex<Vec<Py<PyAny>>>,
+}
+
+impl HeartbeatWatch {
+    pub(crate) fn new(link: Arc<NodeLink>) -> Arc<Self> {
+        Arc::new(Self {
+            link,
+            last: Mutex::new(None),
+            callbacks: Mutex::new(Vec::new()),
+        })
+    }
+
+    fn add(self: &Arc<Self>, callback: Py<PyAny>) -> PyResult<()> {
+        let node = self.link.node()?;
+        let first = {
+            let mut callbacks = lock(&self.callbacks);
+            callbacks.push(callback);
+            callbacks.len() == 1
+        };
+        if first {
+            // Heartbeats from now on.
+            *lock(&self.last) = node.network().last_heartbeat(self.link.id);
+            let me = Arc::downgrade(self);
+            dispatch::add_poller(Box::new(move || match me.upgrade() {
+                Some(me) => {
+                    me.poll();
+                    true
+                }
+                None => false,
+            }));
+            dispatch::start_dispatcher();
+        }
+        Ok(())
+    }
+
+    fn poll(self: &Arc<Self>) {
+        let Ok(node) = self.link.node() else { return };
+        let net = node.network();
+        let Some(at) = net.last_heartbeat(self.link.id) else {
+            return;
+        };
+        {
+            let mut last = lock(&self.last);
+            if *last == Some(at) {
+                return;
+            }
+            *last = Some(at);
+        }
+        let state = net.last_state(self.link.id).map_or(0, NmtState::to_u8);
+        let me = self.clone();
+        dispatch::push(Box::new(move |py| {
+            let callbacks: Vec<Py<PyAny>> = lock(&me.callbacks)
+                .iter()
+                .map(|c| c.clone_ref(py))
+                .collect();
+            let Ok(state) = state.into_py_any(py) else {
+                return;
+            };
+            for cb in &callbacks {
+                dispatch::call(py, cb, state.bind(py));
+            }
+        }));
+    }
+}
+
 /// What an `NmtMaster` commands: one node, or every node (`network.nmt`, node-ID 0).
 pub(crate) enum NmtTarget {
-    Node(Arc<NodeLink>),
+    Node(Arc<NodeLink>, Arc<HeartbeatWatch>),
     /// The network's facade handle, and the state last commanded to all nodes.
     All(NetCell, Mutex<String>),
 }
@@ -236,7 +309,7 @@ impl NmtMaster {
     /// The facade's NMT handle of the target.
     fn nmt(&self) -> PyResult<canola::Nmt> {
         match &self.target {
-            NmtTarget::Node(link) => Ok(link.node()?.nmt()),
+            NmtTarget::Node(link, _) => Ok(link.node()?.nmt()),
             NmtTarget::All(net, _) => Ok(canola::Nmt::all(&connected(net)?)),
         }
     }
@@ -244,7 +317,7 @@ impl NmtMaster {
     /// The node, for what only a node has (its state, its boot-up, its heartbeat).
     fn link(&self) -> PyResult<&Arc<NodeLink>> {
         match &self.target {
-            NmtTarget::Node(link) => Ok(link),
+            NmtTarget::Node(link, _) => Ok(link),
             NmtTarget::All(..) => Err(PyValueError::new_err(
                 "network.nmt commands every node; a node's state and waits are node.nmt's",
             )),
@@ -262,7 +335,7 @@ impl NmtMaster {
     #[getter]
     fn state(&self) -> PyResult<String> {
         match &self.target {
-            NmtTarget::Node(link) => Ok(state_name(link.node()?.nmt().state())),
+            NmtTarget::Node(link, _) => Ok(state_name(link.node()?.nmt().state())),
             NmtTarget::All(_, commanded) => Ok(lock(commanded).clone()),
         }
     }
@@ -306,6 +379,17 @@ impl NmtMaster {
             *lock(commanded) = commanded_state(code).into();
         }
         Ok(())
+    }
+
+    /// Calls `callback(state)` when a heartbeat of the node came, with the state it reports
+    /// (0 boot-up, 4 stopped, 5 operational, 127 pre-operational).
+    fn add_heartbeat_callback(&self, callback: Py<PyAny>) -> PyResult<()> {
+        match &self.target {
+            NmtTarget::Node(_, watch) => watch.add(callback),
+            NmtTarget::All(..) => Err(PyValueError::new_err(
+                "network.nmt commands every node; heartbeats are node.nmt's",
+            )),
+        }
     }
 
     /// Guards the node (CiA 301 node guarding): a remote request every `period` seconds, whose
@@ -367,7 +451,7 @@ impl NmtMaster {
 
     fn __repr__(&self) -> String {
         match &self.target {
-            NmtTarget::Node(link) => format!("<canola.NmtMaster node {}>", link.id),
+            NmtTarget::Node(link, _) => format!("<canola.NmtMaster node {}>", link.id),
             NmtTarget::All(..) => "<canola.NmtMaster all nodes>".into(),
         }
     }

@@ -60,3 +60,14 @@ def test_node_guarding_gives_the_state(node: canola.RemoteNode) -> None:
     node.nmt.stop_node_guarding()
     with pytest.raises(canola.NmtError):
         node.nmt.wait_for_heartbeat(1.0)
+
+
+def test_heartbeat_callbacks_get_the_state(node: canola.RemoteNode) -> None:
+    got: list[int] = []
+    node.nmt.add_heartbeat_callback(got.append)
+    node.nmt.wait_for_heartbeat(5.0)
+    node.nmt.wait_for_heartbeat(5.0)
+    assert got == [127, 127]
+    node.nmt.state = "OPERATIONAL"
+    node.nmt.wait_for_heartbeat(5.0)
+    assert got[-1] == 5
