@@ -225,6 +225,16 @@ class SdoVariable:
     def phys(self, value: _RawValue) -> None: ...
     @property
     def bits(self) -> SdoBits: ...
+    def open(
+        self,
+        mode: str = "rb",
+        encoding: str = "ascii",
+        buffering: int = 1024,
+        size: Optional[int] = None,
+        block_transfer: bool = False,
+        request_crc_support: bool = True,
+    ) -> Any:
+        """The value as a file: read modes upload it at once, write modes download it on close."""
     def read(self, fmt: str = "raw") -> Any: ...
     def write(self, value: _RawValue, fmt: str = "raw") -> None: ...
     def aget_raw(self) -> Awaitable[Any]: ...

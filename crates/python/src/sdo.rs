@@ -62,6 +62,57 @@ pub(crate) fn write_value(v: &Bound<'_, PyAny>) -> PyResult<WriteValue> {
     )))
 }
 
+/// The writable raw file `open("wb")` gives: it collects what is written and downloads it
+/// when closed (a Python class: an `io.RawIOBase` subclass).
+const SDO_WRITER: &std::ffi::CStr = cr#"
+import io
+
+class SdoWriter(io.RawIOBase):
+    """An SDO object's value opened for writing: downloaded whole on close()."""
+
+    def __init__(self, variable, block_transfer):
+        super().__init__()
+        self._variable = variable
+        self._block_transfer = block_transfer
+        self._data = bytearray()
+
+    def writable(self):
+        return True
+
+    def write(self, b):
+        self._data += b
+        return len(b)
+
+    def close(self):
+        if not self.closed:
+            try:
+                self._variable._download(bytes(self._data), self._block_transfer)
+            finally:
+                super().close()
+"#;
+
+static SDO_WRITER_TYPE: pyo3::sync::PyOnceLock<Py<pyo3::types::PyType>> =
+    pyo3::sync::PyOnceLock::new();
+
+fn sdo_writer_type(py: Python<'_>) -> PyResult<&Bound<'_, pyo3::types::PyType>> {
+    SDO_WRITER_TYPE
+        .get_or_try_init(py, || {
+            let module = PyModule::from_code(
+                py,
+                SDO_WRITER,
+                c"canola_sdo_writer.py",
+                c"canola_sdo_writer",
+            )?;
+            Ok::<_, PyErr>(
+                module
+                    .getattr("SdoWriter")?
+                    .cast_into::<pyo3::types::PyType>()?
+                    .unbind(),
+            )
+        })
+        .map(|t| t.bind(py))
+}
+
 /// Bytes from Python (`bytes`, `bytearray` or any buffer of bytes).
 fn data_bytes(data: &Bound<'_, PyAny>) -> PyResult<Vec<u8>> {
     data.extract()
@@ -403,6 +454,71 @@ impl SdoVariable {
                 "format {fmt:?} is not supported (\"raw\" or \"phys\"; no value descriptions)"
             ))),
         }
+    }
+
+    /// The value as a file (python-canopen's `open`): `"rb"` / `"r"` read it (uploaded whole
+    /// when the file is opened), `"wb"` / `"w"` write it (downloaded whole when the file is
+    /// closed); text (no `"b"`) in `encoding`. `block_transfer` uses SDO block transfer.
+    /// `buffering`, `size` and `request_crc_support` are accepted for python-canopen's
+    /// signature (block transfers always check the CRC).
+    #[pyo3(signature = (
+        mode = "rb", encoding = "ascii", buffering = 1024, size = None, block_transfer = false,
+        request_crc_support = true
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn open(
+        slf: Bound<'_, Self>,
+        mode: &str,
+        encoding: &str,
+        buffering: i64,
+        size: Option<u64>,
+        block_transfer: bool,
+        request_crc_support: bool,
+    ) -> PyResult<Py<PyAny>> {
+        let _ = (buffering, size, request_crc_support);
+        let py = slf.py();
+        let io = py.import("io")?;
+        let text = !mode.contains('b');
+        let file = if mode.contains('r') {
+            let sdo = slf.get().sdo()?.block(block_transfer);
+            let data = wait(py, sdo.read(slf.get().at))?;
+            io.getattr("BytesIO")?.call1((PyBytes::new(py, &data),))?
+        } else if mode.contains('w') {
+            let writer = sdo_writer_type(py)?.call1((slf.clone(), block_transfer))?;
+            if text {
+                io.getattr("BufferedWriter")?.call1((writer,))?
+            } else {
+                writer
+            }
+        } else {
+            return Err(PyValueError::new_err(format!(
+                "mode {mode:?} neither reads (r) nor writes (w)"
+            )));
+        };
+        if text {
+            let kwargs = pyo3::types::PyDict::new(py);
+            kwargs.set_item("encoding", encoding)?;
+            return Ok(io
+                .getattr("TextIOWrapper")?
+                .call((file,), Some(&kwargs))?
+                .unbind());
+        }
+        Ok(file.unbind())
+    }
+
+    /// Downloads `data` (what a file from `open("wb")` does when it is closed).
+    #[pyo3(signature = (data, block_transfer = false))]
+    fn _download(
+        &self,
+        py: Python<'_>,
+        data: &Bound<'_, PyAny>,
+        block_transfer: bool,
+    ) -> PyResult<()> {
+        let op = self
+            .sdo()?
+            .block(block_transfer)
+            .write(self.at, data_bytes(data)?);
+        wait(py, op)
     }
 
     /// `raw`, awaitable: `value = await var.aget_raw()`.

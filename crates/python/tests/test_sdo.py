@@ -201,3 +201,22 @@ def test_store_and_restore_survive_a_reset() -> None:
         node.nmt.state = "RESET"
         node.nmt.wait_for_bootup(5.0)
         assert node.sdo["Producer heartbeat time"].raw == 500
+
+
+def test_open_reads_and_writes_the_value_as_a_file(node: canola.RemoteNode) -> None:
+    var = node.sdo["Manufacturer device name"]
+    with var.open("rb") as f:
+        assert f.read() == b"Buerkert generic device"
+    with var.open("r", encoding="ascii", block_transfer=True) as t:
+        assert t.read() == "Buerkert generic device"
+    text = "line one\nline two"
+    user = node.sdo[0x2002]["User Description"]
+    with user.open("wt", encoding="ascii") as w:
+        w.write(text)
+    assert user.raw == text
+    with user.open("wb", block_transfer=True) as b:
+        b.write(b"bytes ")
+        b.write(b"written")
+    assert user.raw == "bytes written"
+    with pytest.raises(ValueError):
+        user.open("x")
