@@ -10,10 +10,14 @@ from __future__ import annotations
 import os
 from collections.abc import Awaitable, Callable, Iterator
 from types import TracebackType
-from typing import Any, Optional, Type, Union, final, overload
+from typing import Any, Optional, Type, TypeVar, Union, final, overload
+
+from typing_extensions import disjoint_base
 
 __version__: str
 __all__ = [
+    "BaseNode402",
+    "Drive402Error",
     "EmcyConsumer",
     "EmcyError",
     "LssError",
@@ -53,6 +57,9 @@ _EdsSource = Union[str, "os.PathLike[str]", bytes, "ObjectDictionary"]
 #: A value `raw` gives or takes, decoded by the object's data type.
 _RawValue = Union[int, bool, float, str, bytes]
 
+#: A node `add_node` takes and gives back (a RemoteNode or a BaseNode402).
+_Node = TypeVar("_Node", bound="RemoteNode")
+
 class SdoError(Exception):
     """An SDO transfer failed (base of SdoAbortedError and SdoCommunicationError)."""
 
@@ -88,6 +95,12 @@ class LssError(Exception):
     """An LSS service failed: no answer, or the slave refused it."""
 
 @final
+class Drive402Error(RuntimeError):
+    """A CiA 402 command failed; `state` and `statusword` say what the drive showed."""
+
+    state: Optional[str]
+    statusword: Optional[int]
+
 class NetworkError(Exception):
     """The bus could not be opened, failed, or is not connected."""
 
@@ -113,6 +126,11 @@ class SimDevice:
     @staticmethod
     def unconfigured(eds: _EdsSource, address: tuple[int, int, int, int]) -> SimDevice:
         """A device without a node-ID with this LSS address (vendor, product, revision, serial)."""
+    @staticmethod
+    def cia402_drive(eds: _EdsSource, node_id: int) -> SimDevice:
+        """A CiA 402 servo drive: the stack's simulated drive behind the EDS's profile objects."""
+    def inject_fault(self, error_code: int) -> None:
+        """Puts a `cia402_drive` into fault with this error code (0x603F and its EMCY)."""
     @property
     def id(self) -> Optional[int]: ...
 
@@ -127,9 +145,17 @@ class Network:
     def connect(self, *args: Any, **kwargs: Any) -> Network:
         """Connects as python-can's `can.Bus(interface=..., channel=..., bitrate=...)`."""
     def disconnect(self) -> None: ...
+    @overload
     def add_node(
         self,
-        node: Union[int, RemoteNode],
+        node: _Node,
+        object_dictionary: Optional[_EdsSource] = None,
+        upload_eds: bool = False,
+    ) -> _Node: ...
+    @overload
+    def add_node(
+        self,
+        node: int,
         object_dictionary: Optional[_EdsSource] = None,
         upload_eds: bool = False,
     ) -> RemoteNode: ...
@@ -163,7 +189,7 @@ class Network:
         tb: Optional[TracebackType],
     ) -> bool: ...
 
-@final
+@disjoint_base
 class RemoteNode:
     """A CANopen node as the master sees it."""
 
@@ -190,6 +216,39 @@ class RemoteNode:
     def tpdo(self) -> PdoBase: ...
     @property
     def rpdo(self) -> PdoBase: ...
+
+@final
+class BaseNode402(RemoteNode):
+    """A CiA 402 drive (python-canopen's BaseNode402) on the stack's CiA 402 master.
+
+    The statusword is read by SDO when needed (never a cached TPDO); failures raise
+    Drive402Error (a RuntimeError naming state and statusword) instead of being logged;
+    a command interrupted while the drive moves stops it with a quick stop.
+    """
+
+    def __new__(cls, node_id: int, object_dictionary: _EdsSource) -> BaseNode402: ...
+    def setup_402_state_machine(self, read_pdos: bool = True) -> None: ...
+    @property
+    def statusword(self) -> int: ...
+    def check_statusword(self, timeout: Optional[float] = None) -> int: ...
+    @property
+    def controlword(self) -> int:
+        """Write-only: reading raises RuntimeError."""
+    @controlword.setter
+    def controlword(self, value: int) -> None: ...
+    @property
+    def state(self) -> str: ...
+    @state.setter
+    def state(self, target: str) -> None: ...
+    @property
+    def op_mode(self) -> str: ...
+    @op_mode.setter
+    def op_mode(self, mode: str) -> None: ...
+    def is_op_mode_supported(self, mode: str) -> bool: ...
+    def is_faulted(self) -> bool: ...
+    def reset_from_fault(self) -> None: ...
+    def homing(self, timeout: Optional[float] = None, restore_op_mode: bool = False) -> bool: ...
+    def is_homed(self, restore_op_mode: bool = False) -> bool: ...
 
 @final
 class NmtMaster:

@@ -23,6 +23,7 @@ mod lss;
 mod network;
 mod node;
 mod od;
+mod p402;
 mod pdo;
 mod sdo;
 mod services;
@@ -225,5 +226,7 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<pdo::PdoBase>()?;
     m.add_class::<pdo::PdoMap>()?;
     m.add_class::<pdo::PdoVariable>()?;
+    m.add_class::<p402::BaseNode402>()?;
+    m.add("Drive402Error", py.get_type::<p402::Drive402Error>())?;
     Ok(())
 }

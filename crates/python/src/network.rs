@@ -169,6 +169,8 @@ impl MemoryBus {
 pub(crate) struct SimDevice {
     device: Mutex<Option<canola::SimDevice>>,
     node: Option<NodeId>,
+    /// The simulated CiA 402 drive behind the device's profile objects (`cia402_drive`).
+    drive: Option<Arc<Mutex<canola_cia402::sim::SimDrive>>>,
 }
 
 #[pymethods]
@@ -183,6 +185,7 @@ impl SimDevice {
         Ok(Self {
             device: Mutex::new(Some(device)),
             node: Some(node),
+            drive: None,
         })
     }
 
@@ -197,7 +200,38 @@ impl SimDevice {
         Ok(Self {
             device: Mutex::new(Some(device)),
             node: None,
+            drive: None,
         })
+    }
+
+    /// A CiA 402 servo drive of node `node_id`: the dictionary from `eds` (e.g. the
+    /// repository's `eds/cia402-servo.eds`), the stack's simulated drive (power state machine,
+    /// modes, homing, motion; axis 0) behind its profile objects, as `canopen simulate` runs it.
+    #[staticmethod]
+    fn cia402_drive(eds: &Bound<'_, PyAny>, node_id: i64) -> PyResult<Self> {
+        let node = self::node_id(node_id)?;
+        let (text, name) = eds_text(eds)?;
+        let drive = canola_cia402::sim::SimDrive::new(canola_cia402::sim::SimConfig::default());
+        let (device, shared) = canola_cia402::master::simulated_drive(node, &text, drive)
+            .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
+        Ok(Self {
+            device: Mutex::new(Some(device)),
+            node: Some(node),
+            drive: Some(shared),
+        })
+    }
+
+    /// Puts a `cia402_drive` into fault with `error_code` (0x603F and its EMCY), as a drive
+    /// detecting e.g. a following error (0x8611) does.
+    fn inject_fault(&self, error_code: u16) -> PyResult<()> {
+        let drive = self
+            .drive
+            .as_ref()
+            .ok_or_else(|| PyValueError::new_err("this SimDevice is not a cia402_drive"))?;
+        lock(drive).inject_fault(canola_cia402::sim::SimFault::Other(
+            canola_cia402::ErrorCode(error_code),
+        ));
+        Ok(())
     }
 
     /// The device's node-ID (`None` for an unconfigured one, as made).

@@ -63,7 +63,7 @@ impl NodeLink {
 
 /// A CANopen node as the master sees it (python-canopen's `RemoteNode`): `sdo`, `nmt`, `tpdo`, `rpdo`,
 /// `emcy`.
-#[pyclass(module = "canola", frozen)]
+#[pyclass(module = "canola", frozen, subclass)]
 pub(crate) struct RemoteNode {
     pub(crate) link: Arc<NodeLink>,
     sdo: Py<SdoClient>,
