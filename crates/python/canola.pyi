@@ -47,6 +47,9 @@ __all__ = [
     "SdoVariable",
     "SimDevice",
     "SyncProducer",
+    "UsdoClient",
+    "UsdoRecord",
+    "UsdoVariable",
     "__version__",
     "import_od",
 ]
@@ -108,7 +111,7 @@ class NetworkError(Exception):
 class MemoryBus:
     """An in-memory CAN bus in this process, on a virtual clock unless `realtime`."""
 
-    def __new__(cls, realtime: bool = False) -> MemoryBus: ...
+    def __new__(cls, realtime: bool = False, fd: bool = False) -> MemoryBus: ...
     @staticmethod
     def virtual_channel(channel: str) -> MemoryBus:
         """The real-time in-process bus `connect(interface="virtual", channel=...)` joins."""
@@ -216,6 +219,47 @@ class RemoteNode:
     def tpdo(self) -> PdoBase: ...
     @property
     def rpdo(self) -> PdoBase: ...
+    @property
+    def usdo(self) -> UsdoClient:
+        """The universal SDO (CANopen FD): the node marked FD, on a CAN FD bus."""
+    @property
+    def is_fd(self) -> bool: ...
+    @is_fd.setter
+    def is_fd(self, fd: bool) -> None: ...
+
+@final
+class UsdoClient:
+    """A node's USDO client (CANopen FD): objects by index or name, as `node.sdo`."""
+
+    def __getitem__(self, key: Union[int, str], /) -> Any: ...
+    def __contains__(self, key: object, /) -> bool: ...
+    def upload(self, index: int, subindex: int) -> bytes: ...
+    def download(self, index: int, subindex: int, data: Union[bytes, bytearray]) -> None: ...
+
+@final
+class UsdoRecord:
+    """A RECORD or ARRAY object over USDO: sub-objects by sub-index or name."""
+
+    def __getitem__(self, key: Union[int, str], /) -> UsdoVariable: ...
+    @property
+    def index(self) -> int: ...
+
+@final
+class UsdoVariable:
+    """One value of the node's dictionary over USDO."""
+
+    @property
+    def raw(self) -> Any: ...
+    @raw.setter
+    def raw(self, value: _RawValue) -> None: ...
+    @property
+    def data(self) -> bytes: ...
+    @data.setter
+    def data(self, data: Union[bytes, bytearray]) -> None: ...
+    @property
+    def index(self) -> int: ...
+    @property
+    def subindex(self) -> int: ...
 
 @final
 class BaseNode402(RemoteNode):

@@ -27,6 +27,7 @@ mod p402;
 mod pdo;
 mod sdo;
 mod services;
+mod usdo;
 
 pyo3::create_exception!(
     canola,
@@ -227,6 +228,9 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<pdo::PdoMap>()?;
     m.add_class::<pdo::PdoVariable>()?;
     m.add_class::<p402::BaseNode402>()?;
+    m.add_class::<usdo::UsdoClient>()?;
+    m.add_class::<usdo::UsdoRecord>()?;
+    m.add_class::<usdo::UsdoVariable>()?;
     m.add("Drive402Error", py.get_type::<p402::Drive402Error>())?;
     Ok(())
 }

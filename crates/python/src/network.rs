@@ -108,10 +108,10 @@ pub(crate) struct MemoryBus {
 #[pymethods]
 impl MemoryBus {
     /// A new bus. `realtime=True` runs it on the host's clock (a network on it then runs by
-    /// itself, as on a real bus).
+    /// itself, as on a real bus); `fd=True` makes it a CAN FD bus (for `node.usdo`).
     #[new]
-    #[pyo3(signature = (realtime = false))]
-    fn new(realtime: bool) -> Self {
+    #[pyo3(signature = (realtime = false, fd = false))]
+    fn new(realtime: bool, fd: bool) -> Self {
         let clock = if realtime {
             ClockMode::RealTime
         } else {
@@ -120,6 +120,7 @@ impl MemoryBus {
         Self {
             bus: canola::MemoryBus::with_config(BusConfig {
                 clock,
+                fd,
                 ..BusConfig::default()
             }),
             realtime,

@@ -14,6 +14,7 @@ use crate::emcy::{EmcyConsumer, EmcyShared};
 use crate::network::{NetCell, Network, connected, load_dictionary, lock, node_id};
 use crate::pdo::{Pdo, PdoBase};
 use crate::sdo::SdoClient;
+use crate::usdo::UsdoClient;
 use crate::{NetworkError, NmtError, dispatch, seconds, wait};
 
 /// What every handle of one node shares: its ID, its dictionary, and the network it was added
@@ -72,6 +73,7 @@ pub(crate) struct RemoteNode {
     rpdo: Py<PdoBase>,
     pub(crate) emcy: Py<EmcyConsumer>,
     pdo: Py<Pdo>,
+    usdo: Py<UsdoClient>,
 }
 
 /// A new handle object (allocating one fails only when memory is gone).
@@ -87,6 +89,7 @@ impl RemoteNode {
             let rpdo = handle(Py::new(py, PdoBase::new(link.clone(), Direction::Receive)));
             Self {
                 sdo: handle(Py::new(py, SdoClient::new(link.clone()))),
+                usdo: handle(Py::new(py, UsdoClient::new(link.clone()))),
                 nmt: handle(Py::new(
                     py,
                     NmtMaster {
@@ -136,6 +139,26 @@ impl RemoteNode {
     #[getter]
     fn sdo(&self, py: Python<'_>) -> Py<SdoClient> {
         self.sdo.clone_ref(py)
+    }
+
+    /// The node's universal SDO (CANopen FD): objects by index or name, `upload`, `download`.
+    /// The node must be marked CANopen FD (`CANopenFD=1` in its EDS, or `is_fd = True`) and
+    /// the bus must carry CAN FD.
+    #[getter]
+    fn usdo(&self, py: Python<'_>) -> Py<UsdoClient> {
+        self.usdo.clone_ref(py)
+    }
+
+    /// Whether the node is marked CANopen FD (by its EDS's `CANopenFD=1`, or set here).
+    #[getter]
+    fn is_fd(&self) -> PyResult<bool> {
+        Ok(self.link.node()?.is_fd())
+    }
+
+    #[setter]
+    fn set_is_fd(&self, fd: bool) -> PyResult<()> {
+        self.link.node()?.set_fd(fd);
+        Ok(())
     }
 
     /// The node's NMT: state, commands, waits.

@@ -301,7 +301,7 @@ impl BaseNode402 {
     #[pyo3(signature = (timeout = None, restore_op_mode = false))]
     fn homing(slf: &Bound<'_, Self>, timeout: Option<f64>, restore_op_mode: bool) -> PyResult<bool> {
         let limit = match timeout {
-            Some(t) if t == 0.0 => seconds(1e9)?,
+            Some(0.0) => seconds(1e9)?,
             Some(t) => seconds(t)?,
             None => seconds(30.0)?,
         };

@@ -114,7 +114,7 @@ fn sdo_writer_type(py: Python<'_>) -> PyResult<&Bound<'_, pyo3::types::PyType>> 
 }
 
 /// Bytes from Python (`bytes`, `bytearray` or any buffer of bytes).
-fn data_bytes(data: &Bound<'_, PyAny>) -> PyResult<Vec<u8>> {
+pub(crate) fn data_bytes(data: &Bound<'_, PyAny>) -> PyResult<Vec<u8>> {
     data.extract()
         .map_err(|_| PyTypeError::new_err("data to download is bytes or bytearray"))
 }
