@@ -46,6 +46,7 @@ __all__ = [
     "SdoRecord",
     "SdoVariable",
     "SimDevice",
+    "SimService",
     "SyncProducer",
     "UsdoClient",
     "UsdoRecord",
@@ -134,8 +135,25 @@ class SimDevice:
         """A CiA 402 servo drive: the stack's simulated drive behind the EDS's profile objects."""
     def inject_fault(self, error_code: int) -> None:
         """Puts a `cia402_drive` into fault with this error code (0x603F and its EMCY)."""
+    def serve(self, spec: str) -> SimService:
+        """Runs the device on a real bus ("udp:GROUP:PORT", "vcan0", ...) on a thread of its own."""
     @property
     def id(self) -> Optional[int]: ...
+
+@final
+class SimService:
+    """A simulated device served on a real bus: `stop()` it, or use it as a context manager."""
+
+    def stop(self) -> None: ...
+    @property
+    def running(self) -> bool: ...
+    def __enter__(self) -> SimService: ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
 
 @final
 class Network:

@@ -205,6 +205,7 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<network::Network>()?;
     m.add_class::<network::MemoryBus>()?;
     m.add_class::<network::SimDevice>()?;
+    m.add_class::<network::SimService>()?;
     m.add_class::<node::RemoteNode>()?;
     m.add_class::<node::NmtMaster>()?;
     m.add_class::<sdo::SdoClient>()?;

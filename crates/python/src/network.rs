@@ -222,6 +222,45 @@ impl SimDevice {
         })
     }
 
+    /// Runs the device on a real bus named by a bus spec of this stack (`"udp:GROUP:PORT"`,
+    /// `"vcan0"`, ...), as `canopen simulate` does, on a thread of its own, so that another
+    /// program (python-canopen, the CLI) talks to it. A device is served or attached once.
+    /// Returns the service: `stop()` it, or use it as a context manager.
+    fn serve(&self, py: Python<'_>, spec: &str) -> PyResult<SimService> {
+        let mut dev = lock(&self.device)
+            .take()
+            .ok_or_else(|| PyValueError::new_err("this SimDevice is attached to a bus already"))?;
+        let parsed = canola::BusSpec::parse(spec).map_err(|e| NetworkError::new_err(e.to_string()))?;
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let stopped = stop.clone();
+        let (opened_tx, opened_rx) = std::sync::mpsc::channel();
+        let thread = std::thread::Builder::new()
+            .name("canola-sim-serve".into())
+            .spawn(move || {
+                let mut transport = match parsed.open() {
+                    Ok(t) => {
+                        let _ = opened_tx.send(Ok(()));
+                        t
+                    }
+                    Err(e) => {
+                        let _ = opened_tx.send(Err(e.to_string()));
+                        return Ok(());
+                    }
+                };
+                canola::run_station(&mut *transport, &mut dev, || stopped.load(Ordering::Relaxed))
+                    .map_err(|e| e.to_string())
+            })?;
+        let opened = py.detach(move || opened_rx.recv());
+        match opened {
+            Ok(Ok(())) => Ok(SimService {
+                stop,
+                thread: Mutex::new(Some(thread)),
+            }),
+            Ok(Err(e)) => Err(NetworkError::new_err(format!("{spec}: {e}"))),
+            Err(_) => Err(NetworkError::new_err(format!("{spec}: the device thread ended"))),
+        }
+    }
+
     /// Puts a `cia402_drive` into fault with `error_code` (0x603F and its EMCY), as a drive
     /// detecting e.g. a following error (0x8611) does.
     fn inject_fault(&self, error_code: u16) -> PyResult<()> {
@@ -246,6 +285,57 @@ impl SimDevice {
             Some(n) => format!("<canola.SimDevice node {n}>"),
             None => "<canola.SimDevice unconfigured>".into(),
         }
+    }
+}
+
+/// A simulated device served on a real bus (`SimDevice.serve`).
+#[pyclass(module = "canola", frozen)]
+pub(crate) struct SimService {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: Mutex<Option<std::thread::JoinHandle<Result<(), String>>>>,
+}
+
+#[pymethods]
+impl SimService {
+    /// Stops the device (within 50 ms) and waits for its thread; a bus failure that ended it
+    /// earlier is raised here.
+    fn stop(&self, py: Python<'_>) -> PyResult<()> {
+        self.stop.store(true, Ordering::Relaxed);
+        let Some(thread) = lock(&self.thread).take() else {
+            return Ok(());
+        };
+        match py.detach(|| thread.join()) {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => Err(NetworkError::new_err(e)),
+            Err(_) => Err(NetworkError::new_err("the device thread panicked")),
+        }
+    }
+
+    /// Whether the device still runs.
+    #[getter]
+    fn running(&self) -> bool {
+        lock(&self.thread).as_ref().is_some_and(|t| !t.is_finished())
+    }
+
+    fn __enter__(slf: Bound<'_, Self>) -> Bound<'_, Self> {
+        slf
+    }
+
+    fn __exit__(
+        &self,
+        py: Python<'_>,
+        _exc_type: &Bound<'_, PyAny>,
+        _exc: &Bound<'_, PyAny>,
+        _tb: &Bound<'_, PyAny>,
+    ) -> PyResult<bool> {
+        self.stop(py)?;
+        Ok(false)
+    }
+}
+
+impl Drop for SimService {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
     }
 }
 

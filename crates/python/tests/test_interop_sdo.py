@@ -145,3 +145,38 @@ def test_block_download_is_refused_with_its_abort(bridge: Bridge) -> None:
     frames = bridge.frames()
     assert frames[0][:12] == "607#C6022003", frames
     assert frames[1] == "587#8002200301000405", frames
+
+
+def test_python_canopen_reads_and_writes_canola_s_simulator() -> None:
+    """The other way round: `SimDevice.serve` puts canola's simulator on the multicast bus,
+    and python-canopen's RemoteNode is its SDO client (expedited and segmented)."""
+    group = "239.74.163.35"
+    port = 20000 + (os.getpid() * 11) % 9000
+    try:
+        service = canola.SimDevice.from_eds(str(EDS), 5).serve(f"udp:{group}:{port}")
+    except canola.NetworkError as e:
+        pytest.skip(f"no multicast on this machine: {e}")
+    with service:
+        assert service.running
+        pnet = canopen.Network()
+        pnet.connect(interface="udp_multicast", channel=group, port=port, hop_limit=0)
+        try:
+            node = pnet.add_node(5, str(EDS))
+            assert node.sdo[0x1017].raw == 500
+            assert node.sdo[0x1008].raw == "Buerkert generic device"
+            node.sdo[0x2002][3].raw = "written by python-canopen"
+            assert node.sdo[0x2002][3].raw == "written by python-canopen"
+            with pytest.raises(canopen.SdoAbortedError) as err:
+                node.sdo[0x1000].raw = 1
+            assert err.value.code == 0x06010002
+        finally:
+            pnet.disconnect()
+    assert not service.running
+    service.stop()  # stopping twice is nothing
+
+
+def test_a_served_device_is_not_attached_again() -> None:
+    device = canola.SimDevice.from_eds(str(EDS), 5)
+    canola.MemoryBus().attach(device)
+    with pytest.raises(ValueError, match="attached to a bus already"):
+        device.serve("udp:239.74.163.36:20999")
