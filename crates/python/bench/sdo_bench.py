@@ -71,7 +71,8 @@ def main() -> None:
     print(f"{n} expedited SDO reads of 0x1017 from canola's simulator over {spec}")
     print(f"canola:         {t_canola:8.3f} s  {t_canola / n * 1e6:8.1f} µs/read")
     print(f"python-canopen: {t_pc:8.3f} s  {t_pc / n * 1e6:8.1f} µs/read")
-    print(f"python-canopen / canola: {t_pc / t_canola:.2f}x")
+    ratio = t_canola / t_pc
+    print(f"time ratio canola / python-canopen: {ratio:.2f} ({'canola' if ratio > 1 else 'python-canopen'} slower)")
 
 
 if __name__ == "__main__":

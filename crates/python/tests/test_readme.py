@@ -1,5 +1,5 @@
 """The README's Python examples on the simulator run as written (with the repository's EDS as
-their `device.eds`)."""
+their `device.eds` and `servo.eds`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import EDS
+from conftest import EDS, EDS_DIR
 
 README = Path(__file__).resolve().parents[3] / "README.md"
 
@@ -20,10 +20,11 @@ def examples() -> list[str]:
 
 
 def test_the_readme_has_the_examples() -> None:
-    assert len(examples()) >= 2
+    assert len(examples()) >= 3
 
 
-@pytest.mark.parametrize("n", range(2))
+@pytest.mark.parametrize("n", range(3))
 def test_readme_example_runs(n: int) -> None:
     code = examples()[n].replace('"device.eds"', repr(str(EDS)))
+    code = code.replace('"servo.eds"', repr(str(EDS_DIR / "cia402-servo.eds")))
     exec(compile(code, f"README.md example {n + 1}", "exec"), {})
