@@ -230,7 +230,8 @@ impl SimDevice {
         let mut dev = lock(&self.device)
             .take()
             .ok_or_else(|| PyValueError::new_err("this SimDevice is attached to a bus already"))?;
-        let parsed = canola::BusSpec::parse(spec).map_err(|e| NetworkError::new_err(e.to_string()))?;
+        let parsed =
+            canola::BusSpec::parse(spec).map_err(|e| NetworkError::new_err(e.to_string()))?;
         let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
         let stopped = stop.clone();
         let (opened_tx, opened_rx) = std::sync::mpsc::channel();
@@ -247,8 +248,10 @@ impl SimDevice {
                         return Ok(());
                     }
                 };
-                canola::run_station(&mut *transport, &mut dev, || stopped.load(Ordering::Relaxed))
-                    .map_err(|e| e.to_string())
+                canola::run_station(&mut *transport, &mut dev, || {
+                    stopped.load(Ordering::Relaxed)
+                })
+                .map_err(|e| e.to_string())
             })?;
         let opened = py.detach(move || opened_rx.recv());
         match opened {
@@ -257,7 +260,9 @@ impl SimDevice {
                 thread: Mutex::new(Some(thread)),
             }),
             Ok(Err(e)) => Err(NetworkError::new_err(format!("{spec}: {e}"))),
-            Err(_) => Err(NetworkError::new_err(format!("{spec}: the device thread ended"))),
+            Err(_) => Err(NetworkError::new_err(format!(
+                "{spec}: the device thread ended"
+            ))),
         }
     }
 
@@ -314,7 +319,9 @@ impl SimService {
     /// Whether the device still runs.
     #[getter]
     fn running(&self) -> bool {
-        lock(&self.thread).as_ref().is_some_and(|t| !t.is_finished())
+        lock(&self.thread)
+            .as_ref()
+            .is_some_and(|t| !t.is_finished())
     }
 
     fn __enter__(slf: Bound<'_, Self>) -> Bound<'_, Self> {

@@ -179,10 +179,13 @@ impl BaseNode402 {
     ) -> PyResult<PyClassInitializer<Self>> {
         let id = self::node_id(node_id)?;
         let od = Some(load_dictionary(object_dictionary)?);
-        Ok(PyClassInitializer::from(RemoteNode::from_link(NodeLink::new(id, od)))
-            .add_subclass(Self {
-                drive: Mutex::new(None),
-            }))
+        Ok(
+            PyClassInitializer::from(RemoteNode::from_link(NodeLink::new(id, od))).add_subclass(
+                Self {
+                    drive: Mutex::new(None),
+                },
+            ),
+        )
     }
 
     /// Checks that the drive answers with a statusword. python-canopen reads the PDO
@@ -299,7 +302,11 @@ impl BaseNode402 {
     /// `Drive402Error` (homing error, fault, timeout, with the statusword); interrupted
     /// (Ctrl-C), it stops the drive with a quick stop.
     #[pyo3(signature = (timeout = None, restore_op_mode = false))]
-    fn homing(slf: &Bound<'_, Self>, timeout: Option<f64>, restore_op_mode: bool) -> PyResult<bool> {
+    fn homing(
+        slf: &Bound<'_, Self>,
+        timeout: Option<f64>,
+        restore_op_mode: bool,
+    ) -> PyResult<bool> {
         let limit = match timeout {
             Some(0.0) => seconds(1e9)?,
             Some(t) => seconds(t)?,

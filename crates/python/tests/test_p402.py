@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import threading
+import time
 from typing import Iterator
 
 import pytest
@@ -136,3 +140,24 @@ def test_fault_then_reset_from_fault(sim: canola.SimDevice, drive: canola.BaseNo
 def test_inject_fault_needs_a_drive() -> None:
     with pytest.raises(ValueError, match="not a cia402_drive"):
         canola.SimDevice.from_eds(SERVO, 4).inject_fault(0x8611)
+
+
+@pytest.mark.skipif(threading.current_thread() is not threading.main_thread(), reason="signals")
+def test_ctrl_c_during_homing_quick_stops_the_drive() -> None:
+    bus = canola.MemoryBus(realtime=True)
+    bus.attach(canola.SimDevice.cia402_drive(SERVO, 3))
+    with canola.Network(bus) as net:
+        drive = net.add_node(canola.BaseNode402(3, SERVO))
+        drive.sdo[0x605A].raw = 6  # quick stop option: stay in quick stop active
+        drive.sdo[0x6098].raw = 17  # the negative limit switch, far away: a long run
+        interrupter = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+        interrupter.start()
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                drive.homing(timeout=0)
+        finally:
+            interrupter.join()
+        deadline = time.monotonic() + 2.0
+        while drive.state != "QUICK STOP ACTIVE" and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert drive.state == "QUICK STOP ACTIVE"
