@@ -289,6 +289,11 @@ class BaseNode402(RemoteNode):
     """
 
     def __new__(cls, node_id: int, object_dictionary: _EdsSource) -> BaseNode402: ...
+    TIMEOUT_SWITCH_STATE_SINGLE: float
+    TIMEOUT_SWITCH_STATE_FINAL: float
+    TIMEOUT_SWITCH_OP_MODE: float
+    TIMEOUT_RESET_FAULT: float
+    TIMEOUT_HOMING_DEFAULT: float
     def setup_402_state_machine(self, read_pdos: bool = True) -> None: ...
     @property
     def statusword(self) -> int: ...

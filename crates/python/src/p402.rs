@@ -150,6 +150,8 @@ pub(crate) struct BaseNode402 {
     /// The drive on the network's current connection (rebuilt when it reconnects); its clones
     /// share the last controlword (the fault reset's rising edge).
     drive: Mutex<Option<(u64, Drive)>>,
+    /// The waits' limits (python-canopen's `TIMEOUT_*`), the homing default in seconds.
+    timeouts: Mutex<(Timeouts, f64)>,
 }
 
 impl BaseNode402 {
@@ -157,14 +159,30 @@ impl BaseNode402 {
         let link = slf.as_super().get().link.clone();
         let generation = link.generation();
         let mut cell = lock(&slf.get().drive);
+        let timeouts = lock(&slf.get().timeouts).0;
         if let Some((g, d)) = cell.as_ref()
             && *g == generation
         {
-            return Ok(d.clone());
+            return Ok(d.clone().with_timeouts(timeouts));
         }
         let d = Drive::new(link.node()?);
         *cell = Some((generation, d.clone()));
-        Ok(d)
+        Ok(d.with_timeouts(timeouts))
+    }
+
+    /// Sets one of the waits' limits from seconds.
+    fn set_timeout(
+        &self,
+        value: f64,
+        set: impl FnOnce(&mut Timeouts, canola::Duration),
+    ) -> PyResult<()> {
+        let d = seconds(value)?;
+        set(&mut lock(&self.timeouts).0, d);
+        Ok(())
+    }
+
+    fn timeout(&self, get: impl FnOnce(&Timeouts) -> canola::Duration) -> f64 {
+        get(&lock(&self.timeouts).0).as_micros() as f64 / 1e6
     }
 }
 
@@ -183,9 +201,70 @@ impl BaseNode402 {
             PyClassInitializer::from(RemoteNode::from_link(NodeLink::new(id, od))).add_subclass(
                 Self {
                     drive: Mutex::new(None),
+                    timeouts: Mutex::new((Timeouts::default(), 30.0)),
                 },
             ),
         )
+    }
+
+    /// Longest wait for one state transition, in seconds (1.0; python-canopen's 0.4). Each
+    /// step of a walk to a state has it: a walk has no limit of its own.
+    #[getter(TIMEOUT_SWITCH_STATE_SINGLE)]
+    fn timeout_switch_state_single(&self) -> f64 {
+        self.timeout(|t| t.transition)
+    }
+
+    #[setter(TIMEOUT_SWITCH_STATE_SINGLE)]
+    fn set_timeout_switch_state_single(&self, value: f64) -> PyResult<()> {
+        self.set_timeout(value, |t, d| t.transition = d)
+    }
+
+    /// Accepted for python-canopen's programs and unused: each step of a walk has
+    /// `TIMEOUT_SWITCH_STATE_SINGLE`, which this shows.
+    #[getter(TIMEOUT_SWITCH_STATE_FINAL)]
+    fn timeout_switch_state_final(&self) -> f64 {
+        self.timeout(|t| t.transition)
+    }
+
+    #[setter(TIMEOUT_SWITCH_STATE_FINAL)]
+    fn set_timeout_switch_state_final(&self, value: f64) -> PyResult<()> {
+        seconds(value).map(|_| ())
+    }
+
+    /// Longest wait for 0x6061 to show a new mode, in seconds (1.0; python-canopen's 0.5).
+    #[getter(TIMEOUT_SWITCH_OP_MODE)]
+    fn timeout_switch_op_mode(&self) -> f64 {
+        self.timeout(|t| t.mode)
+    }
+
+    #[setter(TIMEOUT_SWITCH_OP_MODE)]
+    fn set_timeout_switch_op_mode(&self, value: f64) -> PyResult<()> {
+        self.set_timeout(value, |t, d| t.mode = d)
+    }
+
+    /// Longest wait for a fault to clear: one transition's, the same limit as
+    /// `TIMEOUT_SWITCH_STATE_SINGLE` (setting one sets both).
+    #[getter(TIMEOUT_RESET_FAULT)]
+    fn timeout_reset_fault(&self) -> f64 {
+        self.timeout(|t| t.transition)
+    }
+
+    #[setter(TIMEOUT_RESET_FAULT)]
+    fn set_timeout_reset_fault(&self, value: f64) -> PyResult<()> {
+        self.set_timeout(value, |t, d| t.transition = d)
+    }
+
+    /// `homing()`'s limit when it is given none, in seconds (30, as python-canopen's).
+    #[getter(TIMEOUT_HOMING_DEFAULT)]
+    fn timeout_homing_default(&self) -> f64 {
+        lock(&self.timeouts).1
+    }
+
+    #[setter(TIMEOUT_HOMING_DEFAULT)]
+    fn set_timeout_homing_default(&self, value: f64) -> PyResult<()> {
+        seconds(value)?;
+        lock(&self.timeouts).1 = value;
+        Ok(())
     }
 
     /// Checks that the drive answers with a statusword. python-canopen reads the PDO
@@ -296,8 +375,8 @@ impl BaseNode402 {
     }
 
     /// Homes with the method 0x6098 holds: mode homing, operation enabled, the start edge, then
-    /// waits until homing is attained. Returns True. `timeout` in seconds (default 30, 0 for
-    /// none). `restore_op_mode`: the mode before is selected again at the end, whatever the
+    /// waits until homing is attained. Returns True. `timeout` in seconds (default
+    /// `TIMEOUT_HOMING_DEFAULT`, 30; 0 for none). `restore_op_mode`: the mode before is selected again at the end, whatever the
     /// result. Where python-canopen logs a failure and returns False, this one raises
     /// `Drive402Error` (homing error, fault, timeout, with the statusword); interrupted
     /// (Ctrl-C), it stops the drive with a quick stop.
@@ -307,10 +386,9 @@ impl BaseNode402 {
         timeout: Option<f64>,
         restore_op_mode: bool,
     ) -> PyResult<bool> {
-        let limit = match timeout {
-            Some(0.0) => seconds(1e9)?,
-            Some(t) => seconds(t)?,
-            None => seconds(30.0)?,
+        let limit = match timeout.unwrap_or(lock(&slf.get().timeouts).1) {
+            0.0 => seconds(1e9)?,
+            t => seconds(t)?,
         };
         let d = Self::drive(slf)?;
         let d = d.clone().with_timeouts(Timeouts {

@@ -161,3 +161,23 @@ def test_ctrl_c_during_homing_quick_stops_the_drive() -> None:
         while drive.state != "QUICK STOP ACTIVE" and time.monotonic() < deadline:
             time.sleep(0.01)
         assert drive.state == "QUICK STOP ACTIVE"
+
+
+def test_timeouts_in_python_canopen_s_names(drive: canola.BaseNode402) -> None:
+    assert drive.TIMEOUT_SWITCH_STATE_SINGLE == 1.0
+    assert drive.TIMEOUT_SWITCH_OP_MODE == 1.0
+    assert drive.TIMEOUT_HOMING_DEFAULT == 30
+    drive.TIMEOUT_SWITCH_OP_MODE = 0.25
+    assert drive.TIMEOUT_SWITCH_OP_MODE == 0.25
+    drive.TIMEOUT_RESET_FAULT = 0.5
+    assert drive.TIMEOUT_SWITCH_STATE_SINGLE == 0.5
+    drive.TIMEOUT_SWITCH_STATE_FINAL = 2.0  # accepted; each step has the single limit
+    assert drive.TIMEOUT_SWITCH_STATE_FINAL == 0.5
+    with pytest.raises(ValueError):
+        drive.TIMEOUT_SWITCH_OP_MODE = -1
+    # A homing limit too short for the run: the timeout names what was awaited.
+    drive.TIMEOUT_HOMING_DEFAULT = 0.05
+    drive.sdo[0x6098].raw = 17  # the negative limit switch, far away
+    with pytest.raises(canola.Drive402Error, match="timed out") as err:
+        drive.homing()
+    assert err.value.state == "OPERATION ENABLED"
