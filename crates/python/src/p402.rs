@@ -267,13 +267,24 @@ impl BaseNode402 {
         Ok(())
     }
 
-    /// Checks that the drive answers with a statusword. python-canopen reads the PDO
-    /// configuration here to follow the statusword in TPDOs; this one reads it by SDO when
-    /// needed, so `read_pdos` changes nothing.
+    /// Reads the node's PDO configuration (`read_pdos`, as python-canopen does: `node.tpdo`
+    /// and `node.rpdo` hold it after) and checks that the drive answers with a statusword.
+    /// python-canopen follows the statusword in TPDOs from here on; this one reads it by SDO
+    /// when needed (a TPDO's value may be stale: python-canopen #168, #554).
     #[pyo3(signature = (read_pdos = true))]
     fn setup_402_state_machine(slf: &Bound<'_, Self>, read_pdos: bool) -> PyResult<()> {
-        let _ = read_pdos;
+        Self::setup_pdos(slf, read_pdos)?;
         run(slf.py(), Self::drive(slf)?.statusword()).map(|_| ())
+    }
+
+    /// `upload`: reads the node's PDO configuration by SDO (`node.pdo.read()`); without it,
+    /// nothing (the master follows the TPDOs it knows already).
+    #[pyo3(signature = (upload = true))]
+    fn setup_pdos(slf: &Bound<'_, Self>, upload: bool) -> PyResult<()> {
+        if upload {
+            slf.getattr("pdo")?.call_method0("read")?;
+        }
+        Ok(())
     }
 
     /// The statusword 0x6041, read now.

@@ -58,6 +58,13 @@ def test_state_machine_walks_to_each_state(drive: canola.BaseNode402) -> None:
     assert drive.state == "SWITCH ON DISABLED"
 
 
+def test_setup_reads_the_pdo_configuration(drive: canola.BaseNode402) -> None:
+    # The fixture ran setup_402_state_machine(): the drive's PDOs are known.
+    assert drive.tpdo[1].cob_id == 0x180 + 3
+    assert any(var.index == 0x6041 for var in drive.tpdo[1])
+    drive.setup_pdos(upload=False)
+
+
 def test_states_only_the_drive_enters_are_a_value_error(drive: canola.BaseNode402) -> None:
     for name in ("FAULT", "NOT READY TO SWITCH ON", "FAULT REACTION ACTIVE"):
         with pytest.raises(ValueError, match="cannot be entered programmatically"):
