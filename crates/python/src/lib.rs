@@ -17,9 +17,17 @@ use canola::{Error, Operation, SdoErrorKind};
 use pyo3::exceptions::{PyException, PyKeyError, PyValueError};
 use pyo3::prelude::*;
 
+mod dispatch;
+mod emcy;
+mod lss;
 mod network;
 mod node;
+mod od;
+mod p402;
+mod pdo;
 mod sdo;
+mod services;
+mod usdo;
 
 pyo3::create_exception!(
     canola,
@@ -76,9 +84,14 @@ pub(crate) fn wait<T: Send + 'static>(py: Python<'_>, op: Operation<'static, T>)
         .await
     });
     let mut interrupt: Option<PyErr> = None;
+    let waiting = dispatch::Waiting::enter();
     let result = py.detach(|| {
         let mut last = std::time::Instant::now();
         canola::wait_all_with([guarded], || {
+            dispatch::poll();
+            if dispatch::pending() {
+                Python::attach(dispatch::run_pending);
+            }
             if interrupt.is_some() || last.elapsed() < SIGNAL_CHECK {
                 return;
             }
@@ -90,6 +103,10 @@ pub(crate) fn wait<T: Send + 'static>(py: Python<'_>, op: Operation<'static, T>)
         })
         .pop()
     });
+    // The callbacks of what came during the wait run before it returns.
+    dispatch::poll();
+    dispatch::run_pending(py);
+    drop(waiting);
     match result {
         Some(Ok(Some(v))) => Ok(v),
         Some(Err(e)) => Err(to_py_err(e)),
@@ -143,6 +160,7 @@ pub(crate) fn to_py_err(e: Error) -> PyErr {
         Error::UnknownObject { .. } => PyKeyError::new_err(text),
         Error::Value { .. } => PyValueError::new_err(text),
         Error::Timeout { .. } => NmtError::new_err(text),
+        Error::Lss(_) => lss::LssError::new_err(text),
         _ => NetworkError::new_err(text),
     }
 }
@@ -187,11 +205,33 @@ fn canola_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<network::Network>()?;
     m.add_class::<network::MemoryBus>()?;
     m.add_class::<network::SimDevice>()?;
+    m.add_class::<network::SimService>()?;
     m.add_class::<node::RemoteNode>()?;
     m.add_class::<node::NmtMaster>()?;
     m.add_class::<sdo::SdoClient>()?;
     m.add_class::<sdo::SdoVariable>()?;
     m.add_class::<sdo::SdoRecord>()?;
     m.add_class::<sdo::SdoArray>()?;
+    m.add_class::<sdo::SdoBits>()?;
+    m.add("EmcyError", emcy::emcy_error_type(py)?)?;
+    m.add_class::<emcy::EmcyConsumer>()?;
+    m.add("LssError", py.get_type::<lss::LssError>())?;
+    m.add_class::<lss::LssMaster>()?;
+    m.add_class::<services::SyncProducer>()?;
+    m.add_class::<services::NodeScanner>()?;
+    m.add_function(wrap_pyfunction!(od::import_od, m)?)?;
+    m.add_class::<od::ObjectDictionary>()?;
+    m.add_class::<od::ODVariable>()?;
+    m.add_class::<od::ODRecord>()?;
+    m.add_class::<od::ODArray>()?;
+    m.add_class::<pdo::Pdo>()?;
+    m.add_class::<pdo::PdoBase>()?;
+    m.add_class::<pdo::PdoMap>()?;
+    m.add_class::<pdo::PdoVariable>()?;
+    m.add_class::<p402::BaseNode402>()?;
+    m.add_class::<usdo::UsdoClient>()?;
+    m.add_class::<usdo::UsdoRecord>()?;
+    m.add_class::<usdo::UsdoVariable>()?;
+    m.add("Drive402Error", py.get_type::<p402::Drive402Error>())?;
     Ok(())
 }

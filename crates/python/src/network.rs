@@ -2,7 +2,8 @@
 //! and the simulation side: `canola.MemoryBus` and `canola.SimDevice`.
 
 use std::collections::{BTreeMap, HashMap};
-use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 
 use canola::mem::{BusConfig, ClockMode};
 use canola::{NodeId, ObjectDictionary};
@@ -11,12 +12,36 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyTuple};
 
 use crate::NetworkError;
-use crate::node::{NodeLink, RemoteNode};
+use crate::emcy::EmcyRouter;
+use crate::lss::LssMaster;
+use crate::node::{NmtMaster, NmtTarget, NodeLink, RemoteNode};
+use crate::services::{NodeScanner, SyncProducer};
 
 /// Locks a mutex, taking the data of one a panicking thread left behind (the data here is
 /// never left half-changed).
 pub(crate) fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// A network's facade handle as its parts share it (`network.nmt`, `network.sync`, ...):
+/// `None` while it is not connected.
+pub(crate) type NetCell = Arc<Mutex<Option<canola::Network>>>;
+
+/// The facade's network in `cell`, or the error that it is not connected.
+pub(crate) fn connected(cell: &NetCell) -> PyResult<canola::Network> {
+    lock(cell).clone().ok_or_else(|| {
+        NetworkError::new_err(
+            "the network is not connected: connect() it or make it with Network.open()",
+        )
+    })
+}
+
+/// Makes the node of `link` known to `net`, with its dictionary.
+fn register(net: &canola::Network, link: &NodeLink) {
+    match &link.od {
+        Some(od) => net.add_node_with_dictionary(link.id, ObjectDictionary::clone(od)),
+        None => net.add_node(link.id),
+    };
 }
 
 /// A node-ID from Python, checked (1..=127).
@@ -28,8 +53,11 @@ pub(crate) fn node_id(id: i64) -> PyResult<NodeId> {
 }
 
 /// An object dictionary from what python-canopen's `import_od` takes: a path to an EDS/DCF
-/// file (str or path-like) or the file's bytes.
+/// file (str or path-like) or the file's bytes; or one `import_od` gave.
 pub(crate) fn load_dictionary(source: &Bound<'_, PyAny>) -> PyResult<ObjectDictionary> {
+    if let Ok(od) = source.cast::<crate::od::ObjectDictionary>() {
+        return Ok(ObjectDictionary::clone(&od.get().od));
+    }
     let (text, name) = eds_text(source)?;
     canola::od::parse(&text)
         .map(|parsed| parsed.od)
@@ -80,10 +108,10 @@ pub(crate) struct MemoryBus {
 #[pymethods]
 impl MemoryBus {
     /// A new bus. `realtime=True` runs it on the host's clock (a network on it then runs by
-    /// itself, as on a real bus).
+    /// itself, as on a real bus); `fd=True` makes it a CAN FD bus (for `node.usdo`).
     #[new]
-    #[pyo3(signature = (realtime = false))]
-    fn new(realtime: bool) -> Self {
+    #[pyo3(signature = (realtime = false, fd = false))]
+    fn new(realtime: bool, fd: bool) -> Self {
         let clock = if realtime {
             ClockMode::RealTime
         } else {
@@ -92,6 +120,7 @@ impl MemoryBus {
         Self {
             bus: canola::MemoryBus::with_config(BusConfig {
                 clock,
+                fd,
                 ..BusConfig::default()
             }),
             realtime,
@@ -140,7 +169,9 @@ impl MemoryBus {
 #[pyclass(module = "canola", frozen)]
 pub(crate) struct SimDevice {
     device: Mutex<Option<canola::SimDevice>>,
-    node: NodeId,
+    node: Option<NodeId>,
+    /// The simulated CiA 402 drive behind the device's profile objects (`cia402_drive`).
+    drive: Option<Arc<Mutex<canola_cia402::sim::SimDrive>>>,
 }
 
 #[pymethods]
@@ -154,18 +185,164 @@ impl SimDevice {
             .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
         Ok(Self {
             device: Mutex::new(Some(device)),
-            node,
+            node: Some(node),
+            drive: None,
         })
     }
 
-    /// The device's node-ID.
+    /// A device without a node-ID (CiA 305 "unconfigured") whose LSS address is `address`
+    /// (vendor-ID, product code, revision number, serial number; also its 0x1018): silent but
+    /// for LSS until a master gives it a node-ID (`network.lss`), then it boots with it.
+    #[staticmethod]
+    fn unconfigured(eds: &Bound<'_, PyAny>, address: (u32, u32, u32, u32)) -> PyResult<Self> {
+        let od = load_dictionary(eds)?;
+        let (v, p, r, s) = address;
+        let device = canola::SimDevice::unconfigured(od, canola::lss::LssAddress::new(v, p, r, s));
+        Ok(Self {
+            device: Mutex::new(Some(device)),
+            node: None,
+            drive: None,
+        })
+    }
+
+    /// A CiA 402 servo drive of node `node_id`: the dictionary from `eds` (e.g. the
+    /// repository's `eds/cia402-servo.eds`), the stack's simulated drive (power state machine,
+    /// modes, homing, motion; axis 0) behind its profile objects, as `canopen simulate` runs it.
+    #[staticmethod]
+    fn cia402_drive(eds: &Bound<'_, PyAny>, node_id: i64) -> PyResult<Self> {
+        let node = self::node_id(node_id)?;
+        let (text, name) = eds_text(eds)?;
+        let drive = canola_cia402::sim::SimDrive::new(canola_cia402::sim::SimConfig::default());
+        let (device, shared) = canola_cia402::master::simulated_drive(node, &text, drive)
+            .map_err(|e| PyValueError::new_err(format!("{name}: {e}")))?;
+        Ok(Self {
+            device: Mutex::new(Some(device)),
+            node: Some(node),
+            drive: Some(shared),
+        })
+    }
+
+    /// Runs the device on a real bus named by a bus spec of this stack (`"udp:GROUP:PORT"`,
+    /// `"vcan0"`, ...), as `canopen simulate` does, on a thread of its own, so that another
+    /// program (python-canopen, the CLI) talks to it. A device is served or attached once.
+    /// Returns the service: `stop()` it, or use it as a context manager.
+    fn serve(&self, py: Python<'_>, spec: &str) -> PyResult<SimService> {
+        let mut dev = lock(&self.device)
+            .take()
+            .ok_or_else(|| PyValueError::new_err("this SimDevice is attached to a bus already"))?;
+        let parsed =
+            canola::BusSpec::parse(spec).map_err(|e| NetworkError::new_err(e.to_string()))?;
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let stopped = stop.clone();
+        let (opened_tx, opened_rx) = std::sync::mpsc::channel();
+        let thread = std::thread::Builder::new()
+            .name("canola-sim-serve".into())
+            .spawn(move || {
+                let mut transport = match parsed.open() {
+                    Ok(t) => {
+                        let _ = opened_tx.send(Ok(()));
+                        t
+                    }
+                    Err(e) => {
+                        let _ = opened_tx.send(Err(e.to_string()));
+                        return Ok(());
+                    }
+                };
+                canola::run_station(&mut *transport, &mut dev, || {
+                    stopped.load(Ordering::Relaxed)
+                })
+                .map_err(|e| e.to_string())
+            })?;
+        let opened = py.detach(move || opened_rx.recv());
+        match opened {
+            Ok(Ok(())) => Ok(SimService {
+                stop,
+                thread: Mutex::new(Some(thread)),
+            }),
+            Ok(Err(e)) => Err(NetworkError::new_err(format!("{spec}: {e}"))),
+            Err(_) => Err(NetworkError::new_err(format!(
+                "{spec}: the device thread ended"
+            ))),
+        }
+    }
+
+    /// Puts a `cia402_drive` into fault with `error_code` (0x603F and its EMCY), as a drive
+    /// detecting e.g. a following error (0x8611) does.
+    fn inject_fault(&self, error_code: u16) -> PyResult<()> {
+        let drive = self
+            .drive
+            .as_ref()
+            .ok_or_else(|| PyValueError::new_err("this SimDevice is not a cia402_drive"))?;
+        lock(drive).inject_fault(canola_cia402::sim::SimFault::Other(
+            canola_cia402::ErrorCode(error_code),
+        ));
+        Ok(())
+    }
+
+    /// The device's node-ID (`None` for an unconfigured one, as made).
     #[getter]
-    fn id(&self) -> u8 {
-        self.node.get()
+    fn id(&self) -> Option<u8> {
+        self.node.map(NodeId::get)
     }
 
     fn __repr__(&self) -> String {
-        format!("<canola.SimDevice node {}>", self.node)
+        match self.node {
+            Some(n) => format!("<canola.SimDevice node {n}>"),
+            None => "<canola.SimDevice unconfigured>".into(),
+        }
+    }
+}
+
+/// A simulated device served on a real bus (`SimDevice.serve`).
+#[pyclass(module = "canola", frozen)]
+pub(crate) struct SimService {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: Mutex<Option<std::thread::JoinHandle<Result<(), String>>>>,
+}
+
+#[pymethods]
+impl SimService {
+    /// Stops the device (within 50 ms) and waits for its thread; a bus failure that ended it
+    /// earlier is raised here.
+    fn stop(&self, py: Python<'_>) -> PyResult<()> {
+        self.stop.store(true, Ordering::Relaxed);
+        let Some(thread) = lock(&self.thread).take() else {
+            return Ok(());
+        };
+        match py.detach(|| thread.join()) {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => Err(NetworkError::new_err(e)),
+            Err(_) => Err(NetworkError::new_err("the device thread panicked")),
+        }
+    }
+
+    /// Whether the device still runs.
+    #[getter]
+    fn running(&self) -> bool {
+        lock(&self.thread)
+            .as_ref()
+            .is_some_and(|t| !t.is_finished())
+    }
+
+    fn __enter__(slf: Bound<'_, Self>) -> Bound<'_, Self> {
+        slf
+    }
+
+    fn __exit__(
+        &self,
+        py: Python<'_>,
+        _exc_type: &Bound<'_, PyAny>,
+        _exc: &Bound<'_, PyAny>,
+        _tb: &Bound<'_, PyAny>,
+    ) -> PyResult<bool> {
+        self.stop(py)?;
+        Ok(false)
+    }
+}
+
+impl Drop for SimService {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
     }
 }
 
@@ -173,25 +350,48 @@ impl SimDevice {
 /// python-canopen's `Network`. `with Network(...) as net:` disconnects at the end.
 #[pyclass(module = "canola", frozen, mapping)]
 pub(crate) struct Network {
-    net: Mutex<Option<canola::Network>>,
+    net: NetCell,
     nodes: Mutex<BTreeMap<u8, Py<RemoteNode>>>,
+    nmt: Py<NmtMaster>,
+    sync: Py<SyncProducer>,
+    scanner: Py<NodeScanner>,
+    lss: Py<LssMaster>,
+    emcy: Arc<EmcyRouter>,
+    /// Connections made so far: a handle that subscribed to an earlier one subscribes again.
+    generation: AtomicU64,
 }
 
 impl Network {
     fn with(net: Option<canola::Network>) -> Self {
-        Self {
-            net: Mutex::new(net),
+        let emcy = EmcyRouter::new();
+        emcy.attach(net.as_ref());
+        let net: NetCell = Arc::new(Mutex::new(net));
+        Python::attach(|py| Self {
+            nmt: Py::new(
+                py,
+                NmtMaster {
+                    target: NmtTarget::All(net.clone(), Mutex::new("INITIALISING".into())),
+                },
+            )
+            .expect("allocating a handle"),
+            sync: Py::new(py, SyncProducer::new(net.clone())).expect("allocating a handle"),
+            scanner: Py::new(py, NodeScanner::new(net.clone())).expect("allocating a handle"),
+            lss: Py::new(py, LssMaster::new(net.clone())).expect("allocating a handle"),
+            net,
             nodes: Mutex::new(BTreeMap::new()),
-        }
+            emcy,
+            generation: AtomicU64::new(0),
+        })
     }
 
     /// The facade's network, or the error that it is not connected.
     pub(crate) fn connected(&self) -> PyResult<canola::Network> {
-        lock(&self.net).clone().ok_or_else(|| {
-            NetworkError::new_err(
-                "the network is not connected: connect() it or make it with Network.open()",
-            )
-        })
+        connected(&self.net)
+    }
+
+    /// Which connection this is (see `generation`).
+    pub(crate) fn generation(&self) -> u64 {
+        self.generation.load(Ordering::SeqCst)
     }
 
     /// Connects to the bus `spec` names (a bus spec of this stack), running the background
@@ -203,6 +403,14 @@ impl Network {
 
     /// Puts `net` in place of the network connected now, which is disconnected.
     fn replace(&self, net: Option<canola::Network>) -> PyResult<()> {
+        self.emcy.attach(net.as_ref());
+        if let Some(net) = &net {
+            // The nodes added stay: the new connection knows them and their dictionaries.
+            for node in lock(&self.nodes).values() {
+                register(net, &node.get().link);
+            }
+        }
+        self.generation.fetch_add(1, Ordering::SeqCst);
         let old = std::mem::replace(&mut *lock(&self.net), net);
         match old {
             Some(old) if old.is_driven() => old.stop_driver().map_err(crate::to_py_err),
@@ -330,12 +538,63 @@ impl Network {
         link.attach(slf.clone().unbind());
         let this = slf.get();
         let net = this.connected()?;
-        match &link.od {
-            Some(od) => net.add_node_with_dictionary(link.id, ObjectDictionary::clone(od)),
-            None => net.add_node(link.id),
-        };
+        register(&net, &link);
+        this.emcy.add(&node.get().emcy.get().shared);
         lock(&this.nodes).insert(link.id.get(), node.clone_ref(py));
         Ok(node)
+    }
+
+    /// NMT commands to every node (`network.nmt.state = "OPERATIONAL"`,
+    /// `network.nmt.send_command(0x01)`).
+    #[getter]
+    fn nmt(&self, py: Python<'_>) -> Py<NmtMaster> {
+        self.nmt.clone_ref(py)
+    }
+
+    /// The master's SYNC producer: `start(period)`, `stop()`, `transmit()`.
+    #[getter]
+    fn sync(&self, py: Python<'_>) -> Py<SyncProducer> {
+        self.sync.clone_ref(py)
+    }
+
+    /// The node scanner: `search()`, then the node-IDs found in `nodes`.
+    #[getter]
+    fn scanner(&self, py: Python<'_>) -> Py<NodeScanner> {
+        self.scanner.clone_ref(py)
+    }
+
+    /// The LSS master (CiA 305): switch state, configure and inquire, Fastscan.
+    #[getter]
+    fn lss(&self, py: Python<'_>) -> Py<LssMaster> {
+        self.lss.clone_ref(py)
+    }
+
+    /// Sends one CAN frame: `can_id` (11-bit, or 29-bit when above 0x7FF or `extended`),
+    /// up to 8 bytes of `data`, or a remote request of `len(data)` bytes when `remote`.
+    #[pyo3(signature = (can_id, data, remote = false, extended = false))]
+    fn send_message(
+        &self,
+        can_id: u32,
+        data: &Bound<'_, PyAny>,
+        remote: bool,
+        extended: bool,
+    ) -> PyResult<()> {
+        let data: Vec<u8> = data
+            .extract()
+            .map_err(|_| PyTypeError::new_err("data is bytes, bytearray or a list of ints"))?;
+        let id = if extended || can_id > 0x7FF {
+            canola::CanId::extended(can_id)
+        } else {
+            canola::CanId::standard(can_id as u16)
+        }
+        .map_err(|e| PyValueError::new_err(format!("CAN-ID 0x{can_id:X}: {e}")))?;
+        let frame = if remote {
+            canola::CanFrame::remote(id, data.len())
+        } else {
+            canola::CanFrame::new(id, &data)
+        }
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        self.connected()?.send(frame).map_err(crate::to_py_err)
     }
 
     fn __getitem__(&self, py: Python<'_>, id: u8) -> PyResult<Py<RemoteNode>> {
@@ -354,8 +613,9 @@ impl Network {
     }
 
     /// The node-IDs of the nodes added, in order.
-    fn keys(&self) -> Vec<u8> {
-        lock(&self.nodes).keys().copied().collect()
+    fn keys(&self) -> Vec<u16> {
+        // As ints (a `Vec<u8>` would be `bytes`).
+        lock(&self.nodes).keys().map(|&k| u16::from(k)).collect()
     }
 
     fn __iter__(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {

@@ -17,7 +17,7 @@ use crate::{awaitable, wait};
 
 /// A decoded value as python-canopen gives it: `int`, `bool`, `float`, `str` for the string
 /// types (trailing NULs stripped), `bytes` for the rest.
-fn value_to_py(py: Python<'_>, v: Value) -> PyResult<Py<PyAny>> {
+pub(crate) fn value_to_py(py: Python<'_>, v: Value) -> PyResult<Py<PyAny>> {
     let text = |s: String| s.trim_end_matches('\0').to_string();
     match v {
         Value::Boolean(b) => b.into_py_any(py),
@@ -34,7 +34,7 @@ fn value_to_py(py: Python<'_>, v: Value) -> PyResult<Py<PyAny>> {
 }
 
 /// A Python value to write, converted to the object's type by the facade.
-fn write_value(v: &Bound<'_, PyAny>) -> PyResult<WriteValue> {
+pub(crate) fn write_value(v: &Bound<'_, PyAny>) -> PyResult<WriteValue> {
     if let Ok(b) = v.cast::<PyBool>() {
         return Ok(WriteValue::from(b.is_true()));
     }
@@ -62,14 +62,65 @@ fn write_value(v: &Bound<'_, PyAny>) -> PyResult<WriteValue> {
     )))
 }
 
+/// The writable raw file `open("wb")` gives: it collects what is written and downloads it
+/// when closed (a Python class: an `io.RawIOBase` subclass).
+const SDO_WRITER: &std::ffi::CStr = cr#"
+import io
+
+class SdoWriter(io.RawIOBase):
+    """An SDO object's value opened for writing: downloaded whole on close()."""
+
+    def __init__(self, variable, block_transfer):
+        super().__init__()
+        self._variable = variable
+        self._block_transfer = block_transfer
+        self._data = bytearray()
+
+    def writable(self):
+        return True
+
+    def write(self, b):
+        self._data += b
+        return len(b)
+
+    def close(self):
+        if not self.closed:
+            try:
+                self._variable._download(bytes(self._data), self._block_transfer)
+            finally:
+                super().close()
+"#;
+
+static SDO_WRITER_TYPE: pyo3::sync::PyOnceLock<Py<pyo3::types::PyType>> =
+    pyo3::sync::PyOnceLock::new();
+
+fn sdo_writer_type(py: Python<'_>) -> PyResult<&Bound<'_, pyo3::types::PyType>> {
+    SDO_WRITER_TYPE
+        .get_or_try_init(py, || {
+            let module = PyModule::from_code(
+                py,
+                SDO_WRITER,
+                c"canola_sdo_writer.py",
+                c"canola_sdo_writer",
+            )?;
+            Ok::<_, PyErr>(
+                module
+                    .getattr("SdoWriter")?
+                    .cast_into::<pyo3::types::PyType>()?
+                    .unbind(),
+            )
+        })
+        .map(|t| t.bind(py))
+}
+
 /// Bytes from Python (`bytes`, `bytearray` or any buffer of bytes).
-fn data_bytes(data: &Bound<'_, PyAny>) -> PyResult<Vec<u8>> {
+pub(crate) fn data_bytes(data: &Bound<'_, PyAny>) -> PyResult<Vec<u8>> {
     data.extract()
         .map_err(|_| PyTypeError::new_err("data to download is bytes or bytearray"))
 }
 
 /// An SDO address from Python, checked.
-fn address(index: i64, subindex: i64) -> PyResult<ObjectAddress> {
+pub(crate) fn address(index: i64, subindex: i64) -> PyResult<ObjectAddress> {
     match (u16::try_from(index), u8::try_from(subindex)) {
         (Ok(i), Ok(s)) => Ok(ObjectAddress::new(i, s)),
         _ => Err(PyValueError::new_err(format!(
@@ -226,6 +277,76 @@ impl SdoClient {
     }
 }
 
+/// The bits of an integer value (python-canopen's `Bits`, `var.bits`): the value as read when
+/// it was made; setting bits writes the whole value back.
+#[pyclass(module = "canola", frozen)]
+pub(crate) struct SdoBits {
+    var: Py<SdoVariable>,
+    raw: std::sync::Mutex<i128>,
+}
+
+/// The bit numbers `key` names: an int, a slice with start and stop, or a list of ints.
+fn bit_numbers(key: &Bound<'_, PyAny>) -> PyResult<Vec<u32>> {
+    let numbers: Vec<i64> = if let Ok(n) = key.extract::<i64>() {
+        vec![n]
+    } else if let Ok(slice) = key.cast::<pyo3::types::PySlice>() {
+        let part = |name: &str| -> PyResult<Option<i64>> { slice.getattr(name)?.extract() };
+        let (Some(start), Some(stop)) = (part("start")?, part("stop")?) else {
+            return Err(PyValueError::new_err(
+                "a slice of bits gives start and stop",
+            ));
+        };
+        let step = part("step")?.unwrap_or(1);
+        if step <= 0 {
+            return Err(PyValueError::new_err("a slice of bits steps upwards"));
+        }
+        (start..stop).step_by(step as usize).collect()
+    } else {
+        key.extract().map_err(|_| {
+            PyKeyError::new_err(
+                "bits are named by number, slice or list (the dictionary names no bits)",
+            )
+        })?
+    };
+    if numbers.is_empty() {
+        return Err(PyValueError::new_err("no bits named"));
+    }
+    numbers
+        .into_iter()
+        .map(|n| {
+            u32::try_from(n)
+                .ok()
+                .filter(|n| *n < 64)
+                .ok_or_else(|| PyValueError::new_err(format!("bit {n} is not in 0..64")))
+        })
+        .collect()
+}
+
+#[pymethods]
+impl SdoBits {
+    /// The bits' value: `(raw & mask) >> lowest bit`.
+    fn __getitem__(&self, key: &Bound<'_, PyAny>) -> PyResult<i128> {
+        let bits = bit_numbers(key)?;
+        let mask = bits.iter().fold(0i128, |m, b| m | 1 << b);
+        let low = bits.iter().min().copied().unwrap_or(0);
+        Ok((*crate::network::lock(&self.raw) & mask) >> low)
+    }
+
+    /// Sets the bits to `value` (shifted to the lowest bit) and writes the value.
+    fn __setitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>, value: i128) -> PyResult<()> {
+        let bits = bit_numbers(key)?;
+        let mask = bits.iter().fold(0i128, |m, b| m | 1 << b);
+        let low = bits.iter().min().copied().unwrap_or(0);
+        let raw = {
+            let mut raw = crate::network::lock(&self.raw);
+            *raw = (*raw & !mask) | ((value << low) & mask);
+            *raw
+        };
+        let raw = raw.into_pyobject(py)?;
+        self.var.get().set_raw(py, raw.as_any())
+    }
+}
+
 /// One value of a node's dictionary, read and written over SDO (python-canopen's
 /// `SdoVariable`).
 #[pyclass(module = "canola", frozen)]
@@ -281,26 +402,123 @@ impl SdoVariable {
         wait(py, op)
     }
 
-    /// Reads the value; `fmt` is `"raw"` (the only format so far).
+    /// The physical value: `raw` times the object's factor, which is 1 (the stack's
+    /// dictionary has no `Factor`, a python-canopen extension of EDS); setting it sets `raw`.
+    #[getter]
+    fn phys(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.raw(py)
+    }
+
+    #[setter]
+    fn set_phys(&self, py: Python<'_>, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.set_raw(py, value)
+    }
+
+    /// The bits of the (integer) value, read now: `var.bits[3]`, `var.bits[0:4]`,
+    /// `var.bits[[0, 2]]`; setting some writes the value back.
+    #[getter]
+    fn bits(slf: Bound<'_, Self>) -> PyResult<SdoBits> {
+        let py = slf.py();
+        let raw = slf.get().raw(py)?;
+        let raw: i128 = raw.bind(py).extract().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "{} is not an integer: it has no bits",
+                slf.get().name()
+            ))
+        })?;
+        Ok(SdoBits {
+            var: slf.unbind(),
+            raw: std::sync::Mutex::new(raw),
+        })
+    }
+
+    /// Reads the value; `fmt` is `"raw"` or `"phys"`.
     #[pyo3(signature = (fmt = "raw"))]
     fn read(&self, py: Python<'_>, fmt: &str) -> PyResult<Py<PyAny>> {
         match fmt {
             "raw" => self.raw(py),
+            "phys" => self.phys(py),
             _ => Err(PyValueError::new_err(format!(
-                "format {fmt:?} is not supported yet (only \"raw\")"
+                "format {fmt:?} is not supported (\"raw\" or \"phys\"; no value descriptions)"
             ))),
         }
     }
 
-    /// Writes the value; `fmt` is `"raw"` (the only format so far).
+    /// Writes the value; `fmt` is `"raw"` or `"phys"`.
     #[pyo3(signature = (value, fmt = "raw"))]
     fn write(&self, py: Python<'_>, value: &Bound<'_, PyAny>, fmt: &str) -> PyResult<()> {
         match fmt {
             "raw" => self.set_raw(py, value),
+            "phys" => self.set_phys(py, value),
             _ => Err(PyValueError::new_err(format!(
-                "format {fmt:?} is not supported yet (only \"raw\")"
+                "format {fmt:?} is not supported (\"raw\" or \"phys\"; no value descriptions)"
             ))),
         }
+    }
+
+    /// The value as a file (python-canopen's `open`): `"rb"` / `"r"` read it (uploaded whole
+    /// when the file is opened), `"wb"` / `"w"` write it (downloaded whole when the file is
+    /// closed); text (no `"b"`) in `encoding`. `block_transfer` uses SDO block transfer.
+    /// `buffering`, `size` and `request_crc_support` are accepted for python-canopen's
+    /// signature (block transfers always check the CRC).
+    #[pyo3(signature = (
+        mode = "rb", encoding = "ascii", buffering = 1024, size = None, block_transfer = false,
+        request_crc_support = true
+    ))]
+    #[allow(clippy::too_many_arguments)]
+    fn open(
+        slf: Bound<'_, Self>,
+        mode: &str,
+        encoding: &str,
+        buffering: i64,
+        size: Option<u64>,
+        block_transfer: bool,
+        request_crc_support: bool,
+    ) -> PyResult<Py<PyAny>> {
+        let _ = (buffering, size, request_crc_support);
+        let py = slf.py();
+        let io = py.import("io")?;
+        let text = !mode.contains('b');
+        let file = if mode.contains('r') {
+            let sdo = slf.get().sdo()?.block(block_transfer);
+            let data = wait(py, sdo.read(slf.get().at))?;
+            io.getattr("BytesIO")?.call1((PyBytes::new(py, &data),))?
+        } else if mode.contains('w') {
+            let writer = sdo_writer_type(py)?.call1((slf.clone(), block_transfer))?;
+            if text {
+                io.getattr("BufferedWriter")?.call1((writer,))?
+            } else {
+                writer
+            }
+        } else {
+            return Err(PyValueError::new_err(format!(
+                "mode {mode:?} neither reads (r) nor writes (w)"
+            )));
+        };
+        if text {
+            let kwargs = pyo3::types::PyDict::new(py);
+            kwargs.set_item("encoding", encoding)?;
+            return Ok(io
+                .getattr("TextIOWrapper")?
+                .call((file,), Some(&kwargs))?
+                .unbind());
+        }
+        Ok(file.unbind())
+    }
+
+    /// Downloads `data` (what a file from `open("wb")` does when it is closed).
+    #[pyo3(signature = (data, block_transfer = false))]
+    fn _download(
+        &self,
+        py: Python<'_>,
+        data: &Bound<'_, PyAny>,
+        block_transfer: bool,
+    ) -> PyResult<()> {
+        let op = self
+            .sdo()?
+            .block(block_transfer)
+            .write(self.at, data_bytes(data)?);
+        wait(py, op)
     }
 
     /// `raw`, awaitable: `value = await var.aget_raw()`.

@@ -46,3 +46,28 @@ def test_timeouts_out_of_range_are_value_errors(node: canola.RemoteNode, timeout
         node.nmt.wait_for_bootup(timeout)
     with pytest.raises(ValueError, match="a time in seconds"):
         node.nmt.wait_for_heartbeat(timeout)
+
+
+def test_node_guarding_gives_the_state(node: canola.RemoteNode) -> None:
+    node.sdo["Producer heartbeat time"].raw = 0  # no heartbeat
+    with pytest.raises(canola.NmtError):
+        node.nmt.wait_for_heartbeat(1.0)
+    node.nmt.start_node_guarding(0.1)
+    assert node.nmt.wait_for_heartbeat(1.0) == "PRE-OPERATIONAL"
+    node.nmt.state = "OPERATIONAL"
+    node.nmt.wait_for_heartbeat(1.0)
+    assert node.nmt.wait_for_heartbeat(1.0) == "OPERATIONAL"
+    node.nmt.stop_node_guarding()
+    with pytest.raises(canola.NmtError):
+        node.nmt.wait_for_heartbeat(1.0)
+
+
+def test_heartbeat_callbacks_get_the_state(node: canola.RemoteNode) -> None:
+    got: list[int] = []
+    node.nmt.add_heartbeat_callback(got.append)
+    node.nmt.wait_for_heartbeat(5.0)
+    node.nmt.wait_for_heartbeat(5.0)
+    assert got == [127, 127]
+    node.nmt.state = "OPERATIONAL"
+    node.nmt.wait_for_heartbeat(5.0)
+    assert got[-1] == 5

@@ -103,3 +103,120 @@ def test_remote_node_made_first_then_added(network: canola.Network) -> None:
     assert network.add_node(node) is node
     assert network[5] is node and 5 in network and list(network) == [5]
     assert node.sdo[0x1017].raw == 500
+
+
+def test_phys_is_raw_with_factor_one(node: canola.RemoteNode) -> None:
+    var = node.sdo["Producer heartbeat time"]
+    var.phys = 300
+    assert var.raw == 300 and var.phys == 300
+    assert var.read("phys") == 300
+    var.write(400, "phys")
+    assert var.raw == 400
+    with pytest.raises(ValueError):
+        var.read("desc")
+
+
+def test_bits_read_and_write_the_value(node: canola.RemoteNode) -> None:
+    var = node.sdo[0x1017]
+    var.raw = 0b1010
+    bits = var.bits
+    assert (bits[0], bits[1], bits[3]) == (0, 1, 1)
+    assert bits[0:4] == 0b1010
+    assert bits[[1, 3]] == 0b101
+    bits[0] = 1
+    assert var.raw == 0b1011
+    bits[4:8] = 0xF
+    assert var.raw == 0xFB
+    with pytest.raises(TypeError):
+        _ = node.sdo["Manufacturer device name"].bits
+    with pytest.raises(ValueError):
+        bits[64]
+
+
+STORE_OBJECTS = b"""
+[1010]
+ParameterName=Store parameters
+ObjectType=0x8
+SubNumber=2
+
+[1010sub0]
+ParameterName=Highest sub-index supported
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+DefaultValue=1
+PDOMapping=0
+
+[1010sub1]
+ParameterName=Save all parameters
+ObjectType=0x7
+DataType=0x0007
+AccessType=rw
+DefaultValue=1
+PDOMapping=0
+
+[1011]
+ParameterName=Restore default parameters
+ObjectType=0x8
+SubNumber=2
+
+[1011sub0]
+ParameterName=Highest sub-index supported
+ObjectType=0x7
+DataType=0x0005
+AccessType=ro
+DefaultValue=1
+PDOMapping=0
+
+[1011sub1]
+ParameterName=Restore all default parameters
+ObjectType=0x7
+DataType=0x0007
+AccessType=rw
+DefaultValue=1
+PDOMapping=0
+"""
+
+
+def test_store_without_0x1010_is_an_abort(node: canola.RemoteNode) -> None:
+    with pytest.raises(canola.SdoAbortedError) as info:
+        node.store()
+    assert info.value.code == 0x06020000
+
+
+def test_store_and_restore_survive_a_reset() -> None:
+    from conftest import EDS
+
+    eds = EDS.read_bytes() + STORE_OBJECTS
+    bus = canola.MemoryBus()
+    bus.attach(canola.SimDevice.from_eds(eds, 5))
+    with canola.Network(bus) as net:
+        node = net.add_node(5, eds)
+        node.sdo["Producer heartbeat time"].raw = 300
+        node.store()
+        node.nmt.state = "RESET"
+        node.nmt.wait_for_bootup(5.0)
+        assert node.sdo["Producer heartbeat time"].raw == 300
+        node.restore()
+        node.nmt.state = "RESET"
+        node.nmt.wait_for_bootup(5.0)
+        assert node.sdo["Producer heartbeat time"].raw == 500
+
+
+def test_open_reads_and_writes_the_value_as_a_file(node: canola.RemoteNode) -> None:
+    var = node.sdo["Manufacturer device name"]
+    with var.open("rb") as f:
+        assert f.read() == b"Buerkert generic device"
+    with var.open("r", encoding="ascii", block_transfer=True) as t:
+        assert t.read() == "Buerkert generic device"
+    text = "line one\nline two"
+    user = node.sdo[0x2002]["User Description"]
+    with user.open("wt", encoding="ascii") as w:
+        w.write(text)
+    assert user.raw == text
+    with user.open("wb", block_transfer=True) as b:
+        b.write(b"bytes ")
+        b.write(b"written")
+    assert user.raw == "bytes written"
+    with pytest.raises(ValueError):
+        user.open("x")

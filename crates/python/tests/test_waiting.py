@@ -57,6 +57,26 @@ def test_ctrl_c_interrupts_a_blocking_wait(
         net.disconnect()
 
 
+@pytest.mark.skipif(threading.current_thread() is not threading.main_thread(), reason="signals")
+def test_ctrl_c_interrupts_the_pdo_and_emcy_waits(
+    realtime: tuple[canola.Network, canola.MemoryBus],
+) -> None:
+    net, _ = realtime
+    node = net.add_node(5, str(EDS))
+    node.tpdo.read()  # pre-operational: no TPDO comes, and no EMCY
+    try:
+        for wait in (lambda: node.tpdo[1].wait_for_reception(60), lambda: node.emcy.wait(None, 60)):
+            interrupter = threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT))
+            interrupter.start()
+            try:
+                with pytest.raises(KeyboardInterrupt):
+                    wait()
+            finally:
+                interrupter.join()
+    finally:
+        net.disconnect()
+
+
 def test_awaitable_twins(node: canola.RemoteNode) -> None:
     async def main() -> None:
         var = node.sdo["Producer heartbeat time"]
