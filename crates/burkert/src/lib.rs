@@ -74,7 +74,7 @@ pub use ne107::Ne107Status;
 pub use status::{DeviceStatus, Kelvin, TransMemStatus};
 
 #[cfg(feature = "master")]
-pub use master::{BurkertNode, DeviceReport};
+pub use master::{BurkertNode, DeviceReport, OutsideManual};
 #[cfg(feature = "master")]
 pub use sim::{BurkertDevice, SimulatedDevice};
 

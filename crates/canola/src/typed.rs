@@ -11,7 +11,7 @@
 
 use canola_od::{DataType, ObjectAddress, ObjectDictionary, Value};
 
-use crate::error::{Error, Unresolved};
+use crate::error::{Error, Unfit, Unresolved, ValueProblem};
 use crate::network::Operation;
 use crate::network::Sdo;
 
@@ -111,26 +111,21 @@ impl From<Value> for WriteValue {
     }
 }
 
-fn type_name(t: DataType) -> String {
-    t.name()
-        .map_or_else(|| format!("data type {:#06x}", t.code()), str::to_string)
-}
-
 /// The object's name for messages ([`ObjectDictionary::display_name`], else its address).
 pub(crate) fn object_name(od: &ObjectDictionary, at: ObjectAddress) -> String {
     od.display_name(at).unwrap_or_else(|| at.to_string())
 }
 
 /// `value` as a value of `t`, or why not.
-pub(crate) fn convert(value: WriteValue, t: DataType) -> Result<Value, String> {
-    let integer = |v: i128| -> Result<Value, String> {
+pub(crate) fn convert(value: WriteValue, t: DataType) -> Result<Value, Unfit> {
+    let integer = |v: i128| -> Result<Value, Unfit> {
         match t {
             DataType::Real32 => return Ok(Value::Real32(v as f32)),
             DataType::Real64 => return Ok(Value::Real64(v as f64)),
             _ => {}
         }
         let Some(bits) = t.integer_bits() else {
-            return Err(format!("an integer ({v}) cannot be written to it"));
+            return Err(Unfit::Integer(v));
         };
         let (lo, hi) = if t == DataType::Boolean {
             (0, 1)
@@ -140,36 +135,44 @@ pub(crate) fn convert(value: WriteValue, t: DataType) -> Result<Value, String> {
             (0, (1i128 << bits) - 1)
         };
         if !(lo..=hi).contains(&v) {
-            return Err(format!("{v} does not fit (range {lo}..={hi})"));
+            return Err(Unfit::OutOfRange {
+                value: v,
+                min: lo,
+                max: hi,
+            });
         }
-        Value::from_i128_wrapping(t, v).ok_or_else(|| format!("{v} does not fit"))
+        Value::from_i128_wrapping(t, v).ok_or(Unfit::OutOfRange {
+            value: v,
+            min: lo,
+            max: hi,
+        })
     };
     match value {
         WriteValue::Integer(v) => integer(v),
         WriteValue::Float(f) => match t {
             DataType::Real32 => Ok(Value::Real32(f as f32)),
             DataType::Real64 => Ok(Value::Real64(f)),
-            _ => Err(format!("a float ({f}) cannot be written to it")),
+            _ => Err(Unfit::Float(f)),
         },
         WriteValue::Text(s) => match t {
             DataType::VisibleString => Ok(Value::VisibleString(s.into_bytes())),
             DataType::OctetString => Ok(Value::OctetString(s.into_bytes())),
             DataType::UnicodeString => Ok(Value::UnicodeString(s.encode_utf16().collect())),
-            _ => Err(format!("text ({s:?}) cannot be written to it")),
+            _ => Err(Unfit::Text(s)),
         },
         WriteValue::Bytes(b) => match (t, t.size()) {
             (DataType::Domain, _) => Ok(Value::Domain(b)),
             (DataType::OctetString, _) => Ok(Value::OctetString(b)),
-            (_, Some(n)) if n != b.len() => Err(format!("{} bytes given, it takes {n}", b.len())),
-            _ => Value::from_le_bytes(t, &b).map_err(|e| e.to_string()),
+            (_, Some(n)) if n != b.len() => Err(Unfit::ByteCount {
+                given: b.len(),
+                takes: n,
+            }),
+            _ => Value::from_le_bytes(t, &b).map_err(Unfit::Bytes),
         },
         WriteValue::Value(v) if v.data_type() == t => Ok(v),
         WriteValue::Value(v) => match v.as_i128() {
             Some(i) => integer(i),
-            None => Err(format!(
-                "a {} value cannot be written to it",
-                type_name(v.data_type())
-            )),
+            None => Err(Unfit::ValueType(v.data_type())),
         },
     }
 }
@@ -246,18 +249,18 @@ impl Sdo {
             return Err(Error::Value {
                 node,
                 entry: at,
-                message: "the node's dictionary does not describe this object".into(),
+                problem: ValueProblem::NotDescribed,
             });
         };
         let data_type = sub.data_type;
         let typed = convert(value.into(), data_type).map_err(|why| Error::Value {
             node,
             entry: at,
-            message: format!(
-                "{} is {}: {why}",
-                object_name(&od, at),
-                type_name(data_type)
-            ),
+            problem: ValueProblem::Unfit {
+                object: object_name(&od, at),
+                data_type,
+                why,
+            },
         })?;
         Ok((at, typed))
     }

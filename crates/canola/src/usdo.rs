@@ -140,7 +140,7 @@ impl Usdo {
             Value::from_le_bytes(data_type, &data).map_err(|e| Error::Value {
                 node,
                 entry,
-                message: e.to_string(),
+                problem: crate::error::ValueProblem::Bytes(e),
             })
         })
     }
@@ -161,7 +161,7 @@ impl Usdo {
             None => Operation::ready(Err(Error::Value {
                 node: self.node,
                 entry,
-                message: "the node's dictionary does not describe this object".into(),
+                problem: crate::error::ValueProblem::NotDescribed,
             })),
         }
     }
@@ -184,7 +184,7 @@ impl Usdo {
             T::try_from(value).map_err(|e| Error::Value {
                 node,
                 entry,
-                message: e.to_string(),
+                problem: crate::error::ValueProblem::Convert(e),
             })
         })
     }

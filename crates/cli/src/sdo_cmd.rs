@@ -249,7 +249,7 @@ fn usdo_read(
         CliError::Op(canola::Error::Value {
             node,
             entry,
-            message: e.to_string(),
+            problem: canola::error::ValueProblem::Bytes(e),
         })
     })?;
     if !g.json && too_long_for_terminal(&bytes, Some(dt), "usdo", node, entry) {

@@ -17,12 +17,12 @@
 //! [`canola_pdo::remap`]; value types come from the node's dictionary (its EDS), falling back to
 //! the generic Bürkert EDS.
 
-use std::format;
 use std::prelude::rust_2024::*;
 
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 
+use canola::error::{PdoProblem, ValueProblem};
 use canola::{Error, NetworkEvent, Node, SdoError, SdoErrorKind, TransferProgress};
 use canola_frame::{CanFrame, CanId, NodeId};
 use canola_od::{DataType, Entry, EntryValue, ObjectAddress, ObjectDictionary};
@@ -147,16 +147,45 @@ fn decode<T: EntryValue>(node: NodeId, e: &Entry<T>, bytes: &[u8]) -> Result<T, 
     e.decode(bytes).map_err(|err| Error::Value {
         node,
         entry: addr(e),
-        message: err.to_string(),
+        problem: ValueProblem::Entry(err),
     })
 }
 
-fn undefined(node: NodeId, e: ObjectAddress, err: impl core::fmt::Display) -> Error {
+fn undefined(node: NodeId, e: ObjectAddress, problem: ValueProblem) -> Error {
     Error::Value {
         node,
         entry: e,
-        message: err.to_string(),
+        problem,
     }
+}
+
+/// What the Bürkert manual does not define, refused before anything is sent or when a device
+/// reports it: the [`ValueProblem::Profile`] of an [`Error::Value`] (downcast it to match).
+#[derive(Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum OutsideManual {
+    /// 0x2002 sub 0 is neither 4 (the manual's value) nor 5 (the highest sub-index).
+    #[error("{0} entries; the Bürkert profile has 4 (manual) or 5")]
+    EntryCount(u8),
+    /// A bit rate Bürkert devices do not offer (800k, 100k).
+    #[error("{0} is not offered by Bürkert devices")]
+    BitRate(BitRate),
+    /// A process value number outside 0..=63.
+    #[error("value number {0} is outside 0..=63")]
+    ValueNumber(u8),
+    /// A PDO number outside 1..=4 (the predefined connection set).
+    #[error("PDO number {0} is outside 1..=4 (predefined connection set)")]
+    PdoNumber(u8),
+    /// A process value whose data type cannot be mapped into a PDO.
+    #[error("{0} cannot be mapped into a PDO")]
+    NotMappable(DataType),
+}
+
+debug_as_display!(OutsideManual);
+
+/// An [`OutsideManual`] as the problem of an [`Error::Value`].
+fn outside(rule: OutsideManual) -> ValueProblem {
+    ValueProblem::Profile(Box::new(rule))
 }
 
 impl BurkertNode {
@@ -258,7 +287,7 @@ impl BurkertNode {
             return Err(undefined(
                 self.id(),
                 addr(&user::NUMBER_OF_ENTRIES),
-                format_args!("{count} entries; the Bürkert profile has 4 (manual) or 5"),
+                outside(OutsideManual::EntryCount(count)),
             ));
         }
         Ok(UserConfiguration {
@@ -415,7 +444,7 @@ impl BurkertNode {
             return Err(undefined(
                 self.id(),
                 addr(&comm::BAUDRATE),
-                format_args!("{rate} is not offered by Bürkert devices"),
+                outside(OutsideManual::BitRate(rate)),
             ));
         }
         self.write(comm::BAUDRATE, &rate.code())
@@ -473,22 +502,18 @@ impl BurkertNode {
             return Err(undefined(
                 self.id(),
                 a,
-                format_args!("value number {number} is outside 0..=63"),
+                outside(OutsideManual::ValueNumber(number)),
             ));
         }
-        let sub = od.sub(index, SUB_VALUE).ok_or_else(|| {
-            undefined(
-                self.id(),
-                a,
-                "the node's dictionary does not describe this object",
-            )
-        })?;
+        let sub = od
+            .sub(index, SUB_VALUE)
+            .ok_or_else(|| undefined(self.id(), a, ValueProblem::NotDescribed))?;
         let bits = sub.data_type.size().unwrap_or(0) * 8;
         if bits == 0 || bits > 64 {
             return Err(undefined(
                 self.id(),
                 a,
-                format_args!("{} cannot be mapped into a PDO", sub.data_type),
+                outside(OutsideManual::NotMappable(sub.data_type)),
             ));
         }
         Ok((
@@ -514,7 +539,7 @@ impl BurkertNode {
             return Err(undefined(
                 id,
                 ObjectAddress::new(comm_base, 1),
-                format_args!("PDO number {number} is outside 1..=4 (predefined connection set)"),
+                outside(OutsideManual::PdoNumber(number)),
             ));
         }
         let n = u16::from(number) - 1;
@@ -524,7 +549,18 @@ impl BurkertNode {
             raw.push(self.value_entry(&od, base, v)?.0.0);
         }
         let mapping = Mapping::from_raw_checked(direction, &raw, &OdView::new(&od, id.get()))
-            .map_err(|e| undefined(id, ObjectAddress::new(direction.mapping_index(n), 0), e))?;
+            .map_err(|e| {
+                let problem = ValueProblem::Pdo {
+                    direction,
+                    number: n + 1,
+                    problem: PdoProblem::Mapping(e),
+                };
+                undefined(
+                    id,
+                    ObjectAddress::new(direction.mapping_index(n), 0),
+                    problem,
+                )
+            })?;
         let comm = comm.unwrap_or_else(|| {
             let cob = fc + 0x100 * n + u16::from(id.get());
             match direction {
@@ -633,7 +669,7 @@ impl BurkertNode {
             return Err(undefined(
                 self.id(),
                 a,
-                format_args!("value number {number} is outside 0..=63"),
+                outside(OutsideManual::ValueNumber(number)),
             ));
         }
         let e: Entry<f32> = Entry::new(a.index, a.sub_index, DataType::Real32);
@@ -645,7 +681,8 @@ impl BurkertNode {
         let (e, dt) = self.value_entry(&od, base, number)?;
         let a = ObjectAddress::new(e.index(), SUB_VALUE);
         let bytes = self.node.sdo().read(a).wait()?;
-        canola_od::Value::from_le_bytes(dt, &bytes).map_err(|err| undefined(self.id(), a, err))
+        canola_od::Value::from_le_bytes(dt, &bytes)
+            .map_err(|err| undefined(self.id(), a, ValueProblem::Bytes(err)))
     }
 }
 

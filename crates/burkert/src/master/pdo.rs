@@ -45,10 +45,15 @@ impl SensorTpdo {
 
     /// Decodes the data of one PDO into typed sensor values.
     pub fn decode(&self, data: &[u8]) -> Result<Vec<SensorReading>, Error> {
+        let tpdo = |problem| ValueProblem::Pdo {
+            direction: Direction::Transmit,
+            number: u16::from(self.number),
+            problem,
+        };
         let unpacked = canola_pdo::unpack(&self.mapping, data).map_err(|e| Error::Value {
             node: self.node,
             entry: ObjectAddress::new(0x1800 + u16::from(self.number) - 1, 1),
-            message: format!("TPDO{} data: {e}", self.number),
+            problem: tpdo(PdoProblem::Pack(e)),
         })?;
         self.sensors
             .iter()
@@ -57,7 +62,7 @@ impl SensorTpdo {
                 let value = raw.to_value(obj.data_type()).map_err(|e| Error::Value {
                     node: self.node,
                     entry: obj.addr(),
-                    message: format!("TPDO{} data: {e}", self.number),
+                    problem: tpdo(PdoProblem::Data(e)),
                 })?;
                 Ok(SensorReading { sensor, value })
             })
@@ -113,19 +118,22 @@ impl ControlRpdo {
 
     /// Packs one value per control into the RPDO frame.
     pub fn encode(&self, values: &[canola_od::Value]) -> Result<CanFrame, Error> {
-        let err = |message: String| Error::Value {
+        let rpdo = |problem| ValueProblem::Pdo {
+            direction: Direction::Receive,
+            number: u16::from(self.number),
+            problem,
+        };
+        let err = |problem| Error::Value {
             node: self.node,
             entry: ObjectAddress::new(0x1400 + u16::from(self.number) - 1, 1),
-            message,
+            problem: rpdo(problem),
         };
         let objects = self.mapping.objects();
         if values.len() != objects.len() {
-            return Err(err(format!(
-                "RPDO{}: {} values for {} mapped objects",
-                self.number,
-                values.len(),
-                objects.len()
-            )));
+            return Err(err(PdoProblem::Pack(canola_pdo::PackError::ValueCount {
+                actual: values.len(),
+                expected: objects.len(),
+            })));
         }
         let raw = objects
             .iter()
@@ -134,19 +142,18 @@ impl ControlRpdo {
                 PdoValue::from_value(v, o.kind).ok_or_else(|| Error::Value {
                     node: self.node,
                     entry: o.addr(),
-                    message: format!("{v} does not fit the mapped {:?} field", o.kind),
+                    problem: rpdo(PdoProblem::Field {
+                        value: v.clone(),
+                        kind: o.kind,
+                    }),
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let mut buf = [0u8; 8];
         let n = canola_pdo::pack(&self.mapping, &raw, &mut buf)
-            .map_err(|e| err(format!("RPDO{} data: {e}", self.number)))?;
-        let id = CanId::standard((self.cob_id & 0x7FF) as u16).map_err(|_| {
-            err(format!(
-                "COB-ID {:#x} is not an 11-bit identifier",
-                self.cob_id
-            ))
-        })?;
-        CanFrame::new(id, &buf[..n]).map_err(|_| err("frame longer than 8 bytes".into()))
+            .map_err(|e| err(PdoProblem::Pack(e)))?;
+        let id = CanId::standard((self.cob_id & 0x7FF) as u16)
+            .map_err(|_| err(PdoProblem::NotStandardCobId(self.cob_id)))?;
+        CanFrame::new(id, &buf[..n]).map_err(|e| err(PdoProblem::Frame(e)))
     }
 }

@@ -216,13 +216,15 @@ pub(super) fn status_from(b: &Batch) -> Result<DeviceStatus, Error> {
     })
 }
 
-pub(super) fn typed<T, E: core::fmt::Display>(
+pub(super) fn typed<T, E: std::error::Error + Send + Sync + 'static>(
     node: NodeId,
     e: ObjectAddress,
     v: Option<u8>,
     f: impl FnOnce(u8) -> Result<T, E>,
 ) -> Result<Option<T>, Error> {
-    v.map(f).transpose().map_err(|err| undefined(node, e, err))
+    v.map(f)
+        .transpose()
+        .map_err(|err| undefined(node, e, ValueProblem::Profile(Box::new(err))))
 }
 
 pub(super) fn communication_from(b: &Batch) -> Result<DeviceCommunication, Error> {
@@ -262,7 +264,8 @@ pub(super) fn communication_from(b: &Batch) -> Result<DeviceCommunication, Error
 pub(super) fn colour(b: &Batch, e: Entry<u32>, default: LedColour) -> Result<LedColour, Error> {
     match b.get(e)? {
         None => Ok(default),
-        Some(raw) => LedColour::from_u32(raw).map_err(|err| undefined(b.node, addr(&e), err)),
+        Some(raw) => LedColour::from_u32(raw)
+            .map_err(|err| undefined(b.node, addr(&e), ValueProblem::Profile(Box::new(err)))),
     }
 }
 
@@ -270,8 +273,10 @@ pub(super) fn led_from(b: &Batch) -> Result<LedConfig, Error> {
     let d = ValveModeColours::default();
     let mode = match b.get(objects::LED_MODE)? {
         None => LedMode::default(),
-        Some(raw) => LedMode::from_u32(raw)
-            .map_err(|err| undefined(b.node, addr(&objects::LED_MODE), err))?,
+        Some(raw) => LedMode::from_u32(raw).map_err(|err| {
+            let problem = ValueProblem::Profile(Box::new(err));
+            undefined(b.node, addr(&objects::LED_MODE), problem)
+        })?,
     };
     Ok(LedConfig {
         mode,

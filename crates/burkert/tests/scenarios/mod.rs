@@ -569,6 +569,23 @@ pub(crate) fn bit_rate(m: &mut Master, dev: &impl Device) {
     // Not offered by Bürkert: refused before any write, and by the device when written raw.
     let e = m.node.set_bit_rate(BitRate::Kbit800).unwrap_err();
     assert!(matches!(e, Error::Value { .. }), "{e}");
+    // A program finds the rule by its type, not by the words.
+    let Error::Value {
+        problem: canola::error::ValueProblem::Profile(rule),
+        ..
+    } = &e
+    else {
+        panic!("expected a Bürkert profile rule, got {e}");
+    };
+    assert_eq!(
+        rule.downcast_ref::<canola_burkert::OutsideManual>(),
+        Some(&canola_burkert::OutsideManual::BitRate(BitRate::Kbit800)),
+        "{e}"
+    );
+    assert!(
+        e.to_string().contains("is not offered by Bürkert devices"),
+        "{e}"
+    );
     let e = m
         .node
         .node()

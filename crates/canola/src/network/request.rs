@@ -399,7 +399,7 @@ impl Sdo {
             None => Operation::ready(Err(Error::Value {
                 node: self.node,
                 entry,
-                message: "the node's dictionary does not describe this object".into(),
+                problem: crate::error::ValueProblem::NotDescribed,
             })),
         }
     }
@@ -425,7 +425,7 @@ impl Sdo {
             T::try_from(value).map_err(|e| Error::Value {
                 node,
                 entry,
-                message: e.to_string(),
+                problem: crate::error::ValueProblem::Convert(e),
             })
         })
     }
@@ -547,7 +547,7 @@ impl Upload {
         decoded.map_err(|e| Error::Value {
             node,
             entry,
-            message: e.to_string(),
+            problem: crate::error::ValueProblem::Bytes(e),
         })
     }
 }
@@ -566,7 +566,7 @@ pub(crate) fn decode_entry<T: canola_od::EntryValue>(
     decoded.map_err(|e| Error::Value {
         node,
         entry: ObjectAddress::new(entry.index(), entry.sub_index()),
-        message: e.to_string(),
+        problem: crate::error::ValueProblem::Entry(e),
     })
 }
 
@@ -582,7 +582,7 @@ pub(crate) fn encode_entry<T: canola_od::EntryValue>(
     let n = entry.encode(value, &mut buf).map_err(|e| Error::Value {
         node,
         entry: at,
-        message: e.to_string(),
+        problem: crate::error::ValueProblem::Entry(e),
     })?;
     buf.truncate(n);
     Ok((at, buf))

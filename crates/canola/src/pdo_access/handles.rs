@@ -75,10 +75,10 @@ impl Rpdos {
     /// frame queued.
     fn engage(&self, pdo: &PdoParameters, how: Transmission) -> Result<RpdoSender, Error> {
         if pdo.direction != Direction::Receive {
-            return Err(pdo.error("the master transmits a node's RPDOs, not its TPDOs".into()));
+            return Err(pdo.error(crate::error::PdoProblem::NotAnRpdo));
         }
         if !pdo.is_enabled() {
-            return Err(pdo.error("the PDO is not valid on the node (COB-ID bit 31)".into()));
+            return Err(pdo.error(crate::error::PdoProblem::NotValid));
         }
         // The master would send on it: on 0x000 every frame would be an NMT command.
         let index = pdo.comm_index();
@@ -96,9 +96,9 @@ impl Rpdos {
         }
         let mapping = pdo
             .mapping_lenient()
-            .ok_or_else(|| pdo.error("the mapping does not fit a PDO".into()))?;
+            .ok_or_else(|| pdo.error(crate::error::PdoProblem::DoesNotFit))?;
         if mapping.is_empty() {
-            return Err(pdo.error("nothing is mapped".into()));
+            return Err(pdo.error(crate::error::PdoProblem::NothingMapped));
         }
         let comm = CommParams {
             cob_id: pdo.comm.cob_id,
@@ -111,7 +111,7 @@ impl Rpdos {
         let mut core = self.node.net.core();
         core.set_now(now);
         core.start_rpdo(self.node.id, pdo.number, PdoConfig::new(comm, mapping))
-            .map_err(|e| pdo.error(e.to_string()))?;
+            .map_err(|e| pdo.error(crate::error::PdoProblem::Engine(e)))?;
         Ok(RpdoSender {
             node: self.node.clone(),
             number: pdo.number,
@@ -127,34 +127,32 @@ impl Rpdos {
         how: Transmission,
         mapping: canola_pdo::FdMapping,
     ) -> Result<RpdoSender, Error> {
-        let bytes = mapping.byte_len();
+        let needs_fd = |refusal| {
+            pdo.error(crate::error::PdoProblem::NeedsFd {
+                bits: mapping.bit_len(),
+                node: self.node.id,
+                refusal,
+            })
+        };
         if let Some(bus) = self.node.net.core().classic_bus() {
-            return Err(pdo.error(format!(
-                "maps {bytes} bytes, more than the 8 of a classic CAN frame, and {bus} carries \
-                 no CAN FD"
-            )));
+            return Err(needs_fd(crate::error::FdRefusal::ClassicBus {
+                bus: bus.to_string(),
+            }));
         }
         if !self.node.is_fd() {
-            return Err(pdo.error(format!(
-                "maps {bytes} bytes, more than the 8 of a classic CAN frame, and the node is not \
-                 marked CANopen FD"
-            )));
+            return Err(needs_fd(crate::error::FdRefusal::NodeNotFd));
         }
         if !how.transmission_type.is_event_driven()
             || !how.inhibit_time.is_zero()
             || !how.event_timer.is_zero()
         {
-            return Err(pdo.error(
-                "an RPDO of more than 8 bytes is sent on a change or a trigger only (no SYNC, \
-                 inhibit time or event timer)"
-                    .into(),
-            ));
+            return Err(pdo.error(crate::error::PdoProblem::FdNotEventDriven));
         }
         let can_id = pdo
             .comm
             .cob_id
             .can_id()
-            .map_err(|e| pdo.error(e.to_string()))?;
+            .map_err(|e| pdo.error(crate::error::PdoProblem::Comm(e)))?;
         let now = self.node.net.now();
         let mut core = self.node.net.core();
         core.set_now(now);

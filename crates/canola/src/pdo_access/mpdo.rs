@@ -65,7 +65,7 @@ impl Mpdos {
         PdoCobId(cob_id).can_id().map_err(|e| Error::Value {
             node: self.node.id,
             entry,
-            message: format!("MPDO COB-ID {cob_id:#x}: {e}"),
+            problem: crate::error::ValueProblem::MpdoCobId { cob_id, error: e },
         })
     }
 }
@@ -105,16 +105,16 @@ impl DamSender {
                 return Err(Error::Value {
                     node: self.node.id,
                     entry: addr,
-                    message: "an MPDO carries objects of 1 to 4 bytes".into(),
+                    problem: crate::error::ValueProblem::MpdoObjectSize,
                 });
             }
             None => 32,
         };
         let bytes =
-            encode(od.as_deref(), addr, bits, value.into()).map_err(|message| Error::Value {
+            encode(od.as_deref(), addr, bits, value.into()).map_err(|problem| Error::Value {
                 node: self.node.id,
                 entry: addr,
-                message,
+                problem,
             })?;
         let now = self.node.net.now();
         {
@@ -124,7 +124,7 @@ impl DamSender {
                 .map_err(|e| Error::Value {
                     node: self.node.id,
                     entry: addr,
-                    message: e.to_string(),
+                    problem: crate::error::ValueProblem::Mpdo(e),
                 })?;
         }
         self.node.net.shared().send_queued_now()

@@ -96,7 +96,7 @@ impl PdoParameters {
         self.comm
             .cob_id
             .can_id()
-            .map_err(|e| self.error(e.to_string()))
+            .map_err(|e| self.error(crate::error::PdoProblem::Comm(e)))
     }
 
     /// Puts the PDO on another identifier, keeping the valid and RTR bits (bit 29 follows the
@@ -132,7 +132,7 @@ impl PdoParameters {
     /// Sets the inhibit time: a multiple of 100 µs up to 6.5535 s, on a node that has sub 3.
     pub fn set_inhibit_time(&mut self, d: impl Into<Duration>) -> Result<(), Error> {
         if !self.present.inhibit_time {
-            return Err(self.error("the node has no inhibit time (sub 3) for this PDO".into()));
+            return Err(self.error(crate::error::PdoProblem::NoInhibitTime));
         }
         self.comm.inhibit_time = inhibit_units(d.into()).map_err(|m| self.error(m))?;
         Ok(())
@@ -146,7 +146,7 @@ impl PdoParameters {
     /// Sets the event timer: whole milliseconds up to 65.535 s, on a node that has sub 5.
     pub fn set_event_timer(&mut self, d: impl Into<Duration>) -> Result<(), Error> {
         if !self.present.event_timer {
-            return Err(self.error("the node has no event timer (sub 5) for this PDO".into()));
+            return Err(self.error(crate::error::PdoProblem::NoEventTimer));
         }
         self.comm.event_timer = event_millis(d.into()).map_err(|m| self.error(m))?;
         Ok(())
@@ -202,12 +202,14 @@ impl PdoParameters {
             .ok_or_else(|| Error::Value {
                 node: self.node,
                 entry: addr,
-                message: "the node's dictionary does not describe this object".into(),
+                problem: crate::error::ValueProblem::NotDescribed,
             })?;
         let bits = u8::try_from(info.bits).map_err(|_| Error::Value {
             node: self.node,
             entry: addr,
-            message: format!("{} bits do not fit a PDO", info.bits),
+            problem: crate::error::ValueProblem::TooWideForPdo {
+                bits: u32::from(info.bits),
+            },
         })?;
         self.map_entry(addr, bits);
         Ok(())
@@ -241,7 +243,7 @@ impl PdoParameters {
             }
             None => Mapping::from_raw(&raw),
         };
-        mapping.map_err(|e| self.error(e.to_string()))
+        mapping.map_err(|e| self.error(crate::error::PdoProblem::Mapping(e)))
     }
 
     /// The mapping under the CAN FD limits (up to 64 bytes, CANopen FD), checked as
@@ -257,7 +259,7 @@ impl PdoParameters {
             ),
             None => canola_pdo::FdMapping::from_raw(&raw),
         };
-        mapping.map_err(|e| self.error(e.to_string()))
+        mapping.map_err(|e| self.error(crate::error::PdoProblem::Mapping(e)))
     }
 
     /// The mapping for decoding and encoding: checked when possible, else with every object
@@ -290,38 +292,35 @@ impl PdoParameters {
         self.direction.comm_index(self.number - 1)
     }
 
-    pub(super) fn error(&self, message: String) -> Error {
+    pub(super) fn error(&self, problem: crate::error::PdoProblem) -> Error {
         Error::Value {
             node: self.node,
             entry: ObjectAddress::new(self.comm_index(), 0),
-            message: format!("{}{}: {message}", kind_name(self.direction), self.number),
+            problem: crate::error::ValueProblem::Pdo {
+                direction: self.direction,
+                number: self.number,
+                problem,
+            },
         }
     }
 }
 
-pub(super) fn kind_name(direction: Direction) -> &'static str {
-    match direction {
-        Direction::Transmit => "TPDO",
-        Direction::Receive => "RPDO",
-    }
-}
-
 /// The inhibit time in units of 100 µs.
-pub(super) fn inhibit_units(d: Duration) -> Result<u16, String> {
+pub(super) fn inhibit_units(d: Duration) -> Result<u16, crate::error::PdoProblem> {
     let us = d.as_micros();
     if !us.is_multiple_of(100) {
-        return Err(format!("inhibit time {d} is not a multiple of 100 µs"));
+        return Err(crate::error::PdoProblem::InhibitTimeNotMultiple(d));
     }
-    u16::try_from(us / 100).map_err(|_| format!("inhibit time {d} exceeds 6.5535 s"))
+    u16::try_from(us / 100).map_err(|_| crate::error::PdoProblem::InhibitTimeTooLong(d))
 }
 
 /// The event timer in ms.
-pub(super) fn event_millis(d: Duration) -> Result<u16, String> {
+pub(super) fn event_millis(d: Duration) -> Result<u16, crate::error::PdoProblem> {
     let us = d.as_micros();
     if !us.is_multiple_of(1000) {
-        return Err(format!("event timer {d} is not whole milliseconds"));
+        return Err(crate::error::PdoProblem::EventTimerNotWholeMs(d));
     }
-    u16::try_from(us / 1000).map_err(|_| format!("event timer {d} exceeds 65.535 s"))
+    u16::try_from(us / 1000).map_err(|_| crate::error::PdoProblem::EventTimerTooLong(d))
 }
 
 pub(super) fn name_of(od: &ObjectDictionary, addr: ObjectAddress) -> Option<String> {

@@ -11,11 +11,11 @@ use canola_pdo::{
 };
 use canola_sdo::AbortCode;
 
-use crate::error::{Error, Misuse};
+use crate::error::{Error, FdRefusal, Misuse, PdoProblem, ValueProblem};
 use crate::network::Operation;
 use crate::network::request::NodeRef;
 
-use super::params::{MappedVariable, PdoParameters, PdoSet, Present, kind_name, name_of};
+use super::params::{MappedVariable, PdoParameters, PdoSet, Present, name_of};
 
 /// The master follows what the node holds for `p`: a TPDO is decoded with it, a transmitted
 /// RPDO uses its COB-ID and mapping.
@@ -201,7 +201,7 @@ pub(super) async fn save_set(
             continue;
         }
         if p.mpdo.is_some() {
-            return Err(p.error("an MPDO mapping is not saved by this API".into()));
+            return Err(p.error(PdoProblem::MpdoNotSaved));
         }
         // The mapping is checked before anything is sent.
         let mapping = match p.mapping() {
@@ -233,23 +233,23 @@ enum PdoMapping {
 
 /// `fd` as a PDO mapping when it fits a classic frame, or when the node is marked CANopen FD
 /// and the bus carries CAN FD; otherwise why not, in bits and bytes.
-fn fd_allowed(node: &NodeRef, fd: FdMapping) -> Result<PdoMapping, String> {
+fn fd_allowed(node: &NodeRef, fd: FdMapping) -> Result<PdoMapping, PdoProblem> {
     if let Ok(classic) = Mapping::try_from(&fd) {
         return Ok(PdoMapping::Classic(Box::new(classic)));
     }
-    let (bits, bytes) = (fd.bit_len(), fd.byte_len());
-    let why = if let Some(bus) = node.net.core().classic_bus() {
-        format!("{bus} carries no CAN FD")
+    let bus = node.net.core().classic_bus().map(|b| b.to_string());
+    let refusal = if let Some(bus) = bus {
+        FdRefusal::ClassicBus { bus }
     } else if !node.is_fd() {
-        format!("node {} is not marked CANopen FD", node.id)
+        FdRefusal::NodeNotFd
     } else {
         return Ok(PdoMapping::Fd(Box::new(fd)));
     };
-    Err(format!(
-        "the mapped objects need {bits} bits ({bytes} bytes), more than the 64 bits (8 bytes) of \
-         a classic CAN frame, and {why}: a PDO of up to 64 bytes needs a node marked CANopen FD \
-         on a CAN FD bus"
-    ))
+    Err(PdoProblem::NeedsFd {
+        bits: fd.bit_len(),
+        node: node.id,
+        refusal,
+    })
 }
 
 /// Gives PDO `n` (0-based) of the node `comm` and `mapping` by SDO, the CiA 301 way (the plan
@@ -271,7 +271,7 @@ async fn configure(
     .map_err(|e| Error::Value {
         node: node.id,
         entry: ObjectAddress::new(direction.comm_index(n), 0),
-        message: e.to_string(),
+        problem: ValueProblem::Remap(e),
     })?;
     // No step is sent when one would give the PDO a restricted identifier.
     for step in &steps {
@@ -333,10 +333,14 @@ pub(crate) fn remap(
     mapping: FdMapping,
 ) -> Operation<'static, ()> {
     let n = number.saturating_sub(1);
-    let mapping = fd_allowed(&node, mapping).map_err(|message| Error::Value {
+    let mapping = fd_allowed(&node, mapping).map_err(|problem| Error::Value {
         node: node.id,
         entry: ObjectAddress::new(direction.comm_index(n), 0),
-        message: format!("{}{number}: {message}", kind_name(direction)),
+        problem: ValueProblem::Pdo {
+            direction,
+            number,
+            problem,
+        },
     });
     let mut remote = canola_pdo::RemoteObjects::dynamic(direction);
     // With a dictionary, write only the sub-indices the node has.

@@ -6,7 +6,7 @@ use canola_frame::{Duration, NodeId};
 use canola_od::{ObjectAddress, ObjectDictionary};
 use canola_pdo::TransmissionType;
 
-use crate::error::Error;
+use crate::error::{Error, MappedUnfit, ValueProblem};
 use crate::network::request::NodeRef;
 use crate::typed::{ObjectKey, WriteValue};
 
@@ -146,16 +146,16 @@ impl RpdoSender {
                     return Err(Error::Value {
                         node: self.node.id,
                         entry: addr,
-                        message: format!("not mapped in RPDO{}", self.number),
+                        problem: crate::error::ValueProblem::NotMapped { rpdo: self.number },
                     });
                 }
                 Some(Ok(bits)) => bits,
             };
-            let bytes = encode(od.as_deref(), addr, bits, value.into()).map_err(|message| {
+            let bytes = encode(od.as_deref(), addr, bits, value.into()).map_err(|problem| {
                 Error::Value {
                     node: self.node.id,
                     entry: addr,
-                    message,
+                    problem,
                 }
             })?;
             encoded.push((addr, bytes));
@@ -211,21 +211,23 @@ pub(super) fn encode(
     addr: ObjectAddress,
     bits: u8,
     value: WriteValue,
-) -> Result<Vec<u8>, String> {
+) -> Result<Vec<u8>, ValueProblem> {
     let len = usize::from(bits).div_ceil(8);
     if let Some(od) = od
         && let Some(sub) = od.sub(addr.index, addr.sub_index)
     {
-        let typed = crate::typed::convert(value, sub.data_type).map_err(|why| {
-            let t = sub.data_type;
-            let t = t
-                .name()
-                .map_or_else(|| format!("data type {:#06x}", t.code()), str::to_string);
-            format!("{} is {t}: {why}", crate::typed::object_name(od, addr))
-        })?;
+        let typed =
+            crate::typed::convert(value, sub.data_type).map_err(|why| ValueProblem::Unfit {
+                object: crate::typed::object_name(od, addr),
+                data_type: sub.data_type,
+                why,
+            })?;
         let mut bytes = typed.to_le_bytes();
         if bytes.len() > len && bytes[len..].iter().any(|b| *b != 0) {
-            return Err(format!("{typed:?} does not fit the {bits} mapped bits"));
+            return Err(ValueProblem::Mapped(MappedUnfit::Value {
+                value: typed,
+                bits,
+            }));
         }
         bytes.resize(len, 0);
         return Ok(bytes);
@@ -235,26 +237,37 @@ pub(super) fn encode(
         WriteValue::Integer(v) => {
             let (lo, hi) = (-(1i128 << (bits - 1)), (1i128 << bits) - 1);
             if !(lo..=hi).contains(&v) {
-                return Err(format!("{v} does not fit {bits} bits"));
+                return Err(ValueProblem::Mapped(MappedUnfit::Integer {
+                    value: v,
+                    bits,
+                }));
             }
             (v as u64).to_le_bytes()[..len.min(8)].to_vec()
         }
         WriteValue::Float(f) if bits == 32 => (f as f32).to_le_bytes().to_vec(),
         WriteValue::Float(f) if bits == 64 => f.to_le_bytes().to_vec(),
-        WriteValue::Float(f) => return Err(format!("a float ({f}) needs 32 or 64 mapped bits")),
+        WriteValue::Float(f) => {
+            return Err(ValueProblem::Mapped(MappedUnfit::Float { value: f, bits }));
+        }
         WriteValue::Bytes(b) if b.len() == len => b,
-        WriteValue::Bytes(b) => return Err(format!("{} bytes given, {len} mapped", b.len())),
+        WriteValue::Bytes(b) => {
+            return Err(ValueProblem::Mapped(MappedUnfit::ByteCount {
+                given: b.len(),
+                mapped: len,
+            }));
+        }
         WriteValue::Value(v) => {
             let b = v.to_le_bytes();
             if b.len() != len {
-                return Err(format!("{} bytes given, {len} mapped", b.len()));
+                return Err(ValueProblem::Mapped(MappedUnfit::ByteCount {
+                    given: b.len(),
+                    mapped: len,
+                }));
             }
             b
         }
-        other => {
-            return Err(format!(
-                "{other:?} cannot be sent without the node's dictionary"
-            ));
+        WriteValue::Text(s) => {
+            return Err(ValueProblem::Mapped(MappedUnfit::NeedsDictionary(s)));
         }
     };
     Ok(bytes)

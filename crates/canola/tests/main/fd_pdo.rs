@@ -556,3 +556,64 @@ fn a_pdo_of_more_than_8_bytes_is_refused_in_bits_and_bytes_where_it_cannot_be() 
         assert_eq!(tpdo1_entries(&node), before, "nothing was written");
     }
 }
+
+/// A program tells the problems of a too-long mapping apart by their variants, with the bits
+/// as a number: checked as a classic mapping it is too long; saved on a node not marked
+/// CANopen FD it is refused for want of CAN FD.
+#[test]
+fn a_too_long_mapping_is_a_typed_problem_with_its_bits() {
+    use canola::Error;
+    use canola::error::{FdRefusal, PdoProblem, ValueProblem};
+    use canola::pdo::{Direction, MappingError};
+
+    let bus = fd_bus();
+    let net = Network::new(bus.endpoint());
+    let text = eds(true);
+    bus.attach(SimDevice::from_eds(id(5), text.as_bytes()).unwrap());
+    let od = canola::od::parse(text.as_bytes()).unwrap().od;
+    let node = net.add_node_with_dictionary(id(5), od);
+    node.set_fd(false);
+    let mut set = node.tpdo().read().wait().unwrap();
+    let pdo = set.get_mut(1).unwrap();
+    pdo.clear();
+    for name in ["Inputs.Input 1", "Inputs.Input 2", "Inputs.Input 3"] {
+        pdo.map(name).unwrap();
+    }
+    let e = pdo.mapping().unwrap_err();
+    let Error::Value {
+        node: at,
+        problem:
+            ValueProblem::Pdo {
+                direction,
+                number,
+                problem: PdoProblem::Mapping(MappingError::TooLong(bits)),
+            },
+        ..
+    } = &e
+    else {
+        panic!("expected a too-long mapping, got {e}");
+    };
+    assert_eq!(
+        (*at, *direction, *number, *bits),
+        (id(5), Direction::Transmit, 1, 96)
+    );
+
+    let e = node.tpdo().save(&mut set).wait().unwrap_err();
+    assert!(
+        matches!(
+            &e,
+            Error::Value {
+                problem: ValueProblem::Pdo {
+                    problem: PdoProblem::NeedsFd {
+                        bits: 96,
+                        refusal: FdRefusal::NodeNotFd,
+                        ..
+                    },
+                    ..
+                },
+                ..
+            }
+        ),
+        "{e}"
+    );
+}

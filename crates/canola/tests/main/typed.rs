@@ -1,6 +1,7 @@
 //! Dictionary-aware access through `Sdo::get` / `Sdo::set` against the simulator on the
 //! virtual-clock in-memory bus: names, addresses, writes typed by the dictionary, local errors.
 
+use canola::error::ValueProblem;
 use canola::mem::MemoryBus;
 use canola::{Error, Network, ObjectAddress, SimDevice, Value};
 use canola_frame::NodeId;
@@ -104,15 +105,26 @@ fn values_that_do_not_fit_fail_before_anything_is_sent() {
         let Error::Value {
             node: at,
             entry,
-            message,
+            problem,
         } = &e
         else {
             panic!("expected a value error, got {e}");
         };
         assert_eq!((*at, *entry), (n(5), ObjectAddress::new(0x1017, 0)));
+        let message = problem.to_string();
         assert!(
             message.contains("Producer Heartbeat Time is UNSIGNED16") && message.contains(why),
             "{message}"
+        );
+        let ValueProblem::Unfit {
+            object, data_type, ..
+        } = problem
+        else {
+            panic!("expected an unfit value, got {problem}");
+        };
+        assert_eq!(
+            (object.as_str(), *data_type),
+            ("Producer Heartbeat Time", canola::od::DataType::Unsigned16)
         );
     }
     assert_eq!(bus.stats(), before, "nothing was sent");
@@ -140,4 +152,30 @@ fn values_that_do_not_fit_fail_before_anything_is_sent() {
         matches!(&e, Error::UnknownObject { name, .. } if name == "0x1017:00"),
         "{e}"
     );
+}
+
+/// A program tells "the dictionary does not describe this object" from other value problems by
+/// the variant, not by the words.
+#[test]
+fn an_object_the_dictionary_lacks_is_a_typed_problem() {
+    let (bus, net) = rig();
+    let node = net.node(n(5));
+    let before = bus.stats();
+    let e = node.sdo().read_value((0x2FFF, 0)).wait().unwrap_err();
+    assert!(
+        matches!(
+            &e,
+            Error::Value {
+                problem: ValueProblem::NotDescribed,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "node 5, object 0x2FFF:00: the node's dictionary does not describe this object"
+    );
+    assert_eq!(format!("{e:?}"), e.to_string());
+    assert_eq!(bus.stats(), before, "nothing was sent");
 }
