@@ -275,12 +275,14 @@ impl Bus {
 static STOP: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
 
 /// Set by [`stop_on_signals`]: the first signal sets [`STOP`] instead of ending the process.
+#[cfg(unix)]
 static GRACEFUL: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Set by [`signals_end_normally`]: a signal ends the process with status 0 and this text.
 static NORMAL_END: std::sync::Mutex<Option<&'static str>> = std::sync::Mutex::new(None);
 
 /// Whether the signal thread runs (see [`handle_signals`]).
+#[cfg(unix)]
 static HANDLED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
 
 /// Whether SIGINT or SIGTERM arrived after [`stop_on_signals`].
@@ -429,6 +431,7 @@ fn remove_if_same(path: &std::path::Path, id: Option<(u64, u64)>) {
 }
 
 /// Removes every registered file (the process is ending by a signal).
+#[cfg(unix)]
 fn remove_registered() {
     let list = REGISTERED.lock().unwrap_or_else(|e| e.into_inner());
     for r in list.iter() {

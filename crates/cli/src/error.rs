@@ -118,6 +118,7 @@ pub(crate) enum CliError {
         hint: String,
     },
     /// The process was ended by a signal (its files removed first).
+    #[cfg_attr(not(unix), allow(dead_code))]
     Interrupted {
         /// The signal's name (`SIGINT`).
         signal: &'static str,
