@@ -98,6 +98,8 @@ impl Shared {
             stop.store(true, Ordering::SeqCst);
         }
         self.inner.cond.notify_all();
+        // The driver may be waiting on the transport: end that wait, so it sees `stop` now.
+        self.wake();
         if let Some(t) = slot.thread {
             let _ = t.join();
         }
