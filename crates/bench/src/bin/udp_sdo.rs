@@ -12,7 +12,8 @@
 //!   reads are timed.
 //!
 //! ```text
-//! cargo run --release -p canola-bench --bin udp_sdo [-- --count 200] [--pause-ms 5] [--port 43199]
+//! cargo build --workspace --all-features --bin udp_sdo
+//! "$CARGO_TARGET_DIR"/debug/udp_sdo [--count 200] [--pause-ms 5] [--port 43199]
 //! ```
 //! Prints the mean, the median and the 99th percentile of the microseconds per read. Judges nothing (the machine is shared).
 

@@ -297,7 +297,9 @@ pub trait Transport: Send {
 
     /// A handle that ends a [`recv_until`](Self::recv_until) of this transport blocked in
     /// another thread (see [`TransportWaker`]). `None` (the default): a wait runs to its
-    /// deadline or the next frame. The UDP bus has one; a [`Network`](crate::Network) calls it
+    /// deadline or the next frame. The UDP bus and the in-memory bus on the host's clock have
+    /// one (SocketCAN and slcan not yet: their waits end at the drive slice); a
+    /// [`Network`](crate::Network) calls it
     /// when a request is submitted while another thread waits on the transport, so the request
     /// leaves at once instead of at the end of that wait.
     fn waker(&self) -> Option<TransportWaker> {
