@@ -97,7 +97,7 @@ pub use sim::{DeviceHook, HookActions, SimDevice, Values};
 pub use transport::slcan;
 pub use transport::{
     BusEvent, BusSpec, OpenError, OpenErrorKind, Received, RxCoalescing, Station, Transport,
-    TransportError, run_station,
+    TransportError, TransportWaker, run_station,
 };
 pub use transport::{candump, mem};
 #[cfg(all(feature = "socketcan", target_os = "linux"))]

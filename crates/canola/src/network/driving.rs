@@ -98,6 +98,8 @@ impl Shared {
             stop.store(true, Ordering::SeqCst);
         }
         self.inner.cond.notify_all();
+        // The driver may be waiting on the transport: end that wait, so it sees `stop` now.
+        self.wake();
         if let Some(t) = slot.thread {
             let _ = t.join();
         }
@@ -511,6 +513,13 @@ pub(crate) fn drive(
             // thread at every step of a waiter would cost each request a context switch; the
             // timeout is soon enough, and `stop_driver` notifies.
             let c = net.core();
+            // A waiter that blocked for want of the transport while this driver held it may
+            // have missed the end of its step (the step notifies before it lets the transport
+            // go): wake it, the transport is free now. Under the core's lock, a waiter counted
+            // in `waiting` is in its wait already.
+            if net.inner.waiting.load(Ordering::SeqCst) > 0 {
+                net.inner.cond.notify_all();
+            }
             let _ = relock(net.inner.cond.wait_timeout(c, STEP_ASIDE));
             continue;
         }

@@ -6,7 +6,9 @@
 //! transport and runs one step (send what the core produced, receive until the core's next
 //! deadline or a short slice, feed the core, fire due timers); else it waits for the driving
 //! thread to make progress. So one thread alone is deterministic on a virtual-clock bus, and
-//! several threads share one transport safely. Requests to different nodes progress together
+//! several threads share one transport safely. A request submitted while another thread waits
+//! on the transport ends that wait through the transport's waker
+//! ([`Transport::waker`](crate::Transport::waker), where it has one), so it leaves at once. Requests to different nodes progress together
 //! whichever of them is being waited on; requests to one node run in submission order.
 //!
 //! A step reads the transport's clock once, at its start, and stamps what it sends with that

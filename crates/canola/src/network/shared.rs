@@ -19,6 +19,8 @@ pub(crate) struct Inner {
     /// one waits.
     pub(super) waiting: AtomicUsize,
     pub(crate) io: Mutex<Io>,
+    /// Ends the transport's wait in another thread ([`Transport::waker`]), when it has one.
+    pub(super) transport_waker: Option<crate::transport::TransportWaker>,
     /// The async API's wake-ups and its tie between a virtual clock and tokio's.
     #[cfg(feature = "tokio")]
     pub(crate) reactor: crate::reactor::Reactor,
@@ -111,6 +113,7 @@ impl Shared {
                 core: Mutex::new(core),
                 cond: Condvar::new(),
                 waiting: AtomicUsize::new(0),
+                transport_waker: transport.waker(),
                 io: Mutex::new(Io {
                     virtual_clock: transport.is_virtual(),
                     transport: Box::new(transport),
@@ -182,8 +185,19 @@ impl Shared {
         }
     }
 
+    /// Tells the thread that drives (and the threads waiting for it) that the core changed: a
+    /// request was submitted, a timer set. The driving thread may be waiting on the transport
+    /// (it holds it): its wait is ended through the transport's waker, so what the core queued
+    /// leaves now rather than when that wait ends (up to the drive slice, rounded up to the
+    /// scheduler's tick by a receive timeout). A wake that comes before the wait starts ends
+    /// it at once (the waker keeps it), so none is lost.
     pub(crate) fn wake(&self) {
         self.notify();
+        if let Some(w) = &self.inner.transport_waker
+            && self.inner.io.try_lock().is_err()
+        {
+            w.wake();
+        }
     }
 
     /// Wakes the threads waiting for progress, if there are any.

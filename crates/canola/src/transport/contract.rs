@@ -294,6 +294,42 @@ pub trait Transport: Send {
     fn next_event(&self) -> Option<Instant> {
         None
     }
+
+    /// A handle that ends a [`recv_until`](Self::recv_until) of this transport blocked in
+    /// another thread (see [`TransportWaker`]). `None` (the default): a wait runs to its
+    /// deadline or the next frame. The UDP bus and the in-memory bus on the host's clock have
+    /// one (SocketCAN and slcan not yet: their waits end at the drive slice); a
+    /// [`Network`](crate::Network) calls it
+    /// when a request is submitted while another thread waits on the transport, so the request
+    /// leaves at once instead of at the end of that wait.
+    fn waker(&self) -> Option<TransportWaker> {
+        None
+    }
+}
+
+/// Ends a blocked [`Transport::recv_until`] from another thread: the wait returns `Ok(None)`
+/// early. A wake that comes while nobody waits is kept: the next wait returns at once (at
+/// most once for any number of such wakes). Cheap to clone; waking costs one system call on
+/// the transports that have one.
+#[derive(Clone)]
+pub struct TransportWaker(std::sync::Arc<dyn Fn() + Send + Sync>);
+
+impl TransportWaker {
+    /// A waker that runs `wake`.
+    pub fn new(wake: impl Fn() + Send + Sync + 'static) -> Self {
+        Self(std::sync::Arc::new(wake))
+    }
+
+    /// Ends the transport's current (or next) wait.
+    pub fn wake(&self) {
+        (self.0)();
+    }
+}
+
+impl core::fmt::Debug for TransportWaker {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("TransportWaker")
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -326,6 +362,9 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn next_event(&self) -> Option<Instant> {
         (**self).next_event()
+    }
+    fn waker(&self) -> Option<TransportWaker> {
+        (**self).waker()
     }
 }
 

@@ -32,6 +32,7 @@ mod tests;
 pub mod udp;
 
 pub use contract::{
-    BusEvent, Received, RxCoalescing, Station, Transport, TransportError, run_station,
+    BusEvent, Received, RxCoalescing, Station, Transport, TransportError, TransportWaker,
+    run_station,
 };
 pub use spec::{BusSpec, OpenError, OpenErrorKind};

@@ -2,11 +2,11 @@
 //! application, stops when asked or dropped, and reports a dead transport.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::Duration as StdDuration;
 
 use canola::mem::{BusConfig, ClockMode, Endpoint, MemoryBus};
-use canola::transport::{Received, Transport, TransportError};
+use canola::transport::{Received, Transport, TransportError, TransportWaker};
 use canola::{Error, HeartbeatEvent, Network, NetworkEvent, SimDevice, TransportFailure};
 use canola_frame::{CanFrame, Duration, Instant, NodeId};
 
@@ -157,6 +157,105 @@ fn a_dead_transport_is_an_event_and_an_error() {
     // A request now fails with the transport's error instead of hanging.
     let e = net.node(n(5)).sdo().read((0x1018, 1)).wait().unwrap_err();
     assert!(e.to_string().contains("closed"), "{e}");
+}
+
+/// What a [`Sleepy`] endpoint counts.
+#[derive(Default)]
+struct Waits {
+    /// A blocking wait is in progress.
+    waiting: AtomicBool,
+    /// The waker was called (it is taken by the next wait).
+    woken: AtomicBool,
+    /// Waits the waker ended.
+    ended_by_wake: AtomicU32,
+    /// Waits that ran out the endpoint's patience (their deadline long passed).
+    ran_out: AtomicU32,
+}
+
+/// An endpoint whose blocking waits ignore their deadline: they end at a frame, at its
+/// waker, or after `PATIENCE` (wall clock), so a request submitted while the driver waits
+/// leaves only if the network wakes the transport.
+struct Sleepy {
+    ep: Endpoint,
+    waits: Arc<Waits>,
+}
+
+const PATIENCE: StdDuration = StdDuration::from_secs(3);
+
+impl Transport for Sleepy {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), TransportError> {
+        self.ep.send(frame)
+    }
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
+        if deadline <= self.ep.now() {
+            return self.ep.recv_until(deadline);
+        }
+        self.waits.waiting.store(true, Ordering::SeqCst);
+        let end = std::time::Instant::now() + PATIENCE;
+        let r = loop {
+            if self.waits.woken.swap(false, Ordering::SeqCst) {
+                self.waits.ended_by_wake.fetch_add(1, Ordering::SeqCst);
+                break Ok(None);
+            }
+            if std::time::Instant::now() >= end {
+                self.waits.ran_out.fetch_add(1, Ordering::SeqCst);
+                break Ok(None);
+            }
+            let slice = self.ep.now() + Duration::from_micros(500);
+            match self.ep.recv_until(slice) {
+                Ok(None) => {}
+                got => break got,
+            }
+        };
+        self.waits.waiting.store(false, Ordering::SeqCst);
+        r
+    }
+    fn now(&self) -> Instant {
+        self.ep.now()
+    }
+    fn has_pending(&self) -> bool {
+        self.ep.has_pending()
+    }
+    fn waker(&self) -> Option<TransportWaker> {
+        let waits = self.waits.clone();
+        Some(TransportWaker::new(move || {
+            waits.woken.store(true, Ordering::SeqCst)
+        }))
+    }
+}
+
+#[test]
+fn a_request_submitted_while_the_driver_waits_wakes_the_transport() {
+    let bus = real_time_bus();
+    let waits = Arc::new(Waits::default());
+    let net = Network::new(Sleepy {
+        ep: bus.endpoint(),
+        waits: waits.clone(),
+    });
+    let mut device = SimDevice::from_eds(n(5), EDS).unwrap();
+    // No heartbeat: nothing on the bus ends the driver's wait.
+    device.values_mut().set(0x1017, 0, 0u16.to_le_bytes());
+    bus.attach(device);
+    net.start_driver().unwrap();
+    for _ in 0..5 {
+        // The driver holds the transport in a wait that only a wake (or the patience) ends.
+        let mut polls = 0;
+        while !waits.waiting.load(Ordering::SeqCst) {
+            polls += 1;
+            assert!(polls < 10_000, "the driver never waited");
+            std::thread::sleep(StdDuration::from_millis(1));
+        }
+        assert_eq!(
+            net.node(n(5)).sdo().read((0x1018, 1)).wait().unwrap(),
+            0x39u32.to_le_bytes()
+        );
+    }
+    // Every request left through a wake, none waited for the end of the driver's wait.
+    assert!(waits.ended_by_wake.load(Ordering::SeqCst) >= 5);
+    assert_eq!(waits.ran_out.load(Ordering::SeqCst), 0);
+    // Stopping the driver wakes it too.
+    net.stop_driver().unwrap();
+    assert_eq!(waits.ran_out.load(Ordering::SeqCst), 0);
 }
 
 #[cfg(feature = "tokio")]

@@ -213,4 +213,8 @@ impl<T: Transport> Transport for Tap<T> {
     fn next_event(&self) -> Option<Instant> {
         self.inner.next_event()
     }
+
+    fn waker(&self) -> Option<canola::TransportWaker> {
+        self.inner.waker()
+    }
 }

@@ -12,7 +12,7 @@ use canola_frame::time::MonotonicClock;
 use canola_frame::{CanFrame, Duration, FdFrame, Instant};
 
 use crate::transport::contract::{
-    BusEvent, Received, RxCoalescing, Station, Transport, TransportError,
+    BusEvent, Received, RxCoalescing, Station, Transport, TransportError, TransportWaker,
 };
 
 use super::config::{BusConfig, BusStats, ClockMode, Faults, Rng};
@@ -323,6 +323,7 @@ impl MemoryBus {
             sending: 0,
             held: 0,
             wake_at: None,
+            woken: false,
         });
         Endpoint {
             bus: self.clone(),
@@ -608,6 +609,11 @@ impl Transport for Endpoint {
                     }
                 }
                 Clock::Real(_) => {
+                    if let Some(ep) = st.endpoints.get_mut(self.index)
+                        && core::mem::take(&mut ep.woken)
+                    {
+                        return Ok(None);
+                    }
                     let wait = next.saturating_duration_since(now);
                     st.sleepers += 1;
                     let (mut g, _) = self
@@ -636,6 +642,24 @@ impl Transport for Endpoint {
 
     fn is_virtual(&self) -> bool {
         !self.bus.shared.real_time
+    }
+
+    /// On a real clock: sets the endpoint's wake flag and wakes the bus's waiting threads (a
+    /// virtual clock's waits never block).
+    fn waker(&self) -> Option<TransportWaker> {
+        if !self.bus.shared.real_time {
+            return None;
+        }
+        let (bus, index) = (Arc::downgrade(&self.bus.shared), self.index);
+        Some(TransportWaker::new(move || {
+            let Some(shared) = bus.upgrade() else { return };
+            let mut st = shared.state.lock().unwrap_or_else(|p| p.into_inner());
+            if let Some(ep) = st.endpoints.get_mut(index) {
+                ep.woken = true;
+            }
+            drop(st);
+            shared.cond.notify_all();
+        }))
     }
 
     fn has_pending(&self) -> bool {

@@ -108,6 +108,9 @@ pub(super) struct Ep {
     /// [`RxCoalescing`](crate::RxCoalescing)): the queue length at which it wants to be woken
     /// before its window ends. Cleared when a delivery reaches it (one wake-up).
     pub(super) wake_at: Option<usize>,
+    /// The endpoint's waker was called ([`Transport::waker`](crate::Transport::waker), real
+    /// clock only): its current or next wait ends at once (and clears it).
+    pub(super) woken: bool,
 }
 
 /// A station with its concrete type erased but recoverable.

@@ -509,3 +509,31 @@ fn a_classic_bus_refuses_fd_frames_by_name() {
     assert_eq!(b.recv_until(Instant::from_millis(1)).unwrap(), None);
     assert_eq!(bus.stats().frames, 0);
 }
+
+#[test]
+fn the_waker_ends_a_real_time_wait_and_a_virtual_bus_has_none() {
+    assert!(MemoryBus::new().endpoint().waker().is_none());
+    let bus = MemoryBus::with_config(BusConfig {
+        clock: ClockMode::RealTime,
+        ..BusConfig::default()
+    });
+    let mut ep = bus.endpoint();
+    let waker = ep.waker().expect("a real-time bus has a waker");
+    // A wake while nobody waits ends the next wait at once, once.
+    waker.wake();
+    let far = ep.now() + Duration::from_secs(10);
+    assert_eq!(ep.recv_until(far).unwrap(), None);
+    assert!(ep.now() < far);
+    let near = ep.now() + Duration::from_millis(2);
+    assert_eq!(ep.recv_until(near).unwrap(), None);
+    assert!(ep.now() >= near);
+    // A wait blocked in this thread, woken from another.
+    let waking = std::thread::spawn(move || {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        waker.wake();
+    });
+    let far = ep.now() + Duration::from_secs(10);
+    assert_eq!(ep.recv_until(far).unwrap(), None);
+    assert!(ep.now() < far);
+    waking.join().unwrap();
+}

@@ -32,6 +32,11 @@
 //! zeros to the next CAN FD length), [`Transport::send_fd`](crate::Transport::send_fd) sends
 //! them ([`encode_fd`]).
 //!
+//! Waiting: a receive polls the socket (`poll`, on the kernel's high-resolution timers: a
+//! receive timeout, `SO_RCVTIMEO`, would be rounded up to the scheduler's tick) beside one end
+//! of a Unix socket pair; [`Transport::waker`](crate::Transport::waker) writes a byte to the
+//! other end, which ends the wait at once (or the next one, when nobody waits).
+//!
 //! Files by job: `codec` (the MessagePack datagrams), `socket` (the multicast sockets), [`scope`]
 //! (where the bus reaches, and the `udp:GROUP:PORT@IFACE` spec).
 

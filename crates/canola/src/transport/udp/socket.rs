@@ -3,6 +3,8 @@
 
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr, SocketAddrV4, SocketAddrV6, UdpSocket};
 use std::os::fd::AsRawFd;
+use std::os::unix::net::UnixDatagram;
+use std::sync::Arc;
 
 use canola_frame::time::MonotonicClock;
 use canola_frame::{CanFrame, FdFrame, Instant};
@@ -11,7 +13,7 @@ use nix::sys::socket::{
     socket, sockopt,
 };
 
-use crate::transport::contract::{BusEvent, Received, Transport, TransportError};
+use crate::transport::contract::{BusEvent, Received, Transport, TransportError, TransportWaker};
 
 use super::codec::{Message, decode, encode, encode_fd};
 use super::scope::{LocalSources, UdpScope};
@@ -98,8 +100,10 @@ pub struct UdpMulticast {
     own_port: u16,
     clock: MonotonicClock,
     skipped: u64,
-    nonblocking: bool,
-    read_timeout: Option<std::time::Duration>,
+    /// The waker's end of the wake-up pair ([`Transport::waker`]): a byte sent on the other
+    /// end makes this one readable, which ends a wait.
+    wake_rx: UnixDatagram,
+    wake_tx: Arc<UnixDatagram>,
     /// Where the bus reaches ([`super::scope`]).
     scope: UdpScope,
     /// On the loopback scope: the sources taken.
@@ -124,6 +128,11 @@ impl UdpMulticast {
             SocketAddr::V6(g) => Self::sockets_v6(g, &scope)?,
         };
         let own_port = tx.local_addr()?.port();
+        // Waits poll the socket (never block in a read), with the wake-up pair beside it.
+        rx.set_nonblocking(true)?;
+        let (wake_rx, wake_tx) = UnixDatagram::pair()?;
+        wake_rx.set_nonblocking(true)?;
+        wake_tx.set_nonblocking(true)?;
         Ok(Self {
             rx,
             tx,
@@ -131,8 +140,8 @@ impl UdpMulticast {
             own_port,
             clock: MonotonicClock::new(),
             skipped: 0,
-            nonblocking: false,
-            read_timeout: None,
+            wake_rx,
+            wake_tx: Arc::new(wake_tx),
             local: (scope == UdpScope::Loopback).then(LocalSources::new),
             scope,
         })
@@ -235,12 +244,28 @@ impl UdpMulticast {
         self.skipped
     }
 
-    fn set_nonblocking(&mut self, on: bool) -> Result<(), TransportError> {
-        if self.nonblocking != on {
-            self.rx.set_nonblocking(on)?;
-            self.nonblocking = on;
+    /// Waits until the socket is readable, the waker was called or `wait` has passed, with
+    /// `poll` on the kernel's high-resolution timers (a receive timeout, `SO_RCVTIMEO`, is
+    /// rounded up to the scheduler's tick: milliseconds). Returns whether the waker was called
+    /// (its bytes are then taken).
+    fn poll_wait(&mut self, wait: std::time::Duration) -> Result<bool, TransportError> {
+        use nix::poll::{PollFd, PollFlags, ppoll};
+        use std::os::fd::AsFd;
+        let mut fds = [
+            PollFd::new(self.rx.as_fd(), PollFlags::POLLIN),
+            PollFd::new(self.wake_rx.as_fd(), PollFlags::POLLIN),
+        ];
+        match ppoll(&mut fds, Some(nix::sys::time::TimeSpec::from(wait)), None) {
+            Ok(0) | Err(nix::errno::Errno::EINTR) => return Ok(false),
+            Ok(_) => {}
+            Err(e) => return Err(std::io::Error::from(e).into()),
         }
-        Ok(())
+        let woken = fds[1].any().unwrap_or(false);
+        if woken {
+            let mut byte = [0u8; 1];
+            while self.wake_rx.recv(&mut byte).is_ok() {}
+        }
+        Ok(woken)
     }
 }
 
@@ -268,35 +293,32 @@ impl Transport for UdpMulticast {
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<Received>, TransportError> {
         let mut buf = [0u8; MAX_DATAGRAM];
+        // Whether the socket may hold another datagram (one was just read and skipped): read
+        // again at once instead of polling first.
+        let mut ready = false;
         loop {
-            let now = self.clock.now();
-            let wait = deadline.saturating_duration_since(now);
-            if wait.is_zero() {
-                self.set_nonblocking(true)?;
-            } else {
-                self.set_nonblocking(false)?;
-                let want = std::time::Duration::from_micros(wait.as_micros());
-                if self.read_timeout != Some(want) {
-                    self.rx.set_read_timeout(Some(want))?;
-                    self.read_timeout = Some(want);
+            if !ready {
+                let wait = deadline.saturating_duration_since(self.clock.now());
+                if !wait.is_zero() {
+                    let wait = std::time::Duration::from_micros(wait.as_micros().max(1));
+                    if self.poll_wait(wait)? {
+                        return Ok(None);
+                    }
                 }
             }
             let (n, from) = match self.rx.recv_from(&mut buf) {
                 Ok(r) => r,
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                    ) =>
-                {
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
                     if self.clock.now() >= deadline {
                         return Ok(None);
                     }
+                    ready = false;
                     continue;
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
                 Err(e) => return Err(e.into()),
             };
+            ready = true;
             if from.port() == self.own_port {
                 continue;
             }
@@ -326,5 +348,13 @@ impl Transport for UdpMulticast {
 
     fn now(&self) -> Instant {
         self.clock.now()
+    }
+
+    fn waker(&self) -> Option<TransportWaker> {
+        let tx = self.wake_tx.clone();
+        // A full pair (wakes nobody took) is readable already: nothing lost.
+        Some(TransportWaker::new(move || {
+            let _ = tx.send(&[1]);
+        }))
     }
 }

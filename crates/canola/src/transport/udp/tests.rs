@@ -274,6 +274,65 @@ fn fd_frames_cross_the_bus() {
     );
 }
 
+/// A transport of its own on the loopback scope, on a port of this test run (`salt` apart).
+fn own_bus(last: u8, salt: u32) -> UdpMulticast {
+    let port = 40000 + ((std::process::id() + salt) % 20000) as u16;
+    let group = SocketAddrV4::new(Ipv4Addr::new(239, 74, 163, last), port);
+    UdpMulticast::open(group).expect("cannot open UDP multicast sockets")
+}
+
+#[test]
+fn the_waker_ends_a_wait_blocked_in_another_thread() {
+    let mut t = own_bus(5, 13);
+    let waker = t.waker().expect("the UDP bus has a waker");
+    let deadline = t.now() + canola_frame::Duration::from_secs(10);
+    let (entered, wait_entered) = std::sync::mpsc::channel::<()>();
+    let waking = std::thread::spawn(move || {
+        // Woken once the test is about to wait (or already waits: either way the wait ends).
+        wait_entered.recv().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        waker.wake();
+    });
+    entered.send(()).unwrap();
+    assert_eq!(t.recv_until(deadline).unwrap(), None);
+    // Ended by the wake, not by the deadline (ten seconds away on the transport's clock).
+    assert!(t.now() < deadline);
+    waking.join().unwrap();
+}
+
+#[test]
+fn a_wake_before_the_wait_ends_the_next_wait_once() {
+    let mut t = own_bus(6, 17);
+    let waker = t.waker().unwrap();
+    // Two wakes while nobody waits: the next wait returns at once, the one after waits.
+    waker.wake();
+    waker.clone().wake();
+    let far = t.now() + canola_frame::Duration::from_secs(10);
+    assert_eq!(t.recv_until(far).unwrap(), None);
+    assert!(t.now() < far);
+    let near = t.now() + canola_frame::Duration::from_millis(5);
+    assert_eq!(t.recv_until(near).unwrap(), None);
+    assert!(t.now() >= near);
+}
+
+#[test]
+fn a_frame_waiting_is_read_after_a_wake() {
+    let (mut a, mut b) = (own_bus(7, 19), own_bus(7, 19));
+    let f = CanFrame::new(sid(0x181), &[7]).unwrap();
+    a.send(&f).unwrap();
+    b.waker().unwrap().wake();
+    let deadline = b.now() + canola_frame::Duration::from_secs(2);
+    // The wake may end one wait; the frame is still there for the next.
+    let got = match b.recv_until(deadline).unwrap() {
+        None => b.recv_until(deadline).unwrap(),
+        got => got,
+    };
+    assert!(
+        matches!(got, Some(Received::Frame { frame, .. }) if frame == f),
+        "{got:?}"
+    );
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
     #[test]
